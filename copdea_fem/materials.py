@@ -1,0 +1,144 @@
+"""Electro-hyperelastic constitutive law of the DE membrane: eqs (7) and (20).
+
+Everything here is a pure function of the in-plane invariants of the right
+Cauchy-Green tensor measured from the *unstretched* film,
+
+    tr_c  = lambda_1**2 + lambda_2**2          (trace of the 2x2 tangent C),
+    det_c = lambda_1**2 * lambda_2**2          (its determinant),
+
+so that the same code evaluates NumPy arrays (ring model, hand checks) and
+NGSolve CoefficientFunctions (FE energy, differentiated symbolically by
+NGSolve).  Plane-stress incompressibility (eq. 1) gives the thickness stretch
+``lambda_3**2 = 1 / det_c``.
+
+Energies are densities per unit *unstretched* volume [J/m^3]; stresses are
+true (Cauchy) stresses [Pa]; tensions are forces per deformed length [N/m].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+VACUUM_PERMITTIVITY = 8.8541878128e-12  # F/m (CODATA 2018)
+
+
+@dataclass(frozen=True)
+class Membrane:
+    """Material and film data of the DE membrane (Table 1 of the paper).
+
+    Attributes
+    ----------
+    c10, c20, c01 : float
+        Generalised Mooney-Rivlin coefficients of eq. (20) [Pa].
+    permittivity : float
+        Absolute permittivity epsilon = eps_r * eps_0 [F/m].
+    thickness : float
+        Film thickness h0 before pre-stretch [m].
+    density : float
+        Mass density rho0 [kg/m^3] (referred to h0, electrodes included).
+    prestretch : float
+        Equibiaxial pre-stretch lambda_p [-].
+    """
+
+    c10: float
+    c20: float
+    c01: float
+    permittivity: float
+    thickness: float
+    density: float
+    prestretch: float
+
+    @classmethod
+    def from_study(cls, study) -> "Membrane":
+        m = study["membrane"]
+        return cls(c10=m["c10"], c20=m["c20"], c01=m["c01"],
+                   permittivity=m["relative_permittivity"] * VACUUM_PERMITTIVITY,
+                   thickness=m["thickness"], density=m["density"],
+                   prestretch=m["prestretch"])
+
+    @property
+    def prestretched_thickness(self) -> float:
+        """h0 / lambda_p**2 [m] (incompressibility, Sect. 2)."""
+        return self.thickness / self.prestretch**2
+
+    @property
+    def areal_density(self) -> float:
+        """Mass per flat pre-stretched area rho0 h0 / lambda_p**2 [kg/m^2]."""
+        return self.density * self.prestretched_thickness
+
+    def nominal_field_sq(self, voltage):
+        """(V / h0)**2 [V^2/m^2], the nominal field of eq. (7) squared."""
+        return (voltage / self.thickness) ** 2
+
+    # -- eq. (20) + (7) ---------------------------------------------------------
+    def strain_energy(self, tr_c, det_c):
+        """Generalised Mooney-Rivlin energy Psi_m of eq. (20) [J/m^3].
+
+        I1 = l1^2 + l2^2 + l3^2 = tr_c + 1/det_c and
+        I_{-1} = l1^-2 + l2^-2 + l3^-2 = tr_c/det_c + det_c (2x2 Cayley-Hamilton).
+        """
+        i1 = tr_c + 1 / det_c
+        i_inv = tr_c / det_c + det_c
+        return self.c10 * (i1 - 3) + self.c20 * (i1 - 3) ** 2 + self.c01 * (i_inv - 3)
+
+    def electrostatic_coenergy(self, det_c, voltage):
+        """Co-energy -eps/2 (V/h0)^2 J/C33 of eq. (7) [J/m^3]; J = 1, C33 = 1/det_c."""
+        return -0.5 * self.permittivity * self.nominal_field_sq(voltage) * det_c
+
+    def free_energy(self, tr_c, det_c, voltage):
+        """Psi_em of eq. (7): elastic energy plus electrostatic co-energy [J/m^3]."""
+        return self.strain_energy(tr_c, det_c) + self.electrostatic_coenergy(det_c, voltage)
+
+    def free_energy_partials(self, tr_c, det_c, voltage):
+        """First and second partial derivatives of Psi_em in (tr_c, det_c).
+
+        Returns
+        -------
+        d_tr, d_det, d_tr_tr, d_tr_det, d_det_det
+            Exact derivatives [J/m^3] (derived by hand from eq. 20 and 7; the
+            tests check them against finite differences).
+        """
+        i1m3 = tr_c + 1 / det_c - 3
+        g = self.c10 + 2 * self.c20 * i1m3          # dPsi/dI1
+        d_tr = g + self.c01 / det_c
+        d_det = (-g / det_c**2 + self.c01 * (1 - tr_c / det_c**2)
+                 - 0.5 * self.permittivity * self.nominal_field_sq(voltage))
+        d_tr_tr = 2 * self.c20 + 0 * tr_c
+        d_tr_det = -2 * self.c20 / det_c**2 - self.c01 / det_c**2
+        d_det_det = (2 * self.c20 / det_c**4 + 2 * g / det_c**3
+                     + 2 * self.c01 * tr_c / det_c**3)
+        return d_tr, d_det, d_tr_tr, d_tr_det, d_det_det
+
+    # -- stresses and fields ----------------------------------------------------
+    def principal_stresses(self, stretch_1, stretch_2, voltage):
+        """In-plane principal Cauchy stresses [Pa] at principal stretches l1, l2.
+
+        sigma_i = l_i dPsi/dl_i with l3 = 1/(l1 l2) eliminated (plane stress,
+        incompressible).  With tr = l1^2 + l2^2, det = l1^2 l2^2:
+        sigma_1 = 2 l1^2 (Psi_tr + l2^2 Psi_det).  The electrostatic part is the
+        Maxwell stress -eps (V/h)^2 with h = h0 l3.
+        """
+        s1 = np.asarray(stretch_1, dtype=float)
+        s2 = np.asarray(stretch_2, dtype=float)
+        tr_c, det_c = s1**2 + s2**2, s1**2 * s2**2
+        d_tr, d_det, *_ = self.free_energy_partials(tr_c, det_c, voltage)
+        return 2 * s1**2 * (d_tr + s2**2 * d_det), 2 * s2**2 * (d_tr + s1**2 * d_det)
+
+    def thickness_at(self, det_c):
+        """Deformed thickness h = h0 lambda_3 = h0 / sqrt(det_c) [m]."""
+        return self.thickness / det_c**0.5
+
+    def electric_field(self, det_c, voltage):
+        """True electric field V / h [V/m] across the deformed film."""
+        return voltage * det_c**0.5 / self.thickness
+
+    def equibiaxial_tension(self, voltage, stretch=None) -> float:
+        """Membrane tension T = h sigma [N/m] of the flat film at stretch lambda_p.
+
+        This is the tension of the closed forms (Bessel roots, 2 pi T / ln(ro/ri)).
+        """
+        lam = self.prestretch if stretch is None else stretch
+        sigma, _ = self.principal_stresses(lam, lam, voltage)
+        return float(sigma) * self.thickness / lam**2

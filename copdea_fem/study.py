@@ -1,0 +1,422 @@
+"""Typed schema of ``study.yaml``: units, bounds, defaults and descriptions.
+
+A study is read from YAML, overridden by ``--set SECTION.KEY=VALUE`` strings,
+validated key by key and then across keys, and resolved to SI numbers with
+every default filled in -- all before any meshing.  Physical values accept a
+unit string (``"35.5 mm"``, ``"2 kV"``, ``"228.5 kPa"``) or a plain SI number.
+
+Run ``python -m copdea_fem.study`` to print the reference table of the README.
+"""
+
+from __future__ import annotations
+
+import copy
+import functools
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+
+class StudyError(ValueError):
+    """A study key has a value outside what is allowed; the message says which."""
+
+
+@dataclass(frozen=True)
+class Key:
+    """One study key: SI unit, default, bounds and meaning.
+
+    ``unit`` is the SI unit the value is converted to (``None`` for a pure
+    number, a switch or a choice).  ``default=None`` with ``derived`` set means
+    the default is computed from other keys (see :func:`_derived_defaults`).
+    """
+
+    unit: str | None
+    default: Any
+    description: str
+    kind: type = float
+    minimum: float | None = None
+    maximum: float | None = None
+    open_min: bool = False          # minimum excluded
+    choices: tuple | None = None
+    derived: str | None = None      # text of the derived default, for the docs
+
+    def allowed(self) -> str:
+        if self.choices:
+            return "one of " + ", ".join(map(str, self.choices))
+        if self.kind is bool:
+            return "true or false"
+        lo = "" if self.minimum is None else f"{self.minimum:g}"
+        hi = "" if self.maximum is None else f"{self.maximum:g}"
+        unit = f" {self.unit}" if self.unit else ""
+        if self.minimum is not None and self.maximum is not None:
+            bracket = "(" if self.open_min else "["
+            return f"{bracket}{lo}, {hi}]{unit}"
+        if self.minimum is not None:
+            return f"{'>' if self.open_min else '>='} {lo}{unit}"
+        if self.maximum is not None:
+            return f"<= {hi}{unit}"
+        return "any number" + unit
+
+
+G1 = "Table 1, G1"
+SCHEMA: dict[str, dict[str, Key]] = {
+    "geometry": {
+        "outer_radius": Key("m", 0.0355, f"outer radius r_o of the pre-stretched membrane ({G1})",
+                            minimum=0, maximum=1.0, open_min=True),
+        "inner_radius": Key("m", 0.017, "inner radius r_i = disc radius; 0 = full circular "
+                            f"membrane, no disc ({G1}; G2: 12 mm)", minimum=0, maximum=1.0),
+        "frame": Key(None, "square", "rigid reflecting frame in the membrane plane: square "
+                     "(Sect. 5.1), baffle (infinite rigid plane) or none", kind=str,
+                     choices=("square", "baffle", "none")),
+        "frame_side": Key("m", 0.080, "side of the square frame (Sect. 5.1)", minimum=0,
+                          maximum=2.0, open_min=True),
+    },
+    "membrane": {
+        "thickness": Key("m", 100e-6, "film thickness h0 before pre-stretch (Table 1)",
+                         minimum=0, maximum=0.01, open_min=True),
+        "prestretch": Key(None, 1.2, "equibiaxial pre-stretch lambda_p (Table 1)",
+                          minimum=1, maximum=10, open_min=True),
+        "density": Key("kg/m^3", 1490.0, "density rho0 incl. electrodes (Table 1)",
+                       minimum=0, maximum=1e5, open_min=True),
+        "relative_permittivity": Key(None, 2.8, "relative permittivity eps_r (Table 1)",
+                                     minimum=1, maximum=1e4),
+        "c10": Key("Pa", 228.5e3, "Mooney-Rivlin c10 of eq. (20) (Sect. 5.1)",
+                   minimum=0, maximum=1e9, open_min=True),
+        "c20": Key("Pa", 8.4e3, "Mooney-Rivlin c20 of eq. (20)", minimum=-1e9, maximum=1e9),
+        "c01": Key("Pa", -28.6e3, "Mooney-Rivlin c01 of eq. (20)", minimum=-1e9, maximum=1e9),
+    },
+    "disc": {
+        "mass": Key("kg", 3.0e-3, f"rigid disc mass M_d ({G1}; G2: 1.9 g)",
+                    minimum=0, maximum=100, open_min=True),
+        "motion": Key(None, "held", "disc held fixed (structural modes, Sect. 2) or rigid on the "
+                      "biasing spring (adds the pumping mode P1)", kind=str,
+                      choices=("held", "spring")),
+    },
+    "spring": {
+        "stiffness": Key("N/m", 52.0, "biasing spring stiffness k_d (Table 1)",
+                         minimum=0, maximum=1e7),
+        "mass": Key("kg", 1.8e-3, "biasing spring mass M_s (Table 1, Annex I)",
+                    minimum=0, maximum=100),
+        "length": Key("m", 0.030, "biasing spring length L_s (Table 1, Annex I)",
+                      minimum=0, maximum=10, open_min=True),
+    },
+    "load": {
+        "z": Key("m", 0.0, "axial disc displacement z from the flat plane (Sect. 2)",
+                 minimum=0, maximum=1.0),
+        "voltage": Key("V", 0.0, "bias voltage V_b across the film", minimum=0, maximum=1e5),
+    },
+    "air": {
+        "enabled": Key(None, False, "couple the membrane to the air (Sect. 3.1.2); "
+                       "false = dry, in-vacuo modes", kind=bool),
+        "density": Key("kg/m^3", 1.204, "air density rho_a (20 C, 1 atm)",
+                       minimum=0, maximum=100, open_min=True),
+        "sound_speed": Key("m/s", 343.0, "speed of sound c_a (20 C)",
+                           minimum=0, maximum=1e4, open_min=True),
+        "domain_radius": Key("m", None, "radius of the air sphere inside the PML (Sect. 5.1)",
+                             minimum=0, maximum=10, open_min=True,
+                             derived="3.5 * geometry.outer_radius"),
+        "pml_thickness": Key("m", None, "radial thickness of the PML shell (Sect. 5.1)",
+                             minimum=0, maximum=10, open_min=True,
+                             derived="0.5 * geometry.outer_radius"),
+    },
+    "mesh": {
+        "membrane_size": Key("m", 4e-3, "element size on the membrane", minimum=0,
+                             maximum=1.0, open_min=True),
+        "air_size": Key("m", None, "largest element size in the air", minimum=0, maximum=10,
+                        open_min=True, derived="0.5 * geometry.outer_radius"),
+        "grading": Key(None, 0.3, "Netgen grading: how fast elements grow away from the membrane",
+                       minimum=0.05, maximum=1.0),
+        "order": Key(None, 3, "polynomial order of the membrane displacement", kind=int,
+                     minimum=1, maximum=8),
+        "pressure_order": Key(None, 2, "polynomial order of the air pressure", kind=int,
+                              minimum=1, maximum=6),
+        "curve_order": Key(None, 3, "order of the curved geometry (circles)", kind=int,
+                           minimum=1, maximum=8),
+    },
+    "prestress": {
+        "z_steps": Key(None, 4, "initial number of load steps in z", kind=int,
+                       minimum=1, maximum=1000),
+        "voltage_steps": Key(None, 2, "initial number of load steps in V_b", kind=int,
+                             minimum=1, maximum=1000),
+        "max_cuts": Key(None, 8, "how many times a load step may be halved", kind=int,
+                        minimum=0, maximum=30),
+        "newton_tol": Key(None, 1e-10, "Newton tolerance on the residual, relative to the "
+                          "first residual of the step", minimum=0, maximum=1e-3, open_min=True),
+        "max_newton_iter": Key(None, 25, "Newton iterations per load step", kind=int,
+                               minimum=1, maximum=500),
+    },
+    "eigen": {
+        "f_min": Key("Hz", 0.0, "lower end of the frequency band", minimum=0, maximum=1e6),
+        "f_max": Key("Hz", 1000.0, "upper end of the frequency band", minimum=0,
+                     maximum=1e6, open_min=True),
+        "max_modes": Key(None, 200, "most modes returned in the band", kind=int,
+                         minimum=1, maximum=5000),
+        "backend": Key(None, "umfpack", "sparse factorisation: umfpack (ships with NGSolve), "
+                       "pardiso (needs `pip install mkl`) or superlu (SciPy)", kind=str,
+                       choices=("umfpack", "pardiso", "superlu")),
+        "residual_tol": Key(None, 1e-6, "largest accepted relative residual "
+                            "|Ax - lambda Bx| / (|A| |x|)", minimum=0, maximum=1e-2,
+                            open_min=True),
+    },
+    "output": {
+        "directory": Key(None, None, "where results go (relative to the working directory)",
+                         kind=str, derived="results/<study file name>"),
+        "paraview": Key(None, True, "write ParaView .pvd/.vtu files", kind=bool),
+        "plots": Key(None, True, "write PNG plots", kind=bool),
+    },
+}
+
+# Top-level keys that are not sections: free text, and the provenance block a
+# resolved study carries (so a resolved study can be run again as it is).
+META_KEYS = ("name", "description", "provenance")
+
+
+@functools.lru_cache(maxsize=1)
+def _units():
+    import pint
+    return pint.UnitRegistry()
+
+
+def _fail(key: str, value: Any, allowed: str, why: str = "") -> StudyError:
+    why = f" ({why})" if why else ""
+    return StudyError(f"{key} = {value!r} is not allowed{why}; allowed: {allowed}")
+
+
+def _convert(key: str, spec: Key, value: Any) -> Any:
+    """Turn one raw value into its SI value, checking type, unit and bounds."""
+    if value is None and spec.default is None:
+        return None
+    if spec.kind is bool:
+        if not isinstance(value, bool):
+            raise _fail(key, value, spec.allowed())
+        return value
+    if spec.kind is str:
+        if not isinstance(value, str) or (spec.choices and value not in spec.choices):
+            raise _fail(key, value, spec.allowed())
+        return value
+    number = _to_si(key, spec, value)
+    if spec.kind is int:
+        if not float(number).is_integer():
+            raise _fail(key, value, "an integer " + spec.allowed())
+        number = int(number)
+    if not math.isfinite(number):
+        raise _fail(key, value, spec.allowed(), "not a finite number")
+    lo, hi = spec.minimum, spec.maximum
+    if (lo is not None and (number < lo or (spec.open_min and number == lo))) or (
+            hi is not None and number > hi):
+        shown = value if not isinstance(value, str) else f"{value} = {number:g} {spec.unit or ''}"
+        raise _fail(key, shown, spec.allowed())
+    return number
+
+
+def _to_si(key: str, spec: Key, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, str)):
+        raise _fail(key, value, spec.allowed(), "expected a number"
+                    + (f" or a quantity like '1.5 {_example_unit(spec.unit)}'" if spec.unit else ""))
+    if not isinstance(value, str):
+        return float(value)
+    import pint
+    try:
+        quantity = _units().Quantity(value.strip())
+    except Exception as exc:  # pint raises several types for unparsable text
+        raise _fail(key, value, spec.allowed(), f"cannot read it as a quantity: {exc}") from None
+    try:
+        return float(quantity.to(spec.unit or "dimensionless").magnitude)
+    except pint.DimensionalityError:
+        expected = f"a quantity in {spec.unit}" if spec.unit else "a pure number"
+        raise _fail(key, value, spec.allowed(), f"wrong unit, expected {expected}") from None
+
+
+def _example_unit(unit: str | None) -> str:
+    return {"m": "mm", "V": "kV", "Pa": "kPa", "kg": "g", "Hz": "Hz"}.get(unit, unit or "")
+
+
+class Study:
+    """A validated study: nested ``{section: {key: SI value}}`` plus its name.
+
+    Index like a dict: ``study["load"]["voltage"]`` [V].
+    """
+
+    def __init__(self, values: dict[str, dict[str, Any]], name: str, description: str = ""):
+        self.values = values
+        self.name = name
+        self.description = description
+
+    def __getitem__(self, section: str) -> dict[str, Any]:
+        return self.values[section]
+
+    def get(self, dotted: str) -> Any:
+        section, key = dotted.split(".", 1)
+        return self.values[section][key]
+
+    def replace(self, overrides: dict[str, Any]) -> "Study":
+        """A new, re-validated study with ``{"section.key": value}`` overrides."""
+        raw = copy.deepcopy(self.values)
+        return parse_study(raw, overrides=overrides, name=self.name,
+                           description=self.description)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"name": self.name, "description": self.description,
+                **copy.deepcopy(self.values)}
+
+
+def parse_overrides(items: list[str] | None) -> dict[str, Any]:
+    """``["load.voltage=3 kV", ...]`` -> ``{"load.voltage": "3 kV"}`` (YAML-typed values)."""
+    overrides: dict[str, Any] = {}
+    for item in items or []:
+        if "=" not in item:
+            raise StudyError(f"--set {item!r} is not allowed; allowed: SECTION.KEY=VALUE, "
+                             "e.g. --set load.voltage='3 kV'")
+        key, text = item.split("=", 1)
+        try:
+            value = yaml.safe_load(text)
+        except yaml.YAMLError:
+            value = text
+        overrides[key.strip()] = text if value is None and text.strip() else value
+    return overrides
+
+
+def load_study(path: str | Path, overrides: dict[str, Any] | None = None) -> Study:
+    """Read, override, validate and resolve a study file."""
+    path = Path(path)
+    if not path.is_file():
+        raise StudyError(f"study file {str(path)!r} does not exist")
+    try:
+        raw = yaml.safe_load(path.read_text()) or {}
+    except yaml.YAMLError as exc:
+        raise StudyError(f"study file {str(path)!r} is not valid YAML: {exc}") from None
+    if not isinstance(raw, dict):
+        raise StudyError(f"study file {str(path)!r} must hold a mapping of sections, "
+                         f"got {type(raw).__name__}")
+    name = raw.get("name") or path.stem
+    return parse_study(raw, overrides=overrides, name=str(name),
+                       description=str(raw.get("description", "")))
+
+
+def parse_study(raw: dict[str, Any], overrides: dict[str, Any] | None = None,
+                name: str = "study", description: str = "") -> Study:
+    """Validate a raw nested mapping (plus dotted overrides) into a :class:`Study`."""
+    raw = copy.deepcopy(raw)
+    for key in raw:
+        if key not in SCHEMA and key not in META_KEYS:
+            raise _fail(key, "...", "sections " + ", ".join(SCHEMA) + " (and name, description)",
+                        "unknown section")
+    for dotted, value in (overrides or {}).items():
+        section, _, key = dotted.partition(".")
+        if section not in SCHEMA or key not in SCHEMA[section]:
+            raise _unknown_key(dotted, value)
+        if not isinstance(raw.get(section) or {}, dict):
+            raise _fail(section, raw[section], "a mapping of keys")
+        raw.setdefault(section, {})
+        raw[section] = raw[section] or {}
+        raw[section][key] = value
+
+    values: dict[str, dict[str, Any]] = {}
+    for section, keys in SCHEMA.items():
+        given = raw.get(section) or {}
+        if not isinstance(given, dict):
+            raise _fail(section, given, "a mapping of keys: " + ", ".join(keys))
+        for key, value in given.items():
+            if key not in keys:
+                raise _unknown_key(f"{section}.{key}", value)
+        values[section] = {key: _convert(f"{section}.{key}", spec,
+                                         given[key] if key in given else spec.default)
+                           for key, spec in keys.items()}
+    _derived_defaults(values, name)
+    _check_across_keys(values)
+    return Study(values, name=name, description=description)
+
+
+def _unknown_key(dotted: str, value: Any) -> StudyError:
+    section = dotted.partition(".")[0]
+    known = SCHEMA.get(section)
+    allowed = ("keys " + ", ".join(f"{section}.{k}" for k in known)) if known else (
+        "sections " + ", ".join(SCHEMA))
+    return _fail(dotted, value, allowed, "unknown key")
+
+
+def _derived_defaults(v: dict[str, dict[str, Any]], name: str) -> None:
+    r_o = v["geometry"]["outer_radius"]
+    for section, key, factor in (("air", "domain_radius", 3.5), ("air", "pml_thickness", 0.5),
+                                 ("mesh", "air_size", 0.5)):
+        if v[section][key] is None:
+            v[section][key] = factor * r_o
+    if v["output"]["directory"] is None:
+        v["output"]["directory"] = f"results/{name}"
+
+
+def _check_across_keys(v: dict[str, dict[str, Any]]) -> None:
+    g, load = v["geometry"], v["load"]
+    r_o, r_i = g["outer_radius"], g["inner_radius"]
+    if r_i >= r_o:
+        raise _fail("geometry.inner_radius", r_i, f"[0, {r_o:g}) m = below geometry.outer_radius")
+    if 0 < r_i < 0.02 * r_o:
+        raise _fail("geometry.inner_radius", r_i, f"0 or >= {0.02 * r_o:g} m (2 % of r_o)",
+                    "a disc this small cannot be meshed sensibly")
+    if g["frame"] == "square" and g["frame_side"] <= 2 * r_o:
+        raise _fail("geometry.frame_side", g["frame_side"],
+                    f"> {2 * r_o:g} m = the membrane diameter 2 * geometry.outer_radius")
+    R = v["air"]["domain_radius"]
+    if g["frame"] == "square" and g["frame_side"] / math.sqrt(2) >= R:
+        raise _fail("air.domain_radius", R, f"> {g['frame_side'] / math.sqrt(2):g} m",
+                    "the square frame's corners must lie inside the air sphere")
+    if R <= 1.2 * r_o:
+        raise _fail("air.domain_radius", R, f"> {1.2 * r_o:g} m = 1.2 * geometry.outer_radius")
+    if r_i == 0:
+        if load["z"] != 0:
+            raise _fail("load.z", load["z"], "0 m when geometry.inner_radius = 0",
+                        "a full membrane has no disc to displace")
+        if v["disc"]["motion"] != "held":
+            raise _fail("disc.motion", v["disc"]["motion"], "held when geometry.inner_radius = 0",
+                        "a full membrane has no disc")
+    if load["z"] > 2 * (r_o - r_i):
+        raise _fail("load.z", load["z"], f"[0, {2 * (r_o - r_i):g}] m = 2 * (r_o - r_i)",
+                    "meridian stretch beyond what the film survives")
+    e = v["eigen"]
+    if e["f_max"] <= e["f_min"]:
+        raise _fail("eigen.f_max", e["f_max"], f"> eigen.f_min = {e['f_min']:g} Hz")
+    if v["mesh"]["membrane_size"] > (r_o - r_i) / 2:
+        raise _fail("mesh.membrane_size", v["mesh"]["membrane_size"],
+                    f"<= {(r_o - r_i) / 2:g} m = half the membrane width",
+                    "fewer than two elements across the membrane")
+
+
+def dump_resolved(study: Study, path: str | Path) -> None:
+    """Write the resolved study (SI, defaults filled in) plus package versions."""
+    data = study.as_dict()
+    data["provenance"] = package_versions()
+    Path(path).write_text(yaml.safe_dump(data, sort_keys=False))
+
+
+def package_versions() -> dict[str, str]:
+    from importlib import metadata
+    import platform
+    versions = {"python": platform.python_version()}
+    for package in ("copdea-fem", "ngsolve", "numpy", "scipy", "meshio", "pyvista", "pint"):
+        try:
+            versions[package] = metadata.version(package)
+        except metadata.PackageNotFoundError:
+            versions[package] = "not installed"
+    return versions
+
+
+def reference_table() -> str:
+    """Markdown table of every key, generated from :data:`SCHEMA` (for the README)."""
+    rows = ["| key | unit | default | allowed | description |", "|---|---|---|---|---|"]
+    for section, keys in SCHEMA.items():
+        for key, spec in keys.items():
+            default = spec.derived if spec.default is None else spec.default
+            if isinstance(default, bool):
+                default = str(default).lower()
+            elif isinstance(default, float):
+                default = f"{default:g}"
+            rows.append(f"| `{section}.{key}` | {spec.unit or '-'} | {default} | "
+                        f"{spec.allowed()} | {spec.description} |")
+    return "\n".join(rows)
+
+
+if __name__ == "__main__":
+    print(reference_table())
