@@ -123,7 +123,7 @@ SCHEMA: dict[str, dict[str, Key]] = {
                              derived="0.5 * geometry.outer_radius"),
     },
     "mesh": {
-        "membrane_size": Key("m", 4e-3, "element size on the membrane", minimum=0,
+        "membrane_size": Key("m", 3e-3, "element size on the membrane", minimum=0,
                              maximum=1.0, open_min=True),
         "air_size": Key("m", None, "largest element size in the air", minimum=0, maximum=10,
                         open_min=True, derived="0.5 * geometry.outer_radius"),
@@ -167,6 +167,51 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "paraview": Key(None, True, "write ParaView .pvd/.vtu files", kind=bool),
         "plots": Key(None, True, "write PNG plots", kind=bool),
     },
+}
+
+# Reduced lumped-parameter model (Sect. 3.2, Annex I) and its chirp excitation (Sect. 4.2).
+SCHEMA["reduced"] = {
+    "rings": Key(None, 6, "number n of rings of the ring model (Sect. 3.2.1; Sect. 5.1 uses 6)",
+                 kind=int, minimum=2, maximum=400),
+    "modes": Key(None, "auto", "modes kept in the truncation (eq. 18): auto = P1, (0,1), (0,2) "
+                 "with disc.motion = spring (Sect. 5.1), (0,1), (0,2) with the disc held; or a "
+                 "comma-separated list of P1 and (0,n), e.g. 'P1, (0,1), (0,2), (0,3)'", kind=str),
+    "modes_json": Key(None, None, "modes.json of a coupled FE solve: its (0,n) frequencies set the "
+                      "added masses m_ad = k/w_FE^2 - m (eq. 19); path relative to the working "
+                      "directory", kind=str, derived="none (no FE frequencies)"),
+    "coupled_freq_p1": Key("Hz", None, "coupled frequency of P1; sets its added mass (eq. 19) "
+                           "instead of reduced.pumping_added_mass", minimum=0, maximum=1e6,
+                           open_min=True, derived="none"),
+    "coupled_freq_01": Key("Hz", None, "coupled (in-air) frequency of (0,1); overrides "
+                           "reduced.modes_json; none and no modes_json = dry (m_ad = 0)",
+                           minimum=0, maximum=1e6, open_min=True, derived="none"),
+    "coupled_freq_02": Key("Hz", None, "coupled (in-air) frequency of (0,2); as coupled_freq_01",
+                           minimum=0, maximum=1e6, open_min=True, derived="none"),
+    "pumping_added_mass": Key(None, "spring", "added mass of P1 without reduced.coupled_freq_p1: "
+                              "spring = the biasing spring's distributed mass M_s (P1 then sits "
+                              "where Annex I, eq. 22, puts it), none = m_ad,1 = 0 as in Sect. 5.1",
+                              kind=str, choices=("spring", "none")),
+    "damping_p1": Key("1/s", 45.0, "modal damping over structural modal mass b/m of P1 "
+                      "(Sect. 5.3)", minimum=0, maximum=1e6),
+    "damping_01": Key("1/s", 245.0, "b/m of (0,1) (Sect. 5.3)", minimum=0, maximum=1e6),
+    "damping_02": Key("1/s", 57.0, "b/m of (0,2) (Sect. 5.3)", minimum=0, maximum=1e6),
+    "damping_higher": Key("1/s", 57.0, "b/m of (0,3) and higher (not calibrated in the paper; "
+                          "default: that of (0,2))", minimum=0, maximum=1e6),
+    "scan_radii": Key(None, 5, "radial positions of the scan grid of the average spectra, centres "
+                      "of equal bands of the projected width (Fig. 5d: 80 membrane points; the "
+                      "axisymmetric model needs only their radii)", kind=int, minimum=1,
+                      maximum=1000),
+}
+SCHEMA["excitation"] = {
+    "amplitude": Key("V", 100.0, "chirp amplitude V~ on top of load.voltage (Sect. 4.2)",
+                     minimum=0, maximum=1e5, open_min=True),
+    "f_start": Key("Hz", 0.0, "chirp start frequency (Sect. 4.2)", minimum=0, maximum=1e6),
+    "f_end": Key("Hz", 1000.0, "chirp end frequency = last spectral line (Sect. 4.2)",
+                 minimum=0, maximum=1e6, open_min=True),
+    "duration": Key("s", 0.8, "chirp period and FFT window; line spacing 1/duration "
+                    "(Sect. 4.2: 800 ms, 1.25 Hz)", minimum=0, maximum=100, open_min=True),
+    "sample_time": Key("s", 0.4e-3, "sampling interval of the chirp (Sect. 4.2)", minimum=0,
+                       maximum=1.0, open_min=True),
 }
 
 # Top-level keys that are not sections: free text, and the provenance block a
@@ -382,6 +427,7 @@ def _check_across_keys(v: dict[str, dict[str, Any]]) -> None:
         raise _fail("mesh.membrane_size", v["mesh"]["membrane_size"],
                     f"<= {(r_o - r_i) / 2:g} m = half the membrane width",
                     "fewer than two elements across the membrane")
+    _check_reduced_keys(v)
 
 
 def dump_resolved(study: Study, path: str | Path) -> None:
@@ -416,6 +462,53 @@ def reference_table() -> str:
             rows.append(f"| `{section}.{key}` | {spec.unit or '-'} | {default} | "
                         f"{spec.allowed()} | {spec.description} |")
     return "\n".join(rows)
+
+
+def reduced_mode_labels(text: str, disc_motion: str) -> tuple[str, ...]:
+    """Labels of ``reduced.modes``: ``"auto"`` or a comma-separated list of P1 and (0,n)."""
+    import re
+    if text.strip() == "auto":
+        return (("P1",) if disc_motion == "spring" else ()) + ("(0,1)", "(0,2)")
+    allowed = "auto, or a comma-separated list of P1 and (0,n) with n >= 1, e.g. 'P1, (0,1), (0,2)'"
+    labels = []
+    for item in re.findall(r"\([^)]*\)|[^,\s()]+", text):
+        match = re.fullmatch(r"\(\s*0\s*,\s*([1-9]\d*)\s*\)", item)
+        if match:
+            labels.append(f"(0,{match.group(1)})")
+        elif item.upper() == "P1":
+            labels.append("P1")
+        elif item:
+            raise _fail("reduced.modes", text, allowed, f"cannot read {item!r}")
+    if not labels or len(set(labels)) != len(labels):
+        raise _fail("reduced.modes", text, allowed, "empty or repeated labels")
+    if "P1" in labels and disc_motion != "spring":
+        raise _fail("reduced.modes", text, "labels without P1 when disc.motion = held",
+                    "the pumping mode needs the disc on the spring")
+    return tuple(labels)
+
+
+def _check_reduced_keys(v: dict[str, dict[str, Any]]) -> None:
+    """Cross-key checks of the ``reduced`` and ``excitation`` sections."""
+    labels = reduced_mode_labels(v["reduced"]["modes"], v["disc"]["motion"])
+    orders = [int(label[3:-1]) for label in labels if label != "P1"]
+    rings = v["reduced"]["rings"]
+    if orders and max(orders) > rings - 1:
+        raise _fail("reduced.rings", rings, f">= {max(orders) + 1}",
+                    f"(0,{max(orders)}) needs at least {max(orders) + 1} rings")
+    x = v["excitation"]
+    if x["f_end"] <= x["f_start"]:
+        raise _fail("excitation.f_end", x["f_end"], f"> excitation.f_start = {x['f_start']:g} Hz")
+    nyquist = 0.5 / x["sample_time"]
+    if x["f_end"] > nyquist:
+        raise _fail("excitation.f_end", x["f_end"], f"<= {nyquist:g} Hz = 1 / (2 "
+                    "excitation.sample_time)", "above the Nyquist frequency")
+    samples = x["duration"] / x["sample_time"]
+    if abs(samples - round(samples)) > 1e-6 * samples or not 4 <= round(samples) <= 10_000_000:
+        raise _fail("excitation.duration", x["duration"], "an integer multiple (4 to 1e7) of "
+                    f"excitation.sample_time = {x['sample_time']:g} s")
+    if x["f_end"] * x["duration"] < 1:
+        raise _fail("excitation.f_end", x["f_end"], f">= {1 / x['duration']:g} Hz = "
+                    "1 / excitation.duration", "no spectral line in the band")
 
 
 if __name__ == "__main__":

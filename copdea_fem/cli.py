@@ -1,0 +1,142 @@
+"""Command line: ``copdea-fem solve|check|force|schema ...`` (thin: parse, call, print).
+
+Exit codes: 0 success, 2 bad input (study, --set, options), 3 a solve that
+failed for a physical or numerical reason (message says which), 1 otherwise.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from .study import StudyError, load_study, parse_overrides
+
+
+def _progress(quiet: bool):
+    if quiet:
+        return lambda message: None
+    return lambda message: print(message, file=sys.stderr, flush=True)
+
+
+def _study(args):
+    return load_study(args.study, overrides=parse_overrides(args.set))
+
+
+def _out_dir(args, study) -> Path:
+    return Path(args.out) if args.out else Path(study["output"]["directory"])
+
+
+def cmd_check(args) -> int:
+    study = _study(args)
+    print(f"{args.study}: valid study '{study.name}'")
+    return 0
+
+
+def cmd_schema(args) -> int:
+    from .study import reference_table
+    print(reference_table())
+    return 0
+
+
+def cmd_solve(args) -> int:
+    from .output import frequency_table
+    from .solve import run_solve
+
+    study = _study(args)
+    out_dir = _out_dir(args, study)
+    result = run_solve(study, out_dir=out_dir, progress=_progress(args.quiet))
+    print(frequency_table(result.rows))
+    state = result.state
+    print(f"prestress: z = {state.z * 1e3:g} mm, V_b = {state.voltage:g} V, disc force "
+          f"{state.disc_force:.4g} N, {state.newton_iterations} Newton iterations")
+    print(f"results in {out_dir}")
+    return 0
+
+
+def _quantity_list(text: str, key: str, unit: str) -> list[float]:
+    from .study import Key, _convert
+    spec = Key(unit, 0.0, key, minimum=0)
+    return [_convert(key, spec, item.strip()) for item in text.split(",") if item.strip()]
+
+
+def cmd_force(args) -> int:
+    import numpy as np
+
+    from .solve import run_force
+
+    study = _study(args)
+    if study["geometry"]["inner_radius"] == 0:
+        raise StudyError("geometry.inner_radius = 0 is not allowed for `force`; allowed: > 0 "
+                         "(a full membrane has no disc to pull)")
+    voltages = _quantity_list(args.voltages, "--voltages", "V")
+    z_max = _quantity_list(args.z_max, "--z-max", "m")[0] if args.z_max else \
+        max(study["load"]["z"], 0.018)
+    if args.points < 2:
+        raise StudyError(f"--points = {args.points} is not allowed; allowed: >= 2")
+    if not voltages:
+        raise StudyError(f"--voltages = {args.voltages!r} is not allowed; allowed: a comma "
+                         "separated list such as '0 kV, 3 kV'")
+    study.replace({"load.z": z_max})  # validates z_max against the geometry
+    z_values = np.linspace(0.0, z_max, args.points)[1:]
+    out_dir = _out_dir(args, study)
+    forces = run_force(study, z_values, voltages, out_dir=out_dir,
+                       progress=_progress(args.quiet))
+    print(f"{'z [mm]':>8}" + "".join(f"{f'F @ {v / 1e3:g} kV [N]':>16}" for v in voltages))
+    for j, z in enumerate(z_values):
+        print(f"{z * 1e3:8.3f}" + "".join(f"{forces[i, j]:16.5f}" for i in range(len(voltages))))
+    print(f"results in {out_dir}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="copdea-fem", description="Vibro-acoustic FE and reduced models of COP-DEAs.")
+    commands = parser.add_subparsers(dest="command", required=True)
+
+    def with_study(name, help_text):
+        command = commands.add_parser(name, help=help_text)
+        command.add_argument("study", help="study YAML file")
+        command.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE",
+                             help="override a study key, with units: --set load.voltage='3 kV'")
+        return command
+
+    check = with_study("check", "validate a study without solving")
+    check.set_defaults(handler=cmd_check)
+    commands.add_parser("schema", help="print the study reference table").set_defaults(
+        handler=cmd_schema)
+
+    solve = with_study("solve", "prestress + modes; writes modes.csv/json, ParaView files")
+    solve.add_argument("--out", help="result directory (default: output.directory)")
+    solve.add_argument("--quiet", action="store_true", help="no progress messages")
+    solve.set_defaults(handler=cmd_solve)
+
+    force = with_study("force", "static disc force F(z) at given voltages (Fig. 4b)")
+    force.add_argument("--voltages", default="0 kV, 3 kV", help="comma separated voltages")
+    force.add_argument("--z-max", help="largest z (default: max(load.z, 18 mm))")
+    force.add_argument("--points", type=int, default=10, help="number of z values incl. 0")
+    force.add_argument("--out", help="result directory (default: output.directory)")
+    force.add_argument("--quiet", action="store_true", help="no progress messages")
+    force.set_defaults(handler=cmd_force)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    from .prestress import PrestressError
+
+    args = build_parser().parse_args(argv)
+    try:
+        return args.handler(args)
+    except StudyError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+    except (PrestressError, NotImplementedError) as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 3
+    except RuntimeError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

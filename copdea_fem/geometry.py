@@ -1,0 +1,209 @@
+"""Flat pre-stretched reference geometry and its Netgen mesh (Sect. 2, 5.1).
+
+Everything lives in the plane z = 0 of the flat pre-stretched configuration:
+the membrane annulus r_i < r < r_o, the rigid disc r < r_i, and the rigid
+frame (a square of side ``frame_side`` around the membrane, an infinite
+baffle, or nothing).  With air, the plane splits a sphere of radius R (air)
+and a spherical shell R < r < R + t (PML) into upper and lower halves; the
+plane faces are glued in as internal faces so that the pressure may jump
+across them.
+
+Named regions (the rest of the package refers to them only by these names):
+
+volumes   ``air_upper``, ``air_lower``, ``pml_upper``, ``pml_lower``
+faces     ``membrane``, ``disc``, ``frame`` (screens, z = 0),
+          ``aperture`` (open part of the plane inside the air sphere),
+          ``pml_plane`` (the plane inside the PML), ``interface`` (air|PML
+          sphere), ``outer`` (outside of the PML)
+edges     ``outer_rim`` (r = r_o), ``inner_rim`` (r = r_i), ``frame_edge``
+
+Without air only the plane faces are meshed (a surface mesh in 3-D space):
+the membrane field and its forms are the same in both cases.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+SCREENS = "membrane|disc|frame"
+MESH_DIR = Path(__file__).resolve().parent.parent / "meshes"
+
+
+@dataclass(frozen=True)
+class GeometrySpec:
+    """All that determines the mesh [m]; its hash keys the mesh cache."""
+
+    outer_radius: float
+    inner_radius: float
+    frame: str
+    frame_side: float
+    with_air: bool
+    domain_radius: float
+    pml_thickness: float
+    membrane_size: float
+    air_size: float
+    grading: float
+
+    @classmethod
+    def from_study(cls, study, with_air: bool | None = None) -> "GeometrySpec":
+        g, a, m = study["geometry"], study["air"], study["mesh"]
+        return cls(outer_radius=g["outer_radius"], inner_radius=g["inner_radius"],
+                   frame=g["frame"], frame_side=g["frame_side"],
+                   with_air=a["enabled"] if with_air is None else with_air,
+                   domain_radius=a["domain_radius"], pml_thickness=a["pml_thickness"],
+                   membrane_size=m["membrane_size"], air_size=m["air_size"],
+                   grading=m["grading"])
+
+    def key(self) -> str:
+        data = asdict(self)
+        if not self.with_air:  # the air keys do not change a plane-only mesh
+            for name in ("domain_radius", "pml_thickness", "air_size"):
+                data.pop(name)
+        text = json.dumps(data, sort_keys=True)
+        return hashlib.sha1(text.encode()).hexdigest()[:12]
+
+
+def _extent(shape) -> float:
+    """Largest |x| or |y| of a shape's bounding box [m] (OCC pads it by ~1e-7)."""
+    lo, hi = shape.bounding_box
+    return max(abs(lo[0]), abs(hi[0]), abs(lo[1]), abs(hi[1]))
+
+
+def build_shape(spec: GeometrySpec):
+    """OCC shape with every region, face and rim edge named (see module doc)."""
+    from netgen.occ import Box, Glue, Pnt, Sphere, WorkPlane
+
+    r_o, r_i = spec.outer_radius, spec.inner_radius
+    disc_hole = WorkPlane().Circle(r_i).Face() if r_i > 0 else None
+    outer_disc = WorkPlane().Circle(r_o).Face()
+    plane = [outer_disc - disc_hole if disc_hole else outer_disc]
+    if disc_hole:
+        plane.append(disc_hole)
+    R, t = spec.domain_radius, spec.pml_thickness
+    if spec.frame == "square":
+        square = WorkPlane().RectangleC(spec.frame_side, spec.frame_side).Face()
+        plane.append(square - outer_disc)
+        inner_of_aperture = square
+    elif spec.frame == "baffle":
+        plane.append(WorkPlane().Circle(R).Face() - outer_disc if spec.with_air else None)
+        inner_of_aperture = None
+    else:
+        inner_of_aperture = outer_disc
+    plane = [face for face in plane if face is not None]
+    parts = list(plane)
+    if spec.with_air:
+        if inner_of_aperture is not None:
+            parts.append(WorkPlane().Circle(R).Face() - inner_of_aperture)
+        parts.append(WorkPlane().Circle(R + t).Face() - WorkPlane().Circle(R).Face())
+        ball = Sphere(Pnt(0, 0, 0), R)
+        shell = Sphere(Pnt(0, 0, 0), R + t) - ball
+        big = 2 * (R + t)
+        upper = Box(Pnt(-big, -big, 0), Pnt(big, big, big))
+        lower = Box(Pnt(-big, -big, -big), Pnt(big, big, 0))
+        for solid, name in ((ball * upper, "air_upper"), (ball * lower, "air_lower"),
+                            (shell * upper, "pml_upper"), (shell * lower, "pml_lower")):
+            solid.mat(name)
+            parts.insert(0, solid)
+    shape = Glue(parts)
+    _name_faces(shape, spec)
+    return shape
+
+
+def _name_faces(shape, spec: GeometrySpec) -> None:
+    r_o, r_i, R, t = spec.outer_radius, spec.inner_radius, spec.domain_radius, spec.pml_thickness
+    tol = 1e-6 * (R + t)
+
+    def near(value, target):
+        return abs(value - target) < tol + 1e-9
+
+    for face in shape.faces:
+        lo, hi = face.bounding_box
+        extent = _extent(face)
+        if abs(lo[2]) < tol and abs(hi[2]) < tol:         # in the plane z = 0
+            if near(extent, r_o):
+                name = "membrane"
+            elif r_i > 0 and near(extent, r_i):
+                name = "disc"
+            elif spec.frame == "square" and near(extent, spec.frame_side / 2):
+                name = "frame"
+            elif near(extent, R):
+                name = "frame" if spec.frame == "baffle" else "aperture"
+            elif near(extent, R + t):
+                name = "pml_plane"
+            else:
+                raise RuntimeError(f"unclassified plane face of extent {extent:g} m")
+            face.name = name
+            if name == "membrane":
+                face.maxh = spec.membrane_size
+            elif name in ("disc", "frame"):
+                face.maxh = 2 * spec.membrane_size
+        else:
+            face.name = "interface" if near(extent, R) else "outer"
+    for edge in shape.edges:
+        lo, hi = edge.bounding_box
+        extent = _extent(edge)
+        in_plane = abs(lo[2]) < tol and abs(hi[2]) < tol
+        if in_plane and near(extent, r_o):
+            edge.name = "outer_rim"
+        elif in_plane and r_i > 0 and near(extent, r_i):
+            edge.name = "inner_rim"
+        elif in_plane and spec.frame == "square" and near(extent, spec.frame_side / 2):
+            edge.name = "frame_edge"
+        else:
+            edge.name = "far_edge"
+
+
+def generate_mesh(spec: GeometrySpec, progress=None):
+    """Netgen mesh of the spec (uncurved), and the OCC geometry it came from."""
+    from netgen.occ import OCCGeometry
+
+    shape = build_shape(spec)
+    geometry = OCCGeometry(shape, dim=3)
+    if progress:
+        progress(f"meshing ({'air + PML' if spec.with_air else 'plane faces only'}) ...")
+    maxh = spec.air_size if spec.with_air else 2 * spec.membrane_size
+    ngmesh = geometry.GenerateMesh(maxh=maxh, grading=spec.grading)
+    return ngmesh, geometry
+
+
+def load_mesh(spec: GeometrySpec, curve_order: int, cache_dir: Path | None = MESH_DIR,
+              progress=None):
+    """The NGSolve mesh of the spec, curved to ``curve_order``, from the cache if there.
+
+    The cache file ``meshes/<hash>.vol.gz`` is keyed by :meth:`GeometrySpec.key`,
+    so a sweep over z and V_b reuses one mesh.  The geometry is rebuilt (cheap)
+    to curve the loaded mesh.
+    """
+    import netgen.meshing
+    import ngsolve
+    from netgen.occ import OCCGeometry
+
+    path = None if cache_dir is None else Path(cache_dir) / f"{spec.key()}.vol.gz"
+    if path is not None and path.is_file():
+        geometry = OCCGeometry(build_shape(spec), dim=3)
+        ngmesh = netgen.meshing.Mesh(dim=3)
+        ngmesh.Load(str(path))
+        ngmesh.SetGeometry(geometry)
+        if progress:
+            progress(f"mesh from cache {path.name}")
+    else:
+        ngmesh, geometry = generate_mesh(spec, progress)
+        if path is not None:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            tmp = path.with_name(path.name + ".tmp.vol.gz")
+            ngmesh.Save(str(tmp))
+            tmp.replace(path)
+            path.with_suffix("").with_suffix(".json").write_text(
+                json.dumps(asdict(spec), indent=1))
+    mesh = ngsolve.Mesh(ngmesh)
+    mesh.Curve(curve_order)
+    return mesh
+
+
+def membrane_area(spec: GeometrySpec) -> float:
+    """Exact flat membrane area pi (r_o^2 - r_i^2) [m^2]."""
+    return math.pi * (spec.outer_radius**2 - spec.inner_radius**2)

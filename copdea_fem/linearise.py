@@ -1,0 +1,99 @@
+"""Linearised membrane operators about a prestressed state (Sect. 3.1.3).
+
+``K_s`` is the Hessian of the same energy the prestress step minimises
+(:func:`copdea_fem.membrane.energy_density` at the bias voltage V_b), so it
+holds the material, initial-stress and electrostatic terms exactly, without a
+separate hand-written form.  ``M_s`` is the consistent mass of the film,
+``rho0 h0 / lambda_p^2 * integral of u . v dS`` over the pre-stretched area.
+
+Unknowns: the free membrane DOFs (rims fixed), plus -- when the disc rides on
+the biasing spring (``disc.motion: spring``) -- one rigid axial disc DOF
+``w_d`` [m] that moves the inner rim: ``u = u_free + w_d * lift``.  The disc
+adds mass ``M_d + M_s/3`` (Rayleigh's equivalent mass of a spring with a
+linear static deflection profile; the spring's own wave modes P2, P3, ... are
+Annex I's business) and stiffness ``k_d`` (eq. 4, linear spring).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import ngsolve as ngs
+import numpy as np
+import scipy.sparse as sp
+
+from .membrane import energy_density
+from .prestress import PrestressedState
+
+
+@dataclass
+class MembraneOperators:
+    """K_s [N/m] and M_s [kg] on the reduced unknowns, and how to map back.
+
+    ``free_dofs``: indices of the membrane space's free DOFs, in the order of
+    the first ``len(free_dofs)`` unknowns; if ``disc_dof`` is True the last
+    unknown is the disc displacement w_d.
+    """
+
+    stiffness: sp.csr_matrix
+    mass: sp.csr_matrix
+    free_dofs: np.ndarray
+    disc_dof: bool
+    state: PrestressedState
+
+    @property
+    def size(self) -> int:
+        return self.stiffness.shape[0]
+
+    def to_full(self, vectors: np.ndarray) -> np.ndarray:
+        """Reduced vectors (size x k) -> full membrane-space coefficient vectors."""
+        vectors = np.atleast_2d(vectors.T).T
+        full = np.zeros((self.state.space.ndof, vectors.shape[1]), dtype=vectors.dtype)
+        full[self.free_dofs] = vectors[: len(self.free_dofs)]
+        if self.disc_dof:
+            lift = self.state.disc_lift.vec.FV().NumPy()
+            full += np.outer(lift, vectors[-1])
+        return full
+
+
+def to_scipy(matrix) -> sp.csr_matrix:
+    """NGSolve sparse matrix -> SciPy CSR (all entries, also for symmetric storage)."""
+    rows, cols, values = matrix.COO()
+    shape = (matrix.height, matrix.width)
+    return sp.csr_matrix((np.asarray(values), (np.asarray(rows), np.asarray(cols))), shape=shape)
+
+
+def membrane_matrices(state: PrestressedState):
+    """Full-space Hessian K [N/m] and consistent mass M [kg] (SciPy CSR)."""
+    space, material, mesh = state.space, state.material, state.mesh
+    u, v = space.TnT()
+    on_membrane = state.measure
+    hessian = ngs.BilinearForm(space, symmetric=False)
+    hessian += ngs.Variation(energy_density(u, material, state.voltage) * on_membrane)
+    hessian.AssembleLinearization(state.displacement.vec)
+    mass = ngs.BilinearForm(material.areal_density * u * v * on_membrane,
+                            symmetric=False).Assemble()
+    return to_scipy(hessian.mat), to_scipy(mass.mat)
+
+
+def linearised_operators(state: PrestressedState, study) -> MembraneOperators:
+    """K_s, M_s on the free DOFs (+ the disc DOF when the disc rides on the spring)."""
+    stiffness, mass = membrane_matrices(state)
+    free = np.flatnonzero(np.array(state.space.FreeDofs()))
+    k_ff, m_ff = stiffness[free][:, free], mass[free][:, free]
+    with_disc = study["disc"]["motion"] == "spring" and state.has_disc
+    if with_disc:
+        lift = state.disc_lift.vec.FV().NumPy()
+        spring = study["spring"]
+        disc_mass = study["disc"]["mass"] + spring["mass"] / 3
+        k_ff = _border(k_ff, stiffness, lift, free, spring["stiffness"])
+        m_ff = _border(m_ff, mass, lift, free, disc_mass)
+    return MembraneOperators(k_ff.tocsr(), m_ff.tocsr(), free, with_disc, state)
+
+
+def _border(block, full, lift, free, extra):
+    """[[A_ff, A l_f], [l^T A_f, l^T A l + extra]] for u = u_free + w_d * lift."""
+    column = full @ lift
+    corner = float(lift @ column) + extra
+    return sp.bmat([[block, sp.csr_matrix(column[free][:, None])],
+                    [sp.csr_matrix(column[free][None, :]), sp.csr_matrix([[corner]])]])

@@ -1,0 +1,177 @@
+"""Mode post-processing: out-of-plane / in-plane / pumping, (m, n) labels, modal mass.
+
+Labels follow DESIGN.md: ``(m, n)`` = m nodal diameters (circumferential
+wavenumber, from the Fourier content of the normal displacement around the
+membrane) and radial order n (n - 1 interior nodal circles, counted along the
+radius in the dominant Fourier component).  Two modes with the same (m, n)
+(the cos/sin pair of a circular membrane, split slightly by a square frame)
+are ``(m,n)a`` and ``(m,n)b`` in frequency order.  Pumping modes (the disc
+carries most of the kinetic energy) are ``P1, P2, ...``; in-plane modes
+``ip(m,n)`` from their dominant in-plane component.
+
+Energy fractions are kinetic-energy (mass-weighted) fractions, exact FE
+integrals: ``normal_fraction = x^H M_n x / x^H M x`` with
+``M_n = rho_s * integral of (u.n)(v.n) dS`` and n the deformed normal.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import ngsolve as ngs
+import numpy as np
+
+from .linearise import MembraneOperators, to_scipy
+from .membrane import deformed_normal
+
+OUT_OF_PLANE, IN_PLANE, PUMPING, AIR = "out-of-plane", "in-plane", "pumping", "air"
+PUMPING_DISC_FRACTION = 0.5   # disc kinetic energy share above which a mode is pumping
+OUT_OF_PLANE_FRACTION = 0.5   # normal kinetic energy share above which a mode is out-of-plane
+NODE_THRESHOLD = 0.02         # |W_m(r)| below this share of its peak is not a sign
+
+
+@dataclass
+class Mode:
+    """One mode with its classification; displacement normalised to peak |u| = 1."""
+
+    index: int
+    freq_hz: float
+    freq_im_hz: float
+    residual: float
+    kind: str
+    m: int
+    n: int
+    label: str
+    normal_fraction: float
+    disc_fraction: float
+    modal_mass: float              # kg, for unit peak normal (pumping: disc) displacement
+    vector: np.ndarray = field(repr=False)   # full membrane-space coefficients
+    disc_displacement: complex = 0.0
+
+    @property
+    def damping_ratio(self) -> float:
+        """zeta = Im f / |f| for e^{i omega t} with complex f (0 for dry modes)."""
+        magnitude = float(np.hypot(self.freq_hz, self.freq_im_hz))
+        return float(self.freq_im_hz / magnitude) if magnitude > 0 else 0.0
+
+
+class ModeSampler:
+    """Evaluates membrane fields on a polar grid of the reference plane."""
+
+    def __init__(self, state, n_radii: int = 40, n_angles: int = 64):
+        r_o, r_i = state.outer_radius, state.inner_radius
+        inner = max(r_i, 0.02 * r_o)
+        self.radii = inner + (r_o - inner) * (np.arange(n_radii) + 0.5) / n_radii
+        self.angles = 2 * np.pi * np.arange(n_angles) / n_angles
+        rr, tt = np.meshgrid(self.radii, self.angles, indexing="ij")
+        self.points = state.mesh(rr.ravel() * np.cos(tt.ravel()),
+                                 rr.ravel() * np.sin(tt.ravel()),
+                                 np.zeros(rr.size), ngs.BND)
+        self.shape = rr.shape
+        self.gf = ngs.GridFunction(state.space)
+        normal = deformed_normal(state.displacement)
+        radial = ngs.CF((ngs.x, ngs.y, 0)) / ngs.sqrt(ngs.x**2 + ngs.y**2)
+        hoop = ngs.CF((-ngs.y, ngs.x, 0)) / ngs.sqrt(ngs.x**2 + ngs.y**2)
+        self._components = ngs.CF((self.gf * normal, self.gf * radial, self.gf * hoop)).Compile()
+
+    def components(self, vector: np.ndarray) -> np.ndarray:
+        """(normal, radial, hoop) displacement on the grid: array (3, n_radii, n_angles)."""
+        values = []
+        for part in (np.real(vector), np.imag(vector)) if np.iscomplexobj(vector) else (vector,):
+            self.gf.vec.FV().NumPy()[:] = part
+            values.append(np.asarray(self._components(self.points)).reshape(*self.shape, 3))
+        field_ = values[0] + 1j * values[1] if len(values) == 2 else values[0]
+        return np.moveaxis(field_, -1, 0)
+
+
+def circumferential_order(field_: np.ndarray, radii: np.ndarray) -> tuple[int, np.ndarray]:
+    """Dominant circumferential wavenumber m of a (n_radii, n_angles) field, and W_m(r)."""
+    spectrum = np.fft.fft(field_, axis=1) / field_.shape[1]
+    half = field_.shape[1] // 2
+    power = np.abs(spectrum[:, : half + 1]) ** 2
+    power[:, 1:half] += np.abs(spectrum[:, -1:-half:-1]) ** 2
+    weighted = (power * radii[:, None]).sum(axis=0)
+    m = int(np.argmax(weighted))
+    return m, spectrum[:, m] if np.abs(spectrum[:, m]).max() >= np.abs(spectrum[:, -m]).max() \
+        else spectrum[:, -m]
+
+
+def radial_order(profile: np.ndarray) -> int:
+    """n = 1 + sign changes of a complex radial profile after phase alignment."""
+    peak = profile[np.argmax(np.abs(profile))]
+    real = np.real(profile * np.conj(peak) / abs(peak)) if abs(peak) > 0 else np.real(profile)
+    significant = real[np.abs(real) > NODE_THRESHOLD * np.abs(real).max()]
+    return 1 + int(np.count_nonzero(np.diff(np.sign(significant)) != 0))
+
+
+def normal_mass_matrix(state):
+    """M_n = rho_s * integral (u.n)(v.n) dS on the deformed normal [kg] (SciPy, full space)."""
+    u, v = state.space.TnT()
+    normal = deformed_normal(state.displacement)
+    form = ngs.BilinearForm(state.material.areal_density * (u * normal) * (v * normal)
+                            * state.measure)
+    return to_scipy(form.Assemble().mat)
+
+
+def classify_modes(operators: MembraneOperators, eigen_result, sampler: ModeSampler | None = None
+                   ) -> list[Mode]:
+    """Turn eigenpairs of (K_s, M_s) into labelled, normalised :class:`Mode` objects."""
+    state = operators.state
+    sampler = sampler or ModeSampler(state)
+    full = operators.to_full(eigen_result.vectors)
+    normal_mass = normal_mass_matrix(state)
+    modes = []
+    for k in range(full.shape[1]):
+        reduced = eigen_result.vectors[:, k]
+        total = float(np.real(np.vdot(reduced, operators.mass @ reduced)))
+        disc = complex(reduced[-1]) if operators.disc_dof else 0.0
+        disc_energy = float(np.real(operators.mass[-1, -1]) * abs(disc) ** 2) if \
+            operators.disc_dof else 0.0
+        vector = full[:, k]
+        normal_energy = float(np.real(np.vdot(vector, normal_mass @ vector)))
+        membrane_energy = max(total - disc_energy, 1e-300)
+        normal_fraction = normal_energy / membrane_energy
+        disc_fraction = disc_energy / total
+        normal, radial, hoop = sampler.components(vector)
+        if disc_fraction > PUMPING_DISC_FRACTION:
+            kind, field_ = PUMPING, normal
+        elif normal_fraction >= OUT_OF_PLANE_FRACTION:
+            kind, field_ = OUT_OF_PLANE, normal
+        else:
+            kind = IN_PLANE
+            field_ = radial if np.sum(np.abs(radial) ** 2) >= np.sum(np.abs(hoop) ** 2) else hoop
+        m, profile = circumferential_order(field_, sampler.radii)
+        n = radial_order(profile)
+        peak_normal = float(np.abs(normal).max())
+        reference = abs(disc) if kind == PUMPING else (peak_normal if kind == OUT_OF_PLANE else
+                                                       float(np.abs([radial, hoop]).max()))
+        scale = 1.0 / reference if reference > 0 else 1.0
+        peak = float(np.abs(np.stack([normal, radial, hoop])).max()) * scale
+        modes.append(Mode(
+            index=k, freq_hz=float(eigen_result.freq_hz[k]),
+            freq_im_hz=float(eigen_result.freq_im_hz[k]),
+            residual=float(eigen_result.residuals[k]), kind=kind, m=m, n=n, label="",
+            normal_fraction=normal_fraction, disc_fraction=disc_fraction,
+            modal_mass=total * scale**2, vector=vector * scale / max(peak, 1e-300),
+            disc_displacement=disc * scale / max(peak, 1e-300)))
+    assign_labels(modes)
+    return modes
+
+
+def assign_labels(modes: list[Mode]) -> None:
+    """(m,n) / ip(m,n) / P_k labels, with a/b suffixes for pairs, in frequency order."""
+    pumping = 0
+    seen: dict[str, list[Mode]] = {}
+    for mode in sorted(modes, key=lambda mode: mode.freq_hz):
+        if mode.kind == PUMPING:
+            pumping += 1
+            mode.label = f"P{pumping}"
+            continue
+        base = f"({mode.m},{mode.n})" if mode.kind == OUT_OF_PLANE else f"ip({mode.m},{mode.n})"
+        seen.setdefault(base, []).append(mode)
+    for base, group in seen.items():
+        if len(group) == 1:
+            group[0].label = base
+        else:
+            for suffix, mode in zip("abcdefghijklmnopqrstuvwxyz", group):
+                mode.label = base + suffix

@@ -1,0 +1,169 @@
+"""The pipeline of ``copdea-fem solve``: study -> mesh -> prestress -> modes -> files.
+
+Library entry points used by the CLI, the benchmarks and the tests:
+:func:`prepare_mesh`, :func:`dry_modes`, :func:`run_solve`, :func:`run_force`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import output
+
+from .geometry import GeometrySpec, load_mesh
+from .linearise import linearised_operators
+from .modes import IN_PLANE, OUT_OF_PLANE, PUMPING, ModeSampler, classify_modes
+from .prestress import force_displacement, solve_prestress
+from .study import Study
+
+
+@dataclass
+class Timings:
+    """Wall time per pipeline stage [s]."""
+
+    seconds: dict = field(default_factory=dict)
+
+    @contextlib.contextmanager
+    def stage(self, name: str):
+        start = time.perf_counter()
+        try:
+            yield
+        finally:
+            self.seconds[name] = self.seconds.get(name, 0.0) + time.perf_counter() - start
+
+
+@dataclass
+class SolveResult:
+    study: Study
+    state: object
+    modes: list
+    rows: list
+    timings: Timings
+    eigen: object
+    out_dir: Path | None = None
+
+
+def _quiet(message: str) -> None:
+    pass
+
+
+def _task_manager():
+    import ngsolve as ngs
+    return ngs.TaskManager()
+
+
+def prepare_mesh(study: Study, with_air: bool | None = None, cache_dir=None, progress=_quiet):
+    """The (cached) mesh of the study; ``cache_dir=None`` uses the repo's meshes/."""
+    spec = GeometrySpec.from_study(study, with_air=with_air)
+    kwargs = {} if cache_dir is None else {"cache_dir": Path(cache_dir)}
+    return load_mesh(spec, study["mesh"]["curve_order"], progress=progress, **kwargs)
+
+
+def dry_modes(study: Study, mesh=None, progress=_quiet, timings: Timings | None = None,
+              cache_dir=None):
+    """Prestress and dry (in-vacuo) modes in the study's band: (state, modes, eigen result)."""
+    timings = timings or Timings()
+    with _task_manager():
+        if mesh is None:
+            with timings.stage("mesh"):
+                mesh = prepare_mesh(study, with_air=study["air"]["enabled"],
+                                    cache_dir=cache_dir, progress=progress)
+        with timings.stage("prestress"):
+            progress("prestress (Newton, load steps in z then V_b) ...")
+            state = solve_prestress(study, mesh, progress=progress)
+        with timings.stage("assembly"):
+            operators = linearised_operators(state, study)
+        eigen = study["eigen"]
+        with timings.stage("eigen"):
+            from .eigen import solve_band
+            progress(f"dry modes in [{eigen['f_min']:g}, {eigen['f_max']:g}] Hz "
+                     f"({operators.size} unknowns) ...")
+            result = solve_band(operators.stiffness, operators.mass, eigen["f_min"],
+                                eigen["f_max"], backend=eigen["backend"],
+                                max_modes=eigen["max_modes"], hermitian=True,
+                                residual_tol=eigen["residual_tol"], progress=progress)
+        with timings.stage("classify"):
+            modes = classify_modes(operators, result, ModeSampler(state))
+    return state, modes, result
+
+
+def run_solve(study: Study, out_dir: str | Path | None = None, progress=_quiet,
+              cache_dir=None) -> SolveResult:
+    """Full ``solve``: prestress, modes, and (if ``out_dir``) every result file."""
+    if study["air"]["enabled"]:
+        raise NotImplementedError(
+            "air.enabled = true: the fully-coupled air/PML eigen step is not in this "
+            "version yet; set air.enabled: false for dry (in-vacuo) modes")
+    timings = Timings()
+    state, modes, eigen_result = dry_modes(study, progress=progress, timings=timings,
+                                           cache_dir=cache_dir)
+    rows = output.mode_rows(modes)
+    result = SolveResult(study, state, modes, rows, timings, eigen_result)
+    if out_dir is not None:
+        with timings.stage("output"):
+            progress("writing results ...")
+            write_results(result, Path(out_dir))
+        result.out_dir = Path(out_dir)
+    return result
+
+
+def prestress_summary(state) -> dict:
+    return {"z_m": state.z, "voltage_v": state.voltage, "disc_force_n": state.disc_force,
+            "newton_iterations": state.newton_iterations,
+            "load_steps": [{"z_m": z, "voltage_v": v, "newton_iterations": it}
+                           for z, v, it in state.load_steps]}
+
+
+def write_results(result: SolveResult, out_dir: Path) -> None:
+    study = result.study
+    extra = {"prestress": prestress_summary(result.state),
+             "eigen": {"shifts_hz": list(map(float, getattr(result.eigen, "shifts_hz", []))),
+                       "unknowns": int(result.eigen.vectors.shape[0])},
+             "timings_s": result.timings.seconds}
+    with output.result_directory(out_dir) as staging:
+        output.write_modes(staging, result.rows, study, extra)
+        if study["output"]["paraview"] or study["output"]["plots"]:
+            structural = [mode for mode in result.modes
+                          if mode.kind in (OUT_OF_PLANE, PUMPING, IN_PLANE)]
+            files = write_paraview(staging, result.state, structural)
+            if study["output"]["plots"]:
+                lowest = [(f, mode) for f, mode in zip(files, structural)
+                          if mode.kind in (OUT_OF_PLANE, PUMPING)][:8]
+                output.plot_modes(staging / "modes.png", [f for f, _ in lowest],
+                                  [mode for _, mode in lowest])
+            if not study["output"]["paraview"]:
+                for path in list(staging.glob("*.vtu")) + list(staging.glob("*.pvd")):
+                    path.unlink()
+
+
+def write_paraview(directory: Path, state, modes) -> list[Path]:
+    """prestress.vtu + modes.pvd with one .vtu per mode."""
+    fields = state.fields()
+    output.write_membrane_vtu(directory / "prestress", state.mesh, fields,
+                              deformation=state.displacement)
+    files = output.write_mode_vtus(directory, state, modes)
+    output.write_pvd(directory / "modes.pvd", files, list(range(len(files))))
+    return files
+
+
+def run_force(study: Study, z_values, voltages, out_dir: str | Path | None = None,
+              progress=_quiet, cache_dir=None) -> np.ndarray:
+    """Static F(z) [N] at each voltage (Fig. 4b); writes force_displacement.csv/.png."""
+    with _task_manager():
+        mesh = prepare_mesh(study, with_air=False, cache_dir=cache_dir, progress=progress)
+        forces = force_displacement(study, mesh, z_values, voltages, progress=progress)
+    if out_dir is not None:
+        with output.result_directory(out_dir) as staging:
+            output.write_force_csv(staging / "force_displacement.csv", z_values, voltages,
+                                   forces)
+            if study["output"]["plots"]:
+                output.plot_force_displacement(staging / "force_displacement.png", z_values,
+                                               voltages, forces)
+            from .study import dump_resolved
+            dump_resolved(study, staging / "study.resolved.yaml")
+    return forces
