@@ -89,6 +89,72 @@ def cmd_force(args) -> int:
     return 0
 
 
+# -- reduced model (Sect. 3.2, Annex I): spectrum, fit-material, calibrate-damping ---------------
+def _reduced_action(action) -> int:
+    """Run a :mod:`copdea_fem.reduced.io` action and print its summary lines.
+
+    Its physical/numerical failures (ReducedModelError) exit with 3 like a
+    failed solve; study and input errors (StudyError) reach :func:`main` (2).
+    """
+    from .reduced.rings import ReducedModelError
+    try:
+        summary = action()
+    except ReducedModelError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 3
+    print("\n".join(summary["lines"]))
+    return 0
+
+
+def cmd_spectrum(args) -> int:
+    from .reduced.io import run_spectrum
+    study = _study(args)
+    return _reduced_action(lambda: run_spectrum(study, _out_dir(args, study),
+                                                modes_json=args.modes_json))
+
+
+def cmd_fit_material(args) -> int:
+    from .reduced.io import fit_material_cli
+    study = _study(args)
+    return _reduced_action(lambda: fit_material_cli(study, args.data, _out_dir(args, study)))
+
+
+def cmd_calibrate_damping(args) -> int:
+    from .reduced.io import calibrate_damping_cli
+    study = _study(args)
+    return _reduced_action(lambda: calibrate_damping_cli(
+        study, args.spectrum, _out_dir(args, study), modes_json=args.modes_json,
+        window=args.window))
+
+
+def _add_reduced_commands(commands, with_study) -> None:
+    modes_help = "FE modes.json whose coupled frequencies set the added masses " \
+                 "(default: reduced.modes_json)"
+    spectrum = with_study("spectrum", "reduced-model velocity spectra under the chirp "
+                          "(Sect. 5.3): spectrum_average.csv, spectrum_points.csv, "
+                          "reduced_modes.csv")
+    spectrum.add_argument("--out", help="result directory (default: output.directory)")
+    spectrum.add_argument("--modes-json", help=modes_help)
+    spectrum.set_defaults(handler=cmd_spectrum)
+
+    fit = with_study("fit-material", "fit c10, c20, c01 of eq. (20) to force-displacement "
+                     "data with the ring model (Sect. 5.1)")
+    fit.add_argument("data", help="CSV with columns z_m, force_n [, voltage_v, prestretch, "
+                     "inner_radius_m, force_std_n] (SI)")
+    fit.add_argument("--out", help="result directory (default: output.directory)")
+    fit.set_defaults(handler=cmd_fit_material)
+
+    calibrate = with_study("calibrate-damping", "modal damping b/m from the peak heights of a "
+                           "measured average spectrum (Sect. 5.3)")
+    calibrate.add_argument("spectrum", help="CSV with columns freq_hz, v_axial, v_radial "
+                           "(Hz, m/s), measured with the study's excitation")
+    calibrate.add_argument("--window", type=float, default=0.15,
+                           help="relative half-width of the peak search around each mode")
+    calibrate.add_argument("--modes-json", help=modes_help)
+    calibrate.add_argument("--out", help="result directory (default: output.directory)")
+    calibrate.set_defaults(handler=cmd_calibrate_damping)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="copdea-fem", description="Vibro-acoustic FE and reduced models of COP-DEAs.")
@@ -118,6 +184,7 @@ def build_parser() -> argparse.ArgumentParser:
     force.add_argument("--out", help="result directory (default: output.directory)")
     force.add_argument("--quiet", action="store_true", help="no progress messages")
     force.set_defaults(handler=cmd_force)
+    _add_reduced_commands(commands, with_study)
     return parser
 
 

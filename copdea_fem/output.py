@@ -87,26 +87,63 @@ def frequency_table(rows: list[dict], kinds=("pumping", "out-of-plane", "in-plan
 
 
 # -- ParaView -------------------------------------------------------------------------
-def write_membrane_vtu(path: Path, mesh, fields: dict, deformation=None, subdivision: int = 1
-                       ) -> Path:
-    """VTU of the membrane faces with the given CoefficientFunctions (NGSolve VTKOutput).
+class MembraneSampler:
+    """Points of a subdivided membrane surface for VTU output (curved, high order).
 
-    ``deformation`` (a displacement GridFunction) draws the prestressed shape.
-    Returns the written file's path.
+    Every membrane face element is split into ``subdivision**2`` triangles in
+    its reference coordinates; fields are evaluated at the mapped points, so
+    curved elements and high-order fields are drawn faithfully.  Points on
+    shared element edges are repeated (ParaView's "Clean" merges them).
     """
-    import ngsolve as ngs
 
-    names = list(fields)
-    if deformation is not None:
-        mesh.SetDeformation(deformation)
-    try:
-        vtk = ngs.VTKOutput(mesh, coefs=[fields[name] for name in names], names=names,
-                            filename=str(path.with_suffix("")), subdivision=subdivision)
-        vtk.Do(vb=ngs.BND, drawelems=mesh.Boundaries("membrane").Mask())
-    finally:
-        if deformation is not None:
-            mesh.UnsetDeformation()
-    return path.with_suffix(".vtu")
+    def __init__(self, mesh, subdivision: int = 3, region: str = "membrane"):
+        import ngsolve as ngs
+
+        s = subdivision
+        local = [(i / s, j / s) for j in range(s + 1) for i in range(s + 1 - j)]
+        index = {key: k for k, key in enumerate((i, j) for j in range(s + 1)
+                                                 for i in range(s + 1 - j))}
+        triangles = []
+        for j in range(s):
+            for i in range(s - j):
+                triangles.append((index[i, j], index[i + 1, j], index[i, j + 1]))
+                if i + j < s - 1:
+                    triangles.append((index[i + 1, j], index[i + 1, j + 1], index[i, j + 1]))
+        rule = ngs.IntegrationRule([(a, b, 0) for a, b in local], [0.0] * len(local))
+        self.points = mesh.MapToAllElements(rule, ngs.BND)
+        names = mesh.GetBoundaries()
+        on_region = np.array([names[el.index] == region for el in mesh.Elements(ngs.BND)])
+        per_element = len(local)
+        self.rows = (np.flatnonzero(on_region)[:, None] * per_element
+                     + np.arange(per_element)[None, :]).ravel()
+        count = int(on_region.sum())
+        self.cells = (np.arange(count)[:, None, None] * per_element
+                      + np.array(triangles)[None, :, :]).reshape(-1, 3)
+        self.coordinates = self.evaluate(ngs.CF((ngs.x, ngs.y, ngs.z)))
+
+    def evaluate(self, coefficient) -> np.ndarray:
+        """Values of a CoefficientFunction at the sample points, (n_points,) or (n_points, d)."""
+        values = np.asarray(coefficient(self.points))[self.rows]
+        return values[:, 0] if values.ndim == 2 and values.shape[1] == 1 else values
+
+
+def write_membrane_vtu(path: Path, sampler: MembraneSampler, fields: dict,
+                       displacement=None) -> Path:
+    """VTU of the membrane with point data (meshio).
+
+    ``fields`` maps names to CoefficientFunctions or to arrays already sampled;
+    ``displacement`` (the prestress u) moves the points to the deformed shape.
+    """
+    import meshio
+
+    coordinates = sampler.coordinates
+    if displacement is not None:
+        coordinates = coordinates + sampler.evaluate(displacement)
+    data = {name: value if isinstance(value, np.ndarray) else sampler.evaluate(value)
+            for name, value in fields.items()}
+    path = path.with_suffix(".vtu")
+    meshio.write(path, meshio.Mesh(coordinates, [("triangle", sampler.cells)], point_data=data))
+    return path
 
 
 def write_pvd(path: Path, files: list[Path], times: list[float]) -> None:
@@ -117,29 +154,35 @@ def write_pvd(path: Path, files: list[Path], times: list[float]) -> None:
                     f"  <Collection>\n{entries}\n  </Collection>\n</VTKFile>\n")
 
 
-def write_mode_vtus(directory: Path, state, modes) -> list[Path]:
-    """One .vtu per mode on the prestressed shape: displacement re/im/abs, normal velocity."""
+def write_mode_vtus(directory: Path, state, modes, sampler: MembraneSampler) -> list[Path]:
+    """One .vtu per mode on the prestressed shape: displacement re/im/abs, normal velocity.
+
+    Mode shapes are normalised to peak |u| = 1 (dimensionless); the normal
+    velocity amplitude is omega |u.n| for that normalisation [1/s].
+    """
     import ngsolve as ngs
 
     from .membrane import deformed_normal
 
-    complex_modes = any(np.iscomplexobj(mode.vector) for mode in modes)
-    real_part, imag_part = ngs.GridFunction(state.space), ngs.GridFunction(state.space)
-    normal = deformed_normal(state.displacement)
+    mode_field = ngs.GridFunction(state.space)
+    normal = sampler.evaluate(deformed_normal(state.displacement))
     files = []
     for number, mode in enumerate(modes):
-        real_part.vec.FV().NumPy()[:] = np.real(mode.vector)
-        imag_part.vec.FV().NumPy()[:] = np.imag(mode.vector) if complex_modes else 0.0
+        parts = []
+        for part in (np.real(mode.vector), np.imag(mode.vector)):
+            mode_field.vec.FV().NumPy()[:] = part
+            parts.append(sampler.evaluate(mode_field))
+        shape = parts[0] + 1j * parts[1]
+        normal_shape = np.sum(shape * normal, axis=1)
         omega = 2 * np.pi * abs(complex(mode.freq_hz, mode.freq_im_hz))
-        magnitude = ngs.sqrt(real_part * real_part + imag_part * imag_part)
-        fields = {"displacement_real": real_part, "displacement_imag": imag_part,
-                  "displacement_abs": magnitude,
-                  "normal_displacement_real": real_part * normal,
-                  "normal_velocity_abs": omega * ngs.sqrt((real_part * normal) ** 2
-                                                          + (imag_part * normal) ** 2)}
+        fields = {"displacement_real": parts[0], "displacement_imag": parts[1],
+                  "displacement_abs": np.linalg.norm(np.abs(shape), axis=1),
+                  "normal_displacement_real": normal_shape.real,
+                  "normal_displacement_imag": normal_shape.imag,
+                  "normal_velocity_abs": omega * np.abs(normal_shape)}
         name = f"mode_{number:03d}_{_safe(mode.label)}"
-        files.append(write_membrane_vtu(directory / name, state.mesh, fields,
-                                        deformation=state.displacement))
+        files.append(write_membrane_vtu(directory / name, sampler, fields,
+                                        displacement=state.displacement))
     return files
 
 

@@ -143,10 +143,10 @@ def write_results(result: SolveResult, out_dir: Path) -> None:
 
 def write_paraview(directory: Path, state, modes) -> list[Path]:
     """prestress.vtu + modes.pvd with one .vtu per mode."""
-    fields = state.fields()
-    output.write_membrane_vtu(directory / "prestress", state.mesh, fields,
-                              deformation=state.displacement)
-    files = output.write_mode_vtus(directory, state, modes)
+    sampler = output.MembraneSampler(state.mesh)
+    output.write_membrane_vtu(directory / "prestress", sampler, state.fields(),
+                              displacement=state.displacement)
+    files = output.write_mode_vtus(directory, state, modes, sampler)
     output.write_pvd(directory / "modes.pvd", files, list(range(len(files))))
     return files
 

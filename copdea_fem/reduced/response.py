@@ -18,8 +18,10 @@ so the FFT line k of any response is exactly H(w_k) times line k of the
 input: spectra are computed line by line, with the vibrometer's
 normalisation |FFT| / N (N samples per period, the issue's "FFT/N"), on the
 lines k = 1 .. floor(f1 T) (0.8 s: 1.25 Hz spacing, 800 lines to 1 kHz).
-The average spectrum is the mean of |v| over the scan points (magnitude
-average, as the vibrometer software averages scan-point spectra).
+The average spectrum is the mean of |v| over the scan points (a magnitude
+average: phases differ across the membrane and a complex average would cancel
+the (0,2) peak; the paper does not say which the vibrometer software uses, and
+a magnitude average is its usual "average spectrum").
 """
 
 from __future__ import annotations
@@ -83,7 +85,8 @@ class Chirp:
         """Sample times t [s] and voltage V~(t) [V] over one period."""
         t = np.arange(self.sample_count) * self.sample_time
         sweep_rate = (self.f_end - self.f_start) / self.duration
-        return t, self.amplitude * np.sin(2 * math.pi * (self.f_start * t + 0.5 * sweep_rate * t ** 2))
+        phase = 2 * math.pi * (self.f_start * t + 0.5 * sweep_rate * t ** 2)
+        return t, self.amplitude * np.sin(phase)
 
     def lines(self) -> tuple[np.ndarray, np.ndarray]:
         """Line frequencies [Hz] and the input's complex line values |FFT|/N scaling [V]."""
@@ -94,7 +97,10 @@ class Chirp:
 
 
 def vibrometer_spectrum(samples) -> np.ndarray:
-    """FFT / N of a real signal sampled over one period, lines 0 .. N/2 (Sect. 4.3) [unit of samples]."""
+    """FFT / N of a real signal sampled over one period, lines 0 .. N/2 (Sect. 4.3).
+
+    Same unit as the samples (V for the input, m/s for a velocity).
+    """
     samples = np.asarray(samples, dtype=float)
     return np.fft.rfft(samples) / samples.size
 
@@ -353,11 +359,19 @@ def calibrate_damping(model: ReducedModel, chirp: Chirp, measured_frequency_hz, 
     Raises
     ------
     ReducedModelError
-        No measured line in a window, or a measured peak the model cannot
-        reach even undamped on its spectral lines.
+        A mode outside the band, no measured line in a window, or a measured
+        peak the model cannot reach even undamped on its spectral lines.
     """
     f_meas = np.asarray(measured_frequency_hz, float)
     v_ax, v_rad = np.asarray(measured_axial, float), np.asarray(measured_radial, float)
+    freqs, lines = chirp.lines()
+    band = (max(freqs[0], f_meas.min()), min(freqs[-1], f_meas.max()))
+    for label, f in zip(model.labels, model.frequency_hz):
+        if not band[0] <= f <= band[1]:
+            raise ReducedModelError(
+                f"{label} at {f:.1f} Hz is not allowed for the calibration; allowed: modes inside "
+                f"[{band[0]:g}, {band[1]:g}] Hz, the band of both spectra (give its coupled "
+                "frequency, e.g. reduced.coupled_freq_02, or leave it out of reduced.modes)")
     windows = peak_windows(model.frequency_hz, relative_half_width)
     targets = np.array([_peak(f_meas, v_ax, v_rad, w) for w in windows])
     for label, target, window in zip(model.labels, targets, windows):
@@ -365,7 +379,6 @@ def calibrate_damping(model: ReducedModel, chirp: Chirp, measured_frequency_hz, 
             raise ReducedModelError(
                 f"measured spectrum has no peak for {label} in [{window[0]:.1f}, "
                 f"{window[1]:.1f}] Hz; allowed: a spectrum covering every kept mode")
-    freqs, lines = chirp.lines()
     ratios = model.damping_per_mass.astype(float).copy()
 
     def height(j, log_ratio):

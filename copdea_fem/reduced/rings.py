@@ -564,7 +564,8 @@ class RingModel:
             k_full[disc, disc] += self.spring_stiffness
             preload = (equilibrium.disc_position + equilibrium.disc_force / self.spring_stiffness
                        if self.spring_stiffness > 0 else math.nan)
-            if self.spring_stiffness == 0 and abs(equilibrium.disc_force) > 1e-9 * self._force_scale():
+            unbalanced = abs(equilibrium.disc_force) > 1e-9 * self._force_scale()
+            if self.spring_stiffness == 0 and unbalanced:
                 raise ReducedModelError(
                     f"spring.stiffness = 0 N/m is not allowed with a free disc at load.z = "
                     f"{equilibrium.disc_position:g} m: nothing balances the membrane force "

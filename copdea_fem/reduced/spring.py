@@ -67,7 +67,10 @@ def pumping_roots(mass_ratio: float, stiffness_ratio: float, count: int) -> np.n
     if not (mu > 0 and kappa > -1 and count >= 1):
         raise ReducedModelError(f"mass ratio {mu!r}, stiffness ratio {kappa!r}, count {count!r} "
                                 "are not allowed; allowed: mu > 0, kappa > -1, count >= 1")
-    f = lambda theta: math.sin(theta) * (kappa - mu * theta ** 2) + theta * math.cos(theta)  # noqa: E731
+
+    def f(theta):
+        return math.sin(theta) * (kappa - mu * theta ** 2) + theta * math.cos(theta)
+
     roots = []
     for j in range(count):
         if j == 0:

@@ -1,0 +1,407 @@
+"""Tests of the shift-invert band eigensolver (copdea_fem.eigen).
+
+Reference problems have closed-form *discrete* spectra, so the comparison is
+exact up to the solver's tolerance, independent of mesh size:
+
+* string: linear FE of ``-c^2 u'' = lam u`` on (0, L), u = 0 at both ends,
+  ``lam_j = c^2 (6/h^2) (1 - cos t_j) / (2 + cos t_j)``, ``t_j = j pi h / L``;
+* square membrane: bilinear (Q1) FE on the unit square, ``K2 = K1 x M1 + M1 x K1``,
+  ``M2 = M1 x M1`` (Kronecker), so ``lam_pq = lam_p + lam_q`` exactly and
+  ``lam_pq = lam_qp`` gives exact double eigenvalues (the cos/sin pairs of a
+  circular membrane in miniature);
+* damped membrane: ``((1 + i eta) K2, M2)``, complex symmetric non-Hermitian,
+  ``lam = (1 + i eta) lam_pq``.
+"""
+
+import numpy as np
+import pytest
+import scipy.linalg
+import scipy.sparse as sp
+
+from copdea_fem import eigen
+from copdea_fem.eigen import (
+    BACKENDS,
+    BackendUnavailableError,
+    EigenInputError,
+    EigenResidualError,
+    Factorization,
+    TooManyModesError,
+    backend_available,
+    frequency_from_eigenvalue,
+    solve_band,
+)
+
+WAVE_SPEED = 100.0   # m/s
+LENGTH = 1.0         # m
+
+# ARPACK runs at tol = 1e-10 on nu = 1/(lam - sigma), so |d lam| <~ 1e-10 |lam - sigma|
+# <= 1e-10 lam_top (top of the covered band).  With f_top / f_min <= 10 in these
+# bands, the relative frequency error is <= 0.5e-10 (f_top/f)^2 <= 5e-9.
+FREQUENCY_RTOL = 1e-8
+
+
+# --------------------------------------------------------------------------- reference problems
+
+
+def string_matrices(n_elements, length=LENGTH, wave_speed=WAVE_SPEED):
+    """Stiffness (c^2-scaled, 1/s^2 * m) and mass (m) of the FE string, and exact lam (rad^2/s^2)."""
+    h = length / n_elements
+    n = n_elements - 1
+    stiffness = sp.diags([-1.0, 2.0, -1.0], [-1, 0, 1], shape=(n, n)) * (wave_speed**2 / h)
+    mass = sp.diags([1.0, 4.0, 1.0], [-1, 0, 1], shape=(n, n)) * (h / 6.0)
+    theta = np.arange(1, n + 1) * np.pi * h / length
+    exact = wave_speed**2 * (6.0 / h**2) * (1.0 - np.cos(theta)) / (2.0 + np.cos(theta))
+    return stiffness.tocsr(), mass.tocsr(), exact
+
+
+def square_matrices(n_elements):
+    """Q1 FE of the square membrane; exact lam_pq = lam_p + lam_q (all pairs p, q)."""
+    k1, m1, lam1 = string_matrices(n_elements)
+    stiffness = (sp.kron(k1, m1) + sp.kron(m1, k1)).tocsr()
+    mass = sp.kron(m1, m1).tocsr()
+    exact = (lam1[:, None] + lam1[None, :]).ravel()
+    return stiffness, mass, np.sort(exact)
+
+
+def frequencies(lam):
+    return np.asarray(frequency_from_eigenvalue(lam))
+
+
+def band_between(sorted_freqs, first, last):
+    """Band edges (Hz) in the gaps around sorted_freqs[first..last], and the frequencies inside.
+
+    ``first``/``last`` are moved outward to the ends of their groups of equal
+    frequencies, so each edge lies half-way between two *distinct* values and
+    the expected set does not depend on round-off.
+    """
+    tolerance = 1e-8 * sorted_freqs[-1]
+    while first > 0 and sorted_freqs[first] - sorted_freqs[first - 1] <= tolerance:
+        first -= 1
+    while sorted_freqs[last + 1] - sorted_freqs[last] <= tolerance:
+        last += 1
+    low = 0.0 if first == 0 else 0.5 * (sorted_freqs[first - 1] + sorted_freqs[first])
+    high = 0.5 * (sorted_freqs[last] + sorted_freqs[last + 1])
+    return low, high, sorted_freqs[first:last + 1]
+
+
+def multiplicities(sorted_values, relative=1e-8):
+    """Sizes of groups of equal values (relative 1e-8: exact degeneracies here agree to ~1e-14)."""
+    groups = [1]
+    for previous, current in zip(sorted_values[:-1], sorted_values[1:]):
+        if abs(current - previous) <= relative * abs(current):
+            groups[-1] += 1
+        else:
+            groups.append(1)
+    return groups
+
+
+# --------------------------------------------------------------------------- closed-form spectra
+
+
+def test_string_band_matches_closed_form():
+    stiffness, mass, exact = string_matrices(400)
+    exact_f = frequencies(exact).real
+    f_min, f_max, expected = band_between(exact_f, 3, 24)
+    result = solve_band(stiffness, mass, f_min, f_max, backend="superlu")
+    assert len(result) == expected.size
+    np.testing.assert_allclose(result.freq_hz, expected, rtol=FREQUENCY_RTOL)
+    assert result.hermitian
+    assert np.all(result.freq_im_hz == 0.0)
+    assert np.all(np.isfinite(result.coverage_radii))  # ARPACK path, not the dense fallback
+    assert np.max(result.residuals) < 1e-9  # ARPACK tol 1e-10 with ||A - sigma B|| ~ ||A||
+
+
+def test_square_membrane_returns_every_member_of_degenerate_pairs():
+    stiffness, mass, exact = square_matrices(30)
+    exact_f = frequencies(exact).real
+    f_min, f_max, expected = band_between(exact_f, 0, 39)
+    result = solve_band(stiffness, mass, f_min, f_max, backend="superlu")
+    assert multiplicities(expected).count(2) >= 10  # the test really has many exact pairs
+    assert len(result) == expected.size
+    assert multiplicities(result.freq_hz) == multiplicities(expected)
+    np.testing.assert_allclose(result.freq_hz, expected, rtol=FREQUENCY_RTOL)
+    # Both members of every pair are independent: the vectors are mass-orthonormal.
+    gram = result.vectors.T @ (mass @ result.vectors)
+    np.testing.assert_allclose(gram, np.eye(len(result)), atol=1e-8)
+
+
+def test_band_needing_several_shifts_is_complete_and_deduplicated():
+    stiffness, mass, exact = square_matrices(30)
+    exact_f = frequencies(exact).real
+    f_min, f_max, expected = band_between(exact_f, 4, 45)
+    messages = []
+    result = solve_band(stiffness, mass, f_min, f_max, backend="superlu",
+                        max_modes_per_shift=8, progress=messages.append)
+    assert result.n_factorisations >= 3
+    assert len(result.shifts) == result.n_factorisations
+    assert len(result) == expected.size
+    assert multiplicities(result.freq_hz) == multiplicities(expected)
+    np.testing.assert_allclose(result.freq_hz, expected, rtol=FREQUENCY_RTOL)
+    gram = result.vectors.T @ (mass @ result.vectors)
+    np.testing.assert_allclose(gram, np.eye(len(result)), atol=1e-8)
+    assert any(message.startswith("shift 2 at") and "Hz" in message for message in messages)
+
+
+def test_wide_band_with_default_settings_uses_more_than_one_shift():
+    stiffness, mass, exact = string_matrices(1500)
+    exact_f = frequencies(exact).real
+    f_min, f_max, expected = band_between(exact_f, 10, 109)  # 100 modes > max_modes_per_shift = 80
+    result = solve_band(stiffness, mass, f_min, f_max, backend="superlu")
+    assert result.n_factorisations >= 2
+    np.testing.assert_allclose(result.freq_hz, expected, rtol=FREQUENCY_RTOL)
+
+
+def test_unstable_state_reports_negative_eigenvalues():
+    stiffness, mass, exact = string_matrices(300)
+    softening = 0.5 * (exact[1] + exact[2])  # two eigenvalues pushed below zero
+    shifted = (stiffness - softening * mass).tocsr()
+    shifted_exact = exact - softening
+    f_max = 0.5 * (frequencies(shifted_exact[6]).real + frequencies(shifted_exact[7]).real)
+    result = solve_band(shifted, mass, 0.0, f_max, backend="superlu",
+                        max_imag_hz=2.0 * frequencies(-shifted_exact[0]).real)
+    assert len(result) == 7
+    # Sorted by (Re f, Im f): the unstable pair first, slower growth (smaller Im f) first.
+    expected = np.concatenate([np.sort(shifted_exact[:2])[::-1], shifted_exact[2:7]])
+    np.testing.assert_allclose(result.eigenvalues.real, expected,
+                               rtol=1e-8, atol=1e-10 * shifted_exact[6])
+    unstable = result.eigenvalues.real < 0
+    assert np.count_nonzero(unstable) == 2
+    assert np.all(result.freq_hz[unstable] == 0.0)
+    np.testing.assert_allclose(result.freq_im_hz[unstable],
+                               np.sqrt(-result.eigenvalues.real[unstable]) / (2 * np.pi), rtol=1e-12)
+
+
+# --------------------------------------------------------------------------- non-Hermitian
+
+
+def test_damped_membrane_complex_pairs():
+    loss_factor = 0.05
+    stiffness, mass, exact = square_matrices(24)
+    exact_complex = np.sort_complex(frequencies((1 + 1j * loss_factor) * exact))
+    real_parts = exact_complex.real
+    f_min, f_max, _ = band_between(real_parts, 2, 25)
+    result = solve_band((1 + 1j * loss_factor) * stiffness, mass, f_min, f_max, backend="superlu")
+    expected = exact_complex[(real_parts >= f_min) & (real_parts <= f_max)]
+    assert not result.hermitian
+    assert len(result) == expected.size
+    assert multiplicities(result.freq_hz) == multiplicities(expected.real)
+    # Non-Hermitian: eigenvalue error is first order in the residual, |d lam| <~
+    # 1e-10 |lam - sigma|; same bound as FREQUENCY_RTOL.
+    np.testing.assert_allclose(result.frequencies_hz, expected, rtol=FREQUENCY_RTOL)
+    assert np.all(result.freq_im_hz > 0)
+    # Degenerate partners are independent vectors (rank of each pair is 2).
+    for group_start in np.flatnonzero(np.diff(result.freq_hz) <= 1e-8 * result.freq_hz[1:]):
+        pair = result.vectors[:, group_start:group_start + 2]
+        singular_values = np.linalg.svd(pair, compute_uv=False)
+        assert singular_values[-1] > 0.1 * singular_values[0]
+
+
+def test_random_non_normal_pencil_matches_dense_qz():
+    rng = np.random.default_rng(7)
+    stiffness, mass, _ = string_matrices(301)  # n = 300
+    n = stiffness.shape[0]
+    stiffness_scale = np.linalg.norm(stiffness.toarray(), 1)
+    perturbation = sp.random(n, n, density=0.02, random_state=rng, data_rvs=rng.standard_normal)
+    perturbation = perturbation + 1j * sp.random(n, n, density=0.02, random_state=rng,
+                                                 data_rvs=rng.standard_normal)
+    perturbation = perturbation * (0.02 * stiffness_scale / abs(perturbation).sum(axis=0).max())
+    pencil_a = (stiffness + perturbation).tocsr()
+    pencil_b = (mass + 0.1 * sp.diags(rng.uniform(0, 1, n)) * mass.diagonal().mean()).tocsr()
+    alpha_beta, _ = scipy.linalg.eig(pencil_a.toarray(), pencil_b.toarray(), homogeneous_eigvals=True)
+    dense_f = frequencies(alpha_beta[0] / alpha_beta[1])
+    f_min, f_max, imag_max = 150.0, 1200.0, 60.0
+    # The reference set must not depend on round-off: no eigenvalue near an edge.
+    distances = np.concatenate([np.abs(dense_f.real - f_min), np.abs(dense_f.real - f_max),
+                                np.abs(np.abs(dense_f.imag) - imag_max)])
+    assert distances.min() > 1e-6 * f_max, "test pencil has an eigenvalue on the band edge"
+    inside = (dense_f.real >= f_min) & (dense_f.real <= f_max) & (np.abs(dense_f.imag) <= imag_max)
+    expected = dense_f[inside]
+    expected = expected[np.lexsort((expected.imag, expected.real))]
+    assert expected.size >= 10 and np.any(np.abs(expected.imag) > 1.0)
+    result = solve_band(pencil_a, pencil_b, f_min, f_max, backend="superlu", max_imag_hz=imag_max)
+    assert not result.hermitian
+    assert np.all(np.isfinite(result.coverage_radii))
+    assert len(result) == expected.size
+    # A 2 % perturbation keeps eigenvalue condition numbers O(10): both solvers'
+    # backward errors (~1e-12 dense, ~1e-10 ARPACK) give < 1e-8 relative.
+    np.testing.assert_allclose(result.frequencies_hz, expected, rtol=1e-7)
+
+
+# --------------------------------------------------------------------------- back-ends
+
+
+def _skip_if_unavailable(backend):
+    if not backend_available(backend):
+        assert backend == "pardiso", f"{backend} must always be available"
+        pytest.skip("pardiso needs Intel MKL, which is not installed (pip install mkl)")
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_factorization_solves_real_and_complex_systems(backend):
+    _skip_if_unavailable(backend)
+    stiffness, mass, exact = square_matrices(20)
+    n = stiffness.shape[0]
+    rng = np.random.default_rng(3)
+    shift = float(0.37 * exact[5] + 0.63 * exact[6])  # between eigenvalues: indefinite, regular
+    for matrix in ((stiffness - shift * mass).tocsr(),
+                   ((1 + 0.05j) * stiffness - shift * mass + 0.01j * sp.triu(stiffness, 1)).tocsr()):
+        factorization = Factorization(matrix, backend=backend)
+        assert factorization.factorisation_seconds >= 0.0
+        rhs = rng.standard_normal((n, 3)) + 1j * rng.standard_normal((n, 3))
+        for right_hand_side in (rhs[:, 0].real.copy(), rhs[:, 1], rhs):
+            solution = factorization.solve(right_hand_side)
+            assert solution.shape == right_hand_side.shape
+            residual = np.linalg.norm(matrix @ solution - right_hand_side) / (
+                eigen.matrix_norm_estimate(matrix) * np.linalg.norm(solution))
+            assert residual < 1e-12  # backward stable LU: ~eps * growth
+        operator = factorization.as_linear_operator(dtype=complex)
+        np.testing.assert_allclose(matrix @ operator.matvec(rhs[:, 2]), rhs[:, 2], rtol=0, atol=1e-8 * np.abs(rhs).max())
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_each_backend_gives_the_same_band(backend):
+    _skip_if_unavailable(backend)
+    stiffness, mass, exact = square_matrices(16)
+    exact_f = frequencies(exact).real
+    f_min, f_max, expected = band_between(exact_f, 1, 14)
+    result = solve_band(stiffness, mass, f_min, f_max, backend=backend)
+    assert result.backend == backend and result.n_factorisations >= 1
+    np.testing.assert_allclose(result.freq_hz, expected, rtol=FREQUENCY_RTOL)
+    complex_result = solve_band((1 + 0.02j) * stiffness, mass, f_min, f_max, backend=backend)
+    damped = np.sort_complex(frequencies((1 + 0.02j) * exact))
+    np.testing.assert_allclose(complex_result.frequencies_hz,
+                               damped[(damped.real >= f_min) & (damped.real <= f_max)], rtol=FREQUENCY_RTOL)
+
+
+def test_pardiso_without_mkl_names_the_fix():
+    if backend_available("pardiso"):
+        pytest.skip("MKL is installed here, so the missing-MKL error cannot occur")
+    stiffness, mass, _ = string_matrices(20)
+    with pytest.raises(BackendUnavailableError, match=r"pardiso.*pip install mkl"):
+        Factorization(stiffness, backend="pardiso")
+    with pytest.raises(BackendUnavailableError, match="pip install mkl"):
+        solve_band(stiffness, mass, 10.0, 100.0, backend="pardiso")
+
+
+# --------------------------------------------------------------------------- residuals, inputs
+
+
+def test_residual_check_raises_and_can_flag_instead():
+    stiffness, mass, exact = string_matrices(200)
+    exact_f = frequencies(exact).real
+    f_min, f_max, expected = band_between(exact_f, 0, 5)
+    # 1e-17 is below double round-off of ||A x|| (~1e-16 ||A|| ||x||): unreachable.
+    with pytest.raises(EigenResidualError, match=r"residual_tol=1e-17.*Hz.*residual") as raised:
+        solve_band(stiffness, mass, f_min, f_max, backend="superlu", residual_tol=1e-17)
+    assert isinstance(raised.value, RuntimeError)
+    flagged = solve_band(stiffness, mass, f_min, f_max, backend="superlu", residual_tol=1e-17, check=False)
+    assert len(flagged) == expected.size and not np.all(flagged.residual_ok)
+    np.testing.assert_allclose(flagged.residuals,
+                               eigen.relative_residuals(stiffness, mass, flagged.eigenvalues, flagged.vectors))
+
+
+@pytest.mark.parametrize(
+    ("arguments", "message"),
+    [
+        (dict(f_min=100.0, f_max=100.0), r"f_max=100 Hz must be > f_min=100 Hz"),
+        (dict(f_min=200.0, f_max=100.0), r"f_max=100 Hz must be > f_min=200 Hz"),
+        (dict(f_min=-1.0, f_max=100.0), r"f_min=-1 Hz must be >= 0"),
+        (dict(backend="mumps"), r"backend='mumps'.*allowed: 'umfpack', 'pardiso', 'superlu'"),
+        (dict(max_modes=0), r"max_modes=0 must be an integer >= 1"),
+        (dict(residual_tol=0.0), r"residual_tol=0.0 must be a number in \(0, 1\)"),
+        (dict(max_imag_hz=-5.0), r"max_imag_hz=-5.0 Hz must be a finite number >= 0"),
+        (dict(hermitian="yes"), r"hermitian='yes' must be None, True or False"),
+    ],
+)
+def test_bad_arguments_name_the_argument_and_allowed_values(arguments, message):
+    stiffness, mass, _ = string_matrices(50)
+    call = dict(f_min=10.0, f_max=500.0, backend="superlu")
+    call.update(arguments)
+    with pytest.raises(EigenInputError, match=message) as raised:
+        solve_band(stiffness, mass, call.pop("f_min"), call.pop("f_max"), **call)
+    assert isinstance(raised.value, ValueError)
+
+
+def test_mismatched_shapes_are_rejected():
+    stiffness, _, _ = string_matrices(50)
+    _, small_mass, _ = string_matrices(40)
+    with pytest.raises(EigenInputError, match=r"same shape"):
+        solve_band(stiffness, small_mass, 10.0, 500.0)
+
+
+def test_too_many_modes_raises_naming_max_modes():
+    stiffness, mass, exact = string_matrices(300)
+    exact_f = frequencies(exact).real
+    f_min, f_max, expected = band_between(exact_f, 0, 9)  # 10 modes
+    with pytest.raises(TooManyModesError, match=r"more than max_modes=4") as raised:
+        solve_band(stiffness, mass, f_min, f_max, backend="superlu", max_modes=4)
+    assert isinstance(raised.value, ValueError)
+    assert len(solve_band(stiffness, mass, f_min, f_max, backend="superlu", max_modes=expected.size)) == expected.size
+
+
+# --------------------------------------------------------------------------- determinism, normalisation
+
+
+def test_two_runs_give_identical_output():
+    stiffness, mass, exact = square_matrices(20)
+    exact_f = frequencies(exact).real
+    f_min, f_max, expected = band_between(exact_f, 0, 19)
+    for pencil_a in (stiffness, (1 + 0.03j) * stiffness):
+        first = solve_band(pencil_a, mass, f_min, f_max, backend="superlu", max_modes_per_shift=10)
+        second = solve_band(pencil_a, mass, f_min, f_max, backend="superlu", max_modes_per_shift=10)
+        assert np.array_equal(first.eigenvalues, second.eigenvalues)
+        assert np.array_equal(first.vectors, second.vectors)
+        assert np.array_equal(first.shifts, second.shifts)
+
+
+def _assert_phase_fixed(vectors):
+    for column in vectors.T:
+        moduli = np.abs(column)
+        pivot = np.flatnonzero(moduli >= (1 - 1e-6) * moduli.max())[0]
+        assert column[pivot].real > 0
+        assert abs(np.imag(column[pivot])) <= 1e-12 * abs(column[pivot])
+
+
+def test_vectors_are_normalised_and_phase_fixed():
+    stiffness, mass, exact = square_matrices(20)
+    exact_f = frequencies(exact).real
+    f_min, f_max, expected = band_between(exact_f, 0, 11)
+    hermitian_result = solve_band(stiffness, mass, f_min, f_max, backend="superlu")
+    assert hermitian_result.vectors.dtype == np.float64
+    np.testing.assert_allclose(np.einsum("ij,ij->j", hermitian_result.vectors, mass @ hermitian_result.vectors),
+                               1.0, rtol=1e-12)
+    _assert_phase_fixed(hermitian_result.vectors)
+
+    complex_result = solve_band((1 + 0.03j) * stiffness, mass, f_min, f_max, backend="superlu")
+    assert complex_result.vectors.dtype == np.complex128
+    np.testing.assert_allclose(np.linalg.norm(complex_result.vectors, axis=0), 1.0, rtol=1e-12)
+    _assert_phase_fixed(complex_result.vectors)
+
+    weighted = solve_band((1 + 0.03j) * stiffness, mass, f_min, f_max, backend="superlu",
+                          normalization_matrix=mass)
+    np.testing.assert_allclose(np.real(np.einsum("ij,ij->j", weighted.vectors.conj(), mass @ weighted.vectors)),
+                               1.0, rtol=1e-12)
+
+
+# --------------------------------------------------------------------------- edge cases
+
+
+def test_empty_band_and_tiny_problem():
+    stiffness, mass, exact = string_matrices(400)
+    exact_f = frequencies(exact).real
+    gap_low, gap_high = exact_f[4] + 0.2 * (exact_f[5] - exact_f[4]), exact_f[4] + 0.8 * (exact_f[5] - exact_f[4])
+    empty = solve_band(stiffness, mass, gap_low, gap_high, backend="superlu")
+    assert len(empty) == 0 and empty.vectors.shape == (stiffness.shape[0], 0)
+
+    small_stiffness, small_mass, small_exact = string_matrices(12)  # n = 11: dense QZ
+    small_f = frequencies(small_exact).real
+    f_min, f_max, expected = band_between(small_f, 2, 8)
+    tiny = solve_band(small_stiffness, small_mass, f_min, f_max, backend="superlu")
+    np.testing.assert_allclose(tiny.freq_hz, expected, rtol=1e-12)
+    assert np.all(np.isinf(tiny.coverage_radii))
+
+
+def test_frequency_branch():
+    f = frequency_from_eigenvalue(np.array([4 * np.pi**2, -4 * np.pi**2, -4 * np.pi**2 - 1e-9j]))
+    np.testing.assert_allclose(f[:2], [1.0, 1.0j])
+    assert f[2].real >= 0 and f[2].imag < 0
