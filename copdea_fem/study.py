@@ -48,6 +48,8 @@ class Key:
             return "one of " + ", ".join(map(str, self.choices))
         if self.kind is bool:
             return "true or false"
+        if self.kind is str:
+            return "any text"
         lo = "" if self.minimum is None else f"{self.minimum:g}"
         hi = "" if self.maximum is None else f"{self.maximum:g}"
         unit = f" {self.unit}" if self.unit else ""
