@@ -1,0 +1,399 @@
+r"""Air around the membrane: radial PML, pressure-jump space and forms (Sect. 3.1.2, eq. 8).
+
+Pure functions: they set the PML on a mesh, build the pressure space and return
+NGSolve bilinear-form integrands; they never read files, assemble or solve.
+Regions are those of :mod:`copdea_fem.geometry` (volumes ``air_upper``,
+``air_lower``, ``pml_upper``, ``pml_lower``; plane faces ``membrane``, ``disc``,
+``frame``, ``aperture``, ``pml_plane``; spheres ``interface``, ``outer``).
+
+Time convention and signs
+-------------------------
+Time-harmonic fields are ``Re{x e^{-i omega t}}`` -- NGSolve's convention, in
+which a complex stretch with positive imaginary part damps the *outgoing* wave
+``e^{+ikr}/r`` (``k = omega/c_a``).  The eigenvalue ``omega^2`` of a radiating
+mode therefore has ``Im omega < 0``; its natural frequency is ``Re omega/2 pi``
+and ``-Im omega/Re omega`` is its radiation damping ratio (times two).
+Textbook impedances written for ``e^{+j omega t}`` appear here complex-conjugated:
+pulsating sphere ``Z = rho c (-ika)/(1 - ika)``, baffled piston
+``Z = rho c S [R1(2ka) - i X1(2ka)]``.
+
+The plane z = 0 carries the *screens* (membrane, disc, frame) with the normal
+``n = e_z`` pointing to the ``+`` side (z > 0, ``air_upper``); ``p+``/``p-`` are
+the pressures on the upper/lower faces and ``[p] = p+ - p-``.
+
+Strong form (eq. 8, corrected)
+------------------------------
+In the air (and, complex-stretched, in the PML), with ``u`` the membrane
+displacement [m] and ``p`` the acoustic pressure [Pa]::
+
+    -div((1/rho_a) grad p) - omega^2/(rho_a c_a^2) p = 0         in air and PML
+    n . grad p+ = n . grad p- = -rho_a n . u_tt = rho_a omega^2 u . n   on the screens
+    p continuous across the aperture (open part of the plane)
+    p = 0 on ``outer`` (end of the unbounded PML, see :func:`radial_pml`)
+
+Eq. (8) as printed has ``rho_a`` on the wrong side (``rho_a n.grad p`` is not an
+acceleration); Euler's equation ``rho_a u_tt = -grad p`` puts it as above.  With
+one normal ``n`` for both faces the two face conditions are the same; the
+paper's opposite sign for ``p_i`` is the same condition written with the
+inner face's own outward normal.  A rigid screen (frame, held disc) has
+``u . n = 0``: homogeneous Neumann data on both faces, eq. (8) lines 4-5.
+The air pushes the membrane with the traction ``-[p] n`` (upper air pushes down
+with ``p+``, lower air pushes up with ``p-``), eq. (2) with ``p_delta = [p]``.
+
+Weak form
+---------
+Multiply by a test pressure ``p'`` (one value per face on the screens) and
+integrate by parts in the upper half (outward normal ``-n`` on the screens) and
+the lower half (outward normal ``+n``)::
+
+    k_a(p, p') - omega^2 m_a(p, p') + omega^2 c(u, p') = 0                  (A1)
+    k_a(p, p') = int (1/rho_a) grad p . grad p' dx                           [N m^-1 Pa^-1 ...]
+    m_a(p, p') = int 1/(rho_a c_a^2) p p' dx
+    c(u, p')   = int_screens [p'] (u . n) ds
+
+and the membrane equation with the traction ``-[p] n`` (test ``u'``)::
+
+    k_s(u, u') + c(u', p) - omega^2 m_s(u, u') = 0                           (A2)
+
+In matrices, ``x = (u, p)``::
+
+    [ K_s  C^T ] x = omega^2 [ M_s   0  ] x                                   (A3)
+    [ 0    K_a ]             [ -C   M_a ]
+
+a generalized eigenproblem *linear in omega^2* because the PML stretch is
+frequency independent.  ``K_s, M_s`` are real symmetric; ``K_a, M_a`` are
+complex symmetric (not Hermitian) once the PML is set, real symmetric without
+it; the coupled ``A``, ``B`` are non-symmetric.  The left eigenvector for the
+eigenvalue ``lambda = omega^2`` is ``y = (lambda u, p)``: ``A^T y = lambda B^T y``.
+Incompressible-air check: for ``c_a -> inf`` (and no PML) (A1) gives
+``p = -omega^2 K_a^-1 C u`` and (A2) becomes
+``K_s u = omega^2 (M_s + C^T K_a^-1 C) u`` -- the added mass ``C^T K_a^-1 C`` is
+positive semi-definite, so air loading lowers every frequency.
+
+Pressure-jump space
+-------------------
+``p`` is one H1 field on all air + PML volumes.  A second H1 field ``q`` lives
+on the lower half (``air_lower|pml_lower``) but keeps only its degrees of
+freedom on the screen faces (compressed; zero on the open part of the plane and
+on ``outer``).  Then::
+
+    p_upper = p,   p_lower = p + q,   [p] = p+ - p- = -q   on the screens.
+
+With the same element basis for both fields (same orders everywhere) the map
+``(p, q) -> (p_upper, p_lower)`` is a bijection onto the H1 fields that are
+continuous except across the screens: ``q`` only has degrees of freedom that
+``p`` shares between the halves.  A ``q`` on the whole lower half would repeat
+``p``'s lower interior DOFs and the system would be singular.
+
+Frames: ``square`` and ``none`` leave the plane open outside the frame
+(``aperture`` and ``pml_plane`` continuous).  ``baffle`` makes the frame the
+whole plane inside the air sphere; we continue the baffle through the PML
+(``pml_plane`` is a screen too): the radial stretch maps the plane z = 0 onto
+itself, so a rigid plane is compatible with the PML, and the model then is the
+infinite baffle of the textbook piston; stopping the baffle at r = R would
+add an edge diffraction that the closed form does not have.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+UPPER = "air_upper|pml_upper"
+LOWER = "air_lower|pml_lower"
+AIR_AND_PML = "air_upper|air_lower|pml_upper|pml_lower"
+PML_REGIONS = "pml_upper|pml_lower"
+OUTER = "outer"
+PLANE_NORMAL = (0.0, 0.0, 1.0)   # n: unit normal of the screens, pointing to the + (upper) side
+
+#: Strength ``b`` of the unbounded PML profile (see :func:`radial_pml`).
+#: Chosen by a scan (monopole in a 0.5 r_o shell, one element layer, PML order
+#: 3, Dirichlet outer): b = 5 leaves 1.4 % error on the radiation impedance at
+#: 200 Hz, b = 7 0.4 %, b = 10 0.6-1.1 % (the decay near the inner interface
+#: gets too steep for one element); 7 balances the two ends of 100-1000 Hz.
+PML_STRENGTH = 7.0
+
+#: Polynomial order added to ``pressure_order`` in the PML elements: the
+#: geometry has about one element across the 0.5 r_o shell, too few to carry
+#: the decay at order 2 (monopole error 5-40 % at 100-1000 Hz with order 2).
+PML_EXTRA_ORDER = 1
+
+
+def screen_faces(frame: str) -> str:
+    """Faces across which the pressure may jump, as a region pattern.
+
+    Parameters
+    ----------
+    frame : {"square", "baffle", "none"}
+        ``study["geometry"]["frame"]``.
+
+    Returns
+    -------
+    str
+        ``"membrane|disc|frame"``; plus ``"|pml_plane"`` for ``baffle`` (the
+        baffle continues into the PML, see module doc); ``"membrane|disc"`` for
+        ``none``.  Missing names (no disc when r_i = 0) match nothing.
+    """
+    if frame == "baffle":
+        return "membrane|disc|frame|pml_plane"
+    if frame == "square":
+        return "membrane|disc|frame"
+    if frame == "none":
+        return "membrane|disc"
+    raise ValueError(f"geometry.frame = {frame!r} is not allowed; allowed: square, baffle, none")
+
+
+def open_plane_faces(frame: str) -> str:
+    """Plane faces on which the pressure is continuous (``aperture``, ``pml_plane``)."""
+    return "aperture" if frame == "baffle" else "aperture|pml_plane"
+
+
+def radial_pml(domain_radius: float, pml_thickness: float, strength: float = PML_STRENGTH,
+               profile: str = "unbounded"):
+    r"""Frequency-independent radial complex stretch of the shell R < r < R + t.
+
+    The point ``x`` (``r = |x| > R``) maps to ``x~ = x r~/r`` with
+    ``r~ = r + i beta(r)``:
+
+    - ``"unbounded"`` (default): ``beta = b t ln(t / (R + t - r))``.  An outgoing
+      wave ``e^{ikr~}`` has modulus ``(1 - s/t)^{k b t}`` at depth ``s = r - R``:
+      it reaches zero at the outer sphere for *every* wavenumber ``k``, so one
+      fixed stretch serves the whole band (the frequency-independent form of
+      the unbounded absorbing function of Bermudez et al., JCP 223 (2007) 469).
+      Use with ``p = 0`` on ``outer`` (see :func:`pressure_space`).
+    - ``"constant"``: ``beta = b (r - R)``, i.e. NGSolve's
+      ``pml.Radial(rad=R, alpha=1j*b)``.  The round-trip reflection off the
+      outer sphere is ``exp(-2 k b t)``: with t = 0.5 r_o = 17.75 mm it needs
+      ``b > 100`` at 100 Hz (k t = 0.03), a decay no coarse mesh resolves at
+      1 kHz; measured monopole impedance errors 60 % at 200 Hz for b = 10.
+      Kept for comparison.
+
+    Parameters
+    ----------
+    domain_radius : float
+        Radius R of the air sphere [m] (inner radius of the PML).
+    pml_thickness : float
+        Shell thickness t [m].
+    strength : float
+        Dimensionless stretch strength ``b`` (> 0).
+    profile : {"unbounded", "constant"}
+
+    Returns
+    -------
+    ngsolve.comp.pml.PML
+        Pass to ``mesh.SetPML(..., PML_REGIONS)`` or use :func:`set_pml`.
+    """
+    from ngsolve import CF, Id, IfPos, OuterProduct, log, pml, sqrt, x, y, z
+
+    if not strength > 0:
+        raise ValueError(f"PML strength = {strength!r} is not allowed; allowed: > 0")
+    R, t = float(domain_radius), float(pml_thickness)
+    if profile == "constant":
+        return pml.Radial(origin=(0.0, 0.0, 0.0), rad=R, alpha=1j * float(strength))
+    if profile != "unbounded":
+        raise ValueError(f"PML profile = {profile!r} is not allowed; allowed: unbounded, constant")
+    r = sqrt(x * x + y * y + z * z)
+    # Distance to the outer sphere; quadrature points never reach it, the floor
+    # only guards points of a curved element that poke outside by ~1e-9 t.
+    floor = 1e-9 * t
+    depth_left = IfPos(R + t - r - floor, R + t - r, floor)
+    beta = strength * t * log(t / depth_left)              # [m]
+    dbeta_dr = strength * t / depth_left                    # [-]
+    r_stretched = r + 1j * beta
+    scale = r_stretched / r                                 # x~ = scale * x
+    position = CF((x, y, z))
+    trafo = scale * position
+    # d x~_i / d x_j = scale delta_ij + (dr~/dr - scale) x_i x_j / r^2
+    jacobian = scale * Id(3) + ((1 + 1j * dbeta_dr) - scale) * OuterProduct(position, position) / (r * r)
+    return pml.Custom(trafo=trafo, jac=jacobian)
+
+
+def set_pml(mesh, domain_radius: float, pml_thickness: float, strength: float = PML_STRENGTH,
+            profile: str = "unbounded"):
+    """Set the radial PML of :func:`radial_pml` on ``pml_upper|pml_lower`` (replacing any).
+
+    Assemble energy/norm matrices that must stay real *before* calling this;
+    ``mesh.UnSetPML(PML_REGIONS)`` removes it.  Returns the PML object.
+    """
+    stretch = radial_pml(domain_radius, pml_thickness, strength, profile)
+    mesh.UnSetPML(PML_REGIONS)
+    mesh.SetPML(stretch, PML_REGIONS)
+    return stretch
+
+
+def _raise_order_in(space, mesh, regions: str, order: int) -> None:
+    """Give every element of ``regions`` (cells, faces, edges) polynomial order ``order``."""
+    from ngsolve import CELL, NodeId, VOL
+
+    region = mesh.Materials(regions)
+    for element in mesh.Elements(VOL):
+        if not region.Mask()[element.index]:
+            continue
+        space.SetOrder(NodeId(CELL, element.nr), order)
+        for face in element.faces:
+            space.SetOrder(face, order)
+        for edge in element.edges:
+            space.SetOrder(edge, order)
+    space.Update()
+
+
+def pressure_space(mesh, order: int, screens: str, open_plane: str = "aperture|pml_plane",
+                   pml_order: int | None = None, outer_dirichlet: bool = True):
+    """Complex pressure space ``P x Q`` with a jump across the screens.
+
+    Parameters
+    ----------
+    mesh : ngsolve.Mesh
+        Mesh of :func:`copdea_fem.geometry.load_mesh` with air.
+    order : int
+        Polynomial order of the pressure in the air (``mesh.pressure_order``).
+    screens : str
+        Faces the pressure jumps across (:func:`screen_faces`).
+    open_plane : str
+        Plane faces where it is continuous (:func:`open_plane_faces`); ``q`` is
+        zero there, also on their rim where they touch a screen.
+    pml_order : int, optional
+        Order in the PML elements; default ``order + PML_EXTRA_ORDER``.
+    outer_dirichlet : bool
+        ``p = 0`` on ``outer`` (needed by the unbounded PML profile).
+
+    Returns
+    -------
+    ngsolve.FESpace
+        Product space; ``(p, q) = space.TrialFunction()`` etc.  ``p`` [Pa] on
+        all air + PML, ``q`` [Pa] on the lower half, non-zero only next to the
+        screens: ``p_lower = p + q``, ``[p] = -q`` (module doc).
+    """
+    from ngsolve import H1, Compress, FESpace
+
+    pml_order = order + PML_EXTRA_ORDER if pml_order is None else pml_order
+    outer = OUTER if outer_dirichlet else ""
+    continuous = H1(mesh, order=order, complex=True, definedon=mesh.Materials(AIR_AND_PML),
+                    dirichlet=outer)
+    jump = H1(mesh, order=order, complex=True, definedon=mesh.Materials(LOWER),
+              dirichlet="|".join(name for name in (open_plane, outer) if name))
+    for space in (continuous, jump):     # same basis in both: the bijection needs it
+        if pml_order != order:
+            _raise_order_in(space, mesh, PML_REGIONS, pml_order)
+    active = jump.GetDofs(mesh.Boundaries(screens)) & jump.FreeDofs()
+    if active.NumSet() == 0:
+        raise ValueError(f"screens = {screens!r} match no face of the mesh with air; "
+                         "allowed: a pattern of membrane, disc, frame, pml_plane")
+    return FESpace([continuous, Compress(jump, active_dofs=active)])
+
+
+def upper_pressure(pressure):
+    """Pressure in the upper half [Pa]: ``p`` (``pressure = (p, q)``)."""
+    return pressure[0]
+
+
+def lower_pressure(pressure):
+    """Pressure in the lower half [Pa]: ``p + q``."""
+    return pressure[0] + pressure[1]
+
+
+def pressure_jump(pressure):
+    """``[p] = p+ - p- = -q`` [Pa], to be integrated over the screens (``ds``)."""
+    return -pressure[1]
+
+
+def air_stiffness(pressure, pressure_test, density: float):
+    """Stiffness ``k_a = int (1/rho_a) grad p . grad p' dx`` over air + PML (eq. A1).
+
+    Parameters
+    ----------
+    pressure, pressure_test : tuple
+        ``(p, q)`` trial and test functions of :func:`pressure_space`.
+    density : float
+        Air density rho_a [kg/m^3].
+
+    Returns
+    -------
+    ngsolve SumOfIntegrals
+        [m^3 kg^-1 ...] -- in SI, ``k_a(p, p)`` has unit Pa^2 m / (kg m^-3 m^2) * m^3;
+        with the PML set the stretch enters through ``dx`` and ``grad``.
+    """
+    from ngsolve import dx, grad
+
+    p, q = pressure
+    p_test, q_test = pressure_test
+    upper = (1.0 / density) * grad(p) * grad(p_test) * dx(UPPER)
+    lower = (1.0 / density) * grad(p + q) * grad(p_test + q_test) * dx(LOWER)
+    return upper + lower
+
+
+def air_mass(pressure, pressure_test, density: float, sound_speed: float):
+    """Mass ``m_a = int 1/(rho_a c_a^2) p p' dx`` over air + PML (eq. A1).
+
+    Parameters
+    ----------
+    density : float
+        rho_a [kg/m^3].
+    sound_speed : float
+        c_a [m/s].
+    """
+    from ngsolve import dx
+
+    p, q = pressure
+    p_test, q_test = pressure_test
+    compressibility = 1.0 / (density * sound_speed**2)      # [1/Pa]
+    upper = compressibility * p * p_test * dx(UPPER)
+    lower = compressibility * (p + q) * (p_test + q_test) * dx(LOWER)
+    return upper + lower
+
+
+def screen_coupling(pressure, normal_displacement, screens: str):
+    """Coupling ``c(u, p) = int_screens [p] (u . n) ds`` (eqs. A1-A2).
+
+    Parameters
+    ----------
+    pressure : tuple
+        ``(p, q)`` -- trial functions for the membrane row ``c(u', p)``, test
+        functions for the air row ``omega^2 c(u, p')``.
+    normal_displacement : CoefficientFunction
+        ``u . n`` [m] of the screen motion, ``n`` pointing to the + side
+        (``u[2]`` or ``w`` for the flat plane); a trial/test function or data.
+    screens : str
+        Where the screen moves (e.g. ``"membrane"``, ``"membrane|disc"``).
+
+    Returns
+    -------
+    ngsolve SumOfIntegrals
+        [Pa m^3] = [N m]: the virtual work of the traction ``-[p] n`` enters
+        the membrane equation with a plus sign, ``k_s + c(u', p) - omega^2 m_s``.
+    """
+    from ngsolve import ds
+
+    return pressure_jump(pressure) * normal_displacement * ds(screens)
+
+
+def coupled_forms(displacement, displacement_test, pressure, pressure_test,
+                  normal_displacement, normal_displacement_test,
+                  membrane_stiffness, membrane_mass, density: float, sound_speed: float,
+                  moving_screens: str = "membrane"):
+    """Integrands of ``A`` and ``B`` in ``A x = omega^2 B x`` (eq. A3), x = (u, p).
+
+    ``membrane_stiffness`` / ``membrane_mass`` are the caller's membrane forms
+    ``k_s(u, u')``, ``m_s(u, u')`` (SumOfIntegrals).  ``displacement`` arguments
+    are unused here beyond documentation; ``normal_displacement(_test)`` are
+    ``u . n`` and ``u' . n`` [m].
+
+    Returns
+    -------
+    (a, b)
+        ``a = k_s(u,u') + c(u',p) + k_a(p,p')``,
+        ``b = m_s(u,u') - c(u,p') + m_a(p,p')``.
+    """
+    a = (membrane_stiffness + screen_coupling(pressure, normal_displacement_test, moving_screens)
+         + air_stiffness(pressure, pressure_test, density))
+    b = (membrane_mass - screen_coupling(pressure_test, normal_displacement, moving_screens)
+         + air_mass(pressure, pressure_test, density, sound_speed))
+    return a, b
+
+
+def pressure_field(gf_continuous, gf_jump, mesh):
+    """Pressure CoefficientFunction [Pa] from the two GridFunction components.
+
+    Equal to ``p`` in the upper half and ``p + q`` in the lower half.
+    """
+    lower = mesh.MaterialCF({LOWER: 1.0}, default=0.0)
+    return gf_continuous + lower * gf_jump
