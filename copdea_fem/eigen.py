@@ -665,13 +665,15 @@ class _BandSolver:
         shift.runs += 1
         sigma = shift.sigma
         start = time.perf_counter()
-        values, vectors = self._arpack(shift, k)
+        values, vectors, exhausted = self._arpack(shift, k)
         self.iteration_seconds += time.perf_counter() - start
         distance = np.abs(values - sigma)
         order = np.argsort(distance, kind="stable")
         values, vectors, distance = values[order], vectors[:, order], distance[order]
         shift.confirmed_radius = float(distance[0]) if distance.size else math.inf
-        shift.trusted_radius = float(distance[-1]) if distance.size == k else math.inf
+        # "exhausted": ARPACK's set ran into the deflated (nu ~ 0) directions,
+        # so no finite eigenvalue is left unknown.
+        shift.trusted_radius = math.inf if exhausted or not distance.size else float(distance[-1])
         shift.modes_found += int(values.size)
         self._add(values, vectors)
         in_band = int(np.count_nonzero(self.band_contains(self.known.values)))
@@ -761,6 +763,7 @@ class _BandSolver:
         # Deflated directions come back with |nu| at round-off level (lam ~ inf);
         # they carry no information and are dropped.
         keep = np.isfinite(values) & (np.abs(nu_new) > 1e-10 * np.max(np.abs(nu_new[np.isfinite(nu_new)]), initial=0.0))
+        exhausted = not np.all(keep)
         values, W, nu_new = values[keep], W[:, keep], nu_new[keep]
         if self.hermitian:
             values = values.real + 0j
@@ -777,7 +780,7 @@ class _BandSolver:
             W = W + X @ coefficients
         if self.real_arithmetic:
             W = W.real
-        return values, W
+        return values, W, exhausted
 
     # ---------------------------------------------------------------- dense fallback
 

@@ -14,7 +14,9 @@ volumes   ``air_upper``, ``air_lower``, ``pml_upper``, ``pml_lower``
 faces     ``membrane``, ``disc``, ``frame`` (screens, z = 0),
           ``aperture`` (open part of the plane inside the air sphere),
           ``pml_plane`` (the plane inside the PML), ``interface`` (air|PML
-          sphere), ``outer`` (outside of the PML)
+          sphere), ``outer`` (outside of the PML), ``ale_guide`` (internal
+          cylinders r = r_i, r_o, |z| < L: no physics, they make the mesh
+          conform to the kinks of the air-mesh motion, see :mod:`ale`)
 edges     ``outer_rim`` (r = r_o), ``inner_rim`` (r = r_i), ``frame_edge``
 
 Without air only the plane faces are meshed (a surface mesh in 3-D space):
@@ -30,6 +32,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 SCREENS = "membrane|disc|frame"
+GEOMETRY_VERSION = 2  # bump when build_shape changes: it keys the mesh cache
 MESH_DIR = Path(__file__).resolve().parent.parent / "meshes"
 
 
@@ -63,8 +66,18 @@ class GeometrySpec:
         if not self.with_air:  # the air keys do not change a plane-only mesh
             for name in ("domain_radius", "pml_thickness", "air_size"):
                 data.pop(name)
+        data["version"] = GEOMETRY_VERSION
         text = json.dumps(data, sort_keys=True)
         return hashlib.sha1(text.encode()).hexdigest()[:12]
+
+
+def ale_decay_length(domain_radius: float, outer_radius: float) -> float:
+    """Height L [m] over which the air mesh follows the membrane (see :mod:`ale`).
+
+    Half the air radius, capped so that the moved cylinder r < r_o, |z| < L
+    stays well inside the air sphere (away from the PML).
+    """
+    return min(0.5 * domain_radius, 0.8 * math.sqrt(domain_radius**2 - outer_radius**2))
 
 
 def _extent(shape) -> float:
@@ -75,7 +88,7 @@ def _extent(shape) -> float:
 
 def build_shape(spec: GeometrySpec):
     """OCC shape with every region, face and rim edge named (see module doc)."""
-    from netgen.occ import Box, Glue, Pnt, Sphere, WorkPlane
+    from netgen.occ import Box, Cylinder, Glue, Pnt, Sphere, WorkPlane, Z
 
     r_o, r_i = spec.outer_radius, spec.inner_radius
     disc_hole = WorkPlane().Circle(r_i).Face() if r_i > 0 else None
@@ -108,9 +121,18 @@ def build_shape(spec: GeometrySpec):
                             (shell * upper, "pml_upper"), (shell * lower, "pml_lower")):
             solid.mat(name)
             parts.insert(0, solid)
+        half_height = ale_decay_length(R, r_o)
+        for radius in (r_i, r_o) if r_i > 0 else (r_o,):
+            cylinder = Cylinder(Pnt(0, 0, -half_height), Z, radius, 2 * half_height)
+            parts += [face for face in cylinder.faces if _height(face) > half_height]
     shape = Glue(parts)
     _name_faces(shape, spec)
     return shape
+
+
+def _height(shape) -> float:
+    lo, hi = shape.bounding_box
+    return hi[2] - lo[2]
 
 
 def _name_faces(shape, spec: GeometrySpec) -> None:
@@ -141,6 +163,8 @@ def _name_faces(shape, spec: GeometrySpec) -> None:
                 face.maxh = spec.membrane_size
             elif name in ("disc", "frame"):
                 face.maxh = 2 * spec.membrane_size
+        elif _height(face) < 2 * ale_decay_length(R, r_o) + tol and extent < R - tol:
+            face.name = "ale_guide"
         else:
             face.name = "interface" if near(extent, R) else "outer"
     for edge in shape.edges:
