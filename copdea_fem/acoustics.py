@@ -12,7 +12,7 @@ Time-harmonic fields are ``Re{x e^{-i omega t}}`` -- NGSolve's convention, in
 which a complex stretch with positive imaginary part damps the *outgoing* wave
 ``e^{+ikr}/r`` (``k = omega/c_a``).  The eigenvalue ``omega^2`` of a radiating
 mode therefore has ``Im omega < 0``; its natural frequency is ``Re omega/2 pi``
-and ``-Im omega/Re omega`` is its radiation damping ratio (times two).
+and ``-Im omega/|omega|`` its radiation damping ratio zeta (loss factor 2 zeta).
 Textbook impedances written for ``e^{+j omega t}`` appear here complex-conjugated:
 pulsating sphere ``Z = rho c (-ika)/(1 - ika)``, baffled piston
 ``Z = rho c S [R1(2ka) - i X1(2ka)]``.
@@ -28,7 +28,7 @@ displacement [m] and ``p`` the acoustic pressure [Pa]::
 
     -div((1/rho_a) grad p) - omega^2/(rho_a c_a^2) p = 0         in air and PML
     n . grad p+ = n . grad p- = -rho_a n . u_tt = rho_a omega^2 u . n   on the screens
-    p continuous across the aperture (open part of the plane)
+    p continuous across the open part of the plane (aperture, pml_plane)
     p = 0 on ``outer`` (end of the unbounded PML, see :func:`radial_pml`)
 
 Eq. (8) as printed has ``rho_a`` on the wrong side (``rho_a n.grad p`` is not an
@@ -47,7 +47,7 @@ integrate by parts in the upper half (outward normal ``-n`` on the screens) and
 the lower half (outward normal ``+n``)::
 
     k_a(p, p') - omega^2 m_a(p, p') + omega^2 c(u, p') = 0                  (A1)
-    k_a(p, p') = int (1/rho_a) grad p . grad p' dx                           [N m^-1 Pa^-1 ...]
+    k_a(p, p') = int (1/rho_a) grad p . grad p' dx
     m_a(p, p') = int 1/(rho_a c_a^2) p p' dx
     c(u, p')   = int_screens [p'] (u . n) ds
 
@@ -96,8 +96,6 @@ add an edge diffraction that the closed form does not have.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 UPPER = "air_upper|pml_upper"
 LOWER = "air_lower|pml_lower"
 AIR_AND_PML = "air_upper|air_lower|pml_upper|pml_lower"
@@ -106,15 +104,20 @@ OUTER = "outer"
 PLANE_NORMAL = (0.0, 0.0, 1.0)   # n: unit normal of the screens, pointing to the + (upper) side
 
 #: Strength ``b`` of the unbounded PML profile (see :func:`radial_pml`).
-#: Chosen by a scan (monopole in a 0.5 r_o shell, one element layer, PML order
-#: 3, Dirichlet outer): b = 5 leaves 1.4 % error on the radiation impedance at
-#: 200 Hz, b = 7 0.4 %, b = 10 0.6-1.1 % (the decay near the inner interface
-#: gets too steep for one element); 7 balances the two ends of 100-1000 Hz.
+#: Chosen by a scan on the pulsating sphere (monopole, the hardest case) in the
+#: study's proportions (R = 3.5 a, 0.5 a shell, one element across it, PML
+#: order 3, p = 0 on ``outer``); error of the radiation impedance at
+#: 100 / 200 / 500 / 1000 Hz:  b = 5: 3.7 / 1.3 / 0.18 / 0.10 %;
+#: b = 7: 1.8 / 0.41 / 0.11 / 0.17 %;  b = 10: 0.6 / 0.6 / 0.8 / 1.0 %
+#: (too steep a decay for one element at order 3; at order 4 b = 10 gives
+#: 0.6 / 0.05 / 0.05 / 0.07 % but the factorisation costs 3.5x).
 PML_STRENGTH = 7.0
 
 #: Polynomial order added to ``pressure_order`` in the PML elements: the
-#: geometry has about one element across the 0.5 r_o shell, too few to carry
-#: the decay at order 2 (monopole error 5-40 % at 100-1000 Hz with order 2).
+#: geometry puts about one element across the 0.5 r_o shell.  Baffled piston
+#: (9 mm membrane mesh ... 6 mm) impedance error with PML order 2: 1.4-2 %,
+#: with order 3: 0.02-0.35 %.  Factorisation of the default square-frame air
+#: (4 mm membrane mesh): 4.6 s at PML order 2, 6.0 s at 3, 20.9 s at 4.
 PML_EXTRA_ORDER = 1
 
 
@@ -281,6 +284,14 @@ def pressure_space(mesh, order: int, screens: str, open_plane: str = "aperture|p
     return FESpace([continuous, Compress(jump, active_dofs=active)])
 
 
+def _split(pressure):
+    """``(p, q)`` from a pressure of :func:`pressure_space`; ``(p, None)`` for a plain H1 field."""
+    if isinstance(pressure, (list, tuple)):
+        continuous, jump = pressure
+        return continuous, jump
+    return pressure, None
+
+
 def upper_pressure(pressure):
     """Pressure in the upper half [Pa]: ``p`` (``pressure = (p, q)``)."""
     return pressure[0]
@@ -301,21 +312,24 @@ def air_stiffness(pressure, pressure_test, density: float):
 
     Parameters
     ----------
-    pressure, pressure_test : tuple
-        ``(p, q)`` trial and test functions of :func:`pressure_space`.
+    pressure, pressure_test : tuple or ProxyFunction
+        ``(p, q)`` trial and test functions of :func:`pressure_space`, or the
+        trial/test functions of a plain H1 space (no screens).
     density : float
         Air density rho_a [kg/m^3].
 
     Returns
     -------
     ngsolve SumOfIntegrals
-        [m^3 kg^-1 ...] -- in SI, ``k_a(p, p)`` has unit Pa^2 m / (kg m^-3 m^2) * m^3;
-        with the PML set the stretch enters through ``dx`` and ``grad``.
+        ``K_a p`` is a volume acceleration [m^3/s^2] per unit test pressure.
+        With the PML set, NGSolve applies the stretch to ``dx`` and ``grad``.
     """
     from ngsolve import dx, grad
 
-    p, q = pressure
-    p_test, q_test = pressure_test
+    p, q = _split(pressure)
+    p_test, q_test = _split(pressure_test)
+    if q is None:                  # one continuous field (no screens)
+        return (1.0 / density) * grad(p) * grad(p_test) * dx
     upper = (1.0 / density) * grad(p) * grad(p_test) * dx(UPPER)
     lower = (1.0 / density) * grad(p + q) * grad(p_test + q_test) * dx(LOWER)
     return upper + lower
@@ -330,12 +344,19 @@ def air_mass(pressure, pressure_test, density: float, sound_speed: float):
         rho_a [kg/m^3].
     sound_speed : float
         c_a [m/s].
+
+    Returns
+    -------
+    ngsolve SumOfIntegrals
+        ``M_a p`` is a volume [m^3] per unit test pressure.
     """
     from ngsolve import dx
 
-    p, q = pressure
-    p_test, q_test = pressure_test
+    p, q = _split(pressure)
+    p_test, q_test = _split(pressure_test)
     compressibility = 1.0 / (density * sound_speed**2)      # [1/Pa]
+    if q is None:
+        return compressibility * p * p_test * dx
     upper = compressibility * p * p_test * dx(UPPER)
     lower = compressibility * (p + q) * (p_test + q_test) * dx(LOWER)
     return upper + lower
@@ -358,30 +379,39 @@ def screen_coupling(pressure, normal_displacement, screens: str):
     Returns
     -------
     ngsolve SumOfIntegrals
-        [Pa m^3] = [N m]: the virtual work of the traction ``-[p] n`` enters
-        the membrane equation with a plus sign, ``k_s + c(u', p) - omega^2 m_s``.
+        Per unit test pressure a volume [m^3] (air row, times omega^2); per unit
+        test displacement a force [N] (membrane row).  The virtual work of the
+        traction ``-[p] n`` is ``-c(u', p)``, so the membrane row reads
+        ``k_s(u,u') + c(u',p) - omega^2 m_s(u,u') = 0``.
     """
     from ngsolve import ds
 
     return pressure_jump(pressure) * normal_displacement * ds(screens)
 
 
-def coupled_forms(displacement, displacement_test, pressure, pressure_test,
-                  normal_displacement, normal_displacement_test,
+def coupled_forms(pressure, pressure_test, normal_displacement, normal_displacement_test,
                   membrane_stiffness, membrane_mass, density: float, sound_speed: float,
                   moving_screens: str = "membrane"):
-    """Integrands of ``A`` and ``B`` in ``A x = omega^2 B x`` (eq. A3), x = (u, p).
+    """Integrands of ``A`` and ``B`` in ``A x = omega^2 B x`` (eq. A3), ``x = (u, p)``.
 
-    ``membrane_stiffness`` / ``membrane_mass`` are the caller's membrane forms
-    ``k_s(u, u')``, ``m_s(u, u')`` (SumOfIntegrals).  ``displacement`` arguments
-    are unused here beyond documentation; ``normal_displacement(_test)`` are
-    ``u . n`` and ``u' . n`` [m].
+    Parameters
+    ----------
+    pressure, pressure_test : tuple
+        ``(p, q)`` trial and test functions of :func:`pressure_space`.
+    normal_displacement, normal_displacement_test : CoefficientFunction
+        ``u . n`` and ``u' . n`` [m] of the membrane trial and test functions.
+    membrane_stiffness, membrane_mass : SumOfIntegrals
+        The caller's ``k_s(u, u')`` [N/m per m^2 ...] and ``m_s(u, u')`` forms.
+    density, sound_speed : float
+        rho_a [kg/m^3], c_a [m/s].
+    moving_screens : str
+        Screens whose motion is the unknown ``u`` (``"membrane"``; add
+        ``"|disc"`` when the disc moves with the field ``u``).
 
     Returns
     -------
-    (a, b)
-        ``a = k_s(u,u') + c(u',p) + k_a(p,p')``,
-        ``b = m_s(u,u') - c(u,p') + m_a(p,p')``.
+    (a, b) : tuple of SumOfIntegrals
+        ``a = k_s(u,u') + c(u',p) + k_a(p,p')``, ``b = m_s(u,u') - c(u,p') + m_a(p,p')``.
     """
     a = (membrane_stiffness + screen_coupling(pressure, normal_displacement_test, moving_screens)
          + air_stiffness(pressure, pressure_test, density))

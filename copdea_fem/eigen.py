@@ -95,8 +95,8 @@ def frequency_from_eigenvalue(eigenvalue):
         negative real ``lam`` gives ``f = +i sqrt(-lam) / (2 pi)``.
     """
     lam = np.asarray(eigenvalue, dtype=complex)
-    # ``+ 0.0j`` turns a signed zero imaginary part (-0.0) into +0.0, so a
-    # negative real lam lands on the +i side of the branch cut.
+    # ``imag + 0.0`` turns a signed zero (-0.0) into +0.0, so a negative real
+    # lam lands on the +i side of the branch cut.
     lam = lam.real + 1j * (lam.imag + 0.0)
     return np.sqrt(lam) / TWO_PI
 
@@ -408,7 +408,7 @@ class BandResult:
         ``Re sqrt(sigma) / (2 pi)`` (Hz) of each shift.
     coverage_radii : numpy.ndarray, shape (s,)
         Certified radius (rad^2/s^2) of each shift: every eigenvalue with
-        ``|lam - sigma| <` radius`` is in the computed set (``inf`` after a dense solve).
+        ``|lam - sigma| < radius`` is in the computed set (``inf`` after a dense solve).
     factorisation_seconds : float
         Wall time spent factorising ``A - sigma B`` (s), all shifts.
     iteration_seconds : float
@@ -514,7 +514,7 @@ class _BandRegion:
         return shortfall.min(axis=1)
 
     def first_shift(self) -> float:
-        """Real shift minimising the largest distance to the region (its Chebyshev centre on the real axis)."""
+        """Real shift nearest the farthest point of the region (Chebyshev centre on the axis)."""
         lo, hi = self.real_extent
 
         def farthest(sigma):
@@ -566,12 +566,15 @@ class _BandSolver:
     """Bookkeeping of one :func:`solve_band` call (see its docstring for the strategy)."""
 
     START_MODES = 20           # k of the first run at a new shift
-    CONFIRM_MODES = 4          # k of a confirmation run
+    CERTIFY_MODES = 2          # k of a certification run (only the dominant is used)
+    CERTIFY_TOL = 1e-8         # ARPACK tol of a certification run
+    CERTIFY_MARGIN = 1e-4      # certified radius = (1 - margin) * nearest unknown distance
     EXTEND_RATIO = 2.5         # extend a shift (reuse its LU) if the gap is within 2.5 radii
     NEW_SHIFT_OVERLAP = 0.75   # a new shift sits 0.75 radii beyond the frontier
     MAX_SHIFTS = 60
     MAX_RUNS = 400
     DENSE_DOFS = 64            # below this, a dense QZ is cheaper and exact
+    DENSE_MAX_DOFS = 4000      # dense QZ beyond this costs minutes (n^3 ~ 1e11 flops)
     # Duplicate directions: normalised vectors whose Gram matrix has an
     # eigenvalue below 1e-6 of its largest are treated as one (an angle below
     # ~1e-3 rad).  Eigenvector errors at converged tolerances are ~residual/gap
@@ -591,7 +594,8 @@ class _BandSolver:
         self.region = region
         self.backend = backend
         self.hermitian = hermitian
-        self.real_arithmetic = hermitian and not (np.iscomplexobj(A.data) or np.iscomplexobj(B.data))
+        complex_pencil = np.iscomplexobj(A.data) or np.iscomplexobj(B.data)
+        self.real_arithmetic = hermitian and not complex_pencil
         self.max_modes = max_modes
         self.max_modes_per_shift = max_modes_per_shift
         self.band_contains = band_contains
@@ -613,7 +617,7 @@ class _BandSolver:
     # ---------------------------------------------------------------- shifts
 
     def add_shift(self, sigma: float, radius_hint: float) -> _Shift:
-        """Factorise ``A - sigma B`` at a real shift, nudging it off known eigenvalues and singular points."""
+        """Factorise ``A - sigma B`` at a real shift, nudged off known eigenvalues / singularity."""
         scale = radius_hint if np.isfinite(radius_hint) and radius_hint > 0 else self.region.scale
         last_error = None
         for attempt in range(4):
@@ -627,7 +631,7 @@ class _BandSolver:
             try:
                 shifted = (self.A - sigma * self.B).tocsr()
                 factorization = Factorization(shifted, self.backend)
-                self._check_factorization(factorization, shifted)
+                self._check_factorization(factorization)
             except EigenSolverError as error:
                 self.factorisation_seconds += time.perf_counter() - start
                 self.progress(f"shift at {_format_hz(sigma)} is singular ({error}); moving it")
@@ -648,7 +652,8 @@ class _BandSolver:
             f"last error: {last_error}"
         )
 
-    def _check_factorization(self, factorization: Factorization, shifted) -> None:
+    def _check_factorization(self, factorization: Factorization) -> None:
+        """UMFPACK/SuperLU raise on an exactly singular matrix; catch a silent inf/nan too."""
         probe = self.start_vector.real
         solution = factorization.solve(probe)
         if not np.all(np.isfinite(solution)):
@@ -657,20 +662,32 @@ class _BandSolver:
     # ---------------------------------------------------------------- ARPACK runs
 
     def run(self, shift: _Shift, k: int) -> int:
-        """Find the ``k`` eigenpairs nearest ``shift.sigma`` that are not known yet; return how many were added."""
+        """Find the ``k`` unknown eigenpairs nearest ``shift.sigma``; return how many were added."""
         if self.n <= self.DENSE_DOFS or self.known.count + k >= self.n // 3:
+            # ARPACK needs k < n - 1 and works badly when the deflated operator
+            # is mostly null; a problem this small is cheaper dense.
+            if self.n > self.DENSE_MAX_DOFS:
+                raise EigenSolverError(
+                    f"{self.known.count + k} eigenpairs requested of an n={self.n} pencil: "
+                    "too many for ARPACK and too large for a dense solve; narrow the band"
+                )
             self.solve_dense()
             return 0
         self.runs += 1
         shift.runs += 1
         sigma = shift.sigma
         start = time.perf_counter()
+        solves_before = shift.factorization.solve_count
         values, vectors, exhausted = self._arpack(shift, k)
-        self.iteration_seconds += time.perf_counter() - start
+        run_seconds = time.perf_counter() - start
+        self.iteration_seconds += run_seconds
+        solves = shift.factorization.solve_count - solves_before
         distance = np.abs(values - sigma)
         order = np.argsort(distance, kind="stable")
         values, vectors, distance = values[order], vectors[:, order], distance[order]
-        shift.confirmed_radius = float(distance[0]) if distance.size else math.inf
+        # Certified: nothing unknown was nearer than d_1 (shrunk by 1e-6 for the
+        # Ritz value's error, ~tol times the eigenvalue's condition number).
+        shift.confirmed_radius = float(distance[0]) * (1.0 - 1e-6) if distance.size else math.inf
         # "exhausted": ARPACK's set ran into the deflated (nu ~ 0) directions,
         # so no finite eigenvalue is left unknown.
         shift.trusted_radius = math.inf if exhausted or not distance.size else float(distance[-1])
@@ -679,8 +696,8 @@ class _BandSolver:
         in_band = int(np.count_nonzero(self.band_contains(self.known.values)))
         self.progress(
             f"shift {self.shifts.index(shift) + 1} at {_format_hz(sigma)}: {values.size} new modes "
-            f"(k={k}), {self.known.count} known, {in_band} in band; radius "
-            f"{_format_radius(sigma, shift.trusted_radius)}"
+            f"(k={k}, {solves} solves, {run_seconds:.3g} s), {self.known.count} known, "
+            f"{in_band} in band; radius {_format_radius(sigma, shift.trusted_radius)}"
         )
         if in_band > self.max_modes:
             raise TooManyModesError(
@@ -688,6 +705,42 @@ class _BandSolver:
                 f"({in_band} found so far); raise max_modes or narrow the band"
             )
         return int(values.size)
+
+    def certify(self, shift: _Shift) -> None:
+        """Nearest eigenvalue still unknown at ``shift``: sets its certified radius.
+
+        Only the dominant eigenvalue of the deflated operator is needed and
+        nothing is stored, so two Ritz values at ``CERTIFY_TOL`` suffice.  The
+        radius is shrunk by ``CERTIFY_MARGIN`` to absorb the Ritz value's
+        error (relative ~tol for Hermitian pencils, ~condition * tol otherwise:
+        the margin covers condition numbers up to 1e4).  A nearer unknown
+        eigenvalue than the trusted radius (a missed multiple eigenvalue)
+        shrinks the trusted radius too, so the planner extends this shift.
+        """
+        if self.n <= self.DENSE_DOFS or self.known.count + self.CERTIFY_MODES >= self.n // 3:
+            self.run(shift, self.CERTIFY_MODES)
+            return
+        self.runs += 1
+        start = time.perf_counter()
+        solves_before = shift.factorization.solve_count
+        values, _, exhausted = self._arpack(shift, self.CERTIFY_MODES, tol=self.CERTIFY_TOL)
+        run_seconds = time.perf_counter() - start
+        self.iteration_seconds += run_seconds
+        distance = np.abs(values - shift.sigma)
+        nearest = float(distance.min()) if distance.size else math.inf
+        previous = shift.trusted_radius
+        shift.confirmed_radius = nearest * (1.0 - self.CERTIFY_MARGIN)
+        if shift.confirmed_radius < previous:
+            shift.trusted_radius = shift.confirmed_radius
+            self.progress(
+                f"shift {self.shifts.index(shift) + 1}: an unknown eigenvalue lies inside the "
+                f"trusted radius (a missed multiple eigenvalue); extending"
+            )
+        self.progress(
+            f"shift {self.shifts.index(shift) + 1} at {_format_hz(shift.sigma)}: certified radius "
+            f"{_format_radius(shift.sigma, shift.confirmed_radius)} "
+            f"({shift.factorization.solve_count - solves_before} solves, {run_seconds:.3g} s)"
+        )
 
     def _deflation(self, sigma):
         """Known vectors X, nu_i = 1/(lam_i - sigma) and Z with Z X = I (Wielandt deflation)."""
@@ -701,7 +754,9 @@ class _BandSolver:
             Z = np.linalg.solve(gram, X.conj().T)
         return X, nu, Z
 
-    def _arpack(self, shift: _Shift, k: int):
+    def _arpack(self, shift: _Shift, k: int, tol: float | None = None):
+        """ARPACK on the operator deflated by all known pairs: (values, vectors, exhausted)."""
+        tol = self.arpack_tol if tol is None else tol
         sigma = shift.sigma
         n = self.n
         X, nu_known, Z = self._deflation(sigma)
@@ -714,11 +769,14 @@ class _BandSolver:
             # OP = OPinv B with OPinv = (A - sigma B)^-1 - X diag(nu) X^H, which is
             # Hermitian, so the deflated problem stays a Lanczos problem.  The
             # known pairs move to nu = 0 (lam = inf) and are never "largest".
+            X_adjoint = np.ascontiguousarray(X.conj().T)  # formed once, not per product
+
             def deflated_inverse(y):
                 y = np.asarray(y).ravel()
-                return solve(y) - X @ (nu_known * (X.conj().T @ y)) if X.shape[1] else solve(y)
+                return solve(y) - X @ (nu_known * (X_adjoint @ y)) if X.shape[1] else solve(y)
 
-            inverse_operator = spla.LinearOperator((n, n), matvec=deflated_inverse, dtype=operator_dtype)
+            inverse_operator = spla.LinearOperator((n, n), matvec=deflated_inverse,
+                                                   dtype=operator_dtype)
             a_placeholder = spla.LinearOperator((n, n), matvec=lambda y: y, dtype=operator_dtype)
             ncv = min(n, max(2 * k + 1, k + 20))
 
@@ -726,7 +784,7 @@ class _BandSolver:
                 return spla.eigsh(
                     a_placeholder, k=k, M=self.B, sigma=sigma, which="LM", OPinv=inverse_operator,
                     v0=start_vector, ncv=ncv,
-                    maxiter=maxiter, tol=self.arpack_tol,
+                    maxiter=maxiter, tol=tol,
                 )
         else:
             # eigs, standard mode on OP = (A - sigma B)^-1 B - X diag(nu) Z:
@@ -743,7 +801,7 @@ class _BandSolver:
             def call(ncv, maxiter):
                 nu, W = spla.eigs(
                     operator, k=k, which="LM", v0=start_vector,
-                    ncv=ncv, maxiter=maxiter, tol=self.arpack_tol,
+                    ncv=ncv, maxiter=maxiter, tol=tol,
                 )
                 with np.errstate(divide="ignore"):
                     return sigma + 1.0 / nu, W
@@ -762,7 +820,8 @@ class _BandSolver:
         nu_new = 1.0 / (values - sigma)
         # Deflated directions come back with |nu| at round-off level (lam ~ inf);
         # they carry no information and are dropped.
-        keep = np.isfinite(values) & (np.abs(nu_new) > 1e-10 * np.max(np.abs(nu_new[np.isfinite(nu_new)]), initial=0.0))
+        largest = np.max(np.abs(nu_new[np.isfinite(nu_new)]), initial=0.0)
+        keep = np.isfinite(values) & (np.abs(nu_new) > 1e-10 * largest)
         exhausted = not np.all(keep)
         values, W, nu_new = values[keep], W[:, keep], nu_new[keep]
         if self.hermitian:
@@ -806,8 +865,9 @@ class _BandSolver:
         self.iteration_seconds += time.perf_counter() - start
         self.known = _KnownPairs(self.n, self.known.dtype)
         if self.real_arithmetic:
-            vectors = np.concatenate([vectors.real, vectors.imag], axis=1) if np.iscomplexobj(vectors) else vectors
-            values = np.concatenate([values, values]) if vectors.shape[1] == 2 * values.size else values
+            if np.iscomplexobj(vectors):  # real and imaginary parts span the eigenspace
+                vectors = np.concatenate([vectors.real, vectors.imag], axis=1)
+                values = np.concatenate([values, values])
         self._add(values, vectors)
         self.exhaustive = True
         for shift in self.shifts:
@@ -833,7 +893,8 @@ class _BandSolver:
         if self.real_arithmetic and np.iscomplexobj(vectors):
             vectors = vectors.real
         all_values = np.concatenate([self.known.values, values])
-        all_vectors = np.concatenate([self.known.vectors, vectors.astype(self.known.dtype, copy=False)], axis=1)
+        vectors = vectors.astype(self.known.dtype, copy=False)
+        all_vectors = np.concatenate([self.known.vectors, vectors], axis=1)
         clusters = self._clusters(all_values)
         new_values, new_vectors = [], []
         for members in clusters:
@@ -866,7 +927,7 @@ class _BandSolver:
         order = np.argsort(values.real, kind="stable")
         for position, i in enumerate(order):
             for j in order[position + 1:]:
-                tolerance = self.CLUSTER_RELATIVE * max(abs(values[i]), abs(values[j])) + self.CLUSTER_RELATIVE * floor
+                tolerance = self.CLUSTER_RELATIVE * (max(abs(values[i]), abs(values[j])) + floor)
                 if values[j].real - values[i].real > tolerance:
                     break
                 if abs(values[j] - values[i]) <= tolerance:
@@ -908,7 +969,8 @@ class _BandSolver:
 
     def covered(self, use_confirmed: bool) -> np.ndarray:
         sigmas = np.array([s.sigma for s in self.shifts], dtype=complex)
-        radii = np.array([s.confirmed_radius if use_confirmed else s.trusted_radius for s in self.shifts])
+        radii = np.array([s.confirmed_radius if use_confirmed else s.trusted_radius
+                          for s in self.shifts])
         return self.region.uncovered(sigmas, radii)
 
     def count_within(self, shift: _Shift, radius: float) -> int:
@@ -928,7 +990,8 @@ class _BandSolver:
         tall = abs(point.imag) > 0.5 * radius  # a real shift beside it would not help
         if room > 0 and (distance <= self.EXTEND_RATIO * radius or tall):
             # Aim at every gap this shift can reach, not only the nearest cell.
-            reach_all = np.abs(self.region.centres[uncovered] - nearest.sigma) + self.region.slack[uncovered]
+            reach_all = (np.abs(self.region.centres[uncovered] - nearest.sigma)
+                         + self.region.slack[uncovered])
             reachable = reach_all[reach_all <= self.EXTEND_RATIO * radius]
             if reachable.size:
                 distance = max(distance, float(reachable.max()))
@@ -959,7 +1022,8 @@ class _BandSolver:
                 "raise max_modes_per_shift or lower max_imag_hz"
             )
         inside = self.count_within(nearest, radius)
-        k = int(np.clip(inside, min(self.START_MODES, self.max_modes_per_shift), self.max_modes_per_shift))
+        smallest = min(self.START_MODES, self.max_modes_per_shift)
+        k = int(np.clip(inside, smallest, self.max_modes_per_shift))
         shift = self.add_shift(sigma, radius)
         self.run(shift, k)
 
@@ -986,19 +1050,14 @@ class _BandSolver:
         for shift in self.shifts:
             if shift.confirmed_radius >= shift.trusted_radius:
                 continue
-            inside = np.abs(self.region.centres - shift.sigma) + self.region.slack < shift.trusted_radius
+            distance = np.abs(self.region.centres - shift.sigma) + self.region.slack
+            inside = distance < shift.trusted_radius
             count = int(np.count_nonzero(missing & inside))
             if count > best_count:
                 best_shift, best_count = shift, count
         if best_shift is None:  # cannot happen while trusted covers and confirmed does not
             raise EigenSolverError("internal: no shift left to confirm the band cover")
-        previous = best_shift.trusted_radius
-        self.run(best_shift, self.CONFIRM_MODES)
-        if best_shift.confirmed_radius < previous * (1 - 1e-9):
-            self.progress(
-                f"shift {self.shifts.index(best_shift) + 1}: confirmation found a mode inside the "
-                "trusted radius (a missed multiple eigenvalue); continuing"
-            )
+        self.certify(best_shift)
 
     def solve(self) -> None:
         first = self.add_shift(self.region.first_shift(), self.region.scale)
@@ -1064,46 +1123,6 @@ def solve_band(
     ``f_min = 0`` it also holds the unstable modes ``-(2 pi max_imag_hz)^2
     <= lam < 0``.
 
-    Strategy (shift-invert with deflation and certified discs)
-    ------------------------------------------------------------
-    Shifts ``sigma`` are real.  At a shift, ``A - sigma B`` is factorised once
-    and ARPACK (``eigsh`` in mode 3 with the B-inner product if Hermitian,
-    ``eigs`` on ``(A - sigma B)^-1 B`` otherwise) is asked for the ``k``
-    largest ``|nu|``, ``nu = 1/(lam - sigma)`` -- the ``k`` eigenvalues nearest
-    ``sigma`` -- of the operator *deflated by every pair already known*
-    (Wielandt: ``OP - X diag(nu_X) Z`` with ``Z X = I``; the known pairs move
-    to ``nu = 0``).  So every run returns only new pairs, and more modes
-    around a shift (extending ``k``) or a new shift never recompute old ones.
-
-    A run at ``sigma`` that returns new eigenvalues at distances
-    ``d_1 <= ... <= d_k`` states two things: (i) *certified*: no unknown
-    eigenvalue was nearer than ``d_1`` -- every eigenvalue in the open disc
-    ``|lam - sigma| < d_1`` was already known; this rests only on ARPACK
-    finding the dominant eigenvalue of the deflated operator, which it does
-    for any start vector with a component along it (a random one, almost
-    surely); (ii) *trusted*: the disc of radius ``d_k`` is complete if ARPACK
-    returned the ``k`` largest, which can fail for a multiple eigenvalue
-    (Krylov methods see one copy first).  Discs of trusted radius are used to
-    plan: the band's image in the lam-plane is sampled in cells with a slack
-    radius that bounds each cell (so a covered sample proves the cell), and
-    while a cell is outside every disc the solver either asks the nearest
-    shift for more modes (cheap: same LU) when the gap is within 2.5 radii,
-    or places a new shift 0.75 radii beyond the frontier (with about as many
-    modes as the neighbour's disc held).  When the trusted discs cover the
-    band, each shift runs once more with ``k = 4``: its ``d_1`` is the
-    distance of the nearest eigenvalue still unknown, which must be at least
-    the trusted radius.  If a degenerate partner had been missed, it is
-    nearer, is found by that run (the deflated operator no longer contains
-    the found copy), the certified radius shrinks and the loop continues.  The
-    call returns only when the *certified* discs cover the band with a margin
-    of 0.1 % of its width, so a missed mode is impossible unless ARPACK misses
-    the dominant eigenvalue of a deflated operator.
-
-    De-duplication compares vectors, not only eigenvalues: pairs whose
-    eigenvalues agree to 1e-6 (relative) are Rayleigh-Ritz'ed together on the
-    span of their vectors, which keeps both members of a degenerate pair and
-    drops only directions that are numerically the same.
-
     Parameters
     ----------
     A, B : scipy.sparse matrix or numpy.ndarray, shape (n, n)
@@ -1152,15 +1171,65 @@ def solve_band(
         A residual above ``residual_tol`` (unless ``check=False``).
     EigenSolverError
         ARPACK failure, singular pencil, or band impossible to cover.
+
+    Notes
+    -----
+    Strategy: shift-invert with deflation and certified discs.
+    Shifts ``sigma`` are real.  At a shift, ``A - sigma B`` is factorised once
+    and ARPACK (``eigsh`` in mode 3 with the B-inner product if Hermitian,
+    ``eigs`` on ``(A - sigma B)^-1 B`` otherwise) is asked for the ``k``
+    largest ``|nu|``, ``nu = 1/(lam - sigma)`` -- the ``k`` eigenvalues nearest
+    ``sigma`` -- of the operator *deflated by every pair already known*
+    (Wielandt: ``OP - X diag(nu_X) Z`` with ``Z X = I``; the known pairs move
+    to ``nu = 0``).  So every run returns only new pairs, and more modes
+    around a shift (extending ``k``) or a new shift never recompute old ones.
+
+    A run at ``sigma`` that returns new eigenvalues at distances
+    ``d_1 <= ... <= d_k`` states two things: (i) *certified*: no unknown
+    eigenvalue was nearer than ``d_1`` -- every eigenvalue in the open disc
+    ``|lam - sigma| < d_1`` was already known; this rests only on ARPACK
+    finding the dominant eigenvalue of the deflated operator, which it does
+    for any start vector with a component along it (a random one, almost
+    surely); (ii) *trusted*: the disc of radius ``d_k`` is complete if ARPACK
+    returned the ``k`` largest, which can fail for a multiple eigenvalue
+    (Krylov methods see one copy first).  Discs of trusted radius are used to
+    plan: the band's image in the lam-plane is sampled in cells with a slack
+    radius that bounds each cell (so a covered sample proves the cell), and
+    while a cell is outside every disc the solver either asks the nearest
+    shift for more modes (cheap: same LU) when the gap is within 2.5 radii,
+    or places a new shift into the gap, 0.75 radii beyond the frontier or at
+    the gap's middle (with about as many modes as the neighbour's disc
+    held).  When the trusted discs cover the band, a *certification* run
+    (``k = 2``, tol 1e-8, nothing stored) at a shift whose trusted disc is
+    still needed gives the distance of the nearest eigenvalue still unknown;
+    shrunk by 1e-4 for its error, it is the certified radius and must reach
+    the trusted one.  If a degenerate partner had been missed, it is nearer
+    (the deflated operator no longer contains the found copy), the radius
+    shrinks, and the shift is extended, which finds it.  The call returns
+    only when the *certified* discs cover the band, enlarged by 0.1 % of its
+    width, so a missed mode is impossible unless ARPACK misses the dominant
+    eigenvalue of a deflated operator.
+
+    De-duplication compares vectors, not only eigenvalues: pairs whose
+    eigenvalues agree to 1e-6 (relative) are Rayleigh-Ritz'ed together on the
+    span of their vectors, which keeps both members of a degenerate pair and
+    drops only directions that are numerically the same.
+
+    The guarantee covers the band as defined above: a general pencil's mode
+    with ``|Im f| > max_imag_hz`` (a strongly damped PML mode) is outside it
+    and is not returned even when it was computed on the way.  The certified
+    radius of every shift is returned in :attr:`BandResult.coverage_radii`.
     """
     total_start = time.perf_counter()
     A, B = _validate_matrices(A, B)
     f_min, f_max = _validate_band(f_min, f_max)
     _check_backend_name(backend)
-    if not (isinstance(max_modes, (int, np.integer)) and not isinstance(max_modes, bool) and max_modes >= 1):
+    integer = isinstance(max_modes, (int, np.integer)) and not isinstance(max_modes, bool)
+    if not (integer and max_modes >= 1):
         raise EigenInputError(f"max_modes={max_modes!r} must be an integer >= 1")
     if not (isinstance(max_modes_per_shift, (int, np.integer)) and max_modes_per_shift >= 4):
-        raise EigenInputError(f"max_modes_per_shift={max_modes_per_shift!r} must be an integer >= 4")
+        raise EigenInputError(
+            f"max_modes_per_shift={max_modes_per_shift!r} must be an integer >= 4")
     if hermitian not in (None, True, False):
         raise EigenInputError(f"hermitian={hermitian!r} must be None, True or False")
     if not (isinstance(residual_tol, (int, float)) and 0 < residual_tol < 1):
@@ -1223,7 +1292,7 @@ def solve_band(
         vectors=vectors,
         residuals=residuals,
         shifts=np.array([s.sigma for s in solver.shifts], dtype=float),
-        shift_freq_hz=np.array([complex(frequency_from_eigenvalue(s.sigma)).real for s in solver.shifts]),
+        shift_freq_hz=np.array([frequency_from_eigenvalue(s.sigma).real for s in solver.shifts]),
         coverage_radii=np.array([s.confirmed_radius for s in solver.shifts], dtype=float),
         factorisation_seconds=solver.factorisation_seconds,
         iteration_seconds=solver.iteration_seconds,
@@ -1236,26 +1305,29 @@ def solve_band(
     if progress is not None:
         progress(
             f"band {f_min:g}..{f_max:g} Hz: {len(result)} modes, {result.n_factorisations} "
-            f"factorisations ({result.factorisation_seconds:.3g} s), ARPACK {result.iteration_seconds:.3g} s"
+            f"factorisations ({result.factorisation_seconds:.3g} s), "
+            f"ARPACK {result.iteration_seconds:.3g} s"
         )
     if check and np.any(~result.residual_ok):
         worst = int(np.argmax(result.residuals))
         raise EigenResidualError(
-            f"{np.count_nonzero(~result.residual_ok)} eigenpair(s) above residual_tol={residual_tol:g}; "
-            f"worst: f = {result.freq_hz[worst]:.6g}{result.freq_im_hz[worst]:+.3g}i Hz with relative "
-            f"residual {result.residuals[worst]:.3g} (pass check=False to get them flagged instead)"
+            f"{np.count_nonzero(~result.residual_ok)} eigenpair(s) above "
+            f"residual_tol={residual_tol:g}; worst: f = {result.freq_hz[worst]:.6g}"
+            f"{result.freq_im_hz[worst]:+.3g}i Hz with relative residual "
+            f"{result.residuals[worst]:.3g} (pass check=False to get them flagged instead)"
         )
     return result
 
 
-# --------------------------------------------------------------------------- validation / normalisation
+# --------------------------------------------------------------------------- validation
 
 
 def _validate_matrices(A, B):
     matrices = []
     for name, matrix in (("A", A), ("B", B)):
         if not (sp.issparse(matrix) or isinstance(matrix, np.ndarray)):
-            raise EigenInputError(f"{name} must be a scipy.sparse matrix or a numpy array; got {type(matrix).__name__}")
+            raise EigenInputError(f"{name} must be a scipy.sparse matrix or a numpy array; "
+                                  f"got {type(matrix).__name__}")
         matrix = sp.csr_matrix(matrix)
         if matrix.ndim != 2 or matrix.shape[0] != matrix.shape[1] or matrix.shape[0] < 2:
             raise EigenInputError(f"{name} must be square with n >= 2; got shape {matrix.shape}")
@@ -1267,13 +1339,16 @@ def _validate_matrices(A, B):
             raise EigenInputError(f"{name} has non-finite entries")
         matrices.append(matrix)
     if matrices[0].shape != matrices[1].shape:
-        raise EigenInputError(f"A and B must have the same shape; got {matrices[0].shape} and {matrices[1].shape}")
+        raise EigenInputError(f"A and B must have the same shape; got {matrices[0].shape} "
+                              f"and {matrices[1].shape}")
     return matrices
 
 
 def _validate_band(f_min, f_max):
     for name, value in (("f_min", f_min), ("f_max", f_max)):
-        if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) or not np.isfinite(value):
+        number = (isinstance(value, (int, float, np.integer, np.floating))
+                  and not isinstance(value, bool))
+        if not number or not np.isfinite(value):
             raise EigenInputError(f"{name}={value!r} Hz must be a finite number")
     f_min, f_max = float(f_min), float(f_max)
     if f_min < 0:

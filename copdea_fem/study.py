@@ -216,6 +216,35 @@ SCHEMA["excitation"] = {
                        maximum=1.0, open_min=True),
 }
 
+# Physical effects the reduced model can switch on or scale (issue 5, copdea_fem.diagnose):
+# each default reproduces the model without the key.
+SCHEMA["effects"] = {
+    "stiffness_scale": Key(None, 1.0, "uniform factor on c10, c20, c01 of eq. (20) in the reduced "
+                           "model: electrode stiffness or pre-stretch loss (diagnose effect "
+                           "uniform_stiffness); 1 = the membrane keys as given", minimum=0,
+                           maximum=10, open_min=True),
+    "maxwell_scale": Key(None, 1.0, "factor on the electrostatic term V^2/2 C of eq. (10) in the "
+                         "reduced model's static equilibrium and K_s (eq. 14): the Maxwell-stress "
+                         "softening (diagnose effect electrostatic_softening); 1 = eq. (7) with "
+                         "membrane.relative_permittivity, 0 = none; the forcing V_b V~ dC/dq "
+                         "keeps the nominal permittivity", minimum=0, maximum=10),
+    "air_added_mass": Key(None, "none", "added mass of the (0,n) modes where no coupled FE "
+                          "frequency is given (eq. 19): none = dry, incompressible = "
+                          "incompressible air on both faces of a baffled membrane "
+                          "(copdea_fem.diagnose.airmass; diagnose effect air_loading)", kind=str,
+                          choices=("none", "incompressible")),
+    "air_mass_scale": Key(None, 1.0, "factor on the added mass of every (0,n) mode, whatever its "
+                          "source (estimate, modes.json, reduced.coupled_freq_0n)", minimum=0,
+                          maximum=10),
+    "viscoelastic_strength": Key(None, 0.0, "strength Delta of a standard linear solid: the "
+                                 "membrane's elastic stiffness in K_s is multiplied by the storage "
+                                 "factor 1 + Delta (w tau)^2 / (1 + (w tau)^2) (quasi-linear "
+                                 "visco-elasticity; diagnose effect viscoelastic_stiffening); "
+                                 "0 = elastic", minimum=0, maximum=100),
+    "viscoelastic_time": Key("s", 2e-4, "relaxation time tau of that standard linear solid",
+                             minimum=0, maximum=10, open_min=True),
+}
+
 # Top-level keys that are not sections: free text, and the provenance block a
 # resolved study carries (so a resolved study can be run again as it is).
 META_KEYS = ("name", "description", "provenance")

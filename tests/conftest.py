@@ -1,8 +1,14 @@
 """Shared fixtures: coarse studies and cached meshes."""
 
-import pytest
+import os
 
-from copdea_fem.study import parse_study
+# One BLAS thread: ARPACK's many small dense operations run far slower with
+# threads competing on a 2-core machine (measured: up to 100x on small calls).
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import pytest  # noqa: E402
+
+from copdea_fem.study import parse_study  # noqa: E402
 
 # A coarse mesh keeps the suite fast; the verification tests that need the
 # default mesh say so explicitly.

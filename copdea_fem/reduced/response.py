@@ -184,6 +184,16 @@ class ReducedModel:
         Projected radii of the points [m].
     added_mass_source : tuple of str
         Where each added mass came from (for reports).
+    elastic_stiffness : ndarray or None
+        k_el,j: the part of k_j from the membrane's elastic energy (eq. 13,
+        without the spring and the electrostatic term) [N/m]; with
+        ``viscoelastic_strength`` > 0 it is stiffened with frequency.
+    viscoelastic_strength, viscoelastic_time : float
+        Delta [-] and tau [s] of a standard linear solid (quasi-linear
+        visco-elasticity: the elastic force increments scale with the storage
+        factor g(w) = 1 + Delta (w tau)^2 / (1 + (w tau)^2)), so
+        k_j(w) = k_j + (g(w) - 1) k_el,j; Delta = 0: elastic (the default).
+        The loss part is left to the calibrated damping b_j (Sect. 5.3).
     """
 
     labels: tuple
@@ -199,16 +209,42 @@ class ReducedModel:
     scan_radii: np.ndarray
     point_radii: np.ndarray
     added_mass_source: tuple = field(default=())
+    elastic_stiffness: np.ndarray | None = None
+    viscoelastic_strength: float = 0.0
+    viscoelastic_time: float = 0.0
 
     @property
     def dry_frequency_hz(self) -> np.ndarray:
-        """sqrt(k/m) / 2 pi [Hz] (eq. 15)."""
+        """sqrt(k/m) / 2 pi [Hz] (eq. 15, static modulus)."""
         return np.sqrt(self.modal_stiffness / self.modal_mass) / (2 * math.pi)
+
+    def stiffness_at(self, angular_frequency) -> np.ndarray:
+        """k_j(w) = k_j + (g(w) - 1) k_el,j [N/m], shape (..., modes) for w [rad/s] of shape (...)."""
+        omega = np.asarray(angular_frequency, float)[..., None]
+        if self.viscoelastic_strength == 0 or self.elastic_stiffness is None:
+            return np.broadcast_to(self.modal_stiffness, omega.shape[:-1] + (len(self.labels),))
+        x2 = (omega * self.viscoelastic_time) ** 2
+        return self.modal_stiffness + self.viscoelastic_strength * x2 / (1 + x2) * \
+            self.elastic_stiffness
 
     @property
     def frequency_hz(self) -> np.ndarray:
-        """Undamped in-air frequencies sqrt(k / (m + m_ad)) / 2 pi [Hz] (eq. 19)."""
-        return np.sqrt(self.modal_stiffness / (self.modal_mass + self.added_mass)) / (2 * math.pi)
+        """Undamped in-air frequencies [Hz]: sqrt(k / (m + m_ad)) / 2 pi (eq. 19); with
+        visco-elasticity the root of k_j(w) = w^2 (m_j + m_ad,j), bracketed by the relaxed
+        (k_j) and the glassy (k_j + Delta k_el,j) stiffness."""
+        mass = self.modal_mass + self.added_mass
+        omega = np.sqrt(self.modal_stiffness / mass)
+        if self.viscoelastic_strength != 0 and self.elastic_stiffness is not None:
+            glassy = self.modal_stiffness + self.viscoelastic_strength * self.elastic_stiffness
+            for j in range(omega.size):
+                low, high = sorted((self.modal_stiffness[j], glassy[j]))
+                if high - low <= 1e-15 * high:
+                    continue
+                residual = lambda w: self.stiffness_at(w)[j] - w ** 2 * mass[j]  # noqa: E731
+                omega[j] = scipy.optimize.brentq(residual, math.sqrt(low / mass[j]),
+                                                 math.sqrt(high / mass[j]), xtol=1e-13,
+                                                 rtol=1e-14)
+        return omega / (2 * math.pi)
 
     @property
     def damping_per_mass(self) -> np.ndarray:
@@ -222,7 +258,8 @@ class ReducedModel:
     def modal_response(self, frequency_hz, voltage_lines) -> np.ndarray:
         """Modal coordinates a_j(w) for input lines V~(w) [m], shape (lines, modes) (eq. 19)."""
         omega = 2 * math.pi * np.asarray(frequency_hz, float)[:, None]
-        denominator = (self.modal_stiffness - omega ** 2 * (self.modal_mass + self.added_mass)
+        denominator = (self.stiffness_at(omega[:, 0]) - omega ** 2 * (self.modal_mass
+                                                                      + self.added_mass)
                        + 1j * omega * self.damping)
         return (self.modal_force_per_volt * np.asarray(voltage_lines)[:, None]) / denominator
 

@@ -1,0 +1,323 @@
+"""Catalogue of the physical effects the model can switch on or off (issue 5).
+
+Every effect is a transformation of the study: :meth:`Effect.on` returns the
+``{"section.key": value}`` overrides that switch it on with given parameter
+values, :meth:`Effect.off` those that switch it off, and :meth:`Effect.is_on`
+reads whether a study already has it.  The reduced model
+(:func:`copdea_fem.reduced.build_reduced`) honours every key involved, so a
+diagnosed model is an ordinary study file.
+
+Parameters (0 to 2 per effect) carry SI units, fit bounds and a physical
+default; ``log = True`` means they are fitted in log space (scale factors,
+masses, times).  ``kind`` is ``"physics"`` (a mechanism the model lacks) or
+``"parameter"`` (the model has the mechanism but a parameter of the study is
+off, e.g. ``uniform_stiffness``).  ``engine`` is ``"reduced"`` when the
+reduced model evaluates it and ``"coupled_fe"`` when only the fully-coupled
+FE step can (not available yet: such effects are reported as not tested).
+
+Identifiers are a contract (``diagnosis.json``): ``air_loading,
+electrostatic_softening, spring_mass, disc_pumping, modal_damping,
+frame_reflection, viscoelastic_stiffening, uniform_stiffness``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+from copdea_fem.study import StudyError
+
+# Modal damping b/m of Sect. 5.3 [1/s]: the physical default of effect modal_damping.
+PAPER_DAMPING = {"reduced.damping_p1": 45.0, "reduced.damping_01": 245.0,
+                 "reduced.damping_02": 57.0, "reduced.damping_higher": 57.0}
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One fitted parameter of an effect.
+
+    Attributes
+    ----------
+    name : str
+        Short identifier (``"scale"``, ``"mass"``).
+    key : str
+        Study key it sets (``"effects.air_mass_scale"``).
+    unit : str or None
+        SI unit of the value (None: a pure number).
+    default : float
+        Physical default, the start of every fit [unit].
+    lower, upper : float
+        Fit bounds [unit].
+    log : bool
+        Fit in log space (positive scale factors, masses, times).
+    description : str
+    """
+
+    name: str
+    key: str
+    unit: str | None
+    default: float
+    lower: float
+    upper: float
+    log: bool
+    description: str
+
+    def __post_init__(self):
+        if not self.lower <= self.default <= self.upper or (self.log and self.lower <= 0):
+            raise ValueError(f"parameter {self.name}: default {self.default!r} is not allowed; "
+                             f"allowed: [{self.lower!r}, {self.upper!r}] (> 0 when log)")
+
+    def shown(self, value: float) -> str:
+        """``value`` with its unit, in the unit a reader expects (g, ms)."""
+        if self.unit == "kg":
+            return f"{value * 1e3:.4g} g"
+        if self.unit == "s":
+            return f"{value * 1e3:.4g} ms"
+        return f"{value:.4g}" + (f" {self.unit}" if self.unit else "")
+
+
+@dataclass(frozen=True)
+class Effect:
+    """One physical effect: what it is, its parameters, its signature, how to apply it.
+
+    Attributes
+    ----------
+    id : str
+        Stable snake_case identifier (a contract).
+    title : str
+    description : str
+        What the effect is physically, with the paper's section.
+    kind : str
+        ``"physics"`` or ``"parameter"``.
+    engine : str
+        ``"reduced"`` or ``"coupled_fe"``.
+    parameters : tuple of Parameter
+    signature : str
+        The residual pattern it explains (what a reader should see in the data).
+    requires : tuple of str
+        Effects that must be on for this one to act (spring_mass needs disc_pumping).
+    needs : str
+        What the data must contain to test it: ``"frequencies"`` or
+        ``"quality_factors"`` (peak widths from resonances or spectra).
+    on_overrides, off_overrides, detect : callables
+        ``(study, values) -> overrides``, ``(study) -> overrides``, ``(study) -> bool``.
+    """
+
+    id: str
+    title: str
+    description: str
+    kind: str
+    engine: str
+    parameters: tuple
+    signature: str
+    on_overrides: Callable = field(repr=False)
+    off_overrides: Callable = field(repr=False)
+    detect: Callable = field(repr=False)
+    requires: tuple = ()
+    needs: str = "frequencies"
+
+    @property
+    def defaults(self) -> tuple:
+        return tuple(p.default for p in self.parameters)
+
+    def on(self, study, values=None) -> dict:
+        """Overrides that switch the effect on with ``values`` (default: the physical defaults)."""
+        values = self.defaults if values is None else tuple(float(v) for v in values)
+        if len(values) != len(self.parameters):
+            raise StudyError(f"{self.id} parameters = {values!r} is not allowed; allowed: "
+                             f"{len(self.parameters)} values ({self.parameter_names or 'none'})")
+        return self.on_overrides(study, values)
+
+    def off(self, study) -> dict:
+        """Overrides that switch the effect off."""
+        return self.off_overrides(study)
+
+    def is_on(self, study) -> bool:
+        return bool(self.detect(study))
+
+    @property
+    def parameter_names(self) -> str:
+        return ", ".join(p.name for p in self.parameters)
+
+    def describe_values(self, values) -> str:
+        return ", ".join(f"{p.name} = {p.shown(v)}" for p, v in zip(self.parameters, values))
+
+
+def _air_on(study, values):
+    return {"effects.air_added_mass": "incompressible", "effects.air_mass_scale": values[0]}
+
+
+def _air_off(study):
+    return {"effects.air_added_mass": "none", "effects.air_mass_scale": 1.0,
+            "reduced.modes_json": None, "reduced.coupled_freq_01": None,
+            "reduced.coupled_freq_02": None, "air.enabled": False}
+
+
+def _air_detect(study):
+    r = study["reduced"]
+    return (study["effects"]["air_added_mass"] != "none" or bool(r["modes_json"])
+            or r["coupled_freq_01"] is not None or r["coupled_freq_02"] is not None
+            or study["air"]["enabled"])
+
+
+CATALOGUE: dict[str, Effect] = {}
+
+
+def _register(effect: Effect) -> None:
+    CATALOGUE[effect.id] = effect
+
+
+_register(Effect(
+    id="air_loading", title="acoustic loading (air added mass)",
+    description="The air on both faces adds inertia to the membrane (Sect. 3.1.2, eq. 8): the "
+                "fully-coupled FE lowers the dry frequencies by up to 30 % (Fig. 10).  Reduced "
+                "engine: coupled frequencies from the condition's modes.json when given, else "
+                "the incompressible-air added mass of a baffled membrane on both faces "
+                "(copdea_fem.diagnose.airmass), times a scale factor.",
+    kind="physics", engine="reduced",
+    parameters=(Parameter("scale", "effects.air_mass_scale", None, 1.0, 0.25, 4.0, True,
+                          "factor on the added masses (1 = the baffled incompressible "
+                          "estimate or the FE's coupled frequencies)"),),
+    signature="every axisymmetric membrane mode measured below the dry model, (0,1) most "
+              "(added mass 45-80 % of its modal mass in Sect. 5.1) and (0,2) less (25-30 %), "
+              "the pumping modes hardly at all; the added mass grows with z",
+    on_overrides=_air_on, off_overrides=_air_off, detect=_air_detect))
+
+_register(Effect(
+    id="electrostatic_softening", title="electrostatic (Maxwell) softening",
+    description="The co-energy of eq. (7) lowers the membrane stress and the stiffness K_s "
+                "(eq. 14) in proportion to V_b^2: structural frequencies fall as the bias "
+                "rises (Figs 8a, 11a).  Parameter: a factor on the electrostatic term (an "
+                "effective permittivity relative to membrane.relative_permittivity).",
+    kind="physics", engine="reduced",
+    parameters=(Parameter("scale", "effects.maxwell_scale", None, 1.0, 0.25, 2.5, True,
+                          "factor on the electrostatic term (1 = eq. 7 with the nominal "
+                          "permittivity)"),),
+    signature="model frequencies too high by an error that grows with V_b^2, the same sign "
+              "for every membrane mode; P1 (k_DE) shifts a little too",
+    on_overrides=lambda s, v: {"effects.maxwell_scale": v[0]},
+    off_overrides=lambda s: {"effects.maxwell_scale": 0.0},
+    detect=lambda s: s["effects"]["maxwell_scale"] > 0))
+
+_register(Effect(
+    id="spring_mass", title="biasing-spring distributed mass (pumping modes P2, P3, ...)",
+    description="The biasing spring's own mass M_s carries longitudinal waves (Annex I, eqs "
+                "21-23): P1 drops below sqrt((k_DE + k_d)/M_d) and further pistonic peaks P2, "
+                "P3, ... appear at low frequency.",
+    kind="physics", engine="reduced",
+    parameters=(Parameter("mass", "spring.mass", "kg", 1.8e-3, 0.2e-3, 10e-3, True,
+                          "spring mass M_s (Table 1: 1.8 g)"),),
+    signature="extra low-frequency pistonic peaks (P2, P3: the disc and membrane move together) "
+              "that the model lacks, and P1 below the massless-spring value",
+    on_overrides=lambda s, v: {"spring.mass": v[0], "reduced.pumping_added_mass": "spring"},
+    off_overrides=lambda s: {"spring.mass": 0.0},
+    detect=lambda s: s["spring"]["mass"] > 0,
+    requires=("disc_pumping",)))
+
+_register(Effect(
+    id="disc_pumping", title="disc pumping mode P1 (disc on the spring)",
+    description="The disc rides on the biasing spring instead of being held: the pumping mode "
+                "P1 appears (Sect. 4.3, Fig. 7a), where membrane and disc move pistonically.  "
+                "The voltage excites it only when z > 0 (at z = 0, dC/dz = 0).",
+    kind="physics", engine="reduced", parameters=(),
+    signature="a low-frequency pistonic peak (disc moving) below the membrane modes, absent "
+              "from a model with the disc held",
+    on_overrides=lambda s, v: {"disc.motion": "spring"},
+    off_overrides=lambda s: {"disc.motion": "held"},
+    detect=lambda s: s["disc"]["motion"] == "spring"))
+
+_register(Effect(
+    id="modal_damping", title="modal damping",
+    description="Diagonal modal damping b/m of eq. (19), calibrated in Sect. 5.3 (45, 245, 57 "
+                "1/s for P1, (0,1), (0,2)); parameter: a common factor on those values.",
+    kind="physics", engine="reduced",
+    parameters=(Parameter("scale", "reduced.damping_*", None, 1.0, 0.05, 20.0, True,
+                          "factor on the b/m of Sect. 5.3"),),
+    signature="finite peak widths (quality factors) and peak heights; an undamped model has "
+              "infinitely sharp peaks while the frequencies barely move",
+    on_overrides=lambda s, v: {key: v[0] * value for key, value in PAPER_DAMPING.items()},
+    off_overrides=lambda s: {key: 0.0 for key in PAPER_DAMPING},
+    detect=lambda s: any(s.get(key) > 0 for key in PAPER_DAMPING),
+    needs="quality_factors"))
+
+_register(Effect(
+    id="frame_reflection", title="reflecting frame",
+    description="The square 80 mm frame reflects the membrane's sound (Sect. 5.1); the paper "
+                "blames its remaining <= 8 % error on reflecting parts near the device "
+                "(Sect. 5.2).  Only the coupled air/PML FE step can represent it; the reduced "
+                "engine has no frame.",
+    kind="physics", engine="coupled_fe", parameters=(),
+    signature="mode-dependent shifts of a few per cent, largest on (0,1) (Sect. 5.2), and "
+              "split (m,n) pairs",
+    on_overrides=lambda s, v: {"geometry.frame": "square"},
+    off_overrides=lambda s: {"geometry.frame": "none"},
+    detect=lambda s: s["geometry"]["frame"] != "none"))
+
+_register(Effect(
+    id="viscoelastic_stiffening", title="visco-elastic stiffening",
+    description="A standard linear solid (quasi-linear visco-elasticity, Sect. 3.1.1 eq. 5's "
+                "S_v): the membrane's elastic stiffness grows with frequency by the storage "
+                "factor 1 + Delta (w tau)^2 / (1 + (w tau)^2).  Defaults: Delta = 0.3, tau = "
+                "0.2 ms (a silicone film's storage modulus rising by tens of per cent over the "
+                "0-1 kHz band).",
+    kind="physics", engine="reduced",
+    parameters=(Parameter("strength", "effects.viscoelastic_strength", None, 0.3, 0.02, 3.0, True,
+                          "Delta: glassy over relaxed modulus minus 1"),
+                Parameter("time", "effects.viscoelastic_time", "s", 2e-4, 1e-5, 1e-2, True,
+                          "relaxation time tau")),
+    signature="a model error that grows with frequency: (0,2) under-predicted more than (0,1), "
+              "the pumping modes (tens of Hz) untouched, the same at every z and V_b",
+    on_overrides=lambda s, v: {"effects.viscoelastic_strength": v[0],
+                               "effects.viscoelastic_time": v[1]},
+    off_overrides=lambda s: {"effects.viscoelastic_strength": 0.0},
+    detect=lambda s: s["effects"]["viscoelastic_strength"] > 0))
+
+_register(Effect(
+    id="uniform_stiffness", title="uniform membrane stiffening/softening (a parameter effect)",
+    description="The membrane is uniformly stiffer or softer than c10, c20, c01 say: electrode "
+                "stiffness, pre-stretch loss, a material fit at another rate.  Not missing "
+                "physics: a parameter of the study is off.",
+    kind="parameter", engine="reduced",
+    parameters=(Parameter("scale", "effects.stiffness_scale", None, 1.0, 0.5, 2.0, True,
+                          "factor on c10, c20, c01"),),
+    signature="every membrane-governed frequency off by about the same factor sqrt(s), at "
+              "every z, V_b and mode; P1 less (the spring k_d is not scaled)",
+    on_overrides=lambda s, v: {"effects.stiffness_scale": v[0]},
+    off_overrides=lambda s: {"effects.stiffness_scale": 1.0},
+    detect=lambda s: s["effects"]["stiffness_scale"] != 1.0))
+
+EFFECT_IDS = tuple(CATALOGUE)
+
+
+def effect(effect_id: str) -> Effect:
+    """The catalogue entry of an identifier; :class:`StudyError` names the allowed ones."""
+    try:
+        return CATALOGUE[effect_id]
+    except KeyError:
+        raise StudyError(f"effect = {effect_id!r} is not allowed (unknown effect); allowed: "
+                         + ", ".join(EFFECT_IDS)) from None
+
+
+def parse_effect_list(text, key: str = "--effects") -> tuple:
+    """``"air_loading, spring_mass"`` (or a list) -> validated identifiers, in order."""
+    items = text if isinstance(text, (list, tuple)) else str(text).split(",")
+    names = [str(item).strip() for item in items if str(item).strip()]
+    for name in names:
+        if name not in CATALOGUE:
+            raise StudyError(f"{key} = {name!r} is not allowed (unknown effect); allowed: "
+                             + ", ".join(EFFECT_IDS))
+    if len(set(names)) != len(names):
+        raise StudyError(f"{key} = {text!r} is not allowed; allowed: each effect once")
+    return tuple(names)
+
+
+def catalogue_table() -> str:
+    """Markdown table of the catalogue (README, ``copdea-fem effects``)."""
+    rows = ["| id | kind | engine | parameters (default, fit bounds) | signature |",
+            "|---|---|---|---|---|"]
+    for e in CATALOGUE.values():
+        params = "; ".join(f"{p.name} `{p.key}` {p.shown(p.default)} [{p.shown(p.lower)}, "
+                           f"{p.shown(p.upper)}]" for p in e.parameters) or "none"
+        engine = e.engine + (" (not available: skipped)" if e.engine == "coupled_fe" else "")
+        rows.append(f"| `{e.id}` | {e.kind} | {engine} | {params} | {e.signature} |")
+    return "\n".join(rows)
