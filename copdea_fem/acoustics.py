@@ -145,9 +145,13 @@ def screen_faces(frame: str) -> str:
     raise ValueError(f"geometry.frame = {frame!r} is not allowed; allowed: square, baffle, none")
 
 
-def open_plane_faces(frame: str) -> str:
-    """Plane faces on which the pressure is continuous (``aperture``, ``pml_plane``)."""
-    return "aperture" if frame == "baffle" else "aperture|pml_plane"
+PLANE_FACES = ("membrane", "disc", "frame", "aperture", "pml_plane")
+
+
+def open_plane_faces(screens: str) -> str:
+    """Plane faces (of ``aperture``, ``pml_plane``) not in ``screens``: pressure continuous there."""
+    named = set(screens.split("|"))
+    return "|".join(face for face in ("aperture", "pml_plane") if face not in named)
 
 
 def radial_pml(domain_radius: float, pml_thickness: float, strength: float = PML_STRENGTH,
@@ -167,8 +171,10 @@ def radial_pml(domain_radius: float, pml_thickness: float, strength: float = PML
       ``pml.Radial(rad=R, alpha=1j*b)``.  The round-trip reflection off the
       outer sphere is ``exp(-2 k b t)``: with t = 0.5 r_o = 17.75 mm it needs
       ``b > 100`` at 100 Hz (k t = 0.03), a decay no coarse mesh resolves at
-      1 kHz; measured monopole impedance errors 60 % at 200 Hz for b = 10.
-      Kept for comparison.
+      1 kHz.  Measured with b = 10: impedance error 60 % (pulsating sphere)
+      and 35 % (baffled piston) at 200 Hz; flat-membrane (0,1) frequency
+      within 0.01 % of the unbounded profile's but its radiation damping
+      40 times smaller.  Kept for comparison.
 
     Parameters
     ----------
@@ -195,8 +201,9 @@ def radial_pml(domain_radius: float, pml_thickness: float, strength: float = PML
     if profile != "unbounded":
         raise ValueError(f"PML profile = {profile!r} is not allowed; allowed: unbounded, constant")
     r = sqrt(x * x + y * y + z * z)
-    # Distance to the outer sphere; quadrature points never reach it, the floor
-    # only guards points of a curved element that poke outside by ~1e-9 t.
+    # Distance to the outer sphere.  Quadrature points stay inside; the floor
+    # only keeps log() finite should a point of a curved element lie on or
+    # beyond the sphere (its polynomial approximation).
     floor = 1e-9 * t
     depth_left = IfPos(R + t - r - floor, R + t - r, floor)
     beta = strength * t * log(t / depth_left)              # [m]
@@ -206,7 +213,8 @@ def radial_pml(domain_radius: float, pml_thickness: float, strength: float = PML
     position = CF((x, y, z))
     trafo = scale * position
     # d x~_i / d x_j = scale delta_ij + (dr~/dr - scale) x_i x_j / r^2
-    jacobian = scale * Id(3) + ((1 + 1j * dbeta_dr) - scale) * OuterProduct(position, position) / (r * r)
+    radial_projector = OuterProduct(position, position) / (r * r)
+    jacobian = scale * Id(3) + ((1 + 1j * dbeta_dr) - scale) * radial_projector
     return pml.Custom(trafo=trafo, jac=jacobian)
 
 
@@ -223,13 +231,13 @@ def set_pml(mesh, domain_radius: float, pml_thickness: float, strength: float = 
     return stretch
 
 
-def _raise_order_in(space, mesh, regions: str, order: int) -> None:
+def set_order_in(space, mesh, regions: str, order: int) -> None:
     """Give every element of ``regions`` (cells, faces, edges) polynomial order ``order``."""
     from ngsolve import CELL, NodeId, VOL
 
-    region = mesh.Materials(regions)
+    in_regions = mesh.Materials(regions).Mask()
     for element in mesh.Elements(VOL):
-        if not region.Mask()[element.index]:
+        if not in_regions[element.index]:
             continue
         space.SetOrder(NodeId(CELL, element.nr), order)
         for face in element.faces:
@@ -239,8 +247,8 @@ def _raise_order_in(space, mesh, regions: str, order: int) -> None:
     space.Update()
 
 
-def pressure_space(mesh, order: int, screens: str, open_plane: str = "aperture|pml_plane",
-                   pml_order: int | None = None, outer_dirichlet: bool = True):
+def pressure_space(mesh, order: int, screens: str, pml_order: int | None = None,
+                   outer_dirichlet: bool = True):
     """Complex pressure space ``P x Q`` with a jump across the screens.
 
     Parameters
@@ -248,12 +256,12 @@ def pressure_space(mesh, order: int, screens: str, open_plane: str = "aperture|p
     mesh : ngsolve.Mesh
         Mesh of :func:`copdea_fem.geometry.load_mesh` with air.
     order : int
-        Polynomial order of the pressure in the air (``mesh.pressure_order``).
+        Polynomial order of the pressure in the air (``study["mesh"]["pressure_order"]``).
     screens : str
-        Faces the pressure jumps across (:func:`screen_faces`).
-    open_plane : str
-        Plane faces where it is continuous (:func:`open_plane_faces`); ``q`` is
-        zero there, also on their rim where they touch a screen.
+        Faces the pressure jumps across (:func:`screen_faces`), names joined
+        by ``|``.  On the other plane faces (:func:`open_plane_faces`) ``q`` is
+        zero, also on their rim where they touch a screen, so ``[p]`` vanishes
+        at a free screen edge.
     pml_order : int, optional
         Order in the PML elements; default ``order + PML_EXTRA_ORDER``.
     outer_dirichlet : bool
@@ -268,7 +276,12 @@ def pressure_space(mesh, order: int, screens: str, open_plane: str = "aperture|p
     """
     from ngsolve import H1, Compress, FESpace
 
+    unknown = set(screens.split("|")) - set(PLANE_FACES)
+    if unknown:
+        raise ValueError(f"screens = {screens!r} is not allowed; allowed: names of "
+                         f"{', '.join(PLANE_FACES)} joined by '|'")
     pml_order = order + PML_EXTRA_ORDER if pml_order is None else pml_order
+    open_plane = open_plane_faces(screens)
     outer = OUTER if outer_dirichlet else ""
     continuous = H1(mesh, order=order, complex=True, definedon=mesh.Materials(AIR_AND_PML),
                     dirichlet=outer)
@@ -276,7 +289,7 @@ def pressure_space(mesh, order: int, screens: str, open_plane: str = "aperture|p
               dirichlet="|".join(name for name in (open_plane, outer) if name))
     for space in (continuous, jump):     # same basis in both: the bijection needs it
         if pml_order != order:
-            _raise_order_in(space, mesh, PML_REGIONS, pml_order)
+            set_order_in(space, mesh, PML_REGIONS, pml_order)
     active = jump.GetDofs(mesh.Boundaries(screens)) & jump.FreeDofs()
     if active.NumSet() == 0:
         raise ValueError(f"screens = {screens!r} match no face of the mesh with air; "
@@ -307,7 +320,18 @@ def pressure_jump(pressure):
     return -pressure[1]
 
 
-def air_stiffness(pressure, pressure_test, density: float):
+def _over_half(integrand, half: str, deformation):
+    """``integrand dx`` over the air and PML of one half; the mesh deformation
+    (ALE, zero in the PML) only on the air: an integral with its own
+    deformation would not see the PML set on the mesh."""
+    from ngsolve import dx
+
+    if deformation is None:
+        return integrand * dx(f"air_{half}|pml_{half}")
+    return integrand * dx(f"air_{half}", deformation=deformation) + integrand * dx(f"pml_{half}")
+
+
+def air_stiffness(pressure, pressure_test, density: float, deformation=None):
     """Stiffness ``k_a = int (1/rho_a) grad p . grad p' dx`` over air + PML (eq. A1).
 
     Parameters
@@ -330,12 +354,12 @@ def air_stiffness(pressure, pressure_test, density: float):
     p_test, q_test = _split(pressure_test)
     if q is None:                  # one continuous field (no screens)
         return (1.0 / density) * grad(p) * grad(p_test) * dx
-    upper = (1.0 / density) * grad(p) * grad(p_test) * dx(UPPER)
-    lower = (1.0 / density) * grad(p + q) * grad(p_test + q_test) * dx(LOWER)
-    return upper + lower
+    upper = (1.0 / density) * grad(p) * grad(p_test)
+    lower = (1.0 / density) * grad(p + q) * grad(p_test + q_test)
+    return _over_half(upper, "upper", deformation) + _over_half(lower, "lower", deformation)
 
 
-def air_mass(pressure, pressure_test, density: float, sound_speed: float):
+def air_mass(pressure, pressure_test, density: float, sound_speed: float, deformation=None):
     """Mass ``m_a = int 1/(rho_a c_a^2) p p' dx`` over air + PML (eq. A1).
 
     Parameters
@@ -357,12 +381,12 @@ def air_mass(pressure, pressure_test, density: float, sound_speed: float):
     compressibility = 1.0 / (density * sound_speed**2)      # [1/Pa]
     if q is None:
         return compressibility * p * p_test * dx
-    upper = compressibility * p * p_test * dx(UPPER)
-    lower = compressibility * (p + q) * (p_test + q_test) * dx(LOWER)
-    return upper + lower
+    upper = compressibility * p * p_test
+    lower = compressibility * (p + q) * (p_test + q_test)
+    return _over_half(upper, "upper", deformation) + _over_half(lower, "lower", deformation)
 
 
-def screen_coupling(pressure, normal_displacement, screens: str):
+def screen_coupling(pressure, normal_displacement, screens: str, deformation=None):
     """Coupling ``c(u, p) = int_screens [p] (u . n) ds`` (eqs. A1-A2).
 
     Parameters
@@ -386,7 +410,7 @@ def screen_coupling(pressure, normal_displacement, screens: str):
     """
     from ngsolve import ds
 
-    return pressure_jump(pressure) * normal_displacement * ds(screens)
+    return pressure_jump(pressure) * normal_displacement * ds(screens, deformation=deformation)
 
 
 def coupled_forms(pressure, pressure_test, normal_displacement, normal_displacement_test,
@@ -401,7 +425,8 @@ def coupled_forms(pressure, pressure_test, normal_displacement, normal_displacem
     normal_displacement, normal_displacement_test : CoefficientFunction
         ``u . n`` and ``u' . n`` [m] of the membrane trial and test functions.
     membrane_stiffness, membrane_mass : SumOfIntegrals
-        The caller's ``k_s(u, u')`` [N/m per m^2 ...] and ``m_s(u, u')`` forms.
+        The caller's membrane forms ``k_s(u, u')`` and ``m_s(u, u')`` (per unit test
+        displacement a force [N]).
     density, sound_speed : float
         rho_a [kg/m^3], c_a [m/s].
     moving_screens : str

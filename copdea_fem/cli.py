@@ -155,6 +155,108 @@ def _add_reduced_commands(commands, with_study) -> None:
     calibrate.set_defaults(handler=cmd_calibrate_damping)
 
 
+# -- parameter sweeps (issue 6): sweep SWEEP.yaml ------------------------------------------------
+def cmd_sweep(args) -> int:
+    """Run or resume a sweep; exit 3 if no point produced a result."""
+    from .study import parse_overrides
+    from .sweep import ReuseSettings, format_summary, load_sweep, run_sweep
+
+    sweep = load_sweep(args.sweep, overrides=parse_overrides(args.set))
+    outcome = run_sweep(sweep, out_dir=args.out, executor=args.executor, workers=args.workers,
+                        scheduler=args.scheduler, chain_length=args.chain_length,
+                        reuse=ReuseSettings(False, False, False) if args.no_reuse else None,
+                        progress=_progress(args.quiet))
+    print(format_summary(sweep, outcome))
+    return 3 if len(outcome.failed) == len(sweep.points) else 0
+
+
+def _add_sweep_command(commands) -> None:
+    sweep = commands.add_parser(
+        "sweep", help="parameter sweep with tracked modes (Fig. 11): sweep.csv, sweep.png")
+    sweep.add_argument("sweep", help="SWEEP.yaml: base study, axes over study keys, model")
+    sweep.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE",
+                       help="override a key of the base study, with units")
+    sweep.add_argument("--out", help="result directory (default: output.directory of the file)")
+    sweep.add_argument("--executor", choices=("local", "pool", "dask"),
+                       help="local (default), a pool of worker processes, or a Dask cluster")
+    sweep.add_argument("--workers", type=int, help="worker processes of --executor pool")
+    sweep.add_argument("--scheduler", metavar="ADDRESS",
+                       help="Dask scheduler address for --executor dask, e.g. tcp://host:8786")
+    sweep.add_argument("--chain-length", help="points per continuation chain: auto or N")
+    sweep.add_argument("--no-reuse", action="store_true",
+                       help="solve every point from scratch (benchmark baseline)")
+    sweep.add_argument("--quiet", action="store_true", help="no per-point progress")
+    sweep.set_defaults(handler=cmd_sweep)
+
+
+# -- diagnosis (issue 5): diagnose MEASURED.yaml, synth STUDY.yaml, effects --------------------
+def cmd_diagnose(args) -> int:
+    """Which catalogued effect the model lacks; report.md, diagnosis.json, PNGs."""
+    from .diagnose import run_diagnose
+    return _reduced_action(lambda: run_diagnose(args.measured, out_dir=args.out,
+                                                progress=_progress(args.quiet), alpha=args.alpha))
+
+
+def cmd_synth(args) -> int:
+    """Synthetic measured.yaml set from the model with chosen effects on."""
+    from .diagnose import run_synth
+    from .diagnose.synth import SynthOptions
+    study = _study(args)
+    options = SynthOptions(frequency_noise=args.frequency_noise, quality_noise=args.quality_noise,
+                           amplitude_noise=args.amplitude_noise,
+                           missing_probability=args.missing, spurious=args.spurious,
+                           label_fraction=args.label_fraction, spectra=not args.no_spectra,
+                           seed=args.seed)
+    return _reduced_action(lambda: run_synth(study, args.effects, args.conditions, args.param,
+                                             options, args.out))
+
+
+def cmd_effects(args) -> int:
+    from .diagnose import catalogue_table
+    print(catalogue_table())
+    return 0
+
+
+def _add_diagnose_commands(commands, with_study) -> None:
+    diagnose = commands.add_parser(
+        "diagnose", help="find the physical effects the model lacks from measured resonances "
+        "and spectra: report.md, diagnosis.json, PNG figures, final_study.yaml")
+    diagnose.add_argument("measured", help="measured.yaml (base study, conditions, resonance "
+                          "and spectrum CSVs; see README 'Measured data and diagnosis')")
+    diagnose.add_argument("--out", help="report directory (default: results/diagnose_<name>)")
+    diagnose.add_argument("--alpha", type=float, default=0.05,
+                          help="false-alarm probability per step (default 0.05)")
+    diagnose.add_argument("--quiet", action="store_true", help="no progress messages")
+    diagnose.set_defaults(handler=cmd_diagnose)
+
+    synth = with_study("synth", "synthetic measured data from the model with chosen effects on "
+                       "(frequency noise, missing and spurious peaks, spectra), for diagnose")
+    synth.add_argument("--effects", default="", help="comma-separated effects switched on in the "
+                       "truth, e.g. air_loading,spring_mass (see copdea-fem effects)")
+    synth.add_argument("--param", action="append", metavar="EFFECT.PARAMETER=VALUE",
+                       help="an effect parameter of the truth, e.g. air_loading.scale=1.2")
+    synth.add_argument("--conditions", help="'load.z=11 mm, load.voltage=2 kV; load.z=16 mm' "
+                       "(';' between conditions; default: five operating points of Sect. 4)")
+    synth.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    synth.add_argument("--frequency-noise", type=float, default=0.015,
+                       help="1-sigma relative frequency scatter (default 0.015)")
+    synth.add_argument("--quality-noise", type=float, default=0.15,
+                       help="1-sigma relative scatter of quality factors (default 0.15)")
+    synth.add_argument("--amplitude-noise", type=float, default=0.10,
+                       help="1-sigma relative noise per spectral line (default 0.10)")
+    synth.add_argument("--missing", type=float, default=0.10,
+                       help="probability that a mode's peak is missing (default 0.10)")
+    synth.add_argument("--spurious", type=int, default=1,
+                       help="spurious peaks in the whole set (default 1)")
+    synth.add_argument("--label-fraction", type=float, default=0.5,
+                       help="share of peaks that keep their mode label (default 0.5)")
+    synth.add_argument("--no-spectra", action="store_true", help="resonance lists only")
+    synth.add_argument("--out", help="output directory (default: results/synth_<study>_seed<N>)")
+    synth.set_defaults(handler=cmd_synth)
+    commands.add_parser("effects", help="print the effect catalogue of diagnose").set_defaults(
+        handler=cmd_effects)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="copdea-fem", description="Vibro-acoustic FE and reduced models of COP-DEAs.")
@@ -185,6 +287,8 @@ def build_parser() -> argparse.ArgumentParser:
     force.add_argument("--quiet", action="store_true", help="no progress messages")
     force.set_defaults(handler=cmd_force)
     _add_reduced_commands(commands, with_study)
+    _add_sweep_command(commands)
+    _add_diagnose_commands(commands, with_study)
     return parser
 
 

@@ -587,8 +587,9 @@ class _BandSolver:
     CLUSTER_RELATIVE = 1e-6
 
     def __init__(self, A, B, region, backend, hermitian, max_modes, max_modes_per_shift,
-                 band_contains, arpack_tol, progress):
+                 band_contains, arpack_tol, progress, initial_shifts=None):
         self.A = A
+        self.initial_shifts = list(initial_shifts or [])
         self.B = B
         self.n = A.shape[0]
         self.region = region
@@ -629,8 +630,10 @@ class _BandSolver:
             sigma = float(sigma)  # plain Python float (see module notes)
             start = time.perf_counter()
             try:
-                shifted = (self.A - sigma * self.B).tocsr()
-                factorization = Factorization(shifted, self.backend)
+                if getattr(self, "factorize", None) is not None:
+                    factorization = self.factorize(sigma)
+                else:
+                    factorization = Factorization((self.A - sigma * self.B).tocsr(), self.backend)
                 self._check_factorization(factorization)
             except EigenSolverError as error:
                 self.factorisation_seconds += time.perf_counter() - start
@@ -1060,8 +1063,14 @@ class _BandSolver:
         self.certify(best_shift)
 
     def solve(self) -> None:
-        first = self.add_shift(self.region.first_shift(), self.region.scale)
-        self.run(first, min(self.START_MODES, self.max_modes_per_shift))
+        # --- sweep start plan (see solve_band's initial_shifts) ---
+        plan = self.initial_shifts or [(self.region.first_shift(), self.START_MODES)]
+        for sigma, k in plan:
+            if self.exhaustive:
+                break
+            shift = self.add_shift(float(sigma), self.region.scale)
+            self.run(shift, int(min(k, self.max_modes_per_shift)))
+        # --- end of sweep start plan ---
         while not self.exhaustive:
             if self.runs > self.MAX_RUNS:
                 raise EigenSolverError(f"band not covered after {self.MAX_RUNS} ARPACK runs")
@@ -1113,6 +1122,8 @@ def solve_band(
     max_imag_hz: float | None = None,
     normalization_matrix=None,
     max_modes_per_shift: int = 80,
+    initial_shifts=None,
+    factorize: Callable[[float], "Factorization"] | None = None,
 ) -> BandResult:
     """All eigenpairs of ``A x = lam B x`` whose frequency lies in a band.
 
@@ -1154,6 +1165,18 @@ def solve_band(
     max_modes_per_shift : int
         Most eigenpairs computed around one shift before another shift is
         placed (ARPACK keeps ``2 k + 1`` vectors of length ``n``).
+    initial_shifts : sequence of (float, int), optional
+        ``(sigma, k)`` pairs (``sigma`` real, rad^2/s^2; ``k >= 1`` modes)
+        run first, in order, instead of the first shift at the band's centre
+        with ``k = 20`` -- e.g. a neighbouring sweep point's shifts with the
+        number of modes found around each (:func:`copdea_fem.sweep.shift_plan`).
+        The planner and the certification then run as usual, so a poor plan
+        costs time, never a mode.
+    factorize : callable, optional
+        ``factorize(sigma)`` returns an object like :class:`Factorization`
+        (``solve``, ``dtype``, ``solve_count``, ``factorisation_seconds``) for
+        ``A - sigma B``, used instead of factorising the SciPy matrices -- e.g.
+        an NGSolve matrix assembled natively complex (the coupled problem).
 
     Returns
     -------
@@ -1267,8 +1290,10 @@ def solve_band(
     # the band (far below the top of an FE spectrum): keep 100x below the
     # requested residual, never looser than 1e-10, never below round-off.
     arpack_tol = max(min(1e-10, 0.01 * residual_tol), 1e-14)  # ARPACK cannot go below ~eps
+    initial_shifts = _validate_initial_shifts(initial_shifts)
     solver = _BandSolver(A, B, region, backend, hermitian, max_modes, int(max_modes_per_shift),
-                         band_contains, arpack_tol, progress)
+                         band_contains, arpack_tol, progress, initial_shifts)
+    solver.factorize = factorize
     solver.solve()
 
     values, vectors = solver.known.values, solver.known.vectors
@@ -1342,6 +1367,26 @@ def _validate_matrices(A, B):
         raise EigenInputError(f"A and B must have the same shape; got {matrices[0].shape} "
                               f"and {matrices[1].shape}")
     return matrices
+
+
+def _validate_initial_shifts(initial_shifts):
+    """``[(sigma, k), ...]`` as plain (float, int) pairs, or an EigenInputError."""
+    if initial_shifts is None:
+        return None
+    allowed = "a sequence of (sigma [rad^2/s^2], k) pairs, sigma finite real, k an integer >= 1"
+    try:
+        pairs = [(sigma, k) for sigma, k in initial_shifts]
+    except (TypeError, ValueError):
+        raise EigenInputError(f"initial_shifts={initial_shifts!r} is not allowed; allowed: "
+                              f"{allowed}") from None
+    for sigma, k in pairs:
+        if isinstance(sigma, (bool, complex, np.complexfloating)) or \
+                not isinstance(sigma, (int, float, np.integer, np.floating)) or \
+                not np.isfinite(sigma) or isinstance(k, bool) or \
+                not isinstance(k, (int, np.integer)) or k < 1:
+            raise EigenInputError(f"initial_shifts entry {(sigma, k)!r} is not allowed; "
+                                  f"allowed: {allowed}")
+    return [(float(sigma), int(k)) for sigma, k in pairs]
 
 
 def _validate_band(f_min, f_max):

@@ -59,21 +59,26 @@ def tangent_gradient(u):
     return ngs.Grad(u).Trace()
 
 
-def invariants(u, prestretch: float):
-    """(tr_c, det_c) of the in-plane Cauchy-Green tensor from the unstretched film."""
+def invariants(u, prestretch: float, gradient=None):
+    """(tr_c, det_c) of the in-plane Cauchy-Green tensor from the unstretched film.
+
+    ``gradient`` (Grad_s u) may be given instead of ``u``, for sums of fields
+    (``u0 + u`` in the coupled step) whose gradient NGSolve cannot take.
+    """
     projector = ngs.CF((1, 0, 0, 0, 1, 0, 0, 0, 0), dims=(3, 3))
     normal_dyad = ngs.CF((0, 0, 0, 0, 0, 0, 0, 0, 1), dims=(3, 3))
-    deformation = projector + tangent_gradient(u)
+    deformation = projector + (tangent_gradient(u) if gradient is None else gradient)
     ct = deformation.trans * deformation + normal_dyad
     return prestretch**2 * (ngs.Trace(ct) - 1), prestretch**4 * ngs.Det(ct)
 
 
-def energy_density(u, material: Membrane, voltage):
+def energy_density(u, material: Membrane, voltage, gradient=None):
     """Membrane energy per pre-stretched area h0/lambda_p^2 Psi_em [J/m^2] (eq. 7, 20).
 
-    ``voltage`` may be a number or an NGSolve Parameter [V].
+    ``voltage`` may be a number or an NGSolve Parameter [V]; ``gradient`` as
+    in :func:`invariants`.
     """
-    tr_c, det_c = invariants(u, material.prestretch)
+    tr_c, det_c = invariants(u, material.prestretch, gradient)
     return material.thickness / material.prestretch**2 * material.free_energy(
         tr_c, det_c, voltage)
 

@@ -47,12 +47,14 @@ class Mode:
     modal_mass: float              # kg, for unit peak normal (pumping: disc) displacement
     vector: np.ndarray = field(repr=False)   # full membrane-space coefficients
     disc_displacement: complex = 0.0
+    membrane_energy_fraction: float = 1.0    # kinetic energy share of the membrane (+ disc)
 
     @property
     def damping_ratio(self) -> float:
-        """zeta = Im f / |f| for e^{i omega t} with complex f (0 for dry modes)."""
+        """zeta = -Im f / |f| [-]: fields go as e^{-i omega t} (NGSolve's PML convention),
+        so a decaying (radiating) mode has Im f < 0; 0 for dry modes."""
         magnitude = float(np.hypot(self.freq_hz, self.freq_im_hz))
-        return float(self.freq_im_hz / magnitude) if magnitude > 0 else 0.0
+        return float(-self.freq_im_hz / magnitude) if magnitude > 0 else 0.0
 
 
 class ModeSampler:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import math
 import json
 import shutil
 import tempfile
@@ -40,15 +41,21 @@ def result_directory(target: str | Path):
 
 
 def mode_rows(modes, dry_frequencies: dict | None = None) -> list[dict]:
-    """One row per mode with :data:`MODE_COLUMNS` (SI: Hz, kg)."""
+    """One row per mode with :data:`MODE_COLUMNS` (SI: Hz, kg).
+
+    ``dry_frequencies`` maps a mode's position in ``modes`` to the frequency of
+    its dry partner [Hz]; None means the modes are dry themselves.  Modes
+    without a partner (air modes) get NaN for ``dry_freq_hz`` and
+    ``added_mass_ratio``.
+    """
     rows = []
-    for mode in modes:
-        dry = (dry_frequencies or {}).get(mode.label, mode.freq_hz)
+    for index, mode in enumerate(modes):
+        dry = mode.freq_hz if dry_frequencies is None else dry_frequencies.get(index, math.nan)
         rows.append({
             "label": mode.label, "m": mode.m, "n": mode.n, "kind": mode.kind,
             "freq_hz": mode.freq_hz, "freq_im_hz": mode.freq_im_hz,
             "damping_ratio": mode.damping_ratio,
-            "membrane_energy_fraction": getattr(mode, "membrane_energy_fraction", 1.0),
+            "membrane_energy_fraction": mode.membrane_energy_fraction,
             "modal_mass": mode.modal_mass, "dry_freq_hz": dry,
             "added_mass_ratio": (dry / mode.freq_hz) ** 2 - 1 if mode.freq_hz > 0 else 0.0,
             "normal_fraction": mode.normal_fraction, "disc_fraction": mode.disc_fraction,
@@ -183,6 +190,65 @@ def write_mode_vtus(directory: Path, state, modes, sampler: MembraneSampler) -> 
         name = f"mode_{number:03d}_{_safe(mode.label)}"
         files.append(write_membrane_vtu(directory / name, sampler, fields,
                                         displacement=state.displacement))
+    return files
+
+
+def write_air_vtus(directory: Path, coupled, modes, pressures) -> list[Path]:
+    """One .vtu per mode of the air on the deformed mesh: pressure re/im/abs, PML flag.
+
+    The pressure jumps across the screens, so the upper and lower halves get
+    their own copies of the mesh vertices; values are taken inside each
+    element (no ambiguity at the plane).  Pressures are per unit peak membrane
+    displacement [Pa/m], like the membrane files.
+    """
+    import meshio
+    import ngsolve as ngs
+
+    from .acoustics import LOWER, PML_REGIONS, pressure_field
+
+    space = coupled.pressure_space
+    mesh = space.mesh
+    gf = ngs.GridFunction(space)
+    field = pressure_field(gf.components[0], gf.components[1], mesh)
+    corners = ngs.IntegrationRule([(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)], [0.0] * 4)
+    points = mesh.MapToAllElements(corners, ngs.VOL)
+    elements = list(mesh.Elements(ngs.VOL))
+    lower = np.array([mesh.Materials(LOWER).Mask()[el.index] for el in elements])
+    in_pml = np.array([mesh.Materials(PML_REGIONS).Mask()[el.index] for el in elements])
+    # which mesh vertex each reference corner maps to: matched by coordinates
+    reference = np.asarray(ngs.CF((ngs.x, ngs.y, ngs.z))(points)).reshape(len(elements), 4, 3)
+    coordinates = mesh.ngmesh.Coordinates()
+    vertex_ids = np.array([[v.nr for v in el.vertices] for el in elements])
+    corner_vertex = np.empty((len(elements), 4), dtype=int)
+    for k in range(4):
+        distance = np.linalg.norm(reference[:, k:k + 1, :] - coordinates[vertex_ids], axis=2)
+        corner_vertex[:, k] = vertex_ids[np.arange(len(elements)), distance.argmin(axis=1)]
+    count = len(coordinates)
+    copy = np.where(lower, count, 0)[:, None] + corner_vertex         # lower half: second copy
+    motion = np.asarray(coupled.mesh_motion(points)).reshape(len(elements), 4, 3)
+    moved = np.zeros((2 * count, 3))
+    moved[copy.ravel()] = (reference + motion).reshape(-1, 3)
+    used = np.unique(copy)
+    renumber = -np.ones(2 * count, dtype=int)
+    renumber[used] = np.arange(len(used))
+    cells = renumber[copy]
+    files = []
+    for number, (mode, pressure) in enumerate(zip(modes, pressures)):
+        gf.vec.FV().NumPy()[:] = 0
+        gf.vec.FV().NumPy()[coupled.pressure_free] = pressure
+        values = np.asarray(field(points)).reshape(len(elements), 4)
+        nodal = np.zeros(2 * count, dtype=complex)
+        nodal[copy.ravel()] = values.ravel()
+        nodal = nodal[used]
+        data = {"pressure_real": nodal.real.astype(np.float32),
+                "pressure_imag": nodal.imag.astype(np.float32),
+                "pressure_abs": np.abs(nodal).astype(np.float32)}
+        path = directory / f"air_{number:03d}_{_safe(mode.label)}.vtu"
+        meshio.write(path, meshio.Mesh(moved[used].astype(np.float32), [("tetra", cells)],
+                                       point_data=data,
+                                       cell_data={"pml": [in_pml.astype(np.int8)],
+                                                  "lower_half": [lower.astype(np.int8)]}))
+        files.append(path)
     return files
 
 

@@ -46,6 +46,7 @@ class SolveResult:
     timings: Timings
     eigen: object
     out_dir: Path | None = None
+    coupled: object = None          # CoupledSolution when air.enabled
 
 
 def _quiet(message: str) -> None:
@@ -65,8 +66,14 @@ def prepare_mesh(study: Study, with_air: bool | None = None, cache_dir=None, pro
 
 
 def dry_modes(study: Study, mesh=None, progress=_quiet, timings: Timings | None = None,
-              cache_dir=None):
-    """Prestress and dry (in-vacuo) modes in the study's band: (state, modes, eigen result)."""
+              cache_dir=None, solver=None, initial_shifts=None):
+    """Prestress and dry (in-vacuo) modes in the study's band: (state, modes, eigen result).
+
+    Sweeps pass ``solver`` (a :class:`copdea_fem.prestress.MembraneSolver` on
+    ``mesh``: the prestress continues from its current equilibrium) and
+    ``initial_shifts`` (``[(sigma [rad^2/s^2], k), ...]``, see
+    :func:`copdea_fem.eigen.solve_band`); the defaults solve from scratch.
+    """
     timings = timings or Timings()
     with _task_manager():
         if mesh is None:
@@ -75,7 +82,7 @@ def dry_modes(study: Study, mesh=None, progress=_quiet, timings: Timings | None 
                                     cache_dir=cache_dir, progress=progress)
         with timings.stage("prestress"):
             progress("prestress (Newton, load steps in z then V_b) ...")
-            state = solve_prestress(study, mesh, progress=progress)
+            state = solve_prestress(study, mesh, progress=progress, solver=solver)
         with timings.stage("assembly"):
             operators = linearised_operators(state, study)
         eigen = study["eigen"]
@@ -86,24 +93,83 @@ def dry_modes(study: Study, mesh=None, progress=_quiet, timings: Timings | None 
             result = solve_band(operators.stiffness, operators.mass, eigen["f_min"],
                                 eigen["f_max"], backend=eigen["backend"],
                                 max_modes=eigen["max_modes"], hermitian=True,
-                                residual_tol=eigen["residual_tol"], progress=progress)
+                                residual_tol=eigen["residual_tol"], progress=progress,
+                                initial_shifts=initial_shifts)
         with timings.stage("classify"):
             modes = classify_modes(operators, result, ModeSampler(state))
     return state, modes, result
 
 
+@dataclass
+class CoupledSolution:
+    """What :func:`coupled_modes` returns: coupled and dry modes on one mesh."""
+
+    state: object
+    modes: list              # coupled modes (structural and air), sorted by Re f
+    pressures: list          # pressure vector [Pa, free DOFs] of each coupled mode
+    dry_modes: list
+    dry_partner_hz: dict     # index in modes -> dry partner frequency [Hz]
+    eigen: object
+    operators: object        # coupled.CoupledOperators
+
+
+def coupled_modes(study: Study, mesh=None, progress=_quiet, timings: Timings | None = None,
+                  cache_dir=None) -> CoupledSolution:
+    """Prestress, dry modes and fully-coupled membrane-air modes (Sect. 3.1.3)."""
+    from .coupled import assemble_coupled, coupled_mode_list, match_dry
+    from .eigen import solve_band
+    from .linearise import membrane_matrices
+
+    timings = timings or Timings()
+    eigen = study["eigen"]
+    band = dict(backend=eigen["backend"], max_modes=eigen["max_modes"],
+                residual_tol=eigen["residual_tol"], progress=progress)
+    with _task_manager():
+        if mesh is None:
+            with timings.stage("mesh"):
+                mesh = prepare_mesh(study, with_air=True, cache_dir=cache_dir, progress=progress)
+        with timings.stage("prestress"):
+            progress("prestress (Newton, load steps in z then V_b) ...")
+            state = solve_prestress(study, mesh, progress=progress)
+        with timings.stage("assembly"):
+            operators = linearised_operators(state, study)
+        with timings.stage("eigen"):
+            progress(f"dry modes on the same mesh ({operators.size} unknowns) ...")
+            dry_result = solve_band(operators.stiffness, operators.mass, eigen["f_min"],
+                                    eigen["f_max"] * 1.5, hermitian=True, **band)
+        sampler = ModeSampler(state)
+        with timings.stage("classify"):
+            dry = classify_modes(operators, dry_result, sampler)
+        with timings.stage("assembly"):
+            coupled = assemble_coupled(study, mesh, state, operators, progress=progress)
+        with timings.stage("eigen"):
+            progress(f"coupled modes in [{eigen['f_min']:g}, {eigen['f_max']:g}] Hz "
+                     f"({coupled.stiffness.shape[0]} unknowns) ...")
+            result = solve_band(coupled.stiffness, coupled.mass, eigen["f_min"], eigen["f_max"],
+                                hermitian=False, factorize=coupled.factorize, **band)
+        with timings.stage("classify"):
+            modes, pressures = coupled_mode_list(coupled, result,
+                                                 study["air"]["min_membrane_energy"], sampler)
+            full_mass = membrane_matrices(state)[1]
+            partners = match_dry(modes, dry, full_mass)
+    return CoupledSolution(state, modes, pressures, dry,
+                           {k: mode.freq_hz for k, mode in partners.items()}, result, coupled)
+
+
 def run_solve(study: Study, out_dir: str | Path | None = None, progress=_quiet,
               cache_dir=None) -> SolveResult:
-    """Full ``solve``: prestress, modes, and (if ``out_dir``) every result file."""
-    if study["air"]["enabled"]:
-        raise NotImplementedError(
-            "air.enabled = true: the fully-coupled air/PML eigen step is not in this "
-            "version yet; set air.enabled: false for dry (in-vacuo) modes")
+    """Full ``solve``: prestress, modes (coupled when ``air.enabled``), result files."""
     timings = Timings()
-    state, modes, eigen_result = dry_modes(study, progress=progress, timings=timings,
-                                           cache_dir=cache_dir)
-    rows = output.mode_rows(modes)
-    result = SolveResult(study, state, modes, rows, timings, eigen_result)
+    coupled = None
+    if study["air"]["enabled"]:
+        coupled = coupled_modes(study, progress=progress, timings=timings, cache_dir=cache_dir)
+        state, modes, eigen_result = coupled.state, coupled.modes, coupled.eigen
+        rows = output.mode_rows(modes, coupled.dry_partner_hz)
+    else:
+        state, modes, eigen_result = dry_modes(study, progress=progress, timings=timings,
+                                               cache_dir=cache_dir)
+        rows = output.mode_rows(modes)
+    result = SolveResult(study, state, modes, rows, timings, eigen_result, coupled=coupled)
     if out_dir is not None:
         with timings.stage("output"):
             progress("writing results ...")
@@ -122,8 +188,9 @@ def prestress_summary(state) -> dict:
 def write_results(result: SolveResult, out_dir: Path) -> None:
     study = result.study
     extra = {"prestress": prestress_summary(result.state),
-             "eigen": {"shifts_hz": list(map(float, getattr(result.eigen, "shifts_hz", []))),
-                       "unknowns": int(result.eigen.vectors.shape[0])},
+             "eigen": {"shifts_hz": [float(f) for f in result.eigen.shift_freq_hz],
+                       "unknowns": int(result.eigen.vectors.shape[0]),
+                       "factorisations": int(result.eigen.n_factorisations)},
              "timings_s": result.timings.seconds}
     with output.result_directory(out_dir) as staging:
         output.write_modes(staging, result.rows, study, extra)
@@ -131,6 +198,12 @@ def write_results(result: SolveResult, out_dir: Path) -> None:
             structural = [mode for mode in result.modes
                           if mode.kind in (OUT_OF_PLANE, PUMPING, IN_PLANE)]
             files = write_paraview(staging, result.state, structural)
+            if result.coupled is not None and study["output"]["paraview"]:
+                indices = [k for k, mode in enumerate(result.modes) if mode.kind != "air"]
+                air_files = output.write_air_vtus(
+                    staging, result.coupled.operators, [result.modes[k] for k in indices],
+                    [result.coupled.pressures[k] for k in indices])
+                output.write_pvd(staging / "air.pvd", air_files, list(range(len(air_files))))
             if study["output"]["plots"]:
                 lowest = [(f, mode) for f, mode in zip(files, structural)
                           if mode.kind in (OUT_OF_PLANE, PUMPING)][:8]

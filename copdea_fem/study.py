@@ -123,6 +123,10 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "pml_thickness": Key("m", None, "radial thickness of the PML shell (Sect. 5.1)",
                              minimum=0, maximum=10, open_min=True,
                              derived="0.5 * geometry.outer_radius"),
+        "min_membrane_energy": Key(None, 0.1, "coupled modes whose membrane (+ disc) share of "
+                                   "the kinetic energy is below this are air/PML modes "
+                                   "(kind air); 0.1 keeps structural modes with added "
+                                   "masses up to 9x their own", minimum=0, maximum=1),
     },
     "mesh": {
         "membrane_size": Key("m", 3e-3, "element size on the membrane", minimum=0,

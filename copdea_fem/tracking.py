@@ -194,7 +194,8 @@ class TrackingResult:
         (Subspace) MAC of the mode's unit with its predecessor on the track;
         NaN where the track starts.
     labels : dict
-        Track id -> track label: the base label it carries at most points
+        Track id -> track label: the label it carries at most points (base
+        label for pairs and m >= 1; an m = 0 single keeps its a/b suffix)
         (ties: the first), with ``"->"`` joining the distinct base labels in
         order when the label changes along the track (a resolved veering).
     """
@@ -477,9 +478,11 @@ def track_modes(sets: Sequence[ModeSet], settings: TrackingSettings | None = Non
         member = np.zeros(k, dtype=int)
         size = np.ones(k, dtype=int)
         mac_previous = np.full(k, math.nan)
+        tracks.append(track)
+        members.append(member)
+        sizes.append(size)
+        macs.append(mac_previous)
         if k == 0:
-            tracks.append(track), members.append(member), sizes.append(size)
-            macs.append(mac_previous)
             continue
         units = group_degenerate(modes.freq_hz, modes.kinds, modes.m, settings.pair_tolerance)
         unit_ids = [-1] * len(units)
@@ -502,21 +505,39 @@ def track_modes(sets: Sequence[ModeSet], settings: TrackingSettings | None = Non
                 member[index] = position
                 size[index] = len(unit)
                 mac_previous[index] = unit_mac[j]
-            history.setdefault(unit_ids[j], []).append(base_label(modes.labels[unit[0]]))
-        tracks.append(track), members.append(member), sizes.append(size)
-        macs.append(mac_previous)
+            history.setdefault(unit_ids[j], []).append(_unit_label(modes, unit))
         previous, previous_units, previous_ids = modes, units, unit_ids
     return TrackingResult(track=tracks, member=members, unit_size=sizes, mac_previous=macs,
                           labels={tid: _track_label(labels) for tid, labels in history.items()})
 
 
+def _unit_label(modes: ModeSet, unit) -> str:
+    """A pair (or an m >= 1 mode) by its base label; an m = 0 single keeps its suffix.
+
+    ``modes.py`` suffixes every repeated (m,n): for m = 0 the suffix tells apart
+    distinct modes (e.g. the radial and the torsional ``ip(0,1)a``/``ip(0,1)b``).
+    """
+    if len(unit) == 2 or modes.m[unit[0]] >= 1:
+        return base_label(modes.labels[unit[0]])
+    return modes.labels[unit[0]]
+
+
 def _track_label(labels: list[str]) -> str:
-    """The most frequent label (ties: first); distinct labels joined by '->' if it changes."""
-    distinct = list(dict.fromkeys(labels))
-    if len(distinct) == 1:
-        return distinct[0]
-    counts = Counter(labels)
-    best = max(distinct, key=lambda label: (counts[label], -distinct.index(label)))
-    if counts[best] >= 0.8 * len(labels):   # an occasional label flicker, not a branch change
-        return best
-    return "->".join(distinct)
+    """The most frequent label (ties: first); base labels joined by '->' if it changes.
+
+    Suffix-only differences (``ip(0,1)a`` at one point, ``ip(0,1)`` where its
+    sibling left the band) are not a change.
+    """
+    def most_frequent(items):
+        counts = Counter(items)
+        distinct = list(dict.fromkeys(items))
+        return max(distinct, key=lambda item: (counts[item], -distinct.index(item)))
+
+    bases = [base_label(label) for label in labels]
+    distinct_bases = list(dict.fromkeys(bases))
+    if len(distinct_bases) == 1:
+        return most_frequent(labels)
+    best = most_frequent(bases)
+    if Counter(bases)[best] >= 0.8 * len(bases):   # an occasional flicker, not a branch change
+        return most_frequent([label for label in labels if base_label(label) == best])
+    return "->".join(distinct_bases)

@@ -1,0 +1,126 @@
+"""Diagnose model-measurement disagreement: which physical effect is missing (issue 5).
+
+Pipeline (data flows one way; each module pure except ``report`` and the
+two actions below):
+
+``measured``  ``measured.yaml`` + resonance/spectrum CSVs -> :class:`MeasuredSet` (checked)
+``effects``   the catalogue: 8 effects, parameters, signatures, study overrides
+``airmass``   incompressible-air added mass of axisymmetric modes (effect air_loading)
+``engine``    reduced-model modes and spectra of a condition under an effect state
+``peaks``     resonance peaks of measured spectra
+``compare``   one-to-one matching, deviance (-2 ln L), the headline gap
+``select``    fit, cross-validate, test, rank; ambiguity; the loop
+``report``    report.md, diagnosis.json, PNG figures, final_study.yaml
+``synth``     synthetic measurements with chosen effects on
+
+Actions (used by ``copdea-fem diagnose`` and ``copdea-fem synth``; each
+returns a summary dict with ``files`` and ``lines`` to print; outputs are
+staged and moved into place only when complete):
+
+- :func:`run_diagnose` (MEASURED.yaml -> report directory)
+- :func:`run_synth` (STUDY + effects + conditions -> measured data set)
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from copdea_fem.diagnose.effects import CATALOGUE, EFFECT_IDS, Effect, Parameter, catalogue_table
+from copdea_fem.diagnose.measured import MeasuredDataError, MeasuredSet, load_measured
+from copdea_fem.diagnose.select import Diagnoser, DiagnosisResult
+
+
+def run_diagnose(measured_path, out_dir=None, progress=None, alpha: float = 0.05) -> dict:
+    """Diagnose a measured data set and write the report.
+
+    Parameters
+    ----------
+    measured_path : path
+        ``measured.yaml`` (:mod:`copdea_fem.diagnose.measured`).
+    out_dir : path, optional
+        Default ``results/diagnose_<name>``.
+    alpha : float
+        False-alarm probability per step (:mod:`copdea_fem.diagnose.select`).
+
+    Returns
+    -------
+    dict with ``result`` (DiagnosisResult), ``files``, ``out`` and ``lines``.
+    """
+    from copdea_fem.diagnose.report import write_report
+    from copdea_fem.output import result_directory
+    from copdea_fem.study import StudyError
+    if not 0 < alpha < 1:
+        raise StudyError(f"--alpha = {alpha!r} is not allowed; allowed: (0, 1)")
+    measured = load_measured(measured_path)
+    out = Path(out_dir) if out_dir else Path("results") / f"diagnose_{measured.name}"
+    result = Diagnoser(measured, alpha=alpha, progress=progress).run()
+    with result_directory(out) as staging:
+        files = write_report(result, staging)
+    files = [out / f.name for f in files]
+    lines = [result.verdict,
+             f"gap {100 * result.gap_before:.2f} % -> {100 * result.gap_after:.2f} %; "
+             f"missing: {', '.join(result.missing_effects) or 'none'}; ambiguous: "
+             f"{'; '.join('/'.join(g) for g in result.ambiguous) or 'none'}",
+             f"wrote {len(files)} files to {out} (report.md, diagnosis.json)"]
+    return {"result": result, "files": [str(f) for f in files], "out": str(out),
+            "lines": lines}
+
+
+def run_synth(study, effects_text, conditions_text=None, parameters=None, options=None,
+              out_dir=None) -> dict:
+    """Synthetic measurement set (``copdea-fem synth``), see :mod:`copdea_fem.diagnose.synth`.
+
+    Parameters
+    ----------
+    study : Study
+        The base study (written as the set's ``base_study.yaml``).
+    effects_text : str
+        Comma-separated effect identifiers switched on in the truth ("" for none).
+    conditions_text : str, optional
+        ``"load.z=11 mm, load.voltage=2 kV; load.z=16 mm"`` (default: five of the paper's
+        operating points of G1).
+    parameters : list of str, optional
+        ``["air_loading.scale=1.2", ...]``.
+    options : SynthOptions, optional
+    out_dir : path, optional
+        Default ``results/synth_<study name>_seed<N>``.
+    """
+    from copdea_fem.diagnose.effects import parse_effect_list
+    from copdea_fem.diagnose.synth import (SynthOptions, parse_conditions, parse_parameters,
+                                           synthesise, write_synthetic)
+    from copdea_fem.output import result_directory
+    from copdea_fem.study import StudyError
+    options = options or SynthOptions()
+    options.check()
+    names = parse_effect_list(effects_text or "")
+    given = parse_parameters(parameters)
+    for effect_id in given:
+        if effect_id not in names:
+            raise StudyError(f"--param {effect_id}.* is not allowed; allowed: parameters of "
+                             f"the effects in --effects ({', '.join(names) or 'none'})")
+    effects = {}
+    for effect_id in names:
+        entry = CATALOGUE[effect_id]
+        values = given.get(effect_id, {})
+        effects[effect_id] = tuple(values.get(p.name, p.default) for p in entry.parameters)
+    conditions = parse_conditions(conditions_text)
+    items = synthesise(study, effects, conditions, options)
+    out = Path(out_dir) if out_dir else Path("results") / f"synth_{study.name}_seed{options.seed}"
+    with result_directory(out) as staging:
+        files = write_synthetic(study, effects, items, options, staging)
+    files = [out / f.name for f in files]
+    truth = ", ".join(f"{e} ({CATALOGUE[e].describe_values(v)})" if v else e
+                      for e, v in effects.items()) or "no effect added"
+    lines = [f"{len(items)} conditions: " + ", ".join(
+        f"{i.name} ({len(i.resonances)} peaks{', spectrum' if i.spectrum is not None else ''})"
+        for i in items),
+        f"truth: {truth}; seed {options.seed}",
+        f"wrote {len(files)} files to {out}; diagnose with: copdea-fem diagnose "
+        f"{out / 'measured.yaml'}"]
+    return {"files": [str(f) for f in files], "out": str(out), "lines": lines,
+            "conditions": [i.name for i in items]}
+
+
+__all__ = ["CATALOGUE", "EFFECT_IDS", "Effect", "Parameter", "catalogue_table",
+           "MeasuredDataError", "MeasuredSet", "load_measured", "Diagnoser", "DiagnosisResult",
+           "run_diagnose", "run_synth"]

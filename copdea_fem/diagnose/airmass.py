@@ -34,10 +34,10 @@ For ``w = alpha + beta r`` on ``[a, b]`` the transform is closed form:
 
 and (A1) is integrated by 8-point Gauss-Legendre panels of width pi / r_max
 in k (W^2 oscillates with period pi / r_max) up to
-``k_max = 40 / min(segment length)``.  The tail beyond ``k_max`` is
+``k_max = 25 / min(segment length)``.  The tail beyond ``k_max`` is
 ``~ rho_a r / k_max^2`` per unit jump of w at radius r (piston asymptotics,
-``W^2 ~ a / (pi k^3)``): 2e-4 of a piston's added mass (a test checks it),
-below 1e-6 for ring-model modes, which vanish at both rims.
+``W^2 ~ a / (pi k^3)``): 6e-4 of a piston's added mass (a test checks it),
+about 1e-6 for ring-model modes, which vanish at both rims.
 """
 
 from __future__ import annotations
@@ -105,7 +105,7 @@ def face_added_mass(segments, air_density: float) -> float:
     segments = [tuple(map(float, s)) for s in segments]
     r_max = max(s[1] for s in segments)
     shortest = min(s[1] - s[0] for s in segments)
-    k_max = 40.0 / shortest
+    k_max = 25.0 / shortest
     panel = math.pi / r_max
     edges = np.arange(0.0, k_max + panel, panel)
     nodes, weights = np.polynomial.legendre.leggauss(_GAUSS_POINTS)

@@ -13,13 +13,17 @@ Matching (one-to-one, per condition)
    when a spectrum gives the peak's radial/axial ratio rho,
    ``c_u (ln(rho_meas/rho_model) / ln 3)^2 / 4`` capped at ``c_u / 2``
    (c_u below; the measured ratio of a small peak is floor-dominated, so it
-   never vetoes a pair); pairs must agree in kind (pumping vs membrane) and
-   lie within the gate ``|ln(f_meas/f_model)| <= ln(1 + GATE)``, GATE = 50 %:
-   wider than the largest air-loading shift, 30 % in the paper (Sect. 5.2)
-   and up to 38 % for (0,1) with the incompressible estimate at z = 18 mm,
-   so a model that misses the air is still paired mode by mode.  Leaving a
-   peak or a mode unpaired costs ``c_u = ln(1 + GATE)^2`` each, so any
-   admissible pair is taken.
+   never vetoes a pair); pairs must agree in kind (pumping vs membrane).  A
+   peak whose kind is known (its shape was seen) may pair within the gate
+   ``|ln(f_meas/f_model)| <= ln(1 + GATE)``, GATE = 50 %: wider than the
+   largest air-loading shift, 30 % in the paper (Sect. 5.2) and up to 38 %
+   for (0,1) with the incompressible estimate at z = 18 mm, so a model that
+   misses the air is still paired mode by mode.  A peak of unknown kind
+   (no shape evidence: it may be spurious) pairs only where the pairing is
+   more likely than a missed mode plus a spurious peak under the noise model
+   below, ``e^2/sigma_f^2 + const <= c_miss + c_spur`` (about 4 sigma_f).
+   Leaving a peak or a mode unpaired costs ``c_u = ln(1 + GATE)^2`` each, so
+   any admissible pair is taken.
 4. Expected model modes inside the band left unpaired are "predicted, not
    seen"; unpaired in-scope peaks are "unexplained".
 
@@ -28,10 +32,13 @@ Deviance (the likelihood the selection works with)
 -2 ln L of a mixture model of an identified peak list, with the noise
 model of the manifest (sigma_f, sigma_Q, p_miss, lambda_s):
 
-- a mode in the band is found with probability 1 - p_miss, its ln f with
-  Gaussian scatter sigma_f: ``d_f = e^2/sigma_f^2 + 2 ln(sqrt(2 pi) sigma_f)
+- a mode is found with probability 1 - p_miss, its ln f with Gaussian
+  scatter sigma_f: ``d_f = e^2/sigma_f^2 + 2 ln(sqrt(2 pi) sigma_f)
   - 2 ln(1 - p_miss)``, e = ln(f_meas / f_model);
-- a mode not found: ``c_miss = -2 ln p_miss``;
+- a mode not found: ``c_miss = -2 ln(1 - (1 - p_miss) p_in)``, where
+  ``p_in = Phi((ln f_high - ln f)/sigma_f) - Phi((ln f_low - ln f)/sigma_f)``
+  is the chance that its measured peak falls inside the band (a mode at
+  the band edge is seen half the time; p_in = 1 inside: ``-2 ln p_miss``);
 - a spurious peak (Poisson, lambda_s per condition, uniform in ln f over the
   band of width W = ln(f_high / f_low)): ``c_spur = -2 ln(lambda_s / W)``;
 - a quality factor, if both sides have one: ``d_Q = e_Q^2/sigma_Q^2 +
@@ -45,10 +52,16 @@ Gap (the headline number)
 -------------------------
 ``gap = sqrt((sum r^2 + GATE^2 N_excess) / (N_pairs + N_excess))``: the RMS
 relative frequency error ``r = f_model/f_meas - 1`` over all pairs, with
-every unexplained peak or unseen mode beyond what the noise model expects
-(``p_miss`` per mode in the band plus ``lambda_s`` per condition) counted as
-an error of GATE, the largest error a pair may have.  Dimensionless; 0.02
-means the model is 2 % off on average.
+every unexplained peak or unseen mode beyond what the noise model explains
+counted as an error of GATE, the largest error a pair may have.  The noise
+model expects ``E = sum q + sum lambda_s`` of them, q = 1 - (1 - p_miss)
+p_in per model mode in the band (p_in >= 1/2) and lambda_s per condition,
+with variance ``V = sum q (1 - q) + sum lambda_s`` (binomial + Poisson);
+``N_excess = max(0, N_unexplained - E - 2 sqrt(V))``: only a count the
+detection noise cannot produce (beyond two standard deviations) counts, so
+the gap of a right model stays at the frequency scatter whatever the
+random number of missed peaks.  Dimensionless; 0.02 means the model is
+2 % off on average.
 """
 
 from __future__ import annotations
@@ -119,7 +132,9 @@ class ConditionMatch:
     deviance : float
         -2 ln L (module notes) [-].
     expected_unexplained : float
-        p_miss x (expected modes in band) + lambda_s [-].
+        E of this condition: sum of q over the model modes in the band + lambda_s [-].
+    variance_unexplained : float
+        V of this condition [-].
     """
 
     condition: str
@@ -130,6 +145,7 @@ class ConditionMatch:
     band: tuple
     deviance: float
     expected_unexplained: float
+    variance_unexplained: float = 0.0
 
 
 class DevianceTerms:
@@ -142,9 +158,12 @@ class DevianceTerms:
         self.match = 2 * math.log(math.sqrt(2 * math.pi) * sigma) - 2 * math.log(
             1 - noise.missing_probability)
         self.q_match = 2 * math.log(math.sqrt(2 * math.pi) * sigma_q)
+        self.p_miss = noise.missing_probability
+        self.log_band = (math.log(band[0]), math.log(band[1]))
         self.miss = -2 * math.log(noise.missing_probability)
         self.spurious = -2 * math.log(noise.spurious_per_condition / width)
         self.q_uniform = 2 * math.log(_Q_RANGE)
+        self._strict = self._strict_gate()
 
     def pair(self, model, peak) -> float:
         d = math.log(peak.frequency_hz / model.frequency_hz) ** 2 / self.sigma ** 2 + self.match
@@ -158,6 +177,28 @@ class DevianceTerms:
             outlier += self.q_uniform
         return _softmin(d, outlier)
 
+    def strict_gate(self) -> float:
+        """|ln(f_meas/f_model)| up to which a pair beats a miss plus a spurious peak."""
+        return self._strict
+
+    def _strict_gate(self) -> float:
+        room = self.miss + self.spurious - self.match
+        return self.sigma * math.sqrt(max(room, 0.0))
+
+    def inside(self, frequency_hz: float) -> float:
+        """p_in: chance that a mode at this model frequency is measured inside the band."""
+        x = math.log(frequency_hz)
+        root2 = math.sqrt(2) * self.sigma
+        return 0.5 * (math.erf((self.log_band[1] - x) / root2)
+                      - math.erf((self.log_band[0] - x) / root2))
+
+    def unseen_probability(self, frequency_hz: float) -> float:
+        """q = 1 - (1 - p_miss) p_in: chance that a mode leaves no peak in the band."""
+        return 1 - (1 - self.p_miss) * self.inside(frequency_hz)
+
+    def lone_mode(self, mode) -> float:
+        return -2 * math.log(self.unseen_probability(mode.frequency_hz))
+
     def lone_peak(self, peak) -> float:
         q = self.q_uniform if math.isfinite(peak.quality_factor) else 0.0
         return self.spurious + q
@@ -169,8 +210,12 @@ def _softmin(a: float, b: float) -> float:
     return low - 2 * math.log1p(math.exp(-abs(a - b) / 2))
 
 
-def match_condition(name, model_modes, peaks, band, noise: NoiseModel) -> ConditionMatch:
-    """Pair model modes and measured peaks of one condition and score them (module notes)."""
+def match_condition(name, model_modes, peaks, band, noise: NoiseModel,
+                    terms: "DevianceTerms | None" = None) -> ConditionMatch:
+    """Pair model modes and measured peaks of one condition and score them (module notes).
+
+    ``terms`` (optional) are the condition's :class:`DevianceTerms`, to save rebuilding them.
+    """
     in_scope = [p for p in peaks if p.kind != "non-axisymmetric"]
     out_of_scope = tuple(p for p in peaks if p.kind == "non-axisymmetric")
     expected = [m for m in model_modes if m.expected]
@@ -189,8 +234,9 @@ def match_condition(name, model_modes, peaks, band, noise: NoiseModel) -> Condit
             unlabelled.append(peak)
     reach = (band[0] / (1 + GATE), band[1] * (1 + GATE))
     free = [m for m in expected if m.label not in used and reach[0] <= m.frequency_hz <= reach[1]]
+    terms = terms or DevianceTerms(noise, band)
     if unlabelled and free:
-        assigned = _assign(unlabelled, free)
+        assigned = _assign(unlabelled, free, terms.strict_gate())
         for i, peak in enumerate(unlabelled):
             j = assigned.get(i)
             if j is None:
@@ -200,28 +246,30 @@ def match_condition(name, model_modes, peaks, band, noise: NoiseModel) -> Condit
                 used.add(free[j].label)
     else:
         unexplained.extend(unlabelled)
-    unseen = tuple(m for m in expected if m.label not in used
-                   and band[0] <= m.frequency_hz <= band[1])
-    terms = DevianceTerms(noise, band)
+    lonely = [m for m in expected if m.label not in used]
+    inside = {m.label: terms.inside(m.frequency_hz) for m in expected}
+    unseen = tuple(m for m in lonely if inside[m.label] >= 0.5)
     deviance = (sum(terms.pair(p.model, p.peak) for p in pairs)
-                + terms.miss * len(unseen) + sum(terms.lone_peak(p) for p in unexplained))
-    in_band = sum(1 for m in expected if band[0] <= m.frequency_hz <= band[1])
+                + sum(terms.lone_mode(m) for m in lonely)
+                + sum(terms.lone_peak(p) for p in unexplained))
+    q = [terms.unseen_probability(m.frequency_hz) for m in expected if inside[m.label] >= 0.5]
+    spurious = noise.spurious_per_condition
     pairs.sort(key=lambda p: p.peak.frequency_hz)
     return ConditionMatch(
         condition=name, pairs=tuple(pairs), unseen=unseen,
         unexplained=tuple(sorted(unexplained, key=lambda p: p.frequency_hz)),
         out_of_scope=out_of_scope, band=tuple(band), deviance=float(deviance),
-        expected_unexplained=noise.missing_probability * in_band
-        + noise.spurious_per_condition)
+        expected_unexplained=float(sum(q) + spurious),
+        variance_unexplained=float(sum(x * (1 - x) for x in q) + spurious))
 
 
-def _assign(peaks, modes) -> dict:
-    """Hungarian assignment of peaks to modes with the gate (module notes); {peak: mode}."""
+def _assign(peaks, modes, strict_limit: float) -> dict:
+    """Hungarian assignment of peaks to modes with the gates (module notes); {peak: mode}."""
     n_p, n_m = len(peaks), len(modes)
     big = 1e6
     cost = np.full((n_p + n_m, n_m + n_p), big)
-    limit = math.log(1 + GATE)
     for i, peak in enumerate(peaks):
+        limit = math.log(1 + GATE) if peak.kind else min(strict_limit, math.log(1 + GATE))
         for j, mode in enumerate(modes):
             if peak.kind and peak.kind != mode.kind:
                 continue
@@ -248,7 +296,8 @@ def gap(matches) -> float:
     errors = [p.relative_error for m in matches for p in m.pairs]
     unexplained = sum(len(m.unseen) + len(m.unexplained) for m in matches)
     expected = sum(m.expected_unexplained for m in matches)
-    excess = max(0.0, unexplained - expected)
+    spread = math.sqrt(sum(m.variance_unexplained for m in matches))
+    excess = max(0.0, unexplained - expected - 2 * spread)
     count = len(errors) + excess
     if count == 0:
         return 0.0
@@ -262,10 +311,11 @@ def total_deviance(matches) -> float:
 def residual_summary(matches, conditions_meta=None) -> dict:
     """Residual patterns over the pairs (the evidence a winner removes).
 
-    Returns a dict with per-label mean relative error, the slope of ln(f_meas/f_model)
-    against ln f (error growing with frequency), against V_b^2 and against z (when
-    ``conditions_meta`` maps condition -> {"voltage": V, "z": m}), the number of
-    unexplained peaks (and of those pistonic), unseen modes, and the median ln Q ratio.
+    Returns a dict with per-label mean relative error; the change of ln(f_meas/f_model)
+    across the data's range of ln f (an error growing with frequency), of V_b^2 and of z
+    (least-squares slope times range; ``conditions_meta`` maps condition -> {"voltage": V,
+    "z": m}); the number of unexplained peaks (and of those pistonic), unseen modes, and
+    the median ln Q ratio.
     """
     by_label: dict = {}
     xs, ys, vs, zs = [], [], [], []
@@ -283,18 +333,19 @@ def residual_summary(matches, conditions_meta=None) -> dict:
                 q_ratios.append(math.log(q_meas / q_model) if math.isfinite(q_model)
                                 else -math.inf)
 
-    def slope(x, y):
+    def span(x, y):
+        """Least-squares slope of y on x times the range of x: the change across the data."""
         x, y = np.asarray(x, float), np.asarray(y, float)
         if x.size < 3 or np.ptp(x) == 0:
             return 0.0
-        return float(np.polyfit(x - x.mean(), y, 1)[0])
+        return float(np.polyfit(x - x.mean(), y, 1)[0] * np.ptp(x))
 
     return {
         "mean_error_by_label": {label: float(np.mean(v)) for label, v in sorted(by_label.items())},
         "mean_log_error": float(np.mean(ys)) if ys else 0.0,
-        "slope_vs_log_frequency": slope(xs, ys),
-        "slope_vs_voltage_squared": slope(vs, ys),
-        "slope_vs_z": slope(zs, ys),
+        "span_vs_log_frequency": span(xs, ys),
+        "span_vs_voltage_squared": span(vs, ys),
+        "span_vs_z": span(zs, ys),
         "unexplained": sum(len(m.unexplained) for m in matches),
         "unexplained_pumping": sum(1 for m in matches for p in m.unexplained
                                    if p.kind == "pumping" or p.label.startswith("P")),

@@ -114,13 +114,24 @@ class _Reference:
 
 @dataclass(frozen=True)
 class Prediction:
-    """Modes (and, on demand, spectra) of one condition under one effect state."""
+    """Modes (and, on demand, spectra) of one condition under one effect state.
+
+    ``structural_study`` is validated; the effect overrides of the cheap keys
+    (:data:`CHEAP_KEYS`) are in ``overrides`` and :attr:`study` applies them.
+    """
 
     modes: tuple
-    study: object
+    structural_study: object
     reference: _Reference
     cheap: dict
+    overrides: dict
     perturbation: dict | None = None
+
+    @property
+    def study(self):
+        """The full, validated study of this prediction."""
+        cheap = {k: v for k, v in self.overrides.items() if k in CHEAP_KEYS}
+        return self.structural_study.replace(cheap) if cheap else self.structural_study
 
     def mode(self, label):
         return next((m for m in self.modes if m.label == label), None)
@@ -171,6 +182,17 @@ class Engine:
         base = self.condition_study(condition)
         return base.replace(state_overrides(base, state)) if state else base
 
+    def _structural(self, condition, structural: dict):
+        key = (condition.name, tuple(sorted(map(str, condition.overrides.items()))),
+               tuple(sorted(structural.items(), key=lambda item: item[0])))
+        study = self._conditions.get(key)
+        if study is None:
+            base = self.condition_study(condition)
+            study = self._conditions[key] = base.replace(structural) if structural else base
+            if len(self._conditions) > self._cache_size:
+                self._conditions.pop(next(iter(self._conditions)))
+        return study
+
     def predict(self, condition, state=(), perturbation=None) -> Prediction:
         """Model modes of a condition under an effect state.
 
@@ -184,15 +206,22 @@ class Engine:
         ReducedModelError, StudyError
             The state is outside what the model can do (e.g. loss of tension).
         """
-        study = self.study(condition, state)
-        return self.predict_study(study, condition, perturbation)
+        base = self.condition_study(condition)
+        overrides = state_overrides(base, state)
+        structural = {k: v for k, v in overrides.items() if k not in CHEAP_KEYS}
+        study = self._structural(condition, structural)
+        cheap = _cheap_values(study, {k: v for k, v in overrides.items() if k in CHEAP_KEYS})
+        return self._predict(study, condition, cheap, overrides, perturbation)
 
     def predict_study(self, study, condition, perturbation=None) -> Prediction:
+        """Prediction for a full study (already holding any effect keys)."""
+        return self._predict(study, condition, _cheap_values(study), {}, perturbation)
+
+    def _predict(self, study, condition, cheap, overrides, perturbation):
         reference = self._reference(study, condition)
-        cheap = _cheap_values(study)
         modes = _modes(reference, cheap, condition.band, perturbation)
-        return Prediction(modes=modes, study=study, reference=reference, cheap=cheap,
-                          perturbation=perturbation)
+        return Prediction(modes=modes, structural_study=study, reference=reference, cheap=cheap,
+                          overrides=overrides, perturbation=perturbation)
 
     # -- reference builds --------------------------------------------------------------------
     def _reference(self, study, condition) -> _Reference:
@@ -253,14 +282,17 @@ def _frozen(study, exclude=()) -> tuple:
     return tuple(items)
 
 
-def _cheap_values(study) -> dict:
-    e, s = study["effects"], study["spring"]
-    return {"air_mass_scale": e["air_mass_scale"],
-            "viscoelastic_strength": e["viscoelastic_strength"],
-            "viscoelastic_time": e["viscoelastic_time"],
-            "spring_mass": s["mass"], "spring_stiffness": s["stiffness"],
-            "spring_length": s["length"],
-            "damping": {label: study.get(damping_key(label))
+def _cheap_values(study, overrides=None) -> dict:
+    """The closed-form keys of a study, ``overrides`` (SI values, within the schema's
+    bounds: they come from the catalogue's fit bounds) taking precedence."""
+    overrides = overrides or {}
+    get = lambda key: float(overrides[key]) if key in overrides else study.get(key)  # noqa
+    return {"air_mass_scale": get("effects.air_mass_scale"),
+            "viscoelastic_strength": get("effects.viscoelastic_strength"),
+            "viscoelastic_time": get("effects.viscoelastic_time"),
+            "spring_mass": get("spring.mass"), "spring_stiffness": study["spring"]["stiffness"],
+            "spring_length": study["spring"]["length"],
+            "damping": {label: get(damping_key(label))
                         for label in ("P1", "(0,1)", "(0,2)", "(0,3)")}}
 
 
@@ -276,30 +308,38 @@ class _ModeEquation:
         label = reference.labels[index]
         factor = (perturbation or {}).get(label, 1.0) ** 2
         self.label = label
-        self.stiffness = factor * reference.stiffness[index]
-        self.elastic = factor * reference.elastic_stiffness[index]
+        self.stiffness = float(factor * reference.stiffness[index])
+        self.elastic = float(factor * reference.elastic_stiffness[index])
         added = reference.added_mass[index]
         if label != "P1":
             added = added * cheap["air_mass_scale"]
-        self.mass = reference.modal_mass[index] + added
+        self.mass = float(reference.modal_mass[index] + added)
         self.strength = cheap["viscoelastic_strength"]
         self.time = cheap["viscoelastic_time"]
-        self.damping = _damping_per_mass(cheap, label) * reference.modal_mass[index]
+        self.damping = float(_damping_per_mass(cheap, label) * reference.modal_mass[index])
         self.spring = None
         if label == "P1" and cheap["spring_mass"] > 0 and cheap["spring_stiffness"] > 0:
             speed = (perturbation or {}).get("spring", 1.0)
             self.spring = (cheap["spring_stiffness"],
                            math.sqrt(cheap["spring_mass"] / cheap["spring_stiffness"]) / speed,
-                           reference.disc_amplitude ** 2)
+                           float(reference.disc_amplitude ** 2))
 
     def stiffness_at(self, omega):
-        omega = np.asarray(omega, float)
         if self.strength == 0:
             return self.stiffness + 0 * omega
         x2 = (omega * self.time) ** 2
         return self.stiffness + self.strength * x2 / (1 + x2) * self.elastic
 
     def residual(self, omega):
+        """R(w) of (E1) [N/m]; w a float (fast path for root finding) or an array."""
+        if isinstance(omega, float):
+            value = self.stiffness_at(omega) - omega * omega * self.mass
+            if self.spring is not None:
+                k_d, slowness, a2 = self.spring
+                theta = omega * slowness
+                cot = theta / math.tan(theta) if theta != 0 else 1.0
+                value += a2 * k_d * (cot - 1)
+            return value
         omega = np.asarray(omega, float)
         value = self.stiffness_at(omega) - omega ** 2 * self.mass
         if self.spring is not None:

@@ -25,7 +25,7 @@ Manifest (paths relative to the manifest's folder)::
         modes_json: fe/modes.json    # optional: coupled FE frequencies (effect air_loading)
 
 Resonance CSV: ``freq_hz`` [Hz] and optionally ``label`` (``P1``, ``(0,1)``,
-``(1,1)a``, empty = unknown), ``quality_factor`` [-] and ``kind``
+``(1,1)a``, empty = unknown; quoted or not), ``quality_factor`` [-] and ``kind``
 (``pumping``: the disc moves, ``axisymmetric``, ``non-axisymmetric``; empty =
 unknown; a label implies its kind).  Spectrum CSV: ``freq_hz`` [Hz] with
 either ``v_axial, v_radial`` or the vibrometer's ``v_x, v_y, v_z`` [m/s,
@@ -47,7 +47,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from copdea_fem.diagnose.effects import CATALOGUE, EFFECT_IDS, parse_effect_list
+from copdea_fem.diagnose.effects import EFFECT_IDS, parse_effect_list
 from copdea_fem.study import Study, StudyError, load_study
 
 
@@ -220,6 +220,24 @@ def _number(text, where, positive=True, allow_empty=False):
     return value
 
 
+def _rejoin_labels(row, width):
+    """An unquoted label ``(0,1)`` splits into ``(0`` and ``1)``: join such cells back."""
+    if len(row) <= width:
+        return row
+    out, i = [], 0
+    while i < len(row):
+        cell = row[i]
+        if cell.strip().startswith("(") and ")" not in cell:
+            j = i
+            while j + 1 < len(row) and ")" not in row[j]:
+                j += 1
+            cell = ",".join(row[i:j + 1])
+            i = j
+        out.append(cell)
+        i += 1
+    return out
+
+
 def read_resonances(path, key: str = "resonances") -> tuple:
     """Resonance CSV -> tuple of :class:`Resonance`, sorted by frequency."""
     path = Path(path)
@@ -231,6 +249,7 @@ def read_resonances(path, key: str = "resonances") -> tuple:
     index = {name: header.index(name) for name in header}
     out, seen = [], {}
     for line, row in enumerate(rows, start=2):
+        row = _rejoin_labels(row, len(header))
         where = f"{path.name} line {line}"
         cell = lambda name: row[index[name]] if name in index and index[name] < len(row) \
             else ""  # noqa: E731
@@ -407,14 +426,6 @@ def _parse_condition(item, index, base: Study, folder: Path) -> Condition:
                      spectrum=spectrum, band=band, fe_frequencies=fe, files=files)
 
 
-def effect_owner(key: str) -> str | None:
-    """The catalogue effect (or section) that owns a study key, if any."""
-    for prefix, owner in EFFECT_KEYS.items():
-        if key.startswith(prefix):
-            return owner
-    return None
-
-
 __all__ = ["MeasuredDataError", "NoiseModel", "Resonance", "Spectrum", "Condition",
            "MeasuredSet", "load_measured", "parse_measured", "read_resonances", "read_spectrum",
-           "normalise_label", "CATALOGUE"]
+           "normalise_label"]

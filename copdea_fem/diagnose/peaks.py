@@ -11,7 +11,9 @@ Method, on ``L = ln(v_axial + v_radial)`` (|FFT|/N magnitudes [m/s]):
 - peaks are local maxima with a topographic prominence of at least
   ``max(5 sigma_L, ln 1.5)`` (:func:`scipy.signal.find_peaks`): five noise
   standard deviations, and never less than a factor 1.5 that the chirp's
-  line-to-line ripple (+-25 %, Sect. 4.2) cannot make;
+  line-to-line ripple (+-25 %, Sect. 4.2) cannot make; and at least 1 % of
+  the largest line (a 40 dB usable range: below it the floor's own wiggles
+  pass the prominence test);
 - frequency: vertex of a parabola fitted to L over the lines within ln sqrt(2)
   of the top (at least the 3 lines around it);
 - half-power width from the lines where the spectrum crosses top / sqrt(2)
@@ -30,6 +32,7 @@ import scipy.signal
 from copdea_fem.diagnose.compare import MeasuredPeak
 
 MIN_QUALITY = 3.0
+DYNAMIC_RANGE = 0.01     # peaks below this fraction of the largest line are not identified
 
 
 def line_noise(log_values) -> float:
@@ -47,7 +50,8 @@ def find_spectrum_peaks(frequency_hz, axial, radial, band=None) -> list[Measured
     floor = np.min(total[positive]) if np.any(positive) else 1.0
     log_total = np.log(np.maximum(total, floor))
     threshold = max(5 * line_noise(log_total), math.log(1.5))
-    indices, _ = scipy.signal.find_peaks(log_total, prominence=threshold)
+    indices, _ = scipy.signal.find_peaks(log_total, prominence=threshold,
+                                         height=math.log(DYNAMIC_RANGE * np.max(total)))
     spacing = float(np.median(np.diff(f)))
     peaks = []
     for index in indices:

@@ -219,7 +219,7 @@ class ReducedModel:
         return np.sqrt(self.modal_stiffness / self.modal_mass) / (2 * math.pi)
 
     def stiffness_at(self, angular_frequency) -> np.ndarray:
-        """k_j(w) = k_j + (g(w) - 1) k_el,j [N/m], shape (..., modes) for w [rad/s] of shape (...)."""
+        """k_j(w) = k_j + (g(w) - 1) k_el,j [N/m]: shape (..., modes) for w [rad/s] (...)."""
         omega = np.asarray(angular_frequency, float)[..., None]
         if self.viscoelastic_strength == 0 or self.elastic_stiffness is None:
             return np.broadcast_to(self.modal_stiffness, omega.shape[:-1] + (len(self.labels),))

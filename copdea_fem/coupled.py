@@ -1,0 +1,322 @@
+"""Fully-coupled membrane-air eigenproblem about the prestressed state (Sect. 3.1.3).
+
+Unknowns ``x = (u, p)``: the membrane displacement on its free DOFs (plus the
+rigid disc DOF when the disc rides on the spring) [m] and the air pressure with
+its jump across the screens [Pa] (:func:`acoustics.pressure_space`).  With the
+forms of :mod:`copdea_fem.acoustics` (eq. A3 there)::
+
+    [ K_s  C^T ] x = omega^2 [ M_s   0  ] x,      C_ij = int_screens [p'_i] (u_j . n) ds
+    [ 0    K_a ]             [ -C   M_a ]
+
+``K_s, M_s`` come from :mod:`linearise` (flat reference, Lagrangian);
+``K_a, M_a, C`` are assembled on the deformed air (:mod:`ale`, Eulerian) with
+the PML set, so the pencil is complex and non-symmetric.  The air rows and the
+pressure unknowns are scaled (``p = beta p^``, air rows times ``alpha``) so
+that all blocks have the size of ``K_s``; the eigenvalues do not change and the
+relative residuals of :mod:`eigen` then weigh both physics alike.
+
+Modes whose kinetic energy lies mostly in the air (``air.min_membrane_energy``)
+are air/PML modes (``kind = "air"``).  Each structural mode is matched to the
+dry mode of the same operators (same mesh) by label and by the modal assurance
+criterion of the membrane displacement; ``added_mass_ratio = (f_dry/f)^2 - 1``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import ngsolve as ngs
+import numpy as np
+import scipy.sparse as sp
+
+from . import acoustics
+from .ale import air_mesh_displacement
+from .linearise import MembraneOperators, to_scipy
+from .membrane import displacement_space, energy_density, tangent_gradient
+from .modes import AIR, Mode, ModeSampler, classify_modes
+
+
+@dataclass
+class CoupledOperators:
+    """The scaled pencil A x = omega^2 B x and what is needed to read its vectors.
+
+    Unknowns are the free DOFs of the product space ``(u, p, q[, w_d])``
+    assembled natively complex in NGSolve; ``membrane_index`` picks the
+    membrane's free DOFs (then the disc DOF) out of them in the order of
+    :class:`MembraneOperators`, ``pressure_index`` the pressure DOFs.
+    """
+
+    stiffness: sp.csr_matrix            # A (scaled)
+    mass: sp.csr_matrix                 # B (scaled)
+    membrane: MembraneOperators
+    pressure_space: object
+    pressure_free: np.ndarray           # free pressure DOFs, positions in pressure_space
+    pressure_index: np.ndarray          # their positions among the unknowns
+    membrane_index: np.ndarray          # membrane free DOFs (+ disc) among the unknowns
+    pressure_scale: float               # beta [Pa per unknown]
+    air_kinetic: sp.csr_matrix          # (1/rho_a) int_air grad p . grad p' (no PML)
+    mesh_motion: object                 # ALE deformation D (GridFunction)
+    factorize: object                   # sigma -> factorisation of A - sigma B (eigen hook)
+
+    @property
+    def membrane_size(self) -> int:
+        return self.membrane.size
+
+
+def _pressure_sign_fixed_normal():
+    """Unit normal of the deformed screens pointing to the + (upper) side."""
+    normal = ngs.specialcf.normal(3)
+    return ngs.IfPos(normal[2], 1.0, -1.0) * normal
+
+
+def assemble_coupled(study, mesh, state, operators: MembraneOperators, progress=None
+                     ) -> CoupledOperators:
+    """Assemble the coupled pencil natively complex on the deformed air with the PML.
+
+    The membrane terms (Hessian of the energy about u0, mass) are integrated on
+    the flat reference; the air and coupling terms with the ALE deformation
+    ``D`` (``dx(..., deformation=D)``).  The disc on the spring is a
+    :class:`ngsolve.NumberSpace` unknown ``w_d`` moving the inner rim through
+    the lift of :mod:`linearise` (``u = u_free + w_d lift``), with mass
+    ``M_d + M_s/3`` and stiffness ``k_d`` spread over the disc face.
+    """
+    progress = progress or (lambda message: None)
+    air, geometry = study["air"], study["geometry"]
+    screens = acoustics.screen_faces(geometry["frame"])
+    if geometry["inner_radius"] == 0:
+        screens = "|".join(face for face in screens.split("|") if face != "disc")
+    progress("air mesh follows the membrane (ALE) ...")
+    motion = air_mesh_displacement(state, mesh, air["domain_radius"])
+    pressure_space = acoustics.pressure_space(mesh, study["mesh"]["pressure_order"], screens)
+    membrane_space = displacement_space(mesh, study["mesh"]["order"], state.has_disc,
+                                        complex_=True)
+    if membrane_space.ndof != state.space.ndof:
+        raise RuntimeError("complex and real membrane spaces differ; cannot couple")
+    spaces = [membrane_space, *pressure_space.components]
+    if operators.disc_dof:
+        spaces.append(ngs.NumberSpace(mesh, complex=True))
+    space = ngs.FESpace(spaces)
+    trial, test = space.TrialFunction(), space.TestFunction()
+    lift = state.disc_lift
+    u = trial[0] + trial[3] * lift if operators.disc_dof else trial[0]
+    v = test[0] + test[3] * lift if operators.disc_dof else test[0]
+    pressure, pressure_test = (trial[1], trial[2]), (test[1], test[2])
+    normal = _pressure_sign_fixed_normal()
+    material, measure = state.material, state.measure
+    density, sound_speed = air["density"], air["sound_speed"]
+
+    def stiffness_terms(form):
+        gradient = tangent_gradient(state.displacement) + tangent_gradient(trial[0])
+        if operators.disc_dof:
+            gradient = gradient + trial[3] * tangent_gradient(lift)
+        form += ngs.Variation(energy_density(None, material, state.voltage, gradient=gradient)
+                              * measure)
+        form += acoustics.screen_coupling(pressure, v * normal, "membrane", deformation=motion)
+        form += acoustics.air_stiffness(pressure, pressure_test, density, deformation=motion)
+        if operators.disc_dof:
+            disc_area = ngs.Integrate(ngs.CF(1) * ngs.ds("disc"), mesh)
+            form += (study["spring"]["stiffness"] / disc_area) * trial[3] * test[3] * ngs.ds("disc")
+            form += acoustics.screen_coupling(pressure, test[3] * normal[2], "disc",
+                                              deformation=motion)
+
+    def mass_terms(form, sign=1.0):
+        form += sign * material.areal_density * u * v * measure
+        form += -sign * acoustics.screen_coupling(pressure_test, u * normal, "membrane",
+                                                  deformation=motion)
+        form += sign * acoustics.air_mass(pressure, pressure_test, density, sound_speed,
+                                          deformation=motion)
+        if operators.disc_dof:
+            disc_area = ngs.Integrate(ngs.CF(1) * ngs.ds("disc"), mesh)
+            disc_mass = study["disc"]["mass"] + study["spring"]["mass"] / 3
+            form += sign * (disc_mass / disc_area) * trial[3] * test[3] * ngs.ds("disc")
+            form += -sign * acoustics.screen_coupling(pressure_test, trial[3] * normal[2],
+                                                      "disc", deformation=motion)
+
+    progress(f"assembling the coupled operators ({space.ndof} DOFs) ...")
+    zero = ngs.GridFunction(space)
+    kinetic = ngs.BilinearForm(space)
+    kinetic += _physical_air_energy(pressure, pressure_test, density, motion)
+    kinetic.Assemble()                   # before the PML: a real energy norm
+    acoustics.set_pml(mesh, air["domain_radius"], air["pml_thickness"])
+    try:
+        stiffness = ngs.BilinearForm(space)
+        stiffness_terms(stiffness)
+        stiffness.AssembleLinearization(zero.vec)      # Hessian at u0 (E(u0 + u) at u = 0)
+        mass = ngs.BilinearForm(space)
+        mass_terms(mass)
+        mass.Assemble()
+    finally:
+        mesh.UnSetPML(acoustics.PML_REGIONS)
+
+    free_mask = np.array(space.FreeDofs())
+    free = np.flatnonzero(free_mask)
+    offsets = np.cumsum([0] + [component.ndof for component in spaces])
+    position = -np.ones(space.ndof, dtype=int)
+    position[free] = np.arange(free.size)
+    membrane_index = position[offsets[0] + operators.free_dofs]
+    if operators.disc_dof:
+        membrane_index = np.append(membrane_index, position[offsets[3]])
+    pressure_global = np.arange(offsets[1], offsets[3])
+    pressure_global = pressure_global[free_mask[pressure_global]]
+    pressure_index = position[pressure_global]
+    pressure_free = pressure_global - offsets[1]
+    a_full = to_scipy(stiffness.mat)[free][:, free].tocsr()
+    b_full = to_scipy(mass.mat)[free][:, free].tocsr()
+    air_kinetic = to_scipy(kinetic.mat)[pressure_global][:, pressure_global].tocsr()
+
+    # scaling (module doc): p = beta p^, air rows times alpha
+    is_air = np.zeros(free.size, dtype=bool)
+    is_air[pressure_index] = True
+    k_s = a_full[~is_air][:, ~is_air]
+    coupling = b_full[is_air][:, ~is_air]
+    beta = _norm(k_s) / _norm(coupling)
+    alpha = _norm(k_s) / (beta * _norm(a_full[is_air][:, is_air]))
+    row_scale = np.where(is_air, alpha, 1.0)
+    column_scale = np.where(is_air, beta, 1.0)
+    scale_rows, scale_columns = sp.diags(row_scale), sp.diags(column_scale)
+    a_scaled = (scale_rows @ a_full @ scale_columns).tocsr()
+    b_scaled = (scale_rows @ b_full @ scale_columns).tocsr()
+
+
+    def factorize(sigma: float):
+        acoustics.set_pml(mesh, air["domain_radius"], air["pml_thickness"])
+        try:
+            return _NativeShiftedInverse(stiffness_terms, mass_terms, space, zero, sigma, free,
+                                         row_scale, column_scale)
+        finally:
+            mesh.UnSetPML(acoustics.PML_REGIONS)
+
+    return CoupledOperators(a_scaled, b_scaled, operators, pressure_space, pressure_free,
+                            pressure_index, membrane_index, beta, air_kinetic, motion, factorize)
+
+
+class _NativeShiftedInverse:
+    """Complex UMFPACK factorisation of the scaled ``A - sigma B``, assembled in NGSolve.
+
+    (A_s - sigma B_s)^-1 = D_r^-1 (A - sigma B)^-1 D_l^-1 for the row/column
+    scalings D_l, D_r.  NGSolve factorises the complex matrix natively (SciPy
+    matrices could only be factorised in their twice-as-large real form).
+    """
+
+    def __init__(self, stiffness_terms, mass_terms, space, zero, sigma, free, row_scale,
+                 column_scale):
+        import time
+
+        start = time.perf_counter()
+        mesh = space.mesh
+        self._mesh = mesh
+        shifted = ngs.BilinearForm(space)
+        stiffness_terms(shifted)
+        mass_terms(shifted, sign=-float(sigma))
+        shifted.AssembleLinearization(zero.vec)
+        self._inverse = shifted.mat.Inverse(space.FreeDofs(), inverse="umfpack")
+        self._form = shifted
+        self._rhs = shifted.mat.CreateColVector()
+        self._solution = shifted.mat.CreateColVector()
+        self._free, self._rows, self._columns = free, row_scale, column_scale
+        self.dtype = np.dtype(complex)
+        self.is_complex = True
+        self.solve_count = 0
+        self.factorisation_seconds = time.perf_counter() - start
+
+    def _solve_vector(self, rhs):
+        self.solve_count += 1
+        values = self._rhs.FV().NumPy()
+        values[:] = 0
+        values[self._free] = rhs / self._rows
+        self._solution.data = self._inverse * self._rhs
+        return self._solution.FV().NumPy()[self._free] / self._columns
+
+    def solve(self, rhs):
+        rhs = np.asarray(rhs)
+        if rhs.ndim == 1:
+            return self._solve_vector(rhs)
+        return np.stack([self._solve_vector(rhs[:, j]) for j in range(rhs.shape[1])], axis=1)
+
+
+def _physical_air_energy(pressure, pressure_test, density, motion):
+    p, q = pressure
+    pt, qt = pressure_test
+    return ((1.0 / density) * ngs.grad(p) * ngs.grad(pt) * ngs.dx("air_upper", deformation=motion)
+            + (1.0 / density) * ngs.grad(p + q) * ngs.grad(pt + qt)
+            * ngs.dx("air_lower", deformation=motion))
+
+
+def _norm(matrix) -> float:
+    return float(abs(matrix).max()) if matrix.nnz else 1.0
+
+
+@dataclass
+class _MembranePart:
+    """Membrane part of coupled eigenpairs, shaped like an eigen.BandResult for modes.py."""
+
+    vectors: np.ndarray
+    freq_hz: np.ndarray
+    freq_im_hz: np.ndarray
+    residuals: np.ndarray
+
+
+def coupled_mode_list(coupled: CoupledOperators, result, min_membrane_energy: float,
+                      sampler: ModeSampler) -> tuple[list[Mode], list[np.ndarray]]:
+    """Classify coupled eigenpairs; returns modes and their pressure vectors [Pa, free DOFs].
+
+    Membrane energy fraction (time-averaged kinetic energies, exact integrals):
+    ``KE_m = |lambda| u^H M_s u``, ``KE_a = beta^2 p^^H K_a0 p^ / |lambda|`` with
+    ``K_a0`` the air stiffness over the physical air (no PML).
+    """
+    membrane_vectors = result.vectors[coupled.membrane_index]
+    pressure_vectors = result.vectors[coupled.pressure_index] * coupled.pressure_scale
+    eigenvalues = np.asarray(result.eigenvalues)
+    fractions = []
+    for k in range(len(eigenvalues)):
+        u, p = membrane_vectors[:, k], pressure_vectors[:, k]
+        magnitude = max(abs(eigenvalues[k]), 1e-300)
+        kinetic_membrane = magnitude * float(np.real(np.vdot(u, coupled.membrane.mass @ u)))
+        kinetic_air = float(np.real(np.vdot(p, coupled.air_kinetic @ p))) / magnitude
+        fractions.append(kinetic_membrane / max(kinetic_membrane + kinetic_air, 1e-300))
+    part = _MembranePart(membrane_vectors, np.asarray(result.freq_hz),
+                         np.asarray(result.freq_im_hz), np.asarray(result.residuals))
+    modes = classify_modes(coupled.membrane, part, sampler)
+    pressures = []
+    full = coupled.membrane.to_full(membrane_vectors)
+    for mode, fraction, k in zip(modes, fractions, range(len(modes))):
+        mode.membrane_energy_fraction = fraction
+        scale = np.linalg.norm(mode.vector) / max(np.linalg.norm(full[:, k]), 1e-300)
+        pressures.append(pressure_vectors[:, k] * scale)
+        if fraction < min_membrane_energy:
+            mode.kind, mode.label, mode.m, mode.n = AIR, "air", 0, 0
+    from .modes import assign_labels
+    structural = [mode for mode in modes if mode.kind != AIR]
+    assign_labels(structural)
+    return modes, pressures
+
+
+def match_dry(modes: list[Mode], dry_modes: list[Mode], membrane_mass) -> dict[int, Mode]:
+    """Dry partner of every structural coupled mode: same (m, n) family, best MAC.
+
+    MAC = |u_c^H M u_d|^2 / (u_c^H M u_c * u_d^H M u_d) on the full membrane
+    vectors; within a degenerate pair the subspace is what matters, so pairs
+    share the dry pair's frequencies (they are equal up to the mesh).
+    """
+    partners = {}
+    used: set[int] = set()
+    for k, mode in enumerate(modes):
+        if mode.kind == AIR:
+            continue
+        best, best_mac = None, -1.0
+        for j, dry in enumerate(dry_modes):
+            if dry.kind != mode.kind or (dry.m, dry.n) != (mode.m, mode.n) or j in used:
+                continue
+            mac = _mac(mode.vector, dry.vector, membrane_mass)
+            if mac > best_mac:
+                best, best_mac = j, mac
+        if best is not None:
+            used.add(best)
+            partners[k] = dry_modes[best]
+    return partners
+
+
+def _mac(a, b, mass) -> float:
+    cross = np.vdot(a, mass @ b)
+    return float(abs(cross) ** 2 / max(np.real(np.vdot(a, mass @ a) * np.vdot(b, mass @ b)),
+                                       1e-300))
