@@ -1,0 +1,136 @@
+"""Fully-coupled membrane-air modes (rung 5): air loading, labels, outputs, convergence."""
+
+import csv
+from pathlib import Path
+
+import meshio
+import numpy as np
+import pytest
+
+from copdea_fem.cli import main
+from copdea_fem.solve import coupled_modes
+from copdea_fem.study import parse_study
+
+ROOT = Path(__file__).resolve().parent.parent
+# coarsest sensible: 9 mm membrane mesh (two elements across G1's 18.5 mm width),
+# pressure order 1 (order 2 in the PML), air elements up to r_o
+COARSE_AIR = {"membrane_size": "9 mm", "order": 2, "pressure_order": 1, "air_size": "35.5 mm"}
+
+
+def coupled_study(**sections):
+    raw = {"air": {"enabled": True}, "mesh": dict(COARSE_AIR), "load": {"voltage": "2 kV"}}
+    for section, values in sections.items():
+        raw.setdefault(section, {}).update(values)
+    return parse_study(raw, name="coupled-test")
+
+
+@pytest.fixture(scope="module")
+def flat():
+    return coupled_modes(coupled_study(eigen={"f_max": "450 Hz"}))
+
+
+def test_air_loading_lowers_every_structural_frequency(flat):
+    structural = [(k, mode) for k, mode in enumerate(flat.modes) if mode.kind == "out-of-plane"]
+    assert len(structural) >= 5
+    for k, mode in structural:
+        dry = flat.dry_partner_hz[k]
+        assert mode.freq_hz < dry, mode.label
+        assert (dry / mode.freq_hz) ** 2 - 1 > 0.05, mode.label   # added mass, not noise
+        assert 0.3 < mode.membrane_energy_fraction < 1.0
+    # (0,1) pushes the most air: largest added-mass ratio (paper Sect. 5.2)
+    ratios = {mode.label: (flat.dry_partner_hz[k] / mode.freq_hz) ** 2 - 1 for k, mode in structural}
+    assert max(ratios, key=ratios.get) == "(0,1)"
+    assert np.all(np.asarray(flat.eigen.residuals) < 1e-6)
+
+
+def test_flat_labels_follow_bessel_order(flat):
+    labels = [mode.label for mode in flat.modes if mode.kind == "out-of-plane"]
+    assert labels[:5] == ["(0,1)", "(1,1)a", "(1,1)b", "(2,1)a", "(2,1)b"]
+
+
+def test_radiation_damping_is_small_and_positive(flat):
+    (mode,) = [m for m in flat.modes if m.label == "(0,1)"]
+    # e^{-i omega t}: a radiating mode decays, Im f < 0, damping ratio > 0 but << 1
+    assert mode.freq_im_hz < 0
+    assert 0 < mode.damping_ratio < 0.01
+
+
+def test_coupled_solve_writes_contract_files(tmp_path):
+    out = tmp_path / "run"
+    code = main(["solve", str(ROOT / "studies/g1_z16_v2.yaml"), "--out", str(out), "--quiet",
+                 "--set", "air.enabled=true", "--set", "eigen.f_max=480 Hz",
+                 "--set", "output.plots=false",
+                 *[f"--set=mesh.{key}={value}" for key, value in COARSE_AIR.items()]])
+    assert code == 0
+    rows = list(csv.DictReader(open(out / "modes.csv")))
+    first = rows[0]
+    assert first["label"] == "(0,1)" and first["kind"] == "out-of-plane"
+    for column in ("freq_hz", "freq_im_hz", "damping_ratio", "membrane_energy_fraction",
+                   "modal_mass", "dry_freq_hz", "added_mass_ratio"):
+        assert first[column] != "", column
+    ratio = float(first["added_mass_ratio"])
+    assert ratio == pytest.approx((float(first["dry_freq_hz"]) / float(first["freq_hz"])) ** 2 - 1)
+    assert 0.2 < ratio < 1.5
+    air_files = sorted(out.glob("air_*.vtu"))
+    assert air_files and (out / "air.pvd").is_file()
+    grid = meshio.read(air_files[0])
+    assert {"pressure_real", "pressure_imag", "pressure_abs"} <= set(grid.point_data)
+    assert set(np.unique(grid.cell_data["pml"][0])) == {0, 1}
+    np.testing.assert_allclose(grid.point_data["pressure_abs"],
+                               np.hypot(grid.point_data["pressure_real"],
+                                        grid.point_data["pressure_imag"]), rtol=1e-5)
+    # the pressure jumps across the membrane: points written twice (upper and
+    # lower copy) carry different pressures, of opposite sign for (0,1)
+    keys = [tuple(np.round(point, 7)) for point in grid.points]
+    seen, jumps = {}, []
+    pressure = grid.point_data["pressure_real"]
+    for index, key in enumerate(keys):
+        if key in seen:
+            jumps.append((pressure[seen[key]], pressure[index]))
+        seen[key] = index
+    jumps = np.array(jumps)
+    assert len(jumps) > 10
+    largest = jumps[np.argmax(np.abs(jumps[:, 0] - jumps[:, 1]))]
+    assert largest[0] * largest[1] < 0
+
+
+@pytest.mark.slow
+def test_air_radius_does_not_move_the_modes():
+    """(0,1), (0,2): < 0.5 % from 3.5 r_o to 5 r_o (issue 3)."""
+    results = []
+    for radius in ("124.25 mm", "177.5 mm"):
+        solution = coupled_modes(coupled_study(air={"enabled": True, "domain_radius": radius},
+                                               eigen={"f_max": "900 Hz"},
+                                               mesh={"membrane_size": "6 mm"}))
+        results.append({m.label: m.freq_hz for m in solution.modes})
+    for label in ("(0,1)", "(0,2)"):
+        assert results[1][label] == pytest.approx(results[0][label], rel=5e-3), label
+
+
+@pytest.mark.slow
+def test_mesh_convergence_of_coupled_modes():
+    """(0,1), (0,2), (1,1) on three meshes: Richardson estimate of the default-like error < 1 %."""
+    labels = ("(0,1)", "(1,1)a", "(0,2)")
+    frequencies = []
+    for size in ("9 mm", "6 mm", "4 mm"):
+        solution = coupled_modes(coupled_study(eigen={"f_max": "900 Hz"},
+                                               mesh={"membrane_size": size, "order": 3,
+                                                     "pressure_order": 2}))
+        found = {m.label: m.freq_hz for m in solution.modes}
+        frequencies.append([found[label] for label in labels])
+    frequencies = np.array(frequencies)
+    change = np.abs(np.diff(frequencies, axis=0)) / frequencies[1:]
+    assert np.all(change[1] < change[0] + 1e-4), frequencies
+    assert np.all(change[1] < 0.01), frequencies
+
+
+@pytest.mark.slow
+def test_m1_pair_stays_degenerate_under_the_square_frame():
+    """C4v symmetry: m = 1 stays a degenerate pair, m = 2 splits."""
+    solution = coupled_modes(coupled_study(eigen={"f_max": "480 Hz"},
+                                           mesh={"membrane_size": "4 mm", "order": 3,
+                                                 "pressure_order": 2}))
+    found = {m.label: m.freq_hz for m in solution.modes}
+    split_1 = abs(found["(1,1)a"] - found["(1,1)b"]) / found["(1,1)a"]
+    split_2 = abs(found["(2,1)a"] - found["(2,1)b"]) / found["(2,1)a"]
+    assert split_1 < 0.2 * split_2, (split_1, split_2)
