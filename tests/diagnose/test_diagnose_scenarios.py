@@ -121,3 +121,19 @@ def test_spectra_alone_are_enough_peaks_are_picked(tmp_path):
     assert all(p.peak.source == "spectrum" for m in result.matches_after.values()
                for p in m.pairs)
     assert result.gap_after < 0.03
+
+
+def test_a_single_condition_falls_back_to_the_in_sample_test(tmp_path):
+    """Nothing to hold out with one condition: Wilks' threshold, and the report says so."""
+    import yaml
+    from diagnose_helpers import make_data
+
+    from copdea_fem.diagnose.measured import load_measured
+    from copdea_fem.diagnose.select import Diagnoser
+    for name, missing in (("air_loading", ["air_loading"]), ("nothing", [])):
+        path = make_data(name, FAST_SEEDS[0], tmp_path / name)
+        manifest = yaml.safe_load(path.read_text())
+        manifest["conditions"] = manifest["conditions"][1:2]
+        path.write_text(yaml.safe_dump(manifest))
+        result = Diagnoser(load_measured(path)).run()
+        assert not result.cross_validated and result.missing_effects == missing, result.verdict
