@@ -1407,6 +1407,7 @@ def plot_sweep(path: Path, sweep: Sweep, rows: list[dict], max_panels: int = 12)
         for row in ok:
             if all(row[c] == v for c, v in wanted.items()):
                 tracks.setdefault(row["track"], []).append(row)
+        ends = []   # (x, y, label, colour) of each line's right end
         for track, members in sorted(tracks.items()):
             by_x: dict = {}
             for row in members:
@@ -1416,9 +1417,8 @@ def plot_sweep(path: Path, sweep: Sweep, rows: list[dict], max_panels: int = 12)
             shown = [x_axis.display(x) for x in xs]
             colour = colours(track % 20)
             axes.plot(shown, ys, "o-", color=colour, markersize=3.5, linewidth=1.2)
-            axes.annotate(members[0]["track_label"], (shown[-1], ys[-1]), xytext=(4, 0),
-                          textcoords="offset points", fontsize=7, color=colour,
-                          va="center")
+            ends.append((shown[-1], ys[-1], members[0]["track_label"], colour))
+        _label_line_ends(axes, ends)
         axes.set_xlabel(x_axis.label())
         axes.set_ylabel("natural frequency [Hz]")
         title = ", ".join(f"{a.key} = {a.format(a.values[i])}"
@@ -1431,6 +1431,29 @@ def plot_sweep(path: Path, sweep: Sweep, rows: list[dict], max_panels: int = 12)
     figure.tight_layout()
     figure.savefig(path, dpi=130)
     plt.close(figure)
+
+
+def _label_line_ends(axes, ends, min_gap_fraction: float = 0.028) -> None:
+    """Write each line's label at its right end, nudged apart where ends crowd.
+
+    Labels ending at the same x are spread upwards to at least
+    ``min_gap_fraction`` of the frequency range (about one 7-pt text line on
+    the default figure).
+    """
+    if not ends:
+        return
+    low, high = axes.get_ylim()
+    gap = min_gap_fraction * (high - low)
+    by_x: dict = {}
+    for x, y, label, colour in ends:
+        by_x.setdefault(x, []).append((y, label, colour))
+    for x, group in by_x.items():
+        placed = -math.inf
+        for y, label, colour in sorted(group, key=lambda item: item[0]):
+            text_y = max(y, placed + gap)
+            placed = text_y
+            axes.annotate(label, (x, text_y), xytext=(4, 0), textcoords="offset points",
+                          fontsize=7, color=colour, va="center")
 
 
 # --------------------------------------------------------------------------- benchmark
