@@ -65,7 +65,7 @@ def to_scipy(matrix) -> sp.csr_matrix:
 
 def membrane_matrices(state: PrestressedState):
     """Full-space Hessian K [N/m] and consistent mass M [kg] (SciPy CSR)."""
-    space, material, mesh = state.space, state.material, state.mesh
+    space, material = state.space, state.material
     u, v = space.TnT()
     on_membrane = state.measure
     hessian = ngs.BilinearForm(space, symmetric=False)

@@ -565,7 +565,7 @@ def _expand_grid(base: Study, axes: list[Axis], model: str) -> list[SweepPoint]:
             raise SweepError(f"grid point p{number:0{width}d} ({where}): {error}") from None
         if model == "dry" and study["air"]["enabled"]:
             raise _fail("air.enabled", True, "false with model: dry (model: coupled couples "
-                        f"the air)", f"grid point p{number:0{width}d}")
+                        "the air)", f"grid point p{number:0{width}d}")
         study.name = f"{base.name}/p{number:0{width}d}"
         hashed = {s: v for s, v in study.values.items() if s != "output"}
         points.append(SweepPoint(point_id=f"p{number:0{width}d}", index=tuple(index),

@@ -1,6 +1,5 @@
 """Study files: units, defaults, bounds, and the messages of bad input."""
 
-import re
 from pathlib import Path
 
 import pytest
