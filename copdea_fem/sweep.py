@@ -56,9 +56,10 @@ material + prestress settings) form a chain; inside a chain
 The factorisation's symbolic analysis is *not* reused: NGSolve's UMFPACK and
 PARDISO wrappers and SciPy's SuperLU redo it inside every factorisation and
 expose no numeric-only refactorisation.  Measured on the G1 operator (9054
-unknowns, NGSolve's timers, one BLAS thread): symbolic 0.02-0.03 s of a
-0.1-0.16 s UMFPACK factorisation, i.e. < 0.5 % of a ~7 s continued point, so
-there is little to buy (the eigen stage's cost is the ARPACK iterations).
+unknowns, NGSolve's timers, one BLAS thread, one factorisation per point):
+symbolic ~0.015 s next to ~0.06 s numeric, i.e. ~0.3 % of a ~5 s continued
+point, so there is little to buy (the eigen stage's cost is ARPACK's ~190
+solves per point).
 
 Execution
 ---------

@@ -129,6 +129,21 @@ def test_crossing_keeps_shape_identities_and_the_tracks_cross():
     assert all(np.nanmin(mac) > 0.999 for mac in result.mac_previous[1:])
 
 
+def test_crossing_is_found_by_the_shapes_alone_when_labels_say_nothing():
+    # the same crossing with one uninformative label and one m: only the MAC can tell
+    # which mode is which (nearest-frequency matching would swap them at s = 0)
+    sets, dominant = [], []
+    for s in STEPS + 0.05:
+        modes = _mode_set(_two_mode_family(s, 0.0), NAMES, {0: 0, 1: 2, 2: 0}, MASS)
+        dominant.append(list(np.argmax(np.abs(np.sqrt(MASS[:3, :3]) @ modes.vectors), axis=0)))
+        modes.labels, modes.m = ["mode"] * 3, np.zeros(3, int)
+        sets.append(modes)
+    result = track_modes(sets)
+    for dof in range(3):
+        ids = {int(result.track[p][dominant[p].index(dof)]) for p in range(len(sets))}
+        assert len(ids) == 1, (dof, ids)
+
+
 def test_resolved_veering_follows_the_branches_and_keeps_their_ids():
     # same m, coupling 0.2: the veering spans ~0.4 in s, resolved by steps of 0.1
     coupling = 0.2
