@@ -31,6 +31,7 @@ import scipy.sparse as sp
 
 from . import acoustics
 from .ale import air_mesh_displacement
+from .eigen import EigenSolverError, Factorization
 from .linearise import MembraneOperators, to_scipy
 from .membrane import displacement_space, energy_density, tangent_gradient
 from .modes import AIR, Mode, ModeSampler, classify_modes
@@ -178,11 +179,15 @@ def assemble_coupled(study, mesh, state, operators: MembraneOperators, progress=
     b_scaled = (scale_rows @ b_full @ scale_columns).tocsr()
 
 
+    backend = study["eigen"]["backend"]
+
     def factorize(sigma: float):
+        if backend == "superlu":      # SciPy factorises the complex scaled pencil natively
+            return Factorization((a_scaled - sigma * b_scaled).tocsc(), backend)
         acoustics.set_pml(mesh, air["domain_radius"], air["pml_thickness"])
         try:
             return _NativeShiftedInverse(stiffness_terms, mass_terms, space, zero, sigma, free,
-                                         row_scale, column_scale)
+                                         row_scale, column_scale, backend)
         finally:
             mesh.UnSetPML(acoustics.PML_REGIONS)
 
@@ -191,15 +196,16 @@ def assemble_coupled(study, mesh, state, operators: MembraneOperators, progress=
 
 
 class _NativeShiftedInverse:
-    """Complex UMFPACK factorisation of the scaled ``A - sigma B``, assembled in NGSolve.
+    """Complex factorisation of the scaled ``A - sigma B``, assembled in NGSolve.
 
     (A_s - sigma B_s)^-1 = D_r^-1 (A - sigma B)^-1 D_l^-1 for the row/column
-    scalings D_l, D_r.  NGSolve factorises the complex matrix natively (SciPy
-    matrices could only be factorised in their twice-as-large real form).
+    scalings D_l, D_r.  NGSolve factorises the complex matrix natively with
+    ``backend`` (``"umfpack"`` or ``"pardiso"``, study key ``eigen.backend``);
+    through SciPy it could only factorise the twice-as-large real form.
     """
 
     def __init__(self, stiffness_terms, mass_terms, space, zero, sigma, free, row_scale,
-                 column_scale):
+                 column_scale, backend="umfpack"):
         import time
 
         start = time.perf_counter()
@@ -209,7 +215,11 @@ class _NativeShiftedInverse:
         stiffness_terms(shifted)
         mass_terms(shifted, sign=-float(sigma))
         shifted.AssembleLinearization(zero.vec)
-        self._inverse = shifted.mat.Inverse(space.FreeDofs(), inverse="umfpack")
+        try:
+            self._inverse = shifted.mat.Inverse(space.FreeDofs(), inverse=backend)
+        except Exception as error:  # NGSolve's NgException derives from Exception only
+            raise EigenSolverError(f"{backend} could not factorise A - sigma B at sigma = "
+                                   f"{sigma:.6g} rad^2/s^2 (singular?): {error}") from error
         self._form = shifted
         self._rhs = shifted.mat.CreateColVector()
         self._solution = shifted.mat.CreateColVector()

@@ -19,7 +19,7 @@ from .geometry import GeometrySpec, load_mesh
 from .linearise import linearised_operators
 from .modes import IN_PLANE, OUT_OF_PLANE, PUMPING, ModeSampler, classify_modes
 from .prestress import force_displacement, solve_prestress
-from .study import Study
+from .study import Study, StudyError
 
 
 @dataclass
@@ -58,6 +58,16 @@ def _task_manager():
     return ngs.TaskManager()
 
 
+def require_backend(study: Study) -> None:
+    """Reject an ``eigen.backend`` this machine cannot run, before any meshing."""
+    from .eigen import available_backends, backend_available
+    backend = study["eigen"]["backend"]
+    if not backend_available(backend):
+        raise StudyError(f"eigen.backend = {backend!r} is not available on this machine "
+                         f"(pardiso needs Intel MKL: pip install mkl); allowed here: "
+                         f"{', '.join(available_backends())}")
+
+
 def prepare_mesh(study: Study, with_air: bool | None = None, cache_dir=None, progress=_quiet):
     """The (cached) mesh of the study; ``cache_dir=None`` uses the repo's meshes/."""
     spec = GeometrySpec.from_study(study, with_air=with_air)
@@ -75,6 +85,7 @@ def dry_modes(study: Study, mesh=None, progress=_quiet, timings: Timings | None 
     :func:`copdea_fem.eigen.solve_band`); the defaults solve from scratch.
     """
     timings = timings or Timings()
+    require_backend(study)
     with _task_manager():
         if mesh is None:
             with timings.stage("mesh"):
@@ -114,13 +125,21 @@ class CoupledSolution:
 
 
 def coupled_modes(study: Study, mesh=None, progress=_quiet, timings: Timings | None = None,
-                  cache_dir=None) -> CoupledSolution:
-    """Prestress, dry modes and fully-coupled membrane-air modes (Sect. 3.1.3)."""
+                  cache_dir=None, solver=None, initial_shifts=None) -> CoupledSolution:
+    """Prestress, dry modes and fully-coupled membrane-air modes (Sect. 3.1.3).
+
+    ``solver`` and ``initial_shifts`` are the sweep's reuse hooks, as in
+    :func:`dry_modes`: the prestress continues from ``solver``'s equilibrium,
+    and the coupled band solve starts at ``initial_shifts`` (a neighbouring
+    point's coupled shifts and mode counts); the dry partner solve on the same
+    mesh starts afresh.
+    """
     from .coupled import assemble_coupled, coupled_mode_list, match_dry
     from .eigen import solve_band
     from .linearise import membrane_matrices
 
     timings = timings or Timings()
+    require_backend(study)
     eigen = study["eigen"]
     band = dict(backend=eigen["backend"], max_modes=eigen["max_modes"],
                 residual_tol=eigen["residual_tol"], progress=progress)
@@ -130,7 +149,7 @@ def coupled_modes(study: Study, mesh=None, progress=_quiet, timings: Timings | N
                 mesh = prepare_mesh(study, with_air=True, cache_dir=cache_dir, progress=progress)
         with timings.stage("prestress"):
             progress("prestress (Newton, load steps in z then V_b) ...")
-            state = solve_prestress(study, mesh, progress=progress)
+            state = solve_prestress(study, mesh, progress=progress, solver=solver)
         with timings.stage("assembly"):
             operators = linearised_operators(state, study)
         with timings.stage("eigen"):
@@ -146,7 +165,8 @@ def coupled_modes(study: Study, mesh=None, progress=_quiet, timings: Timings | N
             progress(f"coupled modes in [{eigen['f_min']:g}, {eigen['f_max']:g}] Hz "
                      f"({coupled.stiffness.shape[0]} unknowns) ...")
             result = solve_band(coupled.stiffness, coupled.mass, eigen["f_min"], eigen["f_max"],
-                                hermitian=False, factorize=coupled.factorize, **band)
+                                hermitian=False, factorize=coupled.factorize,
+                                initial_shifts=initial_shifts, **band)
         with timings.stage("classify"):
             modes, pressures = coupled_mode_list(coupled, result,
                                                  study["air"]["min_membrane_energy"], sampler)

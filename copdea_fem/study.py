@@ -452,6 +452,13 @@ def _check_across_keys(v: dict[str, dict[str, Any]]) -> None:
         if v["disc"]["motion"] != "held":
             raise _fail("disc.motion", v["disc"]["motion"], "held when geometry.inner_radius = 0",
                         "a full membrane has no disc")
+    if v["air"]["enabled"]:
+        from .geometry import ale_decay_length   # pure; netgen is imported lazily there
+        limit = 0.45 * ale_decay_length(R, r_o)
+        if load["z"] >= limit:
+            raise _fail("load.z", load["z"], f"< {limit:g} m = 0.45 L with air.enabled, L = the "
+                        "height over which the air mesh follows the membrane (copdea_fem.ale)",
+                        "raise air.domain_radius")
     if load["z"] > 2 * (r_o - r_i):
         raise _fail("load.z", load["z"], f"[0, {2 * (r_o - r_i):g}] m = 2 * (r_o - r_i)",
                     "meridian stretch beyond what the film survives")

@@ -1,7 +1,7 @@
 """Parameter sweeps (paper Fig. 11): a base study, a grid over study keys, tracked modes.
 
 ``copdea-fem sweep SWEEP.yaml [--out DIR]`` runs every grid point with the
-dry FE, the reduced (ring) model or -- once it exists -- the coupled FE,
+dry FE, the reduced (ring) model or the fully-coupled FE (air + PML),
 follows every mode from point to point (:mod:`copdea_fem.tracking`) and
 writes one long table plus Fig. 11-style plots.
 
@@ -125,10 +125,6 @@ KINDS = ("out-of-plane", "in-plane", "pumping", "air")
 
 class SweepError(StudyError):
     """A sweep file value is outside what is allowed; the message names key, value, allowed."""
-
-
-class CoupledModelUnavailable(NotImplementedError):
-    """``model: coupled`` needs the fully-coupled air FE step, not in this version yet."""
 
 
 def _fail(key: str, value: Any, allowed: str, why: str = "") -> SweepError:
@@ -664,7 +660,7 @@ def shift_plan(result, margin_fraction: float = 0.1, margin_modes: int = 4) -> l
 
 
 class _FEModel:
-    """The dry FE model per point (and the hook of the coupled one)."""
+    """The dry FE model per point (the coupled one derives from it)."""
 
     name = "dry"
     with_air = False
@@ -775,25 +771,17 @@ class _CoupledModel(_FEModel):
 
     Every point gets ``air.enabled: true`` and the mesh with air.  The modes'
     ``vector`` (membrane-space coefficients) is tracked like the dry ones;
-    air/PML-only modes (kind ``air``) are left out of the sweep.  Prestress
-    continuation and start shifts are used as soon as ``coupled_modes``
-    accepts ``solver=`` and ``initial_shifts=`` like :func:`dry_modes`.
+    air/PML-only modes (kind ``air``) are left out of the sweep.  Reuse as for
+    the dry model: the mesh, the prestress continuation and the neighbour's
+    coupled shifts.
     """
 
     name = "coupled"
     with_air = True
 
     def modes_function(self):
-        from . import solve
-        return solve.coupled_modes
-
-    def check_available(self) -> None:
-        from . import solve
-        if not hasattr(solve, "coupled_modes"):
-            raise CoupledModelUnavailable(
-                "model: coupled needs the fully-coupled air/PML eigen step, which is not in "
-                "this version yet; allowed today: model: dry (in-vacuo FE) or model: reduced "
-                "(ring model)")
+        from .solve import coupled_modes
+        return coupled_modes
 
 
 class _ReducedModel:

@@ -55,6 +55,43 @@ def test_radiation_damping_is_small_and_positive(flat):
     assert 0 < mode.damping_ratio < 0.01
 
 
+@pytest.mark.parametrize("backend", ["superlu", "pardiso"])
+def test_factorisation_backend_is_a_setting_of_the_coupled_solve(flat, backend, monkeypatch):
+    """eigen.backend reaches the coupled shift-invert: same modes with every back-end."""
+    from copdea_fem import coupled
+    from copdea_fem.eigen import backend_available
+    if not backend_available(backend):
+        pytest.skip(f"{backend} is not installed here (pardiso needs pip install mkl)")
+    used = []
+    for name in ("Factorization", "_NativeShiftedInverse"):
+        original = getattr(coupled, name)
+
+        def spy(*args, _original=original, **kwargs):
+            factorisation = _original(*args, **kwargs)
+            used.append(kwargs.get("backend", args[-1]))
+            return factorisation
+        monkeypatch.setattr(coupled, name, spy)
+    other = coupled_modes(coupled_study(eigen={"f_max": "450 Hz", "backend": backend}))
+    assert used and set(used) == {backend}
+    assert [m.label for m in other.modes] == [m.label for m in flat.modes]
+    np.testing.assert_allclose([m.freq_hz for m in other.modes],
+                               [m.freq_hz for m in flat.modes], rtol=1e-8)
+    np.testing.assert_allclose([m.freq_im_hz for m in other.modes],
+                               [m.freq_im_hz for m in flat.modes], rtol=1e-5, atol=1e-6)
+
+
+def test_unavailable_backend_is_rejected_before_meshing(tmp_path, capsys, monkeypatch):
+    from copdea_fem import eigen
+    monkeypatch.setattr(eigen, "backend_available", lambda name: name != "pardiso")
+    out = tmp_path / "run"
+    code = main(["solve", str(ROOT / "studies/g1_z16_v2_quick.yaml"), "--out", str(out),
+                 "--set", "eigen.backend=pardiso", "--set", "mesh.membrane_size=1 mm"])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "eigen.backend = 'pardiso' is not available" in err and "pip install mkl" in err
+    assert "meshing" not in err and not out.exists()
+
+
 def test_coupled_solve_writes_contract_files(tmp_path):
     out = tmp_path / "run"
     code = main(["solve", str(ROOT / "studies/g1_z16_v2.yaml"), "--out", str(out), "--quiet",

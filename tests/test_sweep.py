@@ -16,8 +16,8 @@ import scipy.sparse as sp
 
 from copdea_fem.cli import main
 from copdea_fem.eigen import EigenInputError, solve_band
-from copdea_fem.sweep import (CoupledModelUnavailable, SweepError, call_modes_function,
-                              load_sweep, parse_sweep, read_table, run_sweep, shift_plan)
+from copdea_fem.sweep import (SweepError, call_modes_function, load_sweep, parse_sweep,
+                              read_table, run_sweep, shift_plan)
 
 ROOT = Path(__file__).resolve().parent.parent
 SWEEPS = ROOT / "studies" / "sweeps"
@@ -113,20 +113,35 @@ def test_every_bundled_sweep_file_validates(path):
     assert sweep.model in ("dry", "reduced")
 
 
-def test_coupled_model_without_the_coupled_step_is_a_clear_not_implemented(
-        tmp_path, capsys, monkeypatch):
-    from copdea_fem import solve
-    monkeypatch.delattr(solve, "coupled_modes", raising=False)
-    sweep = parse_sweep(_raw(model="coupled"))
-    assert all(p.study["air"]["enabled"] for p in sweep.points)
-    with pytest.raises(CoupledModelUnavailable, match="model: coupled needs the fully-coupled"):
-        run_sweep(sweep, out_dir=tmp_path / "out")
-    assert isinstance(CoupledModelUnavailable("x"), NotImplementedError)
-    assert not (tmp_path / "out").exists()
-    path = tmp_path / "coupled.yaml"
-    path.write_text(json.dumps(_raw(model="coupled")))
-    assert main(["sweep", str(path), "--out", str(tmp_path / "out"), "--quiet"]) == 3
-    assert "model: coupled needs the fully-coupled" in capsys.readouterr().err
+def test_coupled_sweep_reuses_mesh_prestress_and_shifts_and_stays_below_dry(tmp_path):
+    """model: coupled along z: continued prestress, neighbour shifts, air-loaded modes."""
+    coarse_air = {"mesh.membrane_size": "9 mm", "mesh.order": 2, "mesh.pressure_order": 1,
+                  "mesh.air_size": "35.5 mm", "load.voltage": "2 kV"}
+    sweeps = {}
+    for model in ("coupled", "dry"):
+        # the dry band reaches higher: air loading moves (0,1) down by ~20 %
+        band = {"eigen.f_max": "480 Hz" if model == "coupled" else "700 Hz"}
+        sweep = parse_sweep(_raw(model=model, axes={"load.z": [0.004, 0.008, 0.012]},
+                                 set={**coarse_air, **band, "air.enabled": model == "coupled"}))
+        sweep.plots = False
+        outcome = run_sweep(sweep, out_dir=tmp_path / model)
+        assert sorted(outcome.computed) == ["p000", "p001", "p002"] and not outcome.failed
+        sweeps[model] = (read_table(tmp_path / model / "sweep.csv"),
+                         json.loads((tmp_path / model / "sweep.json").read_text())["points"])
+    rows, points = sweeps["coupled"]
+    assert [p["reuse"]["prestress_from"] for p in points] == [None, "p000", "p001"]
+    assert all(p["reuse"]["mesh"] and p["reuse"]["initial_shifts"] for p in points[1:])
+    # a continued point needs one adaptive load step, not the path from the flat state
+    assert points[2]["prestress"]["newton_iterations"] < points[0]["prestress"]["newton_iterations"]
+    assert {row["kind"] for row in rows} <= {"out-of-plane", "in-plane"}   # no air modes
+    dry = {(r["point"], r["label"]): float(r["freq_hz"]) for r in sweeps["dry"][0]}
+    wet = {(r["point"], r["label"]): float(r["freq_hz"]) for r in rows
+           if r["kind"] == "out-of-plane"}
+    for point in ("p000", "p001", "p002"):
+        assert wet[(point, "(0,1)")] < dry[(point, "(0,1)")]      # air loading
+    # the (0,1) track rises with z in air too (paper Fig. 11b)
+    track = [f for (point, label), f in sorted(wet.items()) if label == "(0,1)"]
+    assert np.all(np.diff(track) > 0), track
 
 
 def test_model_hook_passes_only_the_reuse_keywords_a_solver_accepts():
