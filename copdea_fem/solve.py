@@ -19,7 +19,7 @@ from .geometry import GeometrySpec, load_mesh
 from .linearise import linearised_operators
 from .modes import IN_PLANE, OUT_OF_PLANE, PUMPING, ModeSampler, classify_modes
 from .prestress import force_displacement, solve_prestress
-from .study import Study, StudyError
+from .study import Study, StudyError, check_air_lift
 
 
 @dataclass
@@ -140,6 +140,7 @@ def coupled_modes(study: Study, mesh=None, progress=_quiet, timings: Timings | N
 
     timings = timings or Timings()
     require_backend(study)
+    check_air_lift(study)
     eigen = study["eigen"]
     band = dict(backend=eigen["backend"], max_modes=eigen["max_modes"],
                 residual_tol=eigen["residual_tol"], progress=progress)
