@@ -201,7 +201,8 @@ class _NativeShiftedInverse:
     (A_s - sigma B_s)^-1 = D_r^-1 (A - sigma B)^-1 D_l^-1 for the row/column
     scalings D_l, D_r.  NGSolve factorises the complex matrix natively with
     ``backend`` (``"umfpack"`` or ``"pardiso"``, study key ``eigen.backend``);
-    through SciPy it could only factorise the twice-as-large real form.
+    :class:`copdea_fem.eigen.Factorization` would hand it the twice-as-large
+    real form.  ``"superlu"`` takes that class (SciPy factorises complex).
     """
 
     def __init__(self, stiffness_terms, mass_terms, space, zero, sigma, free, row_scale,

@@ -558,18 +558,14 @@ def _expand_grid(base: Study, axes: list[Axis], model: str) -> list[SweepPoint]:
             overrides.setdefault("air.enabled", True)
         try:
             study = base.replace(overrides)
+            if model == "coupled":
+                check_air_lift(study)
         except StudyError as error:
             where = ", ".join(f"{a.key} = {a.values[i]!r}" for a, i in zip(axes, index))
             raise SweepError(f"grid point p{number:0{width}d} ({where}): {error}") from None
         if model == "dry" and study["air"]["enabled"]:
             raise _fail("air.enabled", True, "false with model: dry (model: coupled couples "
                         "the air)", f"grid point p{number:0{width}d}")
-        if model == "coupled":
-            try:
-                check_air_lift(study)
-            except StudyError as error:
-                where = ", ".join(f"{a.key} = {a.values[i]!r}" for a, i in zip(axes, index))
-                raise SweepError(f"grid point p{number:0{width}d} ({where}): {error}") from None
         study.name = f"{base.name}/p{number:0{width}d}"
         hashed = {s: v for s, v in study.values.items() if s != "output"}
         points.append(SweepPoint(point_id=f"p{number:0{width}d}", index=tuple(index),
