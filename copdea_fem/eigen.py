@@ -52,6 +52,8 @@ BACKENDS: tuple[str, ...] = ("umfpack", "pardiso", "superlu")
 """Names accepted by ``backend``: NGSolve UMFPACK, NGSolve/MKL PARDISO, SciPy SuperLU."""
 
 TWO_PI = 2.0 * math.pi
+PROGRESS_INTERVAL_S = 15.0
+"""A long ARPACK run reports its solve count this often [s] (``progress``)."""
 
 
 # --------------------------------------------------------------------------- errors
@@ -757,13 +759,31 @@ class _BandSolver:
             Z = np.linalg.solve(gram, X.conj().T)
         return X, nu, Z
 
+    def _reporting(self, shift: _Shift, solve):
+        """``solve`` that says every PROGRESS_INTERVAL_S how many solves a run has done."""
+        start = last = time.perf_counter()
+        count = 0
+
+        def counted(rhs):
+            nonlocal last, count
+            count += 1
+            now = time.perf_counter()
+            if now - last >= PROGRESS_INTERVAL_S:
+                last = now
+                self.progress(f"shift {self.shifts.index(shift) + 1} at "
+                              f"{_format_hz(shift.sigma)}: {count} solves, "
+                              f"{now - start:.0f} s ...")
+            return solve(rhs)
+
+        return counted
+
     def _arpack(self, shift: _Shift, k: int, tol: float | None = None):
         """ARPACK on the operator deflated by all known pairs: (values, vectors, exhausted)."""
         tol = self.arpack_tol if tol is None else tol
         sigma = shift.sigma
         n = self.n
         X, nu_known, Z = self._deflation(sigma)
-        solve = shift.factorization.solve
+        solve = self._reporting(shift, shift.factorization.solve)
         deflation_dtype = X.dtype if X.shape[1] else np.dtype(float)
         operator_dtype = np.result_type(deflation_dtype, shift.factorization.dtype, self.B.dtype)
         start_vector = self.start_vector if operator_dtype.kind == "c" else self.start_vector.real

@@ -120,6 +120,23 @@ def test_string_band_matches_closed_form():
     assert np.max(result.residuals) < 1e-9  # ARPACK tol 1e-10 with ||A - sigma B|| ~ ||A||
 
 
+def test_long_arpack_runs_report_their_solves(monkeypatch):
+    import re
+
+    from copdea_fem import eigen
+    stiffness, mass, exact = string_matrices(400)
+    f_min, f_max, _ = band_between(frequencies(exact).real, 3, 24)
+    quiet = []
+    solve_band(stiffness, mass, f_min, f_max, backend="superlu", progress=quiet.append)
+    assert not any(message.endswith("s ...") for message in quiet)   # fast: no heartbeat
+    monkeypatch.setattr(eigen, "PROGRESS_INTERVAL_S", 0.0)
+    messages = []
+    solve_band(stiffness, mass, f_min, f_max, backend="superlu", progress=messages.append)
+    beats = [m for m in messages if re.fullmatch(r"shift 1 at .* Hz: \d+ solves, \d+ s \.\.\.", m)]
+    counts = [int(re.search(r"(\d+) solves", m).group(1)) for m in beats]
+    assert len(beats) > 10 and counts[:3] == [1, 2, 3]
+
+
 def test_square_membrane_returns_every_member_of_degenerate_pairs():
     stiffness, mass, exact = square_matrices(30)
     exact_f = frequencies(exact).real
