@@ -672,8 +672,11 @@ class _FEModel:
         from .solve import dry_modes
         return dry_modes
 
-    def check_available(self) -> None:
-        pass
+    def check_available(self, sweep) -> None:
+        """Refuse a factorisation back-end this machine lacks before any point runs."""
+        from .solve import require_backend
+        for point in sweep.points:
+            require_backend(point.study)
 
     def solve(self, point: SweepPoint, chain: _ChainState, reuse: ReuseSettings, progress,
               needs_sampling: bool) -> PointResult:
@@ -792,8 +795,8 @@ class _ReducedModel:
 
     name = "reduced"
 
-    def check_available(self) -> None:
-        pass
+    def check_available(self, sweep) -> None:
+        pass                       # pure NumPy/SciPy: nothing optional to check
 
     def solve(self, point: SweepPoint, chain: _ChainState, reuse: ReuseSettings, progress,
               needs_sampling: bool) -> PointResult:
@@ -1075,7 +1078,7 @@ def run_sweep(sweep: Sweep, out_dir: str | Path | None = None, executor: str | N
         raise _fail("--scheduler", None, "a Dask scheduler address (tcp://HOST:PORT) with "
                     "--executor dask")
     reuse = reuse or sweep.execution.reuse
-    MODEL_CLASSES[sweep.model]().check_available()
+    MODEL_CLASSES[sweep.model]().check_available(sweep)
     directory = Path(out_dir or sweep.output_directory)
     store = PointStore(directory)
     resumed = [pid for pid in sweep.path if store.finished(sweep.point(pid))]

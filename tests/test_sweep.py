@@ -119,17 +119,16 @@ def test_every_bundled_sweep_file_validates(path):
 
 def test_coupled_sweep_reuses_mesh_prestress_and_shifts_and_stays_below_dry(tmp_path):
     """model: coupled along z: continued prestress, neighbour shifts, air-loaded modes."""
+    import yaml
+    coupled_file = yaml.safe_load((SWEEPS / "coarse_fig11b_coupled.yaml").read_text())
+    # the same grid in vacuo; its band reaches higher, as air loading moves (0,1) down ~20 %
+    dry_file = {**coupled_file, "study": BASE, "model": "dry",
+                "set": {**coupled_file["set"], "air.enabled": False, "eigen.f_max": "700 Hz"}}
     sweeps = {}
-    for model in ("coupled", "dry"):
-        sweep = load_sweep(SWEEPS / "coarse_fig11b_coupled.yaml")
-        if model == "dry":   # the same grid in vacuo; its band reaches higher, as air
-            # loading moves (0,1) down by ~20 %
-            sweep = parse_sweep({"study": BASE, "model": "dry",
-                                 "axes": {"load.z": [0.004, 0.008, 0.012]},
-                                 "set": {**load_sweep_set(), "air.enabled": False,
-                                         "eigen.f_max": "700 Hz"}})
-        sweep.plots = False
-        outcome = run_sweep(sweep, out_dir=tmp_path / model)
+    for model, raw in (("coupled", load_sweep(SWEEPS / "coarse_fig11b_coupled.yaml")),
+                       ("dry", parse_sweep(dry_file))):
+        raw.plots = False
+        outcome = run_sweep(raw, out_dir=tmp_path / model)
         assert sorted(outcome.computed) == ["p000", "p001", "p002"] and not outcome.failed
         sweeps[model] = (read_table(tmp_path / model / "sweep.csv"),
                          json.loads((tmp_path / model / "sweep.json").read_text())["points"])
@@ -149,10 +148,15 @@ def test_coupled_sweep_reuses_mesh_prestress_and_shifts_and_stays_below_dry(tmp_
     assert np.all(np.diff(track) > 0), track
 
 
-def load_sweep_set():
-    """The coarse coupled sweep file's overrides (its mesh and load) as a dict."""
-    import yaml
-    return yaml.safe_load((SWEEPS / "coarse_fig11b_coupled.yaml").read_text())["set"]
+def test_unavailable_backend_stops_the_sweep_before_any_point(tmp_path, monkeypatch):
+    from copdea_fem import eigen
+    from copdea_fem.study import StudyError
+    monkeypatch.setattr(eigen, "backend_available", lambda name: name != "pardiso")
+    sweep = parse_sweep(_raw(model="dry", set={"load.z": "12 mm", "air.enabled": False,
+                                               "eigen.backend": "pardiso"}))
+    with pytest.raises(StudyError, match="eigen.backend = 'pardiso' is not available"):
+        run_sweep(sweep, out_dir=tmp_path / "out")
+    assert not (tmp_path / "out").exists()
 
 
 def test_model_hook_passes_only_the_reuse_keywords_a_solver_accepts():
