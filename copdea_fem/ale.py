@@ -48,7 +48,7 @@ def displacement_profile(state, samples: int = 200, angles: int = 16):
     """Radial profiles rho [m], u_rho [m], w [m] of the prestress, averaged over theta."""
     r_o, r_i = state.outer_radius, state.inner_radius
     radii = r_i + (r_o - r_i) * (np.arange(samples) + 0.5) / samples
-    thetas = 2 * np.pi * np.arange(angles) / angles
+    thetas = state.symmetry.angles(angles)
     rr, tt = np.meshgrid(radii, thetas, indexing="ij")
     points = state.mesh(rr.ravel() * np.cos(tt.ravel()), rr.ravel() * np.sin(tt.ravel()),
                         np.zeros(rr.size), ngs.BND)

@@ -64,9 +64,11 @@ def _once_coupled(study) -> dict:
     seconds["total"] = total
     coupled = result.coupled
     return {"seconds": seconds,
-            "unknowns": int(coupled.operators.stiffness.shape[0]),
+            "unknowns": int(result.eigen.unknowns),
+            "unknowns_per_sector": [int(part.stiffness.shape[0]) for part in coupled.operators],
+            "symmetry": result.state.symmetry.kind,
             "membrane_dofs": int(result.state.space.ndof),
-            "pressure_dofs": int(coupled.operators.pressure_space.ndof),
+            "pressure_dofs": int(coupled.operators[0].pressure_space.ndof),
             "newton_iterations": result.state.newton_iterations,
             "modes": sum(1 for mode in result.modes if mode.kind != "air"),
             "factorisations": int(result.eigen.n_factorisations),

@@ -70,16 +70,17 @@ def _pressure_sign_fixed_normal():
     return ngs.IfPos(normal[2], 1.0, -1.0) * normal
 
 
-def assemble_coupled(study, mesh, state, operators: MembraneOperators, progress=None
-                     ) -> CoupledOperators:
-    """Assemble the coupled pencil natively complex on the deformed air with the PML.
+def assemble_coupled(study, mesh, state, progress=None) -> "CoupledAssembly":
+    """Assemble the coupled forms natively complex on the deformed air with the PML.
 
     The membrane terms (Hessian of the energy about u0, mass) are integrated on
     the flat reference; the air and coupling terms with the ALE deformation
     ``D`` (``dx(..., deformation=D)``).  The disc on the spring is a
     :class:`ngsolve.NumberSpace` unknown ``w_d`` moving the inner rim through
     the lift of :mod:`linearise` (``u = u_free + w_d lift``), with mass
-    ``M_d + M_s/3`` and stiffness ``k_d`` spread over the disc face.
+    ``M_d + M_s/3`` and stiffness ``k_d`` spread over the disc face (a quadrant
+    mesh's disc face carries a quarter of them, :mod:`symmetry`).  One
+    assembly serves every symmetry sector: :meth:`CoupledAssembly.restrict`.
     """
     progress = progress or (lambda message: None)
     air, geometry = study["air"], study["geometry"]
@@ -93,45 +94,43 @@ def assemble_coupled(study, mesh, state, operators: MembraneOperators, progress=
                                         complex_=True)
     if membrane_space.ndof != state.space.ndof:
         raise RuntimeError("complex and real membrane spaces differ; cannot couple")
+    with_disc = study["disc"]["motion"] == "spring" and state.has_disc
     spaces = [membrane_space, *pressure_space.components]
-    if operators.disc_dof:
+    if with_disc:
         spaces.append(ngs.NumberSpace(mesh, complex=True))
     space = ngs.FESpace(spaces)
     trial, test = space.TrialFunction(), space.TestFunction()
     lift = state.disc_lift
-    u = trial[0] + trial[3] * lift if operators.disc_dof else trial[0]
-    v = test[0] + test[3] * lift if operators.disc_dof else test[0]
+    u = trial[0] + trial[3] * lift if with_disc else trial[0]
+    v = test[0] + test[3] * lift if with_disc else test[0]
     pressure, pressure_test = (trial[1], trial[2]), (test[1], test[2])
     normal = _pressure_sign_fixed_normal()
     material, measure = state.material, state.measure
     density, sound_speed = air["density"], air["sound_speed"]
+    if with_disc:       # the device's disc area: lumped terms per unit area of the disc face
+        disc_area = state.symmetry.copies * ngs.Integrate(ngs.CF(1) * ngs.ds("disc"), mesh)
+        disc_mass = study["disc"]["mass"] + study["spring"]["mass"] / 3
 
-    def stiffness_terms(form):
-        gradient = tangent_gradient(state.displacement) + tangent_gradient(trial[0])
-        if operators.disc_dof:
-            gradient = gradient + trial[3] * tangent_gradient(lift)
-        form += ngs.Variation(energy_density(None, material, state.voltage, gradient=gradient)
-                              * measure)
-        form += acoustics.screen_coupling(pressure, v * normal, "membrane", deformation=motion)
-        form += acoustics.air_stiffness(pressure, pressure_test, density, deformation=motion)
-        if operators.disc_dof:
-            disc_area = ngs.Integrate(ngs.CF(1) * ngs.ds("disc"), mesh)
-            form += (study["spring"]["stiffness"] / disc_area) * trial[3] * test[3] * ngs.ds("disc")
-            form += acoustics.screen_coupling(pressure, test[3] * normal[2], "disc",
-                                              deformation=motion)
-
-    def mass_terms(form, sign=1.0):
-        form += sign * material.areal_density * u * v * measure
-        form += -sign * acoustics.screen_coupling(pressure_test, u * normal, "membrane",
-                                                  deformation=motion)
-        form += sign * acoustics.air_mass(pressure, pressure_test, density, sound_speed,
-                                          deformation=motion)
-        if operators.disc_dof:
-            disc_area = ngs.Integrate(ngs.CF(1) * ngs.ds("disc"), mesh)
-            disc_mass = study["disc"]["mass"] + study["spring"]["mass"] / 3
-            form += sign * (disc_mass / disc_area) * trial[3] * test[3] * ngs.ds("disc")
-            form += -sign * acoustics.screen_coupling(pressure_test, trial[3] * normal[2],
-                                                      "disc", deformation=motion)
+    gradient = tangent_gradient(state.displacement) + tangent_gradient(trial[0])
+    if with_disc:
+        gradient = gradient + trial[3] * tangent_gradient(lift)
+    stiffness = ngs.BilinearForm(space)
+    stiffness += ngs.Variation(energy_density(None, material, state.voltage, gradient=gradient)
+                               * measure)
+    stiffness += acoustics.screen_coupling(pressure, v * normal, "membrane", deformation=motion)
+    stiffness += acoustics.air_stiffness(pressure, pressure_test, density, deformation=motion)
+    mass = ngs.BilinearForm(space)
+    mass += material.areal_density * u * v * measure
+    mass += (-1.0) * acoustics.screen_coupling(pressure_test, u * normal, "membrane",
+                                               deformation=motion)
+    mass += acoustics.air_mass(pressure, pressure_test, density, sound_speed, deformation=motion)
+    if with_disc:
+        stiffness += (study["spring"]["stiffness"] / disc_area) * trial[3] * test[3] * ngs.ds("disc")
+        stiffness += acoustics.screen_coupling(pressure, test[3] * normal[2], "disc",
+                                               deformation=motion)
+        mass += (disc_mass / disc_area) * trial[3] * test[3] * ngs.ds("disc")
+        mass += (-1.0) * acoustics.screen_coupling(pressure_test, trial[3] * normal[2], "disc",
+                                           deformation=motion)
 
     progress(f"assembling the coupled operators ({space.ndof} DOFs) ...")
     zero = ngs.GridFunction(space)
@@ -140,63 +139,90 @@ def assemble_coupled(study, mesh, state, operators: MembraneOperators, progress=
     kinetic.Assemble()                   # before the PML: a real energy norm
     acoustics.set_pml(mesh, air["domain_radius"], air["pml_thickness"])
     try:
-        stiffness = ngs.BilinearForm(space)
-        stiffness_terms(stiffness)
         stiffness.AssembleLinearization(zero.vec)      # Hessian at u0 (E(u0 + u) at u = 0)
-        mass = ngs.BilinearForm(space)
-        mass_terms(mass)
         mass.Assemble()
     finally:
         mesh.UnSetPML(acoustics.PML_REGIONS)
-
-    free_mask = np.array(space.FreeDofs())
-    free = np.flatnonzero(free_mask)
+    if stiffness.mat.nze != mass.mat.nze:  # A - sigma B is formed entry by entry
+        raise RuntimeError("coupled stiffness and mass have different sparsity patterns")
     offsets = np.cumsum([0] + [component.ndof for component in spaces])
-    position = -np.ones(space.ndof, dtype=int)
-    position[free] = np.arange(free.size)
-    membrane_index = position[offsets[0] + operators.free_dofs]
-    if operators.disc_dof:
-        membrane_index = np.append(membrane_index, position[offsets[3]])
-    pressure_global = np.arange(offsets[1], offsets[3])
-    pressure_global = pressure_global[free_mask[pressure_global]]
-    pressure_index = position[pressure_global]
-    pressure_free = pressure_global - offsets[1]
-    a_full = to_scipy(stiffness.mat)[free][:, free].tocsr()
-    b_full = to_scipy(mass.mat)[free][:, free].tocsr()
-    air_kinetic = to_scipy(kinetic.mat)[pressure_global][:, pressure_global].tocsr()
-
-    # scaling (module doc): p = beta p^, air rows times alpha
-    is_air = np.zeros(free.size, dtype=bool)
-    is_air[pressure_index] = True
-    k_s = a_full[~is_air][:, ~is_air]
-    coupling = b_full[is_air][:, ~is_air]
-    beta = _norm(k_s) / _norm(coupling)
-    alpha = _norm(k_s) / (beta * _norm(a_full[is_air][:, is_air]))
-    row_scale = np.where(is_air, alpha, 1.0)
-    column_scale = np.where(is_air, beta, 1.0)
-    scale_rows, scale_columns = sp.diags(row_scale), sp.diags(column_scale)
-    a_scaled = (scale_rows @ a_full @ scale_columns).tocsr()
-    b_scaled = (scale_rows @ b_full @ scale_columns).tocsr()
+    return CoupledAssembly(study, state, space, offsets, with_disc, stiffness.mat, mass.mat,
+                           to_scipy(stiffness.mat), to_scipy(mass.mat), to_scipy(kinetic.mat),
+                           pressure_space, motion)
 
 
-    backend = study["eigen"]["backend"]
+@dataclass
+class CoupledAssembly:
+    """The assembled coupled forms on all DOFs of ``(u, p, q[, w_d])``, for every sector."""
 
-    def factorize(sigma: float):
-        if backend == "superlu":      # SciPy factorises the complex scaled pencil natively
-            return Factorization((a_scaled - sigma * b_scaled).tocsc(), backend)
-        acoustics.set_pml(mesh, air["domain_radius"], air["pml_thickness"])
-        try:
-            return _NativeShiftedInverse(stiffness_terms, mass_terms, space, zero, sigma, free,
-                                         row_scale, column_scale, backend)
-        finally:
-            mesh.UnSetPML(acoustics.PML_REGIONS)
+    study: dict
+    state: object
+    space: object                       # the product FESpace
+    offsets: np.ndarray                 # first DOF of each component in ``space``
+    with_disc: bool
+    stiffness_matrix: object            # NGSolve (complex, PML set at assembly)
+    mass_matrix: object
+    stiffness: sp.csr_matrix            # the same, SciPy
+    mass: sp.csr_matrix
+    kinetic: sp.csr_matrix              # physical air energy (no PML), SciPy
+    pressure_space: object
+    mesh_motion: object
 
-    return CoupledOperators(a_scaled, b_scaled, operators, pressure_space, pressure_free,
-                            pressure_index, membrane_index, beta, air_kinetic, motion, factorize)
+    def restrict(self, operators: MembraneOperators) -> "CoupledOperators":
+        """The scaled pencil of the sector of ``operators`` (None on a whole mesh)."""
+        from .symmetry import SECTORS, membrane_mirror_dofs, pressure_mirror_dofs
+
+        sector, state, offsets = operators.sector, self.state, self.offsets
+        mesh = state.mesh
+        free_mask = np.array(self.space.FreeDofs())
+        free_mask[offsets[0] + membrane_mirror_dofs(state.space, mesh,
+                                                    self.study["mesh"]["order"], sector)] = False
+        free_mask[offsets[1] + pressure_mirror_dofs(self.pressure_space, mesh, sector)] = False
+        if self.with_disc and not operators.disc_dof:     # the disc moves in even-even only
+            free_mask[offsets[3]] = False
+        free = np.flatnonzero(free_mask)
+        position = -np.ones(self.space.ndof, dtype=int)
+        position[free] = np.arange(free.size)
+        membrane_index = position[offsets[0] + operators.free_dofs]
+        if operators.disc_dof:
+            membrane_index = np.append(membrane_index, position[offsets[3]])
+        if np.any(membrane_index < 0) or membrane_index.size != operators.size:
+            raise RuntimeError("coupled and membrane free DOFs disagree")
+        pressure_global = np.arange(offsets[1], offsets[3])
+        pressure_global = pressure_global[free_mask[pressure_global]]
+        pressure_index = position[pressure_global]
+        pressure_free = pressure_global - offsets[1]
+        a_full = self.stiffness[free][:, free].tocsr()
+        b_full = self.mass[free][:, free].tocsr()
+        air_kinetic = self.kinetic[pressure_global][:, pressure_global].tocsr()
+
+        # scaling (module doc): p = beta p^, air rows times alpha
+        is_air = np.zeros(free.size, dtype=bool)
+        is_air[pressure_index] = True
+        k_s = a_full[~is_air][:, ~is_air]
+        coupling = b_full[is_air][:, ~is_air]
+        beta = _norm(k_s) / _norm(coupling)
+        alpha = _norm(k_s) / (beta * _norm(a_full[is_air][:, is_air]))
+        row_scale = np.where(is_air, alpha, 1.0)
+        column_scale = np.where(is_air, beta, 1.0)
+        scale_rows, scale_columns = sp.diags(row_scale), sp.diags(column_scale)
+        a_scaled = (scale_rows @ a_full @ scale_columns).tocsr()
+        b_scaled = (scale_rows @ b_full @ scale_columns).tocsr()
+        backend = self.study["eigen"]["backend"]
+
+        def factorize(sigma: float):
+            if backend == "superlu":      # SciPy factorises the complex scaled pencil natively
+                return Factorization((a_scaled - sigma * b_scaled).tocsc(), backend)
+            return _NativeShiftedInverse(self.stiffness_matrix, self.mass_matrix, free_mask,
+                                         sigma, row_scale, column_scale, backend)
+
+        return CoupledOperators(a_scaled, b_scaled, operators, self.pressure_space,
+                                pressure_free, pressure_index, membrane_index, beta,
+                                air_kinetic, self.mesh_motion, factorize)
 
 
 class _NativeShiftedInverse:
-    """Complex factorisation of the scaled ``A - sigma B``, assembled in NGSolve.
+    """Complex factorisation of the scaled ``A - sigma B`` on a sector's free DOFs, in NGSolve.
 
     (A_s - sigma B_s)^-1 = D_r^-1 (A - sigma B)^-1 D_l^-1 for the row/column
     scalings D_l, D_r.  NGSolve factorises the complex matrix natively with
@@ -205,26 +231,25 @@ class _NativeShiftedInverse:
     real form.  ``"superlu"`` takes that class (SciPy factorises complex).
     """
 
-    def __init__(self, stiffness_terms, mass_terms, space, zero, sigma, free, row_scale,
-                 column_scale, backend="umfpack"):
+    def __init__(self, stiffness, mass, free_mask, sigma, row_scale, column_scale,
+                 backend="umfpack"):
         import time
 
+        from .symmetry import bitarray
+
         start = time.perf_counter()
-        mesh = space.mesh
-        self._mesh = mesh
-        shifted = ngs.BilinearForm(space)
-        stiffness_terms(shifted)
-        mass_terms(shifted, sign=-float(sigma))
-        shifted.AssembleLinearization(zero.vec)
+        shifted = stiffness.CreateMatrix()
+        shifted.AsVector().data = stiffness.AsVector() - float(sigma) * mass.AsVector()
         try:
-            self._inverse = shifted.mat.Inverse(space.FreeDofs(), inverse=backend)
+            self._inverse = shifted.Inverse(bitarray(free_mask), inverse=backend)
         except Exception as error:  # NGSolve's NgException derives from Exception only
             raise EigenSolverError(f"{backend} could not factorise A - sigma B at sigma = "
                                    f"{sigma:.6g} rad^2/s^2 (singular?): {error}") from error
-        self._form = shifted
-        self._rhs = shifted.mat.CreateColVector()
-        self._solution = shifted.mat.CreateColVector()
-        self._free, self._rows, self._columns = free, row_scale, column_scale
+        self._matrix = shifted
+        self._rhs = shifted.CreateColVector()
+        self._solution = shifted.CreateColVector()
+        self._free = np.flatnonzero(free_mask)
+        self._rows, self._columns = row_scale, column_scale
         self.dtype = np.dtype(complex)
         self.is_complex = True
         self.solve_count = 0
@@ -306,7 +331,7 @@ def match_dry(modes: list[Mode], dry_modes: list[Mode], membrane_mass) -> dict[i
     """Dry partner of every structural coupled mode: same (m, n) family, best MAC.
 
     MAC = |u_c^H M u_d|^2 / (u_c^H M u_c * u_d^H M u_d) on the full membrane
-    vectors; within a degenerate pair the subspace is what matters, so pairs
+    vectors (on a quadrant mesh: within the mode's symmetry sector); within a degenerate pair the subspace is what matters, so pairs
     share the dry pair's frequencies (they are equal up to the mesh).
     """
     partners = {}
@@ -316,7 +341,8 @@ def match_dry(modes: list[Mode], dry_modes: list[Mode], membrane_mass) -> dict[i
             continue
         best, best_mac = None, -1.0
         for j, dry in enumerate(dry_modes):
-            if dry.kind != mode.kind or (dry.m, dry.n) != (mode.m, mode.n) or j in used:
+            if (dry.kind != mode.kind or (dry.m, dry.n) != (mode.m, mode.n) or j in used
+                    or dry.sector != mode.sector):
                 continue
             mac = _mac(mode.vector, dry.vector, membrane_mass)
             if mac > best_mac:

@@ -19,6 +19,12 @@ faces     ``membrane``, ``disc``, ``frame`` (screens, z = 0),
           conform to the kinks of the air-mesh motion, see :mod:`ale`)
 edges     ``outer_rim`` (r = r_o), ``inner_rim`` (r = r_i), ``frame_edge``
 
+With ``symmetry = "quarter"`` (air meshes only) the shape is cut to the
+quadrant x >= 0, y >= 0: circle, square frame and sphere are symmetric about
+both planes, so every mode is even or odd about each (:mod:`symmetry`).  The
+cut faces are ``mirror_x`` (x = 0) and ``mirror_y`` (y = 0); the cut edges
+``mirror_x_edge`` and ``mirror_y_edge``.
+
 Without air only the plane faces are meshed (a surface mesh in 3-D space):
 the membrane field and its forms are the same in both cases.
 """
@@ -32,6 +38,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 SCREENS = "membrane|disc|frame"
+SYMMETRIES = ("quarter", "none")
 GEOMETRY_VERSION = 2  # bump when build_shape changes: it keys the mesh cache
 MESH_DIR = Path(__file__).resolve().parent.parent / "meshes"
 
@@ -50,6 +57,7 @@ class GeometrySpec:
     membrane_size: float
     air_size: float
     grading: float
+    symmetry: str = "none"
 
     @classmethod
     def from_study(cls, study, with_air: bool | None = None) -> "GeometrySpec":
@@ -59,13 +67,17 @@ class GeometrySpec:
                    with_air=a["enabled"] if with_air is None else with_air,
                    domain_radius=a["domain_radius"], pml_thickness=a["pml_thickness"],
                    membrane_size=m["membrane_size"], air_size=m["air_size"],
-                   grading=m["grading"])
+                   grading=m["grading"],
+                   symmetry=m["symmetry"] if (a["enabled"] if with_air is None else with_air)
+                   else "none")
 
     def key(self) -> str:
         data = asdict(self)
         if not self.with_air:  # the air keys do not change a plane-only mesh
             for name in ("domain_radius", "pml_thickness", "air_size"):
                 data.pop(name)
+        if self.symmetry == "none":    # full meshes keep the keys they had before the key
+            data.pop("symmetry")
         data["version"] = GEOMETRY_VERSION
         text = json.dumps(data, sort_keys=True)
         return hashlib.sha1(text.encode()).hexdigest()[:12]
@@ -126,6 +138,14 @@ def build_shape(spec: GeometrySpec):
             cylinder = Cylinder(Pnt(0, 0, -half_height), Z, radius, 2 * half_height)
             parts += [face for face in cylinder.faces if _height(face) > half_height]
     shape = Glue(parts)
+    if spec.symmetry == "quarter":
+        if not spec.with_air:
+            raise ValueError("symmetry = 'quarter' is for meshes with air; allowed: none")
+        big = 2 * (R + t)
+        shape = shape * Box(Pnt(0, 0, -big), Pnt(big, big, big))
+    elif spec.symmetry != "none":
+        raise ValueError(f"symmetry = {spec.symmetry!r} is not allowed; allowed: "
+                         f"{', '.join(SYMMETRIES)}")
     _name_faces(shape, spec)
     return shape
 
@@ -137,15 +157,27 @@ def _height(shape) -> float:
 
 def _name_faces(shape, spec: GeometrySpec) -> None:
     r_o, r_i, R, t = spec.outer_radius, spec.inner_radius, spec.domain_radius, spec.pml_thickness
-    tol = 1e-6 * (R + t)
+    tol = 1e-5 * (R + t)     # OCC pads bounding boxes by ~1e-7 m, more after a cut
 
     def near(value, target):
         return abs(value - target) < tol + 1e-9
 
+    def mirror(lo, hi):
+        """``"mirror_x"`` / ``"mirror_y"`` for a shape in the plane x = 0 / y = 0."""
+        if spec.symmetry == "none":
+            return None
+        if abs(lo[0]) < tol and abs(hi[0]) < tol:
+            return "mirror_x"
+        if abs(lo[1]) < tol and abs(hi[1]) < tol:
+            return "mirror_y"
+        return None
+
     for face in shape.faces:
         lo, hi = face.bounding_box
         extent = _extent(face)
-        if abs(lo[2]) < tol and abs(hi[2]) < tol:         # in the plane z = 0
+        if mirror(lo, hi):
+            face.name = mirror(lo, hi)
+        elif abs(lo[2]) < tol and abs(hi[2]) < tol:         # in the plane z = 0
             if near(extent, r_o):
                 name = "membrane"
             elif r_i > 0 and near(extent, r_i):
@@ -171,7 +203,9 @@ def _name_faces(shape, spec: GeometrySpec) -> None:
         lo, hi = edge.bounding_box
         extent = _extent(edge)
         in_plane = abs(lo[2]) < tol and abs(hi[2]) < tol
-        if in_plane and near(extent, r_o):
+        if mirror(lo, hi):
+            edge.name = mirror(lo, hi) + "_edge"
+        elif in_plane and near(extent, r_o):
             edge.name = "outer_rim"
         elif in_plane and r_i > 0 and near(extent, r_i):
             edge.name = "inner_rim"

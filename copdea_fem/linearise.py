@@ -12,6 +12,10 @@ the biasing spring (``disc.motion: spring``) -- one rigid axial disc DOF
 adds mass ``M_d + M_s/3`` (Rayleigh's equivalent mass of a spring with a
 linear static deflection profile; the spring's own wave modes P2, P3, ... are
 Annex I's business) and stiffness ``k_d`` (eq. 4, linear spring).
+
+On a quadrant mesh (:mod:`symmetry`) the operators are those of one sector:
+its mirror conditions remove DOFs, the disc DOF exists in the even-even
+sector only, and the disc's mass and stiffness enter divided by 4.
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ import scipy.sparse as sp
 
 from .membrane import energy_density
 from .prestress import PrestressedState
+from .symmetry import SECTORS, Sector, membrane_mirror_dofs
 
 
 @dataclass
@@ -32,7 +37,8 @@ class MembraneOperators:
 
     ``free_dofs``: indices of the membrane space's free DOFs, in the order of
     the first ``len(free_dofs)`` unknowns; if ``disc_dof`` is True the last
-    unknown is the disc displacement w_d.
+    unknown is the disc displacement w_d.  ``sector``: the mirror-symmetry
+    class on a quadrant mesh (:class:`copdea_fem.symmetry.Sector`), else None.
     """
 
     stiffness: sp.csr_matrix
@@ -40,6 +46,7 @@ class MembraneOperators:
     free_dofs: np.ndarray
     disc_dof: bool
     state: PrestressedState
+    sector: Sector | None = None
 
     @property
     def size(self) -> int:
@@ -76,19 +83,30 @@ def membrane_matrices(state: PrestressedState):
     return to_scipy(hessian.mat), to_scipy(mass.mat)
 
 
-def linearised_operators(state: PrestressedState, study) -> MembraneOperators:
-    """K_s, M_s on the free DOFs (+ the disc DOF when the disc rides on the spring)."""
-    stiffness, mass = membrane_matrices(state)
-    free = np.flatnonzero(np.array(state.space.FreeDofs()))
+def linearised_operators(state: PrestressedState, study, sector: Sector | None = None,
+                         matrices=None) -> MembraneOperators:
+    """K_s, M_s on the free DOFs (+ the disc DOF when the disc rides on the spring).
+
+    ``sector``: on a quadrant mesh, the symmetry class (default: even-even);
+    ``matrices``: :func:`membrane_matrices` of ``state`` if already assembled.
+    """
+    stiffness, mass = matrices or membrane_matrices(state)
+    symmetry = state.symmetry
+    if symmetry.quarter and sector is None:
+        sector = SECTORS[0]
+    free_mask = np.array(state.space.FreeDofs())
+    free_mask[membrane_mirror_dofs(state.space, state.mesh, study["mesh"]["order"], sector)] = False
+    free = np.flatnonzero(free_mask)
     k_ff, m_ff = stiffness[free][:, free], mass[free][:, free]
-    with_disc = study["disc"]["motion"] == "spring" and state.has_disc
+    with_disc = (study["disc"]["motion"] == "spring" and state.has_disc
+                 and (sector is None or sector == SECTORS[0]))
     if with_disc:
         lift = state.disc_lift.vec.FV().NumPy()
         spring = study["spring"]
         disc_mass = study["disc"]["mass"] + spring["mass"] / 3
-        k_ff = _border(k_ff, stiffness, lift, free, spring["stiffness"])
-        m_ff = _border(m_ff, mass, lift, free, disc_mass)
-    return MembraneOperators(k_ff.tocsr(), m_ff.tocsr(), free, with_disc, state)
+        k_ff = _border(k_ff, stiffness, lift, free, spring["stiffness"] / symmetry.copies)
+        m_ff = _border(m_ff, mass, lift, free, disc_mass / symmetry.copies)
+    return MembraneOperators(k_ff.tocsr(), m_ff.tocsr(), free, with_disc, state, sector)
 
 
 def _border(block, full, lift, free, extra):

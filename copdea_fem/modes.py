@@ -48,6 +48,7 @@ class Mode:
     vector: np.ndarray = field(repr=False)   # full membrane-space coefficients
     disc_displacement: complex = 0.0
     membrane_energy_fraction: float = 1.0    # kinetic energy share of the membrane (+ disc)
+    sector: object = None          # symmetry.Sector on a quadrant mesh (vector: quadrant part)
 
     @property
     def damping_ratio(self) -> float:
@@ -58,7 +59,13 @@ class Mode:
 
 
 class ModeSampler:
-    """Evaluates membrane fields on a polar grid of the reference plane."""
+    """Evaluates membrane fields on a polar grid of the whole reference plane.
+
+    On a quadrant mesh the grid is folded into the quadrant and a sector's
+    field is unfolded with its parity signs (:mod:`copdea_fem.symmetry`):
+    normal and radial components take s(q), the hoop component s(q) q_x q_y
+    (e_theta flips under each reflection).
+    """
 
     def __init__(self, state, n_radii: int = 40, n_angles: int = 64):
         r_o, r_i = state.outer_radius, state.inner_radius
@@ -66,9 +73,9 @@ class ModeSampler:
         self.radii = inner + (r_o - inner) * (np.arange(n_radii) + 0.5) / n_radii
         self.angles = 2 * np.pi * np.arange(n_angles) / n_angles
         rr, tt = np.meshgrid(self.radii, self.angles, indexing="ij")
-        self.points = state.mesh(rr.ravel() * np.cos(tt.ravel()),
-                                 rr.ravel() * np.sin(tt.ravel()),
-                                 np.zeros(rr.size), ngs.BND)
+        xs, ys, self._qx, self._qy = state.symmetry.fold(rr.ravel() * np.cos(tt.ravel()),
+                                                         rr.ravel() * np.sin(tt.ravel()))
+        self.points = state.mesh(xs, ys, np.zeros(rr.size), ngs.BND)
         self.shape = rr.shape
         self.gf = ngs.GridFunction(state.space)
         normal = deformed_normal(state.displacement)
@@ -76,14 +83,20 @@ class ModeSampler:
         hoop = ngs.CF((-ngs.y, ngs.x, 0)) / ngs.sqrt(ngs.x**2 + ngs.y**2)
         self._components = ngs.CF((self.gf * normal, self.gf * radial, self.gf * hoop)).Compile()
 
-    def components(self, vector: np.ndarray) -> np.ndarray:
-        """(normal, radial, hoop) displacement on the grid: array (3, n_radii, n_angles)."""
+    def components(self, vector: np.ndarray, sector=None) -> np.ndarray:
+        """(normal, radial, hoop) displacement on the grid: array (3, n_radii, n_angles).
+
+        ``sector``: the symmetry class of ``vector`` on a quadrant mesh.
+        """
         values = []
         for part in (np.real(vector), np.imag(vector)) if np.iscomplexobj(vector) else (vector,):
             self.gf.vec.FV().NumPy()[:] = part
-            values.append(np.asarray(self._components(self.points)).reshape(*self.shape, 3))
+            values.append(np.asarray(self._components(self.points)))
         field_ = values[0] + 1j * values[1] if len(values) == 2 else values[0]
-        return np.moveaxis(field_, -1, 0)
+        if sector is not None:
+            sign = sector.sign(self._qx, self._qy)
+            field_ = field_ * np.stack([sign, sign, sign * self._qx * self._qy], axis=1)
+        return np.moveaxis(field_.reshape(*self.shape, 3), -1, 0)
 
 
 def circumferential_order(field_: np.ndarray, radii: np.ndarray) -> tuple[int, np.ndarray]:
@@ -120,6 +133,7 @@ def classify_modes(operators: MembraneOperators, eigen_result, sampler: ModeSamp
     """Turn eigenpairs of (K_s, M_s) into labelled, normalised :class:`Mode` objects."""
     state = operators.state
     sampler = sampler or ModeSampler(state)
+    copies = state.symmetry.copies      # a quadrant's masses are a quarter of the device's
     full = operators.to_full(eigen_result.vectors)
     normal_mass = normal_mass_matrix(state)
     modes = []
@@ -134,7 +148,7 @@ def classify_modes(operators: MembraneOperators, eigen_result, sampler: ModeSamp
         membrane_energy = max(total - disc_energy, 1e-300)
         normal_fraction = normal_energy / membrane_energy
         disc_fraction = disc_energy / total
-        normal, radial, hoop = sampler.components(vector)
+        normal, radial, hoop = sampler.components(vector, operators.sector)
         if disc_fraction > PUMPING_DISC_FRACTION:
             kind, field_ = PUMPING, normal
         elif normal_fraction >= OUT_OF_PLANE_FRACTION:
@@ -154,8 +168,8 @@ def classify_modes(operators: MembraneOperators, eigen_result, sampler: ModeSamp
             freq_im_hz=float(eigen_result.freq_im_hz[k]),
             residual=float(eigen_result.residuals[k]), kind=kind, m=m, n=n, label="",
             normal_fraction=normal_fraction, disc_fraction=disc_fraction,
-            modal_mass=total * scale**2, vector=vector * scale / max(peak, 1e-300),
-            disc_displacement=disc * scale / max(peak, 1e-300)))
+            modal_mass=copies * total * scale**2, vector=vector * scale / max(peak, 1e-300),
+            disc_displacement=disc * scale / max(peak, 1e-300), sector=operators.sector))
     assign_labels(modes)
     return modes
 

@@ -27,6 +27,7 @@ import ngsolve as ngs
 from .materials import Membrane
 from .membrane import (displacement_space, energy_density, field_coefficients,
                        membrane_measure)
+from .symmetry import SECTORS, Symmetry, bitarray, membrane_mirror_dofs
 
 
 class PrestressError(RuntimeError):
@@ -67,6 +68,7 @@ class PrestressedState:
     outer_radius: float = 0.0       # m
     inner_radius: float = 0.0       # m
     measure: object = None          # ds on the membrane, see membrane.membrane_measure
+    symmetry: Symmetry = field(default_factory=Symmetry)   # the mesh's part of the device
 
     @property
     def has_disc(self) -> bool:
@@ -92,6 +94,11 @@ class MembraneSolver:
         self.outer_radius, self.inner_radius = outer_radius, inner_radius
         self.space = displacement_space(mesh, order, self.has_disc)
         self.free = self.space.FreeDofs()
+        self.symmetry = Symmetry.of_mesh(mesh)
+        if self.symmetry.quarter:      # the prestress is even about both mirror planes
+            free = np.array(self.free)
+            free[membrane_mirror_dofs(self.space, mesh, order, SECTORS[0])] = False
+            self.free = bitarray(free)
         self.u = ngs.GridFunction(self.space, name="displacement")
         self.voltage = ngs.Parameter(0.0)
         self.z, self.newton_iterations, self.load_steps = 0.0, 0, []
@@ -104,7 +111,8 @@ class MembraneSolver:
         self.disc_lift = self.disc_extension = None
         if self.has_disc:
             self._build_disc_lift(outer_radius, inner_radius)
-        self._sample_points = _membrane_points(mesh, outer_radius, inner_radius)
+        self._sample_points = _membrane_points(mesh, outer_radius, inner_radius,
+                                               symmetry=self.symmetry)
         self._smallest_stress = field_coefficients(self.u, material, self.voltage)[
             "stress_2"].Compile()
 
@@ -136,11 +144,12 @@ class MembraneSolver:
         return float(np.linalg.norm(values[free])), float(np.linalg.norm(values[~free]))
 
     def disc_force(self) -> float:
-        """dE/dz = residual . lift [N]: any lift with unit axial rim value gives the same."""
+        """dE/dz = residual . lift [N]: any lift with unit axial rim value gives the same
+        (times the symmetry copies: a quadrant mesh carries a quarter of it)."""
         if not self.has_disc:
             return 0.0
         self.energy.Apply(self.u.vec, self.residual)
-        return float(ngs.InnerProduct(self.residual, self.disc_lift.vec))
+        return self.symmetry.copies * float(ngs.InnerProduct(self.residual, self.disc_lift.vec))
 
     def min_principal_stress(self) -> tuple[float, tuple[float, float]]:
         """Smallest principal Cauchy stress over the sample points [Pa], and where (r, theta)."""
@@ -261,18 +270,19 @@ class MembraneSolver:
         return PrestressedState(self.mesh, self.material, self.space, u, self.z,
                                 self.voltage.Get(), self.disc_force(), self.newton_iterations,
                                 list(self.load_steps), self.disc_lift, self.outer_radius,
-                                self.inner_radius, self.measure)
+                                self.inner_radius, self.measure, self.symmetry)
 
 
 class _StepFailed(Exception):
     pass
 
 
-def _membrane_points(mesh, r_o: float, r_i: float, n_radii: int = 24, n_angles: int = 64):
-    """Polar sample points strictly inside the membrane, for stress checks [m]."""
+def _membrane_points(mesh, r_o: float, r_i: float, n_radii: int = 24, n_angles: int = 64,
+                     symmetry: Symmetry = Symmetry()):
+    """Polar sample points strictly inside the (meshed) membrane, for stress checks [m]."""
     inner = max(r_i, 0.02 * r_o)
     radii = inner + (r_o - inner) * (np.arange(n_radii) + 0.5) / n_radii
-    angles = 2 * np.pi * np.arange(n_angles) / n_angles
+    angles = symmetry.angles(n_angles // symmetry.copies)
     rr, tt = np.meshgrid(radii, angles, indexing="ij")
     xs, ys = (rr * np.cos(tt)).ravel(), (rr * np.sin(tt)).ravel()
     return {"mesh_points": mesh(xs, ys, np.zeros_like(xs), ngs.BND),

@@ -7,7 +7,9 @@ Library entry points used by the CLI, the benchmarks and the tests:
 from __future__ import annotations
 
 import contextlib
+import os
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -56,6 +58,16 @@ def _quiet(message: str) -> None:
 def _task_manager():
     import ngsolve as ngs
     return ngs.TaskManager()
+
+
+def _workers(tasks: int, backend: str) -> int:
+    """Worker threads for ``tasks`` independent sector solves: one per usable core when
+    the back-end's solves release the GIL (NGSolve's UMFPACK and PARDISO do; SciPy's
+    SuperLU does not, so its sectors run one after the other)."""
+    if backend == "superlu":
+        return 1
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return max(1, min(tasks, cores or 1))
 
 
 def require_backend(study: Study) -> None:
@@ -120,30 +132,34 @@ class CoupledSolution:
     pressures: list          # pressure vector [Pa, free DOFs] of each coupled mode
     dry_modes: list
     dry_partner_hz: dict     # index in modes -> dry partner frequency [Hz]
-    eigen: object
-    operators: object        # coupled.CoupledOperators
+    eigen: object            # eigen.SectorBandResults: the band result of each sector
+    operators: list          # coupled.CoupledOperators of each sector, in solve order
 
 
 def coupled_modes(study: Study, mesh=None, progress=_quiet, timings: Timings | None = None,
                   cache_dir=None, solver=None, initial_shifts=None) -> CoupledSolution:
     """Prestress, dry modes and fully-coupled membrane-air modes (Sect. 3.1.3).
 
+    On a quadrant mesh (``mesh.symmetry: quarter``, :mod:`copdea_fem.symmetry`)
+    the dry and coupled bands are solved per mirror-symmetry sector and merged.
     ``solver`` and ``initial_shifts`` are the sweep's reuse hooks, as in
     :func:`dry_modes`: the prestress continues from ``solver``'s equilibrium,
-    and the coupled band solve starts at ``initial_shifts`` (a neighbouring
-    point's coupled shifts and mode counts); the dry partner solve on the same
-    mesh starts afresh.
+    and the coupled band solves start at ``initial_shifts`` (a neighbouring
+    point's coupled shifts and mode counts, per sector: ``{sector name or
+    "all": shifts}``); the dry partner solves start afresh.
     """
     from .coupled import assemble_coupled, coupled_mode_list, match_dry
-    from .eigen import solve_band
+    from .eigen import SectorBandResults, solve_band
     from .linearise import membrane_matrices
+    from .modes import assign_labels
 
     timings = timings or Timings()
     require_backend(study)
     check_air_lift(study)
     eigen = study["eigen"]
     band = dict(backend=eigen["backend"], max_modes=eigen["max_modes"],
-                residual_tol=eigen["residual_tol"], progress=progress)
+                residual_tol=eigen["residual_tol"])
+    initial_shifts = initial_shifts or {}
     with _task_manager():
         if mesh is None:
             with timings.stage("mesh"):
@@ -152,29 +168,62 @@ def coupled_modes(study: Study, mesh=None, progress=_quiet, timings: Timings | N
             progress("prestress (Newton, load steps in z then V_b) ...")
             state = solve_prestress(study, mesh, progress=progress, solver=solver)
         with timings.stage("assembly"):
-            operators = linearised_operators(state, study)
-        with timings.stage("eigen"):
-            progress(f"dry modes on the same mesh ({operators.size} unknowns) ...")
-            dry_result = solve_band(operators.stiffness, operators.mass, eigen["f_min"],
-                                    eigen["f_max"] * 1.5, hermitian=True, **band)
-        sampler = ModeSampler(state)
-        with timings.stage("classify"):
-            dry = classify_modes(operators, dry_result, sampler)
+            matrices = membrane_matrices(state)
+            coupled_forms = assemble_coupled(study, mesh, state, progress=progress)
+        sectors = []
         with timings.stage("assembly"):
-            coupled = assemble_coupled(study, mesh, state, operators, progress=progress)
-        with timings.stage("eigen"):
-            progress(f"coupled modes in [{eigen['f_min']:g}, {eigen['f_max']:g}] Hz "
-                     f"({coupled.stiffness.shape[0]} unknowns) ...")
-            result = solve_band(coupled.stiffness, coupled.mass, eigen["f_min"], eigen["f_max"],
-                                hermitian=False, factorize=coupled.factorize,
-                                initial_shifts=initial_shifts, **band)
-        with timings.stage("classify"):
-            modes, pressures = coupled_mode_list(coupled, result,
-                                                 study["air"]["min_membrane_energy"], sampler)
-            full_mass = membrane_matrices(state)[1]
-            partners = match_dry(modes, dry, full_mass)
+            for sector in state.symmetry.sectors:
+                operators = linearised_operators(state, study, sector, matrices)
+                sectors.append((sector, operators, coupled_forms.restrict(operators)))
+    # outside the TaskManager: its workers would compete with the sector threads
+
+    def solve_sector(sector, operators, coupled):
+        """Dry partner band and coupled band of one sector (runs in a worker thread)."""
+        where = "" if sector is None else f"{sector.name}: "
+
+        def say(message):
+            progress(where + message)
+
+        say(f"dry modes on the same mesh ({operators.size} unknowns) ...")
+        dry_result = solve_band(operators.stiffness, operators.mass, eigen["f_min"],
+                                eigen["f_max"] * 1.5, hermitian=True, progress=say, **band)
+        # wet modes lie below their dry partners: the dry count is the first run's k
+        expected = int(np.count_nonzero(dry_result.freq_hz <= 1.1 * eigen["f_max"])) + 2
+        say(f"coupled modes in [{eigen['f_min']:g}, {eigen['f_max']:g}] Hz "
+            f"({coupled.stiffness.shape[0]} unknowns) ...")
+        key = "all" if sector is None else sector.name
+        plan = initial_shifts.get(key) if isinstance(initial_shifts, dict) else initial_shifts
+        result = solve_band(coupled.stiffness, coupled.mass, eigen["f_min"], eigen["f_max"],
+                            hermitian=False, factorize=coupled.factorize,
+                            max_imag_hz=eigen["max_damping_ratio"] * eigen["f_max"],
+                            initial_shifts=plan, start_modes=expected, progress=say, **band)
+        return key, dry_result, result
+
+    with timings.stage("eigen"):
+        # the solves release the GIL: sectors run side by side on the cores
+        with ThreadPoolExecutor(max_workers=_workers(len(sectors), eigen["backend"])) as pool:
+            solved = list(pool.map(lambda item: solve_sector(*item), sectors))
+    modes, pressures, dry, results = [], [], [], {}
+    with timings.stage("classify"), _task_manager():
+        sampler = ModeSampler(state)
+        for (sector, operators, coupled), (key, dry_result, result) in zip(sectors, solved):
+            dry += classify_modes(operators, dry_result, sampler)
+            sector_modes, sector_pressures = coupled_mode_list(
+                coupled, result, study["air"]["min_membrane_energy"], sampler)
+            modes += sector_modes
+            pressures += sector_pressures
+            results[key] = result
+    with timings.stage("classify"):
+        order = sorted(range(len(modes)), key=lambda k: (modes[k].freq_hz, k))
+        modes, pressures = [modes[k] for k in order], [pressures[k] for k in order]
+        for index, mode in enumerate(modes):
+            mode.index = index
+        assign_labels([mode for mode in modes if mode.kind != "air"])
+        assign_labels(dry)
+        partners = match_dry(modes, dry, matrices[1])
     return CoupledSolution(state, modes, pressures, dry,
-                           {k: mode.freq_hz for k, mode in partners.items()}, result, coupled)
+                           {k: mode.freq_hz for k, mode in partners.items()},
+                           SectorBandResults(results), [coupled for _, _, coupled in sectors])
 
 
 def run_solve(study: Study, out_dir: str | Path | None = None, progress=_quiet,
@@ -192,7 +241,7 @@ def run_solve(study: Study, out_dir: str | Path | None = None, progress=_quiet,
         rows = output.mode_rows(modes)
     result = SolveResult(study, state, modes, rows, timings, eigen_result, coupled=coupled)
     if out_dir is not None:
-        with timings.stage("output"):
+        with timings.stage("output"), _task_manager():
             progress("writing results ...")
             write_results(result, Path(out_dir))
         result.out_dir = Path(out_dir)
@@ -210,7 +259,7 @@ def write_results(result: SolveResult, out_dir: Path) -> None:
     study = result.study
     extra = {"prestress": prestress_summary(result.state),
              "eigen": {"shifts_hz": [float(f) for f in result.eigen.shift_freq_hz],
-                       "unknowns": int(result.eigen.vectors.shape[0]),
+                       "unknowns": int(result.eigen.unknowns),
                        "factorisations": int(result.eigen.n_factorisations)},
              "timings_s": result.timings.seconds}
     with output.result_directory(out_dir) as staging:

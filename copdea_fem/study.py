@@ -141,6 +141,10 @@ SCHEMA: dict[str, dict[str, Key]] = {
                               minimum=1, maximum=6),
         "curve_order": Key(None, 3, "order of the curved geometry (circles)", kind=int,
                            minimum=1, maximum=8),
+        "symmetry": Key(None, "quarter", "coupled solve: quarter = mesh one quadrant and "
+                        "solve the four mirror-symmetry classes apart (the device is symmetric "
+                        "about x = 0 and y = 0); none = mesh it whole. Dry studies mesh the "
+                        "whole plane", kind=str, choices=("quarter", "none")),
     },
     "prestress": {
         "z_steps": Key(None, 4, "initial number of load steps in z", kind=int,
@@ -163,6 +167,11 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "backend": Key(None, "umfpack", "sparse factorisation: umfpack (ships with NGSolve), "
                        "pardiso (needs `pip install mkl`) or superlu (SciPy)", kind=str,
                        choices=("umfpack", "pardiso", "superlu")),
+        "max_damping_ratio": Key(None, 0.05, "coupled solve: the band also spans |Im f| <= "
+                                 "this * f_max, so every mode with damping ratio up to it "
+                                 "is found (radiation damping of the membrane modes is "
+                                 "~1e-4..1e-2; more damped air/PML modes may be left out)",
+                                 minimum=0, maximum=1, open_min=True),
         "residual_tol": Key(None, 1e-6, "largest accepted relative residual "
                             "|Ax - lambda Bx| / (|A| |x|)", minimum=0, maximum=1e-2,
                             open_min=True),

@@ -647,6 +647,9 @@ def shift_plan(result, margin_fraction: float = 0.1, margin_modes: int = 4) -> l
     (modes entering/leaving the band), and one extra run to extend a shift
     costs more than a few extra Ritz vectors.
     """
+    if hasattr(result, "by_sector"):     # a coupled solve on a quadrant: a plan per sector
+        return {name: shift_plan(part, margin_fraction, margin_modes)
+                for name, part in result.by_sector.items()}
     shifts = np.asarray(result.shifts, dtype=float)
     if shifts.size == 0:
         return []
@@ -720,7 +723,12 @@ class _FEModel:
                 chain.mass = _full_mass_matrix(state)
             vectors = np.column_stack([mode.vector for mode in modes]) if modes else \
                 np.zeros((state.space.ndof, 0))
-            arrays = {"vectors": vectors, "weighted": chain.mass @ vectors}
+            weighted = chain.mass @ vectors
+            if state.symmetry.quarter:   # device vectors: sectors orthogonal (symmetry doc)
+                signatures = np.array([mode.sector.signature() for mode in modes]).reshape(-1, 4)
+                vectors = np.vstack([vectors * column for column in signatures.T])
+                weighted = np.vstack([weighted * column for column in signatures.T])
+            arrays = {"vectors": vectors, "weighted": weighted}
             if needs_sampling:
                 arrays["sampled"] = _sampled_shapes(state, modes)
         chain.context_key, chain.solver = point.context_key, solver
@@ -735,7 +743,7 @@ class _FEModel:
             "prestress": {"newton_iterations": state.newton_iterations - iterations_before,
                           "disc_force_n": state.disc_force, "z_m": state.z,
                           "voltage_v": state.voltage},
-            "eigen": {"unknowns": int(eigen_result.vectors.shape[0]),
+            "eigen": {"unknowns": int(eigen_result.unknowns),
                       "factorisations": int(eigen_result.n_factorisations),
                       "shifts_hz": [float(f) for f in eigen_result.shift_freq_hz],
                       "factorisation_s": float(eigen_result.factorisation_seconds),
@@ -860,7 +868,7 @@ def _sampled_shapes(state, modes) -> np.ndarray:
     from .modes import ModeSampler
     sampler = ModeSampler(state)
     weights = np.sqrt(sampler.radii / state.outer_radius)[None, :, None]
-    rows = [(sampler.components(mode.vector) * weights).ravel() for mode in modes]
+    rows = [(sampler.components(mode.vector, mode.sector) * weights).ravel() for mode in modes]
     return np.array(rows) if rows else np.zeros((0, 3 * sampler.shape[0] * sampler.shape[1]))
 
 

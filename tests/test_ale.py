@@ -24,7 +24,7 @@ def moved():
     return mesh, state, air_mesh_displacement(state, mesh, study["air"]["domain_radius"])
 
 
-def _on_plane(mesh, radii, angles=(0.3, 1.9, 4.0)):
+def _on_plane(mesh, radii, angles=(0.2, 0.8, 1.4)):     # the default air mesh is a quadrant
     xs = [r * np.cos(a) for r in radii for a in angles]
     ys = [r * np.sin(a) for r in radii for a in angles]
     return mesh(np.array(xs), np.array(ys), np.zeros(len(xs)), ngs.BND)
