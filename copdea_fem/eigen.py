@@ -270,7 +270,11 @@ def fill_reducing_order(matrix) -> np.ndarray | None:
     graph = (pattern + pattern.T).tocsr()
     graph.setdiag(0)
     graph.eliminate_zeros()
-    permutation, _ = pymetis.nested_dissection(xadj=graph.indptr, adjncy=graph.indices)
+    if hasattr(pymetis, "CSRAdjacency"):
+        ordering = pymetis.nested_dissection(pymetis.CSRAdjacency(graph.indptr, graph.indices))
+    else:
+        ordering = pymetis.nested_dissection(xadj=graph.indptr, adjncy=graph.indices)
+    permutation = ordering[0]       # (perm, iperm): row perm[k] of the matrix goes k-th
     return np.asarray(permutation, dtype=np.int64)
 
 
