@@ -40,6 +40,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+#: Relative inward offset of sample points on a mirror line (:meth:`Symmetry.fold`).
+MIRROR_NUDGE = 1e-5
+
 #: Quadrants of the device as (sign of x, sign of y); the first is the meshed one.
 QUADRANTS = ((1, 1), (-1, 1), (-1, -1), (1, -1))
 
@@ -107,11 +110,18 @@ class Symmetry:
         return 2 * np.pi * np.arange(count) / count
 
     def fold(self, x, y):
-        """Points of the whole plane -> (x, y) in the meshed part, and their quadrant signs."""
+        """Points of the whole plane -> (x, y) in the meshed part, and their quadrant signs.
+
+        Points on a mirror line move into the quadrant by 1e-5 of their radius:
+        a point search exactly on x = 0 returns the element of the mirror face,
+        where the membrane fields are not defined (fields change by ~1e-5 there).
+        """
         x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
         if not self.quarter:
             return x, y, np.ones_like(x), np.ones_like(y)
-        return np.abs(x), np.abs(y), np.where(x < 0, -1.0, 1.0), np.where(y < 0, -1.0, 1.0)
+        inward = MIRROR_NUDGE * np.hypot(x, y)
+        return (np.maximum(np.abs(x), inward), np.maximum(np.abs(y), inward),
+                np.where(x < 0, -1.0, 1.0), np.where(y < 0, -1.0, 1.0))
 
 
 def bitarray(mask: np.ndarray):

@@ -90,6 +90,24 @@ def test_modes_sit_in_the_sector_of_their_circumferential_order(pair):
         assert (name in ("odd-even", "even-odd")) == (m % 2 == 1), label
 
 
+def test_samples_on_the_mirror_lines_see_the_membrane(pair):
+    """The polar grid has points on x = 0 and y = 0; there a point search finds the mirror
+    face, so they are nudged into the quadrant: the axisymmetric (0,1) is the same at every
+    angle (a sample on the mirror face would read 0)."""
+    from copdea_fem.modes import ModeSampler
+    quarter, _ = pair
+    _, mode = _structural(quarter)["(0,1)"]
+    sampler = ModeSampler(quarter.state)
+    on_axes = np.isclose(np.sin(2 * sampler.angles), 0)
+    assert on_axes.sum() == 4
+    normal = np.real(sampler.components(mode.vector, mode.sector)[0])
+    # nearly axisymmetric (the coarse mesh adds +-2 % of angular noise): an axis
+    # sample matches its two angular neighbours
+    for index in np.flatnonzero(on_axes):
+        neighbours = 0.5 * (normal[:, index - 1] + normal[:, (index + 1) % normal.shape[1]])
+        np.testing.assert_allclose(normal[:, index], neighbours, atol=0.05 * np.abs(normal).max())
+
+
 def test_quarter_mesh_is_a_quadrant_with_named_mirror_faces():
     study = coupled_study()
     mesh = prepare_mesh(study, with_air=True)
