@@ -81,6 +81,8 @@ BAD = [
     ({"mesh": {"membrane_size": "15 mm"}}, "mesh.membrane_size", "half the membrane width"),
     ({"membrane": {"c10": "nan"}}, "membrane.c10", ""),
     ({"eigen": {"backend": "mumps"}}, "eigen.backend", "umfpack, pardiso, superlu"),
+    ({"mesh": {"symmetry": "half"}}, "mesh.symmetry", "quarter, none"),
+    ({"eigen": {"max_damping_ratio": 0}}, "eigen.max_damping_ratio", "(0, 1]"),
 ]
 
 
