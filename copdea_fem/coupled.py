@@ -15,6 +15,10 @@ pressure unknowns are scaled (``p = beta p^``, air rows times ``alpha``) so
 that all blocks have the size of ``K_s``; the eigenvalues do not change and the
 relative residuals of :mod:`eigen` then weigh both physics alike.
 
+:func:`assemble_coupled` assembles the forms once on all DOFs;
+:meth:`CoupledAssembly.restrict` cuts out the pencil of one mirror-symmetry
+sector on a quadrant mesh (:mod:`copdea_fem.symmetry`), or the whole pencil.
+
 Modes whose kinetic energy lies mostly in the air (``air.min_membrane_energy``)
 are air/PML modes (``kind = "air"``).  Each structural mode is matched to the
 dry mode of the same operators (same mesh) by label and by the modal assurance
