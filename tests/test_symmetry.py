@@ -50,8 +50,9 @@ def _compare(quarter, whole, frequency_tol):
         # the air's share sets the added mass: d(fraction) ~ 2 df/f
         assert mq.membrane_energy_fraction == pytest.approx(mw.membrane_energy_fraction,
                                                             rel=2 * frequency_tol), label
-        # per unit peak displacement, sampled on a polar grid: the coarsest of the four
-        assert mq.modal_mass == pytest.approx(mw.modal_mass, rel=max(0.02, 10 * frequency_tol))
+        # per unit peak displacement, sampled on a polar grid: measured within 1.3 % (9 mm)
+        # and 0.5 % (6 mm)
+        assert mq.modal_mass == pytest.approx(mw.modal_mass, rel=max(0.02, 3 * frequency_tol))
     # (0,1) radiates (the others' radiation damping is at round-off level here)
     assert q["(0,1)"][1].damping_ratio == pytest.approx(w["(0,1)"][1].damping_ratio, rel=0.1)
     return {label: (q[label][1].freq_hz, w[label][1].freq_hz) for label in q}
