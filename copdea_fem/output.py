@@ -25,7 +25,7 @@ VTU_COMPRESSION = None
 
 MODE_COLUMNS = ("label", "m", "n", "kind", "freq_hz", "freq_im_hz", "damping_ratio",
                 "membrane_energy_fraction", "modal_mass", "dry_freq_hz", "added_mass_ratio",
-                "normal_fraction", "disc_fraction", "residual")
+                "normal_fraction", "disc_fraction", "residual", "symmetry")
 
 
 @contextlib.contextmanager
@@ -63,7 +63,9 @@ def mode_rows(modes, dry_frequencies: dict | None = None) -> list[dict]:
             "modal_mass": mode.modal_mass, "dry_freq_hz": dry,
             "added_mass_ratio": (dry / mode.freq_hz) ** 2 - 1 if mode.freq_hz > 0 else 0.0,
             "normal_fraction": mode.normal_fraction, "disc_fraction": mode.disc_fraction,
-            "residual": mode.residual})
+            "residual": mode.residual,
+            # parity about x = 0 and y = 0 on a quadrant mesh (copdea_fem.symmetry), else ""
+            "symmetry": mode.sector.name if mode.sector is not None else ""})
     return rows
 
 

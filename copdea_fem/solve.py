@@ -268,7 +268,9 @@ def write_results(result: SolveResult, out_dir: Path) -> None:
     extra = {"prestress": prestress_summary(result.state),
              "eigen": {"shifts_hz": [float(f) for f in result.eigen.shift_freq_hz],
                        "unknowns": int(result.eigen.unknowns),
-                       "factorisations": int(result.eigen.n_factorisations)},
+                       "factorisations": int(result.eigen.n_factorisations),
+                       "symmetry": result.state.symmetry.kind,
+                       **_sector_summary(result.eigen)},
              "timings_s": result.timings.seconds}
     with output.result_directory(out_dir) as staging:
         output.write_modes(staging, result.rows, study, extra)
@@ -290,6 +292,15 @@ def write_results(result: SolveResult, out_dir: Path) -> None:
             if not study["output"]["paraview"]:
                 for path in list(staging.glob("*.vtu")) + list(staging.glob("*.pvd")):
                     path.unlink()
+
+
+def _sector_summary(eigen_result) -> dict:
+    """Per-sector unknowns, shifts and eigenpair counts of a coupled solve (modes.json)."""
+    if not hasattr(eigen_result, "by_sector"):
+        return {}
+    return {"sectors": {name: {"unknowns": part.unknowns, "eigenpairs": len(part),
+                               "shifts_hz": [float(f) for f in part.shift_freq_hz]}
+                        for name, part in eigen_result.by_sector.items()}}
 
 
 def write_paraview(directory: Path, state, modes) -> list[Path]:

@@ -5,7 +5,9 @@ whole mesh: same frequencies, damping, added mass, labels; modes sit in the
 sector their (m, n) belongs to; quadrant integrals are a quarter of the device's.
 """
 
+import csv
 import itertools
+import json
 
 import meshio
 import numpy as np
@@ -134,6 +136,12 @@ def test_quadrant_prestress_carries_the_whole_disc_force():
 def test_written_fields_are_unfolded_with_the_sector_parity(tmp_path):
     study = coupled_study(eigen={"f_max": "450 Hz"}, output={"plots": False})
     result = run_solve(study, out_dir=tmp_path / "run")
+    rows = {row["label"]: row for row in csv.DictReader(open(tmp_path / "run" / "modes.csv"))}
+    assert rows["(0,1)"]["symmetry"] == "even-even"
+    assert {rows["(1,1)a"]["symmetry"], rows["(1,1)b"]["symmetry"]} == {"odd-even", "even-odd"}
+    summary = json.loads((tmp_path / "run" / "modes.json").read_text())["eigen"]
+    assert summary["symmetry"] == "quarter" and set(summary["sectors"]) == {
+        sector.name for sector in SECTORS}
     for mode_number, mode in enumerate(result.modes):
         if mode.kind == "air":
             continue
