@@ -522,54 +522,26 @@ class SectorBandResults:
 
     by_sector: dict        # sector name ("all" on a whole mesh) -> BandResult
 
-    def _joined(self, name: str) -> np.ndarray:
-        parts = [np.asarray(getattr(result, name)) for result in self.by_sector.values()]
-        return np.concatenate(parts) if parts else np.zeros(0)
+    def _parts(self, name: str) -> list:
+        return [getattr(result, name) for result in self.by_sector.values()]
 
-    @property
-    def eigenvalues(self) -> np.ndarray:
-        return self._joined("eigenvalues")
+    def _joined(name: str):
+        """Property: the sectors' arrays ``name`` one after the other."""
+        return property(lambda self: np.concatenate([np.asarray(part) for part in
+                                                     self._parts(name)])
+                        if self.by_sector else np.zeros(0))
 
-    @property
-    def shifts(self) -> np.ndarray:
-        return self._joined("shifts")
+    def _summed(name: str):
+        """Property: the sum of the sectors' ``name``."""
+        return property(lambda self: sum(self._parts(name)))
 
-    @property
-    def freq_hz(self) -> np.ndarray:
-        return self._joined("freq_hz")
-
-    @property
-    def freq_im_hz(self) -> np.ndarray:
-        return self._joined("freq_im_hz")
-
-    @property
-    def residuals(self) -> np.ndarray:
-        return self._joined("residuals")
-
-    @property
-    def shift_freq_hz(self) -> np.ndarray:
-        return self._joined("shift_freq_hz")
-
-    @property
-    def n_factorisations(self) -> int:
-        return sum(result.n_factorisations for result in self.by_sector.values())
-
-    @property
-    def factorisation_seconds(self) -> float:
-        return sum(result.factorisation_seconds for result in self.by_sector.values())
-
-    @property
-    def iteration_seconds(self) -> float:
-        return sum(result.iteration_seconds for result in self.by_sector.values())
-
-    @property
-    def total_seconds(self) -> float:
-        return sum(result.total_seconds for result in self.by_sector.values())
-
-    @property
-    def unknowns(self) -> int:
-        """Unknowns of all sector pencils together (a quadrant's DOFs, about 4 times)."""
-        return sum(result.unknowns for result in self.by_sector.values())
+    eigenvalues, freq_hz, freq_im_hz, residuals = map(
+        _joined, ("eigenvalues", "freq_hz", "freq_im_hz", "residuals"))
+    shifts, shift_freq_hz = _joined("shifts"), _joined("shift_freq_hz")
+    n_factorisations, unknowns = _summed("n_factorisations"), _summed("unknowns")
+    factorisation_seconds, iteration_seconds, total_seconds = map(
+        _summed, ("factorisation_seconds", "iteration_seconds", "total_seconds"))
+    del _joined, _summed
 
 
 class _BandRegion:
