@@ -221,7 +221,6 @@ def coupled_modes(study: Study, mesh=None, progress=_quiet, timings: Timings | N
             modes += sector_modes
             pressures += sector_pressures
             results[key] = result
-    with timings.stage("classify"):
         order = sorted(range(len(modes)), key=lambda k: (modes[k].freq_hz, k))
         modes, pressures = [modes[k] for k in order], [pressures[k] for k in order]
         for index, mode in enumerate(modes):
