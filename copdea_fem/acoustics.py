@@ -126,7 +126,7 @@ def screen_faces(frame: str) -> str:
 
     Parameters
     ----------
-    frame : {"square", "baffle", "none"}
+    frame : {"square", "circle", "baffle", "none"}
         ``study["geometry"]["frame"]``.
 
     Returns
@@ -138,11 +138,12 @@ def screen_faces(frame: str) -> str:
     """
     if frame == "baffle":
         return "membrane|disc|frame|pml_plane"
-    if frame == "square":
+    if frame in ("square", "circle"):
         return "membrane|disc|frame"
     if frame == "none":
         return "membrane|disc"
-    raise ValueError(f"geometry.frame = {frame!r} is not allowed; allowed: square, baffle, none")
+    raise ValueError(f"geometry.frame = {frame!r} is not allowed; allowed: square, circle, "
+                     "baffle, none")
 
 
 PLANE_FACES = ("membrane", "disc", "frame", "aperture", "pml_plane")
@@ -232,23 +233,28 @@ def set_pml(mesh, domain_radius: float, pml_thickness: float, strength: float = 
 
 
 def set_order_in(space, mesh, regions: str, order: int) -> None:
-    """Give every element of ``regions`` (cells, faces, edges) polynomial order ``order``."""
-    from ngsolve import CELL, NodeId, VOL
+    """Give every element of ``regions`` (cells, faces, edges) polynomial order ``order``.
+
+    Works on 3-D meshes and on the 2-D meridian meshes of :mod:`copdea_fem.axisymmetric`
+    (there an element is a FACE node)."""
+    from ngsolve import CELL, FACE, NodeId, VOL
 
     in_regions = mesh.Materials(regions).Mask()
+    element_node = CELL if mesh.dim == 3 else FACE
     for element in mesh.Elements(VOL):
         if not in_regions[element.index]:
             continue
-        space.SetOrder(NodeId(CELL, element.nr), order)
-        for face in element.faces:
-            space.SetOrder(face, order)
+        space.SetOrder(NodeId(element_node, element.nr), order)
+        if mesh.dim == 3:
+            for face in element.faces:
+                space.SetOrder(face, order)
         for edge in element.edges:
             space.SetOrder(edge, order)
     space.Update()
 
 
 def pressure_space(mesh, order: int, screens: str, pml_order: int | None = None,
-                   outer_dirichlet: bool = True):
+                   outer_dirichlet: bool = True, also_dirichlet: str = ""):
     """Complex pressure space ``P x Q`` with a jump across the screens.
 
     Parameters
@@ -266,6 +272,8 @@ def pressure_space(mesh, order: int, screens: str, pml_order: int | None = None,
         Order in the PML elements; default ``order + PML_EXTRA_ORDER``.
     outer_dirichlet : bool
         ``p = 0`` on ``outer`` (needed by the unbounded PML profile).
+    also_dirichlet : str
+        More boundaries with ``p = q = 0`` (the meridian's ``axis`` for an order m >= 1).
 
     Returns
     -------
@@ -282,7 +290,7 @@ def pressure_space(mesh, order: int, screens: str, pml_order: int | None = None,
                          f"{', '.join(PLANE_FACES)} joined by '|'")
     pml_order = order + PML_EXTRA_ORDER if pml_order is None else pml_order
     open_plane = open_plane_faces(screens)
-    outer = OUTER if outer_dirichlet else ""
+    outer = "|".join(name for name in (OUTER if outer_dirichlet else "", also_dirichlet) if name)
     continuous = H1(mesh, order=order, complex=True, definedon=mesh.Materials(AIR_AND_PML),
                     dirichlet=outer)
     jump = H1(mesh, order=order, complex=True, definedon=mesh.Materials(LOWER),

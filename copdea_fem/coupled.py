@@ -200,18 +200,9 @@ class CoupledAssembly:
         b_full = self.mass[free][:, free].tocsr()
         air_kinetic = self.kinetic[pressure_global][:, pressure_global].tocsr()
 
-        # scaling (module doc): p = beta p^, air rows times alpha
         is_air = np.zeros(free.size, dtype=bool)
         is_air[pressure_index] = True
-        k_s = a_full[~is_air][:, ~is_air]
-        coupling = b_full[is_air][:, ~is_air]
-        beta = _norm(k_s) / _norm(coupling)
-        alpha = _norm(k_s) / (beta * _norm(a_full[is_air][:, is_air]))
-        row_scale = np.where(is_air, alpha, 1.0)
-        column_scale = np.where(is_air, beta, 1.0)
-        scale_rows, scale_columns = sp.diags(row_scale), sp.diags(column_scale)
-        a_scaled = (scale_rows @ a_full @ scale_columns).tocsr()
-        b_scaled = (scale_rows @ b_full @ scale_columns).tocsr()
+        a_scaled, b_scaled, beta, row_scale, column_scale = scaled_pencil(a_full, b_full, is_air)
         backend = self.study["eigen"]["backend"]
 
         def factorize(sigma: float):
@@ -280,6 +271,20 @@ def _physical_air_energy(pressure, pressure_test, density, motion):
     return ((1.0 / density) * ngs.grad(p) * ngs.grad(pt) * ngs.dx("air_upper", deformation=motion)
             + (1.0 / density) * ngs.grad(p + q) * ngs.grad(pt + qt)
             * ngs.dx("air_lower", deformation=motion))
+
+
+def scaled_pencil(a_full, b_full, is_air):
+    """Scale the air unknowns and rows (module doc): ``p = beta p^``, air rows times alpha,
+    with beta = |K_s| / |C| and alpha = |K_s| / (beta |K_a|) (max-norms), so every block
+    has the size of ``K_s``; returns (A scaled, B scaled, beta, row scale, column scale)."""
+    k_s = a_full[~is_air][:, ~is_air]
+    coupling = b_full[is_air][:, ~is_air]
+    beta = _norm(k_s) / _norm(coupling)
+    alpha = _norm(k_s) / (beta * _norm(a_full[is_air][:, is_air]))
+    row_scale, column_scale = np.where(is_air, alpha, 1.0), np.where(is_air, beta, 1.0)
+    scale_rows, scale_columns = sp.diags(row_scale), sp.diags(column_scale)
+    return ((scale_rows @ a_full @ scale_columns).tocsr(),
+            (scale_rows @ b_full @ scale_columns).tocsr(), beta, row_scale, column_scale)
 
 
 def _norm(matrix) -> float:

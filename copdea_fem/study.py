@@ -64,6 +64,8 @@ class Key:
 
 
 G1 = "Table 1, G1"
+ENGINES = ("auto", "3d", "axisymmetric")
+AXISYMMETRIC_FRAMES = ("none", "baffle", "circle")
 SCHEMA: dict[str, dict[str, Key]] = {
     "geometry": {
         "outer_radius": Key("m", 0.0355, f"outer radius r_o of the pre-stretched membrane ({G1})",
@@ -71,10 +73,14 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "inner_radius": Key("m", 0.017, "inner radius r_i = disc radius; 0 = full circular "
                             f"membrane, no disc ({G1}; G2: 12 mm)", minimum=0, maximum=1.0),
         "frame": Key(None, "square", "rigid reflecting frame in the membrane plane: square "
-                     "(Sect. 5.1), baffle (infinite rigid plane) or none", kind=str,
-                     choices=("square", "baffle", "none")),
+                     "(Sect. 5.1), baffle (infinite rigid plane), circle (a rigid ring plane "
+                     "from r_o to geometry.frame_radius) or none", kind=str,
+                     choices=("square", "baffle", "none", "circle")),
         "frame_side": Key("m", 0.080, "side of the square frame (Sect. 5.1)", minimum=0,
                           maximum=2.0, open_min=True),
+        "frame_radius": Key("m", None, "outer radius of the circular frame (frame: circle)",
+                            minimum=0, maximum=2.0, open_min=True,
+                            derived="0.5 * geometry.frame_side"),
     },
     "membrane": {
         "thickness": Key("m", 100e-6, "film thickness h0 before pre-stretch (Table 1)",
@@ -145,6 +151,11 @@ SCHEMA: dict[str, dict[str, Key]] = {
                         "solve the four mirror-symmetry classes apart (the device is symmetric "
                         "about x = 0 and y = 0); none = mesh it whole. Dry studies mesh the "
                         "whole plane", kind=str, choices=("quarter", "none")),
+        "engine": Key(None, "auto", "FE engine: axisymmetric = meridian (r, z) mesh, one 2-D "
+                      "problem per circumferential order m (frame none, baffle or circle); "
+                      "3d = the 3-D mesh (any frame; needed for the square frame); auto = "
+                      "axisymmetric where the geometry allows, else 3d", kind=str,
+                      choices=ENGINES),
     },
     "prestress": {
         "z_steps": Key(None, 4, "initial number of load steps in z", kind=int,
@@ -435,6 +446,8 @@ def _derived_defaults(v: dict[str, dict[str, Any]], name: str) -> None:
                                  ("mesh", "air_size", 0.5)):
         if v[section][key] is None:
             v[section][key] = factor * r_o
+    if v["geometry"]["frame_radius"] is None:
+        v["geometry"]["frame_radius"] = 0.5 * v["geometry"]["frame_side"]
     if v["output"]["directory"] is None:
         v["output"]["directory"] = f"results/{name}"
 
@@ -456,6 +469,16 @@ def _check_across_keys(v: dict[str, dict[str, Any]]) -> None:
                     "the square frame's corners must lie inside the air sphere")
     if R <= 1.2 * r_o:
         raise _fail("air.domain_radius", R, f"> {1.2 * r_o:g} m = 1.2 * geometry.outer_radius")
+    if g["frame"] == "circle" and not r_o < g["frame_radius"] < R:
+        raise _fail("geometry.frame_radius", g["frame_radius"],
+                    f"({r_o:g}, {R:g}) m = between geometry.outer_radius and air.domain_radius")
+    engine = v["mesh"]["engine"]
+    if engine == "axisymmetric" and g["frame"] not in AXISYMMETRIC_FRAMES:
+        raise _fail("mesh.engine", engine, f"3d or auto with geometry.frame = {g['frame']}",
+                    "the axisymmetric engine needs frame none, baffle or circle")
+    if engine == "3d" and g["frame"] == "circle":
+        raise _fail("mesh.engine", engine, "axisymmetric or auto with geometry.frame = circle",
+                    "the 3-D mesh has no circular frame")
     if r_i == 0:
         if load["z"] != 0:
             raise _fail("load.z", load["z"], "0 m when geometry.inner_radius = 0",
@@ -474,6 +497,14 @@ def _check_across_keys(v: dict[str, dict[str, Any]]) -> None:
                     f"<= {(r_o - r_i) / 2:g} m = half the membrane width",
                     "fewer than two elements across the membrane")
     _check_reduced_keys(v)
+
+
+def engine_of(study) -> str:
+    """The FE engine a study runs on: ``"axisymmetric"`` or ``"3d"`` (key mesh.engine)."""
+    engine = study["mesh"]["engine"]
+    if engine == "auto":
+        return "axisymmetric" if study["geometry"]["frame"] in AXISYMMETRIC_FRAMES else "3d"
+    return engine
 
 
 def check_air_lift(study: Study) -> None:

@@ -1,0 +1,144 @@
+r"""Air of order m on the meridian: the forms of :mod:`copdea_fem.acoustics` in (r, z).
+
+Pure functions returning NGSolve integrands (see :mod:`.operators` for the
+equations).  Regions, screens, pressure-jump space ``(p, q)`` and the
+unbounded PML profile are those of the 3-D engine; here the PML stretch is
+written into the integrands (the hoop stretch ``s`` has no place in NGSolve's
+2-D PML), so no ``SetPML`` is needed.  The air forms are integrated on the
+deformed meridian (``deformation=D``, :func:`meridian_motion`), in which
+``ngsolve.x`` is the deformed radius.
+"""
+
+from __future__ import annotations
+
+import math
+
+import ngsolve as ngs
+import numpy as np
+
+from ..acoustics import PML_STRENGTH
+from ..geometry import ale_decay_length
+from .meridian import LineSampler, theta_integral
+
+
+def pml_stretch(domain_radius: float, pml_thickness: float, strength: float = PML_STRENGTH):
+    """(s, dr~/dr, e) of the unbounded radial profile (acoustics.radial_pml) in the meridian.
+
+    ``r~ = rho + i b t ln(t / (R + t - rho))`` with rho the spherical radius;
+    ``s = r~/rho``, ``e = (r, z)/rho``.
+    """
+    R, t = float(domain_radius), float(pml_thickness)
+    rho = ngs.sqrt(ngs.x**2 + ngs.y**2)
+    floor = 1e-9 * t
+    depth_left = ngs.IfPos(R + t - rho - floor, R + t - rho, floor)
+    stretched = rho + 1j * strength * t * ngs.log(t / depth_left)
+    derivative = 1 + 1j * strength * t / depth_left
+    return stretched / rho, derivative, ngs.CF((ngs.x, ngs.y)) / rho
+
+
+def _half(pressure, half: str):
+    """The pressure of one half: p above, p + q below."""
+    p, q = pressure
+    return p if half == "upper" else p + q
+
+
+def air_forms(m: int, pressure, pressure_test, density: float, sound_speed: float,
+              domain_radius: float, pml_thickness: float, deformation=None):
+    """(stiffness, mass) integrands k_a, m_a of order m over air and PML (module doc of
+    :mod:`.operators`); per unit test pressure a volume acceleration / a volume."""
+    theta = theta_integral(m)
+    r = ngs.x
+    compressibility = 1.0 / (density * sound_speed**2)
+    s, derivative, e = pml_stretch(domain_radius, pml_thickness)
+    radial = ngs.OuterProduct(e, e)
+    j_inverse = (1 / s) * (ngs.Id(2) - radial) + (1 / derivative) * radial
+    volume = s * (s * derivative) * r                    # s det(J2) r
+    stiffness = mass = 0
+    for half in ("upper", "lower"):
+        p, p_test = _half(pressure, half), _half(pressure_test, half)
+        k_air = (ngs.grad(p) * ngs.grad(p_test) + m**2 / r**2 * p * p_test) * r / density
+        m_air = compressibility * p * p_test * r
+        k_pml = ((j_inverse * ngs.grad(p)) * (j_inverse * ngs.grad(p_test))
+                 + m**2 / (s * r) ** 2 * p * p_test) * volume / density
+        m_pml = compressibility * p * p_test * volume
+        air = ngs.dx(f"air_{half}", deformation=deformation)
+        pml = ngs.dx(f"pml_{half}", bonus_intorder=2)
+        stiffness = stiffness + theta * (k_air * air + k_pml * pml)
+        mass = mass + theta * (m_air * air + m_pml * pml)
+    return stiffness, mass
+
+
+def air_kinetic_form(m: int, pressure, pressure_test, density: float, deformation=None):
+    """Theta_m (1/rho_a) int_air (grad p . grad p' + m^2/r^2 p p') r dA: the physical air's
+    kinetic-energy norm (no PML) for the membrane energy fraction."""
+    r = ngs.x
+    form = 0
+    for half in ("upper", "lower"):
+        p, p_test = _half(pressure, half), _half(pressure_test, half)
+        form = form + theta_integral(m) / density * (
+            ngs.grad(p) * ngs.grad(p_test) + m**2 / r**2 * p * p_test) * r * ngs.dx(
+            f"air_{half}", deformation=deformation)
+    return form
+
+
+def screen_normal():
+    """Unit normal (n_r, n_z) of the deformed screens pointing to the + (upper) side."""
+    normal = ngs.specialcf.normal(2)
+    return ngs.IfPos(normal[1], 1.0, -1.0) * normal
+
+
+def screen_coupling(m: int, pressure, normal_displacement, screens: str, deformation=None):
+    """Theta_m int_screens [p] (u . n) r ds on the deformed screens ([p] = -q)."""
+    return (theta_integral(m) * (-pressure[1]) * normal_displacement * ngs.x
+            * ngs.ds(screens, deformation=deformation))
+
+
+def meridian_motion(state, mesh, domain_radius: float, order: int = 2):
+    r"""Mesh deformation D of the meridian for the prestress (transfinite, as :mod:`copdea_fem.ale`).
+
+    ``D(r, z) = (u_r(r), w(r)) phi(z)``, ``phi = (1 - |z|/L)^2`` for |z| < L,
+    with the prestress profiles on the membrane, ``w = z_disc`` under the disc
+    and 0 beyond r_o; the mesh conforms to the kinks (``ale_guide`` lines), and
+    the membrane line carries the FE prestress itself.
+    """
+    from ..ale import MeshMotionError, _piecewise_linear
+
+    length = ale_decay_length(domain_radius, state.outer_radius)
+    if abs(state.z) >= 0.45 * length:
+        raise MeshMotionError(
+            f"load.z = {state.z * 1e3:.1f} mm is too large for the air mesh: it must stay below "
+            f"0.45 L = {0.45 * length * 1e3:.1f} mm (L = the height over which the air follows "
+            "the membrane, half the air radius); raise air.domain_radius")
+    r_i, r_o = state.inner_radius, state.outer_radius
+    radii = r_i + (r_o - r_i) * (np.arange(400) + 0.5) / 400
+    profile = state.profile(radii)
+    rho = np.concatenate([[r_i], radii, [r_o]])
+    radial = np.concatenate([[0.0], profile[:, 0], [0.0]])
+    axial = np.concatenate([[state.z], profile[:, 1], [0.0]])
+    r = ngs.x
+    w = _piecewise_linear(rho, axial, r, state.z, 0.0)
+    u_r = _piecewise_linear(rho, radial, r, 0.0, 0.0)
+    inside = 1 - ngs.sqrt(ngs.y**2) / length
+    phi = ngs.IfPos(inside, inside**2, 0.0)
+    space = ngs.VectorH1(mesh, order=order)
+    motion = ngs.GridFunction(space, name="air_mesh_displacement")
+    motion.Set(ngs.CF((u_r, w)) * phi)
+    on_membrane = ngs.GridFunction(space)
+    on_membrane.Set(state.displacement, ngs.BND, definedon=mesh.Boundaries("membrane"))
+    dofs = np.array(space.GetDofs(mesh.Boundaries("membrane")))
+    motion.vec.FV().NumPy()[dofs] = on_membrane.vec.FV().NumPy()[dofs]
+    _check_jacobian(mesh, motion)
+    return motion
+
+
+def _check_jacobian(mesh, motion) -> None:
+    from ..ale import MIN_JACOBIAN, MeshMotionError
+
+    points = mesh.MapToAllElements(ngs.IntegrationRule(ngs.TRIG, 4), ngs.VOL)
+    values = np.asarray(ngs.Det(ngs.Id(2) + ngs.Grad(motion))(points)).ravel()
+    if values.min() < MIN_JACOBIAN:
+        where = np.asarray(ngs.CF((ngs.x, ngs.y))(points))[int(values.argmin())]
+        raise MeshMotionError(
+            f"the meridian air mesh following the membrane is distorted (det(I + Grad D) = "
+            f"{values.min():.3g} < {MIN_JACOBIAN} near (r, z) = ({where[0] * 1e3:.1f}, "
+            f"{where[1] * 1e3:.1f}) mm); refine the membrane (mesh.membrane_size) or lower load.z")

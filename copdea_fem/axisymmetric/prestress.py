@@ -1,0 +1,127 @@
+"""Axisymmetric prestress: the 1-D equilibrium u_r(R), u_z(R) of the same energy.
+
+The Newton continuation, load path, step cutting and failure diagnosis are
+those of :class:`copdea_fem.prestress.MembraneSolver`; only the space and the
+energy differ: ``(u_r, u_z)`` on the membrane line of the meridian mesh with
+the energy ``2 pi int W(G0) R dR`` of :mod:`.membrane`.  Rims as in eq. (3):
+the outer rim clamped, the inner rim moving axially with the disc by z.
+"""
+
+from __future__ import annotations
+
+import math
+
+import ngsolve as ngs
+import numpy as np
+
+from ..materials import Membrane
+from ..prestress import MembraneSolver, PrestressedState
+from ..symmetry import Symmetry
+from .membrane import prestress_energy, prestress_gradient
+from .meridian import LineSampler
+
+
+def _membrane_line_space(mesh, order: int, has_disc: bool):
+    rims = "outer_rim|inner_rim" if has_disc else "outer_rim"
+    space = ngs.VectorH1(mesh, order=order, definedon=mesh.Boundaries("membrane"),
+                         dirichlet_bbnd=rims)
+    return ngs.Compress(space)
+
+
+class AxisymmetricState(PrestressedState):
+    """A converged axisymmetric equilibrium; ``displacement`` = (u_r, u_z) on the meridian."""
+
+    engine = "axisymmetric"
+
+    def fields(self) -> dict:
+        return axisymmetric_fields(self.displacement, self.material, self.voltage)
+
+    def profile(self, radii) -> np.ndarray:
+        """(u_r, u_z) [m] at reference radii ``radii`` [m]: array (len, 2)."""
+        return LineSampler(self.mesh).at(self.displacement, radii)
+
+
+def axisymmetric_fields(u, material: Membrane, voltage: float) -> dict:
+    """Post-processing fields of the prestress (SI) as CFs on the membrane line.
+
+    The axisymmetric principal directions are meridional (1) and hoop (2):
+    stretch_1 = lambda_p |(1 + u_r', u_z')|, stretch_2 = lambda_p (1 + u_r/R).
+    """
+    g0 = prestress_gradient(u)
+    meridional = ngs.sqrt((1 + g0[0, 0]) ** 2 + g0[2, 0] ** 2) * material.prestretch
+    hoop = (1 + g0[1, 1]) * material.prestretch
+    tr_c, det_c = meridional**2 + hoop**2, meridional**2 * hoop**2
+    d_tr, d_det, *_ = material.free_energy_partials(tr_c, det_c, voltage)
+    tangent = ngs.CF((1 + g0[0, 0], g0[2, 0])) / ngs.sqrt((1 + g0[0, 0]) ** 2 + g0[2, 0] ** 2)
+    return {
+        "displacement": u,
+        "stretch_1": meridional, "stretch_2": hoop,
+        "stress_1": 2 * meridional**2 * (d_tr + hoop**2 * d_det),
+        "stress_2": 2 * hoop**2 * (d_tr + meridional**2 * d_det),
+        "thickness": material.thickness_at(det_c),
+        "e_field": material.electric_field(det_c, voltage),
+        "normal": ngs.CF((-tangent[1], tangent[0])),
+    }
+
+
+class AxisymmetricMembraneSolver(MembraneSolver):
+    """:class:`MembraneSolver` on the membrane line of a meridian mesh."""
+
+    def __init__(self, mesh, material: Membrane, order: int, outer_radius: float,
+                 inner_radius: float, settings: dict, progress=None, curve_order: int = 1):
+        self.mesh, self.material, self.settings = mesh, material, settings
+        self.progress = progress or (lambda message: None)
+        self.has_disc = inner_radius > 0
+        self.outer_radius, self.inner_radius = outer_radius, inner_radius
+        self.space = _membrane_line_space(mesh, order, self.has_disc)
+        self.free = self.space.FreeDofs()
+        self.symmetry = Symmetry()
+        self.u = ngs.GridFunction(self.space, name="displacement")
+        self.voltage = ngs.Parameter(0.0)
+        self.z, self.newton_iterations, self.load_steps = 0.0, 0, []
+        trial = self.space.TrialFunction()
+        self.measure = ngs.ds(definedon=mesh.Boundaries("membrane"), bonus_intorder=2)
+        self.energy = ngs.BilinearForm(self.space, symmetric=True)
+        self.energy += ngs.Variation(prestress_energy(trial, material, self.voltage) * self.measure)
+        self.residual = self.u.vec.CreateVector()
+        self.disc_lift = self.disc_extension = None
+        if self.has_disc:
+            self._build_disc_lift(outer_radius, inner_radius)
+        self._line = LineSampler(mesh, points_per_element=5)
+        self._smallest_stress = axisymmetric_fields(self.u, material, self.voltage)[
+            "stress_2"]
+        meridional = axisymmetric_fields(self.u, material, self.voltage)["stress_1"]
+        self._smallest_stress = ngs.IfPos(meridional - self._smallest_stress,
+                                          self._smallest_stress, meridional).Compile()
+
+    def min_principal_stress(self) -> tuple[float, tuple[float, float]]:
+        """Smallest principal Cauchy stress on the membrane line [Pa], and where (r, 0)."""
+        values = self._line.values(self._smallest_stress).ravel()
+        index = int(np.argmin(values))
+        return float(values[index]), (float(self._line.radii.ravel()[index]), 0.0)
+
+    def _build_disc_lift(self, r_o: float, r_i: float) -> None:
+        """Unit axial disc displacement on the inner rim; log profile inside (predictor)."""
+        extension = ngs.GridFunction(self.space)
+        extension.Set(ngs.CF((0, ngs.log(r_o / ngs.x) / math.log(r_o / r_i))), ngs.BND,
+                      definedon=self.mesh.Boundaries("membrane"))
+        lift = ngs.GridFunction(self.space)     # the rim values only (1 at r_i, 0 at r_o)
+        lift.vec.FV().NumPy()[:] = np.where(np.array(self.free), 0.0,
+                                            extension.vec.FV().NumPy())
+        self.disc_lift, self.disc_extension = lift, extension
+
+    def state(self) -> AxisymmetricState:
+        u = ngs.GridFunction(self.space, name="displacement")
+        u.vec.data = self.u.vec
+        return AxisymmetricState(self.mesh, self.material, self.space, u, self.z,
+                                 self.voltage.Get(), self.disc_force(), self.newton_iterations,
+                                 list(self.load_steps), self.disc_lift, self.outer_radius,
+                                 self.inner_radius, self.measure, self.symmetry)
+
+
+def make_axisymmetric_solver(study, mesh, progress=None) -> AxisymmetricMembraneSolver:
+    g = study["geometry"]
+    return AxisymmetricMembraneSolver(mesh, Membrane.from_study(study), study["mesh"]["order"],
+                                      g["outer_radius"], g["inner_radius"],
+                                      study["prestress"], progress,
+                                      curve_order=study["mesh"]["curve_order"])
