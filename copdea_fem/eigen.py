@@ -249,7 +249,11 @@ def _real_equivalent(matrix: sp.csr_matrix) -> sp.csr_matrix:
 SUPERLU_PIVOT_THRESHOLD = 0.1
 #: Below this size the METIS call costs more than the fill it saves (a 2-D FE-like
 #: pattern of 1600 unknowns: factorisation + 20 solves 0.019 s in METIS order,
-#: 0.013 s in SuperLU's own; the 3-D pencils here are 9k-14k).
+#: 0.013 s in SuperLU's own; the 3-D pencils here are 9k-14k).  Small matrices take
+#: SuperLU's MMD_AT_PLUS_A order with the same diagonal pivoting: a coupled meridian
+#: pencil of order m = 2 (1005 unknowns) factorises in 0.005 s instead of 0.094 s with
+#: SuperLU's default partial pivoting (nnz(LU) 40k instead of 464k), solves in
+#: 0.24 ms instead of 1.6 ms.
 NESTED_DISSECTION_MIN = 2000
 
 
@@ -334,8 +338,10 @@ class Factorization:
         try:
             if backend == "superlu":
                 self._order = fill_reducing_order(matrix)
-                if self._order is None:
-                    self._superlu = spla.splu(matrix.tocsc(), permc_spec="MMD_AT_PLUS_A")
+                if self._order is None:     # small: minimum degree, the same diagonal pivoting
+                    self._superlu = spla.splu(matrix.tocsc(), permc_spec="MMD_AT_PLUS_A",
+                                              diag_pivot_thresh=SUPERLU_PIVOT_THRESHOLD,
+                                              options={"SymmetricMode": True})
                 else:
                     permuted = matrix[self._order][:, self._order].tocsc()
                     self._superlu = spla.splu(permuted, permc_spec="NATURAL",

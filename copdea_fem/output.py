@@ -187,7 +187,9 @@ def write_membrane_vtu(path: Path, sampler: MembraneSampler, fields: dict,
     import meshio
 
     coordinates = sampler.coordinates
-    if displacement is not None:
+    if isinstance(displacement, np.ndarray):
+        coordinates = coordinates + displacement
+    elif displacement is not None:
         coordinates = coordinates + sampler.evaluate(displacement)
     data = {name: value if isinstance(value, np.ndarray) else sampler.evaluate(value)
             for name, value in fields.items()}
@@ -299,6 +301,178 @@ def write_air_vtus(directory: Path, operators, modes, pressures) -> list[Path]:
                 "pressure_abs": np.abs(nodal).astype(np.float32)}
         path = directory / f"air_{number:03d}_{_safe(mode.label)}.vtu"
         meshio.write(path, meshio.Mesh(moved, [("tetra", cells)], point_data=data,
+                                       cell_data=cell_data), compression=VTU_COMPRESSION)
+        files.append(path)
+    return files
+
+
+# -- ParaView, axisymmetric engine: meridian fields revolved to 3-D --------------------
+def revolution_angles(max_order: int) -> np.ndarray:
+    """Polar angles [rad] of a revolved output: 72, or 8 per wavelength of the highest order."""
+    count = max(72, 8 * int(max_order))
+    return 2 * np.pi * np.arange(count) / count
+
+
+def _harmonics(m: int, family: str, angles):
+    """(radial/axial factor, hoop factor) of an order-m field: cos/sin family (axisymmetric.modes)."""
+    if family == "cos":
+        return np.cos(m * angles), np.sin(m * angles)
+    return np.sin(m * angles), -np.cos(m * angles)
+
+
+class RevolvedMembraneSampler:
+    """The membrane surface of an axisymmetric result, revolved: points, triangles, fields.
+
+    Radii are the exact sample points of :class:`copdea_fem.axisymmetric.meridian.LineSampler`
+    (shared element ends merged); a field of order m is ``f(r) cos m theta`` (or the
+    sin family's turned copy) on every ring of points.
+    """
+
+    def __init__(self, state, max_order: int = 0):
+        from .axisymmetric.meridian import LineSampler
+
+        self.state = state
+        self.line = LineSampler(state.mesh)
+        radii = self.line.radii.ravel()
+        self.radii, self._unique = np.unique(np.round(radii, 12), return_index=True)
+        self.angles = revolution_angles(max_order)
+        rr, tt = np.meshgrid(self.radii, self.angles, indexing="ij")
+        self._cos, self._sin = np.cos(tt).ravel(), np.sin(tt).ravel()
+        self._rings = rr.ravel()
+        self.coordinates = np.column_stack([rr.ravel() * self._cos, rr.ravel() * self._sin,
+                                            np.zeros(rr.size)])
+        n_r, n_t = len(self.radii), len(self.angles)
+        index = np.arange(n_r * n_t).reshape(n_r, n_t)
+        nxt = np.roll(index, -1, axis=1)
+        lower, upper = index[:-1], index[1:]
+        lower_next, upper_next = nxt[:-1], nxt[1:]
+        self.cells = np.concatenate([
+            np.stack([lower, upper, upper_next], axis=-1).reshape(-1, 3),
+            np.stack([lower, upper_next, lower_next], axis=-1).reshape(-1, 3)])
+
+    def profile(self, coefficient) -> np.ndarray:
+        """Values of a CoefficientFunction at the sample radii: (n_r,) or (n_r, d)."""
+        values = self.line.values(coefficient)
+        values = values.reshape(-1, *values.shape[2:])
+        return values[self._unique]
+
+    def ring(self, values, factor) -> np.ndarray:
+        """Radial values (n_r[, d]) times an angular factor (n_t,) -> (n_r n_t[, d])."""
+        values = np.asarray(values)
+        out = values[:, None] * factor[None, :] if values.ndim == 1 else \
+            values[:, None, :] * factor[None, :, None]
+        return out.reshape(-1, *values.shape[1:])
+
+    def vector(self, radial, hoop, axial, m=0, family="cos") -> np.ndarray:
+        """Cartesian vectors (n, 3) of (u_r, u_theta, u_z) amplitudes of an order-m field."""
+        main, cross = _harmonics(m, family, self.angles)
+        u_r, u_t, u_z = (self.ring(radial, main), self.ring(hoop, cross), self.ring(axial, main))
+        return np.column_stack([u_r * self._cos - u_t * self._sin,
+                                u_r * self._sin + u_t * self._cos, u_z])
+
+    def prestress_displacement(self) -> np.ndarray:
+        u = self.profile(self.state.displacement)
+        return self.vector(u[:, 0], np.zeros(len(u)), u[:, 1])
+
+    def prestress_fields(self) -> dict:
+        fields = self.state.fields()
+        data = {}
+        for name, value in fields.items():
+            values = self.profile(value)
+            if name in ("displacement", "normal"):
+                data[name] = self.vector(values[:, 0], np.zeros(len(values)), values[:, 1])
+            else:
+                data[name] = self.ring(values, np.ones(len(self.angles)))
+        return data
+
+
+def write_revolved_mode_vtus(directory: Path, state, modes, sampler=None) -> list[Path]:
+    """One .vtu per mode of the axisymmetric engine, revolved; fields as write_mode_vtus."""
+    import ngsolve as ngs
+
+    from .axisymmetric.modes import OrderSampler
+
+    highest = max([mode.m for mode in modes], default=0)
+    if sampler is None or len(sampler.angles) < len(revolution_angles(highest)):
+        sampler = RevolvedMembraneSampler(state, highest)
+    displacement = sampler.prestress_displacement()
+    normal_profile = sampler.profile(state.fields()["normal"])
+    files, order_samplers = [], {}
+    for number, mode in enumerate(modes):
+        operators = mode.operators
+        gf = ngs.GridFunction(operators.space)
+        parts = []
+        for part in (np.real(mode.vector), np.imag(mode.vector)):
+            gf.vec.FV().NumPy()[:] = part
+            parts.append(np.stack([sampler.profile(cf) for cf in operators.amplitudes(gf)], 1))
+        amplitude = parts[0] + 1j * parts[1]                         # (n_r, 3): a, b, c
+        shape = [sampler.vector(amplitude[:, 0].real, amplitude[:, 1].real,
+                                amplitude[:, 2].real, mode.m, mode.family),
+                 sampler.vector(amplitude[:, 0].imag, amplitude[:, 1].imag,
+                                amplitude[:, 2].imag, mode.m, mode.family)]
+        normal = amplitude[:, 0] * normal_profile[:, 0] + amplitude[:, 2] * normal_profile[:, 1]
+        main, _ = _harmonics(mode.m, mode.family, sampler.angles)
+        normal_shape = sampler.ring(normal, main)
+        omega = 2 * np.pi * abs(complex(mode.freq_hz, mode.freq_im_hz))
+        fields = {"displacement_real": shape[0], "displacement_imag": shape[1],
+                  "displacement_abs": np.linalg.norm(np.abs(shape[0] + 1j * shape[1]), axis=1),
+                  "normal_displacement_real": normal_shape.real,
+                  "normal_displacement_imag": normal_shape.imag,
+                  "normal_velocity_abs": omega * np.abs(normal_shape)}
+        name = f"mode_{number:03d}_{_safe(mode.label)}"
+        files.append(write_membrane_vtu(directory / name, sampler, fields,
+                                        displacement=displacement))
+    return files
+
+
+def write_revolved_air_vtus(directory: Path, operators, modes, pressures) -> list[Path]:
+    """One .vtu per mode of the air of the axisymmetric engine, revolved (wedge cells).
+
+    Every meridian triangle keeps its own three corner points (values taken
+    inside the element: the pressure jumps across the screens), on the
+    deformed meridian; fields and cell data as :func:`write_air_vtus`.
+    """
+    import meshio
+    import ngsolve as ngs
+
+    from .acoustics import LOWER, PML_REGIONS, pressure_field
+
+    by_order = {coupled.m: coupled for coupled in operators}
+    mesh = operators[0].pressure_space.mesh
+    motion = operators[0].mesh_motion
+    corners = ngs.IntegrationRule([(0, 0), (1, 0), (0, 1)], [0.0] * 3)
+    points = mesh.MapToAllElements(corners, ngs.VOL)
+    elements = list(mesh.Elements(ngs.VOL))
+    lower = np.array([mesh.Materials(LOWER).Mask()[el.index] for el in elements])
+    in_pml = np.array([mesh.Materials(PML_REGIONS).Mask()[el.index] for el in elements])
+    meridian = np.asarray(ngs.CF((ngs.x, ngs.y))(points)) + np.asarray(motion(points))
+    angles = revolution_angles(max([mode.m for mode in modes], default=0) // 2)
+    n_t, n_corner = len(angles), meridian.shape[0]
+    r, z = meridian[:, 0], meridian[:, 1]
+    coordinates = np.column_stack([(r[:, None] * np.cos(angles)).ravel(),
+                                   (r[:, None] * np.sin(angles)).ravel(),
+                                   np.repeat(z, n_t)]).astype(np.float32)
+    corner = np.arange(n_corner).reshape(-1, 3) * n_t                # first angle of each corner
+    step = np.arange(n_t)
+    nxt = (step + 1) % n_t
+    cells = np.concatenate([corner[:, :, None] + step[None, None, :],
+                            corner[:, :, None] + nxt[None, None, :]], axis=1)   # (el, 6, n_t)
+    cells = np.moveaxis(cells, 2, 1).reshape(-1, 6)
+    cell_data = {"pml": [np.repeat(in_pml.astype(np.int8), n_t)],
+                 "lower_half": [np.repeat(lower.astype(np.int8), n_t)]}
+    files = []
+    for number, (mode, pressure) in enumerate(zip(modes, pressures)):
+        coupled = by_order[mode.m]
+        gf = ngs.GridFunction(coupled.pressure_space)
+        gf.vec.FV().NumPy()[coupled.pressure_free] = pressure
+        values = np.asarray(pressure_field(gf.components[0], gf.components[1], mesh)(points))
+        main, _ = _harmonics(mode.m, mode.family, angles)
+        nodal = (values.reshape(-1)[:, None] * main[None, :]).ravel()
+        data = {"pressure_real": nodal.real.astype(np.float32),
+                "pressure_imag": nodal.imag.astype(np.float32),
+                "pressure_abs": np.abs(nodal).astype(np.float32)}
+        path = directory / f"air_{number:03d}_{_safe(mode.label)}.vtu"
+        meshio.write(path, meshio.Mesh(coordinates, [("wedge", cells)], point_data=data,
                                        cell_data=cell_data), compression=VTU_COMPRESSION)
         files.append(path)
     return files

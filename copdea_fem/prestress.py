@@ -313,15 +313,18 @@ def solve_prestress(study, mesh, progress=None, solver: MembraneSolver | None = 
     return solver.state()
 
 
-def force_displacement(study, mesh, z_values, voltages, progress=None) -> np.ndarray:
+def force_displacement(study, mesh, z_values, voltages, progress=None,
+                       new_solver=None) -> np.ndarray:
     """Static disc force F(z) [N] at each voltage (Fig. 4b): array (len(voltages), len(z)).
 
-    Each curve continues in z from the flat state at its voltage.
+    Each curve continues in z from the flat state at its voltage.  ``new_solver``
+    (default :func:`make_solver`) makes the solver of ``mesh``'s engine.
     """
     forces = np.empty((len(voltages), len(z_values)))
     settings = study["prestress"]
+    new_solver = new_solver or make_solver
     for i, voltage in enumerate(voltages):
-        solver = make_solver(study, mesh, progress)
+        solver = new_solver(study, mesh, progress)
         solver.go_to(0.0, voltage, settings["voltage_steps"])
         for j, z in enumerate(z_values):
             solver.go_to(z, voltage, settings["z_steps"] if j == 0 else 1)

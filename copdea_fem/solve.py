@@ -21,7 +21,7 @@ from .geometry import GeometrySpec, load_mesh
 from .linearise import linearised_operators
 from .modes import IN_PLANE, OUT_OF_PLANE, PUMPING, ModeSampler, classify_modes
 from .prestress import force_displacement, solve_prestress
-from .study import Study, StudyError, check_air_lift
+from .study import Study, StudyError, check_air_lift, engine_of
 
 
 @dataclass
@@ -89,10 +89,24 @@ def require_backend(study: Study) -> None:
 
 
 def prepare_mesh(study: Study, with_air: bool | None = None, cache_dir=None, progress=_quiet):
-    """The (cached) mesh of the study; ``cache_dir=None`` uses the repo's meshes/."""
+    """The mesh of the study's engine: the meridian (r, z) mesh of the axisymmetric engine
+    (it always holds the air), else the (cached) 3-D mesh; ``cache_dir=None`` uses the
+    repo's meshes/."""
+    if engine_of(study) == "axisymmetric":
+        from .axisymmetric.engine import prepare_meridian
+        return prepare_meridian(study, progress)
     spec = GeometrySpec.from_study(study, with_air=with_air)
     kwargs = {} if cache_dir is None else {"cache_dir": Path(cache_dir)}
     return load_mesh(spec, study["mesh"]["curve_order"], progress=progress, **kwargs)
+
+
+def make_prestress_solver(study: Study, mesh, progress=None):
+    """The Newton solver of the study's engine on ``mesh`` (:func:`prepare_mesh`)."""
+    if engine_of(study) == "axisymmetric":
+        from .axisymmetric.prestress import make_axisymmetric_solver
+        return make_axisymmetric_solver(study, mesh, progress)
+    from .prestress import make_solver
+    return make_solver(study, mesh, progress)
 
 
 def dry_modes(study: Study, mesh=None, progress=_quiet, timings: Timings | None = None,
@@ -106,6 +120,10 @@ def dry_modes(study: Study, mesh=None, progress=_quiet, timings: Timings | None 
     """
     timings = timings or Timings()
     require_backend(study)
+    if engine_of(study) == "axisymmetric":
+        from .axisymmetric.engine import axisymmetric_dry_modes
+        with _single_threaded_blas():     # 2-D problems: NGSolve's TaskManager only costs here
+            return axisymmetric_dry_modes(study, mesh, progress, timings, solver, initial_shifts)
     with _task_manager():
         if mesh is None:
             with timings.stage("mesh"):
@@ -164,6 +182,11 @@ def coupled_modes(study: Study, mesh=None, progress=_quiet, timings: Timings | N
     timings = timings or Timings()
     require_backend(study)
     check_air_lift(study)
+    if engine_of(study) == "axisymmetric":
+        from .axisymmetric.engine import axisymmetric_coupled_modes
+        with _single_threaded_blas():     # 2-D problems: NGSolve's TaskManager only costs here
+            return axisymmetric_coupled_modes(study, mesh, progress, timings, solver,
+                                              initial_shifts)
     eigen = study["eigen"]
     band = dict(backend=eigen["backend"], max_modes=eigen["max_modes"],
                 residual_tol=eigen["residual_tol"])
@@ -248,7 +271,9 @@ def run_solve(study: Study, out_dir: str | Path | None = None, progress=_quiet,
         rows = output.mode_rows(modes)
     result = SolveResult(study, state, modes, rows, timings, eigen_result, coupled=coupled)
     if out_dir is not None:
-        with timings.stage("output"), _task_manager():
+        threads = contextlib.nullcontext() if engine_of(study) == "axisymmetric" else \
+            _task_manager()
+        with timings.stage("output"), threads:
             progress("writing results ...")
             write_results(result, Path(out_dir))
         result.out_dir = Path(out_dir)
@@ -264,11 +289,13 @@ def prestress_summary(state) -> dict:
 
 def write_results(result: SolveResult, out_dir: Path) -> None:
     study = result.study
+    axisymmetric = getattr(result.state, "engine", "3d") == "axisymmetric"
     extra = {"prestress": prestress_summary(result.state),
-             "eigen": {"shifts_hz": [float(f) for f in result.eigen.shift_freq_hz],
+             "eigen": {"engine": "axisymmetric" if axisymmetric else "3d",
+                       "shifts_hz": [float(f) for f in result.eigen.shift_freq_hz],
                        "unknowns": int(result.eigen.unknowns),
                        "factorisations": int(result.eigen.n_factorisations),
-                       "symmetry": result.state.symmetry.kind,
+                       "symmetry": "orders" if axisymmetric else result.state.symmetry.kind,
                        **_sector_summary(result.eigen)},
              "timings_s": result.timings.seconds}
     with output.result_directory(out_dir) as staging:
@@ -279,7 +306,9 @@ def write_results(result: SolveResult, out_dir: Path) -> None:
             files = write_paraview(staging, result.state, structural)
             if result.coupled is not None and study["output"]["paraview"]:
                 indices = [k for k, mode in enumerate(result.modes) if mode.kind != "air"]
-                air_files = output.write_air_vtus(
+                write_air = output.write_revolved_air_vtus if axisymmetric else \
+                    output.write_air_vtus
+                air_files = write_air(
                     staging, result.coupled.operators, [result.modes[k] for k in indices],
                     [result.coupled.pressures[k] for k in indices])
                 output.write_pvd(staging / "air.pvd", air_files, list(range(len(air_files))))
@@ -303,7 +332,14 @@ def _sector_summary(eigen_result) -> dict:
 
 
 def write_paraview(directory: Path, state, modes) -> list[Path]:
-    """prestress.vtu + modes.pvd with one .vtu per mode."""
+    """prestress.vtu + modes.pvd with one .vtu per mode (revolved to 3-D when axisymmetric)."""
+    if getattr(state, "engine", "3d") == "axisymmetric":
+        sampler = output.RevolvedMembraneSampler(state)
+        output.write_membrane_vtu(directory / "prestress", sampler, sampler.prestress_fields(),
+                                  displacement=sampler.prestress_displacement())
+        files = output.write_revolved_mode_vtus(directory, state, modes, sampler)
+        output.write_pvd(directory / "modes.pvd", files, list(range(len(files))))
+        return files
     sampler = output.MembraneSampler(state.mesh)
     output.write_membrane_vtu(directory / "prestress", sampler, state.fields(),
                               displacement=state.displacement)
@@ -315,9 +351,11 @@ def write_paraview(directory: Path, state, modes) -> list[Path]:
 def run_force(study: Study, z_values, voltages, out_dir: str | Path | None = None,
               progress=_quiet, cache_dir=None) -> np.ndarray:
     """Static F(z) [N] at each voltage (Fig. 4b); writes force_displacement.csv/.png."""
-    with _task_manager():
+    threads = contextlib.nullcontext() if engine_of(study) == "axisymmetric" else _task_manager()
+    with threads:
         mesh = prepare_mesh(study, with_air=False, cache_dir=cache_dir, progress=progress)
-        forces = force_displacement(study, mesh, z_values, voltages, progress=progress)
+        forces = force_displacement(study, mesh, z_values, voltages, progress=progress,
+                                    new_solver=make_prestress_solver)
     if out_dir is not None:
         with output.result_directory(out_dir) as staging:
             output.write_force_csv(staging / "force_displacement.csv", z_values, voltages,

@@ -683,8 +683,7 @@ class _FEModel:
 
     def solve(self, point: SweepPoint, chain: _ChainState, reuse: ReuseSettings, progress,
               needs_sampling: bool) -> PointResult:
-        from .solve import Timings
-        from .prestress import make_solver
+        from .solve import Timings, make_prestress_solver
         study = point.study
         timings = Timings()
         start = time.perf_counter()
@@ -699,7 +698,7 @@ class _FEModel:
         else:
             chain.solver = None
             with timings.stage("solver_setup"):
-                solver = make_solver(study, mesh)
+                solver = make_prestress_solver(study, mesh)
             solve_study = study
         iterations_before = solver.newton_iterations
         band = (study["eigen"]["f_min"], study["eigen"]["f_max"])

@@ -44,20 +44,26 @@ class AxisymmetricState(PrestressedState):
 def axisymmetric_fields(u, material: Membrane, voltage: float) -> dict:
     """Post-processing fields of the prestress (SI) as CFs on the membrane line.
 
-    The axisymmetric principal directions are meridional (1) and hoop (2):
-    stretch_1 = lambda_p |(1 + u_r', u_z')|, stretch_2 = lambda_p (1 + u_r/R).
+    The axisymmetric principal directions are meridional and hoop:
+    lambda_m = lambda_p |(1 + u_r', u_z')|, lambda_h = lambda_p (1 + u_r/R);
+    ``stretch_1`` is the larger (as :func:`copdea_fem.membrane.field_coefficients`),
+    ``stress_1`` the stress along it; ``normal`` = (n_r, n_z).
     """
     g0 = prestress_gradient(u)
-    meridional = ngs.sqrt((1 + g0[0, 0]) ** 2 + g0[2, 0] ** 2) * material.prestretch
-    hoop = (1 + g0[1, 1]) * material.prestretch
+    slope = ngs.sqrt((1 + g0[0, 0]) ** 2 + g0[2, 0] ** 2)
+    meridional, hoop = slope * material.prestretch, (1 + g0[1, 1]) * material.prestretch
     tr_c, det_c = meridional**2 + hoop**2, meridional**2 * hoop**2
     d_tr, d_det, *_ = material.free_energy_partials(tr_c, det_c, voltage)
-    tangent = ngs.CF((1 + g0[0, 0], g0[2, 0])) / ngs.sqrt((1 + g0[0, 0]) ** 2 + g0[2, 0] ** 2)
+    stress_meridional = 2 * meridional**2 * (d_tr + hoop**2 * d_det)
+    stress_hoop = 2 * hoop**2 * (d_tr + meridional**2 * d_det)
+    meridional_larger = meridional - hoop
+    tangent = ngs.CF((1 + g0[0, 0], g0[2, 0])) / slope
     return {
         "displacement": u,
-        "stretch_1": meridional, "stretch_2": hoop,
-        "stress_1": 2 * meridional**2 * (d_tr + hoop**2 * d_det),
-        "stress_2": 2 * hoop**2 * (d_tr + meridional**2 * d_det),
+        "stretch_1": ngs.IfPos(meridional_larger, meridional, hoop),
+        "stretch_2": ngs.IfPos(meridional_larger, hoop, meridional),
+        "stress_1": ngs.IfPos(meridional_larger, stress_meridional, stress_hoop),
+        "stress_2": ngs.IfPos(meridional_larger, stress_hoop, stress_meridional),
         "thickness": material.thickness_at(det_c),
         "e_field": material.electric_field(det_c, voltage),
         "normal": ngs.CF((-tangent[1], tangent[0])),
@@ -88,11 +94,9 @@ class AxisymmetricMembraneSolver(MembraneSolver):
         if self.has_disc:
             self._build_disc_lift(outer_radius, inner_radius)
         self._line = LineSampler(mesh, points_per_element=5)
-        self._smallest_stress = axisymmetric_fields(self.u, material, self.voltage)[
-            "stress_2"]
-        meridional = axisymmetric_fields(self.u, material, self.voltage)["stress_1"]
-        self._smallest_stress = ngs.IfPos(meridional - self._smallest_stress,
-                                          self._smallest_stress, meridional).Compile()
+        fields = axisymmetric_fields(self.u, material, self.voltage)
+        first, second = fields["stress_1"], fields["stress_2"]
+        self._smallest_stress = ngs.IfPos(first - second, second, first).Compile()
 
     def min_principal_stress(self) -> tuple[float, tuple[float, float]]:
         """Smallest principal Cauchy stress on the membrane line [Pa], and where (r, 0)."""
