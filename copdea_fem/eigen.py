@@ -38,6 +38,7 @@ factorisation engine.  NGSolve 6.2.2608 notes (checked):
 from __future__ import annotations
 
 import functools
+import hashlib
 import math
 import time
 from dataclasses import dataclass, field
@@ -269,9 +270,26 @@ def fill_reducing_order(matrix) -> np.ndarray | None:
     if matrix.shape[0] < NESTED_DISSECTION_MIN:
         return None
     try:
-        import pymetis
+        import pymetis  # noqa: F401
     except ImportError:
         return None
+    matrix = sp.csr_matrix(matrix)
+    matrix.sort_indices()
+    key = (matrix.shape, hashlib.sha1(matrix.indptr.tobytes()).hexdigest(),
+           hashlib.sha1(matrix.indices.tobytes()).hexdigest())
+    if key not in _ORDERINGS:            # every shift of a pencil has the same pattern
+        if len(_ORDERINGS) >= 16:
+            _ORDERINGS.pop(next(iter(_ORDERINGS)))
+        _ORDERINGS[key] = _nested_dissection(matrix)
+    return _ORDERINGS[key]
+
+
+_ORDERINGS: dict = {}     # sparsity pattern -> METIS permutation (this process)
+
+
+def _nested_dissection(matrix) -> np.ndarray:
+    import pymetis
+
     pattern = sp.csr_matrix(matrix, copy=True)
     pattern.data = np.ones_like(pattern.data, dtype=float)
     graph = (pattern + pattern.T).tocsr()

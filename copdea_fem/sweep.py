@@ -626,7 +626,13 @@ _NGSOLVE_LOCK = threading.Lock()    # NGSolve solves in one thread at a time per
 def _mesh_for(study: Study, with_air: bool, reuse: bool, timings):
     from .geometry import GeometrySpec
     from .solve import prepare_mesh
-    key = (GeometrySpec.from_study(study, with_air=with_air).key(), study["mesh"]["curve_order"])
+    from .study import engine_of
+    if engine_of(study) == "axisymmetric":
+        from .axisymmetric.meridian import MeridianSpec
+        key = (MeridianSpec.from_study(study), study["mesh"]["curve_order"])
+    else:
+        key = (GeometrySpec.from_study(study, with_air=with_air).key(),
+               study["mesh"]["curve_order"])
     if reuse and key in _MESHES:
         return _MESHES[key], True
     with timings.stage("mesh"):
@@ -718,18 +724,12 @@ class _FEModel:
             plan = None
         modes = [mode for mode in modes if mode.kind != "air"]   # air/PML-only modes
         with timings.stage("tracking_data"):
-            if chain.mass is None or chain.context_key != point.context_key:
-                chain.mass = _full_mass_matrix(state)
-            vectors = np.column_stack([mode.vector for mode in modes]) if modes else \
-                np.zeros((state.space.ndof, 0))
-            weighted = chain.mass @ vectors
-            if state.symmetry.quarter:   # device vectors: sectors orthogonal (symmetry doc)
-                signatures = np.array([mode.sector.signature() for mode in modes]).reshape(-1, 4)
-                vectors = np.vstack([vectors * column for column in signatures.T])
-                weighted = np.vstack([weighted * column for column in signatures.T])
-            arrays = {"vectors": vectors, "weighted": weighted}
-            if needs_sampling:
-                arrays["sampled"] = _sampled_shapes(state, modes)
+            if getattr(state, "engine", "3d") == "axisymmetric":
+                # orders have spaces of their own: shapes are compared on the polar grid
+                from .axisymmetric.modes import sampled_shapes
+                arrays = {"sampled": sampled_shapes(state, modes)}
+            else:
+                arrays = _device_vectors_of(state, modes, chain, point, needs_sampling)
         chain.context_key, chain.solver = point.context_key, solver
         chain.last_point, chain.last_eigen, chain.last_band = point.point_id, eigen_result, band
         seconds = dict(timings.seconds)
@@ -750,6 +750,23 @@ class _FEModel:
             "space": point.space_key,
         }
         return PointResult(point.point_id, "ok", record, arrays)
+
+
+def _device_vectors_of(state, modes, chain, point, needs_sampling) -> dict:
+    """Tracking arrays of a 3-D result: membrane vectors of the device and M times them."""
+    if chain.mass is None or chain.context_key != point.context_key:
+        chain.mass = _full_mass_matrix(state)
+    vectors = np.column_stack([mode.vector for mode in modes]) if modes else \
+        np.zeros((state.space.ndof, 0))
+    weighted = chain.mass @ vectors
+    if state.symmetry.quarter:   # device vectors: sectors orthogonal (symmetry doc)
+        signatures = np.array([mode.sector.signature() for mode in modes]).reshape(-1, 4)
+        vectors = np.vstack([vectors * column for column in signatures.T])
+        weighted = np.vstack([weighted * column for column in signatures.T])
+    arrays = {"vectors": vectors, "weighted": weighted}
+    if needs_sampling:
+        arrays["sampled"] = _sampled_shapes(state, modes)
+    return arrays
 
 
 def call_modes_function(function, study, mesh, progress, timings, solver=None,

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..acoustics import PML_STRENGTH
 from ..geometry import ale_decay_length
-from .meridian import LineSampler, theta_integral
+from .meridian import theta_integral
 
 
 def pml_stretch(domain_radius: float, pml_thickness: float, strength: float = PML_STRENGTH):
@@ -42,43 +42,52 @@ def _half(pressure, half: str):
     return p if half == "upper" else p + q
 
 
-def air_forms(m: int, pressure, pressure_test, density: float, sound_speed: float,
-              domain_radius: float, pml_thickness: float, deformation=None):
-    """(stiffness, mass) integrands k_a, m_a of order m over air and PML (module doc of
-    :mod:`.operators`); per unit test pressure a volume acceleration / a volume."""
-    theta = theta_integral(m)
+def air_form_parts(pressure, pressure_test, density: float, sound_speed: float,
+                   domain_radius: float, pml_thickness: float, deformation=None):
+    """Integrands (k0, k1, m_a) over air and PML with k_a(m) = Theta_m (k0 + m^2 k1),
+    m_a(m) = Theta_m m_a (module doc of :mod:`.operators`): one assembly serves every order."""
     r = ngs.x
     compressibility = 1.0 / (density * sound_speed**2)
     s, derivative, e = pml_stretch(domain_radius, pml_thickness)
     radial = ngs.OuterProduct(e, e)
     j_inverse = (1 / s) * (ngs.Id(2) - radial) + (1 / derivative) * radial
     volume = s * (s * derivative) * r                    # s det(J2) r
-    stiffness = mass = 0
+    gradient_part = hoop_part = mass = 0
     for half in ("upper", "lower"):
         p, p_test = _half(pressure, half), _half(pressure_test, half)
-        k_air = (ngs.grad(p) * ngs.grad(p_test) + m**2 / r**2 * p * p_test) * r / density
-        m_air = compressibility * p * p_test * r
-        k_pml = ((j_inverse * ngs.grad(p)) * (j_inverse * ngs.grad(p_test))
-                 + m**2 / (s * r) ** 2 * p * p_test) * volume / density
-        m_pml = compressibility * p * p_test * volume
         air = ngs.dx(f"air_{half}", deformation=deformation)
         pml = ngs.dx(f"pml_{half}", bonus_intorder=2)
-        stiffness = stiffness + theta * (k_air * air + k_pml * pml)
-        mass = mass + theta * (m_air * air + m_pml * pml)
-    return stiffness, mass
+        gradient_part = gradient_part + (
+            ngs.grad(p) * ngs.grad(p_test) * r / density * air
+            + (j_inverse * ngs.grad(p)) * (j_inverse * ngs.grad(p_test)) * volume / density * pml)
+        hoop_part = hoop_part + (p * p_test / r / density * air
+                                 + p * p_test / (s * r) ** 2 * volume / density * pml)
+        mass = mass + compressibility * p * p_test * r * air \
+            + compressibility * p * p_test * volume * pml
+    return gradient_part, hoop_part, mass
 
 
-def air_kinetic_form(m: int, pressure, pressure_test, density: float, deformation=None):
-    """Theta_m (1/rho_a) int_air (grad p . grad p' + m^2/r^2 p p') r dA: the physical air's
-    kinetic-energy norm (no PML) for the membrane energy fraction."""
-    r = ngs.x
-    form = 0
+def air_forms(m: int, pressure, pressure_test, density: float, sound_speed: float,
+              domain_radius: float, pml_thickness: float, deformation=None):
+    """(stiffness, mass) integrands k_a, m_a of order m over air and PML; per unit test
+    pressure a volume acceleration / a volume."""
+    gradient_part, hoop_part, mass = air_form_parts(pressure, pressure_test, density,
+                                                    sound_speed, domain_radius, pml_thickness,
+                                                    deformation)
+    theta = theta_integral(m)
+    return theta * (gradient_part + m**2 * hoop_part), theta * mass
+
+
+def air_kinetic_parts(pressure, pressure_test, density: float, deformation=None):
+    """(1/rho_a) int_air grad p . grad p' r dA and (1/rho_a) int_air p p' / r dA: the physical
+    air's kinetic-energy norm of order m is Theta_m (first + m^2 second) (no PML)."""
+    gradient_part = hoop_part = 0
     for half in ("upper", "lower"):
         p, p_test = _half(pressure, half), _half(pressure_test, half)
-        form = form + theta_integral(m) / density * (
-            ngs.grad(p) * ngs.grad(p_test) + m**2 / r**2 * p * p_test) * r * ngs.dx(
-            f"air_{half}", deformation=deformation)
-    return form
+        air = ngs.dx(f"air_{half}", deformation=deformation)
+        gradient_part = gradient_part + ngs.grad(p) * ngs.grad(p_test) * ngs.x / density * air
+        hoop_part = hoop_part + p * p_test / ngs.x / density * air
+    return gradient_part, hoop_part
 
 
 def screen_normal():

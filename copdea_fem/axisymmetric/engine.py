@@ -18,7 +18,7 @@ from .air import meridian_motion
 from .meridian import MeridianSpec, meridian_mesh
 from .modes import (OrderSampler, classify_order, label_all, number_out_of_plane,
                     with_pairs)
-from .operators import coupled_order_operators, order_operators
+from .operators import MeridianAir, OrderForms, coupled_order_operators
 from .prestress import make_axisymmetric_solver
 
 #: Highest order tried before giving up (a band this rich is a mistake in the study).
@@ -46,8 +46,8 @@ def _band(study, f_max=None, hermitian=True, **extra):
                 residual_tol=eigen["residual_tol"], hermitian=hermitian, **extra)
 
 
-def _dry_order(study, state, m, f_max, progress, initial_shifts=None):
-    operators = order_operators(state, study, m)
+def _dry_order(study, forms, m, f_max, progress, initial_shifts=None):
+    operators = forms.operators(m)
     result = solve_band(operators.stiffness, operators.mass, study["eigen"]["f_min"], f_max,
                         progress=progress, initial_shifts=initial_shifts, **_band(study))
     return operators, result
@@ -67,9 +67,10 @@ def axisymmetric_dry_modes(study, mesh=None, progress=_quiet, timings=None, solv
         state = solve_axisymmetric_prestress(study, mesh, progress, solver)
     modes, results = [], {}
     initial_shifts = initial_shifts or {}
+    forms = OrderForms(state, study)
     for m in range(MAX_ORDER + 1):
         with timings.stage("eigen"):
-            operators, result = _dry_order(study, state, m, eigen["f_max"],
+            operators, result = _dry_order(study, forms, m, eigen["f_max"],
                                            lambda text: progress(f"m = {m}: {text}"),
                                            initial_shifts.get(f"m={m}"))
         if len(result) == 0:
@@ -142,15 +143,18 @@ def axisymmetric_coupled_modes(study, mesh=None, progress=_quiet, timings=None, 
     with timings.stage("assembly"):
         progress("air mesh follows the membrane (ALE) ...")
         motion = meridian_motion(state, mesh, air["domain_radius"])
+        progress("assembling the air of every order ...")
+        meridian_air = MeridianAir(state, study, motion)
     initial_shifts = initial_shifts or {}
+    forms = OrderForms(state, study)
     modes, pressures, dry, partners, results, operators = [], [], [], {}, {}, []
     for m in range(MAX_ORDER + 1):
         def say(text, m=m):
             progress(f"m = {m}: {text}")
         with timings.stage("eigen"):
-            dry_operators, dry_result = _dry_order(study, state, m, 1.5 * eigen["f_max"], say)
+            dry_operators, dry_result = _dry_order(study, forms, m, 1.5 * eigen["f_max"], say)
         with timings.stage("assembly"):
-            coupled = coupled_order_operators(state, study, dry_operators, motion)
+            coupled = coupled_order_operators(state, study, dry_operators, meridian_air)
         expected = int(np.count_nonzero(dry_result.freq_hz <= 1.1 * eigen["f_max"])) + 2
         with timings.stage("eigen"):
             say(f"coupled modes ({coupled.stiffness.shape[0]} unknowns) ...")

@@ -83,20 +83,22 @@ def prestress_energy(u, material, voltage):
                                                    gradient=prestress_gradient(u))
 
 
-def order_energy(m: int, base, amplitudes, material, voltage):
+def order_energy(m, base, amplitudes, material, voltage, theta=None):
     """Energy whose Hessian at 0 is the order-m stiffness (module doc) [J/m].
 
+    ``m``: the order, an int or an NGSolve Parameter (then m >= 1); ``theta``
+    replaces Theta_m (e.g. 1 when the caller scales).
     ``base``: the prestress (u_r, u_z) (GridFunction on the membrane line),
     ``amplitudes`` = ((a, da), (b, db), (c, dc)) of the order-m field.
     """
     (a, da), (b, db), (c, dc) = amplitudes
     g0 = prestress_gradient(base)
     g_c, g_s = harmonic_gradients(m, a, b, c, da, db, dc)
-    weight = theta_integral(m) * radius()
+    weight = (theta_integral(m) if theta is None else theta) * radius()
 
     def w(gradient):
         return energy_density(None, material, voltage, gradient=gradient)
 
-    if m == 0:
+    if isinstance(m, int) and m == 0:
         return weight * w(g0 + g_c + g_s)
     return weight * (w(g0 + g_c) + w(g0 + g_s))

@@ -145,3 +145,30 @@ def label_all(modes: list[OrderMode]) -> None:
     for mode in modes:
         if mode.kind == AIR:
             mode.label, mode.n = "air", 0
+
+
+def sampled_shapes(state, modes, n_radii: int = 40, n_angles: int = 64) -> np.ndarray:
+    """(normal, radial, hoop) of each mode on the normalised polar grid of
+    :class:`copdea_fem.modes.ModeSampler`, weighted by sqrt(r / r_o) (as the sweep's
+    ``_sampled_shapes``): rows comparable across meshes and orders by MAC."""
+    r_o, r_i = state.outer_radius, state.inner_radius
+    inner = max(r_i, 0.02 * r_o)
+    radii = inner + (r_o - inner) * (np.arange(n_radii) + 0.5) / n_radii
+    angles = 2 * np.pi * np.arange(n_angles) / n_angles
+    weights = np.sqrt(radii / r_o)[:, None]
+    rows, samplers = [], {}
+    for mode in modes:
+        operators = mode.operators
+        key = id(operators)
+        if key not in samplers:
+            samplers[key] = OrderSampler(state, operators.space, operators.axis_m1)
+        sampler = samplers[key]
+        normal, a, b, c = sampler.components(mode.vector)
+        profiles = [np.interp(radii, sampler.radii, part.real) + 1j * np.interp(
+            radii, sampler.radii, part.imag) for part in (normal, a, b)]
+        main = np.cos(mode.m * angles) if mode.family == "cos" else np.sin(mode.m * angles)
+        cross = np.sin(mode.m * angles) if mode.family == "cos" else -np.cos(mode.m * angles)
+        field_ = np.stack([profiles[0][:, None] * main, profiles[1][:, None] * main,
+                           profiles[2][:, None] * cross]) * weights[None]
+        rows.append(field_.ravel())
+    return np.array(rows) if rows else np.zeros((0, 3 * n_radii * n_angles))

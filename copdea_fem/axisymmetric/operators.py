@@ -109,14 +109,18 @@ def _amplitude_proxies(function, axis_m1: bool, lift=None, disc=None):
     return (a, da), (b, db), (c, dc)
 
 
-def membrane_forms(state, m: int, trial, test, axis_m1: bool, lift=None, disc=(None, None)):
-    """(energy integrand, mass integrand) of the membrane for order m (module doc)."""
+def membrane_forms(state, m, trial, test, axis_m1: bool, lift=None, disc=(None, None),
+                   theta=None):
+    """(energy integrand, mass integrand) of the membrane for order m (module doc).
+
+    ``m`` may be an NGSolve Parameter (m >= 1); ``theta`` replaces the theta integral
+    Theta_m (1.0: the caller scales)."""
     material = state.material
-    energy = order_energy(m, state.displacement, _amplitude_proxies(trial, axis_m1, lift, disc[0]),
-                          material, state.voltage)
     u = _amplitude_proxies(trial, axis_m1, lift, disc[0])
     v = _amplitude_proxies(test, axis_m1, lift, disc[1])
-    mass = theta_integral(m) * material.areal_density * radius() * sum(
+    energy = order_energy(m, state.displacement, u, material, state.voltage, theta=theta)
+    theta = theta_integral(m) if theta is None else theta
+    mass = theta * material.areal_density * radius() * sum(
         ui[0] * vi[0] for ui, vi in zip(u, v))
     return energy * state.measure, mass * state.measure
 
@@ -132,29 +136,62 @@ def rim_lift(space, state):
     return lift
 
 
+class OrderForms:
+    """The membrane forms of every order on one prestressed state, built once.
+
+    The order enters the harmonic energy (:mod:`.membrane`) through an NGSolve
+    ``Parameter``, so one symbolic form serves m = 1, 2, ... (m = 0 has its own);
+    a space is shared by all orders with the same rim and centre conditions.
+    """
+
+    def __init__(self, state, study):
+        self.state, self.study = state, study
+        self.order = ngs.Parameter(1.0)
+        self._forms: dict = {}
+
+    def _space_key(self, m: int):
+        return ("disc",) if self.state.has_disc else ("centre", min(m, 2))
+
+    def _forms_for(self, m: int):
+        key = (self._space_key(m), m == 0)
+        if key not in self._forms:
+            state, study = self.state, self.study
+            axis_m1 = m == 1 and not state.has_disc
+            space = order_space(state.mesh, study["mesh"]["order"], m, state.has_disc)
+            trial, test = space.TnT()
+            energy, mass_form = membrane_forms(state, 0 if m == 0 else self.order, trial, test,
+                                               axis_m1, theta=1.0)
+            hessian = ngs.BilinearForm(space, symmetric=False)
+            hessian += ngs.Variation(energy)
+            mass = to_scipy(ngs.BilinearForm(mass_form, symmetric=False).Assemble().mat)
+            self._forms[key] = (space, hessian, mass, axis_m1)
+        return self._forms[key]
+
+    def operators(self, m: int) -> OrderOperators:
+        """Dry K_s, M_s of order m (SciPy CSR, whole device)."""
+        state, study = self.state, self.study
+        space, hessian, mass, axis_m1 = self._forms_for(m)
+        self.order.Set(float(m))
+        hessian.AssembleLinearization(ngs.GridFunction(space).vec)     # E(u0 + u) at u = 0
+        theta = theta_integral(m)
+        stiffness, mass = theta * to_scipy(hessian.mat), theta * mass
+        with_disc = m == 0 and state.has_disc and study["disc"]["motion"] == "spring"
+        lift = rim_lift(space, state) if with_disc else None
+        free = np.flatnonzero(np.array(space.FreeDofs()))
+        k_ff, m_ff = stiffness[free][:, free], mass[free][:, free]
+        if with_disc:
+            spring = study["spring"]
+            vector = lift.vec.FV().NumPy()
+            k_ff = _border(k_ff, stiffness, vector, free, spring["stiffness"])
+            m_ff = _border(m_ff, mass, vector, free,
+                           study["disc"]["mass"] + spring["mass"] / 3)
+        return OrderOperators(m, k_ff.tocsr(), m_ff.tocsr(), space, free, with_disc, lift,
+                              axis_m1, state, mass.tocsr())
+
+
 def order_operators(state, study, m: int) -> OrderOperators:
-    """Dry K_s, M_s of order m about the prestressed ``state`` (SciPy CSR, whole device)."""
-    mesh, order = state.mesh, study["mesh"]["order"]
-    axis_m1 = m == 1 and not state.has_disc
-    space = order_space(mesh, order, m, state.has_disc)
-    with_disc = m == 0 and state.has_disc and study["disc"]["motion"] == "spring"
-    lift = rim_lift(space, state) if with_disc else None
-    trial, test = space.TnT()
-    energy, mass_form = membrane_forms(state, m, trial, test, axis_m1)
-    hessian = ngs.BilinearForm(space, symmetric=False)
-    hessian += ngs.Variation(energy)
-    hessian.AssembleLinearization(ngs.GridFunction(space).vec)     # E(u0 + u) at u = 0
-    mass = ngs.BilinearForm(mass_form, symmetric=False).Assemble()
-    stiffness, mass = to_scipy(hessian.mat), to_scipy(mass.mat)
-    free = np.flatnonzero(np.array(space.FreeDofs()))
-    k_ff, m_ff = stiffness[free][:, free], mass[free][:, free]
-    if with_disc:
-        spring = study["spring"]
-        vector = lift.vec.FV().NumPy()
-        k_ff = _border(k_ff, stiffness, vector, free, spring["stiffness"])
-        m_ff = _border(m_ff, mass, vector, free, study["disc"]["mass"] + spring["mass"] / 3)
-    return OrderOperators(m, k_ff.tocsr(), m_ff.tocsr(), space, free, with_disc, lift,
-                          axis_m1, state, mass)
+    """Dry K_s, M_s of order m about the prestressed ``state`` (one-off; see OrderForms)."""
+    return OrderForms(state, study).operators(m)
 
 
 def _border(block, full, lift, free, extra):
@@ -188,83 +225,108 @@ class CoupledOrderOperators:
         return self.membrane.size
 
 
-def coupled_order_operators(state, study, dry: OrderOperators, motion) -> CoupledOrderOperators:
-    """Membrane + air pencil of order ``dry.m`` (module doc), scaled as in
-    :func:`copdea_fem.coupled.scaled_pencil`."""
-    from .. import acoustics
+class MeridianAir:
+    """The air and coupling matrices of every order, assembled once (module doc).
+
+    ``k_a(m) = Theta_m (K0 + m^2 K1)``, ``m_a(m) = Theta_m M_a`` on the pressure space
+    ``(p, q)`` (no condition on the axis; orders m >= 1 drop the axis DOFs), and the
+    coupling ``C[p', u] = int_screens [p'] (a n_r + c n_z) r ds`` with the membrane's
+    (a, b, c) space (the same DOF layout for every order) plus the disc's
+    ``int_disc [p'] n_z r ds``; all on the deformed meridian (``motion``).
+    """
+
+    def __init__(self, state, study, motion):
+        from .. import acoustics
+        from .air import air_form_parts, air_kinetic_parts, screen_normal
+
+        mesh, air = state.mesh, study["air"]
+        screens = acoustics.screen_faces(study["geometry"]["frame"])
+        if not state.has_disc:
+            screens = "|".join(face for face in screens.split("|") if face != "disc")
+        self.pressure_space = acoustics.pressure_space(mesh, study["mesh"]["pressure_order"],
+                                                       screens)
+        trial, test = self.pressure_space.TnT()
+        parts = air_form_parts(trial, test, air["density"], air["sound_speed"],
+                               air["domain_radius"], air["pml_thickness"], deformation=motion)
+        self.gradient, self.hoop, self.mass = (_assemble(self.pressure_space, part)
+                                               for part in parts)
+        kinetic = air_kinetic_parts(trial, test, air["density"], deformation=motion)
+        self.kinetic_gradient, self.kinetic_hoop = (_assemble(self.pressure_space, part)
+                                                    for part in kinetic)
+        membrane_space = order_space(mesh, study["mesh"]["order"], 2, state.has_disc,
+                                     complex_=True)
+        self.membrane_ndof = membrane_space.ndof
+        both = ngs.FESpace([membrane_space, self.pressure_space])
+        (u, pressure), (_, pressure_test) = both.TnT()
+        normal = screen_normal()
+        u_normal = u[0] * normal[0] + u[2] * normal[1]
+        coupling = ngs.BilinearForm(both, nonassemble=False)
+        coupling += (-pressure_test[1]) * u_normal * ngs.x * ngs.ds("membrane",
+                                                                   deformation=motion)
+        matrix = to_scipy(coupling.Assemble().mat).tocsr()
+        split = membrane_space.ndof
+        self.coupling = matrix[split:][:, :split].tocsr()         # (pressure, membrane)
+        self.disc_coupling = None
+        if state.has_disc:
+            form = ngs.LinearForm(self.pressure_space)
+            form += (-test[1]) * normal[1] * ngs.x * ngs.ds("disc", deformation=motion)
+            self.disc_coupling = form.Assemble().vec.FV().NumPy().copy()
+        free = np.array(self.pressure_space.FreeDofs())
+        on_axis = np.array(self.pressure_space.GetDofs(mesh.Boundaries("axis")))
+        self._free = {0: np.flatnonzero(free), 1: np.flatnonzero(free & ~on_axis)}
+        self.motion = motion
+
+    def free_pressure(self, m: int) -> np.ndarray:
+        """Free pressure DOFs of order m (p = q = 0 on the axis for m >= 1)."""
+        return self._free[min(m, 1)]
+
+
+def _assemble(space, integrand):
+    form = ngs.BilinearForm(space)
+    form += integrand
+    return to_scipy(form.Assemble().mat).tocsr()
+
+
+def coupled_order_operators(state, study, dry: OrderOperators, air: MeridianAir
+                            ) -> CoupledOrderOperators:
+    """Membrane + air pencil of order ``dry.m`` (eq. A3 of :mod:`copdea_fem.acoustics`)::
+
+        A = [[K_s, Theta C^T], [0, Theta (K0 + m^2 K1)]],  B = [[M_s, 0], [-Theta C, Theta M_a]]
+
+    on the free DOFs, scaled as in :func:`copdea_fem.coupled.scaled_pencil`."""
     from ..coupled import scaled_pencil
     from ..eigen import Factorization
-    from .air import air_forms, air_kinetic_form, screen_coupling, screen_normal
 
-    m, mesh = dry.m, state.mesh
-    air, geometry = study["air"], study["geometry"]
-    screens = acoustics.screen_faces(geometry["frame"])
-    if not state.has_disc:
-        screens = "|".join(face for face in screens.split("|") if face != "disc")
-    pressure_space = acoustics.pressure_space(mesh, study["mesh"]["pressure_order"], screens,
-                                              also_dirichlet="axis" if m > 0 else "")
-    membrane_space = order_space(mesh, study["mesh"]["order"], m, state.has_disc,
-                                 complex_=True)
-    spaces = [membrane_space, *pressure_space.components]
+    m = dry.m
+    theta = theta_integral(m)
+    if air.membrane_ndof != dry.space.ndof:
+        raise RuntimeError("membrane spaces of the orders differ; cannot couple")
+    pressure_free = air.free_pressure(m)
+    coupling = air.coupling[pressure_free][:, dry.free_dofs]
     if dry.disc_dof:
-        spaces.append(ngs.NumberSpace(mesh, complex=True))
-    space = ngs.FESpace(spaces)
-    trial, test = space.TrialFunction(), space.TestFunction()
-    lift = dry.lift        # real GridFunction: NGSolve's energy forms take no complex data
-    disc = (trial[3], test[3]) if dry.disc_dof else (None, None)
-    energy, mass_form = membrane_forms(state, m, trial[0], test[0], dry.axis_m1, lift, disc)
-    pressure, pressure_test = (trial[1], trial[2]), (test[1], test[2])
-    normal = screen_normal()
-    u = _amplitude_proxies(trial[0], dry.axis_m1, lift, disc[0])
-    v = _amplitude_proxies(test[0], dry.axis_m1, lift, disc[1])
-    u_normal = u[0][0] * normal[0] + u[2][0] * normal[1]
-    v_normal = v[0][0] * normal[0] + v[2][0] * normal[1]
-    k_air, m_air = air_forms(m, pressure, pressure_test, air["density"], air["sound_speed"],
-                             air["domain_radius"], air["pml_thickness"], deformation=motion)
-    stiffness = ngs.BilinearForm(space)
-    stiffness += ngs.Variation(energy)
-    stiffness += screen_coupling(m, pressure, v_normal, "membrane", deformation=motion)
-    stiffness += k_air
-    mass = ngs.BilinearForm(space)
-    mass += mass_form
-    mass += (-1.0) * screen_coupling(m, pressure_test, u_normal, "membrane", deformation=motion)
-    mass += m_air
-    if dry.disc_dof:
-        stiffness += screen_coupling(m, pressure, test[3] * normal[1], "disc", deformation=motion)
-        mass += (-1.0) * screen_coupling(m, pressure_test, trial[3] * normal[1], "disc",
-                                         deformation=motion)
-    kinetic = ngs.BilinearForm(space)
-    kinetic += air_kinetic_form(m, pressure, pressure_test, air["density"], deformation=motion)
-    stiffness.AssembleLinearization(ngs.GridFunction(space).vec)   # Hessian at u0 (u = 0)
-    mass.Assemble()
-    kinetic.Assemble()
-    a_all, b_all = to_scipy(stiffness.mat).tolil(), to_scipy(mass.mat).tolil()
-    offsets = np.cumsum([0] + [component.ndof for component in spaces])
-    if dry.disc_dof:               # lumped disc + spring (linearise.py), on the w_d unknown
-        spring = study["spring"]
-        a_all[offsets[3], offsets[3]] += spring["stiffness"]
-        b_all[offsets[3], offsets[3]] += study["disc"]["mass"] + spring["mass"] / 3
-    free = np.flatnonzero(np.array(space.FreeDofs()))
-    position = -np.ones(space.ndof, dtype=int)
-    position[free] = np.arange(free.size)
-    membrane_index = position[offsets[0] + dry.free_dofs]
-    if dry.disc_dof:
-        membrane_index = np.append(membrane_index, position[offsets[3]])
-    if np.any(membrane_index < 0) or membrane_index.size != dry.size:
-        raise RuntimeError("coupled and membrane free DOFs disagree")
-    pressure_global = free[(free >= offsets[1]) & (free < offsets[3])]
-    pressure_index = position[pressure_global]
-    a_full = a_all.tocsr()[free][:, free]
-    b_full = b_all.tocsr()[free][:, free]
-    is_air = np.zeros(free.size, dtype=bool)
-    is_air[pressure_index] = True
-    a_scaled, b_scaled, beta, _, _ = scaled_pencil(a_full, b_full, is_air)
+        disc_column = air.coupling[pressure_free] @ dry.lift.vec.FV().NumPy() \
+            + air.disc_coupling[pressure_free]
+        coupling = sp.hstack([coupling, sp.csr_matrix(disc_column[:, None])])
+    coupling = theta * coupling.tocsr()
+    air_stiffness = theta * (air.gradient + m**2 * air.hoop)[pressure_free][:, pressure_free]
+    air_mass = theta * air.mass[pressure_free][:, pressure_free]
+    n_u, n_p = dry.size, pressure_free.size
+    a_full = sp.bmat([[dry.stiffness, coupling.T], [None, air_stiffness]], format="csr")
+    b_full = sp.bmat([[dry.mass, None], [-coupling, air_mass]], format="csr")
+    # the same pattern in both (A - sigma B entry by entry)
+    pattern = (abs(a_full) + abs(b_full)).astype(bool).astype(float)
+    a_full, b_full = a_full + 0 * pattern, b_full + 0 * pattern
+    is_air = np.zeros(n_u + n_p, dtype=bool)
+    is_air[n_u:] = True
+    a_scaled, b_scaled, beta, _, _ = scaled_pencil(a_full.astype(complex),
+                                                   b_full.astype(complex), is_air)
+    kinetic = theta * (air.kinetic_gradient + m**2 * air.kinetic_hoop)[pressure_free][
+        :, pressure_free]
     backend = study["eigen"]["backend"]
-    air_kinetic = to_scipy(kinetic.mat)[pressure_global][:, pressure_global].tocsr()
 
     def factorize(sigma: float):
         return Factorization((a_scaled - sigma * b_scaled).tocsc(), backend)
 
-    return CoupledOrderOperators(m, a_scaled, b_scaled, dry, pressure_space,
-                                 pressure_global - offsets[1], pressure_index, membrane_index,
-                                 beta, air_kinetic, motion, factorize)
+    return CoupledOrderOperators(m, a_scaled, b_scaled, dry, air.pressure_space, pressure_free,
+                                 np.arange(n_u, n_u + n_p), np.arange(n_u), beta,
+                                 kinetic.tocsr(), air.motion, factorize)
