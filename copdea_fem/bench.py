@@ -8,7 +8,15 @@ stage.  Targets live here and in the issue notes, never in timed tests.
 the default mesh (issue 2's benchmark).
 ``coupled``: the same with the air (issue 3's benchmark): mesh, prestress,
 assembly, factorisation, eigen iterations, output -- every coupled mode below
-1 kHz, result files written to a temporary directory.
+1 kHz, result files written to a temporary directory (no plots).
+``axisymmetric`` / ``axisymmetric-3d``: the same in a baffle (frame: baffle) on the
+axisymmetric engine / on the 3-D quadrant; ``engines`` runs both interleaved and
+reports the ratio of the medians (issue 12's benchmark).
+``drum``: the 0.65 m Mylar drum head of ``studies/drum_mylar_650mm.yaml`` (50-450 Hz,
+baffle, in air); ``--set mesh.engine=3d`` puts it on the 3-D quadrant (issue 14).
+
+``total`` is the in-process time of the solve with its result files; ``process_wall``
+adds the start of a fresh Python (imports of NGSolve, SciPy, pint: ~1-2 s).
 """
 
 from __future__ import annotations
@@ -23,15 +31,28 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-CASES = {"dry": ROOT / "studies" / "g1_z16_v2.yaml", "coupled": ROOT / "studies" / "g1_z16_v2.yaml"}
+G1_Z16 = ROOT / "studies" / "g1_z16_v2.yaml"
+DRUM = ROOT / "studies" / "drum_mylar_650mm.yaml"
+#: case -> (study file, overrides); every case but dry is a coupled solve with result files
+CASES = {
+    "dry": (G1_Z16, []),
+    "coupled": (G1_Z16, []),
+    # issue 12: G1, z = 16 mm, 2 kV in a baffle on the axisymmetric engine / the 3-D quadrant
+    "axisymmetric": (G1_Z16, ["geometry.frame=baffle", "mesh.engine=axisymmetric"]),
+    "axisymmetric-3d": (G1_Z16, ["geometry.frame=baffle", "mesh.engine=3d"]),
+    "drum": (DRUM, []),
+}
+#: benchmarks that run two cases interleaved and report the ratio of their medians
+PAIRS = {"engines": ("axisymmetric", "axisymmetric-3d")}
 
 
 def _once(case: str, overrides: list[str]) -> dict:
     from .solve import Timings, dry_modes, prepare_mesh
     from .study import load_study, parse_overrides
 
-    study = load_study(CASES[case], overrides=parse_overrides(overrides))
-    if case == "coupled":
+    path, fixed = CASES[case]
+    study = load_study(path, overrides=parse_overrides(fixed + overrides))
+    if case != "dry":
         return _once_coupled(study)
     timings = Timings()
     start = time.perf_counter()
@@ -63,7 +84,12 @@ def _once_coupled(study) -> dict:
     seconds["eigen_iterations"] = result.eigen.iteration_seconds
     seconds["total"] = total
     coupled = result.coupled
+    labels = {mode.label: mode.freq_hz for mode in result.modes if mode.kind != "air"}
     return {"seconds": seconds,
+            "engine": getattr(result.state, "engine", "3d"),
+            "frequencies_hz": {label: labels[label] for label in
+                               ("P1", "(0,1)", "(1,1)a", "(2,1)a", "(3,1)a", "(4,1)a", "(5,1)a",
+                                "(0,2)") if label in labels},
             "unknowns": int(result.eigen.unknowns),
             "unknowns_per_sector": [int(part.stiffness.shape[0]) for part in coupled.operators],
             "symmetry": result.state.symmetry.kind,
@@ -75,15 +101,40 @@ def _once_coupled(study) -> dict:
             "peak_memory_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
 
 
+def _run_once(case: str, overrides: list[str]) -> dict:
+    command = [sys.executable, "-m", "copdea_fem.bench", case, "--once"]
+    for item in overrides:
+        command += ["--set", item]
+    started = time.perf_counter()
+    completed = subprocess.run(command, capture_output=True, text=True, check=True)
+    result = json.loads(completed.stdout.strip().splitlines()[-1])
+    result["seconds"]["process_wall"] = time.perf_counter() - started   # incl. imports
+    return result
+
+
 def run(case: str, repeat: int, overrides: list[str]) -> dict:
     runs = []
     for k in range(repeat):
-        command = [sys.executable, "-m", "copdea_fem.bench", case, "--once"]
-        for item in overrides:
-            command += ["--set", item]
-        completed = subprocess.run(command, capture_output=True, text=True, check=True)
-        runs.append(json.loads(completed.stdout.strip().splitlines()[-1]))
+        runs.append(_run_once(case, overrides))
         print(f"run {k + 1}/{repeat}: {runs[-1]['seconds']['total']:.2f} s", file=sys.stderr)
+    return _summary(runs, repeat)
+
+
+def run_pair(pair: str, repeat: int, overrides: list[str]) -> dict:
+    """Both cases of ``pair`` interleaved (a, b, a, b, ...): medians and their ratio b / a."""
+    first, second = PAIRS[pair]
+    runs = {first: [], second: []}
+    for k in range(repeat):
+        for case in (first, second):
+            runs[case].append(_run_once(case, overrides))
+            print(f"run {k + 1}/{repeat} {case}: {runs[case][-1]['seconds']['total']:.2f} s",
+                  file=sys.stderr)
+    report = {case: _summary(values, repeat) for case, values in runs.items()}
+    report["ratio_total"] = report[second]["median_s"]["total"] / report[first]["median_s"]["total"]
+    return report
+
+
+def _summary(runs: list[dict], repeat: int) -> dict:
     stages = runs[0]["seconds"].keys()
     report = {key: runs[0][key] for key in runs[0] if key not in ("seconds", "peak_memory_mb")}
     report["median_s"] = {stage: statistics.median(r["seconds"][stage] for r in runs)
@@ -97,7 +148,7 @@ def run(case: str, repeat: int, overrides: list[str]) -> dict:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m copdea_fem.bench")
-    parser.add_argument("case", choices=sorted(CASES))
+    parser.add_argument("case", choices=sorted(CASES) + sorted(PAIRS))
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE")
     parser.add_argument("--once", action="store_true", help=argparse.SUPPRESS)
@@ -105,7 +156,7 @@ def main(argv=None) -> int:
     if args.once:
         print(json.dumps(_once(args.case, args.set)))
         return 0
-    report = run(args.case, args.repeat, args.set)
+    report = (run_pair if args.case in PAIRS else run)(args.case, args.repeat, args.set)
     print(json.dumps(report, indent=1))
     return 0
 

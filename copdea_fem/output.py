@@ -307,9 +307,10 @@ def write_air_vtus(directory: Path, operators, modes, pressures) -> list[Path]:
 
 
 # -- ParaView, axisymmetric engine: meridian fields revolved to 3-D --------------------
-def revolution_angles(max_order: int) -> np.ndarray:
-    """Polar angles [rad] of a revolved output: 72, or 8 per wavelength of the highest order."""
-    count = max(72, 8 * int(max_order))
+def revolution_angles(max_order: int, minimum: int = 72, per_wave: int = 8) -> np.ndarray:
+    """Polar angles [rad] of a revolved output: ``minimum``, or ``per_wave`` per wavelength of
+    the highest order."""
+    count = max(minimum, per_wave * int(max_order))
     return 2 * np.pi * np.arange(count) / count
 
 
@@ -428,9 +429,11 @@ def write_revolved_mode_vtus(directory: Path, state, modes, sampler=None) -> lis
 def write_revolved_air_vtus(directory: Path, operators, modes, pressures) -> list[Path]:
     """One .vtu per mode of the air of the axisymmetric engine, revolved (wedge cells).
 
-    Every meridian triangle keeps its own three corner points (values taken
-    inside the element: the pressure jumps across the screens), on the
-    deformed meridian; fields and cell data as :func:`write_air_vtus`.
+    The meridian's vertices are revolved on the deformed meridian; as in
+    :func:`write_air_vtus` the lower half gets its own copy of the vertices (the
+    pressure jumps across the screens) and values are taken inside each element.
+    Fields and cell data as there; a field of order m is ``p(r, z) cos m theta``
+    (or the sin family's turned copy).
     """
     import meshio
     import ngsolve as ngs
@@ -440,23 +443,37 @@ def write_revolved_air_vtus(directory: Path, operators, modes, pressures) -> lis
     by_order = {coupled.m: coupled for coupled in operators}
     mesh = operators[0].pressure_space.mesh
     motion = operators[0].mesh_motion
-    corners = ngs.IntegrationRule([(0, 0), (1, 0), (0, 1)], [0.0] * 3)
+    corners = ngs.IntegrationRule([(1, 0), (0, 1), (0, 0)], [0.0] * 3)
     points = mesh.MapToAllElements(corners, ngs.VOL)
     elements = list(mesh.Elements(ngs.VOL))
     lower = np.array([mesh.Materials(LOWER).Mask()[el.index] for el in elements])
     in_pml = np.array([mesh.Materials(PML_REGIONS).Mask()[el.index] for el in elements])
-    meridian = np.asarray(ngs.CF((ngs.x, ngs.y))(points)) + np.asarray(motion(points))
-    angles = revolution_angles(max([mode.m for mode in modes], default=0) // 2)
-    n_t, n_corner = len(angles), meridian.shape[0]
-    r, z = meridian[:, 0], meridian[:, 1]
-    coordinates = np.column_stack([(r[:, None] * np.cos(angles)).ravel(),
-                                   (r[:, None] * np.sin(angles)).ravel(),
-                                   np.repeat(z, n_t)]).astype(np.float32)
-    corner = np.arange(n_corner).reshape(-1, 3) * n_t                # first angle of each corner
+    reference = np.asarray(ngs.CF((ngs.x, ngs.y))(points)).reshape(len(elements), 3, 2)
+    coordinates = mesh.ngmesh.Coordinates()[:, :2]
+    vertex_ids = np.array([[v.nr for v in el.vertices] for el in elements])
+    corner_vertex = np.empty((len(elements), 3), dtype=int)
+    for k in range(3):      # which mesh vertex each reference corner is: by coordinates
+        distance = np.linalg.norm(reference[:, k:k + 1, :] - coordinates[vertex_ids], axis=2)
+        corner_vertex[:, k] = vertex_ids[np.arange(len(elements)), distance.argmin(axis=1)]
+    count = len(coordinates)
+    copy = np.where(lower, count, 0)[:, None] + corner_vertex      # lower half: second copy
+    moved = np.zeros((2 * count, 2))
+    moved[copy.ravel()] = (reference + np.asarray(motion(points)).reshape(
+        len(elements), 3, 2)).reshape(-1, 2)
+    used = np.unique(copy)
+    renumber = -np.ones(2 * count, dtype=int)
+    renumber[used] = np.arange(len(used))
+    triangles = renumber[copy]
+    # the air of every mode is a large file: 36 angles, or 4 per wavelength
+    angles = revolution_angles(max([mode.m for mode in modes], default=0), 36, 4)
+    n_t, n_v = len(angles), len(used)
+    r, z = moved[used, 0], moved[used, 1]
+    xyz = np.column_stack([(r[:, None] * np.cos(angles)).ravel(),
+                           (r[:, None] * np.sin(angles)).ravel(),
+                           np.repeat(z, n_t)]).astype(np.float32)
     step = np.arange(n_t)
-    nxt = (step + 1) % n_t
-    cells = np.concatenate([corner[:, :, None] + step[None, None, :],
-                            corner[:, :, None] + nxt[None, None, :]], axis=1)   # (el, 6, n_t)
+    ring = triangles[:, :, None] * n_t                              # (el, 3, 1)
+    cells = np.concatenate([ring + step, ring + (step + 1) % n_t], axis=1)   # (el, 6, n_t)
     cells = np.moveaxis(cells, 2, 1).reshape(-1, 6)
     cell_data = {"pml": [np.repeat(in_pml.astype(np.int8), n_t)],
                  "lower_half": [np.repeat(lower.astype(np.int8), n_t)]}
@@ -466,13 +483,15 @@ def write_revolved_air_vtus(directory: Path, operators, modes, pressures) -> lis
         gf = ngs.GridFunction(coupled.pressure_space)
         gf.vec.FV().NumPy()[coupled.pressure_free] = pressure
         values = np.asarray(pressure_field(gf.components[0], gf.components[1], mesh)(points))
+        nodal = np.zeros(2 * count, dtype=complex)
+        nodal[copy.ravel()] = values.ravel()
         main, _ = _harmonics(mode.m, mode.family, angles)
-        nodal = (values.reshape(-1)[:, None] * main[None, :]).ravel()
-        data = {"pressure_real": nodal.real.astype(np.float32),
-                "pressure_imag": nodal.imag.astype(np.float32),
-                "pressure_abs": np.abs(nodal).astype(np.float32)}
+        field = (nodal[used][:, None] * main[None, :]).ravel()
+        data = {"pressure_real": field.real.astype(np.float32),
+                "pressure_imag": field.imag.astype(np.float32),
+                "pressure_abs": np.abs(field).astype(np.float32)}
         path = directory / f"air_{number:03d}_{_safe(mode.label)}.vtu"
-        meshio.write(path, meshio.Mesh(coordinates, [("wedge", cells)], point_data=data,
+        meshio.write(path, meshio.Mesh(xyz, [("wedge", cells)], point_data=data,
                                        cell_data=cell_data), compression=VTU_COMPRESSION)
         files.append(path)
     return files
