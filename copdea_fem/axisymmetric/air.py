@@ -36,6 +36,12 @@ def pml_stretch(domain_radius: float, pml_thickness: float, strength: float = PM
     return stretched / rho, derivative, ngs.CF((ngs.x, ngs.y)) / rho
 
 
+def _off_axis(region: str, deformation):
+    """dx for integrands with 1/r: a raised rule (NGSolve's order-2 triangle rule has its
+    points on the edge midpoints, on the axis r = 0 for an element touching it)."""
+    return ngs.dx(region, deformation=deformation, bonus_intorder=2)
+
+
 def _half(pressure, half: str):
     """The pressure of one half: p above, p + q below."""
     p, q = pressure
@@ -60,7 +66,7 @@ def air_form_parts(pressure, pressure_test, density: float, sound_speed: float,
         gradient_part = gradient_part + (
             ngs.grad(p) * ngs.grad(p_test) * r / density * air
             + (j_inverse * ngs.grad(p)) * (j_inverse * ngs.grad(p_test)) * volume / density * pml)
-        hoop_part = hoop_part + (p * p_test / r / density * air
+        hoop_part = hoop_part + (p * p_test / r / density * _off_axis(f"air_{half}", deformation)
                                  + p * p_test / (s * r) ** 2 * volume / density * pml)
         mass = mass + compressibility * p * p_test * r * air \
             + compressibility * p * p_test * volume * pml
@@ -86,7 +92,8 @@ def air_kinetic_parts(pressure, pressure_test, density: float, deformation=None)
         p, p_test = _half(pressure, half), _half(pressure_test, half)
         air = ngs.dx(f"air_{half}", deformation=deformation)
         gradient_part = gradient_part + ngs.grad(p) * ngs.grad(p_test) * ngs.x / density * air
-        hoop_part = hoop_part + p * p_test / ngs.x / density * air
+        hoop_part = hoop_part + p * p_test / ngs.x / density * _off_axis(f"air_{half}",
+                                                                         deformation)
     return gradient_part, hoop_part
 
 

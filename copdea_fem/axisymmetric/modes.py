@@ -3,7 +3,7 @@
 Within an order m every quantity is an exact 1-D integral of the amplitudes
 (a, b, c) (:mod:`.operators`): kinetic energies with ``M_s``, the normal part
 with ``M_n = Theta_m rho_s int (a n_r + c n_z)^2 R dR`` (n the prestressed
-normal), the disc's share with its lumped mass.  Kinds are decided as in the
+normal), the disc's share ``(M_d + M_s/3) |w_d|^2 / x^H M x`` with its lumped mass.  Kinds are decided as in the
 3-D engine (:mod:`copdea_fem.modes`: the same thresholds); labels come by
 construction: m is the order, n of an out-of-plane mode is its rank among the
 out-of-plane modes of the order (n - 1 interior nodal circles), in-plane modes
@@ -94,8 +94,9 @@ def classify_order(operators, vectors, freq_hz, freq_im_hz, residuals,
         reduced, vector = vectors[:, k], full[:, k]
         total = float(np.real(np.vdot(reduced, operators.mass @ reduced)))
         disc = complex(reduced[-1]) if operators.disc_dof else 0.0
-        disc_energy = (float(np.real(operators.mass[-1, -1])) * abs(disc) ** 2
-                       if operators.disc_dof else 0.0)
+        # the rigid disc's own (lumped) mass only, as copdea_fem.modes: mass[-1, -1] also
+        # holds the membrane mass the rim lift carries
+        disc_energy = operators.disc_mass * abs(disc) ** 2
         normal_energy = float(np.real(np.vdot(vector, normal_mass @ vector)))
         normal_fraction = normal_energy / max(total - disc_energy, 1e-300)
         disc_fraction = disc_energy / max(total, 1e-300)

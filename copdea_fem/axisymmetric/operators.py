@@ -61,6 +61,7 @@ class OrderOperators:
     axis_m1: bool                # m = 1 on a full membrane: component 1 is beta = a + b
     state: object
     mass_full: sp.csr_matrix = None       # M_s on all DOFs of ``space`` (for MAC) [kg]
+    disc_mass: float = 0.0                # lumped M_d + M_s/3 of the disc unknown [kg]
 
     @property
     def size(self) -> int:
@@ -179,14 +180,15 @@ class OrderForms:
         lift = rim_lift(space, state) if with_disc else None
         free = np.flatnonzero(np.array(space.FreeDofs()))
         k_ff, m_ff = stiffness[free][:, free], mass[free][:, free]
+        disc_mass = 0.0
         if with_disc:
             spring = study["spring"]
             vector = lift.vec.FV().NumPy()
+            disc_mass = study["disc"]["mass"] + spring["mass"] / 3
             k_ff = _border(k_ff, stiffness, vector, free, spring["stiffness"])
-            m_ff = _border(m_ff, mass, vector, free,
-                           study["disc"]["mass"] + spring["mass"] / 3)
+            m_ff = _border(m_ff, mass, vector, free, disc_mass)
         return OrderOperators(m, k_ff.tocsr(), m_ff.tocsr(), space, free, with_disc, lift,
-                              axis_m1, state, mass.tocsr())
+                              axis_m1, state, mass.tocsr(), disc_mass)
 
 
 def order_operators(state, study, m: int) -> OrderOperators:
