@@ -35,10 +35,9 @@ import scipy.sparse as sp
 
 from . import acoustics
 from .ale import air_mesh_displacement
-from .eigen import EigenSolverError, Factorization
+from .eigen import Factorization, NativeShiftedInverse
 from .linearise import MembraneOperators, to_scipy
 from .membrane import displacement_space, energy_density, tangent_gradient
-from .modes import AIR, Mode, ModeSampler, classify_modes
 
 
 @dataclass
@@ -174,7 +173,7 @@ class CoupledAssembly:
 
     def restrict(self, operators: MembraneOperators) -> "CoupledOperators":
         """The scaled pencil of the sector of ``operators`` (None on a whole mesh)."""
-        from .symmetry import SECTORS, membrane_mirror_dofs, pressure_mirror_dofs
+        from .symmetry import membrane_mirror_dofs, pressure_mirror_dofs
 
         sector, state, offsets = operators.sector, self.state, self.offsets
         mesh = state.mesh
@@ -208,61 +207,12 @@ class CoupledAssembly:
         def factorize(sigma: float):
             if backend == "superlu":      # SciPy factorises the complex scaled pencil natively
                 return Factorization((a_scaled - sigma * b_scaled).tocsc(), backend)
-            return _NativeShiftedInverse(self.stiffness_matrix, self.mass_matrix, free_mask,
+            return NativeShiftedInverse(self.stiffness_matrix, self.mass_matrix, free_mask,
                                          sigma, row_scale, column_scale, backend)
 
         return CoupledOperators(a_scaled, b_scaled, operators, self.pressure_space,
                                 pressure_free, pressure_index, membrane_index, beta,
                                 air_kinetic, self.mesh_motion, factorize)
-
-
-class _NativeShiftedInverse:
-    """Complex factorisation of the scaled ``A - sigma B`` on a sector's free DOFs, in NGSolve.
-
-    (A_s - sigma B_s)^-1 = D_r^-1 (A - sigma B)^-1 D_l^-1 for the row/column
-    scalings D_l, D_r.  NGSolve factorises the complex matrix natively with
-    ``backend`` (``"umfpack"`` or ``"pardiso"``, study key ``eigen.backend``);
-    :class:`copdea_fem.eigen.Factorization` would hand it the twice-as-large
-    real form.  ``"superlu"`` takes that class (SciPy factorises complex).
-    """
-
-    def __init__(self, stiffness, mass, free_mask, sigma, row_scale, column_scale,
-                 backend="umfpack"):
-        import time
-
-        from .symmetry import bitarray
-
-        start = time.perf_counter()
-        shifted = stiffness.CreateMatrix()
-        shifted.AsVector().data = stiffness.AsVector() - float(sigma) * mass.AsVector()
-        try:
-            self._inverse = shifted.Inverse(bitarray(free_mask), inverse=backend)
-        except Exception as error:  # NGSolve's NgException derives from Exception only
-            raise EigenSolverError(f"{backend} could not factorise A - sigma B at sigma = "
-                                   f"{sigma:.6g} rad^2/s^2 (singular?): {error}") from error
-        self._matrix = shifted
-        self._rhs = shifted.CreateColVector()
-        self._solution = shifted.CreateColVector()
-        self._free = np.flatnonzero(free_mask)
-        self._rows, self._columns = row_scale, column_scale
-        self.dtype = np.dtype(complex)
-        self.is_complex = True
-        self.solve_count = 0
-        self.factorisation_seconds = time.perf_counter() - start
-
-    def _solve_vector(self, rhs):
-        self.solve_count += 1
-        values = self._rhs.FV().NumPy()
-        values[:] = 0
-        values[self._free] = rhs / self._rows
-        self._solution.data = self._inverse * self._rhs
-        return self._solution.FV().NumPy()[self._free] / self._columns
-
-    def solve(self, rhs):
-        rhs = np.asarray(rhs)
-        if rhs.ndim == 1:
-            return self._solve_vector(rhs)
-        return np.stack([self._solve_vector(rhs[:, j]) for j in range(rhs.shape[1])], axis=1)
 
 
 def _physical_air_energy(pressure, pressure_test, density, motion):
@@ -289,80 +239,3 @@ def scaled_pencil(a_full, b_full, is_air):
 
 def _norm(matrix) -> float:
     return float(abs(matrix).max()) if matrix.nnz else 1.0
-
-
-@dataclass
-class _MembranePart:
-    """Membrane part of coupled eigenpairs, shaped like an eigen.BandResult for modes.py."""
-
-    vectors: np.ndarray
-    freq_hz: np.ndarray
-    freq_im_hz: np.ndarray
-    residuals: np.ndarray
-
-
-def coupled_mode_list(coupled: CoupledOperators, result, min_membrane_energy: float,
-                      sampler: ModeSampler) -> tuple[list[Mode], list[np.ndarray]]:
-    """Classify coupled eigenpairs; returns modes and their pressure vectors [Pa, free DOFs].
-
-    Membrane energy fraction (time-averaged kinetic energies, exact integrals):
-    ``KE_m = |lambda| u^H M_s u``, ``KE_a = beta^2 p^^H K_a0 p^ / |lambda|`` with
-    ``K_a0`` the air stiffness over the physical air (no PML).
-    """
-    membrane_vectors = result.vectors[coupled.membrane_index]
-    pressure_vectors = result.vectors[coupled.pressure_index] * coupled.pressure_scale
-    eigenvalues = np.asarray(result.eigenvalues)
-    fractions = []
-    for k in range(len(eigenvalues)):
-        u, p = membrane_vectors[:, k], pressure_vectors[:, k]
-        magnitude = max(abs(eigenvalues[k]), 1e-300)
-        kinetic_membrane = magnitude * float(np.real(np.vdot(u, coupled.membrane.mass @ u)))
-        kinetic_air = float(np.real(np.vdot(p, coupled.air_kinetic @ p))) / magnitude
-        fractions.append(kinetic_membrane / max(kinetic_membrane + kinetic_air, 1e-300))
-    part = _MembranePart(membrane_vectors, np.asarray(result.freq_hz),
-                         np.asarray(result.freq_im_hz), np.asarray(result.residuals))
-    modes = classify_modes(coupled.membrane, part, sampler)
-    pressures = []
-    full = coupled.membrane.to_full(membrane_vectors)
-    for mode, fraction, k in zip(modes, fractions, range(len(modes))):
-        mode.membrane_energy_fraction = fraction
-        scale = np.linalg.norm(mode.vector) / max(np.linalg.norm(full[:, k]), 1e-300)
-        pressures.append(pressure_vectors[:, k] * scale)
-        if fraction < min_membrane_energy:
-            mode.kind, mode.label, mode.m, mode.n = AIR, "air", 0, 0
-    from .modes import assign_labels
-    structural = [mode for mode in modes if mode.kind != AIR]
-    assign_labels(structural)
-    return modes, pressures
-
-
-def match_dry(modes: list[Mode], dry_modes: list[Mode], membrane_mass) -> dict[int, Mode]:
-    """Dry partner of every structural coupled mode: same (m, n) family, best MAC.
-
-    MAC = |u_c^H M u_d|^2 / (u_c^H M u_c * u_d^H M u_d) on the full membrane
-    vectors (on a quadrant mesh: within the mode's symmetry sector); within a degenerate pair the subspace is what matters, so pairs
-    share the dry pair's frequencies (they are equal up to the mesh).
-    """
-    partners = {}
-    used: set[int] = set()
-    for k, mode in enumerate(modes):
-        if mode.kind == AIR:
-            continue
-        best, best_mac = None, -1.0
-        for j, dry in enumerate(dry_modes):
-            if (dry.kind != mode.kind or (dry.m, dry.n) != (mode.m, mode.n) or j in used
-                    or dry.sector != mode.sector):
-                continue
-            mac = _mac(mode.vector, dry.vector, membrane_mass)
-            if mac > best_mac:
-                best, best_mac = j, mac
-        if best is not None:
-            used.add(best)
-            partners[k] = dry_modes[best]
-    return partners
-
-
-def _mac(a, b, mass) -> float:
-    cross = np.vdot(a, mass @ b)
-    return float(abs(cross) ** 2 / max(np.real(np.vdot(a, mass @ a) * np.vdot(b, mass @ b)),
-                                       1e-300))

@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import importlib.util
 import math
 import time
 from dataclasses import dataclass, field
@@ -269,9 +270,7 @@ def fill_reducing_order(matrix) -> np.ndarray | None:
     """
     if matrix.shape[0] < NESTED_DISSECTION_MIN:
         return None
-    try:
-        import pymetis  # noqa: F401
-    except ImportError:
+    if importlib.util.find_spec("pymetis") is None:
         return None
     matrix = sp.csr_matrix(matrix)
     matrix.sort_indices()
@@ -457,6 +456,55 @@ class Factorization:
 
 
 # --------------------------------------------------------------------------- result
+
+
+class NativeShiftedInverse:
+    """Complex factorisation of the scaled ``A - sigma B`` on a sector's free DOFs, in NGSolve.
+
+    (A_s - sigma B_s)^-1 = D_r^-1 (A - sigma B)^-1 D_l^-1 for the row/column
+    scalings D_l, D_r.  NGSolve factorises the complex matrix natively with
+    ``backend`` (``"umfpack"`` or ``"pardiso"``, study key ``eigen.backend``);
+    :class:`Factorization` would hand it the twice-as-large real form.
+    ``"superlu"`` takes that class (SciPy factorises complex).  The coupled 3-D
+    pencil's ``factorize`` hook (:meth:`copdea_fem.coupled.CoupledAssembly.restrict`).
+    """
+
+    def __init__(self, stiffness, mass, free_mask, sigma, row_scale, column_scale,
+                 backend="umfpack"):
+
+        from .symmetry import bitarray
+
+        start = time.perf_counter()
+        shifted = stiffness.CreateMatrix()
+        shifted.AsVector().data = stiffness.AsVector() - float(sigma) * mass.AsVector()
+        try:
+            self._inverse = shifted.Inverse(bitarray(free_mask), inverse=backend)
+        except Exception as error:  # NGSolve's NgException derives from Exception only
+            raise EigenSolverError(f"{backend} could not factorise A - sigma B at sigma = "
+                                   f"{sigma:.6g} rad^2/s^2 (singular?): {error}") from error
+        self._matrix = shifted
+        self._rhs = shifted.CreateColVector()
+        self._solution = shifted.CreateColVector()
+        self._free = np.flatnonzero(free_mask)
+        self._rows, self._columns = row_scale, column_scale
+        self.dtype = np.dtype(complex)
+        self.is_complex = True
+        self.solve_count = 0
+        self.factorisation_seconds = time.perf_counter() - start
+
+    def _solve_vector(self, rhs):
+        self.solve_count += 1
+        values = self._rhs.FV().NumPy()
+        values[:] = 0
+        values[self._free] = rhs / self._rows
+        self._solution.data = self._inverse * self._rhs
+        return self._solution.FV().NumPy()[self._free] / self._columns
+
+    def solve(self, rhs):
+        rhs = np.asarray(rhs)
+        if rhs.ndim == 1:
+            return self._solve_vector(rhs)
+        return np.stack([self._solve_vector(rhs[:, j]) for j in range(rhs.shape[1])], axis=1)
 
 
 @dataclass(eq=False)

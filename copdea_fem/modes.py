@@ -191,3 +191,92 @@ def assign_labels(modes: list[Mode]) -> None:
         else:
             for suffix, mode in zip("abcdefghijklmnopqrstuvwxyz", group):
                 mode.label = base + suffix
+
+
+# -- coupled modes (post-processing of the coupled pencil's eigenpairs) ---------------
+@dataclass
+class _MembranePart:
+    """Membrane part of coupled eigenpairs, shaped like an eigen.BandResult for modes.py."""
+
+    vectors: np.ndarray
+    freq_hz: np.ndarray
+    freq_im_hz: np.ndarray
+    residuals: np.ndarray
+
+
+def membrane_energy_fractions(coupled, result) -> list[float]:
+    """Membrane (+ disc) share of the kinetic energy of each coupled eigenpair [-].
+
+    Time-averaged kinetic energies, exact integrals: ``KE_m = |lambda| u^H M_s u``,
+    ``KE_a = beta^2 p^^H K_a0 p^ / |lambda|`` with ``K_a0`` the air stiffness over the
+    physical air (no PML).  ``coupled``: the coupled operators of either engine
+    (``membrane.mass``, ``air_kinetic``, ``membrane_index``, ``pressure_index``,
+    ``pressure_scale``).
+    """
+    membrane_vectors = result.vectors[coupled.membrane_index]
+    pressure_vectors = result.vectors[coupled.pressure_index] * coupled.pressure_scale
+    fractions = []
+    for k, eigenvalue in enumerate(np.asarray(result.eigenvalues)):
+        u, p = membrane_vectors[:, k], pressure_vectors[:, k]
+        magnitude = max(abs(eigenvalue), 1e-300)
+        kinetic_membrane = magnitude * float(np.real(np.vdot(u, coupled.membrane.mass @ u)))
+        kinetic_air = float(np.real(np.vdot(p, coupled.air_kinetic @ p))) / magnitude
+        fractions.append(kinetic_membrane / max(kinetic_membrane + kinetic_air, 1e-300))
+    return fractions
+
+
+def coupled_mode_list(coupled, result, min_membrane_energy: float,
+                      sampler: ModeSampler) -> tuple[list[Mode], list[np.ndarray]]:
+    """Classify coupled eigenpairs of the 3-D engine (:class:`copdea_fem.coupled.CoupledOperators`);
+    returns modes and their pressure vectors [Pa, free DOFs]
+    (:func:`membrane_energy_fractions` decides the air modes)."""
+    membrane_vectors = result.vectors[coupled.membrane_index]
+    pressure_vectors = result.vectors[coupled.pressure_index] * coupled.pressure_scale
+    fractions = membrane_energy_fractions(coupled, result)
+    part = _MembranePart(membrane_vectors, np.asarray(result.freq_hz),
+                         np.asarray(result.freq_im_hz), np.asarray(result.residuals))
+    modes = classify_modes(coupled.membrane, part, sampler)
+    pressures = []
+    full = coupled.membrane.to_full(membrane_vectors)
+    for mode, fraction, k in zip(modes, fractions, range(len(modes))):
+        mode.membrane_energy_fraction = fraction
+        scale = np.linalg.norm(mode.vector) / max(np.linalg.norm(full[:, k]), 1e-300)
+        pressures.append(pressure_vectors[:, k] * scale)
+        if fraction < min_membrane_energy:
+            mode.kind, mode.label, mode.m, mode.n = AIR, "air", 0, 0
+    structural = [mode for mode in modes if mode.kind != AIR]
+    assign_labels(structural)
+    return modes, pressures
+
+
+def match_dry(modes: list[Mode], dry_modes: list[Mode], membrane_mass) -> dict[int, Mode]:
+    """Dry partner of every structural coupled mode: same (m, n) family, best MAC.
+
+    MAC = |u_c^H M u_d|^2 / (u_c^H M u_c * u_d^H M u_d) on the full membrane
+    vectors (on a quadrant mesh: within the mode's symmetry sector); within a degenerate pair the subspace is what matters, so pairs
+    share the dry pair's frequencies (they are equal up to the mesh).
+    """
+    partners = {}
+    used: set[int] = set()
+    for k, mode in enumerate(modes):
+        if mode.kind == AIR:
+            continue
+        best, best_mac = None, -1.0
+        for j, dry in enumerate(dry_modes):
+            if (dry.kind != mode.kind or (dry.m, dry.n) != (mode.m, mode.n) or j in used
+                    or dry.sector != mode.sector):
+                continue
+            value = mac(mode.vector, dry.vector, membrane_mass)
+            if value > best_mac:
+                best, best_mac = j, value
+        if best is not None:
+            used.add(best)
+            partners[k] = dry_modes[best]
+    return partners
+
+
+def mac(a, b, mass) -> float:
+    """Modal assurance criterion |a^H M b|^2 / (a^H M a b^H M b) [-]."""
+    cross = np.vdot(a, mass @ b)
+    return float(abs(cross) ** 2 / max(np.real(np.vdot(a, mass @ a) * np.vdot(b, mass @ b)),
+                                       1e-300))

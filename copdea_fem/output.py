@@ -391,14 +391,12 @@ def write_revolved_mode_vtus(directory: Path, state, modes, sampler=None) -> lis
     """One .vtu per mode of the axisymmetric engine, revolved; fields as write_mode_vtus."""
     import ngsolve as ngs
 
-    from .axisymmetric.modes import OrderSampler
-
     highest = max([mode.m for mode in modes], default=0)
     if sampler is None or len(sampler.angles) < len(revolution_angles(highest)):
         sampler = RevolvedMembraneSampler(state, highest)
     displacement = sampler.prestress_displacement()
     normal_profile = sampler.profile(state.fields()["normal"])
-    files, order_samplers = [], {}
+    files = []
     for number, mode in enumerate(modes):
         operators = mode.operators
         gf = ngs.GridFunction(operators.space)
@@ -466,7 +464,7 @@ def write_revolved_air_vtus(directory: Path, operators, modes, pressures) -> lis
     triangles = renumber[copy]
     # the air of every mode is a large file: 36 angles, or 4 per wavelength
     angles = revolution_angles(max([mode.m for mode in modes], default=0), 36, 4)
-    n_t, n_v = len(angles), len(used)
+    n_t = len(angles)
     r, z = moved[used, 0], moved[used, 1]
     xyz = np.column_stack([(r[:, None] * np.cos(angles)).ravel(),
                            (r[:, None] * np.sin(angles)).ravel(),

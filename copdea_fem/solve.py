@@ -174,10 +174,10 @@ def coupled_modes(study: Study, mesh=None, progress=_quiet, timings: Timings | N
     point's coupled shifts and mode counts, per sector: ``{sector name or
     "all": shifts}``); the dry partner solves start afresh.
     """
-    from .coupled import assemble_coupled, coupled_mode_list, match_dry
+    from .coupled import assemble_coupled
     from .eigen import SectorBandResults, solve_band
     from .linearise import membrane_matrices
-    from .modes import assign_labels
+    from .modes import assign_labels, coupled_mode_list, match_dry
 
     timings = timings or Timings()
     require_backend(study)

@@ -63,7 +63,7 @@ def test_factorisation_backend_is_a_setting_of_the_coupled_solve(flat, backend, 
     if not backend_available(backend):
         pytest.skip(f"{backend} is not installed here (pardiso needs pip install mkl)")
     used = []
-    for name in ("Factorization", "_NativeShiftedInverse"):
+    for name in ("Factorization", "NativeShiftedInverse"):
         original = getattr(coupled, name)
 
         def spy(*args, _original=original, **kwargs):

@@ -11,8 +11,6 @@ deformed meridian (``deformation=D``, :func:`meridian_motion`), in which
 
 from __future__ import annotations
 
-import math
-
 import ngsolve as ngs
 import numpy as np
 

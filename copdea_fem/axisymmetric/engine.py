@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..eigen import SectorBandResults, solve_band
-from ..modes import AIR
+from ..modes import AIR, mac, membrane_energy_fractions
 from .air import meridian_motion
 from .meridian import MeridianSpec, meridian_mesh
 from .modes import (OrderSampler, classify_order, label_all, number_out_of_plane,
@@ -88,25 +88,9 @@ def axisymmetric_dry_modes(study, mesh=None, progress=_quiet, timings=None, solv
     return state, modes, SectorBandResults(results)
 
 
-def membrane_energy_fractions(coupled, result) -> list[float]:
-    """KE_m / (KE_m + KE_a) of each coupled eigenpair (as :func:`copdea_fem.coupled.coupled_mode_list`):
-    ``KE_m = |lambda| u^H M_s u``, ``KE_a = beta^2 p^^H K_a0 p^ / |lambda|``."""
-    fractions = []
-    membrane = result.vectors[coupled.membrane_index]
-    pressure = result.vectors[coupled.pressure_index] * coupled.pressure_scale
-    for k, eigenvalue in enumerate(np.asarray(result.eigenvalues)):
-        u, p = membrane[:, k], pressure[:, k]
-        magnitude = max(abs(eigenvalue), 1e-300)
-        kinetic_membrane = magnitude * float(np.real(np.vdot(u, coupled.membrane.mass @ u)))
-        kinetic_air = float(np.real(np.vdot(p, coupled.air_kinetic @ p))) / magnitude
-        fractions.append(kinetic_membrane / max(kinetic_membrane + kinetic_air, 1e-300))
-    return fractions
-
-
 def match_dry_in_order(modes, dry_modes, mass) -> dict:
     """Dry partner of each structural coupled mode of one order: same kind and n, best MAC
     with the order's mass matrix (on the order space's coefficients)."""
-    from ..coupled import _mac
     partners, used = {}, set()
     for k, mode in enumerate(modes):
         if mode.kind == AIR:
@@ -115,9 +99,9 @@ def match_dry_in_order(modes, dry_modes, mass) -> dict:
         for j, dry in enumerate(dry_modes):
             if j in used or dry.kind != mode.kind or (mode.kind != "in-plane" and dry.n != mode.n):
                 continue
-            mac = _mac(mode.vector, dry.vector, mass)
-            if mac > best_mac:
-                best, best_mac = j, mac
+            value = mac(mode.vector, dry.vector, mass)
+            if value > best_mac:
+                best, best_mac = j, value
         if best is not None:
             used.add(best)
             partners[k] = dry_modes[best]

@@ -28,6 +28,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from ..geometry import ale_decay_length
 
 #: frames with a meridian geometry (the square frame needs the 3-D engine)
@@ -96,7 +98,6 @@ def build_geometry(spec: MeridianSpec):
     # domains: 1 box under the disc, 2 box under the membrane, 3 rest of the air, 4 PML
     # (upper half); 5, 6, 7, 8 the same below
     has_disc = r_i > 0
-    under_membrane_u, under_membrane_l = 2, 6
     under_disc_u, under_disc_l = (1, 5) if has_disc else (2, 6)
     point(0, 0, "centre", h_screen)
     if has_disc:
@@ -173,7 +174,6 @@ class LineSampler:
 
     def __init__(self, mesh, region: str = "membrane", points_per_element: int = 9):
         import ngsolve as ngs
-        import numpy as np
 
         k = points_per_element
         self.reference = np.linspace(0.0, 1.0, k)
@@ -191,16 +191,12 @@ class LineSampler:
 
     def values(self, coefficient) -> np.ndarray:
         """Values at the sample points: (elements, k) or (elements, k, d)."""
-        import numpy as np
-
         values = np.asarray(coefficient(self.points))
         values = values[:, 0] if values.ndim == 2 and values.shape[1] == 1 else values
         return values[self.rows]
 
     def at(self, coefficient, radii) -> np.ndarray:
         """Values at arbitrary ``radii`` [m] on the line: (len,) or (len, d)."""
-        import numpy as np
-
         radii = np.atleast_1d(np.asarray(radii, dtype=float))
         samples = self.values(coefficient)
         element = np.clip(np.searchsorted(self.lower, radii, side="right") - 1, 0,
