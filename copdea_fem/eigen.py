@@ -471,7 +471,6 @@ class NativeShiftedInverse:
 
     def __init__(self, stiffness, mass, free_mask, sigma, row_scale, column_scale,
                  backend="umfpack"):
-
         from .symmetry import bitarray
 
         start = time.perf_counter()
