@@ -108,6 +108,7 @@ from typing import Any, Callable
 import numpy as np
 import yaml
 
+from .inputs import preview, read_yaml
 from .study import (SCHEMA, Study, StudyError, _convert, check_air_lift, load_study,
                     package_versions)
 from .tracking import ModeSet, TrackingSettings, TrackingInputError, track_modes
@@ -130,7 +131,7 @@ class SweepError(StudyError):
 
 def _fail(key: str, value: Any, allowed: str, why: str = "") -> SweepError:
     why = f" ({why})" if why else ""
-    return SweepError(f"{key} = {value!r} is not allowed{why}; allowed: {allowed}")
+    return SweepError(f"{key} = {preview(value)} is not allowed{why}; allowed: {allowed}")
 
 
 # --------------------------------------------------------------------------- schema
@@ -278,14 +279,7 @@ class Sweep:
 def load_sweep(path: str | Path, overrides: dict | None = None) -> Sweep:
     """Read and validate a SWEEP.yaml; ``overrides`` are extra base-study ``--set`` values."""
     path = Path(path)
-    if not path.is_file():
-        raise SweepError(f"sweep file {str(path)!r} does not exist")
-    try:
-        raw = yaml.safe_load(path.read_text()) or {}
-    except yaml.YAMLError as error:
-        raise SweepError(f"sweep file {str(path)!r} is not valid YAML: {error}") from None
-    if not isinstance(raw, dict):
-        raise SweepError(f"sweep file {str(path)!r} must hold a mapping; got {type(raw).__name__}")
+    raw = read_yaml(path, "sweep file", SweepError)
     return parse_sweep(raw, base_dir=path.parent, name=str(raw.get("name") or path.stem),
                        source=path, overrides=overrides)
 
@@ -351,8 +345,6 @@ def _base_study(raw: dict, base_dir: Path, name: str, overrides: dict) -> Study:
         raise _fail("study", study_path, "the path of a base study file, relative to the sweep "
                     "file (e.g. ../g1_z16_v2.yaml)")
     full = Path(study_path) if Path(study_path).is_absolute() else base_dir / study_path
-    if not full.is_file():
-        raise _fail("study", study_path, "an existing study file", f"{full} does not exist")
     try:
         study = load_study(full, overrides=overrides)
     except SweepError:

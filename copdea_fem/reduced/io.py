@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from copdea_fem.inputs import preview, read_text
 from copdea_fem.reduced.fit import PARAMETERS, fit_material
 from copdea_fem.reduced.modal import mode_profile
 from copdea_fem.reduced.model import build_reduced, damping_key, spectra_of
@@ -55,8 +56,9 @@ def read_modes_json(path, study=None) -> dict:
     if not path.is_file():
         raise StudyError(f"reduced.modes_json = {str(path)!r} does not exist; allowed: the "
                          "modes.json written by a FE solve")
+    text = read_text(path, "reduced.modes_json", error=StudyError)
     try:
-        data = json.loads(path.read_text())
+        data = json.loads(text)
         entries = data["modes"]
     except (json.JSONDecodeError, KeyError, TypeError) as exc:
         raise StudyError(f"reduced.modes_json = {str(path)!r} is not a modes.json ({exc}); "
@@ -92,10 +94,10 @@ def modes_json_air_enabled(path):
 
 def _read_table(path, required, optional=()) -> dict:
     path = Path(path)
-    if not path.is_file():
-        raise StudyError(f"data file {str(path)!r} does not exist")
-    with path.open(newline="") as handle:
-        rows = list(csv.reader(row for row in handle if row.strip() and not row.startswith("#")))
+    if not path.exists():
+        raise StudyError(f"data file {preview(str(path))} does not exist")
+    lines = read_text(path, "data file", error=StudyError).splitlines()
+    rows = list(csv.reader(row for row in lines if row.strip() and not row.startswith("#")))
     if not rows:
         raise StudyError(f"data file {str(path)!r} is empty; allowed: a CSV with header "
                          + ", ".join(required))
