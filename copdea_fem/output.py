@@ -1,18 +1,15 @@
 """Result files: modes.csv / modes.json, ParaView .pvd/.vtu, PNG plots.
 
-Every writer takes a target directory; :func:`result_directory` hands out a
-temporary sibling that is renamed into place only when everything is written,
-so a failed run leaves no half-finished results behind.
+Every writer takes a target directory: the staging folder of
+:func:`copdea_fem.folders.result_directory`, renamed into place only when
+everything is written, so a failed run leaves no half-finished results behind.
 """
 
 from __future__ import annotations
 
-import contextlib
 import csv
 import math
 import json
-import shutil
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -26,22 +23,6 @@ VTU_COMPRESSION = None
 MODE_COLUMNS = ("label", "m", "n", "kind", "freq_hz", "freq_im_hz", "damping_ratio",
                 "membrane_energy_fraction", "modal_mass", "dry_freq_hz", "added_mass_ratio",
                 "normal_fraction", "disc_fraction", "residual", "symmetry")
-
-
-@contextlib.contextmanager
-def result_directory(target: str | Path):
-    """Yield a fresh temporary directory; on success it replaces ``target``."""
-    target = Path(target)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=target.parent))
-    try:
-        yield staging
-    except BaseException:
-        shutil.rmtree(staging, ignore_errors=True)
-        raise
-    if target.exists():
-        shutil.rmtree(target)
-    staging.rename(target)
 
 
 def mode_rows(modes, dry_frequencies: dict | None = None) -> list[dict]:

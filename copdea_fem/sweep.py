@@ -108,6 +108,7 @@ from typing import Any, Callable
 import numpy as np
 import yaml
 
+from .folders import claim, write_manifest
 from .inputs import preview, read_yaml
 from .study import (SCHEMA, Study, StudyError, _convert, check_air_lift, load_study,
                     package_versions)
@@ -121,6 +122,9 @@ TOP_KEYS = ("name", "description", "study", "set", "model", "axes", "tracking", 
 # differ only there can continue from each other.
 LOAD_LIKE_SECTIONS = ("load", "eigen", "disc", "spring", "reduced", "excitation", "effects",
                       "output")
+#: What a sweep folder holds (its manifest lists these; each point folder has its own).
+SWEEP_FILES = ("sweep.csv", "sweep.csv.tmp", "sweep.json", "sweep.json.tmp",
+               "sweep.resolved.yaml", "sweep.png", "points")
 DEFAULT_PLOT_KINDS = ("out-of-plane", "pumping")
 KINDS = ("out-of-plane", "in-plane", "pumping", "air")
 
@@ -913,9 +917,9 @@ class PointStore:
             (self.root / point.point_id / "vectors.npz").is_file()
 
     def write(self, result: PointResult) -> None:
-        from .output import result_directory
+        from .folders import result_directory
         self.root.mkdir(parents=True, exist_ok=True)
-        with result_directory(self.root / result.point_id) as staging:
+        with result_directory(self.root / result.point_id, "sweep point") as staging:
             if result.arrays:
                 # float32 halves the files; the MAC needs ~1e-6, float32 gives ~1e-7
                 np.savez(staging / "vectors.npz",
@@ -1080,41 +1084,44 @@ def run_sweep(sweep: Sweep, out_dir: str | Path | None = None, executor: str | N
     reuse = reuse or sweep.execution.reuse
     MODEL_CLASSES[sweep.model]().check_available(sweep)
     directory = Path(out_dir or sweep.output_directory)
-    store = PointStore(directory)
-    resumed = [pid for pid in sweep.path if store.finished(sweep.point(pid))]
-    todo = [pid for pid in sweep.path if pid not in set(resumed)]
-    progress(f"sweep {sweep.name}: {len(sweep.points)} points, model {sweep.model}, "
-             f"{len(resumed)} already done, {len(todo)} to compute ({executor})")
-    computed: list[str] = []
-    counter = itertools.count(len(resumed) + 1)
+    with claim(directory, "sweep", progress=progress):
+        directory.mkdir(parents=True, exist_ok=True)
+        write_manifest(directory, "sweep", SWEEP_FILES)
+        store = PointStore(directory)
+        resumed = [pid for pid in sweep.path if store.finished(sweep.point(pid))]
+        todo = [pid for pid in sweep.path if pid not in set(resumed)]
+        progress(f"sweep {sweep.name}: {len(sweep.points)} points, model {sweep.model}, "
+                 f"{len(resumed)} already done, {len(todo)} to compute ({executor})")
+        computed: list[str] = []
+        counter = itertools.count(len(resumed) + 1)
 
-    def sink(result: PointResult, write: bool = True):
-        if write:
-            store.write(result)
-        computed.append(result.point_id)
-        progress(f"[{next(counter)}/{len(sweep.points)}] " + _summary_line(sweep, result.record))
-        if on_point_done is not None:
-            on_point_done(result)
+        def sink(result: PointResult, write: bool = True):
+            if write:
+                store.write(result)
+            computed.append(result.point_id)
+            progress(f"[{next(counter)}/{len(sweep.points)}] " + _summary_line(sweep, result.record))
+            if on_point_done is not None:
+                on_point_done(result)
 
-    todo_set = set(todo)
+        todo_set = set(todo)
 
-    def chains_for(parallel: int) -> list[list[str]]:
-        chains = [[pid for pid in chain if pid in todo_set]
-                  for chain in sweep.chains(chain_length, parallel)]
-        return [chain for chain in chains if chain]
+        def chains_for(parallel: int) -> list[list[str]]:
+            chains = [[pid for pid in chain if pid in todo_set]
+                      for chain in sweep.chains(chain_length, parallel)]
+            return [chain for chain in chains if chain]
 
-    if executor == "local":
-        for chain in chains_for(1):
-            _run_chain(sweep, chain, reuse, sink)
-    elif executor == "pool":
-        _run_pool(sweep, chains_for(workers), reuse, directory, workers, store, sink)
-    elif todo:
-        _run_dask(sweep, chains_for, reuse, scheduler, sink, progress)
-    outcome = finish_sweep(sweep, directory, progress=progress)
-    outcome.computed, outcome.resumed = computed, resumed
-    outcome.wall_seconds = time.perf_counter() - start
-    _write_summary(sweep, directory, outcome)
-    return outcome
+        if executor == "local":
+            for chain in chains_for(1):
+                _run_chain(sweep, chain, reuse, sink)
+        elif executor == "pool":
+            _run_pool(sweep, chains_for(workers), reuse, directory, workers, store, sink)
+        elif todo:
+            _run_dask(sweep, chains_for, reuse, scheduler, sink, progress)
+        outcome = finish_sweep(sweep, directory, progress=progress)
+        outcome.computed, outcome.resumed = computed, resumed
+        outcome.wall_seconds = time.perf_counter() - start
+        _write_summary(sweep, directory, outcome)
+        return outcome
 
 
 def _run_pool(sweep, chains, reuse, directory, workers, store, sink) -> None:
