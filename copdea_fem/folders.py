@@ -40,7 +40,6 @@ import json
 import os
 import shutil
 import signal
-import tempfile
 import time
 import uuid
 from dataclasses import dataclass
@@ -268,7 +267,8 @@ def result_directory(target, command: str):
     """
     with claim(target, command) as record:
         target = record.target
-        staging = Path(tempfile.mkdtemp(prefix=f".{target.name}.staging-", dir=target.parent))
+        staging = target.parent / f".{target.name}.staging-{uuid.uuid4().hex[:8]}"
+        staging.mkdir()
         try:
             yield staging
             write_manifest(staging, command)

@@ -380,12 +380,12 @@ def check_size(study, limit: float = MAX_UNKNOWNS) -> None:
     mesh = study["mesh"]
     elements, unknowns = estimate_size(spec, mesh["order"], mesh["pressure_order"])
     if unknowns > limit:
-        keys = "mesh.membrane_size, mesh.order" + (
-            ", mesh.air_size, mesh.pressure_order" if with_air else "")
+        coarser = "a larger mesh.membrane_size" + (" or mesh.air_size" if with_air else "")
+        lower = "a lower mesh.order" + (" or mesh.pressure_order" if with_air else "")
         raise StudyError(
-            f"mesh.membrane_size = {mesh['membrane_size']:g} m gives about {elements:.3g} "
-            f"elements and {unknowns:.3g} unknowns, more than the limit of {limit:.3g}; "
-            f"allowed: coarser meshes (raise or lower {keys}), or pass --allow-large")
+            f"mesh.membrane_size = {mesh['membrane_size']:g} m (mesh.order = {mesh['order']}) "
+            f"gives about {elements:.3g} elements and {unknowns:.3g} unknowns, more than the "
+            f"limit of {limit:.3g}; allowed: {coarser}, {lower}, or --allow-large")
 
 
 def membrane_area(spec: GeometrySpec) -> float:

@@ -10,6 +10,8 @@ from __future__ import annotations
 import csv
 import math
 import json
+import os
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -294,6 +296,7 @@ def plot_modes(path: Path, vtu_files: list[Path], modes, columns: int = 4) -> No
     """PNG of the lowest structural modes, coloured by |u.n| (pyvista, off-screen)."""
     import pyvista as pv
 
+    _headless_vtk()
     pv.OFF_SCREEN = True
     count = len(vtu_files)
     if count == 0:
@@ -312,6 +315,18 @@ def plot_modes(path: Path, vtu_files: list[Path], modes, columns: int = 4) -> No
         plotter.view_isometric()
     plotter.screenshot(str(path))
     plotter.close()
+
+
+def _headless_vtk() -> None:
+    """Without a display (Linux, no DISPLAY/WAYLAND_DISPLAY) render through EGL.
+
+    VTK's default X window would first fail with a "bad X server connection"
+    warning and then fall back to EGL anyway; asking for EGL directly skips
+    the warning.  A VTK_DEFAULT_OPENGL_WINDOW set by the user is kept.
+    """
+    if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY")
+                                                 or os.environ.get("WAYLAND_DISPLAY")):
+        os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 
 
 def plot_force_displacement(path: Path, z_values, voltages, forces) -> None:
