@@ -131,6 +131,10 @@ def check_output(target, command: str, inputs=(), from_file=None) -> Path:
         if resolved == source.parent or resolved in source.parents:
             raise OutputFolderError(f"output folder {shown} holds the input file {item}; "
                                     "choose another folder for the results")
+    existing = next(path for path in (target, *target.parents) if path.exists())
+    if existing != target and not existing.is_dir():
+        raise OutputFolderError(f"output folder {shown} cannot be created: {existing} is a "
+                                "file; choose another path")
     if target.exists() and not target.is_dir():
         raise OutputFolderError(f"output folder {shown} is an existing file, not a folder; "
                                 "choose another path")

@@ -26,14 +26,16 @@ MAX_YAML_BYTES = 1 << 20
 #: Largest CSV or JSON data file [bytes]: a 100000-line spectrum is ~6 MB.
 MAX_DATA_BYTES = 64 << 20
 PREVIEW_CHARACTERS = 60
+#: Paths are shown whole up to this length.
+PATH_CHARACTERS = 500
 
 
-def preview(value) -> str:
-    """``repr(value)``, cut to :data:`PREVIEW_CHARACTERS` with the full length noted."""
+def preview(value, width: int = PREVIEW_CHARACTERS) -> str:
+    """``repr(value)``, cut to ``width`` characters with the full length noted."""
     text = repr(value)
-    if len(text) <= PREVIEW_CHARACTERS:
+    if len(text) <= width:
         return text
-    return f"{text[:PREVIEW_CHARACTERS]}... ({len(text)} characters)"
+    return f"{text[:width]}... ({len(text)} characters)"
 
 
 def read_text(path: str | Path, what: str, limit: int = MAX_DATA_BYTES,
@@ -46,19 +48,19 @@ def read_text(path: str | Path, what: str, limit: int = MAX_DATA_BYTES,
     path = Path(path)
 
     def refuse(reason):
-        return error(f"{what} = {preview(str(path))} is not allowed ({reason}); allowed: a "
-                     f"UTF-8 text file of at most {limit} bytes")
+        return error(f"{what} = {preview(str(path), PATH_CHARACTERS)} is not allowed ({reason}); "
+                     f"allowed: a UTF-8 text file of at most {limit} bytes")
 
-    if not path.exists():
-        raise refuse("does not exist")
-    if path.is_dir():
-        raise refuse("a folder, not a file")
-    if not path.is_file():
-        raise refuse("not a regular file")
-    size = path.stat().st_size
-    if size > limit:
-        raise refuse(f"{size} bytes, above the limit")
     try:
+        if not path.exists():
+            raise refuse("does not exist")
+        if path.is_dir():
+            raise refuse("a folder, not a file")
+        if not path.is_file():
+            raise refuse("not a regular file")
+        size = path.stat().st_size
+        if size > limit:
+            raise refuse(f"{size} bytes, above the limit")
         data = path.read_bytes()
     except OSError as exc:
         raise refuse(f"cannot be read: {exc.strerror or exc}") from None
@@ -105,6 +107,8 @@ def parse_yaml(text: str, where: str, error: type[Exception] = ValueError):
     """YAML text -> Python data with :class:`StrictLoader`; ``error`` names ``where``."""
     try:
         return yaml.load(text, Loader=StrictLoader)
+    except ValueError as exc:       # an integer of more than 4300 digits (Python's limit)
+        raise error(f"{where} is not valid YAML: {exc}") from None
     except yaml.YAMLError as exc:
         problem = getattr(exc, "problem", None) or str(exc)
         mark = getattr(exc, "problem_mark", None)
@@ -115,12 +119,12 @@ def parse_yaml(text: str, where: str, error: type[Exception] = ValueError):
 def read_yaml(path: str | Path, what: str, error: type[Exception] = ValueError):
     """:func:`read_text` + :func:`parse_yaml` with the YAML size limit; a mapping or error."""
     path = Path(path)
-    raw = parse_yaml(read_text(path, what, MAX_YAML_BYTES, error), f"{what} {preview(str(path))}",
-                     error)
+    shown = preview(str(path), PATH_CHARACTERS)
+    raw = parse_yaml(read_text(path, what, MAX_YAML_BYTES, error), f"{what} {shown}", error)
     if raw is None:
-        raise error(f"{what} = {preview(str(path))} is not allowed (only comments); allowed: "
-                    "a mapping of keys")
+        raise error(f"{what} = {shown} is not allowed (only comments); allowed: a mapping of "
+                    "keys")
     if not isinstance(raw, dict):
-        raise error(f"{what} {preview(str(path))} must hold a mapping of keys, got "
+        raise error(f"{what} {shown} must hold a mapping of keys, got "
                     f"{type(raw).__name__}")
     return raw

@@ -262,6 +262,9 @@ SCHEMA["effects"] = {
                              minimum=0, maximum=10, open_min=True),
 }
 
+#: Longest text read as a quantity ("35.5 mm", "1.5e-3 kg/m^3").
+MAX_QUANTITY_CHARACTERS = 100
+
 # Top-level keys that are not sections: free text, and the provenance block a
 # resolved study carries (so a resolved study can be run again as it is).
 META_KEYS = ("name", "description", "provenance")
@@ -311,6 +314,9 @@ def _to_si(key: str, spec: Key, value: Any) -> float:
                     + (f" or a quantity like '1.5 {_example_unit(spec.unit)}'" if spec.unit else ""))
     if not isinstance(value, str):
         return float(value)
+    if len(value) > MAX_QUANTITY_CHARACTERS:    # pint takes minutes on a 100 000-digit number
+        raise _fail(key, value, spec.allowed(), f"longer than {MAX_QUANTITY_CHARACTERS} "
+                    "characters, not a quantity")
     import pint
     try:
         quantity = _units().Quantity(value.strip())

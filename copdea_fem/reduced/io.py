@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from copdea_fem.folders import result_directory
-from copdea_fem.inputs import preview, read_text
+from copdea_fem.inputs import read_text
 from copdea_fem.reduced.fit import PARAMETERS, fit_material
 from copdea_fem.reduced.modal import mode_profile
 from copdea_fem.reduced.model import build_reduced, damping_key, spectra_of
@@ -96,7 +96,7 @@ def modes_json_air_enabled(path):
 def _read_table(path, required, optional=()) -> dict:
     path = Path(path)
     if not path.exists():
-        raise StudyError(f"data file {preview(str(path))} does not exist")
+        raise StudyError(f"data file {str(path)!r} does not exist")
     lines = read_text(path, "data file", error=StudyError).splitlines()
     rows = list(csv.reader(row for row in lines if row.strip() and not row.startswith("#")))
     if not rows:
@@ -292,6 +292,7 @@ def run_spectrum(study, out_dir, modes_json=None) -> dict:
     with result_directory(out, "spectrum") as staging:
         files = _write_spectrum_files(staging, study, setup, result)
     files = [out / path.name for path in files]
+    lin = setup.linearisation
     lines = [_title(study),
              f"static: disc force {lin.equilibrium.disc_force:.4g} N, k_DE "
              f"{lin.axial_stiffness:.4g} N/m"
