@@ -68,12 +68,13 @@ def _check_size(args, *studies) -> None:
 
 
 def _load_text(study) -> str:
-    return f"load.z = {study['load']['z'] * 1e3:g} mm, load.voltage = {study['load']['voltage']:g} V"
+    load = study["load"]
+    return f"load.z = {load['z'] * 1e3:g} mm, load.voltage = {load['voltage']:g} V"
 
 
 @contextlib.contextmanager
 def _solving(study):
-    """Solver failures -> :class:`SolveFailed` naming what failed, the load and the key to change."""
+    """Solver failures -> :class:`SolveFailed`: what failed, at which load, which key to change."""
     from .ale import MeshMotionError
     from .eigen import EigenResidualError, EigenSolverError, TooManyModesError
     eigen = study["eigen"]
@@ -429,6 +430,9 @@ def _terminate(signum, frame):
 
 def _interrupted(args) -> str:
     record = getattr(args, "claim", None)
+    if record is not None and record.command == "sweep":
+        return f"interrupted; the points finished so far are kept in {record.target}; run " \
+               "the sweep again to resume"
     if record is not None and record.written:
         return f"interrupted; the result in {record.target} is complete"
     if record is not None and record.had_result:

@@ -64,9 +64,9 @@ class Claim:
     """A folder this process holds the lock of for a run."""
 
     target: Path
+    command: str
     had_result: bool            # a previous result was there when the run started
     written: bool = False       # this run's result is in place
-    lock_fd: int | None = None
 
 
 _claims: dict[Path, Claim] = {}
@@ -186,23 +186,18 @@ def claim(target, command: str, inputs=(), from_file=None, progress=None):
     except OSError as error:
         raise OutputFolderError(f"output folder {target} cannot be written: "
                                 f"{error.strerror or error}") from None
-    record = Claim(target, had_result=read_manifest(target) is not None, lock_fd=fd)
-    _claims[target] = record
     try:
         _clean_leftovers(target, progress)
         check_output(target, command, inputs, from_file)   # again, now that it is ours
+        record = Claim(target, command, had_result=read_manifest(target) is not None)
+        _claims[target] = record
         yield record
     finally:
-        del _claims[target]
+        _claims.pop(target, None)
         if fd is not None:
             with contextlib.suppress(OSError):
                 os.unlink(_lock_path(target))
             os.close(fd)
-
-
-def active_claim() -> Claim | None:
-    """The folder this process holds (the CLI's interrupt message), if any."""
-    return next(iter(_claims.values()), None)
 
 
 def _lock_path(target: Path) -> Path:

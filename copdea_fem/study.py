@@ -314,7 +314,7 @@ def _to_si(key: str, spec: Key, value: Any) -> float:
                     + (f" or a quantity like '1.5 {_example_unit(spec.unit)}'" if spec.unit else ""))
     if not isinstance(value, str):
         return float(value)
-    if len(value) > MAX_QUANTITY_CHARACTERS:    # pint takes minutes on a 100 000-digit number
+    if len(value) > MAX_QUANTITY_CHARACTERS:    # pint takes minutes on 100 000 digits
         raise _fail(key, value, spec.allowed(), f"longer than {MAX_QUANTITY_CHARACTERS} "
                     "characters, not a quantity")
     import pint

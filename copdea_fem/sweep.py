@@ -349,6 +349,8 @@ def _base_study(raw: dict, base_dir: Path, name: str, overrides: dict) -> Study:
         raise _fail("study", study_path, "the path of a base study file, relative to the sweep "
                     "file (e.g. ../g1_z16_v2.yaml)")
     full = Path(study_path) if Path(study_path).is_absolute() else base_dir / study_path
+    if not full.exists():
+        raise _fail("study", study_path, "an existing study file", f"{full} does not exist")
     try:
         study = load_study(full, overrides=overrides)
     except SweepError:
@@ -1099,7 +1101,8 @@ def run_sweep(sweep: Sweep, out_dir: str | Path | None = None, executor: str | N
             if write:
                 store.write(result)
             computed.append(result.point_id)
-            progress(f"[{next(counter)}/{len(sweep.points)}] " + _summary_line(sweep, result.record))
+            progress(f"[{next(counter)}/{len(sweep.points)}] "
+                     + _summary_line(sweep, result.record))
             if on_point_done is not None:
                 on_point_done(result)
 
