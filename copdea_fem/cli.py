@@ -82,7 +82,7 @@ def _solving(study):
         MeshMotionError: ("the air mesh motion", "air.domain_radius, mesh.membrane_size or "
                           "load.z"),
         EigenResidualError: ("the eigen solve", f"eigen.residual_tol (now "
-                             f"{eigen['residual_tol']:g}) or mesh.membrane_size"),
+                             f"{eigen['residual_tol']:g}) or eigen.backend"),
         TooManyModesError: ("the eigen solve", f"eigen.max_modes (now {eigen['max_modes']}) or "
                             "the band eigen.f_min..eigen.f_max"),
         EigenSolverError: ("the eigen solve", "the band eigen.f_min..eigen.f_max, "

@@ -300,17 +300,27 @@ def test_a_previous_result_is_replaced_only_by_its_own_files(tmp_path):
 
 # ------------------------------------------------------------------- mesh cache
 
-def cached_force_run(tmp_path, capsys, damage):
-    """`force` on a coarse dry mesh with a cache entry damaged by ``damage(path)``."""
-    cache = tmp_path / "cache"
-    argv = ["force", str(DRY_STUDY), "--set", "mesh.membrane_size=9 mm", "--set",
-            "mesh.order=1", "--points", "2", "--voltages", "0 kV", "--z-max", "2 mm",
-            "--mesh-cache", str(cache), "--out"]
-    assert main([*argv, str(tmp_path / "a")]) == 0
-    capsys.readouterr()
+FORCE = ["force", str(DRY_STUDY), "--points", "2", "--voltages", "0 kV", "--z-max", "2 mm",
+         *(f"--set={item}" for item in ("mesh.membrane_size=9 mm", "mesh.order=1",
+                                        "mesh.curve_order=1", "geometry.frame=none",
+                                        "prestress.z_steps=1", "output.plots=false"))]
+
+
+@pytest.fixture(scope="module")
+def good_cache(tmp_path_factory):
+    """A mesh cache holding the one entry of :data:`FORCE`, made by a run of it."""
+    folder = tmp_path_factory.mktemp("cache")
+    assert main([*FORCE, "--mesh-cache", str(folder / "meshes"), "--quiet",
+                 "--out", str(folder / "run")]) == 0
+    return folder / "meshes"
+
+
+def cached_force_run(tmp_path, capsys, good_cache, damage):
+    """`force` with the cache entry of :data:`FORCE` damaged by ``damage(path)``."""
+    cache = shutil.copytree(good_cache, tmp_path / "cache")
     (entry,) = cache.glob("*.vol.gz")
     damage(entry)
-    assert main([*argv, str(tmp_path / "b")]) == 0
+    assert main([*FORCE, "--mesh-cache", str(cache), "--out", str(tmp_path / "b")]) == 0
     err = capsys.readouterr().err.splitlines()
     assert err[0].startswith(f"mesh cache entry {entry} is damaged (") and \
         err[0].endswith("discarded, meshing again")
@@ -319,24 +329,29 @@ def cached_force_run(tmp_path, capsys, damage):
     return err[0]
 
 
-def test_truncated_cache_file_is_meshed_again(tmp_path, capsys):
-    line = cached_force_run(tmp_path, capsys, lambda p: p.write_bytes(p.read_bytes()[:1000]))
+def test_truncated_cache_file_is_meshed_again(tmp_path, capsys, good_cache):
+    def truncate(path):
+        path.write_bytes(path.read_bytes()[:1000])
+    line = cached_force_run(tmp_path, capsys, good_cache, truncate)
     assert "(1000 bytes, the sidecar says" in line
 
 
-def test_empty_cache_file_is_meshed_again(tmp_path, capsys):
-    line = cached_force_run(tmp_path, capsys, lambda p: p.write_bytes(b""))
+def test_empty_cache_file_is_meshed_again(tmp_path, capsys, good_cache):
+    line = cached_force_run(tmp_path, capsys, good_cache, lambda p: p.write_bytes(b""))
     assert "(0 bytes, the sidecar says" in line
 
 
-def test_random_cache_file_is_meshed_again(tmp_path, capsys):
+def test_random_cache_file_is_meshed_again(tmp_path, capsys, good_cache):
     def scramble(path):
         path.write_bytes(os.urandom(path.stat().st_size))
-    assert "(SHA-256 differs from the sidecar)" in cached_force_run(tmp_path, capsys, scramble)
+    line = cached_force_run(tmp_path, capsys, good_cache, scramble)
+    assert "(SHA-256 differs from the sidecar)" in line
 
 
-def test_cache_entry_without_sidecar_is_meshed_again(tmp_path, capsys):
-    line = cached_force_run(tmp_path, capsys, lambda p: geometry._sidecar(p).unlink())
+def test_cache_entry_without_sidecar_is_meshed_again(tmp_path, capsys, good_cache):
+    def drop_sidecar(path):
+        geometry._sidecar(path).unlink()
+    line = cached_force_run(tmp_path, capsys, good_cache, drop_sidecar)
     assert "(no valid sidecar with its size and SHA-256)" in line
 
 
@@ -511,7 +526,7 @@ def failing_solve(error):
     ("ale", "error: the air mesh motion failed at load.z = 16 mm, load.voltage = 2000 V: ",
      "change air.domain_radius, mesh.membrane_size or load.z"),
     ("residual", "error: the eigen solve failed at load.z = 16 mm, load.voltage = 2000 V: 2 "
-     "eigenpair(s) above", "change eigen.residual_tol (now 1e-06) or mesh.membrane_size"),
+     "eigenpair(s) above", "change eigen.residual_tol (now 1e-06) or eigen.backend"),
     ("modes", "error: the eigen solve failed at load.z = 16 mm, load.voltage = 2000 V: the band",
      "change eigen.max_modes (now 200) or the band eigen.f_min..eigen.f_max"),
 ], ids=["air mesh inversion", "residual tolerance", "too many modes"])
