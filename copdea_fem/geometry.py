@@ -340,8 +340,9 @@ def estimate_size(spec: GeometrySpec, order: int, pressure_order: int) -> tuple[
 
     Triangles of size h on the membrane, 2h on disc and frame (their ``maxh``);
     with air, tetrahedra graded away from those faces at Netgen's ``grading`` g
-    (a layer of size h + g d holds ~A / (g h^2) elements per side, times 3
-    measured on the bundled meshes) plus the bulk at ``air_size``.  Unknowns:
+    up to ``air_size`` H (size h + g d at distance d: A (1 - h^2/H^2) / (0.236 g
+    h^2) regular tetrahedra per side of a face of area A, times 3 as counted on
+    the project's quadrant meshes), plus 0.3 of the air ball filled at size H.  Unknowns:
     3 p^2 / 2 per membrane triangle (order p, three components), q^3 / 6 per
     tetrahedron (pressure order q).  Within a factor ~2 of the real counts on
     the project's meshes; meant to catch sizes that are far out, not to budget.
