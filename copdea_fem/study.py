@@ -181,7 +181,8 @@ SCHEMA: dict[str, dict[str, Key]] = {
                             open_min=True),
     },
     "output": {
-        "directory": Key(None, None, "where results go (relative to the working directory)",
+        "directory": Key(None, None, "where results go, relative to the working directory and "
+                         "inside it (README: output folders; --out writes elsewhere)",
                          kind=str, derived="results/<study file name>"),
         "paraview": Key(None, True, "write ParaView .pvd/.vtu files", kind=bool),
         "plots": Key(None, True, "write PNG plots", kind=bool),
