@@ -298,6 +298,25 @@ def test_a_previous_result_is_replaced_only_by_its_own_files(tmp_path):
     assert not leftovers(tmp_path)
 
 
+def test_a_sweep_folder_is_marked_resumed_in_place_and_kept_from_other_commands(tmp_path,
+                                                                                capsys):
+    out = tmp_path / "sweep"
+    argv = ["sweep", str(ROOT / "studies" / "sweeps" / "coarse_reduced_grid.yaml"), "--quiet",
+            "--out", str(out)]
+    assert main(argv) == 0
+    assert folders.read_manifest(out)["command"] == "sweep"
+    points = sorted((out / "points").iterdir())
+    assert len(points) == 12
+    assert all(folders.read_manifest(point)["command"] == "sweep point" for point in points)
+    before = snapshot(out / "points")
+    assert main(argv) == 0                                  # resumed: nothing recomputed
+    assert snapshot(out / "points") == before
+    capsys.readouterr()
+    line = refused(["spectrum", REDUCED_STUDY, "--out", out], tmp_path, capsys)
+    assert line == (f"error: output folder {out} holds a sweep result, which a spectrum run "
+                    "would replace; nothing was written: choose another folder (--out)")
+
+
 # ------------------------------------------------------------------- mesh cache
 
 FORCE = ["force", str(DRY_STUDY), "--points", "2", "--voltages", "0 kV", "--z-max", "2 mm",
