@@ -79,7 +79,9 @@ def read_manifest(folder: Path) -> dict | None:
     except (OSError, ValueError):
         return None
     if not isinstance(document, dict) or document.get("tool") != "copdea-fem" or \
-            not isinstance(document.get("files"), list):
+            not isinstance(document.get("command"), str) or \
+            not isinstance(document.get("files"), list) or \
+            not all(isinstance(name, str) and name for name in document["files"]):
         return None
     return document
 
