@@ -1,16 +1,33 @@
 """Command line: ``copdea-fem solve|check|force|schema ...`` (thin: parse, call, print).
 
-Exit codes: 0 success, 2 bad input (study, --set, options), 3 a solve that
-failed for a physical or numerical reason (message says which), 1 otherwise.
+Exit codes: 0 success; 2 bad input (study, --set, options, input files, an
+output folder that may not be written, a problem too large), before any
+meshing; 3 a solve that failed for a physical or numerical reason (the message
+says what, at which load, and which study key to change); 130 Ctrl-C and 143
+SIGTERM (one line, no traceback; a result is either complete or not written);
+1 otherwise.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import os
+import signal
 import sys
+import threading
 from pathlib import Path
 
+from .folders import OutputFolderError, claim
 from .study import StudyError, load_study, parse_overrides
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised like Ctrl-C so that every cleanup on the way out runs."""
+
+
+class SolveFailed(RuntimeError):
+    """A solver failure, described for the user (exit 3)."""
 
 
 def _progress(quiet: bool):
@@ -27,8 +44,61 @@ def _out_dir(args, study) -> Path:
     return Path(args.out) if args.out else Path(study["output"]["directory"])
 
 
+@contextlib.contextmanager
+def _output(args, out_dir, command: str, inputs):
+    """Check and lock the output folder before any work (:func:`copdea_fem.folders.claim`).
+
+    Without ``--out`` the folder comes from the first input file, so it must stay
+    inside the working folder.  The claim is kept on ``args`` for :func:`main`'s
+    interrupt message.
+    """
+    inputs = [item for item in inputs if item]
+    with claim(out_dir, command, inputs=inputs, from_file=None if args.out else inputs[0],
+               progress=_progress(getattr(args, "quiet", False))) as record:
+        args.claim = record
+        yield
+
+
+def _check_size(args, *studies) -> None:
+    """The resource guard (:func:`copdea_fem.geometry.check_size`) unless --allow-large."""
+    from .geometry import check_size
+    if not args.allow_large:
+        for study in studies:
+            check_size(study)
+
+
+def _load_text(study) -> str:
+    load = study["load"]
+    return f"load.z = {load['z'] * 1e3:g} mm, load.voltage = {load['voltage']:g} V"
+
+
+@contextlib.contextmanager
+def _solving(study):
+    """Solver failures -> :class:`SolveFailed`: what failed, at which load, which key to change."""
+    from .ale import MeshMotionError
+    from .eigen import EigenResidualError, EigenSolverError, TooManyModesError
+    eigen = study["eigen"]
+    advice = {
+        MeshMotionError: ("the air mesh motion", "air.domain_radius, mesh.membrane_size or "
+                          "load.z"),
+        EigenResidualError: ("the eigen solve", f"eigen.residual_tol (now "
+                             f"{eigen['residual_tol']:g}) or eigen.backend"),
+        TooManyModesError: ("the eigen solve", f"eigen.max_modes (now {eigen['max_modes']}) or "
+                            "the band eigen.f_min..eigen.f_max"),
+        EigenSolverError: ("the eigen solve", "the band eigen.f_min..eigen.f_max, "
+                           "eigen.max_damping_ratio or eigen.backend"),
+    }
+    try:
+        yield
+    except tuple(advice) as error:
+        what, keys = next(item for kind, item in advice.items() if isinstance(error, kind))
+        raise SolveFailed(f"{what} failed at {_load_text(study)}: {error}; change {keys}") \
+            from None
+
+
 def cmd_check(args) -> int:
     study = _study(args)
+    _check_size(args, study)
     print(f"{args.study}: valid study '{study.name}'")
     return 0
 
@@ -44,8 +114,10 @@ def cmd_solve(args) -> int:
     from .solve import run_solve
 
     study = _study(args)
+    _check_size(args, study)
     out_dir = _out_dir(args, study)
-    result = run_solve(study, out_dir=out_dir, progress=_progress(args.quiet))
+    with _output(args, out_dir, "solve", [args.study]), _solving(study):
+        result = run_solve(study, out_dir=out_dir, progress=_progress(args.quiet))
     print(frequency_table(result.rows))
     state = result.state
     print(f"prestress: z = {state.z * 1e3:g} mm, V_b = {state.voltage:g} V, disc force "
@@ -78,10 +150,12 @@ def cmd_force(args) -> int:
         raise StudyError(f"--voltages = {args.voltages!r} is not allowed; allowed: a comma "
                          "separated list such as '0 kV, 3 kV'")
     study.replace({"load.z": z_max})  # validates z_max against the geometry
+    _check_size(args, study)
     z_values = np.linspace(0.0, z_max, args.points)[1:]
     out_dir = _out_dir(args, study)
-    forces = run_force(study, z_values, voltages, out_dir=out_dir,
-                       progress=_progress(args.quiet))
+    with _output(args, out_dir, "force", [args.study]):
+        forces = run_force(study, z_values, voltages, out_dir=out_dir,
+                           progress=_progress(args.quiet))
     print(f"{'z [mm]':>8}" + "".join(f"{f'F @ {v / 1e3:g} kV [N]':>16}" for v in voltages))
     for j, z in enumerate(z_values):
         print(f"{z * 1e3:8.3f}" + "".join(f"{forces[i, j]:16.5f}" for i in range(len(voltages))))
@@ -106,25 +180,46 @@ def _reduced_action(action) -> int:
     return 0
 
 
+def _existing(path, what: str):
+    """An input file named on the command line, checked before the output folder."""
+    from .inputs import read_text
+    if path is not None:
+        read_text(path, what, error=StudyError)
+    return path
+
+
+def _modes_json(args, study):
+    if args.modes_json:
+        return _existing(args.modes_json, "--modes-json")
+    return _existing(study["reduced"]["modes_json"], "reduced.modes_json")
+
+
 def cmd_spectrum(args) -> int:
     from .reduced.io import run_spectrum
     study = _study(args)
-    return _reduced_action(lambda: run_spectrum(study, _out_dir(args, study),
-                                                modes_json=args.modes_json))
+    out_dir = _out_dir(args, study)
+    modes_json = _modes_json(args, study)
+    with _output(args, out_dir, "spectrum", [args.study, modes_json]):
+        return _reduced_action(lambda: run_spectrum(study, out_dir, modes_json=args.modes_json))
 
 
 def cmd_fit_material(args) -> int:
     from .reduced.io import fit_material_cli
     study = _study(args)
-    return _reduced_action(lambda: fit_material_cli(study, args.data, _out_dir(args, study)))
+    out_dir = _out_dir(args, study)
+    with _output(args, out_dir, "fit-material", [args.study, _existing(args.data, "data file")]):
+        return _reduced_action(lambda: fit_material_cli(study, args.data, out_dir))
 
 
 def cmd_calibrate_damping(args) -> int:
     from .reduced.io import calibrate_damping_cli
     study = _study(args)
-    return _reduced_action(lambda: calibrate_damping_cli(
-        study, args.spectrum, _out_dir(args, study), modes_json=args.modes_json,
-        window=args.window))
+    out_dir = _out_dir(args, study)
+    modes_json = _modes_json(args, study)
+    inputs = [args.study, _existing(args.spectrum, "spectrum file"), modes_json]
+    with _output(args, out_dir, "calibrate-damping", inputs):
+        return _reduced_action(lambda: calibrate_damping_cli(
+            study, args.spectrum, out_dir, modes_json=args.modes_json, window=args.window))
 
 
 def _add_reduced_commands(commands, with_study) -> None:
@@ -162,10 +257,15 @@ def cmd_sweep(args) -> int:
     from .sweep import ReuseSettings, format_summary, load_sweep, run_sweep
 
     sweep = load_sweep(args.sweep, overrides=parse_overrides(args.set))
-    outcome = run_sweep(sweep, out_dir=args.out, executor=args.executor, workers=args.workers,
-                        scheduler=args.scheduler, chain_length=args.chain_length,
-                        reuse=ReuseSettings(False, False, False) if args.no_reuse else None,
-                        progress=_progress(args.quiet))
+    if sweep.model != "reduced":
+        _check_size(args, *(point.study for point in sweep.points))
+    out_dir = Path(args.out or sweep.output_directory)
+    with _output(args, out_dir, "sweep", [args.sweep]):
+        outcome = run_sweep(sweep, out_dir=out_dir, executor=args.executor,
+                            workers=args.workers, scheduler=args.scheduler,
+                            chain_length=args.chain_length,
+                            reuse=ReuseSettings(False, False, False) if args.no_reuse else None,
+                            progress=_progress(args.quiet))
     print(format_summary(sweep, outcome))
     return 3 if len(outcome.failed) == len(sweep.points) else 0
 
@@ -186,29 +286,38 @@ def _add_sweep_command(commands) -> None:
     sweep.add_argument("--no-reuse", action="store_true",
                        help="solve every point from scratch (benchmark baseline)")
     sweep.add_argument("--quiet", action="store_true", help="no per-point progress")
+    _add_mesh_options(sweep)
     sweep.set_defaults(handler=cmd_sweep)
 
 
 # -- diagnosis (issue 5): diagnose MEASURED.yaml, synth STUDY.yaml, effects --------------------
 def cmd_diagnose(args) -> int:
     """Which catalogued effect the model lacks; report.md, diagnosis.json, PNGs."""
-    from .diagnose import run_diagnose
-    return _reduced_action(lambda: run_diagnose(args.measured, out_dir=args.out,
-                                                progress=_progress(args.quiet), alpha=args.alpha))
+    from .diagnose import diagnose_out_dir, load_measured, run_diagnose
+    measured = load_measured(args.measured)
+    out_dir = Path(args.out) if args.out else diagnose_out_dir(measured)
+    inputs = [args.measured, *(path for condition in measured.conditions
+                               for path in condition.files.values())]
+    with _output(args, out_dir, "diagnose", inputs):
+        return _reduced_action(lambda: run_diagnose(args.measured, out_dir=out_dir,
+                                                    progress=_progress(args.quiet),
+                                                    alpha=args.alpha))
 
 
 def cmd_synth(args) -> int:
     """Synthetic measured.yaml set from the model with chosen effects on."""
-    from .diagnose import run_synth
+    from .diagnose import run_synth, synth_out_dir
     from .diagnose.synth import SynthOptions
     study = _study(args)
+    out_dir = Path(args.out) if args.out else synth_out_dir(study, args.seed)
     options = SynthOptions(frequency_noise=args.frequency_noise, quality_noise=args.quality_noise,
                            amplitude_noise=args.amplitude_noise,
                            missing_probability=args.missing, spurious=args.spurious,
                            label_fraction=args.label_fraction, spectra=not args.no_spectra,
                            seed=args.seed)
-    return _reduced_action(lambda: run_synth(study, args.effects, args.conditions, args.param,
-                                             options, args.out))
+    with _output(args, out_dir, "synth", [args.study]):
+        return _reduced_action(lambda: run_synth(study, args.effects, args.conditions,
+                                                 args.param, options, out_dir))
 
 
 def cmd_effects(args) -> int:
@@ -257,9 +366,28 @@ def _add_diagnose_commands(commands, with_study) -> None:
         handler=cmd_effects)
 
 
+def _add_mesh_options(command) -> None:
+    from .geometry import CACHE_VARIABLE, MAX_UNKNOWNS
+    command.add_argument("--mesh-cache", metavar="DIR",
+                         help=f"mesh cache folder (default: ${CACHE_VARIABLE}, else the source "
+                         "checkout's meshes/, else the user cache folder)")
+    command.add_argument("--allow-large", action="store_true",
+                         help=f"start even when the problem is estimated above {MAX_UNKNOWNS:.0e} "
+                         "unknowns")
+
+
+def _version() -> str:
+    from importlib import metadata
+    try:
+        return metadata.version("copdea-fem")
+    except metadata.PackageNotFoundError:
+        return "unknown (not installed)"
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="copdea-fem", description="Vibro-acoustic FE and reduced models of COP-DEAs.")
+    parser.add_argument("--version", action="version", version=f"copdea-fem {_version()}")
     commands = parser.add_subparsers(dest="command", required=True)
 
     def with_study(name, help_text):
@@ -270,6 +398,8 @@ def build_parser() -> argparse.ArgumentParser:
         return command
 
     check = with_study("check", "validate a study without solving")
+    check.add_argument("--allow-large", action="store_true",
+                       help="do not refuse a mesh estimated above the size limit")
     check.set_defaults(handler=cmd_check)
     commands.add_parser("schema", help="print the study reference table").set_defaults(
         handler=cmd_schema)
@@ -277,6 +407,7 @@ def build_parser() -> argparse.ArgumentParser:
     solve = with_study("solve", "prestress + modes; writes modes.csv/json, ParaView files")
     solve.add_argument("--out", help="result directory (default: output.directory)")
     solve.add_argument("--quiet", action="store_true", help="no progress messages")
+    _add_mesh_options(solve)
     solve.set_defaults(handler=cmd_solve)
 
     force = with_study("force", "static disc force F(z) at given voltages (Fig. 4b)")
@@ -285,6 +416,7 @@ def build_parser() -> argparse.ArgumentParser:
     force.add_argument("--points", type=int, default=10, help="number of z values incl. 0")
     force.add_argument("--out", help="result directory (default: output.directory)")
     force.add_argument("--quiet", action="store_true", help="no progress messages")
+    _add_mesh_options(force)
     force.set_defaults(handler=cmd_force)
     _add_reduced_commands(commands, with_study)
     _add_sweep_command(commands)
@@ -292,16 +424,54 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _terminate(signum, frame):
+    raise Terminated
+
+
+def _interrupted(args) -> str:
+    record = getattr(args, "claim", None)
+    if record is not None and record.command == "sweep":
+        return f"interrupted; the points finished so far are kept in {record.target}; run " \
+               "the sweep again to resume"
+    if record is not None and record.written:
+        return f"interrupted; the result in {record.target} is complete"
+    if record is not None and record.had_result:
+        return f"interrupted; previous result kept in {record.target}"
+    return "interrupted; no result written"
+
+
 def main(argv: list[str] | None = None) -> int:
-    from .prestress import PrestressError
+    from .geometry import CACHE_VARIABLE
 
     args = build_parser().parse_args(argv)
+    saved_cache = os.environ.get(CACHE_VARIABLE)
+    if getattr(args, "mesh_cache", None):
+        os.environ[CACHE_VARIABLE] = args.mesh_cache   # reaches sweep worker processes too
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _terminate) if main_thread else None
+    try:
+        return _run(args)
+    finally:
+        if main_thread:
+            signal.signal(signal.SIGTERM, previous)
+        if saved_cache is None:
+            os.environ.pop(CACHE_VARIABLE, None)
+        else:
+            os.environ[CACHE_VARIABLE] = saved_cache
+
+
+def _run(args) -> int:
+    from .prestress import PrestressError
+
     try:
         return args.handler(args)
-    except StudyError as error:
+    except KeyboardInterrupt as interruption:
+        print(_interrupted(args), file=sys.stderr)
+        return 143 if isinstance(interruption, Terminated) else 130
+    except (StudyError, OutputFolderError) as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
-    except (PrestressError, NotImplementedError) as error:
+    except (SolveFailed, PrestressError, NotImplementedError) as error:
         print(f"error: {error}", file=sys.stderr)
         return 3
     except RuntimeError as error:

@@ -31,16 +31,19 @@ the membrane field and its forms are the same in both cases.
 
 from __future__ import annotations
 
+import gzip
 import hashlib
 import json
 import math
+import os
+import uuid
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
 SCREENS = "membrane|disc|frame"
 SYMMETRIES = ("quarter", "none")
 GEOMETRY_VERSION = 2  # bump when build_shape changes: it keys the mesh cache
-MESH_DIR = Path(__file__).resolve().parent.parent / "meshes"
+CACHE_VARIABLE = "COPDEA_FEM_MESH_CACHE"
 
 
 @dataclass(frozen=True)
@@ -228,38 +231,167 @@ def generate_mesh(spec: GeometrySpec, progress=None):
     return ngmesh, geometry
 
 
-def load_mesh(spec: GeometrySpec, curve_order: int, cache_dir: Path | None = MESH_DIR,
+def mesh_cache_dir() -> Path:
+    """Folder of the mesh cache.
+
+    ``$COPDEA_FEM_MESH_CACHE`` when set (``--mesh-cache`` of the CLI sets it);
+    else ``meshes/`` of the source checkout this package is imported from (an
+    editable install); else the user cache folder (``platformdirs``:
+    ``~/.cache/copdea-fem/meshes`` on Linux).
+    """
+    if os.environ.get(CACHE_VARIABLE):
+        return Path(os.environ[CACHE_VARIABLE]).expanduser()
+    checkout = Path(__file__).resolve().parent.parent
+    if (checkout / "pyproject.toml").is_file() and (checkout / "meshes").is_dir():
+        return checkout / "meshes"
+    import platformdirs
+    return Path(platformdirs.user_cache_dir("copdea-fem")) / "meshes"
+
+
+def load_mesh(spec: GeometrySpec, curve_order: int, cache_dir: Path | None = None,
               progress=None):
     """The NGSolve mesh of the spec, curved to ``curve_order``, from the cache if there.
 
-    The cache file ``meshes/<hash>.vol.gz`` is keyed by :meth:`GeometrySpec.key`,
-    so a sweep over z and V_b reuses one mesh.  The geometry is rebuilt (cheap)
-    to curve the loaded mesh.
+    The cache file ``<cache_dir>/<hash>.vol.gz`` (default :func:`mesh_cache_dir`)
+    is keyed by :meth:`GeometrySpec.key`, so a sweep over z and V_b reuses one
+    mesh.  Its sidecar ``<hash>.json`` holds the spec and the file's size and
+    SHA-256, checked before Netgen reads the file (Netgen crashes on a truncated
+    one); a damaged entry is reported, discarded and meshed again.  The
+    geometry is rebuilt (cheap) to curve the loaded mesh.
     """
     import netgen.meshing
     import ngsolve
     from netgen.occ import OCCGeometry
 
-    path = None if cache_dir is None else Path(cache_dir) / f"{spec.key()}.vol.gz"
-    if path is not None and path.is_file():
+    say = progress or (lambda message: None)
+    folder = Path(cache_dir) if cache_dir is not None else mesh_cache_dir()
+    path = folder / f"{spec.key()}.vol.gz"
+    problem = _cache_problem(path) if path.exists() else None
+    if problem:
+        say(f"mesh cache entry {path} is damaged ({problem}); discarded, meshing again")
+        for damaged in (path, _sidecar(path)):
+            damaged.unlink(missing_ok=True)
+    if path.is_file():
         geometry = OCCGeometry(build_shape(spec), dim=3)
         ngmesh = netgen.meshing.Mesh(dim=3)
         ngmesh.Load(str(path))
         ngmesh.SetGeometry(geometry)
-        if progress:
-            progress(f"mesh from cache {path.name}")
+        say(f"mesh from cache {path.name}")
     else:
         ngmesh, geometry = generate_mesh(spec, progress)
-        if path is not None:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            tmp = path.with_name(path.name + ".tmp.vol.gz")
-            ngmesh.Save(str(tmp))
-            tmp.replace(path)
-            path.with_suffix("").with_suffix(".json").write_text(
-                json.dumps(asdict(spec), indent=1))
+        try:
+            _store(ngmesh, spec, path)
+        except OSError as error:
+            say(f"mesh cache {folder} cannot be written ({error.strerror or error}); "
+                "continuing without it")
     mesh = ngsolve.Mesh(ngmesh)
     mesh.Curve(curve_order)
     return mesh
+
+
+def _sidecar(path: Path) -> Path:
+    return path.with_name(path.name.removesuffix(".vol.gz") + ".json")
+
+
+def _cache_problem(path: Path) -> str | None:
+    """Why a cache entry cannot be trusted, or None when its size and SHA-256 match."""
+    try:
+        record = json.loads(_sidecar(path).read_text())
+        expected_size, expected_hash = record["file_bytes"], record["file_sha256"]
+        data = path.read_bytes()
+    except (OSError, ValueError, KeyError, TypeError):
+        return "no valid sidecar with its size and SHA-256"
+    if len(data) != expected_size:
+        return f"{len(data)} bytes, the sidecar says {expected_size}"
+    if hashlib.sha256(data).hexdigest() != expected_hash:
+        return "SHA-256 differs from the sidecar"
+    return None
+
+
+def _store(ngmesh, spec: GeometrySpec, path: Path) -> None:
+    """Write a cache entry atomically: temporary files, checked, then renamed into place."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    unique = f"{os.getpid()}-{uuid.uuid4().hex[:8]}"
+    mesh_tmp = path.with_name(f".{path.name.removesuffix('.vol.gz')}.{unique}.vol.gz")
+    sidecar_tmp = path.with_name(f".{_sidecar(path).name}.{unique}")
+    try:
+        ngmesh.Save(str(mesh_tmp))
+        data = mesh_tmp.read_bytes()
+        gzip.decompress(data)            # a complete gzip stream, or BadGzipFile/EOFError
+        sidecar_tmp.write_text(json.dumps({**asdict(spec), "file_bytes": len(data),
+                                           "file_sha256": hashlib.sha256(data).hexdigest()},
+                                          indent=1))
+        mesh_tmp.replace(path)
+        sidecar_tmp.replace(_sidecar(path))
+    except (EOFError, gzip.BadGzipFile) as error:
+        raise OSError(f"Netgen wrote an incomplete file: {error}") from None
+    finally:
+        for leftover in (mesh_tmp, sidecar_tmp):
+            leftover.unlink(missing_ok=True)
+
+
+#: Largest problem the CLI starts without --allow-large: estimated unknowns of the
+#: membrane plus, with air, the pressure (the default coupled G1 study: ~16 000 per sector).
+MAX_UNKNOWNS = 2_000_000
+
+
+def estimate_size(spec: GeometrySpec, order: int, pressure_order: int) -> tuple[float, float]:
+    """Rough element count and unknowns [-] of the mesh of ``spec``, before meshing it.
+
+    Triangles of size h on the membrane, 2h on disc and frame (their ``maxh``);
+    with air, tetrahedra graded away from those faces at Netgen's ``grading`` g
+    up to ``air_size`` H (size h + g d at distance d: A (1 - h^2/H^2) / (0.236 g
+    h^2) regular tetrahedra per side of a face of area A, times 3 as counted on
+    the project's quadrant meshes), plus 0.3 of the air ball filled at size H.  Unknowns:
+    3 p^2 / 2 per membrane triangle (order p, three components), q^3 / 6 per
+    tetrahedron (pressure order q).  Within a factor ~2 of the real counts on
+    the project's meshes; meant to catch sizes that are far out, not to budget.
+    """
+    r_o, r_i, h = spec.outer_radius, spec.inner_radius, spec.membrane_size
+    fraction = 0.25 if spec.symmetry == "quarter" else 1.0
+    membrane = math.pi * (r_o**2 - r_i**2) * fraction
+    rest = math.pi * r_i**2
+    if spec.frame == "square":
+        rest += spec.frame_side**2 - math.pi * r_o**2
+    elif spec.frame == "baffle" and spec.with_air:
+        rest += math.pi * (spec.domain_radius**2 - r_o**2)
+    rest *= fraction
+    triangle = math.sqrt(3) / 4
+    membrane_triangles = membrane / (triangle * h**2)
+    elements = membrane_triangles + rest / (triangle * (2 * h)**2)
+    unknowns = 1.5 * order**2 * membrane_triangles
+    if spec.with_air:
+        coarse = spec.air_size
+        tetrahedra = 0.0
+        for area, size in ((membrane, h), (rest, 2 * h)):
+            size = min(size, coarse)
+            tetrahedra += 3 * area / (0.118 * spec.grading * size**2) * (1 - (size / coarse)**2)
+        radius = spec.domain_radius + spec.pml_thickness
+        tetrahedra += 0.3 * 4 / 3 * math.pi * radius**3 * fraction / (0.118 * coarse**3)
+        elements += tetrahedra
+        unknowns += tetrahedra * pressure_order**3 / 6
+    return elements, unknowns
+
+
+def check_size(study, limit: float = MAX_UNKNOWNS) -> None:
+    """Refuse (StudyError) a study whose estimated unknowns exceed ``limit``, before meshing."""
+    from .study import StudyError, engine_of
+    with_air = study["air"]["enabled"]
+    mesh = study["mesh"]
+    if engine_of(study) == "axisymmetric":
+        from .axisymmetric.meridian import MeridianSpec, estimate_size as meridian_size
+        elements, unknowns = meridian_size(MeridianSpec.from_study(study), mesh["order"],
+                                           mesh["pressure_order"])
+    else:
+        elements, unknowns = estimate_size(GeometrySpec.from_study(study), mesh["order"],
+                                           mesh["pressure_order"])
+    if unknowns > limit:
+        coarser = "a larger mesh.membrane_size" + (" or mesh.air_size" if with_air else "")
+        lower = "a lower mesh.order" + (" or mesh.pressure_order" if with_air else "")
+        raise StudyError(
+            f"mesh.membrane_size = {mesh['membrane_size']:g} m (mesh.order = {mesh['order']}) "
+            f"gives about {elements:.3g} elements and {unknowns:.3g} unknowns, more than the "
+            f"limit of {limit:.3g}; allowed: {coarser}, {lower}, or --allow-large")
 
 
 def membrane_area(spec: GeometrySpec) -> float:

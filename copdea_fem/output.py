@@ -1,18 +1,17 @@
 """Result files: modes.csv / modes.json, ParaView .pvd/.vtu, PNG plots.
 
-Every writer takes a target directory; :func:`result_directory` hands out a
-temporary sibling that is renamed into place only when everything is written,
-so a failed run leaves no half-finished results behind.
+Every writer takes a target directory: the staging folder of
+:func:`copdea_fem.folders.result_directory`, renamed into place only when
+everything is written, so a failed run leaves no half-finished results behind.
 """
 
 from __future__ import annotations
 
-import contextlib
 import csv
 import math
 import json
-import shutil
-import tempfile
+import os
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -26,22 +25,6 @@ VTU_COMPRESSION = None
 MODE_COLUMNS = ("label", "m", "n", "kind", "freq_hz", "freq_im_hz", "damping_ratio",
                 "membrane_energy_fraction", "modal_mass", "dry_freq_hz", "added_mass_ratio",
                 "normal_fraction", "disc_fraction", "residual", "symmetry")
-
-
-@contextlib.contextmanager
-def result_directory(target: str | Path):
-    """Yield a fresh temporary directory; on success it replaces ``target``."""
-    target = Path(target)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=target.parent))
-    try:
-        yield staging
-    except BaseException:
-        shutil.rmtree(staging, ignore_errors=True)
-        raise
-    if target.exists():
-        shutil.rmtree(target)
-    staging.rename(target)
 
 
 def mode_rows(modes, dry_frequencies: dict | None = None) -> list[dict]:
@@ -504,6 +487,7 @@ def plot_modes(path: Path, vtu_files: list[Path], modes, columns: int = 4) -> No
     """PNG of the lowest structural modes, coloured by |u.n| (pyvista, off-screen)."""
     import pyvista as pv
 
+    _headless_vtk()
     pv.OFF_SCREEN = True
     count = len(vtu_files)
     if count == 0:
@@ -522,6 +506,18 @@ def plot_modes(path: Path, vtu_files: list[Path], modes, columns: int = 4) -> No
         plotter.view_isometric()
     plotter.screenshot(str(path))
     plotter.close()
+
+
+def _headless_vtk() -> None:
+    """Without a display (Linux, no DISPLAY/WAYLAND_DISPLAY) render through EGL.
+
+    VTK's default X window would first fail with a "bad X server connection"
+    warning and then fall back to EGL anyway; asking for EGL directly skips
+    the warning.  A VTK_DEFAULT_OPENGL_WINDOW set by the user is kept.
+    """
+    if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY")
+                                                 or os.environ.get("WAYLAND_DISPLAY")):
+        os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 
 
 def plot_force_displacement(path: Path, z_values, voltages, forces) -> None:

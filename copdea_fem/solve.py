@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from . import output
+from .folders import result_directory
 
 from .geometry import GeometrySpec, load_mesh
 from .linearise import linearised_operators
@@ -90,14 +91,13 @@ def require_backend(study: Study) -> None:
 
 def prepare_mesh(study: Study, with_air: bool | None = None, cache_dir=None, progress=_quiet):
     """The mesh of the study's engine: the meridian (r, z) mesh of the axisymmetric engine
-    (it always holds the air), else the (cached) 3-D mesh; ``cache_dir=None`` uses the
-    repo's meshes/."""
+    (it always holds the air; not cached), else the (cached) 3-D mesh; ``cache_dir=None``:
+    :func:`geometry.mesh_cache_dir`."""
     if engine_of(study) == "axisymmetric":
         from .axisymmetric.engine import prepare_meridian
         return prepare_meridian(study, progress)
     spec = GeometrySpec.from_study(study, with_air=with_air)
-    kwargs = {} if cache_dir is None else {"cache_dir": Path(cache_dir)}
-    return load_mesh(spec, study["mesh"]["curve_order"], progress=progress, **kwargs)
+    return load_mesh(spec, study["mesh"]["curve_order"], cache_dir=cache_dir, progress=progress)
 
 
 def make_prestress_solver(study: Study, mesh, progress=None):
@@ -298,7 +298,7 @@ def write_results(result: SolveResult, out_dir: Path) -> None:
                        "symmetry": "orders" if axisymmetric else result.state.symmetry.kind,
                        **_sector_summary(result.eigen)},
              "timings_s": result.timings.seconds}
-    with output.result_directory(out_dir) as staging:
+    with result_directory(out_dir, "solve") as staging:
         output.write_modes(staging, result.rows, study, extra)
         if study["output"]["paraview"] or study["output"]["plots"]:
             structural = [mode for mode in result.modes
@@ -357,7 +357,7 @@ def run_force(study: Study, z_values, voltages, out_dir: str | Path | None = Non
         forces = force_displacement(study, mesh, z_values, voltages, progress=progress,
                                     new_solver=make_prestress_solver)
     if out_dir is not None:
-        with output.result_directory(out_dir) as staging:
+        with result_directory(out_dir, "force") as staging:
             output.write_force_csv(staging / "force_displacement.csv", z_values, voltages,
                                    forces)
             if study["output"]["plots"]:

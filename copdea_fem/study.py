@@ -19,6 +19,8 @@ from typing import Any
 
 import yaml
 
+from .inputs import parse_yaml, preview, read_yaml
+
 
 class StudyError(ValueError):
     """A study key has a value outside what is allowed; the message says which."""
@@ -190,7 +192,8 @@ SCHEMA: dict[str, dict[str, Key]] = {
                             open_min=True),
     },
     "output": {
-        "directory": Key(None, None, "where results go (relative to the working directory)",
+        "directory": Key(None, None, "where results go, relative to the working directory and "
+                         "inside it (README: output folders; --out writes elsewhere)",
                          kind=str, derived="results/<study file name>"),
         "paraview": Key(None, True, "write ParaView .pvd/.vtu files", kind=bool),
         "plots": Key(None, True, "write PNG plots", kind=bool),
@@ -271,6 +274,9 @@ SCHEMA["effects"] = {
                              minimum=0, maximum=10, open_min=True),
 }
 
+#: Longest text read as a quantity ("35.5 mm", "1.5e-3 kg/m^3").
+MAX_QUANTITY_CHARACTERS = 100
+
 # Top-level keys that are not sections: free text, and the provenance block a
 # resolved study carries (so a resolved study can be run again as it is).
 META_KEYS = ("name", "description", "provenance")
@@ -284,7 +290,7 @@ def _units():
 
 def _fail(key: str, value: Any, allowed: str, why: str = "") -> StudyError:
     why = f" ({why})" if why else ""
-    return StudyError(f"{key} = {value!r} is not allowed{why}; allowed: {allowed}")
+    return StudyError(f"{key} = {preview(value)} is not allowed{why}; allowed: {allowed}")
 
 
 def _convert(key: str, spec: Key, value: Any) -> Any:
@@ -320,6 +326,9 @@ def _to_si(key: str, spec: Key, value: Any) -> float:
                     + (f" or a quantity like '1.5 {_example_unit(spec.unit)}'" if spec.unit else ""))
     if not isinstance(value, str):
         return float(value)
+    if len(value) > MAX_QUANTITY_CHARACTERS:    # pint takes minutes on 100 000 digits
+        raise _fail(key, value, spec.allowed(), f"longer than {MAX_QUANTITY_CHARACTERS} "
+                    "characters, not a quantity")
     import pint
     try:
         quantity = _units().Quantity(value.strip())
@@ -370,12 +379,12 @@ def parse_overrides(items: list[str] | None) -> dict[str, Any]:
     overrides: dict[str, Any] = {}
     for item in items or []:
         if "=" not in item:
-            raise StudyError(f"--set {item!r} is not allowed; allowed: SECTION.KEY=VALUE, "
+            raise StudyError(f"--set {preview(item)} is not allowed; allowed: SECTION.KEY=VALUE, "
                              "e.g. --set load.voltage='3 kV'")
         key, text = item.split("=", 1)
         try:
-            value = yaml.safe_load(text)
-        except yaml.YAMLError:
+            value = parse_yaml(text, f"--set {key.strip()}", StudyError)
+        except StudyError:
             value = text
         overrides[key.strip()] = text if value is None and text.strip() else value
     return overrides
@@ -384,15 +393,7 @@ def parse_overrides(items: list[str] | None) -> dict[str, Any]:
 def load_study(path: str | Path, overrides: dict[str, Any] | None = None) -> Study:
     """Read, override, validate and resolve a study file."""
     path = Path(path)
-    if not path.is_file():
-        raise StudyError(f"study file {str(path)!r} does not exist")
-    try:
-        raw = yaml.safe_load(path.read_text()) or {}
-    except yaml.YAMLError as exc:
-        raise StudyError(f"study file {str(path)!r} is not valid YAML: {exc}") from None
-    if not isinstance(raw, dict):
-        raise StudyError(f"study file {str(path)!r} must hold a mapping of sections, "
-                         f"got {type(raw).__name__}")
+    raw = read_yaml(path, "study file", StudyError)
     name = raw.get("name") or path.stem
     return parse_study(raw, overrides=overrides, name=str(name),
                        description=str(raw.get("description", "")))

@@ -108,6 +108,8 @@ from typing import Any, Callable
 import numpy as np
 import yaml
 
+from .folders import claim, write_manifest
+from .inputs import preview, read_yaml
 from .study import (SCHEMA, Study, StudyError, _convert, check_air_lift, load_study,
                     package_versions)
 from .tracking import ModeSet, TrackingSettings, TrackingInputError, track_modes
@@ -120,6 +122,9 @@ TOP_KEYS = ("name", "description", "study", "set", "model", "axes", "tracking", 
 # differ only there can continue from each other.
 LOAD_LIKE_SECTIONS = ("load", "eigen", "disc", "spring", "reduced", "excitation", "effects",
                       "output")
+#: What a sweep folder holds (its manifest lists these; each point folder has its own).
+SWEEP_FILES = ("sweep.csv", "sweep.csv.tmp", "sweep.json", "sweep.json.tmp",
+               "sweep.resolved.yaml", "sweep.png", "points")
 DEFAULT_PLOT_KINDS = ("out-of-plane", "pumping")
 KINDS = ("out-of-plane", "in-plane", "pumping", "air")
 
@@ -130,7 +135,7 @@ class SweepError(StudyError):
 
 def _fail(key: str, value: Any, allowed: str, why: str = "") -> SweepError:
     why = f" ({why})" if why else ""
-    return SweepError(f"{key} = {value!r} is not allowed{why}; allowed: {allowed}")
+    return SweepError(f"{key} = {preview(value)} is not allowed{why}; allowed: {allowed}")
 
 
 # --------------------------------------------------------------------------- schema
@@ -278,14 +283,7 @@ class Sweep:
 def load_sweep(path: str | Path, overrides: dict | None = None) -> Sweep:
     """Read and validate a SWEEP.yaml; ``overrides`` are extra base-study ``--set`` values."""
     path = Path(path)
-    if not path.is_file():
-        raise SweepError(f"sweep file {str(path)!r} does not exist")
-    try:
-        raw = yaml.safe_load(path.read_text()) or {}
-    except yaml.YAMLError as error:
-        raise SweepError(f"sweep file {str(path)!r} is not valid YAML: {error}") from None
-    if not isinstance(raw, dict):
-        raise SweepError(f"sweep file {str(path)!r} must hold a mapping; got {type(raw).__name__}")
+    raw = read_yaml(path, "sweep file", SweepError)
     return parse_sweep(raw, base_dir=path.parent, name=str(raw.get("name") or path.stem),
                        source=path, overrides=overrides)
 
@@ -351,7 +349,7 @@ def _base_study(raw: dict, base_dir: Path, name: str, overrides: dict) -> Study:
         raise _fail("study", study_path, "the path of a base study file, relative to the sweep "
                     "file (e.g. ../g1_z16_v2.yaml)")
     full = Path(study_path) if Path(study_path).is_absolute() else base_dir / study_path
-    if not full.is_file():
+    if not full.exists():
         raise _fail("study", study_path, "an existing study file", f"{full} does not exist")
     try:
         study = load_study(full, overrides=overrides)
@@ -937,9 +935,9 @@ class PointStore:
             (self.root / point.point_id / "vectors.npz").is_file()
 
     def write(self, result: PointResult) -> None:
-        from .output import result_directory
+        from .folders import result_directory
         self.root.mkdir(parents=True, exist_ok=True)
-        with result_directory(self.root / result.point_id) as staging:
+        with result_directory(self.root / result.point_id, "sweep point") as staging:
             if result.arrays:
                 # float32 halves the files; the MAC needs ~1e-6, float32 gives ~1e-7
                 np.savez(staging / "vectors.npz",
@@ -1104,41 +1102,45 @@ def run_sweep(sweep: Sweep, out_dir: str | Path | None = None, executor: str | N
     reuse = reuse or sweep.execution.reuse
     MODEL_CLASSES[sweep.model]().check_available(sweep)
     directory = Path(out_dir or sweep.output_directory)
-    store = PointStore(directory)
-    resumed = [pid for pid in sweep.path if store.finished(sweep.point(pid))]
-    todo = [pid for pid in sweep.path if pid not in set(resumed)]
-    progress(f"sweep {sweep.name}: {len(sweep.points)} points, model {sweep.model}, "
-             f"{len(resumed)} already done, {len(todo)} to compute ({executor})")
-    computed: list[str] = []
-    counter = itertools.count(len(resumed) + 1)
+    with claim(directory, "sweep", progress=progress):
+        directory.mkdir(parents=True, exist_ok=True)
+        write_manifest(directory, "sweep", SWEEP_FILES)
+        store = PointStore(directory)
+        resumed = [pid for pid in sweep.path if store.finished(sweep.point(pid))]
+        todo = [pid for pid in sweep.path if pid not in set(resumed)]
+        progress(f"sweep {sweep.name}: {len(sweep.points)} points, model {sweep.model}, "
+                 f"{len(resumed)} already done, {len(todo)} to compute ({executor})")
+        computed: list[str] = []
+        counter = itertools.count(len(resumed) + 1)
 
-    def sink(result: PointResult, write: bool = True):
-        if write:
-            store.write(result)
-        computed.append(result.point_id)
-        progress(f"[{next(counter)}/{len(sweep.points)}] " + _summary_line(sweep, result.record))
-        if on_point_done is not None:
-            on_point_done(result)
+        def sink(result: PointResult, write: bool = True):
+            if write:
+                store.write(result)
+            computed.append(result.point_id)
+            progress(f"[{next(counter)}/{len(sweep.points)}] "
+                     + _summary_line(sweep, result.record))
+            if on_point_done is not None:
+                on_point_done(result)
 
-    todo_set = set(todo)
+        todo_set = set(todo)
 
-    def chains_for(parallel: int) -> list[list[str]]:
-        chains = [[pid for pid in chain if pid in todo_set]
-                  for chain in sweep.chains(chain_length, parallel)]
-        return [chain for chain in chains if chain]
+        def chains_for(parallel: int) -> list[list[str]]:
+            chains = [[pid for pid in chain if pid in todo_set]
+                      for chain in sweep.chains(chain_length, parallel)]
+            return [chain for chain in chains if chain]
 
-    if executor == "local":
-        for chain in chains_for(1):
-            _run_chain(sweep, chain, reuse, sink)
-    elif executor == "pool":
-        _run_pool(sweep, chains_for(workers), reuse, directory, workers, store, sink)
-    elif todo:
-        _run_dask(sweep, chains_for, reuse, scheduler, sink, progress)
-    outcome = finish_sweep(sweep, directory, progress=progress)
-    outcome.computed, outcome.resumed = computed, resumed
-    outcome.wall_seconds = time.perf_counter() - start
-    _write_summary(sweep, directory, outcome)
-    return outcome
+        if executor == "local":
+            for chain in chains_for(1):
+                _run_chain(sweep, chain, reuse, sink)
+        elif executor == "pool":
+            _run_pool(sweep, chains_for(workers), reuse, directory, workers, store, sink)
+        elif todo:
+            _run_dask(sweep, chains_for, reuse, scheduler, sink, progress)
+        outcome = finish_sweep(sweep, directory, progress=progress)
+        outcome.computed, outcome.resumed = computed, resumed
+        outcome.wall_seconds = time.perf_counter() - start
+        _write_summary(sweep, directory, outcome)
+        return outcome
 
 
 def _run_pool(sweep, chains, reuse, directory, workers, store, sink) -> None:

@@ -157,6 +157,27 @@ def meridian_mesh(spec: MeridianSpec, curve_order: int, progress=None):
     return mesh
 
 
+def estimate_size(spec: MeridianSpec, order: int, pressure_order: int) -> tuple[float, float]:
+    """Rough triangle count and unknowns of one order's pencil [-], before meshing.
+
+    Membrane: (r_o - r_i)/h line elements of order p, three components.  Air:
+    triangles of size h next to the screens, grading g up to H = MERIDIAN_AIR_REFINEMENT
+    * air_size (about L / (0.43 g h) per side of a screen line of length L) plus the
+    half-disc of radius R + t filled at size H; pressure order q: q^2/2 unknowns per
+    triangle (the jump adds a few on the screens).  Within a factor ~2-3 of the real
+    counts (G1 default: ~2.5k unknowns estimated ~3k); meant to catch sizes far out.
+    """
+    h, coarse = spec.membrane_size, MERIDIAN_AIR_REFINEMENT * spec.air_size
+    screen = spec.outer_radius if spec.frame == "none" else (
+        spec.frame_radius if spec.frame == "circle" else spec.domain_radius)
+    radius = spec.domain_radius + spec.pml_thickness
+    membrane_elements = (spec.outer_radius - spec.inner_radius) / h
+    triangles = 2 * screen / (0.43 * spec.grading * h) + \
+        0.5 * math.pi * radius**2 / (0.43 * coarse**2)
+    unknowns = 3 * order * membrane_elements + triangles * pressure_order**2 / 2
+    return triangles + membrane_elements, unknowns
+
+
 def theta_integral(m: int) -> float:
     """int_0^{2 pi} cos^2(m theta) d theta: 2 pi for m = 0, pi otherwise [-]."""
     return 2 * math.pi if m == 0 else math.pi

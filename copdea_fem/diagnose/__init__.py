@@ -30,6 +30,16 @@ from copdea_fem.diagnose.measured import MeasuredDataError, MeasuredSet, load_me
 from copdea_fem.diagnose.select import Diagnoser, DiagnosisResult
 
 
+def diagnose_out_dir(measured: MeasuredSet) -> Path:
+    """Default report folder of :func:`run_diagnose`: ``results/diagnose_<name>``."""
+    return Path("results") / f"diagnose_{measured.name}"
+
+
+def synth_out_dir(study, seed: int) -> Path:
+    """Default folder of :func:`run_synth`: ``results/synth_<study name>_seed<N>``."""
+    return Path("results") / f"synth_{study.name}_seed{seed}"
+
+
 def run_diagnose(measured_path, out_dir=None, progress=None, alpha: float = 0.05) -> dict:
     """Diagnose a measured data set and write the report.
 
@@ -47,14 +57,14 @@ def run_diagnose(measured_path, out_dir=None, progress=None, alpha: float = 0.05
     dict with ``result`` (DiagnosisResult), ``files``, ``out`` and ``lines``.
     """
     from copdea_fem.diagnose.report import write_report
-    from copdea_fem.output import result_directory
+    from copdea_fem.folders import result_directory
     from copdea_fem.study import StudyError
     if not 0 < alpha < 1:
         raise StudyError(f"--alpha = {alpha!r} is not allowed; allowed: (0, 1)")
     measured = load_measured(measured_path)
-    out = Path(out_dir) if out_dir else Path("results") / f"diagnose_{measured.name}"
+    out = Path(out_dir) if out_dir else diagnose_out_dir(measured)
     result = Diagnoser(measured, alpha=alpha, progress=progress).run()
-    with result_directory(out) as staging:
+    with result_directory(out, "diagnose") as staging:
         files = write_report(result, staging)
     files = [out / f.name for f in files]
     lines = [result.verdict,
@@ -88,7 +98,7 @@ def run_synth(study, effects_text, conditions_text=None, parameters=None, option
     from copdea_fem.diagnose.effects import parse_effect_list
     from copdea_fem.diagnose.synth import (SynthOptions, parse_conditions, parse_parameters,
                                            synthesise, write_synthetic)
-    from copdea_fem.output import result_directory
+    from copdea_fem.folders import result_directory
     from copdea_fem.study import StudyError
     options = options or SynthOptions()
     options.check()
@@ -105,8 +115,8 @@ def run_synth(study, effects_text, conditions_text=None, parameters=None, option
         effects[effect_id] = tuple(values.get(p.name, p.default) for p in entry.parameters)
     conditions = parse_conditions(conditions_text)
     items = synthesise(study, effects, conditions, options)
-    out = Path(out_dir) if out_dir else Path("results") / f"synth_{study.name}_seed{options.seed}"
-    with result_directory(out) as staging:
+    out = Path(out_dir) if out_dir else synth_out_dir(study, options.seed)
+    with result_directory(out, "synth") as staging:
         files = write_synthetic(study, effects, items, options, staging)
     files = [out / f.name for f in files]
     truth = ", ".join(f"{e} ({CATALOGUE[e].describe_values(v)})" if v else e
@@ -123,4 +133,4 @@ def run_synth(study, effects_text, conditions_text=None, parameters=None, option
 
 __all__ = ["CATALOGUE", "EFFECT_IDS", "Effect", "Parameter", "catalogue_table",
            "MeasuredDataError", "MeasuredSet", "load_measured", "Diagnoser", "DiagnosisResult",
-           "run_diagnose", "run_synth"]
+           "run_diagnose", "run_synth", "diagnose_out_dir", "synth_out_dir"]

@@ -45,9 +45,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import yaml
-
 from copdea_fem.diagnose.effects import EFFECT_IDS, parse_effect_list
+from copdea_fem.inputs import preview, read_text, read_yaml
 from copdea_fem.study import Study, StudyError, load_study
 
 
@@ -168,7 +167,7 @@ class MeasuredSet:
 
 def _fail(key, value, allowed, why="") -> MeasuredDataError:
     why = f" ({why})" if why else ""
-    return MeasuredDataError(f"{key} = {value!r} is not allowed{why}; allowed: {allowed}")
+    return MeasuredDataError(f"{key} = {preview(value)} is not allowed{why}; allowed: {allowed}")
 
 
 _LABEL_PUMPING = re.compile(r"^[Pp]\s*([1-9]\d*)$")
@@ -196,10 +195,11 @@ def normalise_label(text: str, where: str) -> tuple[str, str]:
 
 
 def _read_rows(path: Path, key: str):
-    if not path.is_file():
+    if not path.exists():
         raise _fail(key, str(path), "an existing CSV file", "file does not exist")
-    with path.open(newline="") as handle:
-        rows = list(csv.reader(r for r in handle if r.strip() and not r.lstrip().startswith("#")))
+    text = read_text(path, key, error=MeasuredDataError)
+    lines = text.splitlines()
+    rows = list(csv.reader(r for r in lines if r.strip() and not r.lstrip().startswith("#")))
     if not rows:
         raise _fail(key, str(path), "a CSV with a header row", "empty file")
     return [name.strip() for name in rows[0]], rows[1:]
@@ -315,14 +315,9 @@ def _quantity(value, unit, where):
 def load_measured(path) -> MeasuredSet:
     """Read and check ``measured.yaml`` and every file it names (no model runs)."""
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise _fail("measured file", str(path), "an existing measured.yaml", "does not exist")
-    try:
-        raw = yaml.safe_load(path.read_text()) or {}
-    except yaml.YAMLError as exc:
-        raise _fail("measured file", str(path), "valid YAML", str(exc).splitlines()[0]) from None
-    if not isinstance(raw, dict):
-        raise _fail("measured file", str(path), "a mapping with keys " + ", ".join(MANIFEST_KEYS))
+    raw = read_yaml(path, "measured file", MeasuredDataError)
     return parse_measured(raw, path.parent, name=str(raw.get("name") or path.stem), path=path)
 
 

@@ -44,6 +44,7 @@ import yaml
 from copdea_fem.diagnose.effects import CATALOGUE, effect
 from copdea_fem.diagnose.engine import Engine
 from copdea_fem.diagnose.measured import Condition, MeasuredSet, NoiseModel
+from copdea_fem.inputs import parse_yaml
 from copdea_fem.study import Study, StudyError, dump_resolved
 
 DEFAULT_CONDITIONS = ({"load.z": "11 mm", "load.voltage": "2 kV"},
@@ -106,7 +107,7 @@ def parse_conditions(text: str | None) -> list[dict]:
                                  "and ';' between conditions, e.g. 'load.z=11 mm, load.voltage="
                                  "2 kV; load.z=16 mm'")
             key, value = item.split("=", 1)
-            parsed = yaml.safe_load(value)
+            parsed = parse_yaml(value, f"--conditions {key.strip()}", StudyError)
             overrides[key.strip()] = value.strip() if parsed is None else parsed
         conditions.append(overrides)
     if not conditions:
@@ -133,7 +134,7 @@ def parse_parameters(items) -> dict:
                              f"{effect_id}")
         key = Key(spec.unit, spec.default, spec.description, minimum=spec.lower,
                   maximum=spec.upper)
-        parsed = yaml.safe_load(value)
+        parsed = parse_yaml(value, f"--param {name.strip()}", StudyError)
         out.setdefault(effect_id, {})[parameter] = _convert(
             f"--param {name.strip()}", key, value.strip() if isinstance(parsed, str) or
             parsed is None else parsed)

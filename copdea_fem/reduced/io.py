@@ -26,6 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
+from copdea_fem.folders import result_directory
+from copdea_fem.inputs import read_text
 from copdea_fem.reduced.fit import PARAMETERS, fit_material
 from copdea_fem.reduced.modal import mode_profile
 from copdea_fem.reduced.model import build_reduced, damping_key, spectra_of
@@ -55,8 +57,9 @@ def read_modes_json(path, study=None) -> dict:
     if not path.is_file():
         raise StudyError(f"reduced.modes_json = {str(path)!r} does not exist; allowed: the "
                          "modes.json written by a FE solve")
+    text = read_text(path, "reduced.modes_json", error=StudyError)
     try:
-        data = json.loads(path.read_text())
+        data = json.loads(text)
         entries = data["modes"]
     except (json.JSONDecodeError, KeyError, TypeError) as exc:
         raise StudyError(f"reduced.modes_json = {str(path)!r} is not a modes.json ({exc}); "
@@ -92,10 +95,10 @@ def modes_json_air_enabled(path):
 
 def _read_table(path, required, optional=()) -> dict:
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise StudyError(f"data file {str(path)!r} does not exist")
-    with path.open(newline="") as handle:
-        rows = list(csv.reader(row for row in handle if row.strip() and not row.startswith("#")))
+    lines = read_text(path, "data file", error=StudyError).splitlines()
+    rows = list(csv.reader(row for row in lines if row.strip() and not row.startswith("#")))
     if not rows:
         raise StudyError(f"data file {str(path)!r} is empty; allowed: a CSV with header "
                          + ", ".join(required))
@@ -229,29 +232,9 @@ def _title(study):
             f"V_b = {load['voltage'] / 1e3:g} kV, {study['reduced']['rings']} rings")
 
 
-def run_spectrum(study, out_dir, modes_json=None) -> dict:
-    """Reduced-model spectra of a study under its chirp; writes the contract files.
-
-    Parameters
-    ----------
-    study : Study
-    out_dir : path
-        Created if missing.
-    modes_json : path, optional
-        Overrides ``reduced.modes_json``.
-
-    Returns
-    -------
-    dict with ``files`` (paths written), ``modes`` (rows of reduced_modes.csv
-    plus the added-mass source), ``pumping_hz`` (Annex I P1-P3) and ``lines``
-    (a text summary to print).
-    """
-    fe, fe_path = _fe_frequencies(study, modes_json)
-    setup = build_reduced(study, fe)
-    result = spectra_of(setup)
+def _write_spectrum_files(out, study, setup, result) -> list:
+    """The files of ``spectrum`` in ``out`` (a staging folder); their paths."""
     reduced = setup.reduced
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     files = [
         write_csv(out / "spectrum_average.csv", AVERAGE_COLUMNS,
                   (result.frequency_hz, result.average_axial, result.average_radial)),
@@ -281,6 +264,34 @@ def run_spectrum(study, out_dir, modes_json=None) -> dict:
             files.append(out / name)
         plot_mode_shapes(out / "reduced_mode_shapes.png", setup)
         files.append(out / "reduced_mode_shapes.png")
+    return files
+
+
+def run_spectrum(study, out_dir, modes_json=None) -> dict:
+    """Reduced-model spectra of a study under its chirp; writes the contract files.
+
+    Parameters
+    ----------
+    study : Study
+    out_dir : path
+        Created if missing.
+    modes_json : path, optional
+        Overrides ``reduced.modes_json``.
+
+    Returns
+    -------
+    dict with ``files`` (paths written), ``modes`` (rows of reduced_modes.csv
+    plus the added-mass source), ``pumping_hz`` (Annex I P1-P3) and ``lines``
+    (a text summary to print).
+    """
+    fe, fe_path = _fe_frequencies(study, modes_json)
+    setup = build_reduced(study, fe)
+    result = spectra_of(setup)
+    reduced = setup.reduced
+    out = Path(out_dir)
+    with result_directory(out, "spectrum") as staging:
+        files = _write_spectrum_files(staging, study, setup, result)
+    files = [out / path.name for path in files]
     lin = setup.linearisation
     lines = [_title(study),
              f"static: disc force {lin.equilibrium.disc_force:.4g} N, k_DE "
@@ -309,9 +320,6 @@ def run_spectrum(study, out_dir, modes_json=None) -> dict:
     elif study["excitation"]["amplitude"] > 0.1 * study["load"]["voltage"]:
         lines.append("note: excitation.amplitude > 10 % of load.voltage: the linearisation of "
                      "Sect. 3.2 assumes |V~| << V_b; expect distortion the model does not show")
-    if not fe_path and (out / "modes.json").is_file():
-        lines.append(f"hint: {out / 'modes.json'} exists; pass it with --modes-json (or "
-                     "reduced.modes_json) to take the added masses from its coupled frequencies")
     if fe_path:
         lines.append(f"coupled frequencies read from {fe_path}")
         if modes_json_air_enabled(fe_path) is False:
@@ -337,11 +345,14 @@ def fit_material_cli(study, data_csv, out_dir) -> dict:
                        prestretch=data.get("prestretch"), inner_radius=data.get("inner_radius_m"),
                        force_std=data.get("force_std_n"))
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    files = [write_csv(out / "material_fit.csv", ("parameter", "value_pa", "standard_error_pa"),
-                       (PARAMETERS, fit.values, fit.standard_error))]
-    if study["output"]["plots"]:
-        files.append(_plot_force_fit(out / "material_fit.png", study, model, fit, data, voltage))
+    with result_directory(out, "fit-material") as staging:
+        files = [write_csv(staging / "material_fit.csv",
+                           ("parameter", "value_pa", "standard_error_pa"),
+                           (PARAMETERS, fit.values, fit.standard_error))]
+        if study["output"]["plots"]:
+            files.append(_plot_force_fit(staging / "material_fit.png", study, model, fit, data,
+                                         voltage))
+    files = [out / path.name for path in files]
     lines = [f"fitted eq. (20) on {fit.point_count} points, rms residual "
              f"{fit.residual_rms:.4g} N"]
     for name, value, error in zip(PARAMETERS, fit.values, fit.standard_error):
@@ -403,16 +414,19 @@ def calibrate_damping_cli(study, spectrum_csv, out_dir, modes_json=None,
     calibration = calibrate_damping(setup.reduced, setup.chirp, measured["freq_hz"],
                                     measured["v_axial"], measured["v_radial"], window)
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    files = [write_csv(out / "damping_calibration.csv",
-                       ("label", "freq_hz", "measured_peak", "model_peak", "damping_per_mass"),
-                       (calibration.labels, setup.reduced.frequency_hz, calibration.measured_peak,
-                        calibration.model_peak, calibration.damping_per_mass))]
-    if study["output"]["plots"]:
-        calibrated = setup.reduced.with_damping_per_mass(calibration.damping_per_mass)
-        plot_average(out / "damping_calibration.png", spectra_of(setup, calibrated), calibrated,
-                     _title(study) + " (damping calibrated)", measured=measured)
-        files.append(out / "damping_calibration.png")
+    with result_directory(out, "calibrate-damping") as staging:
+        files = [write_csv(staging / "damping_calibration.csv",
+                           ("label", "freq_hz", "measured_peak", "model_peak",
+                            "damping_per_mass"),
+                           (calibration.labels, setup.reduced.frequency_hz,
+                            calibration.measured_peak, calibration.model_peak,
+                            calibration.damping_per_mass))]
+        if study["output"]["plots"]:
+            calibrated = setup.reduced.with_damping_per_mass(calibration.damping_per_mass)
+            plot_average(staging / "damping_calibration.png", spectra_of(setup, calibrated),
+                         calibrated, _title(study) + " (damping calibrated)", measured=measured)
+            files.append(staging / "damping_calibration.png")
+    files = [out / path.name for path in files]
     lines = [f"{'mode':>6} {'air Hz':>9} {'measured':>10} {'model':>10} {'b/m 1/s':>9}"]
     options, shared = {}, []
     for j, label in enumerate(calibration.labels):

@@ -1,0 +1,288 @@
+"""Result folders: where a run may write, and how it replaces a previous result.
+
+A result folder carries a manifest, :data:`MANIFEST`, listing every file the
+run wrote (with the tool version and the command).  The rules, checked by
+:func:`check_output` before any work:
+
+- the target may be a new path, an empty folder, or a previous result of the
+  same command whose folder holds nothing the manifest does not list; anything
+  else (an existing file, a folder of measurements or notes, a result with
+  files added by hand, the result of another command) is refused, and nothing
+  is written;
+- never the working folder, one of its parents, the home folder, or a folder
+  holding (or above) one of the run's input files;
+- a directory taken from an input file (``output.directory`` of a study or
+  sweep file, data that may come from someone else) must lie inside the
+  working folder;
+- its parent must be a writable folder (checked by creating the lock file).
+
+Writing (:func:`result_directory`) is staged: the files go to a hidden sibling
+``.NAME.staging-*``; when complete, the old result (if any) is renamed to
+``.NAME.old-*``, the staging folder renamed to ``NAME``, and the old copy
+deleted last, with SIGINT/SIGTERM held back during those renames.  At every
+instant a complete old or a complete new result exists.  Leftovers of a run
+that was killed (SIGKILL, power loss) are cleaned by the next run into the same
+folder: staging folders are removed, an old copy whose swap did not finish is
+renamed back.
+
+Concurrent runs into one folder: :func:`claim` takes an exclusive lock
+(``.NAME.copdea-fem-lock`` beside the folder, ``flock``, released by the
+kernel when a process dies) for the whole run; a second run is refused at once,
+naming the holder's process id.  A process may claim a folder it holds again
+(the library's writers do so inside the CLI's claim).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import datetime
+import json
+import os
+import shutil
+import signal
+import time
+import uuid
+from dataclasses import dataclass
+from pathlib import Path
+
+try:
+    import fcntl
+except ImportError:          # Windows: no advisory locks; folders are not locked
+    fcntl = None
+
+MANIFEST = ".copdea-fem-result.json"
+#: Test hook: seconds to sleep inside the write phase (staging written, not yet swapped).
+WRITE_DELAY_VARIABLE = "COPDEA_FEM_TEST_WRITE_DELAY"
+
+
+class OutputFolderError(ValueError):
+    """An output folder this run may not write; the message says which and what to do."""
+
+
+@dataclass
+class Claim:
+    """A folder this process holds the lock of for a run."""
+
+    target: Path
+    command: str
+    had_result: bool            # a previous result was there when the run started
+    written: bool = False       # this run's result is in place
+
+
+_claims: dict[Path, Claim] = {}
+
+
+def read_manifest(folder: Path) -> dict | None:
+    """The manifest of a result folder, or None when it has none (or an unreadable one)."""
+    try:
+        document = json.loads((Path(folder) / MANIFEST).read_text())
+    except (OSError, ValueError):
+        return None
+    if not isinstance(document, dict) or document.get("tool") != "copdea-fem" or \
+            not isinstance(document.get("command"), str) or \
+            not isinstance(document.get("files"), list) or \
+            not all(isinstance(name, str) and name for name in document["files"]):
+        return None
+    return document
+
+
+def write_manifest(folder: Path, command: str, files=None) -> None:
+    """Mark ``folder`` as a result of ``command``; ``files``: its relative paths (default: all)."""
+    from importlib import metadata
+    folder = Path(folder)
+    if files is None:
+        files = sorted(str(path.relative_to(folder)) for path in folder.rglob("*")
+                       if path.is_file() and path.name != MANIFEST)
+    try:
+        version = metadata.version("copdea-fem")
+    except metadata.PackageNotFoundError:
+        version = "unknown"
+    document = {"tool": "copdea-fem", "version": version, "command": command,
+                "written_utc": datetime.datetime.now(datetime.timezone.utc).isoformat(
+                    timespec="seconds"), "files": list(files)}
+    temporary = folder / (MANIFEST + ".tmp")
+    temporary.write_text(json.dumps(document, indent=1))
+    temporary.replace(folder / MANIFEST)
+
+
+def check_output(target, command: str, inputs=(), from_file=None) -> Path:
+    """Refuse an output folder ``command`` may not write (module doc); return its absolute path.
+
+    ``inputs``: the run's input files; ``from_file``: the input file the folder
+    name came from (then it must stay inside the working folder).
+    """
+    target = Path(os.path.abspath(Path(target).expanduser()))
+    resolved = target.resolve()
+    here = Path.cwd().resolve()
+    shown = str(target)
+    if from_file is not None and not resolved.is_relative_to(here):
+        raise OutputFolderError(
+            f"output folder {shown} (from {from_file}) is outside the working folder {here}; "
+            "a directory named in an input file must stay inside it: change output.directory "
+            "or pass --out")
+    if resolved == here or resolved in here.parents:
+        raise OutputFolderError(f"output folder {shown} is the working folder or a parent of "
+                                "it; choose a new subfolder, e.g. --out results/NAME")
+    if resolved == Path.home().resolve():
+        raise OutputFolderError(f"output folder {shown} is the home folder; choose a new "
+                                "subfolder")
+    for item in inputs:
+        if item is None:
+            continue
+        source = Path(item).resolve()
+        if resolved == source.parent or resolved in source.parents:
+            raise OutputFolderError(f"output folder {shown} holds the input file {item}; "
+                                    "choose another folder for the results")
+    existing = next(path for path in (target, *target.parents) if path.exists())
+    if existing != target and not existing.is_dir():
+        raise OutputFolderError(f"output folder {shown} cannot be created: {existing} is a "
+                                "file; choose another path")
+    if target.exists() and not target.is_dir():
+        raise OutputFolderError(f"output folder {shown} is an existing file, not a folder; "
+                                "choose another path")
+    if target.is_dir():
+        _check_replaceable(target, command)
+    return target
+
+
+def _check_replaceable(target: Path, command: str) -> None:
+    try:
+        entries = sorted(entry.name for entry in target.iterdir())
+    except OSError as error:
+        raise OutputFolderError(f"output folder {target} cannot be read: "
+                                f"{error.strerror or error}") from None
+    if not entries:
+        return
+    manifest = read_manifest(target)
+    if manifest is None:
+        listed = ", ".join(entries[:3]) + (", ..." if len(entries) > 3 else "")
+        raise OutputFolderError(
+            f"output folder {target} is not empty and not a copdea-fem result (it holds "
+            f"{listed}); nothing was written: choose a new or empty folder")
+    if manifest["command"] != command:
+        raise OutputFolderError(
+            f"output folder {target} holds a {manifest['command']} result, which a {command} "
+            "run would replace; nothing was written: choose another folder (--out)")
+    owned = {Path(name).parts[0] for name in manifest["files"]} | {MANIFEST}
+    foreign = [name for name in entries if name not in owned]
+    if foreign:
+        listed = ", ".join(foreign[:3]) + (", ..." if len(foreign) > 3 else "")
+        raise OutputFolderError(
+            f"output folder {target} holds files its copdea-fem result did not write "
+            f"({listed}); nothing was written: move them out or choose another folder")
+
+
+@contextlib.contextmanager
+def claim(target, command: str, inputs=(), from_file=None, progress=None):
+    """Check ``target`` (:func:`check_output`), lock it for the block and clean leftovers.
+
+    Yields a :class:`Claim`.  Re-entrant within a process.
+    """
+    target = check_output(target, command, inputs, from_file)
+    if target in _claims:
+        yield _claims[target]
+        return
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        fd = _lock(target)
+    except OSError as error:
+        raise OutputFolderError(f"output folder {target} cannot be written: "
+                                f"{error.strerror or error}") from None
+    try:
+        _clean_leftovers(target, progress)
+        check_output(target, command, inputs, from_file)   # again, now that it is ours
+        record = Claim(target, command, had_result=read_manifest(target) is not None)
+        _claims[target] = record
+        yield record
+    finally:
+        _claims.pop(target, None)
+        if fd is not None:
+            with contextlib.suppress(OSError):
+                os.unlink(_lock_path(target))
+            os.close(fd)
+
+
+def _lock_path(target: Path) -> Path:
+    return target.parent / f".{target.name}.copdea-fem-lock"
+
+
+def _lock(target: Path) -> int | None:
+    """Exclusive lock of ``target``'s lock file, or OutputFolderError naming the holder."""
+    if fcntl is None:
+        return None
+    path = _lock_path(target)
+    while True:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.read(fd, 64).decode(errors="replace").strip() or "unknown"
+            os.close(fd)
+            raise OutputFolderError(
+                f"output folder {target} is being written by another copdea-fem run (process "
+                f"{holder}); wait for it to finish or choose another folder") from None
+        # the previous holder removes the file when done: lock only the file still in place
+        with contextlib.suppress(FileNotFoundError):
+            if os.stat(path).st_ino == os.fstat(fd).st_ino:
+                os.ftruncate(fd, 0)
+                os.write(fd, f"{os.getpid()}\n".encode())
+                return fd
+        os.close(fd)
+
+
+def _clean_leftovers(target: Path, progress) -> None:
+    """Staging folders and old copies a killed run left beside ``target`` (module doc)."""
+    say = progress or (lambda message: None)
+    for path in sorted(target.parent.glob(f".{target.name}.old-*")):
+        if target.exists():
+            shutil.rmtree(path, ignore_errors=True)
+            say(f"removed {path.name}, a replaced result an interrupted run left")
+        else:
+            path.rename(target)
+            say(f"restored the previous result {target} (an interrupted run had moved it)")
+    for path in sorted(target.parent.glob(f".{target.name}.staging-*")):
+        shutil.rmtree(path, ignore_errors=True)
+        say(f"removed {path.name}, an unfinished result an interrupted run left")
+
+
+@contextlib.contextmanager
+def _signals_held():
+    """SIGINT and SIGTERM are delivered after the block (the renames of a swap)."""
+    if not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
+@contextlib.contextmanager
+def result_directory(target, command: str):
+    """Yield an empty staging folder; on success it replaces ``target`` atomically.
+
+    ``target`` is checked and locked (:func:`claim`); on any exception,
+    KeyboardInterrupt included, the staging folder is removed and ``target``
+    is left as it was.
+    """
+    with claim(target, command) as record:
+        target = record.target
+        staging = target.parent / f".{target.name}.staging-{uuid.uuid4().hex[:8]}"
+        staging.mkdir()
+        try:
+            yield staging
+            write_manifest(staging, command)
+            time.sleep(float(os.environ.get(WRITE_DELAY_VARIABLE, 0)))
+            with _signals_held():
+                if target.exists():
+                    old = target.parent / f".{target.name}.old-{uuid.uuid4().hex[:8]}"
+                    target.rename(old)
+                    staging.rename(target)
+                    shutil.rmtree(old)
+                else:
+                    staging.rename(target)
+                record.written = True
+        except BaseException:
+            shutil.rmtree(staging, ignore_errors=True)
+            raise

@@ -1,0 +1,571 @@
+"""Reliability: results never destroy data, every bad input and every fault ends cleanly.
+
+Each case checks the exit code, the first line of the message, the time to a
+refusal (before any meshing or solving: the expensive entry points are
+replaced by ones that fail the test if called) and the file system afterwards
+(nothing the test made beforehand changed, no staging folder, old copy or lock
+file left).  Interruptions and concurrent runs use real processes.
+"""
+
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from copdea_fem import folders, geometry
+from copdea_fem.cli import main
+
+ROOT = Path(__file__).resolve().parent.parent
+REDUCED_STUDY = ROOT / "tests" / "reduced" / "data" / "g1_z16_2kV.yaml"   # ring model: ms
+DRY_STUDY = ROOT / "studies" / "g1_z16_pumping.yaml"
+EXAMPLE = ROOT / "studies" / "measured_example"
+# a refusal does no work; the bound is loose for a loaded 2-core machine
+REFUSAL_SECONDS = 2.0
+LEFTOVER_MARKS = (".staging-", ".old-", ".copdea-fem-lock")
+
+
+@pytest.fixture
+def work(tmp_path, monkeypatch):
+    """A working folder with a user's file in it; meshing, solving and fitting fail the test."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "notes.txt").write_text("my notes\n")
+
+    def forbidden(*args, **kwargs):
+        raise AssertionError("the run did work before refusing")
+
+    monkeypatch.setattr("copdea_fem.solve.prepare_mesh", forbidden)
+    monkeypatch.setattr("copdea_fem.geometry.generate_mesh", forbidden)
+    monkeypatch.setattr("copdea_fem.reduced.io.build_reduced", forbidden)
+    monkeypatch.setattr("copdea_fem.diagnose.select.Diagnoser.run", forbidden)
+    monkeypatch.setattr("copdea_fem.sweep.solve_point", forbidden)
+    return tmp_path
+
+
+def snapshot(folder: Path) -> dict:
+    return {path.relative_to(folder): path.read_bytes() for path in folder.rglob("*")
+            if path.is_file()}
+
+
+def leftovers(folder: Path) -> list:
+    return [path for path in folder.rglob("*") if any(m in path.name for m in LEFTOVER_MARKS)]
+
+
+def refused(argv, folder, capsys, code=2):
+    """Run the CLI expecting a quick refusal; return the first line of its message."""
+    before = snapshot(folder)
+    start = time.perf_counter()
+    assert main([str(item) for item in argv]) == code
+    seconds = time.perf_counter() - start
+    assert seconds < REFUSAL_SECONDS, seconds
+    after = snapshot(folder)
+    assert after == before, "files were written, changed or deleted"
+    assert not leftovers(folder)
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1, lines
+    return lines[0]
+
+
+def study_file(folder: Path, text: str, name="study.yaml") -> Path:
+    path = folder / name
+    path.write_text(text)
+    return path
+
+
+# ------------------------------------------------------------------ output folders
+
+def test_diagnose_into_the_measurement_folder_is_refused(work, capsys):
+    data = work / "mydata"
+    shutil.copytree(EXAMPLE, data)
+    line = refused(["diagnose", data / "measured.yaml", "--out", data], work, capsys)
+    assert line.startswith(f"error: output folder {data} holds the input file")
+
+
+@pytest.mark.parametrize("directory", [".", ""])
+def test_output_directory_of_the_working_folder_is_refused(work, capsys, directory):
+    study = study_file(work, f"output: {{directory: '{directory}'}}\n")
+    line = refused(["solve", study], work, capsys)
+    assert line == (f"error: output folder {work} is the working folder or a parent of it; "
+                    "choose a new subfolder, e.g. --out results/NAME")
+
+
+@pytest.mark.parametrize("directory", ["..", "../elsewhere", "/tmp/copdea-outside"])
+def test_output_directory_from_a_study_stays_inside_the_working_folder(work, capsys,
+                                                                       directory):
+    study = study_file(work, f"output: {{directory: '{directory}'}}\n")
+    line = refused(["solve", study], work, capsys)
+    assert line.startswith("error: output folder ") and "is outside the working folder" in line
+    assert not Path("/tmp/copdea-outside").exists()
+
+
+def test_out_parent_of_the_working_folder_is_refused(work, capsys):
+    line = refused(["spectrum", REDUCED_STUDY, "--out", work.parent], work, capsys)
+    assert line.endswith("is the working folder or a parent of it; choose a new subfolder, "
+                         "e.g. --out results/NAME")
+
+
+def test_out_home_folder_is_refused(work, capsys, monkeypatch):
+    home = work / "home"
+    home.mkdir()
+    monkeypatch.setenv("HOME", str(home))
+    line = refused(["spectrum", REDUCED_STUDY, "--out", home], work, capsys)
+    assert line == f"error: output folder {home} is the home folder; choose a new subfolder"
+
+
+def test_out_folder_with_a_users_files_is_refused(work, capsys):
+    folder = work / "lab"
+    folder.mkdir()
+    (folder / "sample_3.txt").write_text("measured on Monday")
+    line = refused(["spectrum", REDUCED_STUDY, "--out", folder], work, capsys)
+    assert line == (f"error: output folder {folder} is not empty and not a copdea-fem result "
+                    "(it holds sample_3.txt); nothing was written: choose a new or empty folder")
+
+
+def test_out_existing_file_is_refused(work, capsys):
+    line = refused(["spectrum", REDUCED_STUDY, "--out", work / "notes.txt"], work, capsys)
+    assert line.endswith("notes.txt is an existing file, not a folder; choose another path")
+
+
+def test_out_below_a_file_is_refused(work, capsys):
+    line = refused(["spectrum", REDUCED_STUDY, "--out", work / "notes.txt" / "run"], work, capsys)
+    assert line == (f"error: output folder {work / 'notes.txt' / 'run'} cannot be created: "
+                    f"{work / 'notes.txt'} is a file; choose another path")
+
+
+def test_out_in_proc_is_refused(work, capsys):
+    line = refused(["spectrum", REDUCED_STUDY, "--out", "/proc/copdea-fem-run"], work, capsys)
+    assert line.startswith("error: output folder /proc/copdea-fem-run cannot be written")
+
+
+def test_out_the_folder_of_the_study_is_refused(work, capsys):
+    folder = work / "studies"
+    folder.mkdir()
+    study = shutil.copy(REDUCED_STUDY, folder / "s.yaml")
+    line = refused(["spectrum", study, "--out", folder], work, capsys)
+    assert line == (f"error: output folder {folder} holds the input file {study}; choose another "
+                    "folder for the results")
+
+
+def test_out_a_folder_above_the_input_file_is_refused(work, capsys):
+    deep = work / "campaign" / "day1"
+    deep.mkdir(parents=True)
+    data = deep / "force.csv"
+    data.write_text("z_m,force_n\n0.001,0.1\n0.002,0.2\n")
+    line = refused(["fit-material", REDUCED_STUDY, data, "--out", work / "campaign"], work,
+                   capsys)
+    assert line.startswith(f"error: output folder {work / 'campaign'} holds the input file")
+
+
+def test_result_of_another_command_is_not_replaced(work, capsys):
+    folder = work / "run"
+    folder.mkdir()
+    (folder / "force_displacement.csv").write_text("voltage_v,z_m,force_n\n")
+    folders.write_manifest(folder, "force")
+    line = refused(["spectrum", REDUCED_STUDY, "--out", folder], work, capsys)
+    assert line == (f"error: output folder {folder} holds a force result, which a spectrum run "
+                    "would replace; nothing was written: choose another folder (--out)")
+
+
+def test_result_with_a_file_added_by_hand_is_not_replaced(work, capsys):
+    folder = work / "run"
+    folder.mkdir()
+    (folder / "spectrum_average.csv").write_text("freq_hz,v_axial,v_radial\n")
+    folders.write_manifest(folder, "spectrum")
+    (folder / "my_analysis.ipynb").write_text("{}")
+    line = refused(["spectrum", REDUCED_STUDY, "--out", folder], work, capsys)
+    assert line.endswith("holds files its copdea-fem result did not write (my_analysis.ipynb); "
+                         "nothing was written: move them out or choose another folder")
+
+
+def test_sweep_output_directory_outside_the_working_folder_is_refused(work, capsys):
+    sweep = study_file(work, f"study: {DRY_STUDY}\nmodel: dry\naxes: {{load.z: [1 mm, 2 mm]}}\n"
+                       "output: {directory: /tmp/copdea-outside-sweep}\n", "sweep.yaml")
+    line = refused(["sweep", sweep], work, capsys)
+    assert "is outside the working folder" in line
+
+
+def test_a_held_folder_is_refused_naming_the_holder(work, capsys):
+    holder = subprocess.Popen(
+        [sys.executable, "-c", "import sys, time\nfrom copdea_fem.folders import claim\n"
+         "with claim(sys.argv[1], 'spectrum'):\n    print('held', flush=True)\n"
+         "    time.sleep(60)\n", str(work / "run")],
+        cwd=work, env={**os.environ, "PYTHONPATH": str(ROOT)}, stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "held"
+        before = snapshot(work)
+        start = time.perf_counter()
+        assert main(["spectrum", str(REDUCED_STUDY), "--out", str(work / "run")]) == 2
+        assert time.perf_counter() - start < REFUSAL_SECONDS
+        line = capsys.readouterr().err.strip()
+        assert line == (f"error: output folder {work / 'run'} is being written by another "
+                        f"copdea-fem run (process {holder.pid}); wait for it to finish or choose "
+                        "another folder")
+        assert snapshot(work) == before
+    finally:
+        holder.kill()
+        holder.wait()
+
+
+# ------------------------------------------------------------- writing, interruptions
+
+def cli_process(argv, cwd, delay=None):
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    if delay is not None:
+        env[folders.WRITE_DELAY_VARIABLE] = str(delay)
+    return subprocess.Popen([sys.executable, "-m", "copdea_fem.cli", *map(str, argv)], cwd=cwd,
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def wait_for_staging(folder: Path, process, timeout=60.0) -> Path:
+    start = time.perf_counter()
+    while time.perf_counter() - start < timeout:
+        staged = [p for p in folder.glob(".*.staging-*") if (p / folders.MANIFEST).is_file()]
+        if staged:
+            return staged[0]
+        assert process.poll() is None, process.communicate()
+        time.sleep(0.05)
+    raise AssertionError("no staging folder appeared")
+
+
+@pytest.mark.parametrize("sign, code, previous", [
+    (signal.SIGTERM, 143, False), (signal.SIGINT, 130, False), (signal.SIGTERM, 143, True)])
+def test_interrupt_in_the_write_phase_keeps_old_or_nothing(tmp_path, sign, code, previous):
+    out = tmp_path / "run"
+    if previous:
+        assert main(["spectrum", str(REDUCED_STUDY), "--out", str(out)]) == 0
+    before = snapshot(tmp_path)
+    process = cli_process(["spectrum", REDUCED_STUDY, "--out", out], tmp_path, delay=60)
+    wait_for_staging(tmp_path, process)
+    process.send_signal(sign)
+    _, err = process.communicate(timeout=30)
+    assert process.returncode == code
+    assert err.strip().splitlines() == [f"interrupted; previous result kept in {out}"
+                                        if previous else "interrupted; no result written"]
+    assert snapshot(tmp_path) == before and not leftovers(tmp_path)
+
+
+def test_a_run_killed_while_writing_is_cleaned_up_by_the_next(tmp_path, capsys):
+    out = tmp_path / "run"
+    process = cli_process(["spectrum", REDUCED_STUDY, "--out", out], tmp_path, delay=60)
+    staging = wait_for_staging(tmp_path, process)
+    process.kill()
+    process.communicate()
+    assert staging.is_dir() and not out.exists()
+    assert main(["spectrum", str(REDUCED_STUDY), "--out", str(out)]) == 0
+    assert f"removed {staging.name}, an unfinished result an interrupted run left" in \
+        capsys.readouterr().err
+    assert (out / "spectrum_average.csv").is_file() and not leftovers(tmp_path)
+
+
+def test_a_swap_cut_between_its_renames_is_restored(tmp_path):
+    out = tmp_path / "run"
+    assert main(["spectrum", str(REDUCED_STUDY), "--out", str(out)]) == 0
+    previous = snapshot(out)
+    out.rename(tmp_path / ".run.old-12345678")           # as if killed between the renames
+    with folders.claim(out, "spectrum"):
+        assert snapshot(out) == previous
+    assert not leftovers(tmp_path)
+
+
+def test_two_concurrent_runs_into_one_folder(tmp_path):
+    out = tmp_path / "run"
+    first = cli_process(["spectrum", REDUCED_STUDY, "--out", out], tmp_path, delay=3)
+    wait_for_staging(tmp_path, first)
+    second = cli_process(["spectrum", REDUCED_STUDY, "--out", out], tmp_path)
+    _, err = second.communicate(timeout=60)
+    assert second.returncode == 2
+    assert err.strip() == (f"error: output folder {out} is being written by another copdea-fem "
+                           f"run (process {first.pid}); wait for it to finish or choose another "
+                           "folder")
+    assert first.wait(timeout=60) == 0
+    assert (out / "spectrum_average.csv").is_file() and not leftovers(tmp_path)
+    manifest = folders.read_manifest(out)
+    assert manifest["command"] == "spectrum" and "spectrum_average.csv" in manifest["files"]
+
+
+def test_a_previous_result_is_replaced_only_by_its_own_files(tmp_path):
+    out = tmp_path / "run"
+    assert main(["spectrum", str(REDUCED_STUDY), "--out", str(out)]) == 0
+    assert main(["spectrum", str(REDUCED_STUDY), "--out", str(out),
+                 "--set", "output.plots=true"]) == 0
+    assert (out / "spectrum_average.png").is_file()
+    assert set(folders.read_manifest(out)["files"]) == {
+        p.name for p in out.iterdir() if p.name != folders.MANIFEST}
+    assert not leftovers(tmp_path)
+
+
+def test_a_sweep_folder_is_marked_resumed_in_place_and_kept_from_other_commands(tmp_path,
+                                                                                capsys):
+    out = tmp_path / "sweep"
+    argv = ["sweep", str(ROOT / "studies" / "sweeps" / "coarse_reduced_grid.yaml"), "--quiet",
+            "--out", str(out)]
+    assert main(argv) == 0
+    assert folders.read_manifest(out)["command"] == "sweep"
+    points = sorted((out / "points").iterdir())
+    assert len(points) == 12
+    assert all(folders.read_manifest(point)["command"] == "sweep point" for point in points)
+    before = snapshot(out / "points")
+    assert main(argv) == 0                                  # resumed: nothing recomputed
+    assert snapshot(out / "points") == before
+    capsys.readouterr()
+    line = refused(["spectrum", REDUCED_STUDY, "--out", out], tmp_path, capsys)
+    assert line == (f"error: output folder {out} holds a sweep result, which a spectrum run "
+                    "would replace; nothing was written: choose another folder (--out)")
+
+
+# ------------------------------------------------------------------- mesh cache
+
+FORCE = ["force", str(DRY_STUDY), "--points", "2", "--voltages", "0 kV", "--z-max", "2 mm",
+         *(f"--set={item}" for item in ("mesh.membrane_size=9 mm", "mesh.order=1",
+                                        "mesh.curve_order=1", "geometry.frame=none",
+                                        "prestress.z_steps=1", "output.plots=false"))]
+
+
+@pytest.fixture(scope="module")
+def good_cache(tmp_path_factory):
+    """A mesh cache holding the one entry of :data:`FORCE`, made by a run of it."""
+    folder = tmp_path_factory.mktemp("cache")
+    assert main([*FORCE, "--mesh-cache", str(folder / "meshes"), "--quiet",
+                 "--out", str(folder / "run")]) == 0
+    return folder / "meshes"
+
+
+def cached_force_run(tmp_path, capsys, good_cache, damage):
+    """`force` with the cache entry of :data:`FORCE` damaged by ``damage(path)``."""
+    cache = shutil.copytree(good_cache, tmp_path / "cache")
+    (entry,) = cache.glob("*.vol.gz")
+    damage(entry)
+    assert main([*FORCE, "--mesh-cache", str(cache), "--out", str(tmp_path / "b")]) == 0
+    err = capsys.readouterr().err.splitlines()
+    assert err[0].startswith(f"mesh cache entry {entry} is damaged (") and \
+        err[0].endswith("discarded, meshing again")
+    assert geometry._cache_problem(entry) is None          # re-meshed and stored again
+    assert (tmp_path / "b" / "force_displacement.csv").is_file() and not leftovers(tmp_path)
+    return err[0]
+
+
+def test_truncated_cache_file_is_meshed_again(tmp_path, capsys, good_cache):
+    def truncate(path):
+        path.write_bytes(path.read_bytes()[:1000])
+    line = cached_force_run(tmp_path, capsys, good_cache, truncate)
+    assert "(1000 bytes, the sidecar says" in line
+
+
+def test_empty_cache_file_is_meshed_again(tmp_path, capsys, good_cache):
+    line = cached_force_run(tmp_path, capsys, good_cache, lambda p: p.write_bytes(b""))
+    assert "(0 bytes, the sidecar says" in line
+
+
+def test_random_cache_file_is_meshed_again(tmp_path, capsys, good_cache):
+    def scramble(path):
+        path.write_bytes(os.urandom(path.stat().st_size))
+    line = cached_force_run(tmp_path, capsys, good_cache, scramble)
+    assert "(SHA-256 differs from the sidecar)" in line
+
+
+def test_cache_entry_without_sidecar_is_meshed_again(tmp_path, capsys, good_cache):
+    def drop_sidecar(path):
+        geometry._sidecar(path).unlink()
+    line = cached_force_run(tmp_path, capsys, good_cache, drop_sidecar)
+    assert "(no valid sidecar with its size and SHA-256)" in line
+
+
+def test_cache_location(tmp_path, monkeypatch):
+    monkeypatch.setenv(geometry.CACHE_VARIABLE, str(tmp_path / "c"))
+    assert geometry.mesh_cache_dir() == tmp_path / "c"
+    monkeypatch.delenv(geometry.CACHE_VARIABLE)
+    assert geometry.mesh_cache_dir() == ROOT / "meshes"      # a source checkout
+    monkeypatch.setattr(geometry, "__file__", str(tmp_path / "site-packages" / "copdea_fem"
+                                                  / "geometry.py"))
+    import platformdirs
+    assert geometry.mesh_cache_dir() == Path(platformdirs.user_cache_dir("copdea-fem")) / "meshes"
+
+
+# ------------------------------------------------------------------- input files
+
+BAD_STUDIES = [
+    ("load:\n  voltage: 2 kV\n  voltage: 3 kV\n", "is not valid YAML (line 3, column 3): key "
+     "'voltage' is given twice, on lines 2 and 3; keep one"),
+    ("load: {z: 1 mm}\nmesh: {order: 2}\nload: {voltage: 2 kV}\n", "is not valid YAML (line 3, "
+     "column 1): key 'load' is given twice, on lines 1 and 3; keep one"),
+    ("a: &a [x, x, x, x, x, x, x, x, x]\nb: &b [*a, *a, *a, *a, *a, *a, *a, *a, *a]\n"
+     + "".join(f"{c}: &{c} [{', '.join([f'*{p}'] * 9)}]\n" for p, c in zip("bcdefgh", "cdefghi")),
+     "is not valid YAML (line 1, column 4): anchors and aliases (&a, *a) are not allowed; write "
+     "the value out"),
+    ("", "is not allowed (empty file); allowed: a UTF-8 text file of at most 1048576 bytes"),
+    ("# only a comment\n", "is not allowed (only comments); allowed: a mapping of keys"),
+    ("load: {z: 1 mm}\n\0\0\0", "is not allowed (a binary file)"),
+    ("load: {z: 1 mm}\n# caf\xe9\n", "is not allowed (not UTF-8 text: byte 0xe9 at offset 21)"),
+    ("load: {z: 1 mm}\n" + "#" * (1 << 20), "bytes, above the limit)"),
+    ("- 1\n- 2\n", "must hold a mapping of keys, got list"),
+    ("load: {voltage: " + "9" * 5000 + "}\n", "is not valid YAML: Exceeds the limit (4300 "
+     "digits) for integer string conversion"),
+]
+
+
+@pytest.mark.parametrize("text, fragment", BAD_STUDIES,
+                         ids=["duplicate key", "duplicate section", "alias bomb", "0 bytes",
+                              "comments only", "binary", "not UTF-8", "oversized", "a list",
+                              "5000-digit integer"])
+def test_bad_study_files(work, capsys, text, fragment):
+    path = work / "study.yaml"
+    path.write_bytes(text.encode("latin-1"))
+    line = refused(["solve", path], work, capsys)
+    assert line.startswith(f"error: study file") and fragment in line, line
+
+
+@pytest.mark.parametrize("make, fragment", [
+    (lambda p: p.mkdir(), "is not allowed (a folder, not a file)"),
+    (lambda p: None, "is not allowed (does not exist)"),
+])
+def test_study_path_that_is_no_file(work, capsys, make, fragment):
+    path = work / "study.yaml"
+    make(path)
+    line = refused(["check", path], work, capsys)
+    assert line == f"error: study file = '{path}' {fragment}; allowed: a UTF-8 text file of " \
+                   "at most 1048576 bytes"
+
+
+def test_device_as_study_is_refused(work, capsys):
+    line = refused(["check", "/dev/zero"], work, capsys)
+    assert line.startswith("error: study file = '/dev/zero' is not allowed (not a regular file)")
+
+
+def test_unreadable_study_is_refused(work, capsys, monkeypatch):
+    path = study_file(work, "load: {z: 1 mm}\n")
+
+    class Denied(type(path)):
+        def read_bytes(self):
+            raise PermissionError(13, "Permission denied")
+    monkeypatch.setattr("copdea_fem.inputs.Path", Denied)   # root reads any file: simulate
+    line = refused(["check", path], work, capsys)
+    assert line.startswith("error: study file = ") and \
+        "is not allowed (cannot be read: Permission denied)" in line
+
+
+def test_long_value_is_cut_in_the_message(work, capsys):
+    path = study_file(work, "load: {voltage: '" + "9" * 100_000 + " V'}\n")
+    line = refused(["check", path], work, capsys)
+    assert line.startswith("error: load.voltage = '99999999") and len(line) < 300
+    assert "(100004 characters) is not allowed (longer than 100 characters" in line
+
+
+def test_alias_in_a_set_value_is_refused(work, capsys):
+    line = refused(["check", REDUCED_STUDY, "--set", "load.z=&a [*a]"], work, capsys)
+    assert line.startswith("error: load.z = '&a [*a]' is not allowed")
+
+
+def test_binary_csv_is_refused(work, capsys):
+    data = work / "force.csv"
+    data.write_bytes(b"z_m,force_n\n\x00\x01\x02\xff")
+    line = refused(["fit-material", REDUCED_STUDY, data, "--out", work / "fit"], work, capsys)
+    assert line == f"error: data file = '{data}' is not allowed (a binary file); allowed: a " \
+                   "UTF-8 text file of at most 67108864 bytes"
+
+
+def test_empty_csv_is_refused(work, capsys):
+    data = work / "spectrum.csv"
+    data.write_text("")
+    line = refused(["calibrate-damping", REDUCED_STUDY, data, "--out", work / "cal"], work,
+                   capsys)
+    assert line.startswith(f"error: spectrum file = '{data}' is not allowed (empty file)")
+
+
+def test_measured_yaml_with_duplicate_keys_is_refused(work, capsys):
+    data = work / "data"
+    shutil.copytree(EXAMPLE, data)
+    manifest = data / "measured.yaml"
+    manifest.write_text(manifest.read_text() + "\nbase_study: other.yaml\n")
+    line = refused(["diagnose", manifest, "--out", work / "report"], work, capsys)
+    assert line.startswith("error: measured file") and "key 'base_study' is given twice" in line
+
+
+def test_binary_measured_csv_is_refused(work, capsys):
+    data = work / "data"
+    shutil.copytree(EXAMPLE, data)
+    (data / "z16_v2_spectrum.csv").write_bytes(b"\x89PNG\r\n\x1a\n\x00\x00")
+    line = refused(["diagnose", data / "measured.yaml", "--out", work / "report"], work, capsys)
+    assert line.startswith("error: conditions[") and "is not allowed (a binary file)" in line
+
+
+def test_sweep_file_with_an_alias_is_refused(work, capsys):
+    sweep = study_file(work, f"study: {DRY_STUDY}\nmodel: dry\naxes: &x {{load.z: [1 mm]}}\n",
+                       "sweep.yaml")
+    line = refused(["sweep", sweep, "--out", work / "s"], work, capsys)
+    assert line.startswith("error: sweep file") and "anchors and aliases" in line
+
+
+# -------------------------------------------------------------- resource guard
+
+@pytest.mark.parametrize("argv", [
+    ["solve", DRY_STUDY, "--set", "mesh.membrane_size=1 nm"],
+    ["solve", ROOT / "studies" / "g1_z16_v2_quick.yaml", "--set", "mesh.membrane_size=0.1 mm"],
+    ["force", DRY_STUDY, "--set", "mesh.membrane_size=10 um"],
+    ["check", DRY_STUDY, "--set", "mesh.membrane_size=1 nm"],
+], ids=["1 nm dry", "0.1 mm coupled", "force", "check"])
+def test_a_mesh_far_too_fine_is_refused_before_meshing(work, capsys, argv):
+    line = refused([*argv, "--out", work / "r"] if argv[0] != "check" else argv, work, capsys)
+    assert line.startswith("error: mesh.membrane_size = ") and "unknowns, more than the limit " \
+        f"of {geometry.MAX_UNKNOWNS:.3g}; allowed: a larger mesh.membrane_size" in line
+    assert line.endswith("or --allow-large")
+
+
+def test_a_sweep_with_a_point_far_too_fine_is_refused(work, capsys):
+    sweep = study_file(work, f"study: {DRY_STUDY}\nmodel: dry\n"
+                       "axes: {mesh.membrane_size: [6 mm, 1 um]}\n", "sweep.yaml")
+    line = refused(["sweep", sweep, "--out", work / "s"], work, capsys)
+    assert line.startswith("error: mesh.membrane_size = 1e-06 m")
+
+
+def test_allow_large_lifts_the_guard(work, capsys):
+    assert main(["check", str(DRY_STUDY), "--set", "mesh.membrane_size=1 nm",
+                 "--allow-large"]) == 0
+    assert "valid study" in capsys.readouterr().out
+
+
+def test_bundled_studies_pass_the_guard():
+    from copdea_fem.study import load_study
+    for path in sorted((ROOT / "studies").glob("*.yaml")):
+        geometry.check_size(load_study(path))
+
+
+# -------------------------------------------------------------- solver failures
+
+def failing_solve(error):
+    def run_solve(*args, **kwargs):
+        raise error
+    return run_solve
+
+
+@pytest.mark.parametrize("error, start, advice", [
+    ("ale", "error: the air mesh motion failed at load.z = 16 mm, load.voltage = 2000 V: ",
+     "change air.domain_radius, mesh.membrane_size or load.z"),
+    ("residual", "error: the eigen solve failed at load.z = 16 mm, load.voltage = 2000 V: 2 "
+     "eigenpair(s) above", "change eigen.residual_tol (now 1e-06) or eigen.backend"),
+    ("modes", "error: the eigen solve failed at load.z = 16 mm, load.voltage = 2000 V: the band",
+     "change eigen.max_modes (now 200) or the band eigen.f_min..eigen.f_max"),
+], ids=["air mesh inversion", "residual tolerance", "too many modes"])
+def test_solver_failures_exit_3_with_the_load_and_the_key(work, capsys, monkeypatch, error,
+                                                          start, advice):
+    from copdea_fem.ale import MeshMotionError
+    from copdea_fem.eigen import EigenResidualError, TooManyModesError
+    exception = {"ale": MeshMotionError("the air mesh following the membrane is inverted"),
+                 "residual": EigenResidualError("2 eigenpair(s) above residual_tol=1e-06"),
+                 "modes": TooManyModesError("the band holds 300 eigenpairs, more than "
+                                            "max_modes=200")}[error]
+    monkeypatch.setattr("copdea_fem.solve.run_solve", failing_solve(exception))
+    line = refused(["solve", ROOT / "studies" / "g1_z16_v2_quick.yaml", "--out", work / "r"],
+                   work, capsys, code=3)
+    assert line.startswith(start) and line.endswith(advice), line
+    assert "check=False" not in line
+
+
+def test_version(capsys):
+    with pytest.raises(SystemExit) as done:
+        main(["--version"])
+    assert done.value.code == 0
+    assert capsys.readouterr().out.startswith("copdea-fem ")
