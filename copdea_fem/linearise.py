@@ -71,7 +71,11 @@ def to_scipy(matrix) -> sp.csr_matrix:
 
 
 def membrane_matrices(state: PrestressedState):
-    """Full-space Hessian K [N/m] and consistent mass M [kg] (SciPy CSR)."""
+    """Full-space Hessian K [N/m] and consistent mass M [kg] (SciPy CSR), assembled once per
+    state (kept in ``state.matrices``: the modes, the coupled step and the sweep's tracking
+    all use these)."""
+    if state.matrices is not None:
+        return state.matrices
     space, material = state.space, state.material
     u, v = space.TnT()
     on_membrane = state.measure
@@ -80,7 +84,8 @@ def membrane_matrices(state: PrestressedState):
     hessian.AssembleLinearization(state.displacement.vec)
     mass = ngs.BilinearForm(material.areal_density * u * v * on_membrane,
                             symmetric=False).Assemble()
-    return to_scipy(hessian.mat), to_scipy(mass.mat)
+    state.matrices = (to_scipy(hessian.mat), to_scipy(mass.mat))
+    return state.matrices
 
 
 def linearised_operators(state: PrestressedState, study, sector: Sector | None = None,

@@ -42,7 +42,7 @@ def work(tmp_path, monkeypatch):
     monkeypatch.setattr("copdea_fem.geometry.generate_mesh", forbidden)
     monkeypatch.setattr("copdea_fem.reduced.io.build_reduced", forbidden)
     monkeypatch.setattr("copdea_fem.diagnose.select.Diagnoser.run", forbidden)
-    monkeypatch.setattr("copdea_fem.sweep.solve_point", forbidden)
+    monkeypatch.setattr("copdea_fem.sweep.executors.solve_point", forbidden)
     return tmp_path
 
 

@@ -16,8 +16,8 @@ import scipy.sparse as sp
 
 from copdea_fem.cli import main
 from copdea_fem.eigen import EigenInputError, solve_band
-from copdea_fem.sweep import (SweepError, call_modes_function, load_sweep, parse_sweep,
-                              read_table, run_sweep, shift_plan)
+from copdea_fem.sweep import (SweepError, load_sweep, parse_sweep, read_table, run_sweep,
+                              shift_plan)
 
 ROOT = Path(__file__).resolve().parent.parent
 SWEEPS = ROOT / "studies" / "sweeps"
@@ -157,29 +157,6 @@ def test_unavailable_backend_stops_the_sweep_before_any_point(tmp_path, monkeypa
     with pytest.raises(StudyError, match="eigen.backend = 'pardiso' is not available"):
         run_sweep(sweep, out_dir=tmp_path / "out")
     assert not (tmp_path / "out").exists()
-
-
-def test_model_hook_passes_only_the_reuse_keywords_a_solver_accepts():
-    calls = []
-
-    class Solution:   # a CoupledSolution-like result
-        state, modes, eigen = "state", ("mode",), "eigen"
-
-    def without_reuse(study, mesh=None, progress=None, timings=None):
-        calls.append(("without", study))
-        return Solution()
-
-    def with_reuse(study, mesh=None, progress=None, timings=None, solver=None,
-                   initial_shifts=None):
-        calls.append(("with", solver, initial_shifts))
-        return "state", ["mode"], "eigen"
-
-    assert call_modes_function(without_reuse, "study", None, None, None, solver="S",
-                               initial_shifts=[(1.0, 2)]) == ("state", ["mode"], "eigen", set())
-    *_, accepted = call_modes_function(with_reuse, "study", None, None, None, solver="S",
-                                       initial_shifts=[(1.0, 2)])
-    assert accepted == {"solver", "initial_shifts"}
-    assert calls == [("without", "study"), ("with", "S", [(1.0, 2)])]
 
 
 # --------------------------------------------------------------------------- resume, failures

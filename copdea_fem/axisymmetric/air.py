@@ -108,7 +108,8 @@ def screen_coupling(m: int, pressure, normal_displacement, screens: str, deforma
 
 
 def meridian_motion(state, mesh, domain_radius: float, order: int = 2):
-    r"""Mesh deformation D of the meridian for the prestress (transfinite, as :mod:`copdea_fem.ale`).
+    r"""Mesh deformation D of the meridian for the prestress (transfinite, as in
+    :mod:`copdea_fem.ale`).
 
     ``D(r, z) = (u_r(r), w(r)) phi(z)``, ``phi = (1 - |z|/L)^2`` for |z| < L,
     with the prestress profiles on the membrane, ``w = z_disc`` under the disc

@@ -1,16 +1,15 @@
 """Modes of one circumferential order: classification, labels (m, n), the cos/sin pair.
 
-Within an order m every quantity is an exact 1-D integral of the amplitudes
-(a, b, c) (:mod:`.operators`): kinetic energies with ``M_s``, the normal part
-with ``M_n = Theta_m rho_s int (a n_r + c n_z)^2 R dR`` (n the prestressed
-normal), the disc's share ``(M_d + M_s/3) |w_d|^2 / x^H M x`` with its lumped mass.  Kinds are decided as in the
-3-D engine (:mod:`copdea_fem.modes`: the same thresholds); labels come by
-construction: m is the order, n of an out-of-plane mode is its rank among the
-out-of-plane modes of the order (n - 1 interior nodal circles), in-plane modes
-``ip(m,n)`` take n from the nodal count of their dominant in-plane component
-and pumping modes are ``P1, P2, ...`` as there.  Each m >= 1 mode is the pair
-(m,n)a (cos m theta) / (m,n)b (sin m theta, the same shape turned by
-pi/(2m)) with one frequency; their ``sector`` is their parity about x = 0 and
+Within an order m every quantity is an exact 1-D integral of the amplitudes (a, b, c)
+(:mod:`.operators`): kinetic energies with ``M_s``, the normal part with ``M_n = Theta_m
+rho_s int (a n_r + c n_z)^2 R dR`` (n the prestressed normal), the disc's share ``(M_d +
+M_s/3) |w_d|^2 / x^H M x`` with its lumped mass. Kinds are decided as in the 3-D engine
+(:mod:`copdea_fem.modes`: the same thresholds); labels come by construction: m is the
+order, n of an out-of-plane mode is its rank among the out-of-plane modes of the order
+(n - 1 interior nodal circles), in-plane modes ``ip(m,n)`` take n from the nodal count
+of their dominant in-plane component and pumping modes are ``P1, P2, ...`` as there.
+Each m >= 1 mode is the pair (m,n)a (cos m theta) / (m,n)b (sin m theta, the same shape
+turned by pi/(2m)) with one frequency; their ``sector`` is their parity about x = 0 and
 y = 0 (:mod:`copdea_fem.symmetry`), so modes.csv reads as the 3-D engine's.
 """
 
