@@ -1,5 +1,11 @@
 """The pipeline of ``copdea-fem solve``: study -> mesh -> prestress -> modes -> files.
 
+The stages run here for both engines (``mesh.engine``): the 3-D quadrant below and
+the axisymmetric engine of :mod:`copdea_fem.axisymmetric` (its own per-order stages);
+assembly lives in :mod:`coupled` / :mod:`axisymmetric.operators`, factorisations and
+band solves in :mod:`eigen`, classification and dry matching in :mod:`modes`, every
+file in :mod:`output`.
+
 Library entry points used by the CLI, the benchmarks and the tests:
 :func:`prepare_mesh`, :func:`dry_modes`, :func:`run_solve`, :func:`run_force`.
 """
@@ -16,11 +22,10 @@ from pathlib import Path
 import numpy as np
 
 from . import output
-from .folders import result_directory
 
 from .geometry import GeometrySpec, load_mesh
 from .linearise import linearised_operators
-from .modes import IN_PLANE, OUT_OF_PLANE, PUMPING, ModeSampler, classify_modes
+from .modes import ModeSampler, classify_modes
 from .prestress import force_displacement, solve_prestress
 from .study import Study, StudyError, check_air_lift, engine_of
 
@@ -275,77 +280,9 @@ def run_solve(study: Study, out_dir: str | Path | None = None, progress=_quiet,
             _task_manager()
         with timings.stage("output"), threads:
             progress("writing results ...")
-            write_results(result, Path(out_dir))
+            output.write_results(result, Path(out_dir))
         result.out_dir = Path(out_dir)
     return result
-
-
-def prestress_summary(state) -> dict:
-    return {"z_m": state.z, "voltage_v": state.voltage, "disc_force_n": state.disc_force,
-            "newton_iterations": state.newton_iterations,
-            "load_steps": [{"z_m": z, "voltage_v": v, "newton_iterations": it}
-                           for z, v, it in state.load_steps]}
-
-
-def write_results(result: SolveResult, out_dir: Path) -> None:
-    study = result.study
-    axisymmetric = getattr(result.state, "engine", "3d") == "axisymmetric"
-    extra = {"prestress": prestress_summary(result.state),
-             "eigen": {"engine": "axisymmetric" if axisymmetric else "3d",
-                       "shifts_hz": [float(f) for f in result.eigen.shift_freq_hz],
-                       "unknowns": int(result.eigen.unknowns),
-                       "factorisations": int(result.eigen.n_factorisations),
-                       "symmetry": "orders" if axisymmetric else result.state.symmetry.kind,
-                       **_sector_summary(result.eigen)},
-             "timings_s": result.timings.seconds}
-    with result_directory(out_dir, "solve") as staging:
-        output.write_modes(staging, result.rows, study, extra)
-        if study["output"]["paraview"] or study["output"]["plots"]:
-            structural = [mode for mode in result.modes
-                          if mode.kind in (OUT_OF_PLANE, PUMPING, IN_PLANE)]
-            files = write_paraview(staging, result.state, structural)
-            if result.coupled is not None and study["output"]["paraview"]:
-                indices = [k for k, mode in enumerate(result.modes) if mode.kind != "air"]
-                write_air = output.write_revolved_air_vtus if axisymmetric else \
-                    output.write_air_vtus
-                air_files = write_air(
-                    staging, result.coupled.operators, [result.modes[k] for k in indices],
-                    [result.coupled.pressures[k] for k in indices])
-                output.write_pvd(staging / "air.pvd", air_files, list(range(len(air_files))))
-            if study["output"]["plots"]:
-                lowest = [(f, mode) for f, mode in zip(files, structural)
-                          if mode.kind in (OUT_OF_PLANE, PUMPING)][:8]
-                output.plot_modes(staging / "modes.png", [f for f, _ in lowest],
-                                  [mode for _, mode in lowest])
-            if not study["output"]["paraview"]:
-                for path in list(staging.glob("*.vtu")) + list(staging.glob("*.pvd")):
-                    path.unlink()
-
-
-def _sector_summary(eigen_result) -> dict:
-    """Per-sector unknowns, shifts and eigenpair counts of a coupled solve (modes.json)."""
-    if not hasattr(eigen_result, "by_sector"):
-        return {}
-    return {"sectors": {name: {"unknowns": part.unknowns, "eigenpairs": len(part),
-                               "shifts_hz": [float(f) for f in part.shift_freq_hz]}
-                        for name, part in eigen_result.by_sector.items()}}
-
-
-def write_paraview(directory: Path, state, modes) -> list[Path]:
-    """prestress.vtu + modes.pvd with one .vtu per mode (revolved to 3-D when axisymmetric)."""
-    if getattr(state, "engine", "3d") == "axisymmetric":
-        sampler = output.RevolvedMembraneSampler(state)
-        output.write_membrane_vtu(directory / "prestress", sampler, sampler.prestress_fields(),
-                                  displacement=sampler.prestress_displacement())
-        files = output.write_revolved_mode_vtus(directory, state, modes, sampler)
-        output.write_pvd(directory / "modes.pvd", files, list(range(len(files))))
-        return files
-    sampler = output.MembraneSampler(state.mesh)
-    output.write_membrane_vtu(directory / "prestress", sampler, state.fields(),
-                              displacement=state.displacement)
-    files = output.write_mode_vtus(directory, state, modes, sampler)
-    output.write_pvd(directory / "modes.pvd", files, list(range(len(files))))
-    return files
 
 
 def run_force(study: Study, z_values, voltages, out_dir: str | Path | None = None,
@@ -357,12 +294,5 @@ def run_force(study: Study, z_values, voltages, out_dir: str | Path | None = Non
         forces = force_displacement(study, mesh, z_values, voltages, progress=progress,
                                     new_solver=make_prestress_solver)
     if out_dir is not None:
-        with result_directory(out_dir, "force") as staging:
-            output.write_force_csv(staging / "force_displacement.csv", z_values, voltages,
-                                   forces)
-            if study["output"]["plots"]:
-                output.plot_force_displacement(staging / "force_displacement.png", z_values,
-                                               voltages, forces)
-            from .study import dump_resolved
-            dump_resolved(study, staging / "study.resolved.yaml")
+        output.write_force_results(study, Path(out_dir), z_values, voltages, forces)
     return forces
