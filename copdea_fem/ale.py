@@ -60,6 +60,7 @@ def displacement_profile(state, samples: int = 200, angles: int = 16):
 
 
 def _piecewise_linear(xs: np.ndarray, values: np.ndarray, argument, outside_low, outside_high):
+    """Linear interpolation of ``values`` at ``xs`` as a CF of ``argument``, constant outside."""
     spline = ngs.BSpline(2, [float(xs[0])] + [float(v) for v in xs] + [float(xs[-1])],
                          [float(v) for v in values])
     inside = spline(argument)
@@ -67,26 +68,37 @@ def _piecewise_linear(xs: np.ndarray, values: np.ndarray, argument, outside_low,
                      ngs.IfPos(argument - xs[-1], outside_high, inside))
 
 
-def air_mesh_displacement(state, mesh, domain_radius: float, order: int = 2):
-    """Mesh deformation D (VectorH1 on the whole mesh) for the prestressed state [m]."""
+def checked_decay_length(state, domain_radius: float) -> float:
+    """The decay length L [m] (:func:`geometry.ale_decay_length`); MeshMotionError when the
+    disc lift z is too large for it (|z| < L/2 keeps the map monotone, 0.45 L a margin)."""
     length = ale_decay_length(domain_radius, state.outer_radius)
     if abs(state.z) >= 0.45 * length:
         raise MeshMotionError(
             f"load.z = {state.z * 1e3:.1f} mm is too large for the air mesh: it must stay below "
             f"0.45 L = {0.45 * length * 1e3:.1f} mm (L = the height over which the air follows "
             "the membrane, half the air radius); raise air.domain_radius")
+    return length
+
+
+def transfinite_factors(rho, radial, axial, z_disc: float, radius, height, length: float):
+    """(u_rho, w, phi) of the transfinite map (module doc) as CoefficientFunctions.
+
+    ``rho, radial, axial``: the prestress profiles [m] on r_i..r_o; w = z under the disc
+    and 0 beyond r_o, u_rho = 0 outside; ``radius``, ``height``: the CFs of the
+    cylindrical radius and the height above the plane.
+    """
+    w = _piecewise_linear(rho, axial, radius, z_disc, 0.0)
+    u_rho = _piecewise_linear(rho, radial, radius, 0.0, 0.0)
+    inside = 1 - ngs.sqrt(height**2) / length
+    return u_rho, w, ngs.IfPos(inside, inside**2, 0.0)
+
+
+def follow_membrane(mesh, state, extension, order: int = 2):
+    """Mesh deformation D of ``extension`` on a 3-D or meridian mesh, the membrane carrying
+    the FE prestress itself (not its interpolated profile); Jacobians checked."""
     space = ngs.VectorH1(mesh, order=order)
-    rho_cf = ngs.sqrt(ngs.x**2 + ngs.y**2 + 1e-30)
-    rho, radial, axial = displacement_profile(state) if state.has_disc or state.z else (
-        np.array([0.0, state.outer_radius]), np.zeros(2), np.zeros(2))
-    w = _piecewise_linear(rho, axial, rho_cf, state.z, 0.0)
-    u_rho = _piecewise_linear(rho, radial, rho_cf, 0.0, 0.0)
-    inside = 1 - ngs.sqrt(ngs.z**2) / length
-    phi = ngs.IfPos(inside, inside**2, 0.0)
-    extension = ngs.CF((u_rho * ngs.x / rho_cf, u_rho * ngs.y / rho_cf, w)) * phi
     motion = ngs.GridFunction(space, name="air_mesh_displacement")
     motion.Set(extension)
-    # the membrane faces carry the FE prestress itself, not its axisymmetric average
     on_membrane = ngs.GridFunction(space)
     on_membrane.Set(state.displacement, ngs.BND, definedon=mesh.Boundaries("membrane"))
     dofs = np.array(space.GetDofs(mesh.Boundaries("membrane")))
@@ -95,18 +107,32 @@ def air_mesh_displacement(state, mesh, domain_radius: float, order: int = 2):
     return motion
 
 
+def air_mesh_displacement(state, mesh, domain_radius: float, order: int = 2):
+    """Mesh deformation D (VectorH1 on the whole mesh) for the prestressed state [m]."""
+    length = checked_decay_length(state, domain_radius)
+    rho_cf = ngs.sqrt(ngs.x**2 + ngs.y**2 + 1e-30)
+    rho, radial, axial = displacement_profile(state) if state.has_disc or state.z else (
+        np.array([0.0, state.outer_radius]), np.zeros(2), np.zeros(2))
+    u_rho, w, phi = transfinite_factors(rho, radial, axial, state.z, rho_cf, ngs.z, length)
+    return follow_membrane(mesh, state, ngs.CF((u_rho * ngs.x / rho_cf, u_rho * ngs.y / rho_cf,
+                                                w)) * phi, order)
+
+
 def check_jacobian(mesh, motion) -> float:
-    """Smallest det(I + Grad D) over the air elements; raises MeshMotionError if too small."""
-    rule = ngs.IntegrationRule(ngs.TET, 4)
+    """Smallest det(I + Grad D) over the air elements (3-D or meridian mesh); raises
+    MeshMotionError if too small."""
+    rule = ngs.IntegrationRule(ngs.TET if mesh.dim == 3 else ngs.TRIG, 4)
     points = mesh.MapToAllElements(rule, ngs.VOL)
-    jacobian = ngs.Det(ngs.Id(3) + ngs.Grad(motion))
+    jacobian = ngs.Det(ngs.Id(mesh.dim) + ngs.Grad(motion))
     values = np.asarray(jacobian(points)).ravel()
     smallest = float(values.min())
     if smallest < MIN_JACOBIAN:
-        xyz = np.asarray(ngs.CF((ngs.x, ngs.y, ngs.z))(points))[int(values.argmin())]
+        where = np.asarray(ngs.CF((ngs.x, ngs.y, ngs.z) if mesh.dim == 3 else (ngs.x, ngs.y))(
+            points))[int(values.argmin())]
+        place = ", ".join(f"{value * 1e3:.1f}" for value in where)
         raise MeshMotionError(
             f"the air mesh following the membrane is {'inverted' if smallest <= 0 else 'badly distorted'} "
-            f"(det(I + Grad D) = {smallest:.3g} < {MIN_JACOBIAN} near x = "
-            f"({xyz[0] * 1e3:.1f}, {xyz[1] * 1e3:.1f}, {xyz[2] * 1e3:.1f}) mm); refine the membrane "
+            f"(det(I + Grad D) = {smallest:.3g} < {MIN_JACOBIAN} near "
+            f"{'x' if mesh.dim == 3 else '(r, z)'} = ({place}) mm); refine the membrane "
             "(mesh.membrane_size) or lower load.z")
     return smallest

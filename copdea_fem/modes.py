@@ -249,12 +249,20 @@ def coupled_mode_list(coupled, result, min_membrane_energy: float,
     return modes, pressures
 
 
-def match_dry(modes: list[Mode], dry_modes: list[Mode], membrane_mass) -> dict[int, Mode]:
+def same_family(mode: Mode, dry: Mode) -> bool:
+    """The 3-D engine's pairing rule: same kind, (m, n) and symmetry sector."""
+    return dry.kind == mode.kind and (dry.m, dry.n) == (mode.m, mode.n) and \
+        dry.sector == mode.sector
+
+
+def match_dry(modes: list[Mode], dry_modes: list[Mode], membrane_mass,
+              same=same_family) -> dict[int, Mode]:
     """Dry partner of every structural coupled mode: same (m, n) family, best MAC.
 
     MAC = |u_c^H M u_d|^2 / (u_c^H M u_c * u_d^H M u_d) on the full membrane
-    vectors (on a quadrant mesh: within the mode's symmetry sector); within a degenerate pair the subspace is what matters, so pairs
-    share the dry pair's frequencies (they are equal up to the mesh).
+    vectors (on a quadrant mesh: within the mode's symmetry sector); within a degenerate
+    pair the subspace is what matters, so pairs share the dry pair's frequencies (they
+    are equal up to the mesh).  ``same(mode, dry)`` says which dry modes may pair.
     """
     partners = {}
     used: set[int] = set()
@@ -263,8 +271,7 @@ def match_dry(modes: list[Mode], dry_modes: list[Mode], membrane_mass) -> dict[i
             continue
         best, best_mac = None, -1.0
         for j, dry in enumerate(dry_modes):
-            if (dry.kind != mode.kind or (dry.m, dry.n) != (mode.m, mode.n) or j in used
-                    or dry.sector != mode.sector):
+            if j in used or not same(mode, dry):
                 continue
             value = mac(mode.vector, dry.vector, membrane_mass)
             if value > best_mac:

@@ -15,7 +15,6 @@ import ngsolve as ngs
 import numpy as np
 
 from ..acoustics import PML_STRENGTH
-from ..geometry import ale_decay_length
 from .meridian import theta_integral
 
 
@@ -116,44 +115,14 @@ def meridian_motion(state, mesh, domain_radius: float, order: int = 2):
     and 0 beyond r_o; the mesh conforms to the kinks (``ale_guide`` lines), and
     the membrane line carries the FE prestress itself.
     """
-    from ..ale import MeshMotionError, _piecewise_linear
+    from ..ale import checked_decay_length, follow_membrane, transfinite_factors
 
-    length = ale_decay_length(domain_radius, state.outer_radius)
-    if abs(state.z) >= 0.45 * length:
-        raise MeshMotionError(
-            f"load.z = {state.z * 1e3:.1f} mm is too large for the air mesh: it must stay below "
-            f"0.45 L = {0.45 * length * 1e3:.1f} mm (L = the height over which the air follows "
-            "the membrane, half the air radius); raise air.domain_radius")
+    length = checked_decay_length(state, domain_radius)
     r_i, r_o = state.inner_radius, state.outer_radius
     radii = r_i + (r_o - r_i) * (np.arange(400) + 0.5) / 400
     profile = state.profile(radii)
     rho = np.concatenate([[r_i], radii, [r_o]])
     radial = np.concatenate([[0.0], profile[:, 0], [0.0]])
     axial = np.concatenate([[state.z], profile[:, 1], [0.0]])
-    r = ngs.x
-    w = _piecewise_linear(rho, axial, r, state.z, 0.0)
-    u_r = _piecewise_linear(rho, radial, r, 0.0, 0.0)
-    inside = 1 - ngs.sqrt(ngs.y**2) / length
-    phi = ngs.IfPos(inside, inside**2, 0.0)
-    space = ngs.VectorH1(mesh, order=order)
-    motion = ngs.GridFunction(space, name="air_mesh_displacement")
-    motion.Set(ngs.CF((u_r, w)) * phi)
-    on_membrane = ngs.GridFunction(space)
-    on_membrane.Set(state.displacement, ngs.BND, definedon=mesh.Boundaries("membrane"))
-    dofs = np.array(space.GetDofs(mesh.Boundaries("membrane")))
-    motion.vec.FV().NumPy()[dofs] = on_membrane.vec.FV().NumPy()[dofs]
-    _check_jacobian(mesh, motion)
-    return motion
-
-
-def _check_jacobian(mesh, motion) -> None:
-    from ..ale import MIN_JACOBIAN, MeshMotionError
-
-    points = mesh.MapToAllElements(ngs.IntegrationRule(ngs.TRIG, 4), ngs.VOL)
-    values = np.asarray(ngs.Det(ngs.Id(2) + ngs.Grad(motion))(points)).ravel()
-    if values.min() < MIN_JACOBIAN:
-        where = np.asarray(ngs.CF((ngs.x, ngs.y))(points))[int(values.argmin())]
-        raise MeshMotionError(
-            f"the meridian air mesh following the membrane is distorted (det(I + Grad D) = "
-            f"{values.min():.3g} < {MIN_JACOBIAN} near (r, z) = ({where[0] * 1e3:.1f}, "
-            f"{where[1] * 1e3:.1f}) mm); refine the membrane (mesh.membrane_size) or lower load.z")
+    u_r, w, phi = transfinite_factors(rho, radial, axial, state.z, ngs.x, ngs.y, length)
+    return follow_membrane(mesh, state, ngs.CF((u_r, w)) * phi, order)

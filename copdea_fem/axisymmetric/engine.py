@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..eigen import SectorBandResults, solve_band
-from ..modes import AIR, mac, membrane_energy_fractions
+from ..modes import AIR, match_dry, membrane_energy_fractions
 from .air import meridian_motion
 from .meridian import MeridianSpec, meridian_mesh
 from .modes import (OrderSampler, classify_order, label_all, number_out_of_plane,
@@ -40,6 +40,16 @@ def solve_axisymmetric_prestress(study, mesh, progress=_quiet, solver=None):
     return solve_prestress(study, mesh, progress=progress, solver=solver)
 
 
+def _prestressed(study, mesh, progress, timings, solver):
+    """The mesh and prestress stages (the mesh made unless given)."""
+    if mesh is None:
+        with timings.stage("mesh"):
+            mesh = prepare_meridian(study, progress)
+    with timings.stage("prestress"):
+        progress("prestress (axisymmetric Newton, load steps in z then V_b) ...")
+        return solve_axisymmetric_prestress(study, mesh, progress, solver)
+
+
 def _band(study, f_max=None, hermitian=True, **extra):
     eigen = study["eigen"]
     return dict(backend=eigen["backend"], max_modes=eigen["max_modes"],
@@ -59,12 +69,7 @@ def axisymmetric_dry_modes(study, mesh=None, progress=_quiet, timings=None, solv
     from ..solve import Timings
     timings = timings or Timings()
     eigen = study["eigen"]
-    if mesh is None:
-        with timings.stage("mesh"):
-            mesh = prepare_meridian(study, progress)
-    with timings.stage("prestress"):
-        progress("prestress (axisymmetric Newton, load steps in z then V_b) ...")
-        state = solve_axisymmetric_prestress(study, mesh, progress, solver)
+    state = _prestressed(study, mesh, progress, timings, solver)
     modes, results = [], {}
     initial_shifts = initial_shifts or {}
     forms = OrderForms(state, study)
@@ -88,24 +93,9 @@ def axisymmetric_dry_modes(study, mesh=None, progress=_quiet, timings=None, solv
     return state, modes, SectorBandResults(results)
 
 
-def match_dry_in_order(modes, dry_modes, mass) -> dict:
-    """Dry partner of each structural coupled mode of one order: same kind and n, best MAC
-    with the order's mass matrix (on the order space's coefficients)."""
-    partners, used = {}, set()
-    for k, mode in enumerate(modes):
-        if mode.kind == AIR:
-            continue
-        best, best_mac = None, -1.0
-        for j, dry in enumerate(dry_modes):
-            if j in used or dry.kind != mode.kind or (mode.kind != "in-plane" and dry.n != mode.n):
-                continue
-            value = mac(mode.vector, dry.vector, mass)
-            if value > best_mac:
-                best, best_mac = j, value
-        if best is not None:
-            used.add(best)
-            partners[k] = dry_modes[best]
-    return partners
+def same_order_family(mode, dry) -> bool:
+    """Pairing rule within one order: same kind and (out-of-plane) the same n."""
+    return dry.kind == mode.kind and (mode.kind == "in-plane" or dry.n == mode.n)
 
 
 def axisymmetric_coupled_modes(study, mesh=None, progress=_quiet, timings=None, solver=None,
@@ -118,15 +108,10 @@ def axisymmetric_coupled_modes(study, mesh=None, progress=_quiet, timings=None, 
     from ..solve import CoupledSolution, Timings
     timings = timings or Timings()
     eigen, air = study["eigen"], study["air"]
-    if mesh is None:
-        with timings.stage("mesh"):
-            mesh = prepare_meridian(study, progress)
-    with timings.stage("prestress"):
-        progress("prestress (axisymmetric Newton, load steps in z then V_b) ...")
-        state = solve_axisymmetric_prestress(study, mesh, progress, solver)
+    state = _prestressed(study, mesh, progress, timings, solver)
     with timings.stage("assembly"):
         progress("air mesh follows the membrane (ALE) ...")
-        motion = meridian_motion(state, mesh, air["domain_radius"])
+        motion = meridian_motion(state, state.mesh, air["domain_radius"])
         progress("assembling the air of every order ...")
         meridian_air = MeridianAir(state, study, motion)
     initial_shifts = initial_shifts or {}
@@ -166,7 +151,8 @@ def axisymmetric_coupled_modes(study, mesh=None, progress=_quiet, timings=None, 
                 order_pressures.append(result.vectors[coupled.pressure_index, k]
                                        * coupled.pressure_scale * scale)
             number_out_of_plane(order_modes)
-            order_partners = match_dry_in_order(order_modes, order_dry, dry_operators.mass_full)
+            order_partners = match_dry(order_modes, order_dry, dry_operators.mass_full,
+                                       same_order_family)
         structural = [mode for mode in order_modes if mode.kind != AIR]
         if not structural and not np.any(dry_result.freq_hz <= 1.5 * eigen["f_max"]):
             break
