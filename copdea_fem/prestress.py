@@ -93,28 +93,36 @@ class MembraneSolver:
         self.progress = progress or (lambda message: None)
         self.has_disc = inner_radius > 0
         self.outer_radius, self.inner_radius = outer_radius, inner_radius
-        self.space = displacement_space(mesh, order, self.has_disc)
-        self.free = self.space.FreeDofs()
-        self.symmetry = Symmetry.of_mesh(mesh)
-        if self.symmetry.quarter:      # the prestress is even about both mirror planes
-            free = np.array(self.free)
-            free[membrane_mirror_dofs(self.space, mesh, order, SECTORS[0])] = False
-            self.free = bitarray(free)
-        self.u = ngs.GridFunction(self.space, name="displacement")
         self.voltage = ngs.Parameter(0.0)
         self.z, self.newton_iterations, self.load_steps = 0.0, 0, []
-        trial = self.space.TrialFunction()
+        self.space, self.free, self.symmetry, self.measure, density = self._discretise(
+            order, curve_order)
+        self.u = ngs.GridFunction(self.space, name="displacement")
         self.energy = ngs.BilinearForm(self.space, symmetric=True)
-        self.measure = membrane_measure(mesh, order, curve_order)
-        self.energy += ngs.Variation(energy_density(trial, material, self.voltage)
-                                     * self.measure)
+        self.energy += ngs.Variation(density(self.space.TrialFunction()) * self.measure)
         self.residual = self.u.vec.CreateVector()
         self.disc_lift = self.disc_extension = None
         if self.has_disc:
             self._build_disc_lift(outer_radius, inner_radius)
-        self._sample_points = _membrane_points(mesh, outer_radius, inner_radius,
+        self._prepare_stress_check()
+
+    # -- the discretisation (the axisymmetric engine overrides these) ----------------
+    def _discretise(self, order: int, curve_order: int):
+        """(space, free DOFs, symmetry, measure, energy density of a trial function)."""
+        space = displacement_space(self.mesh, order, self.has_disc)
+        free = space.FreeDofs()
+        symmetry = Symmetry.of_mesh(self.mesh)
+        if symmetry.quarter:      # the prestress is even about both mirror planes
+            mask = np.array(free)
+            mask[membrane_mirror_dofs(space, self.mesh, order, SECTORS[0])] = False
+            free = bitarray(mask)
+        return (space, free, symmetry, membrane_measure(self.mesh, order, curve_order),
+                lambda trial: energy_density(trial, self.material, self.voltage))
+
+    def _prepare_stress_check(self) -> None:
+        self._sample_points = _membrane_points(self.mesh, self.outer_radius, self.inner_radius,
                                                symmetry=self.symmetry)
-        self._smallest_stress = field_coefficients(self.u, material, self.voltage)[
+        self._smallest_stress = field_coefficients(self.u, self.material, self.voltage)[
             "stress_2"].Compile()
 
     def _build_disc_lift(self, r_o: float, r_i: float) -> None:

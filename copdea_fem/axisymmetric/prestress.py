@@ -73,28 +73,16 @@ def axisymmetric_fields(u, material: Membrane, voltage: float) -> dict:
 class AxisymmetricMembraneSolver(MembraneSolver):
     """:class:`MembraneSolver` on the membrane line of a meridian mesh."""
 
-    def __init__(self, mesh, material: Membrane, order: int, outer_radius: float,
-                 inner_radius: float, settings: dict, progress=None, curve_order: int = 1):
-        self.mesh, self.material, self.settings = mesh, material, settings
-        self.progress = progress or (lambda message: None)
-        self.has_disc = inner_radius > 0
-        self.outer_radius, self.inner_radius = outer_radius, inner_radius
-        self.space = _membrane_line_space(mesh, order, self.has_disc)
-        self.free = self.space.FreeDofs()
-        self.symmetry = Symmetry()
-        self.u = ngs.GridFunction(self.space, name="displacement")
-        self.voltage = ngs.Parameter(0.0)
-        self.z, self.newton_iterations, self.load_steps = 0.0, 0, []
-        trial = self.space.TrialFunction()
-        self.measure = ngs.ds(definedon=mesh.Boundaries("membrane"), bonus_intorder=2)
-        self.energy = ngs.BilinearForm(self.space, symmetric=True)
-        self.energy += ngs.Variation(prestress_energy(trial, material, self.voltage) * self.measure)
-        self.residual = self.u.vec.CreateVector()
-        self.disc_lift = self.disc_extension = None
-        if self.has_disc:
-            self._build_disc_lift(outer_radius, inner_radius)
-        self._line = LineSampler(mesh, points_per_element=5)
-        fields = axisymmetric_fields(self.u, material, self.voltage)
+    def _discretise(self, order: int, curve_order: int):
+        """(u_r, u_z) on the membrane line; energy 2 pi int W(G0) R dR (.membrane)."""
+        space = _membrane_line_space(self.mesh, order, self.has_disc)
+        measure = ngs.ds(definedon=self.mesh.Boundaries("membrane"), bonus_intorder=2)
+        return (space, space.FreeDofs(), Symmetry(), measure,
+                lambda trial: prestress_energy(trial, self.material, self.voltage))
+
+    def _prepare_stress_check(self) -> None:
+        self._line = LineSampler(self.mesh, points_per_element=5)
+        fields = axisymmetric_fields(self.u, self.material, self.voltage)
         first, second = fields["stress_1"], fields["stress_2"]
         self._smallest_stress = ngs.IfPos(first - second, second, first).Compile()
 
