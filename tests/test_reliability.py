@@ -322,6 +322,7 @@ def test_a_sweep_folder_is_marked_resumed_in_place_and_kept_from_other_commands(
 FORCE = ["force", str(DRY_STUDY), "--points", "2", "--voltages", "0 kV", "--z-max", "2 mm",
          *(f"--set={item}" for item in ("mesh.membrane_size=9 mm", "mesh.order=1",
                                         "mesh.curve_order=1", "geometry.frame=none",
+                                        "mesh.engine=3d",   # the 3-D mesh is the cached one
                                         "prestress.z_steps=1", "output.plots=false"))]
 
 
