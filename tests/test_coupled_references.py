@@ -17,8 +17,8 @@ quadrant against whole mesh.
 """
 
 import math
+from pathlib import Path
 
-import numpy as np
 import pytest
 
 import baffled
@@ -27,7 +27,8 @@ from copdea_fem.materials import Membrane
 from copdea_fem.output import mode_rows
 from copdea_fem.reduced.model import operating_point, ring_model_of
 from copdea_fem.solve import coupled_modes
-from test_coupled import coupled_study
+from copdea_fem.study import load_study
+from test_coupled import COARSE_AIR, coupled_study
 
 MESH = {"membrane_size": "4 mm", "order": 2, "pressure_order": 2}
 RINGS = 96                         # ring-model error ~ n^-2: 1e-4 on (0,1) at n = 96
@@ -195,17 +196,22 @@ def test_held_disc_takes_no_energy(flat_baffle):
 
 # ------------------------------------------------------------------ disc on its spring
 
-SPRING = {"disc": {"motion": "spring"}, "load": {"z": "16 mm", "voltage": "2 kV"},
-          "eigen": {"f_max": "150 Hz"}}
+SPRING_STUDY = Path(__file__).resolve().parent.parent / "studies" / "g1_z16_spring_coupled.yaml"
+
+
+def spring_study(symmetry="quarter"):
+    """The bundled study on the coarse coupled mesh of test_coupled, band to 150 Hz."""
+    changes = {f"mesh.{key}": value for key, value in COARSE_AIR.items()}
+    return load_study(SPRING_STUDY).replace({**changes, "mesh.symmetry": symmetry,
+                                              "eigen.f_max": "150 Hz"})
 
 
 @pytest.fixture(scope="module")
 def spring_pair():
     """G1 at z = 16 mm, 2 kV, the disc on its spring, square frame (9 mm mesh, pressure
     order 1): quadrant and whole mesh; and the ring model's P1 (disc M_d, no M_s/3)."""
-    solutions = {symmetry: coupled_modes(coupled_study(**SPRING, mesh={"symmetry": symmetry}))
-                 for symmetry in ("quarter", "none")}
-    study = coupled_study(**SPRING)
+    solutions = {symmetry: coupled_modes(spring_study(symmetry)) for symmetry in ("quarter", "none")}
+    study = spring_study()
     ring_model = ring_model_of(study, ring_count=RINGS)
     _, basis, _ = operating_point(ring_model, study["load"]["z"], study["load"]["voltage"])
     return study, solutions, ring_model, basis["P1"]
