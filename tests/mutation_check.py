@@ -4,7 +4,7 @@ A tool, not a CI gate (pytest does not collect this file: its name does not star
 ``test_``).  Each mutation below is an exact source-text replacement in ``copdea_fem/``
 -- a constant, a factor of 2 or 4, a sign, a missing energy term, the PML, the
 coupling, the post-processing.  For each one the repository (package, tests, studies,
-the mesh cache, pyproject.toml) is copied to a temporary directory, the replacement is
+the mesh cache, pyproject.toml, README.md) is copied to a temporary directory, the replacement is
 made there -- never in the working tree -- and the fast suite is run against the copy in
 a subprocess (``python -m pytest -x -q``, working directory and PYTHONPATH the copy),
 stopping at the first failure.  A mutation is *killed* when the suite fails, *survived*
@@ -35,7 +35,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-COPIED = ("copdea_fem", "tests", "studies", "meshes", "pyproject.toml")
+COPIED = ("copdea_fem", "tests", "studies", "meshes", "pyproject.toml", "README.md")
 #: The test files that kill most physics mutations, run first (the rest follow in
 #: name order): with -x a killed mutation then costs seconds to a minute, not the suite.
 FIRST = ("tests/test_materials.py", "tests/test_coupled_references.py",

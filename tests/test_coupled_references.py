@@ -98,7 +98,7 @@ def baffle(request):
 
 @pytest.mark.parametrize("baffle, label, estimate, tolerance", [
     # measured (4 mm, order 2, pressure order 2): -0.51 %, -1.22 %, +0.81 %, +2.3 %; the
-    # estimate is incompressible (the exact baffle lowers (0,1) by 1.3 % at ka = 0.21)
+    # estimate is incompressible (the exact baffle lowers (0,1) by 1.3 % at ka = 0.22)
     # and at z = 16 mm replaces the cone by a flat source ("errs low", airmass.py)
     ("flat_baffle", "(0,1)", "incompressible_added_mass_ratio", 1e-2),
     ("flat_baffle", "(0,2)", "incompressible_added_mass_ratio", 2.5e-2),
@@ -136,7 +136,7 @@ def test_dry_and_coupled_frequencies_match_the_references(baffle, label, dry_tol
 
 @pytest.mark.parametrize("baffle, tolerance", [
     # measured +0.35 % (z = 0) and -0.11 % (z = 16 mm, flat source of the ring mode); the
-    # exact baffle's resistance is 0.9 % below the low-ka monopole at ka = 0.21
+    # exact baffle's resistance is 0.9 % below the low-ka monopole at ka = 0.22
     ("flat_baffle", 1e-2), ("cone_baffle", 1e-2),
 ], indirect=["baffle"])
 def test_radiation_damping_of_01_matches_the_baffled_monopole(baffle, tolerance):
