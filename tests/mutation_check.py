@@ -213,7 +213,7 @@ def run_suite(root: Path, timeout: float) -> tuple[str, str, float]:
         raise RuntimeError(f"the copy at {root} is not what Python imports: {check.stdout}"
                            f"{check.stderr}")
     start = time.perf_counter()
-    command = [sys.executable, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider", "-rf",
+    command = [sys.executable, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider", "-rfE",
                *suite_files(root)]
     try:
         result = subprocess.run(command, cwd=root, env=env, capture_output=True, text=True,
