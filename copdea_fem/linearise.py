@@ -39,6 +39,9 @@ class MembraneOperators:
     the first ``len(free_dofs)`` unknowns; if ``disc_dof`` is True the last
     unknown is the disc displacement w_d.  ``sector``: the mirror-symmetry
     class on a quadrant mesh (:class:`copdea_fem.symmetry.Sector`), else None.
+    ``disc_mass``: the lumped disc mass ``M_d + M_s/3`` in the disc unknown's row, on
+    the meshed part of the device [kg] (a quarter of it on a quadrant), 0 without the
+    disc DOF; ``mass[-1, -1]`` adds to it the membrane mass the rim lift carries.
     """
 
     stiffness: sp.csr_matrix
@@ -47,6 +50,7 @@ class MembraneOperators:
     disc_dof: bool
     state: PrestressedState
     sector: Sector | None = None
+    disc_mass: float = 0.0
 
     @property
     def size(self) -> int:
@@ -105,13 +109,15 @@ def linearised_operators(state: PrestressedState, study, sector: Sector | None =
     k_ff, m_ff = stiffness[free][:, free], mass[free][:, free]
     with_disc = (study["disc"]["motion"] == "spring" and state.has_disc
                  and (sector is None or sector == SECTORS[0]))
+    disc_mass = 0.0
     if with_disc:
         lift = state.disc_lift.vec.FV().NumPy()
         spring = study["spring"]
-        disc_mass = study["disc"]["mass"] + spring["mass"] / 3
+        disc_mass = (study["disc"]["mass"] + spring["mass"] / 3) / symmetry.copies
         k_ff = _border(k_ff, stiffness, lift, free, spring["stiffness"] / symmetry.copies)
-        m_ff = _border(m_ff, mass, lift, free, disc_mass / symmetry.copies)
-    return MembraneOperators(k_ff.tocsr(), m_ff.tocsr(), free, with_disc, state, sector)
+        m_ff = _border(m_ff, mass, lift, free, disc_mass)
+    return MembraneOperators(k_ff.tocsr(), m_ff.tocsr(), free, with_disc, state, sector,
+                             disc_mass)
 
 
 def _border(block, full, lift, free, extra):

@@ -10,8 +10,9 @@ carries most of the kinetic energy) are ``P1, P2, ...``; in-plane modes
 ``ip(m,n)`` from their dominant in-plane component.
 
 Energy fractions are kinetic-energy (mass-weighted) fractions, exact FE
-integrals: ``normal_fraction = x^H M_n x / x^H M x`` with
-``M_n = rho_s * integral of (u.n)(v.n) dS`` and n the deformed normal.
+integrals: ``normal_fraction = x^H M_n x / x^H M x`` over the membrane with
+``M_n = rho_s * integral of (u.n)(v.n) dS`` and n the deformed normal;
+``disc_fraction = (M_d + M_s/3) |w_d|^2 / x^H M x``, the rigid disc's share.
 """
 
 from __future__ import annotations
@@ -141,8 +142,9 @@ def classify_modes(operators: MembraneOperators, eigen_result, sampler: ModeSamp
         reduced = eigen_result.vectors[:, k]
         total = float(np.real(np.vdot(reduced, operators.mass @ reduced)))
         disc = complex(reduced[-1]) if operators.disc_dof else 0.0
-        disc_energy = float(np.real(operators.mass[-1, -1]) * abs(disc) ** 2) if \
-            operators.disc_dof else 0.0
+        # the rigid disc's own (lumped) mass only: mass[-1, -1] also holds the membrane
+        # mass the rim lift carries, a mesh-dependent strip of the membrane
+        disc_energy = operators.disc_mass * abs(disc) ** 2
         vector = full[:, k]
         normal_energy = float(np.real(np.vdot(vector, normal_mass @ vector)))
         membrane_energy = max(total - disc_energy, 1e-300)

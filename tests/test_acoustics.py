@@ -243,18 +243,20 @@ def test_baffled_piston_impedance(baffle, frequency):
     exact = _piston_closed_form(frequency)
     # Reactance = radiation mass, the source of the membrane's added mass:
     # 1 %, which moves a coupled frequency with 30-45 % added mass by < 0.2 %,
-    # inside the 0.5 % the eigen step aims at.  Measured 0.5 / 0.3 / 0.3 %
+    # inside the 0.5 % the eigen step aims at.  Measured -0.54 / -0.32 / -0.28 %
     # (9 mm membrane mesh; 0.3 / 0.08 / 0.02 % at 6 mm): discretisation of the
     # pressure near the piston edge.
     assert abs(impedance.imag - exact.imag) / abs(exact.imag) < 0.01
     assert impedance.imag < 0
-    # Resistance = radiated power, a far-field quantity: 5 %.  At 200 Hz it is
-    # 8 % of |Z| and the PML at kR = 0.45 leaves 2.0 % on it (6 mm mesh:
-    # 2.0 % at R = 3.5 r_o, 0.4 % at 5 r_o); 0.3 / 0.1 % at 500 / 1000 Hz.
-    assert abs(impedance.real - exact.real) / exact.real < 0.05
+    # Resistance = radiated power, a far-field quantity.  At 200 Hz it is 8 % of |Z|
+    # and the PML at kR = 0.45 leaves 2.0 % on it (6 mm mesh: 2.0 % at R = 3.5 r_o,
+    # 0.4 % at 5 r_o); measured on this 9 mm mesh +2.03 / +0.28 / +0.07 % at
+    # 200 / 500 / 1000 Hz, tested at about twice that.
+    tolerance = {200.0: 0.04, 500.0: 6e-3, 1000.0: 2e-3}[frequency]
+    assert abs(impedance.real - exact.real) / exact.real < tolerance
     # p- = -p+ on the piston by the z -> -z symmetry of geometry and load; the
-    # mesh is not mirror-symmetric, so only up to discretisation (measured 3e-4).
-    assert antisymmetry < 1e-2
+    # mesh is not mirror-symmetric, so only up to discretisation (measured 2.2e-3).
+    assert antisymmetry < 5e-3
 
 
 def test_jump_lives_on_screens_only(baffle, mesh_cache):

@@ -77,4 +77,6 @@ def test_lift_beyond_the_decay_height_is_rejected_before_meshing(tmp_path, capsy
     assert "0.45 L for the coupled step" in err and "meshing" not in err and not out.exists()
     # the reduced model does not move the air: the same study is fine there
     from copdea_fem.reduced.model import build_reduced
-    build_reduced(study.replace({"disc.motion": "spring"}))
+    setup = build_reduced(study.replace({"disc.motion": "spring"}))
+    assert setup.linearisation.equilibrium.disc_position == pytest.approx(0.03)
+    assert len(setup.pumping_frequency_hz) == 3 and np.all(setup.pumping_frequency_hz > 0)

@@ -328,7 +328,6 @@ def test_factorization_solves_real_and_complex_systems(backend):
     complex_matrix = ((1 + 0.05j) * stiffness - shift * mass + unsymmetric).tocsr()
     for matrix in (real_matrix, complex_matrix):
         factorization = Factorization(matrix, backend=backend)
-        assert factorization.factorisation_seconds >= 0.0
         rhs = rng.standard_normal((n, 3)) + 1j * rng.standard_normal((n, 3))
         for right_hand_side in (rhs[:, 0].real.copy(), rhs[:, 1], rhs):
             solution = factorization.solve(right_hand_side)

@@ -127,4 +127,5 @@ def test_readme_table_is_generated_from_the_schema():
 
 @pytest.mark.parametrize("path", sorted((ROOT / "studies").glob("*.yaml")), ids=lambda p: p.name)
 def test_bundled_studies_are_valid(path):
-    load_study(path)
+    study = load_study(path)
+    assert study.name == path.stem and study.description     # results go to results/<name>

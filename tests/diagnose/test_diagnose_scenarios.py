@@ -3,7 +3,8 @@
 Fast suite: two seeds per scenario.  ``-m slow``: ten seeds per scenario and
 the hit-rate table (printed).  A miss may be an honest "ambiguous" (the data
 of a seed too weak to separate two explanations); a wrong name may not be:
-the slow battery requires no false discovery at all and >= 7 of 10 hits.
+the slow battery requires no false discovery at all and the hit counts the README
+states (10/10, 8/10 for electrostatic softening alone and with air loading).
 """
 
 import pytest
@@ -99,7 +100,12 @@ def test_battery_hit_rates_over_ten_seeds(tmp_path, capsys):
         print("\nhit rates over seeds 100-109 (false discoveries):")
         for name, rate in rates.items():
             print(f"  {name:26s} {rate:.0%} ({false_discoveries[name]})")
-    assert all(rate >= 0.7 for rate in rates.values()), rates
+    # the README's table (right verdicts of seeds 100-109), asserted as stated
+    claimed = {"air_loading": 10, "spring_mass": 10, "electrostatic_softening": 8,
+               "viscoelastic_stiffening": 10, "two_effects": 8, "modal_damping": 10,
+               "nothing": 10, "ambiguous": 10}
+    assert set(claimed) == set(SCENARIOS)
+    assert all(round(10 * rates[name]) >= claimed[name] for name in SCENARIOS), rates
     assert not any(false_discoveries.values()), false_discoveries
 
 
