@@ -70,7 +70,7 @@ MUTATIONS = (
              "modal_mass=copies * total * scale**2,",
              "modal_mass=2 * copies * total * scale**2,",
              "mode post-processing: modal mass doubled"),
-    Mutation("air_kinetic_energy_halved", "copdea_fem/coupled.py",
+    Mutation("air_kinetic_energy_halved", "copdea_fem/modes.py",
              "kinetic_air = float(np.real(np.vdot(p, coupled.air_kinetic @ p))) / magnitude",
              "kinetic_air = float(np.real(np.vdot(p, coupled.air_kinetic @ p))) / (2 * magnitude)",
              "membrane-energy fraction: air kinetic energy halved"),

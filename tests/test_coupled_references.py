@@ -34,11 +34,19 @@ MESH = {"membrane_size": "4 mm", "order": 2, "pressure_order": 2}
 RINGS = 96                         # ring-model error ~ n^-2: 1e-4 on (0,1) at n = 96
 
 
-class Baffled:
-    """One coupled solve in the baffle, its modes.csv rows and dry partners."""
+ENGINES = ["3d", "axisymmetric"]    # the baffle is axisymmetric: every reference holds for both
+#: The meridian air at the default mesh.air_size (0.5 r_o): at the coarse suite's 35.5 mm its
+#: elements (half of it, axisymmetric.meridian) leave (0,1)'s radiation damping 3.7 % short
+#: and its added mass 1.5 % (the 3-D quadrant's air is graded from the 4 mm plane faces).
+AXISYMMETRIC_AIR = {"air_size": "17.75 mm"}
 
-    def __init__(self, z, f_max):
-        self.study = coupled_study(geometry={"frame": "baffle"}, mesh=MESH,
+
+class Baffled:
+    """One coupled solve in the baffle on one engine, its modes.csv rows and dry partners."""
+
+    def __init__(self, z, f_max, engine):
+        mesh = {**MESH, "engine": engine, **(AXISYMMETRIC_AIR if engine == "axisymmetric" else {})}
+        self.study = coupled_study(geometry={"frame": "baffle"}, mesh=mesh,
                                    load={"z": z, "voltage": "2 kV"}, eigen={"f_max": f_max})
         self.solution = coupled_modes(self.study)
         self.rows = {row["label"]: row for row in mode_rows(self.solution.modes,
@@ -74,24 +82,41 @@ def _ring_reference(case, label):
                                 *case.air, modal_mass=1.0)
 
 
-@pytest.fixture(scope="module")
-def flat_baffle():
-    case = Baffled("0 mm", "850 Hz")
-    case.reference = {label: _bessel_reference(case, m, n) for label, m, n in
-                      (("(0,1)", 0, 1), ("(0,2)", 0, 2), ("(1,1)a", 1, 1), ("(2,1)a", 2, 1))}
-    return case
+_CASES: dict = {}     # (case, engine) -> Baffled: one solve per case and engine
 
 
-@pytest.fixture(scope="module")
-def cone_baffle():
-    case = Baffled("16 mm", "960 Hz")
-    case.reference = {label: _ring_reference(case, label) for label in ("(0,1)", "(0,2)")}
-    return case
+def _case(name: str, engine: str) -> Baffled:
+    if (name, engine) not in _CASES:
+        if name == "flat_baffle":
+            case = Baffled("0 mm", "850 Hz", engine)
+            case.reference = {label: _bessel_reference(case, m, n) for label, m, n in
+                              (("(0,1)", 0, 1), ("(0,2)", 0, 2), ("(1,1)a", 1, 1),
+                               ("(2,1)a", 2, 1))}
+        else:
+            case = Baffled("16 mm", "960 Hz", engine)
+            case.reference = {label: _ring_reference(case, label) for label in ("(0,1)", "(0,2)")}
+        _CASES[name, engine] = case
+    return _CASES[name, engine]
+
+
+@pytest.fixture(scope="module", params=ENGINES)
+def engine(request):
+    return request.param
 
 
 @pytest.fixture
-def baffle(request):
-    return request.getfixturevalue(request.param)
+def flat_baffle(engine):
+    return _case("flat_baffle", engine)
+
+
+@pytest.fixture
+def cone_baffle(engine):
+    return _case("cone_baffle", engine)
+
+
+@pytest.fixture
+def baffle(request, engine):
+    return _case(request.param, engine)
 
 
 # ------------------------------------------------------------------ added mass, frequencies
@@ -163,8 +188,9 @@ def test_radiation_damping_range_quoted_in_the_readme(flat_baffle, cone_baffle):
 @pytest.mark.parametrize("label, dry_tolerance, tolerance", [
     # dry partner (unit peak normal displacement, sampled on the 40 x 64 polar grid) vs
     # Bessel: -0.20 %, -2.7 %, +0.03 %, +0.15 % (4 mm order 2; the (0,2) peak is an
-    # order-2 field's); coupled: the air reshapes the mode, +1.43 %, -3.1 %, +0.89 %, +0.72 %
-    ("(0,1)", 5e-3, 3e-2), ("(0,2)", 6e-2, 7e-2), ("(1,1)a", 1e-3, 2e-2),
+    # order-2 field's); coupled: the air reshapes the mode, +1.43 %, -3.1 %, +0.89 %, +0.72 %.
+    # Axisymmetric engine (peaks on 9 points per element): (1,1)a dry +0.13 %
+    ("(0,1)", 5e-3, 3e-2), ("(0,2)", 6e-2, 7e-2), ("(1,1)a", 3e-3, 2e-2),
     ("(2,1)a", 3e-3, 1.5e-2),
 ])
 def test_modal_mass_matches_the_bessel_annulus_integral(flat_baffle, label, dry_tolerance,
