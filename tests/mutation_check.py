@@ -39,6 +39,7 @@ COPIED = ("copdea_fem", "tests", "studies", "meshes", "pyproject.toml", "README.
 #: The test files that kill most physics mutations, run first (the rest follow in
 #: name order): with -x a killed mutation then costs seconds to a minute, not the suite.
 FIRST = ("tests/test_materials.py", "tests/test_coupled_references.py",
+         "tests/test_axisymmetric.py",
          "tests/test_acoustics.py", "tests/test_coupled.py", "tests/test_symmetry.py",
          "tests/test_dry_modes.py", "tests/test_prestress.py")
 
@@ -171,6 +172,39 @@ MUTATIONS = (
              "return float(-self.freq_im_hz / magnitude) if magnitude > 0 else 0.0",
              "return float(self.freq_im_hz / magnitude) if magnitude > 0 else 0.0",
              "mode post-processing: damping ratio of the wrong sign (e^{-i omega t})"),
+    # --- the axisymmetric engine ------------------------------------------------------------
+    Mutation("axisymmetric_hoop_term_m_not_squared", "copdea_fem/axisymmetric/operators.py",
+             "air_stiffness = theta * (air.gradient + m**2 * air.hoop)",
+             "air_stiffness = theta * (air.gradient + m * air.hoop)",
+             "meridian air: the (1/r d/dtheta)^2 term of order m with m instead of m^2"),
+    Mutation("axisymmetric_pml_hoop_not_stretched", "copdea_fem/axisymmetric/air.py",
+             "+ p * p_test / (s * r) ** 2 * volume / density * pml)",
+             "+ p * p_test / r ** 2 * volume / density * pml)",
+             "meridian PML: the hoop direction not stretched (1/r~ = 1/(s r))"),
+    Mutation("axisymmetric_pml_volume_without_hoop", "copdea_fem/axisymmetric/air.py",
+             "volume = s * (s * derivative) * r",
+             "volume = (s * derivative) * r",
+             "meridian PML: volume element det(J2) r without the hoop stretch s"),
+    Mutation("axisymmetric_coupling_without_radius", "copdea_fem/axisymmetric/operators.py",
+             'coupling += (-pressure_test[1]) * u_normal * ngs.x * ngs.ds("membrane",',
+             'coupling += (-pressure_test[1]) * u_normal * ngs.ds("membrane",',
+             "meridian coupling: the screen integral without its r weight"),
+    Mutation("axisymmetric_harmonic_gradient_sign", "copdea_fem/axisymmetric/membrane.py",
+             "sin_part = ngs.CF((0, -(m * a + b) / R, 0, db, 0, 0, 0, -m * c / R, 0), dims=(3, 3))",
+             "sin_part = ngs.CF((0, -(m * a - b) / R, 0, db, 0, 0, 0, -m * c / R, 0), dims=(3, 3))",
+             "order-m membrane: (U_r,theta - U_theta)/R with the wrong sign of U_theta"),
+    Mutation("axisymmetric_hoop_strain_of_prestress", "copdea_fem/axisymmetric/membrane.py",
+             "return ngs.CF((derivative[0, 0], 0, 0, 0, u[0] / radius(), 0, derivative[1, 0], 0, 0),",
+             "return ngs.CF((derivative[0, 0], 0, 0, 0, 0 * u[0] / radius(), 0, derivative[1, 0], 0, 0),",
+             "axisymmetric prestress: the hoop strain u_r / R missing"),
+    Mutation("axisymmetric_theta_integral_of_m0", "copdea_fem/axisymmetric/meridian.py",
+             "return 2 * math.pi if m == 0 else math.pi",
+             "return math.pi",
+             "axisymmetric: int cos^2(0 theta) d theta = pi instead of 2 pi (masses of m = 0)"),
+    Mutation("axisymmetric_pair_missing", "copdea_fem/axisymmetric/modes.py",
+             'if mode.m > 0 and mode.kind != AIR:',
+             'if mode.m > 1 and mode.kind != AIR:',
+             "axisymmetric modes: the m = 1 modes reported without their sin twin"),
 )
 
 
