@@ -1,0 +1,9 @@
+"""Forced harmonic response of the coupled FE model and the sound it radiates (issue 15).
+
+- :mod:`.harmonic`: the voltage forcing, the hysteretic loss, modal superposition over the
+  coupled complex modes with a residual correction, and the direct solve (one order of the
+  axisymmetric engine: m = 0, the only order a uniform electrode excites).
+- :mod:`.radiation`: observation of the membrane velocity, radiated and input power,
+  Kirchhoff-Helmholtz / Rayleigh far field and SPL.
+- :mod:`.run`: the ``copdea-fem response`` pipeline and its result files.
+"""
