@@ -71,12 +71,20 @@ def parse_microphones(study) -> list[tuple[str, np.ndarray]]:
         if name in {existing for existing, _ in microphones}:
             raise StudyError(f"{key} = {text!r} is not allowed: microphone {name!r} repeated; "
                              f"allowed: {allowed} with distinct names")
-        position = np.array([_convert(key, spec, value) for value in values])
+        position = np.array([_convert(key, spec, _number_or_text(value)) for value in values])
         if np.linalg.norm(position) == 0:
             raise StudyError(f"{key}: microphone {name!r} at the origin is not allowed; "
                              "allowed: a point away from the membrane centre")
         microphones.append((name, position))
     return microphones
+
+
+def _number_or_text(text: str):
+    """A bare number is in SI (m), as everywhere in a study; else a quantity with a unit."""
+    try:
+        return float(text)
+    except ValueError:
+        return text
 
 
 @dataclass
