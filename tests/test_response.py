@@ -60,8 +60,8 @@ def _undamped(problem):
 # ------------------------------------------------------------------ forcing
 def test_static_response_is_the_prestress_derivative_in_voltage():
     """omega -> 0: A^-1 F = du0/dV_b; the prestress at V_b +- 1 V by central differences
-    (exact for the quadratic co-energy up to the Newton tolerance) within 1e-4 (measured
-    ~1e-6 on the free DOFs' norm; the difference quotient's O(dV^2) term is ~1e-7)."""
+    (exact for the quadratic co-energy up to the Newton tolerance) within 1e-6 (measured
+    2e-8 on 60 radii; the Newton tolerance 1e-10 of each prestress over dV = 1 V bounds it)."""
     study = study_of()
     problem = prepare_order_zero(study)
     static = problem.forced.direct([1e-3])[:, 0]
@@ -84,7 +84,7 @@ def test_static_response_is_the_prestress_derivative_in_voltage():
     fe = np.column_stack([line.at(a, observer_radii), line.at(c, observer_radii)])
     error = np.linalg.norm(fe - derivative) / np.linalg.norm(derivative)
     assert problem.forced.equilibrium_residual < 1e-6
-    assert error < 1e-4, error
+    assert error < 1e-6, error
 
 
 # ------------------------------------------------------------------ piston: closed forms
@@ -117,10 +117,11 @@ def _piston(frequency):
 
 @pytest.mark.parametrize("frequency", [200.0, 1000.0])
 def test_baffled_piston_far_field_and_power_match_the_closed_form(frequency):
-    """Far field at 1 m (on axis, 30 and 60 deg) within 0.1 dB of the exact baffled piston
-    (issue: 1 dB; measured <= 0.02 dB), radiated power through the Kirchhoff sphere within
-    2 % of Re Z / 2 (measured < 0.3 %), and the exterior representation vanishing inside
-    the sphere (extinction, < 1 % of the local field)."""
+    """Far field at 1 m (on axis, 30 and 60 deg) within 0.02 dB of the exact baffled piston
+    (issue: 1 dB; measured <= 0.0053 dB at 200 Hz, 0.003 dB at 1 kHz), radiated power
+    through the Kirchhoff sphere within 2 % of Re Z / 2 per face (issue: 2 %; measured
+    0.70 % at 200 Hz, 0.13 % at 1 kHz, the PML's error as in test_axisymmetric's impedance),
+    and the exterior representation vanishing inside the sphere (extinction, < 1 %)."""
     study, solution, record = _piston(frequency)
     air = study["air"]
     radius_sphere = KIRCHHOFF_FRACTION * air["domain_radius"]
@@ -139,7 +140,7 @@ def test_baffled_piston_far_field_and_power_match_the_closed_form(frequency):
         else:                   # Fraunhofer: -i omega rho a^2 v0 e^{ikr}/(2r) 2 J1(x)/x
             x = k * a * math.sin(theta)
             exact = -1j * omega * rho * a ** 2 / 2 * np.exp(1j * k) * 2 * j1(x) / x
-        assert abs(spl_db(fe) - spl_db(exact)) < 0.1, (angle, spl_db(fe), spl_db(exact))
+        assert abs(spl_db(fe) - spl_db(exact)) < 0.02, (angle, spl_db(fe), spl_db(exact))
     lower = SphereSampler(record, radius_sphere, ("lower",))
     p_lower, dp_lower = lower.sample(solution.vec.FV().NumPy().copy()[:, None])
     power = (radiated_power(p, dp, upper, omega, rho)
@@ -162,7 +163,8 @@ def study_mesh_point(solution, position):
 # ------------------------------------------------------------------ two paths, energy
 def test_modal_superposition_matches_the_direct_solve(held):
     """Same damping model (radiation through the PML only): every membrane unknown within 1 %
-    at 50-990 Hz, resonance included (measured 3.4e-3 at 990 Hz, 1e-8..1e-4 below 500 Hz)."""
+    at 50-990 Hz, resonance included (measured 3.4e-3 at 990 Hz, 1e-3 at 800 Hz, 1.4e-8 ..
+    1.1e-4 at 50-500 Hz: the omitted modes' O(omega^4/|lambda|^2) with modal_band = 2)."""
     basis, _ = _undamped(held)
     frequencies = np.array([50.0, 200.0, 383.0, 500.0, 800.0, 990.0])
     direct = held.forced.direct(frequencies)
@@ -175,8 +177,8 @@ def test_modal_superposition_matches_the_direct_solve(held):
 
 
 def test_modal_path_keeps_the_loss_factor_close_to_direct(held):
-    """With eta = 0.02 the modal path projects the loss diagonally; off-diagonal terms are
-    O(eta^2): within 2 % (measured below 0.5 %)."""
+    """With eta = 0.02 the modal path projects the loss diagonally (off-diagonal terms
+    neglected): within 0.5 % (measured 0.20 / 0.086 / 0.040 % at 200 / 383 / 700 Hz)."""
     basis, _ = _undamped(held)
     frequencies = np.array([200.0, 383.0, 700.0])
     direct = held.forced.direct(frequencies, loss_factor=0.02)
@@ -184,13 +186,13 @@ def test_modal_path_keeps_the_loss_factor_close_to_direct(held):
     u = held.forced.membrane
     for k in range(frequencies.size):
         error = np.linalg.norm(u(direct[:, k] - modal[:, k])) / np.linalg.norm(u(direct[:, k]))
-        assert error < 0.02, (frequencies[k], error)
+        assert error < 0.005, (frequencies[k], error)
 
 
 @pytest.mark.parametrize("loss_factor", [0.0, 0.05])
 def test_input_power_is_radiated_plus_dissipated(held, loss_factor):
     """P_in = omega/2 Im(f^H u) against the flux through the Kirchhoff sphere plus
-    omega/2 eta u^H K_el u, within 2 % (measured < 3e-4)."""
+    omega/2 eta u^H K_el u, within 2 % (issue; measured <= 3.1e-4 at 100 / 383 / 800 Hz)."""
     forced, coupled = held.forced, held.coupled
     sphere = SphereSampler(coupled, KIRCHHOFF_FRACTION * held.study["air"]["domain_radius"])
     frequencies = np.array([100.0, 383.0, 800.0])
@@ -232,8 +234,8 @@ def test_peaks_sit_at_the_coupled_eigenfrequencies(spring):
 def test_isolated_mode_peak_height_matches_its_modal_closed_form(spring):
     """P1 (56 Hz, nearest neighbour 383 Hz) with eta = 0.02, direct solve at Re f: the disc
     amplitude within 2 % of the single-mode term |y^T F / (n (lambda - w^2) - i eta lambda k)|
-    |w_d| (the rest of the modes add their static share (56/383)^2 ~ 2 % of the force,
-    against a resonant gain ~ 1/eta; measured 0.4 %)."""
+    |w_d| (issue: 2 %; measured 4e-6: the other modes' share is ~ (56/383)^2 of the force,
+    in phase quadrature with the resonant term at Re f, so it enters the modulus squared)."""
     basis, modes = _undamped(spring)
     index = [m.label for m in modes].index("P1")
     f = modes[index].freq_hz
