@@ -336,6 +336,13 @@ def _convert(key: str, spec: Key, value: Any) -> Any:
     return number
 
 
+def convert_quantity(key: str, value: Any, unit: str, minimum: float | None = None,
+                     maximum: float | None = None) -> float:
+    """One value of a compound key (e.g. a coordinate in a list) to SI ``unit``, bounds
+    checked; a bare number is already SI.  Raises StudyError naming ``key``."""
+    return _convert(key, Key(unit, 0.0, key, minimum=minimum, maximum=maximum), value)
+
+
 def _to_si(key: str, spec: Key, value: Any) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float, str)):
         raise _fail(key, value, spec.allowed(), "expected a number"

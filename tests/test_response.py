@@ -19,7 +19,6 @@ from copdea_fem import acoustics
 from copdea_fem.axisymmetric.air import air_forms, screen_coupling
 from copdea_fem.axisymmetric.engine import prepare_meridian, solve_axisymmetric_prestress
 from copdea_fem.cli import main
-from copdea_fem.response.harmonic import ModalBasis
 from copdea_fem.response.radiation import (KIRCHHOFF_FRACTION, SphereSampler,
                                            kirchhoff_kernels, radiated_power, spl_db)
 from copdea_fem.response.run import (AVERAGE_COLUMNS, POINT_COLUMNS, forced_response,

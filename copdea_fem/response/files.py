@@ -25,8 +25,9 @@ class ShapeAt:
 
 
 def _plots(staging: Path, result, reduced) -> list[str]:
-    from ..reduced.io import _pyplot
-    plt = _pyplot()
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
     study = result.problem.study
     setup, spectrum = reduced
     title = (f"{study.name}: FE forced response (m = 0, {result.method}); z = "

@@ -55,11 +55,10 @@ def parse_microphones(study) -> list[tuple[str, np.ndarray]]:
     """Named microphone positions (x, y, z) [m]: ``axis`` at ``response.microphone_distance``
     on the +z axis, then those of ``response.microphones`` ("name = x, y, z; ...", units
     allowed, e.g. ``side = 0.5 m, 0 m, 0.5 m``)."""
-    from ..study import Key, _convert
+    from ..study import convert_quantity
     key = "response.microphones"
     microphones = [("axis", np.array([0.0, 0.0, study["response"]["microphone_distance"]]))]
     text = study["response"]["microphones"] or ""
-    spec = Key("m", 0.0, key, minimum=-1e4, maximum=1e4)
     allowed = "'name = x, y, z; ...' with lengths, e.g. 'side = 0.5 m, 0 m, 0.5 m'"
     for item in filter(None, (part.strip() for part in text.split(";"))):
         name, _, coordinates = item.partition("=")
@@ -71,7 +70,8 @@ def parse_microphones(study) -> list[tuple[str, np.ndarray]]:
         if name in {existing for existing, _ in microphones}:
             raise StudyError(f"{key} = {text!r} is not allowed: microphone {name!r} repeated; "
                              f"allowed: {allowed} with distinct names")
-        position = np.array([_convert(key, spec, _number_or_text(value)) for value in values])
+        position = np.array([convert_quantity(key, _number_or_text(value), "m", -1e4, 1e4)
+                             for value in values])
         if np.linalg.norm(position) == 0:
             raise StudyError(f"{key}: microphone {name!r} at the origin is not allowed; "
                              "allowed: a point away from the membrane centre")
@@ -313,7 +313,8 @@ def summary_lines(result: ResponseResult) -> list[str]:
              f"{load['voltage'] / 1e3:g} kV, frame {g['frame']}, {result.frequency_hz.size} lines",
              f"far field: {result.far_field}"]
     if result.modes:
-        lines.append(f"{'mode':>8} {'Re f Hz':>9} {'Im f Hz':>9} {'b/m 1/s':>8} {'membrane KE':>11}")
+        lines.append(f"{'mode':>8} {'Re f Hz':>9} {'Im f Hz':>9} {'b/m 1/s':>8} "
+                     f"{'membrane KE':>11}")
         for mode, damping in zip(result.modes, result.basis.damping_per_mass):
             if mode.kind != "air" and mode.freq_hz <= result.frequency_hz.max():
                 lines.append(f"{mode.label:>8} {mode.freq_hz:9.2f} {mode.freq_im_hz:9.2f} "
