@@ -86,6 +86,24 @@ def test_static_response_is_the_prestress_derivative_in_voltage():
     assert error < 1e-6, error
 
 
+def test_static_disc_displacement_on_the_spring_matches_the_force_derivatives():
+    """Disc on the spring, omega -> 0: the disc moves w = -(dF/dV) / (dF/dz + k_d) per volt,
+    F(z, V) the prestress's disc force (central differences, dV = 1 V, dz = 1 um): checks
+    the disc's share lift . f of the forcing.  Within 1e-6 (measured 6e-10)."""
+    study = study_of(disc={"motion": "spring"})
+    problem = prepare_order_zero(study)
+    disc = problem.forced.membrane(problem.forced.direct([1e-3])[:, 0])[-1].real
+
+    def force(key, value):
+        shifted = study.replace({key: value})
+        return solve_axisymmetric_prestress(shifted, prepare_meridian(shifted)).disc_force
+
+    d_voltage = (force("load.voltage", 2001.0) - force("load.voltage", 1999.0)) / 2.0
+    d_z = (force("load.z", 0.016 + 1e-6) - force("load.z", 0.016 - 1e-6)) / 2e-6
+    expected = -d_voltage / (d_z + study["spring"]["stiffness"])
+    assert disc == pytest.approx(expected, rel=1e-6)
+
+
 # ------------------------------------------------------------------ piston: closed forms
 def _piston(frequency):
     """Rigid baffled piston (membrane + disc, radius r_o = 35.5 mm, v0 = 1 m/s) in the
