@@ -76,7 +76,8 @@ def _plots(staging: Path, result, reduced) -> list[str]:
                   label=f"{name} ({', '.join(f'{v:g}' for v in position)}) m")
     axis.set_xlabel("frequency [Hz]")
     axis.set_ylabel("SPL [dB re 20 uPa]")
-    axis.set_title(f"{study.name}: SPL under the chirp lines; {result.far_field}", fontsize=7)
+    method = result.far_field.split(":")[0].split(" over")[0]
+    axis.set_title(f"{study.name}: SPL on the chirp's lines; far field {method}", fontsize=8)
     axis.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(staging / "spl.png", dpi=150)
