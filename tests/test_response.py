@@ -307,14 +307,43 @@ def test_microphones_are_parsed_with_units_and_checked():
         parse_microphones(study_of(response={"microphones": "axis = 1 m, 0 m, 1 m"}))
 
 
-def test_response_refuses_the_3d_engine_and_zero_bias(tmp_path):
+def test_response_refuses_zero_bias(tmp_path):
     from pathlib import Path
     root = Path(__file__).resolve().parent.parent
-    assert main(["response", str(root / "studies/g1_z16_v2.yaml"), "--out",
-                 str(tmp_path / "r"), "--quiet"]) == 3
     assert main(["response", str(root / "studies/g1_z16_v2_response.yaml"), "--set",
                  "load.voltage=0 V", "--out", str(tmp_path / "r"), "--quiet"]) == 2
     assert not (tmp_path / "r").exists()
+
+
+@pytest.mark.slow
+def test_quadrant_engine_matches_the_axisymmetric_response():
+    """G1, z = 16 mm, 2 kV, baffle, disc held, direct path at 100 / 383 / 700 Hz: the 3-D
+    quadrant's even-even sector against the meridian's m = 0 -- average axial and radial
+    velocity and the pressure at 1 m on the axis within 1 % (measured <= 0.34 %, 0.34 %,
+    0.36 %; the engines' coupled frequencies differ by <= 0.075 %, README)."""
+    from copdea_fem.reduced.response import scan_fractions
+    from copdea_fem.response.quadrant import QuadrantObserver, QuadrantSphere, prepare_quadrant
+    from copdea_fem.response.radiation import MembraneObserver
+    quadrant = prepare_quadrant(study_of(mesh={"engine": "3d"}))
+    meridian = prepare_order_zero(study_of())
+    frequencies = [100.0, 383.0, 700.0]
+    results = []
+    for problem, observer, sphere in ((quadrant, QuadrantObserver, QuadrantSphere),
+                                      (meridian, MembraneObserver, SphereSampler)):
+        x = problem.forced.direct(frequencies)
+        axial, radial = observer(problem.state, problem.coupled.membrane,
+                                 scan_fractions(5)).observe(problem.forced.membrane(x))
+        sampler = sphere(problem.coupled, KIRCHHOFF_FRACTION * problem.study["air"][
+            "domain_radius"], ("upper",))
+        p, dp = sampler.sample(problem.forced.pressure(x))
+        far = []
+        for k, f in enumerate(frequencies):
+            kp, kg = sampler.kernels([0.0, 0.0, 1.0], 2 * math.pi * f / 343.0, True)
+            far.append(kp @ p[:, k] - kg @ dp[:, k])
+        results.append((np.abs(axial).mean(axis=0), np.abs(radial).mean(axis=0),
+                        np.array(far)))
+    for three_d, axisymmetric in zip(*results):
+        assert np.max(np.abs(three_d - axisymmetric) / np.abs(axisymmetric)) < 0.01
 
 
 def test_cli_response_writes_the_contract_files(tmp_path):

@@ -5,5 +5,6 @@
   axisymmetric engine: m = 0, the only order a uniform electrode excites).
 - :mod:`.radiation`: observation of the membrane velocity, radiated and input power,
   Kirchhoff-Helmholtz / Rayleigh far field and SPL.
-- :mod:`.run`: the ``copdea-fem response`` pipeline and its result files.
+- :mod:`.quadrant`: the same on the 3-D quadrant engine (the even-even symmetry sector).
+- :mod:`.run`: the ``copdea-fem response`` pipeline; :mod:`.files`: its result files.
 """

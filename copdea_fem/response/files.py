@@ -22,6 +22,7 @@ class ShapeAt:
     m: int = 0
     family: str = "cos"
     freq_im_hz: float = 0.0
+    sector: object = None       # 3-D: the even-even symmetry sector
 
 
 def _plots(staging: Path, result, reduced) -> list[str]:
@@ -30,7 +31,7 @@ def _plots(staging: Path, result, reduced) -> list[str]:
     import matplotlib.pyplot as plt
     study = result.problem.study
     setup, spectrum = reduced
-    title = (f"{study.name}: FE forced response (m = 0, {result.method}); z = "
+    title = (f"{study.name}: FE forced response ({result.problem.engine}, {result.method}); z = "
              f"{1e3 * study['load']['z']:g} mm, V_b = {study['load']['voltage'] / 1e3:g} kV, "
              f"frame {study['geometry']['frame']}")
     written = []
@@ -89,29 +90,30 @@ def _plots(staging: Path, result, reduced) -> list[str]:
 def _paraview(staging: Path, result) -> None:
     from .. import output
     coupled, forced = result.problem.coupled, result.problem.forced
-    dry = coupled.membrane
+    dry, state = coupled.membrane, result.problem.state
+    axisymmetric = result.problem.engine == "axisymmetric"
     shapes, pressures = [], []
     for f in result.peaks_hz:
         line = int(np.argmin(abs(result.frequency_hz - f)))
         x = result.solution(line)
-        label = f"ODS {f:.2f} Hz"
-        shapes.append(ShapeAt(label, f, dry.to_full(forced.membrane(x))[:, 0], dry))
+        shapes.append(ShapeAt(f"ODS {f:.2f} Hz", f, dry.to_full(forced.membrane(x))[:, 0], dry,
+                              sector=None if axisymmetric else dry.sector))
         pressures.append(forced.pressure(x))
-    state = result.problem.state
-    files = output.write_revolved_mode_vtus(staging, state, shapes)
-    renamed = []
-    for path in files:
-        target = path.with_name(path.name.replace("mode_", "ods_", 1))
-        path.rename(target)
-        renamed.append(target)
-    output.write_pvd(staging / "ods.pvd", renamed, list(result.peaks_hz))
-    air = output.write_revolved_air_vtus(staging, [coupled], shapes, pressures)
-    air_renamed = []
-    for path in air:
-        target = path.with_name(path.name.replace("air_", "air_ods_", 1))
-        path.rename(target)
-        air_renamed.append(target)
-    output.write_pvd(staging / "air_ods.pvd", air_renamed, list(result.peaks_hz))
+    if axisymmetric:
+        files = output.write_revolved_mode_vtus(staging, state, shapes)
+        air = output.write_revolved_air_vtus(staging, [coupled], shapes, pressures)
+    else:
+        files = output.write_mode_vtus(staging, state, shapes,
+                                       output.MembraneSampler(state.mesh))
+        air = output.write_air_vtus(staging, [coupled], shapes, pressures)
+    for paths, old, new, pvd in ((files, "mode_", "ods_", "ods.pvd"),
+                                 (air, "air_", "air_ods_", "air_ods.pvd")):
+        renamed = []
+        for path in paths:
+            target = path.with_name(path.name.replace(old, new, 1))
+            path.rename(target)
+            renamed.append(target)
+        output.write_pvd(staging / pvd, renamed, list(result.peaks_hz))
 
 
 def write_response(result, out_dir: Path, reduced=(None, None)) -> None:
@@ -140,7 +142,9 @@ def write_response(result, out_dir: Path, reduced=(None, None)) -> None:
                        [m.membrane_energy_fraction for m in result.modes]))
         dump_resolved(study, staging / "study.resolved.yaml")
         document = {
-            "engine": "axisymmetric", "order": 0, "method": result.method,
+            "engine": result.problem.engine,
+            "excited": ("order m = 0" if result.problem.engine == "axisymmetric"
+                        else "even-even symmetry sector"), "method": result.method,
             "far_field": result.far_field,
             "units": {"frequency": "Hz", "velocity": "m/s", "spl": "dB re 20 uPa",
                       "position": "m"},

@@ -96,25 +96,41 @@ def _energy_form(state, space, voltage, axis_m1=False):
     return form
 
 
-def reduce_vector(full: np.ndarray, dry) -> np.ndarray:
-    """A load on the order space's DOFs -> on the unknowns (free DOFs, then ``lift . load``)."""
-    reduced = full[dry.free_dofs]
-    if dry.disc_dof:
-        reduced = np.append(reduced, dry.lift.vec.FV().NumPy() @ full)
+def reduce_vector(full: np.ndarray, free_dofs, lift=None) -> np.ndarray:
+    """A load on a membrane space's DOFs -> on the unknowns (free DOFs, then ``lift . load``
+    when the disc rides on the spring; ``lift`` the rim-lift coefficients)."""
+    reduced = full[free_dofs]
+    if lift is not None:
+        reduced = np.append(reduced, lift @ full)
     return reduced
 
 
-def reduce_matrix(full: sp.spmatrix, dry) -> sp.csr_matrix:
-    """A matrix on the order space's DOFs -> on the unknowns (``u = u_free + w_d lift``)."""
-    free = dry.free_dofs
+def reduce_matrix(full: sp.spmatrix, free_dofs, lift=None) -> sp.csr_matrix:
+    """A matrix on a membrane space's DOFs -> on the unknowns (``u = u_free + w_d lift``)."""
+    free = free_dofs
     block = full[free][:, free]
-    if not dry.disc_dof:
+    if lift is None:
         return block.tocsr()
-    lift = dry.lift.vec.FV().NumPy()
     column = full @ lift
     corner = float(lift @ column)
     return sp.bmat([[block, sp.csr_matrix(column[free][:, None])],
                     [sp.csr_matrix(column[free][None, :]), sp.csr_matrix([[corner]])]]).tocsr()
+
+
+def _order_lift(dry):
+    return dry.lift.vec.FV().NumPy().copy() if dry.disc_dof else None
+
+
+def reduce_vector_3d(full, operators):
+    """:func:`reduce_vector` for :class:`copdea_fem.linearise.MembraneOperators`."""
+    lift = operators.state.disc_lift.vec.FV().NumPy().copy() if operators.disc_dof else None
+    return reduce_vector(full, operators.free_dofs, lift)
+
+
+def reduce_matrix_3d(full, operators):
+    """:func:`reduce_matrix` for :class:`copdea_fem.linearise.MembraneOperators`."""
+    lift = operators.state.disc_lift.vec.FV().NumPy().copy() if operators.disc_dof else None
+    return reduce_matrix(full, operators.free_dofs, lift)
 
 
 def voltage_forcing(state, dry) -> tuple[np.ndarray, float]:
@@ -140,14 +156,14 @@ def voltage_forcing(state, dry) -> tuple[np.ndarray, float]:
     force = -2.0 * (at_bias - at_zero) / voltage_b
     free = dry.free_dofs
     balance = np.linalg.norm(at_bias[free]) / max(np.linalg.norm(at_zero[free]), 1e-300)
-    return reduce_vector(force, dry), float(balance)
+    return reduce_vector(force, dry.free_dofs, _order_lift(dry)), float(balance)
 
 
 def elastic_stiffness(state, dry) -> sp.csr_matrix:
     """K_el [N/m]: Hessian of the order-0 energy at (u0, V = 0) on the unknowns (module doc)."""
     form = _energy_form(state, dry.space, ngs.Parameter(0.0), dry.axis_m1)
     form.AssembleLinearization(ngs.GridFunction(dry.space).vec)      # E(u0 + u) at u = 0
-    return reduce_matrix(to_scipy(form.mat), dry)
+    return reduce_matrix(to_scipy(form.mat), dry.free_dofs, _order_lift(dry))
 
 
 @dataclass
@@ -167,17 +183,21 @@ class ForcedOrder:
 
     @classmethod
     def build(cls, state, coupled, backend="superlu") -> "ForcedOrder":
+        """The m = 0 order of the axisymmetric engine."""
         dry = coupled.membrane
         force, balance = voltage_forcing(state, dry)
+        return cls.from_parts(coupled, force, elastic_stiffness(state, dry), balance, backend)
+
+    @classmethod
+    def from_parts(cls, coupled, force, k_el, balance, backend="superlu") -> "ForcedOrder":
+        """From f and K_el on the membrane unknowns (either engine's coupled operators)."""
         n = coupled.stiffness.shape[0]
+        index = np.asarray(coupled.membrane_index)
         forcing = np.zeros(n, dtype=complex)
-        forcing[coupled.membrane_index] = force
-        k_el = elastic_stiffness(state, dry)
-        index = coupled.membrane_index
-        if not np.array_equal(index, np.arange(len(index))):
-            raise RuntimeError("membrane unknowns are expected first in the coupled pencil")
-        elastic = sp.block_diag([k_el, sp.csr_matrix((n - len(index), n - len(index)))],
-                                format="csr").astype(complex)
+        forcing[index] = force
+        k_el = sp.coo_matrix(k_el)
+        elastic = sp.csr_matrix((k_el.data.astype(complex), (index[k_el.row], index[k_el.col])),
+                                shape=(n, n))
         # alpha from the coupling blocks: B^[p, u] = -alpha C, A^[u, p] = beta C^T
         pressure = coupled.pressure_index
         b_pu = coupled.mass[pressure][:, index]

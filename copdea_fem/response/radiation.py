@@ -104,6 +104,10 @@ class SphereSampler:
         self._lower = ngs.CF((p + q, (ngs.grad(p) + ngs.grad(q)) * e))
         self.is_upper = self.z > 0
 
+    def kernels(self, microphone, wavenumber: float, baffle: bool):
+        """:func:`kirchhoff_kernels` on this sphere."""
+        return kirchhoff_kernels(self, microphone, wavenumber, baffle)
+
     def sample(self, pressure_vectors) -> tuple[np.ndarray, np.ndarray]:
         """(p, dp/drho) (points, columns) of free-pressure vectors [Pa] (n_p, columns)."""
         pressure_vectors = np.atleast_2d(np.asarray(pressure_vectors).T).T

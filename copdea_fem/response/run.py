@@ -1,9 +1,10 @@
 """``copdea-fem response``: study -> prestress -> m = 0 pencil -> forced response -> files.
 
-Pipeline (axisymmetric engine; a uniform electrode excites only the order m = 0):
-meridian mesh, prestress (as ``solve``), the ALE air, the m = 0 coupled pencil
-(:func:`copdea_fem.axisymmetric.operators.coupled_order_operators`), the voltage forcing
-(:mod:`.harmonic`), then either
+Pipeline: mesh, prestress (as ``solve``), the ALE air and the one coupled pencil a uniform
+electrode drives -- the order m = 0 on the axisymmetric engine
+(:func:`copdea_fem.axisymmetric.operators.coupled_order_operators`), the even-even symmetry
+sector on the 3-D quadrant (:mod:`.quadrant`, any frame, the square one included) -- the
+voltage forcing (:mod:`.harmonic`), then either
 
 - ``response.method: modal`` (default): the coupled modes with ``Re f <= modal_band f_end``
   and ``|Im f| <= modal_band f_end``, the paper's modal damping ``reduced.damping_*`` and
@@ -97,6 +98,11 @@ class OrderZero:
     forced: object
     timings: dict = field(default_factory=dict)
 
+    @property
+    def engine(self) -> str:
+        """``"axisymmetric"`` (the order m = 0) or ``"3d"`` (the even-even sector)."""
+        return getattr(self.state, "engine", "3d")
+
 
 def prepare_order_zero(study, progress=_quiet) -> OrderZero:
     """Meridian mesh, prestress, ALE air and the forced m = 0 pencil."""
@@ -105,15 +111,13 @@ def prepare_order_zero(study, progress=_quiet) -> OrderZero:
     from ..axisymmetric.operators import MeridianAir, OrderForms, coupled_order_operators
     from .harmonic import ForcedOrder
 
-    if engine_of(study) != "axisymmetric":
-        raise NotImplementedError(
-            f"response on the 3-D engine (geometry.frame = {study['geometry']['frame']}) is not "
-            "implemented yet; allowed: the axisymmetric engine (geometry.frame = baffle, none or "
-            "circle), e.g. --set geometry.frame=baffle")
     if study["load"]["voltage"] <= 0:
         raise StudyError("load.voltage = 0 is not allowed for `response`; allowed: > 0 V (the "
                          "linear forcing V_b dC/du vanishes without a bias)")
     check_air_lift(study)
+    if engine_of(study) == "3d":
+        from .quadrant import prepare_quadrant
+        return prepare_quadrant(study, progress)
     timings = {}
     start = time.perf_counter()
     mesh = prepare_meridian(study, progress)
@@ -142,24 +146,38 @@ def modal_solution(problem: OrderZero, f_end: float, progress=_quiet):
     dry = coupled.membrane
     reach = study["response"]["modal_band"] * f_end
     eigen = study["eigen"]
-    progress(f"coupled m = 0 modes, Re f <= {reach:g} Hz, |Im f| <= {reach:g} Hz ...")
+    driven = "order m = 0" if problem.engine == "axisymmetric" else "even-even sector"
+    progress(f"coupled modes of the {driven}, Re f <= {reach:g} Hz, |Im f| <= {reach:g} Hz ...")
     result = solve_band(coupled.stiffness, coupled.mass, 0.0, reach, factorize=coupled.factorize,
                         hermitian=False, max_imag_hz=reach, backend=eigen["backend"],
                         max_modes=eigen["max_modes"], residual_tol=eigen["residual_tol"],
                         progress=progress)
-    membrane = result.vectors[coupled.membrane_index]
-    sampler = OrderSampler(problem.state, dry.space, dry.axis_m1)
-    modes = classify_order(dry, membrane, result.freq_hz, result.freq_im_hz, result.residuals,
-                           sampler)
-    for mode, fraction in zip(modes, membrane_energy_fractions(coupled, result)):
-        mode.membrane_energy_fraction = fraction
+    if problem.engine == "axisymmetric":
+        membrane = result.vectors[coupled.membrane_index]
+        sampler = OrderSampler(problem.state, dry.space, dry.axis_m1)
+        modes = classify_order(dry, membrane, result.freq_hz, result.freq_im_hz,
+                               result.residuals, sampler)
+        for mode, fraction in zip(modes, membrane_energy_fractions(coupled, result)):
+            mode.membrane_energy_fraction = fraction
+    else:
+        from ..modes import ModeSampler, coupled_mode_list
+        modes, _ = coupled_mode_list(coupled, result, study["air"]["min_membrane_energy"],
+                                     ModeSampler(problem.state))
+    for mode in modes:
         # air/PML modes: little membrane energy, or damped beyond what `solve` looks for
         # (its band holds |Im f| <= eigen.max_damping_ratio f_max; PML modes reach zeta ~ 1)
-        if (fraction < study["air"]["min_membrane_energy"]
+        if (mode.membrane_energy_fraction < study["air"]["min_membrane_energy"]
                 or mode.damping_ratio > eigen["max_damping_ratio"]):
             mode.kind = AIR
-    number_out_of_plane(modes)
-    label_all(modes)
+    if problem.engine == "axisymmetric":
+        number_out_of_plane(modes)
+        label_all(modes)
+    else:
+        from ..modes import assign_labels
+        for mode in modes:
+            if mode.kind == AIR:
+                mode.label, mode.m, mode.n = "air", 0, 0
+        assign_labels([mode for mode in modes if mode.kind != AIR])
     damping = modal_damping([m.label for m in modes], [m.kind for m in modes], study)
     basis = ModalBasis.build(problem.forced, result.eigenvalues, result.vectors,
                              [m.label for m in modes], damping)
@@ -205,8 +223,7 @@ def forced_response(problem: OrderZero, progress=_quiet, frequency_hz=None,
                     voltage_lines=None) -> ResponseResult:
     """Spectra and SPL on the chirp's lines (or given lines and complex amplitudes [V])."""
     from ..reduced.response import QUARTER_POINTS, Chirp, scan_fractions
-    from .radiation import (KIRCHHOFF_FRACTION, MembraneObserver, SphereSampler,
-                            kirchhoff_kernels, spl_db)
+    from .radiation import KIRCHHOFF_FRACTION, MembraneObserver, SphereSampler, spl_db
 
     study, forced, coupled = problem.study, problem.forced, problem.coupled
     timings = dict(problem.timings)
@@ -228,24 +245,32 @@ def forced_response(problem: OrderZero, progress=_quiet, frequency_hz=None,
     timings["solve"] = time.perf_counter() - start
     start = time.perf_counter()
     omega = 2 * np.pi * frequency_hz
-    observer = MembraneObserver(problem.state, coupled.membrane,
-                                scan_fractions(study["reduced"]["scan_radii"]))
-    points = MembraneObserver(problem.state, coupled.membrane, QUARTER_POINTS)
+    if problem.engine == "axisymmetric":
+        observer_type, angles = MembraneObserver, 1
+    else:
+        from .quadrant import OBSERVATION_ANGLES, QuadrantObserver
+        observer_type, angles = QuadrantObserver, len(OBSERVATION_ANGLES)
     membrane = forced.membrane(vectors)
     spectra = []
-    for obs in (observer, points):
+    for fractions in (scan_fractions(study["reduced"]["scan_radii"]), QUARTER_POINTS):
+        obs = observer_type(problem.state, coupled.membrane, fractions)
         axial, radial = obs.observe(membrane)
-        spectra.append(tuple(np.abs(omega[:, None] * (weights @ part.T))
-                             for part in (axial, radial)))
+        # |v| per point, then the mean over the angles of each radius (3-D: the square frame)
+        spectra.append(tuple(np.abs(omega[:, None] * (weights @ part.T)).reshape(
+            frequency_hz.size, angles, -1).mean(axis=1) for part in (axial, radial)))
     (scan_axial, scan_radial), (point_axial, point_radial) = spectra
     timings["velocity"] = time.perf_counter() - start
     start = time.perf_counter()
     microphones = parse_microphones(study)
     radius = KIRCHHOFF_FRACTION * study["air"]["domain_radius"]
     baffle = study["geometry"]["frame"] == "baffle"
-    samplers = ({"upper": SphereSampler(coupled, radius, ("upper",)),
-                 "lower": SphereSampler(coupled, radius, ("lower",))} if baffle else
-                {"all": SphereSampler(coupled, radius)})
+    if problem.engine == "axisymmetric":
+        sphere = SphereSampler
+    else:
+        from .quadrant import QuadrantSphere as sphere
+    samplers = ({"upper": sphere(coupled, radius, ("upper",)),
+                 "lower": sphere(coupled, radius, ("lower",))} if baffle else
+                {"all": sphere(coupled, radius)})
     pressure_vectors = forced.pressure(vectors)
     sampled = {name: sampler.sample(pressure_vectors) for name, sampler in samplers.items()}
     pressure = np.zeros((frequency_hz.size, len(microphones)), complex)
@@ -257,8 +282,7 @@ def forced_response(problem: OrderZero, progress=_quiet, frequency_hz=None,
         sampler, (p_values, dp_values) = samplers[side], sampled[side]
         field_p, field_dp = weights @ p_values.T, weights @ dp_values.T     # (lines, points)
         for line, w in enumerate(omega):
-            kp, kg = kirchhoff_kernels(sampler, position, w / study["air"]["sound_speed"],
-                                       baffle)
+            kp, kg = sampler.kernels(position, w / study["air"]["sound_speed"], baffle)
             pressure[line, j] = kp @ field_p[line] - kg @ field_dp[line]
     timings["sound"] = time.perf_counter() - start
     result = ResponseResult(frequency_hz, scan_axial.mean(axis=1), scan_radial.mean(axis=1),
@@ -308,7 +332,8 @@ def run_response(study, out_dir=None, progress=_quiet) -> ResponseResult:
 def summary_lines(result: ResponseResult) -> list[str]:
     study = result.problem.study
     g, load = study["geometry"], study["load"]
-    lines = [f"{study.name}: forced response (m = 0, {result.method}), r_i = "
+    where = "m = 0" if result.problem.engine == "axisymmetric" else "3-D, even-even sector"
+    lines = [f"{study.name}: forced response ({where}, {result.method}), r_i = "
              f"{1e3 * g['inner_radius']:g} mm, z = {1e3 * load['z']:g} mm, V_b = "
              f"{load['voltage'] / 1e3:g} kV, frame {g['frame']}, {result.frequency_hz.size} lines",
              f"far field: {result.far_field}"]
