@@ -19,8 +19,10 @@ compare with ``spectrum``'s line for line.
 Files (column names are a contract):
 
 - ``response_average.csv``: ``freq_hz, v_axial, v_radial`` [Hz, m/s, m/s] -- the mean of
-  |v| over ``reduced.scan_radii`` projected radii, as ``spectrum_average.csv``
-- ``response_points.csv``: ``freq_hz, v_axial_q1, v_radial_q1, ..., v_radial_q3``
+  |v| over ``reduced.scan_radii`` projected radii, as ``spectrum_average.csv`` (3-D: also
+  over the four angles of :data:`.quadrant.OBSERVATION_ANGLES`)
+- ``response_points.csv``: ``freq_hz, v_axial_q1, v_radial_q1, ..., v_radial_q3`` (3-D: |v|
+  averaged over those angles)
 - ``spl.csv``: ``freq_hz, spl_<microphone>...`` [Hz, dB re 20 uPa]
 - ``response_modes.csv``: ``label, kind, freq_hz, freq_im_hz, damping_per_mass,
   membrane_energy_fraction`` of the modes used (modal path)
