@@ -12,6 +12,11 @@ assembly, factorisation, eigen iterations, output -- every coupled mode below
 ``axisymmetric`` / ``axisymmetric-3d``: the same in a baffle (frame: baffle) on the
 axisymmetric engine / on the 3-D quadrant; ``engines`` runs both interleaved and
 reports the ratio of the medians (issue 12's benchmark).
+``response``: the forced response of issue 15 (``copdea_fem.response``): G1, z = 16 mm, 2 kV,
+disc on the spring, baffle (``studies/g1_z16_v2_response.yaml``), 800 chirp lines: prestress and
+m = 0 pencil, the modal solve, then the 800-line velocity spectra + SPL (``after_modal``), and
+the direct path per frequency (``direct_per_line``, mean of 10 lines across the band);
+``response-3d`` the same on the 3-D quadrant (its even-even sector).
 ``drum``: the 0.65 m Mylar drum head of ``studies/drum_mylar_650mm.yaml`` (50-450 Hz,
 baffle, in air); ``--set mesh.engine=3d`` puts it on the 3-D quadrant (issue 14).
 
@@ -41,6 +46,8 @@ CASES = {
     "axisymmetric": (G1_Z16, ["geometry.frame=baffle", "mesh.engine=axisymmetric"]),
     "axisymmetric-3d": (G1_Z16, ["geometry.frame=baffle", "mesh.engine=3d"]),
     "drum": (DRUM, []),
+    "response": (ROOT / "studies" / "g1_z16_v2_response.yaml", []),
+    "response-3d": (ROOT / "studies" / "g1_z16_v2_response.yaml", ["mesh.engine=3d"]),
 }
 #: benchmarks that run two cases interleaved and report the ratio of their medians
 PAIRS = {"engines": ("axisymmetric", "axisymmetric-3d")}
@@ -52,6 +59,8 @@ def _once(case: str, overrides: list[str]) -> dict:
 
     path, fixed = CASES[case]
     study = load_study(path, overrides=parse_overrides(fixed + overrides))
+    if case.startswith("response"):
+        return _once_response(study)
     if case != "dry":
         return _once_coupled(study)
     timings = Timings()
@@ -98,6 +107,32 @@ def _once_coupled(study) -> dict:
             "newton_iterations": result.state.newton_iterations,
             "modes": sum(1 for mode in result.modes if mode.kind != "air"),
             "factorisations": int(result.eigen.n_factorisations),
+            "peak_memory_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
+
+
+def _once_response(study) -> dict:
+    import numpy as np
+
+    from .reduced.response import Chirp
+    from .response.run import forced_response, prepare_order_zero
+
+    start = time.perf_counter()
+    problem = prepare_order_zero(study)
+    prepared = time.perf_counter()
+    result = forced_response(problem)
+    done = time.perf_counter()
+    frequencies, _ = Chirp.from_study(study).lines()
+    chosen = frequencies[np.linspace(0, frequencies.size - 1, 10).astype(int)]
+    direct_start = time.perf_counter()
+    problem.forced.direct(chosen)
+    per_line = (time.perf_counter() - direct_start) / chosen.size
+    seconds = {"prepare": prepared - start, "modal_solve": result.timings["solve"],
+               "after_modal": result.timings["velocity"] + result.timings["sound"],
+               "response_total": done - prepared, "direct_per_line": per_line,
+               "total": done - start}
+    return {"seconds": seconds, "engine": problem.engine, "unknowns": int(problem.forced.size),
+            "lines": int(result.frequency_hz.size), "modes_used": len(result.modes),
+            "peaks_hz": result.peaks_hz,
             "peak_memory_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
 
 

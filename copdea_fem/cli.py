@@ -126,6 +126,16 @@ def cmd_solve(args) -> int:
     return 0
 
 
+def cmd_response(args) -> int:
+    """Forced response of the coupled FE under the chirp, with radiated sound (issue 15)."""
+    from .response.run import run_response, summary_lines
+
+    study = _study(args)
+    result = run_response(study, out_dir=_out_dir(args, study), progress=_progress(args.quiet))
+    print("\n".join(summary_lines(result)))
+    return 0
+
+
 def _quantity_list(text: str, key: str, unit: str) -> list[float]:
     from .study import Key, _convert
     spec = Key(unit, 0.0, key, minimum=0)
@@ -418,6 +428,11 @@ def build_parser() -> argparse.ArgumentParser:
     force.add_argument("--quiet", action="store_true", help="no progress messages")
     _add_mesh_options(force)
     force.set_defaults(handler=cmd_force)
+    response = with_study("response", "forced response of the coupled FE under the chirp: "
+                          "response_average.csv, response_points.csv, spl.csv, PNGs, ODS")
+    response.add_argument("--out", help="result directory (default: output.directory)")
+    response.add_argument("--quiet", action="store_true", help="no progress messages")
+    response.set_defaults(handler=cmd_response)
     _add_reduced_commands(commands, with_study)
     _add_sweep_command(commands)
     _add_diagnose_commands(commands, with_study)

@@ -97,6 +97,10 @@ SCHEMA: dict[str, dict[str, Key]] = {
                    minimum=0, maximum=1e9, open_min=True),
         "c20": Key("Pa", 8.4e3, "Mooney-Rivlin c20 of eq. (20)", minimum=-1e9, maximum=1e9),
         "c01": Key("Pa", -28.6e3, "Mooney-Rivlin c01 of eq. (20)", minimum=-1e9, maximum=1e9),
+        "loss_factor": Key(None, 0.0, "hysteretic loss factor eta of the membrane's elastic "
+                           "stiffness in `response` (K_el -> (1 - i eta) K_el for e^{-i omega t}; "
+                           "the electrostatic part, the spring and the air stay lossless)",
+                           minimum=0, maximum=1),
     },
     "disc": {
         "mass": Key("kg", 3.0e-3, f"rigid disc mass M_d ({G1}; G2: 1.9 g)",
@@ -248,6 +252,24 @@ SCHEMA["excitation"] = {
                        maximum=1.0, open_min=True),
 }
 
+# Forced harmonic response of the coupled FE and its sound (issue 15, copdea_fem.response).
+SCHEMA["response"] = {
+    "method": Key(None, "modal", "modal = superposition of the coupled m = 0 modes with the "
+                  "paper's modal damping reduced.damping_* and a residual correction; direct = "
+                  "one sparse solve per line with membrane.loss_factor (no modal b/m)", kind=str,
+                  choices=("modal", "direct")),
+    "modal_band": Key(None, 2.0, "modal path: modes with Re f and |Im f| up to this times the "
+                      "last line (G1: 2 keeps the modal path within 0.4 % of the direct one up "
+                      "to 1 kHz)", minimum=1, maximum=20),
+    "microphone_distance": Key("m", 1.0, "distance of the default microphone 'axis' on the +z "
+                               "axis in front of the membrane", minimum=0, maximum=1e4,
+                               open_min=True),
+    "microphones": Key(None, "", "more microphones: 'name = x, y, z; ...' (lengths, e.g. "
+                       "'side = 0.5 m, 0 m, 0.5 m'); SPL in spl.csv as spl_<name>", kind=str),
+    "peaks": Key(None, 3, "operating-deflection shapes written at this many spectrum peaks",
+                 kind=int, minimum=0, maximum=50),
+}
+
 # Physical effects the reduced model can switch on or scale (issue 5, copdea_fem.diagnose):
 # each default reproduces the model without the key.
 SCHEMA["effects"] = {
@@ -321,6 +343,13 @@ def _convert(key: str, spec: Key, value: Any) -> Any:
         shown = value if not isinstance(value, str) else f"{value} = {number:g} {spec.unit or ''}"
         raise _fail(key, shown, spec.allowed())
     return number
+
+
+def convert_quantity(key: str, value: Any, unit: str, minimum: float | None = None,
+                     maximum: float | None = None) -> float:
+    """One value of a compound key (e.g. a coordinate in a list) to SI ``unit``, bounds
+    checked; a bare number is already SI.  Raises StudyError naming ``key``."""
+    return _convert(key, Key(unit, 0.0, key, minimum=minimum, maximum=maximum), value)
 
 
 def _to_si(key: str, spec: Key, value: Any) -> float:

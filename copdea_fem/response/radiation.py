@@ -1,0 +1,154 @@
+r"""Observables of a forced response: membrane velocity at points, power, far-field sound.
+
+Every observable but the powers is linear in the solution, so it is applied to a few
+basis vectors (:class:`.harmonic.ModalBasis`) and combined per line.
+
+Velocity (Sect. 5.3): ``v = -i omega u`` (``e^{-i omega t}``); the vibrometer looks along
+the axis, so a point sits at the *projected* radius ``r = r_i + f (r_o - r_i)`` on the
+prestressed profile (as :func:`copdea_fem.reduced.response.observation_matrix`); its
+reference radius R solves ``R + u_r0(R) = r``.  Axial = u_z, radial = u_r (order 0).
+
+Far field beyond the air sphere (the FE field ends at the PML), on a sphere ``Sigma`` of
+radius ``rho_s = KIRCHHOFF_FRACTION R`` inside the physical air, outward normal n:
+
+- ``frame: baffle`` -- Rayleigh's half-space problem: with the half-space Green's function
+  ``G_h(x, y) = G(x, y) + G(x, y')`` (``y'`` mirrored in z = 0, ``dG_h/dn = 0`` on the
+  rigid plane) the Kirchhoff-Helmholtz integral over the hemisphere on the microphone's side
+  is exact; it equals the Rayleigh integral ``p = -i omega rho_a/(2 pi) int v_n e^{ikd}/d dS``
+  of the baffle-plane velocity (checked in the tests against the baffled piston).
+- otherwise -- Kirchhoff-Helmholtz over the whole sphere with the free-space
+  ``G = e^{ikd}/(4 pi d)``, ``k = omega/c_a``::
+
+      p(x) = int_Sigma [p dG/dn_y - G dp/dn_y] dS_y
+
+Axisymmetric fields (m = 0): Gauss-Legendre in the polar angle, trapezoidal (spectral for
+a periodic integrand) in the azimuth.  Microphones inside the air sphere read the FE field.
+
+Powers (time averages, per |V~|^2): input ``P_in = omega/2 Im(f^H u)``, radiated
+``P_rad = 1/2 Re int_Sigma p conj(v_rho) dS`` with ``v_rho = (dp/drho)/(i omega rho_a)``
+(Euler), hysteretic ``P_d = omega/2 eta u^H K_el u``.  SPL ``= 20 log10(|p|/sqrt(2) / 20 uPa)``
+(|p| an amplitude; with chirp lines |FFT|/N the line amplitude as in the velocity spectra).
+"""
+
+from __future__ import annotations
+
+import math
+
+import ngsolve as ngs
+import numpy as np
+
+#: Radius of the Kirchhoff-Helmholtz sphere as a share of the air radius R: inside the air,
+#: one air element (~0.25 r_o = 0.07 R) clear of the PML.
+KIRCHHOFF_FRACTION = 0.85
+#: Gauss points in the polar angle per hemisphere, azimuth points (far field).
+POLAR_POINTS, AZIMUTH_POINTS = 48, 64
+REFERENCE_PRESSURE = 20e-6          # Pa
+
+
+def spl_db(pressure_amplitude) -> np.ndarray:
+    """SPL [dB re 20 uPa] of a pressure amplitude [Pa] (RMS = amplitude / sqrt 2)."""
+    rms = np.abs(pressure_amplitude) / math.sqrt(2)
+    return 20 * np.log10(np.maximum(rms, 1e-30) / REFERENCE_PRESSURE)
+
+
+class MembraneObserver:
+    """u_z, u_r of order-0 vectors at points placed by projected radius (module doc)."""
+
+    def __init__(self, state, dry, fractions):
+        from ..axisymmetric.meridian import LineSampler
+        self.dry = dry
+        self.line = LineSampler(state.mesh)
+        r_i, r_o = state.inner_radius, state.outer_radius
+        grid = np.linspace(r_i, r_o, 801)
+        deformed = grid + state.profile(grid)[:, 0]
+        if np.any(np.diff(deformed) <= 0):
+            raise ValueError("the prestressed profile folds back; allowed: a profile the axis "
+                             "sees once")
+        self.projected = r_i + np.asarray(fractions, float) * (r_o - r_i)
+        self.reference = np.interp(self.projected, deformed, grid)
+        self.gf = ngs.GridFunction(dry.space)
+
+    def observe(self, membrane_vectors) -> tuple[np.ndarray, np.ndarray]:
+        """(axial, radial) displacements (points, columns) of membrane unknowns (n_u, columns)."""
+        full = self.dry.to_full(np.asarray(membrane_vectors))
+        axial = np.zeros((self.reference.size, full.shape[1]), complex)
+        radial = np.zeros_like(axial)
+        a, _, c = self.dry.amplitudes(self.gf)
+        for k in range(full.shape[1]):
+            for part, factor in ((full[:, k].real, 1.0), (full[:, k].imag, 1j)):
+                self.gf.vec.FV().NumPy()[:] = part
+                radial[:, k] += factor * self.line.at(a, self.reference)
+                axial[:, k] += factor * self.line.at(c, self.reference)
+        return axial, radial
+
+
+class SphereSampler:
+    """p and dp/drho of order-0 pressure vectors on the Kirchhoff sphere (module doc)."""
+
+    def __init__(self, coupled, radius: float, hemispheres=("upper", "lower")):
+        mesh = coupled.pressure_space.mesh
+        self.coupled, self.radius = coupled, radius
+        nodes, weights = np.polynomial.legendre.leggauss(POLAR_POINTS)
+        polar, weight = [], []
+        for half in hemispheres:            # upper: theta in (0, pi/2), lower: (pi/2, pi)
+            start = 0.0 if half == "upper" else 0.5 * np.pi
+            polar.append(start + 0.25 * np.pi * (nodes + 1))
+            weight.append(0.25 * np.pi * weights)
+        self.polar, self.weight = np.concatenate(polar), np.concatenate(weight)
+        self.r, self.z = radius * np.sin(self.polar), radius * np.cos(self.polar)
+        self.points = mesh(self.r, self.z)
+        self.gf = ngs.GridFunction(coupled.pressure_space)
+        p, q = self.gf.components
+        e = ngs.CF((ngs.x, ngs.y)) / ngs.sqrt(ngs.x ** 2 + ngs.y ** 2)
+        self._upper = ngs.CF((p, ngs.grad(p) * e))
+        self._lower = ngs.CF((p + q, (ngs.grad(p) + ngs.grad(q)) * e))
+        self.is_upper = self.z > 0
+
+    def kernels(self, microphone, wavenumber: float, baffle: bool):
+        """:func:`kirchhoff_kernels` on this sphere."""
+        return kirchhoff_kernels(self, microphone, wavenumber, baffle)
+
+    def sample(self, pressure_vectors) -> tuple[np.ndarray, np.ndarray]:
+        """(p, dp/drho) (points, columns) of free-pressure vectors [Pa] (n_p, columns)."""
+        pressure_vectors = np.atleast_2d(np.asarray(pressure_vectors).T).T
+        values = np.zeros((self.polar.size, 2, pressure_vectors.shape[1]), complex)
+        for k in range(pressure_vectors.shape[1]):
+            for part, factor in ((pressure_vectors[:, k].real, 1.0),
+                                 (pressure_vectors[:, k].imag, 1j)):
+                vector = self.gf.vec.FV().NumPy()
+                vector[:] = 0.0
+                vector[self.coupled.pressure_free] = part
+                upper = np.asarray(self._upper(self.points))
+                lower = np.asarray(self._lower(self.points))
+                values[:, :, k] += factor * np.where(self.is_upper[:, None], upper, lower)
+        return values[:, 0], values[:, 1]
+
+
+def kirchhoff_kernels(sampler: SphereSampler, microphone, wavenumber: float, baffle: bool):
+    """(K_p, K_g) per sphere point: p(x) = sum_i K_p,i p_i - K_g,i (dp/drho)_i (module doc)."""
+    x = np.asarray(microphone, float)
+    phi = 2 * np.pi * np.arange(AZIMUTH_POINTS) / AZIMUTH_POINTS
+    rs, zs = sampler.r[:, None], sampler.z[:, None]
+    y = np.stack([rs * np.cos(phi), rs * np.sin(phi), zs * np.ones_like(phi)], axis=-1)
+    normal = y / sampler.radius
+    kernels_p = np.zeros(sampler.polar.size, complex)
+    kernels_g = np.zeros(sampler.polar.size, complex)
+    images = [x, x * np.array([1, 1, -1])] if baffle else [x]
+    for source in images:
+        d_vec = y - source
+        d = np.linalg.norm(d_vec, axis=-1)
+        green = np.exp(1j * wavenumber * d) / (4 * np.pi * d)
+        d_green = (1j * wavenumber - 1 / d) * green * np.einsum("...k,...k->...", d_vec,
+                                                                 normal) / d
+        kernels_p += d_green.mean(axis=1) * 2 * np.pi
+        kernels_g += green.mean(axis=1) * 2 * np.pi
+    area = sampler.weight * sampler.radius ** 2 * np.sin(sampler.polar)
+    return kernels_p * area, kernels_g * area
+
+
+def radiated_power(p_values, dp_values, sampler: SphereSampler, omega: float,
+                   density: float) -> np.ndarray:
+    """1/2 Re int_Sigma p conj(v_rho) dS [W] of sphere samples (points, columns)."""
+    velocity = dp_values / (1j * omega * density)
+    area = 2 * np.pi * sampler.weight * sampler.radius ** 2 * np.sin(sampler.polar)
+    return 0.5 * np.real(np.einsum("i,i...->...", area, p_values * np.conj(velocity)))

@@ -1,0 +1,358 @@
+"""``copdea-fem response``: study -> prestress -> m = 0 pencil -> forced response -> files.
+
+Pipeline: mesh, prestress (as ``solve``), the ALE air and the one coupled pencil a uniform
+electrode drives -- the order m = 0 on the axisymmetric engine
+(:func:`copdea_fem.axisymmetric.operators.coupled_order_operators`), the even-even symmetry
+sector on the 3-D quadrant (:mod:`.quadrant`, any frame, the square one included) -- the
+voltage forcing (:mod:`.harmonic`), then either
+
+- ``response.method: modal`` (default): the coupled modes with ``Re f <= modal_band f_end``
+  and ``|Im f| <= modal_band f_end``, the paper's modal damping ``reduced.damping_*`` and
+  ``membrane.loss_factor`` projected per mode, residual correction (:mod:`.harmonic`);
+- ``response.method: direct``: one sparse solve per line with ``membrane.loss_factor``
+  (the modal b/m has no meaning there and is not applied).
+
+Lines: the chirp's (``excitation.*``, :class:`copdea_fem.reduced.response.Chirp`), each
+response line ``H(omega_k) V~_k`` with the chirp's line values (|FFT|/N), so the spectra
+compare with ``spectrum``'s line for line.
+
+Files (column names are a contract):
+
+- ``response_average.csv``: ``freq_hz, v_axial, v_radial`` [Hz, m/s, m/s] -- the mean of
+  |v| over ``reduced.scan_radii`` projected radii, as ``spectrum_average.csv`` (3-D: also
+  over the four angles of :data:`.quadrant.OBSERVATION_ANGLES`)
+- ``response_points.csv``: ``freq_hz, v_axial_q1, v_radial_q1, ..., v_radial_q3`` (3-D: |v|
+  averaged over those angles)
+- ``spl.csv``: ``freq_hz, spl_<microphone>...`` [Hz, dB re 20 uPa]
+- ``response_modes.csv``: ``label, kind, freq_hz, freq_im_hz, damping_per_mass,
+  membrane_energy_fraction`` of the modes used (modal path)
+- ``response.json``: method, far-field method, microphones [m], peaks, powers, timings
+- PNGs (``output.plots``): ``response_average.png`` (Fig. 12 style, the reduced model's
+  spectrum dashed), ``response_points.png``, ``spl.png``
+- ParaView (``output.paraview``): ``ods.pvd`` / ``air_ods.pvd`` -- operating-deflection shapes
+  (membrane displacement per volt of the line and velocity; air pressure) at the peaks
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..study import StudyError, check_air_lift, engine_of
+
+AVERAGE_COLUMNS = ("freq_hz", "v_axial", "v_radial")
+POINT_COLUMNS = ("freq_hz",) + tuple(f"v_{component}_q{i}" for i in (1, 2, 3)
+                                     for component in ("axial", "radial"))
+MODE_COLUMNS = ("label", "kind", "freq_hz", "freq_im_hz", "damping_per_mass",
+                "membrane_energy_fraction")
+
+
+def _quiet(message: str) -> None:
+    pass
+
+
+def parse_microphones(study) -> list[tuple[str, np.ndarray]]:
+    """Named microphone positions (x, y, z) [m]: ``axis`` at ``response.microphone_distance``
+    on the +z axis, then those of ``response.microphones`` ("name = x, y, z; ...", units
+    allowed, e.g. ``side = 0.5 m, 0 m, 0.5 m``)."""
+    from ..study import convert_quantity
+    key = "response.microphones"
+    microphones = [("axis", np.array([0.0, 0.0, study["response"]["microphone_distance"]]))]
+    text = study["response"]["microphones"] or ""
+    allowed = "'name = x, y, z; ...' with lengths, e.g. 'side = 0.5 m, 0 m, 0.5 m'"
+    for item in filter(None, (part.strip() for part in text.split(";"))):
+        name, _, coordinates = item.partition("=")
+        name = name.strip()
+        values = [part.strip() for part in coordinates.split(",")]
+        if not name or not name.replace("_", "").isalnum() or len(values) != 3:
+            raise StudyError(f"{key} = {text!r} is not allowed (cannot read {item!r}); "
+                             f"allowed: {allowed}")
+        if name in {existing for existing, _ in microphones}:
+            raise StudyError(f"{key} = {text!r} is not allowed: microphone {name!r} repeated; "
+                             f"allowed: {allowed} with distinct names")
+        position = np.array([convert_quantity(key, _number_or_text(value), "m", -1e4, 1e4)
+                             for value in values])
+        if np.linalg.norm(position) == 0:
+            raise StudyError(f"{key}: microphone {name!r} at the origin is not allowed; "
+                             "allowed: a point away from the membrane centre")
+        microphones.append((name, position))
+    return microphones
+
+
+def _number_or_text(text: str):
+    """A bare number is in SI (m), as everywhere in a study; else a quantity with a unit."""
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
+@dataclass
+class OrderZero:
+    """The prestressed m = 0 problem of a study, ready to be driven."""
+
+    study: object
+    state: object
+    coupled: object
+    forced: object
+    timings: dict = field(default_factory=dict)
+
+    @property
+    def engine(self) -> str:
+        """``"axisymmetric"`` (the order m = 0) or ``"3d"`` (the even-even sector)."""
+        return getattr(self.state, "engine", "3d")
+
+
+def prepare_order_zero(study, progress=_quiet) -> OrderZero:
+    """Meridian mesh, prestress, ALE air and the forced m = 0 pencil."""
+    from ..axisymmetric.air import meridian_motion
+    from ..axisymmetric.engine import prepare_meridian, solve_axisymmetric_prestress
+    from ..axisymmetric.operators import MeridianAir, OrderForms, coupled_order_operators
+    from .harmonic import ForcedOrder
+
+    if study["load"]["voltage"] <= 0:
+        raise StudyError("load.voltage = 0 is not allowed for `response`; allowed: > 0 V (the "
+                         "linear forcing V_b dC/du vanishes without a bias)")
+    check_air_lift(study)
+    if engine_of(study) == "3d":
+        from .quadrant import prepare_quadrant
+        return prepare_quadrant(study, progress)
+    timings = {}
+    start = time.perf_counter()
+    mesh = prepare_meridian(study, progress)
+    progress("prestress (axisymmetric Newton, load steps in z then V_b) ...")
+    state = solve_axisymmetric_prestress(study, mesh, progress)
+    timings["prestress"] = time.perf_counter() - start
+    start = time.perf_counter()
+    progress("assembling the m = 0 membrane-air pencil and the voltage forcing ...")
+    motion = meridian_motion(state, mesh, study["air"]["domain_radius"])
+    air = MeridianAir(state, study, motion)
+    dry = OrderForms(state, study).operators(0)
+    coupled = coupled_order_operators(state, study, dry, air)
+    forced = ForcedOrder.build(state, coupled, study["eigen"]["backend"])
+    timings["assembly"] = time.perf_counter() - start
+    return OrderZero(study, state, coupled, forced, timings)
+
+
+def modal_solution(problem: OrderZero, f_end: float, progress=_quiet):
+    """(ModalBasis, modes) of the m = 0 band (module doc), labelled as ``solve`` labels them."""
+    from ..axisymmetric.modes import OrderSampler, classify_order, label_all, number_out_of_plane
+    from ..eigen import solve_band
+    from ..modes import AIR, membrane_energy_fractions
+    from .harmonic import ModalBasis, modal_damping
+
+    study, coupled = problem.study, problem.coupled
+    dry = coupled.membrane
+    reach = study["response"]["modal_band"] * f_end
+    eigen = study["eigen"]
+    driven = "order m = 0" if problem.engine == "axisymmetric" else "even-even sector"
+    progress(f"coupled modes of the {driven}, Re f <= {reach:g} Hz, |Im f| <= {reach:g} Hz ...")
+    result = solve_band(coupled.stiffness, coupled.mass, 0.0, reach, factorize=coupled.factorize,
+                        hermitian=False, max_imag_hz=reach, backend=eigen["backend"],
+                        max_modes=eigen["max_modes"], residual_tol=eigen["residual_tol"],
+                        progress=progress)
+    if problem.engine == "axisymmetric":
+        membrane = result.vectors[coupled.membrane_index]
+        sampler = OrderSampler(problem.state, dry.space, dry.axis_m1)
+        modes = classify_order(dry, membrane, result.freq_hz, result.freq_im_hz,
+                               result.residuals, sampler)
+        for mode, fraction in zip(modes, membrane_energy_fractions(coupled, result)):
+            mode.membrane_energy_fraction = fraction
+    else:
+        from ..modes import ModeSampler, coupled_mode_list
+        modes, _ = coupled_mode_list(coupled, result, study["air"]["min_membrane_energy"],
+                                     ModeSampler(problem.state))
+    for mode in modes:
+        # air/PML modes: little membrane energy, or damped beyond what `solve` looks for
+        # (its band holds |Im f| <= eigen.max_damping_ratio f_max; PML modes reach zeta ~ 1)
+        if (mode.membrane_energy_fraction < study["air"]["min_membrane_energy"]
+                or mode.damping_ratio > eigen["max_damping_ratio"]):
+            mode.kind = AIR
+    if problem.engine == "axisymmetric":
+        number_out_of_plane(modes)
+        label_all(modes)
+    else:
+        from ..modes import assign_labels
+        for mode in modes:
+            if mode.kind == AIR:
+                mode.label, mode.m, mode.n = "air", 0, 0
+        assign_labels([mode for mode in modes if mode.kind != AIR])
+    damping = modal_damping([m.label for m in modes], [m.kind for m in modes], study)
+    basis = ModalBasis.build(problem.forced, result.eigenvalues, result.vectors,
+                             [m.label for m in modes], damping)
+    return basis, modes
+
+
+@dataclass
+class ResponseResult:
+    """Spectra (per line, chirp amplitudes applied) and what produced them."""
+
+    frequency_hz: np.ndarray
+    average_axial: np.ndarray         # m/s
+    average_radial: np.ndarray
+    point_axial: np.ndarray           # (lines, 3) m/s
+    point_radial: np.ndarray
+    microphones: list                 # [(name, position [m])]
+    pressure: np.ndarray              # (lines, microphones) complex amplitude [Pa]
+    spl_db: np.ndarray                # (lines, microphones)
+    method: str
+    far_field: str
+    modes: list
+    basis: object                     # ModalBasis (modal) or None
+    vectors: np.ndarray               # (n, K) basis vectors
+    weights: np.ndarray               # (lines, K): x(line) = vectors @ weights[line]
+    problem: OrderZero
+    timings: dict
+    peaks_hz: list = field(default_factory=list)
+    out_dir: Path | None = None
+
+    def solution(self, line: int) -> np.ndarray:
+        """Scaled solution vector of one line (chirp amplitude applied)."""
+        return self.vectors @ self.weights[line]
+
+
+def _far_field_method(study) -> str:
+    if study["geometry"]["frame"] == "baffle":
+        return ("Rayleigh (baffle): Kirchhoff-Helmholtz with the half-space Green's function over "
+                "the hemisphere on the microphone's side")
+    return "Kirchhoff-Helmholtz over a sphere inside the air (free-space Green's function)"
+
+
+def forced_response(problem: OrderZero, progress=_quiet, frequency_hz=None,
+                    voltage_lines=None) -> ResponseResult:
+    """Spectra and SPL on the chirp's lines (or given lines and complex amplitudes [V])."""
+    from ..reduced.response import QUARTER_POINTS, Chirp, scan_fractions
+    from .radiation import KIRCHHOFF_FRACTION, MembraneObserver, SphereSampler, spl_db
+
+    study, forced, coupled = problem.study, problem.forced, problem.coupled
+    timings = dict(problem.timings)
+    if frequency_hz is None:
+        frequency_hz, voltage_lines = Chirp.from_study(study).lines()
+    frequency_hz = np.asarray(frequency_hz, float)
+    voltage_lines = np.asarray(voltage_lines, complex)
+    method, eta = study["response"]["method"], study["membrane"]["loss_factor"]
+    start = time.perf_counter()
+    modes, basis = [], None
+    if method == "modal":
+        basis, modes = modal_solution(problem, float(frequency_hz.max()), progress)
+        vectors = basis.basis
+        weights = basis.coefficients(frequency_hz, eta) * voltage_lines[:, None]
+    else:
+        progress(f"direct solves on {frequency_hz.size} lines ...")
+        vectors = forced.direct(frequency_hz, eta)
+        weights = np.diag(voltage_lines)
+    timings["solve"] = time.perf_counter() - start
+    start = time.perf_counter()
+    omega = 2 * np.pi * frequency_hz
+    if problem.engine == "axisymmetric":
+        observer_type, angles = MembraneObserver, 1
+    else:
+        from .quadrant import OBSERVATION_ANGLES, QuadrantObserver
+        observer_type, angles = QuadrantObserver, len(OBSERVATION_ANGLES)
+    membrane = forced.membrane(vectors)
+    spectra = []
+    for fractions in (scan_fractions(study["reduced"]["scan_radii"]), QUARTER_POINTS):
+        obs = observer_type(problem.state, coupled.membrane, fractions)
+        axial, radial = obs.observe(membrane)
+        # |v| per point, then the mean over the angles of each radius (3-D: the square frame)
+        spectra.append(tuple(np.abs(omega[:, None] * (weights @ part.T)).reshape(
+            frequency_hz.size, angles, -1).mean(axis=1) for part in (axial, radial)))
+    (scan_axial, scan_radial), (point_axial, point_radial) = spectra
+    timings["velocity"] = time.perf_counter() - start
+    start = time.perf_counter()
+    microphones = parse_microphones(study)
+    radius = KIRCHHOFF_FRACTION * study["air"]["domain_radius"]
+    baffle = study["geometry"]["frame"] == "baffle"
+    if problem.engine == "axisymmetric":
+        sphere = SphereSampler
+    else:
+        from .quadrant import QuadrantSphere as sphere
+    samplers = ({"upper": sphere(coupled, radius, ("upper",)),
+                 "lower": sphere(coupled, radius, ("lower",))} if baffle else
+                {"all": sphere(coupled, radius)})
+    pressure_vectors = forced.pressure(vectors)
+    sampled = {name: sampler.sample(pressure_vectors) for name, sampler in samplers.items()}
+    pressure = np.zeros((frequency_hz.size, len(microphones)), complex)
+    for j, (_, position) in enumerate(microphones):
+        if baffle and position[2] == 0:
+            raise StudyError(f"microphone at z = 0 in a baffle is not allowed; allowed: z != 0 "
+                             f"(position {position.tolist()} m is on the rigid plane)")
+        side = ("upper" if position[2] > 0 else "lower") if baffle else "all"
+        sampler, (p_values, dp_values) = samplers[side], sampled[side]
+        field_p, field_dp = weights @ p_values.T, weights @ dp_values.T     # (lines, points)
+        for line, w in enumerate(omega):
+            kp, kg = sampler.kernels(position, w / study["air"]["sound_speed"], baffle)
+            pressure[line, j] = kp @ field_p[line] - kg @ field_dp[line]
+    timings["sound"] = time.perf_counter() - start
+    result = ResponseResult(frequency_hz, scan_axial.mean(axis=1), scan_radial.mean(axis=1),
+                            point_axial, point_radial, microphones, pressure, spl_db(pressure),
+                            method, _far_field_method(study), modes, basis, vectors, weights,
+                            problem, timings)
+    result.peaks_hz = spectrum_peaks(result, study["response"]["peaks"])
+    return result
+
+
+def spectrum_peaks(result: ResponseResult, count: int) -> list[float]:
+    """The ``count`` highest local maxima of the average axial + radial spectrum [Hz]."""
+    from scipy.signal import find_peaks
+    total = result.average_axial + result.average_radial
+    index, _ = find_peaks(total)
+    best = index[np.argsort(total[index])[::-1][:count]]
+    return sorted(float(result.frequency_hz[k]) for k in best)
+
+
+def reduced_spectrum(study, result: ResponseResult):
+    """The reduced model's spectra on the same lines, added masses from the FE coupled
+    frequencies of this response (``None`` when the reduced model cannot be built)."""
+    from ..reduced.model import build_reduced, spectra_of
+    from ..reduced.rings import ReducedModelError
+    fe = {mode.label: mode.freq_hz for mode in result.modes if mode.kind != "air"}
+    try:
+        setup = build_reduced(study, fe)
+    except (ReducedModelError, StudyError):
+        return None, None
+    return setup, spectra_of(setup)
+
+
+def run_response(study, out_dir=None, progress=_quiet) -> ResponseResult:
+    """The whole ``copdea-fem response``: solve, then the result files (module doc)."""
+    problem = prepare_order_zero(study, progress)
+    result = forced_response(problem, progress)
+    if out_dir is not None:
+        from .files import write_response
+        progress("writing results ...")
+        start = time.perf_counter()
+        write_response(result, Path(out_dir), reduced_spectrum(study, result))
+        result.timings["output"] = time.perf_counter() - start
+        result.out_dir = Path(out_dir)
+    return result
+
+
+def summary_lines(result: ResponseResult) -> list[str]:
+    study = result.problem.study
+    g, load = study["geometry"], study["load"]
+    where = "m = 0" if result.problem.engine == "axisymmetric" else "3-D, even-even sector"
+    lines = [f"{study.name}: forced response ({where}, {result.method}), r_i = "
+             f"{1e3 * g['inner_radius']:g} mm, z = {1e3 * load['z']:g} mm, V_b = "
+             f"{load['voltage'] / 1e3:g} kV, frame {g['frame']}, {result.frequency_hz.size} lines",
+             f"far field: {result.far_field}"]
+    if result.modes:
+        lines.append(f"{'mode':>8} {'Re f Hz':>9} {'Im f Hz':>9} {'b/m 1/s':>8} "
+                     f"{'membrane KE':>11}")
+        for mode, damping in zip(result.modes, result.basis.damping_per_mass):
+            if mode.kind != "air" and mode.freq_hz <= result.frequency_hz.max():
+                lines.append(f"{mode.label:>8} {mode.freq_hz:9.2f} {mode.freq_im_hz:9.2f} "
+                             f"{damping:8.1f} {mode.membrane_energy_fraction:11.3f}")
+    for f in result.peaks_hz:
+        k = int(np.argmin(abs(result.frequency_hz - f)))
+        lines.append(f"peak {f:8.2f} Hz: v_axial {1e3 * result.average_axial[k]:.4g} mm/s, "
+                     f"v_radial {1e3 * result.average_radial[k]:.4g} mm/s, SPL "
+                     + ", ".join(f"{name} {result.spl_db[k, j]:.1f} dB"
+                                 for j, (name, _) in enumerate(result.microphones)))
+    lines.append("timings: " + ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items()))
+    if result.out_dir is not None:
+        lines.append(f"results in {result.out_dir}")
+    return lines
