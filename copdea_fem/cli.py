@@ -131,7 +131,10 @@ def cmd_response(args) -> int:
     from .response.run import run_response, summary_lines
 
     study = _study(args)
-    result = run_response(study, out_dir=_out_dir(args, study), progress=_progress(args.quiet))
+    _check_size(args, study)
+    out_dir = _out_dir(args, study)
+    with _output(args, out_dir, "response", [args.study]), _solving(study):
+        result = run_response(study, out_dir=out_dir, progress=_progress(args.quiet))
     print("\n".join(summary_lines(result)))
     return 0
 

@@ -1,6 +1,6 @@
 """Result files of ``copdea-fem response`` (the list is in :mod:`.run`): CSV, JSON, PNG, VTU.
 
-Staged through :func:`copdea_fem.output.result_directory` like ``solve``'s files.
+Staged through :func:`copdea_fem.folders.result_directory` like ``solve``'s files.
 """
 
 from __future__ import annotations
@@ -119,13 +119,14 @@ def _paraview(staging: Path, result) -> None:
 def write_response(result, out_dir: Path, reduced=(None, None)) -> None:
     """Every file of the response into ``out_dir`` (staged, moved into place when complete)."""
     from .. import output
+    from ..folders import result_directory
     from ..reduced.io import write_csv
     from ..study import dump_resolved
     from .run import AVERAGE_COLUMNS, MODE_COLUMNS, POINT_COLUMNS
 
     study = result.problem.study
     f = result.frequency_hz
-    with output.result_directory(out_dir) as staging:
+    with result_directory(out_dir, "response") as staging:
         write_csv(staging / "response_average.csv", AVERAGE_COLUMNS,
                   (f, result.average_axial, result.average_radial))
         write_csv(staging / "response_points.csv", POINT_COLUMNS,
