@@ -435,6 +435,7 @@ def build_parser() -> argparse.ArgumentParser:
                           "response_average.csv, response_points.csv, spl.csv, PNGs, ODS")
     response.add_argument("--out", help="result directory (default: output.directory)")
     response.add_argument("--quiet", action="store_true", help="no progress messages")
+    _add_mesh_options(response)
     response.set_defaults(handler=cmd_response)
     _add_reduced_commands(commands, with_study)
     _add_sweep_command(commands)
