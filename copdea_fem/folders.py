@@ -38,6 +38,7 @@ import contextlib
 import datetime
 import json
 import os
+import re
 import shutil
 import signal
 import time
@@ -233,14 +234,23 @@ def _lock(target: Path) -> int | None:
 def _clean_leftovers(target: Path, progress) -> None:
     """Staging folders and old copies a killed run left beside ``target`` (module doc)."""
     say = progress or (lambda message: None)
-    for path in sorted(target.parent.glob(f".{target.name}.old-*")):
+
+    def ours(kind):
+        """Folders named exactly as result_directory names them (8 hex digits); an old copy
+        must also carry its manifest: a user's look-alike folder is never touched."""
+        pattern = re.compile(rf"\.{re.escape(target.name)}\.{kind}-[0-9a-f]{{8}}")
+        return [path for path in sorted(target.parent.glob(f".{target.name}.{kind}-*"))
+                if path.is_dir() and pattern.fullmatch(path.name)
+                and (kind == "staging" or read_manifest(path) is not None)]
+
+    for path in ours("old"):
         if target.exists():
             shutil.rmtree(path, ignore_errors=True)
             say(f"removed {path.name}, a replaced result an interrupted run left")
         else:
             path.rename(target)
             say(f"restored the previous result {target} (an interrupted run had moved it)")
-    for path in sorted(target.parent.glob(f".{target.name}.staging-*")):
+    for path in ours("staging"):
         shutil.rmtree(path, ignore_errors=True)
         say(f"removed {path.name}, an unfinished result an interrupted run left")
 

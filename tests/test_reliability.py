@@ -570,3 +570,20 @@ def test_version(capsys):
         main(["--version"])
     assert done.value.code == 0
     assert capsys.readouterr().out.startswith("copdea-fem ")
+
+
+def test_leftover_cleaning_spares_look_alike_folders(tmp_path):
+    """Only folders named as result_directory names them are cleaned: a user's
+    ``.out.staging-notes`` and an ``.out.old-<8 hex>`` without a manifest stay."""
+    from copdea_fem.folders import claim
+
+    target = tmp_path / "out"
+    mine_staging = tmp_path / ".out.staging-0123abcd"
+    look_alikes = [tmp_path / ".out.staging-notes", tmp_path / ".out.old-89abcdef"]
+    for folder in [mine_staging, *look_alikes]:
+        folder.mkdir()
+        (folder / "data.txt").write_text("keep")
+    with claim(target, "solve"):
+        pass
+    assert not mine_staging.exists()
+    assert all((folder / "data.txt").read_text() == "keep" for folder in look_alikes)
