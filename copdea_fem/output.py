@@ -400,10 +400,8 @@ class RevolvedMembraneSampler:
     """
 
     def __init__(self, state, max_order: int = 0):
-        from .axisymmetric.meridian import LineSampler
-
         self.state = state
-        self.line = LineSampler(state.mesh)
+        self.line = state.line()
         radii = self.line.radii.ravel()
         self.radii, self._unique = np.unique(np.round(radii, 12), return_index=True)
         self.angles = revolution_angles(max_order)

@@ -39,6 +39,8 @@ ENGINES = ["3d", "axisymmetric"]    # the baffle is axisymmetric: every referenc
 #: elements (half of it, axisymmetric.meridian) leave (0,1)'s radiation damping 3.7 % short
 #: and its added mass 1.5 % (the 3-D quadrant's air is graded from the 4 mm plane faces).
 AXISYMMETRIC_AIR = {"air_size": "17.75 mm"}
+#: dry modal masses where the axisymmetric engine's measured error exceeds the 3-D one's
+DRY_TOLERANCE_AXISYMMETRIC = {"(1,1)a": 3e-3}
 
 
 class Baffled:
@@ -189,14 +191,17 @@ def test_radiation_damping_range_quoted_in_the_readme(flat_baffle, cone_baffle):
     # dry partner (unit peak normal displacement, sampled on the 40 x 64 polar grid) vs
     # Bessel: -0.20 %, -2.7 %, +0.03 %, +0.15 % (4 mm order 2; the (0,2) peak is an
     # order-2 field's); coupled: the air reshapes the mode, +1.43 %, -3.1 %, +0.89 %, +0.72 %.
-    # Axisymmetric engine (peaks on 9 points per element): (1,1)a dry +0.13 %
-    ("(0,1)", 5e-3, 3e-2), ("(0,2)", 6e-2, 7e-2), ("(1,1)a", 3e-3, 2e-2),
+    # Axisymmetric engine (peaks on 9 points per element): (1,1)a dry +0.13 %, hence 3e-3
+    # there (DRY_TOLERANCE_AXISYMMETRIC) and 1e-3 on the 3-D quadrant
+    ("(0,1)", 5e-3, 3e-2), ("(0,2)", 6e-2, 7e-2), ("(1,1)a", 1e-3, 2e-2),
     ("(2,1)a", 3e-3, 1.5e-2),
 ])
 def test_modal_mass_matches_the_bessel_annulus_integral(flat_baffle, label, dry_tolerance,
                                                         tolerance):
     """M = c_m 2 pi rho_s int W^2 r dr / max W^2 with W the J_m, Y_m cross product."""
     reference = flat_baffle.reference[label].modal_mass
+    if flat_baffle.study["mesh"]["engine"] == "axisymmetric":
+        dry_tolerance = DRY_TOLERANCE_AXISYMMETRIC.get(label, dry_tolerance)
     assert flat_baffle.dry[label].modal_mass == pytest.approx(reference, rel=dry_tolerance)
     assert flat_baffle.rows[label]["modal_mass"] == pytest.approx(reference, rel=tolerance)
 

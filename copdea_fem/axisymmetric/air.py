@@ -35,7 +35,7 @@ def pml_stretch(domain_radius: float, pml_thickness: float, strength: float = PM
 
 def _off_axis(region: str, deformation):
     """dx for integrands with 1/r: a raised rule (NGSolve's order-2 triangle rule has its
-    points on the edge midpoints, on the axis r = 0 for an element touching it)."""
+    points on the edge midpoints (checked), on the axis r = 0 for an element touching it)."""
     return ngs.dx(region, deformation=deformation, bonus_intorder=2)
 
 

@@ -50,7 +50,7 @@ def _prestressed(study, mesh, progress, timings, solver):
         return solve_axisymmetric_prestress(study, mesh, progress, solver)
 
 
-def _band(study, f_max=None, hermitian=True, **extra):
+def _band(study, hermitian=True, **extra):
     eigen = study["eigen"]
     return dict(backend=eigen["backend"], max_modes=eigen["max_modes"],
                 residual_tol=eigen["residual_tol"], hermitian=hermitian, **extra)

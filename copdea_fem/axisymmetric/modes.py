@@ -24,7 +24,7 @@ from ..linearise import to_scipy
 from ..modes import (AIR, IN_PLANE, OUT_OF_PLANE, OUT_OF_PLANE_FRACTION, PUMPING,
                      PUMPING_DISC_FRACTION, Mode, assign_labels, radial_order)
 from ..symmetry import Sector
-from .meridian import LineSampler, theta_integral
+from .meridian import theta_integral
 from .prestress import axisymmetric_fields
 
 
@@ -47,7 +47,7 @@ class OrderSampler:
     """(a, b, c) and the normal displacement of an order's vectors on the membrane line."""
 
     def __init__(self, state, space, axis_m1: bool):
-        self.line = LineSampler(state.mesh)
+        self.line = state.line()
         self.gf = ngs.GridFunction(space)
         a, second, c = self.gf.components
         b = second - a if axis_m1 else second

@@ -315,9 +315,6 @@ def coupled_order_operators(state, study, dry: OrderOperators, air: MeridianAir
     n_u, n_p = dry.size, pressure_free.size
     a_full = sp.bmat([[dry.stiffness, coupling.T], [None, air_stiffness]], format="csr")
     b_full = sp.bmat([[dry.mass, None], [-coupling, air_mass]], format="csr")
-    # the same pattern in both (A - sigma B entry by entry)
-    pattern = (abs(a_full) + abs(b_full)).astype(bool).astype(float)
-    a_full, b_full = a_full + 0 * pattern, b_full + 0 * pattern
     is_air = np.zeros(n_u + n_p, dtype=bool)
     is_air[n_u:] = True
     a_scaled, b_scaled, beta, _, _ = scaled_pencil(a_full.astype(complex),

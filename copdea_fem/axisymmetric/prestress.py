@@ -36,9 +36,15 @@ class AxisymmetricState(PrestressedState):
     def fields(self) -> dict:
         return axisymmetric_fields(self.displacement, self.material, self.voltage)
 
+    def line(self) -> LineSampler:
+        """The membrane line's sampler (:class:`.meridian.LineSampler`), made once per state."""
+        if getattr(self, "_line", None) is None:
+            self._line = LineSampler(self.mesh)
+        return self._line
+
     def profile(self, radii) -> np.ndarray:
         """(u_r, u_z) [m] at reference radii ``radii`` [m]: array (len, 2)."""
-        return LineSampler(self.mesh).at(self.displacement, radii)
+        return self.line().at(self.displacement, radii)
 
 
 def axisymmetric_fields(u, material: Membrane, voltage: float) -> dict:

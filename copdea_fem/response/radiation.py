@@ -55,9 +55,8 @@ class MembraneObserver:
     """u_z, u_r of order-0 vectors at points placed by projected radius (module doc)."""
 
     def __init__(self, state, dry, fractions):
-        from ..axisymmetric.meridian import LineSampler
         self.dry = dry
-        self.line = LineSampler(state.mesh)
+        self.line = state.line()
         r_i, r_o = state.inner_radius, state.outer_radius
         grid = np.linspace(r_i, r_o, 801)
         deformed = grid + state.profile(grid)[:, 0]
