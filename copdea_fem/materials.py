@@ -17,7 +17,7 @@ true (Cauchy) stresses [Pa]; tensions are forces per deformed length [N/m].
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -57,6 +57,21 @@ class Membrane:
                    permittivity=m["relative_permittivity"] * VACUUM_PERMITTIVITY,
                    thickness=m["thickness"], density=m["density"],
                    prestretch=m["prestretch"])
+
+    @classmethod
+    def with_effects(cls, study) -> "Membrane":
+        """The FE's membrane: :meth:`from_study` with the diagnosis keys of section
+        ``effects`` applied -- c10, c20, c01 times ``stiffness_scale``, the permittivity
+        times ``maxwell_scale`` (an effective permittivity: the whole electrostatic term of
+        eq. (7) scales, as V_eff = sqrt(maxwell_scale) V_b does in the ring model's
+        equilibrium and K_s; in the FE the forcing scales with it)."""
+        nominal = cls.from_study(study)
+        effects = study["effects"]
+        stiffness, maxwell = effects["stiffness_scale"], effects["maxwell_scale"]
+        if stiffness == 1.0 and maxwell == 1.0:
+            return nominal
+        return replace(nominal, c10=stiffness * nominal.c10, c20=stiffness * nominal.c20,
+                       c01=stiffness * nominal.c01, permittivity=maxwell * nominal.permittivity)
 
     @property
     def prestretched_thickness(self) -> float:

@@ -300,7 +300,7 @@ def _membrane_points(mesh, r_o: float, r_i: float, n_radii: int = 24, n_angles: 
 
 def make_solver(study, mesh, progress=None) -> MembraneSolver:
     g = study["geometry"]
-    return MembraneSolver(mesh, Membrane.from_study(study), study["mesh"]["order"],
+    return MembraneSolver(mesh, Membrane.with_effects(study), study["mesh"]["order"],
                           g["outer_radius"], g["inner_radius"], study["prestress"], progress,
                           curve_order=study["mesh"]["curve_order"])
 

@@ -274,18 +274,19 @@ SCHEMA["response"] = {
 # each default reproduces the model without the key.
 SCHEMA["effects"] = {
     "stiffness_scale": Key(None, 1.0, "uniform factor on c10, c20, c01 of eq. (20) in the reduced "
-                           "model: electrode stiffness or pre-stretch loss (diagnose effect "
+                           "model and the FE: electrode stiffness or pre-stretch loss (diagnose effect "
                            "uniform_stiffness); 1 = the membrane keys as given", minimum=0,
                            maximum=10, open_min=True),
     "maxwell_scale": Key(None, 1.0, "factor on the electrostatic term V^2/2 C of eq. (10) in the "
                          "reduced model's static equilibrium and K_s (eq. 14): the Maxwell-stress "
                          "softening (diagnose effect electrostatic_softening); 1 = eq. (7) with "
                          "membrane.relative_permittivity, 0 = none; the forcing V_b V~ dC/dq "
-                         "keeps the nominal permittivity", minimum=0, maximum=10),
+                         "keeps the nominal permittivity (in the FE: a factor on the "
+                         "permittivity, the forcing included)", minimum=0, maximum=10),
     "air_added_mass": Key(None, "none", "added mass of the (0,n) modes where no coupled FE "
                           "frequency is given (eq. 19): none = dry, incompressible = "
                           "incompressible air on both faces of a baffled membrane "
-                          "(copdea_fem.diagnose.airmass; diagnose effect air_loading)", kind=str,
+                          "(copdea_fem.reduced.airmass; diagnose effect air_loading)", kind=str,
                           choices=("none", "incompressible")),
     "air_mass_scale": Key(None, 1.0, "factor on the added mass of every (0,n) mode, whatever its "
                           "source (estimate, modes.json, reduced.coupled_freq_0n)", minimum=0,

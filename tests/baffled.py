@@ -19,7 +19,7 @@ integrals are smooth:
     added mass / face       m_face = c_m 2 pi rho_a int_0^inf W_m(sqrt(s^2 + k^2))^2 ds
     radiation resistance    R_face = omega c_m 2 pi rho_a int_0^k W_m(sqrt(k^2 - t^2))^2 dt
 
-``k = 0`` is the incompressible added mass (eq. A1 of :mod:`copdea_fem.diagnose.airmass`);
+``k = 0`` is the incompressible added mass (eq. A1 of :mod:`copdea_fem.reduced.airmass`);
 a small source has ``R_face = omega rho_a k V^2 / (2 pi)`` with ``V = 2 pi W_0(0)`` its
 volume displacement, the baffled monopole.  Both faces radiate (the baffle separates them),
 so the device's added mass and resistance are twice a face's; the modal damping ratio is
@@ -108,7 +108,7 @@ def bessel_shape(m: int, n: int, a: float, b: float, points: int = 400) -> tuple
 
 def piecewise_linear_shape(segments, points_per_segment: int = 24) -> RadialShape:
     """An axisymmetric source given as linear pieces ``(start, end, w_start, w_end)``
-    (:func:`copdea_fem.diagnose.airmass.ring_sources`: the flat source of a ring-model mode)."""
+    (:func:`copdea_fem.reduced.airmass.ring_sources`: the flat source of a ring-model mode)."""
     radii, weights, values = [], [], []
     for start, end, w_start, w_end in segments:
         r, w = gauss_points(start, end, points_per_segment)

@@ -4,7 +4,7 @@ In a baffle (``geometry.frame: baffle``) the air has textbook closed forms
 (:mod:`baffled`): the flat annulus's Bessel modes with the exact baffled-source
 impedance (added mass, radiation resistance), and for z = 16 mm the ring model's modes
 (``copdea_fem.reduced``, its own discretisation) as the flat source of equal volume
-flux (:mod:`copdea_fem.diagnose.airmass`).  The rows compared are those ``modes.csv``
+flux (:mod:`copdea_fem.reduced.airmass`).  The rows compared are those ``modes.csv``
 gets (:func:`copdea_fem.output.mode_rows`).  G1 at V_b = 2 kV on a 4 mm, order-2 mesh
 with pressure order 2: the coarsest on which (0,2) carries its added mass (at 6 mm
 order 2 it is 9 % low, at 9 mm / pressure order 1 half of it; the Galerkin air
@@ -22,7 +22,7 @@ from pathlib import Path
 import pytest
 
 import baffled
-from copdea_fem.diagnose.airmass import ring_sources
+from copdea_fem.reduced.airmass import ring_sources
 from copdea_fem.materials import Membrane
 from copdea_fem.output import mode_rows
 from copdea_fem.reduced.model import operating_point, ring_model_of

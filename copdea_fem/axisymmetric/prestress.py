@@ -119,7 +119,7 @@ class AxisymmetricMembraneSolver(MembraneSolver):
 
 def make_axisymmetric_solver(study, mesh, progress=None) -> AxisymmetricMembraneSolver:
     g = study["geometry"]
-    return AxisymmetricMembraneSolver(mesh, Membrane.from_study(study), study["mesh"]["order"],
+    return AxisymmetricMembraneSolver(mesh, Membrane.with_effects(study), study["mesh"]["order"],
                                       g["outer_radius"], g["inner_radius"],
                                       study["prestress"], progress,
                                       curve_order=study["mesh"]["curve_order"])

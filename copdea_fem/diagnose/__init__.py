@@ -5,7 +5,8 @@ two actions below):
 
 ``measured``  ``measured.yaml`` + resonance/spectrum CSVs -> :class:`MeasuredSet` (checked)
 ``effects``   the catalogue: 8 effects, parameters, signatures, study overrides
-``airmass``   incompressible-air added mass of axisymmetric modes (effect air_loading)
+``fe``        the FE model of record: study -> structural modes, cached
+``anchored``  the ring model anchored to the FE (the surrogate the fits run on)
 ``engine``    reduced-model modes and spectra of a condition under an effect state
 ``peaks``     resonance peaks of measured spectra
 ``compare``   one-to-one matching, deviance (-2 ln L), the headline gap

@@ -3,10 +3,14 @@
 Matching (one-to-one, per condition)
 ------------------------------------
 1. Measured peaks of kind ``non-axisymmetric`` (a label ``(m,n)`` with
-   m >= 1 or the ``kind`` column) are out of the axisymmetric reduced
-   model's scope: listed, never scored.
-2. A labelled peak pairs with the model mode of that label; a label the
-   model does not have (``P2`` without spring mass) leaves it unexplained.
+   m >= 1 or the ``kind`` column) are out of the scope of a model without
+   such modes (the ring model alone): listed, never scored.  With the FE as
+   the model of record they are scored like the others; the FE's
+   non-axisymmetric modes are *optional* (excited only through
+   imperfections): they may explain a peak, their absence costs nothing.
+2. A labelled peak pairs only with the model mode of that label (``(1,1)``
+   also with ``(1,1)a``/``b`` of a split pair and back); a label the model
+   does not have (``P2`` without spring mass) leaves it unexplained.
 3. Unlabelled peaks pair with the remaining expected model modes by an
    assignment (Hungarian, :func:`scipy.optimize.linear_sum_assignment`)
    minimising ``sum ln(f_meas/f_model)^2`` plus a tie-breaking shape term
@@ -216,16 +220,17 @@ def match_condition(name, model_modes, peaks, band, noise: NoiseModel,
 
     ``terms`` (optional) are the condition's :class:`DevianceTerms`, to save rebuilding them.
     """
-    in_scope = [p for p in peaks if p.kind != "non-axisymmetric"]
-    out_of_scope = tuple(p for p in peaks if p.kind == "non-axisymmetric")
+    orders = any(m.kind == "non-axisymmetric" for m in model_modes)
+    in_scope = [p for p in peaks if orders or p.kind != "non-axisymmetric"]
+    out_of_scope = tuple(p for p in peaks if not orders and p.kind == "non-axisymmetric")
     expected = [m for m in model_modes if m.expected]
     by_label = {m.label: m for m in expected}
     pairs, unexplained, used = [], [], set()
     unlabelled = []
     for peak in in_scope:
         if peak.label:
-            model = by_label.get(peak.label)
-            if model is not None and model.label not in used:
+            model = _labelled(peak.label, by_label, used)
+            if model is not None:
                 pairs.append(Pair(model, peak, "label"))
                 used.add(model.label)
             else:
@@ -246,13 +251,14 @@ def match_condition(name, model_modes, peaks, band, noise: NoiseModel,
                 used.add(free[j].label)
     else:
         unexplained.extend(unlabelled)
-    lonely = [m for m in expected if m.label not in used]
-    inside = {m.label: terms.inside(m.frequency_hz) for m in expected}
+    required = [m for m in expected if not m.optional]
+    lonely = [m for m in required if m.label not in used]
+    inside = {m.label: terms.inside(m.frequency_hz) for m in required}
     unseen = tuple(m for m in lonely if inside[m.label] >= 0.5)
     deviance = (sum(terms.pair(p.model, p.peak) for p in pairs)
                 + sum(terms.lone_mode(m) for m in lonely)
                 + sum(terms.lone_peak(p) for p in unexplained))
-    q = [terms.unseen_probability(m.frequency_hz) for m in expected if inside[m.label] >= 0.5]
+    q = [terms.unseen_probability(m.frequency_hz) for m in required if inside[m.label] >= 0.5]
     spurious = noise.spurious_per_condition
     pairs.sort(key=lambda p: p.peak.frequency_hz)
     return ConditionMatch(
@@ -261,6 +267,12 @@ def match_condition(name, model_modes, peaks, band, noise: NoiseModel,
         out_of_scope=out_of_scope, band=tuple(band), deviance=float(deviance),
         expected_unexplained=float(sum(q) + spurious),
         variance_unexplained=float(sum(x * (1 - x) for x in q) + spurious))
+
+
+def _labelled(label: str, by_label: dict, used: set):
+    """The free model mode a labelled peak pairs with (rule 2), or None."""
+    names = [label] + ([label[:-1]] if label[-1] in "ab" else [label + "a", label + "b"])
+    return next((by_label[n] for n in names if n in by_label and n not in used), None)
 
 
 def _assign(peaks, modes, strict_limit: float) -> dict:

@@ -12,8 +12,8 @@ default; ``log = True`` means they are fitted in log space (scale factors,
 masses, times).  ``kind`` is ``"physics"`` (a mechanism the model lacks) or
 ``"parameter"`` (the model has the mechanism but a parameter of the study is
 off, e.g. ``uniform_stiffness``).  ``engine`` is ``"reduced"`` when the
-reduced model evaluates it and ``"coupled_fe"`` when only the fully-coupled
-FE step can (not available yet: such effects are reported as not tested).
+ring surrogate can move it and ``"coupled_fe"`` when only the fully-coupled
+FE can (tested only with the FE as the model of record and air in the model).
 
 Identifiers are a contract (``diagnosis.json``): ``air_loading,
 electrostatic_softening, spring_mass, disc_pumping, modal_damping,
@@ -144,7 +144,8 @@ class Effect:
 
 
 def _air_on(study, values):
-    return {"effects.air_added_mass": "incompressible", "effects.air_mass_scale": values[0]}
+    return {"effects.air_added_mass": "incompressible", "effects.air_mass_scale": values[0],
+            "air.enabled": True}
 
 
 def _air_off(study):
@@ -173,7 +174,7 @@ _register(Effect(
                 "fully-coupled FE lowers the dry frequencies by up to 30 % (Fig. 10).  Reduced "
                 "engine: coupled frequencies from the condition's modes.json when given, else "
                 "the incompressible-air added mass of a baffled membrane on both faces "
-                "(copdea_fem.diagnose.airmass), times a scale factor.",
+                "(copdea_fem.reduced.airmass), times a scale factor.",
     kind="physics", engine="reduced",
     parameters=(Parameter("scale", "effects.air_mass_scale", None, 1.0, 0.25, 4.0, True,
                           "factor on the added masses (1 = the baffled incompressible "
@@ -244,8 +245,8 @@ _register(Effect(
     id="frame_reflection", title="reflecting frame",
     description="The square 80 mm frame reflects the membrane's sound (Sect. 5.1); the paper "
                 "blames its remaining <= 8 % error on reflecting parts near the device "
-                "(Sect. 5.2).  Only the coupled air/PML FE step can represent it; the reduced "
-                "engine has no frame.",
+                "(Sect. 5.2).  Only the coupled air/PML FE can represent it (tested with FE "
+                "solves of the square frame: the 3-D quadrant); the ring model has no frame.",
     kind="physics", engine="coupled_fe", parameters=(),
     signature="mode-dependent shifts of a few per cent, largest on (0,1) (Sect. 5.2), and "
               "split (m,n) pairs",
@@ -318,6 +319,7 @@ def catalogue_table() -> str:
     for e in CATALOGUE.values():
         params = "; ".join(f"{p.name} `{p.key}` {p.shown(p.default)} [{p.shown(p.lower)}, "
                            f"{p.shown(p.upper)}]" for p in e.parameters) or "none"
-        engine = e.engine + (" (not available: skipped)" if e.engine == "coupled_fe" else "")
+        engine = e.engine + (" (FE solves; needs model: fe and air)"
+                             if e.engine == "coupled_fe" else "")
         rows.append(f"| `{e.id}` | {e.kind} | {engine} | {params} | {e.signature} |")
     return "\n".join(rows)

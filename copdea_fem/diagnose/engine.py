@@ -80,6 +80,9 @@ class ModelMode:
         for matching against an average spectrum's peak).
     expected : bool
         Whether the chirp excites it (module notes).
+    optional : bool
+        Excited only through imperfections (the FE's non-axisymmetric modes): it may
+        explain a peak, its absence costs nothing.
     """
 
     label: str
@@ -88,6 +91,7 @@ class ModelMode:
     quality_factor: float
     radial_ratio: float
     expected: bool
+    optional: bool = False
 
 
 @dataclass
@@ -213,6 +217,14 @@ class Engine:
         cheap = _cheap_values(study, {k: v for k, v in overrides.items() if k in CHEAP_KEYS})
         return self._predict(study, condition, cheap, overrides, perturbation)
 
+    def ring_predict(self, condition, state=(), perturbation=None) -> Prediction:
+        """The ring model alone (the same as :meth:`predict` here)."""
+        return Engine.predict(self, condition, state, perturbation)
+
+    def ring_predict_study(self, study, condition, perturbation=None) -> Prediction:
+        """The ring model alone for a full study."""
+        return Engine.predict_study(self, study, condition, perturbation)
+
     def predict_study(self, study, condition, perturbation=None) -> Prediction:
         """Prediction for a full study (already holding any effect keys)."""
         return self._predict(study, condition, _cheap_values(study), {}, perturbation)
@@ -241,6 +253,10 @@ class Engine:
 
     def _build(self, study, condition, fe) -> _Reference:
         self.builds += 1
+        if (study["air"]["enabled"] and study["effects"]["air_added_mass"] == "none"
+                and not fe and not study["reduced"]["modes_json"]):
+            # a base written with air: the ring model carries the air's estimate (eq. 19)
+            study = study.replace({"effects.air_added_mass": "incompressible"})
         ring_model = ring_model_of(study)
         load = study["load"]
         _, basis, elastic = operating_point(ring_model, load["z"], load["voltage"],
@@ -442,10 +458,12 @@ def _spectra(reference: _Reference, cheap: dict, frequency_hz, lines, perturbati
         point_radial=np.abs(velocity @ pick(reference.point_radial).T))
 
 
-def safe_predict(engine: Engine, condition, state, perturbation=None):
-    """:meth:`Engine.predict`, or None where the model cannot be evaluated there."""
+def safe_predict(engine: Engine, condition, state, perturbation=None, ring_only=False):
+    """:meth:`Engine.predict` (``ring_only``: the ring model even where the engine is
+    anchored to the FE), or None where the model cannot be evaluated there."""
     from copdea_fem.study import StudyError
+    predict = engine.ring_predict if ring_only else engine.predict
     try:
-        return engine.predict(condition, state, perturbation)
+        return predict(condition, state, perturbation)
     except (ReducedModelError, StudyError):
         return None

@@ -15,6 +15,9 @@ Manifest (paths relative to the manifest's folder)::
       missing_probability: 0.1       #   chance that a mode in the band is not identified
       spurious_per_condition: 0.2    #   expected peaks per condition no axisymmetric model has
     candidates: [air_loading, ...]   # optional: effects the diagnosis may add (default: all)
+    model: fe                        # optional: the model of record, fe (default: the FE as
+                                     #   the base study is written, the ring model its
+                                     #   anchored surrogate) or reduced (the ring model alone)
     conditions:
       - name: z16_v2                 # unique; letters, digits, _ . -
         set: {load.z: 16 mm, load.voltage: 2 kV}   # overrides of the base study
@@ -56,7 +59,9 @@ class MeasuredDataError(StudyError):
 
 KINDS = ("pumping", "axisymmetric", "non-axisymmetric")
 POINTS = ("average", "Q1", "Q2", "Q3")
-MANIFEST_KEYS = ("name", "description", "base_study", "noise", "candidates", "conditions")
+MANIFEST_KEYS = ("name", "description", "base_study", "noise", "candidates", "conditions",
+                 "model")
+MODELS = ("fe", "reduced")     # the model of record (key ``model``, default fe)
 CONDITION_KEYS = ("name", "set", "resonances", "spectrum", "spectrum_point", "band",
                   "modes_json")
 RESONANCE_COLUMNS = ("freq_hz", "label", "quality_factor", "kind")
@@ -159,6 +164,7 @@ class MeasuredSet:
     conditions: tuple
     noise: NoiseModel
     candidates: tuple = EFFECT_IDS
+    model: str = "fe"
 
     def study_of(self, condition: Condition, extra: dict | None = None) -> Study:
         """The base study with the condition's overrides (and ``extra`` ones) applied."""
@@ -345,6 +351,11 @@ def parse_measured(raw: dict, folder, name: str = "measured", path=None) -> Meas
     noise = NoiseModel(**noise_values)
     candidates = (parse_effect_list(raw["candidates"], "candidates")
                   if raw.get("candidates") is not None else EFFECT_IDS)
+    model = raw.get("model", "fe")
+    if model not in MODELS:
+        raise _fail("model", model, ", ".join(MODELS) + " (fe: the FE as the base study is "
+                    "written, the ring model its anchored surrogate; reduced: the ring model "
+                    "alone)")
     conditions_raw = raw.get("conditions")
     if not isinstance(conditions_raw, list) or not conditions_raw:
         raise _fail("conditions", conditions_raw, "a non-empty list of conditions")
@@ -357,7 +368,8 @@ def parse_measured(raw: dict, folder, name: str = "measured", path=None) -> Meas
         conditions.append(condition)
     return MeasuredSet(name=name, description=str(raw.get("description", "")),
                        path=Path(path) if path else None, base_study=base,
-                       conditions=tuple(conditions), noise=noise, candidates=candidates)
+                       conditions=tuple(conditions), noise=noise, candidates=candidates,
+                       model=model)
 
 
 def _parse_condition(item, index, base: Study, folder: Path) -> Condition:

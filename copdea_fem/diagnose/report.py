@@ -127,7 +127,8 @@ def diagnosis_document(result) -> dict:
                             "described": c.described(), "delta_in": _finite(c.delta_in),
                             "delta_cv": _finite(c.delta_cv),
                             "log_evidence": _finite(c.log_evidence), "threshold": c.threshold,
-                            "significant": c.significant} for c in step.candidates]})
+                            "significant": c.significant, "at_bound": list(c.at_bound)}
+                           for c in step.candidates]})
         state_gap = step.gap_after
     return {
         "measured": {"name": measured.name, "path": str(measured.path) if measured.path else None,
@@ -153,6 +154,13 @@ def diagnosis_document(result) -> dict:
                        "gap": "sqrt((sum r^2 + GATE^2 N_excess) / (N_pairs + N_excess)), r = "
                        "f_model/f_meas - 1, N_excess = unexplained + unseen beyond E + 2 "
                        "sqrt(V) of the noise model"},
+        "model_of_record": result.model,
+        "fe": {"solves": result.fe_solves, "seconds": result.fe_seconds},
+        "ring_convergence": result.ring_convergence,
+        "rejected": result.rejected,
+        "acceptance": "an effect that passes the test is accepted only when, evaluated "
+                      "exactly (FE re-solved at the fitted values), the gap and the deviance "
+                      "both fall; a fit at a bound of its range is never accepted",
         "final_study": "final_study.yaml", "provenance": package_versions()}
 
 
@@ -256,6 +264,45 @@ def _fmt(value, digits=1, unit=""):
     return f"{value:.{digits}f}{unit}"
 
 
+def model_of_record_lines(result) -> list:
+    """The report's section on the model of record, the surrogate's convergence and the
+    steps the acceptance rule refused."""
+    lines = ["## Model of record", ""]
+    if result.model == "fe":
+        lines += [f"The FE as the base study is written (in vacuo where `air.enabled` is "
+                  f"false, coupled with the air and its frame where true), solved "
+                  f"{result.fe_solves} time(s) in {result.fe_seconds:.0f} s (others from the "
+                  "FE cache); the ring model is its surrogate for the fits, anchored to it "
+                  "mode by mode at every accepted step (copdea_fem.diagnose.anchored).", ""]
+    else:
+        lines += ["The ring model alone (`model: reduced` in measured.yaml): the FE takes no "
+                  "part; right for data the ring model made (`copdea-fem synth`).", ""]
+    rc = result.ring_convergence
+    if rc:
+        error = f"{100 * rc['largest_error']:+.2f} %"
+        if rc["converged"]:
+            lines += [f"Ring surrogate: `reduced.rings = {rc['rings']}` is within the data's "
+                      f"scatter of the FE in vacuo (largest error {error} on {rc['label']}).",
+                      ""]
+        else:
+            advice = (f"set `reduced.rings: {rc['suggested_rings']}` in the base study "
+                      f"(error {100 * rc['suggested_error']:+.2f} %)"
+                      if rc["suggested_rings"] else "raise `reduced.rings`")
+            lines += [f"**Warning: the ring surrogate is not converged for the data's "
+                      f"scatter.** With `reduced.rings = {rc['rings']}` it is {error} off the FE "
+                      f"in vacuo on {rc['label']} ({rc['condition']}), more than sigma_f = "
+                      f"{100 * rc['sigma']:g} %.  The anchor removes this at the anchor "
+                      "points, but parameter fits that move modes far from them may be "
+                      f"biased: {advice}.", ""]
+    if result.rejected:
+        lines += ["Significant fits the acceptance rule refused (an accepted step must lower "
+                  "the gap and the deviance, evaluated exactly):", ""]
+        lines += [f"- step {r['step']}: {r['effect']} ({r['values']}): {r['reason']}"
+                  for r in result.rejected]
+        lines.append("")
+    return lines
+
+
 def report_markdown(result, document: dict, figures: list) -> str:
     measured = result.measured
     lines = [f"# Diagnosis: {measured.name}", ""]
@@ -281,8 +328,11 @@ def report_markdown(result, document: dict, figures: list) -> str:
     lines += ["", f"Noise model: sigma_f = {100 * n.frequency_relative:g} %, sigma_Q = "
                   f"{100 * n.quality_relative:g} %, p_miss = {n.missing_probability:g}, "
                   f"lambda_s = {n.spurious_per_condition:g} spurious peaks per condition.  "
-                  "Non-axisymmetric peaks are outside the reduced engine's scope and not "
-                  "scored.", ""]
+                  + ("Non-axisymmetric peaks are scored against the FE's (m,n) modes "
+                     "(optional: their absence costs nothing)." if result.model == "fe" else
+                     "Non-axisymmetric peaks are outside the ring model's scope and not "
+                     "scored (model: reduced)."), ""]
+    lines += model_of_record_lines(result)
     lines += ["## Gap before and after each step", "",
               "Gap = sqrt((sum r^2 + G^2 N_excess) / (N_pairs + N_excess)): the RMS relative "
               "frequency error r = f_model/f_meas - 1 over the paired modes, each unexplained "
@@ -349,10 +399,9 @@ def report_markdown(result, document: dict, figures: list) -> str:
         lines.append(f"| `{effect_id}` | {entry.kind} | {entry.engine} | "
                      f"{result.status[effect_id]} |")
     lines += [""]
-    if any("coupled" in r for r in result.not_tested.values()) or "frame_reflection" in \
-            result.not_tested:
-        lines += ["Effects that need the fully-coupled air/PML FE engine (frame_reflection) "
-                  "are not evaluated by the reduced engine and were skipped, not rejected.", ""]
+    if "frame_reflection" in result.not_tested:
+        lines += ["frame_reflection needs the fully-coupled air/PML FE (model: fe) with air in "
+                  "the model; it was skipped, not rejected.", ""]
     lines += ["## Model vs measured", "", "![frequencies](frequencies.png)", ""]
     for c in measured.conditions:
         lines += [f"### {c.name}", "",

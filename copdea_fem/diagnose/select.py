@@ -67,13 +67,8 @@ effects' parameters are not re-fitted inside each fold; this makes the
 current model look slightly better than it would out of sample, i.e. the
 test slightly conservative.)
 
-Speed: each candidate's per-condition mode frequencies and quality factors
-are tabulated exactly on a coarse parameter grid (9 points for the effects
-that need a new static solve, 17 otherwise, 9 x 9 for two parameters) and
-interpolated by cubic splines in the (log) parameters (error in ln f below
-1e-3, a test checks it, against sigma_f = 1-2 %); fits, folds and the
-prequential scores work on the interpolated modes; the in-sample deviance of
-every candidate and everything reported of the accepted model are exact.
+The surrogate's tabulation is :mod:`copdea_fem.diagnose.tabulation`; the sentences of
+the report (evidence, goodness of fit, verdict) are :mod:`copdea_fem.diagnose.evidence`.
 """
 
 from __future__ import annotations
@@ -82,20 +77,21 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.interpolate
-import scipy.optimize
 import scipy.stats
 
 from copdea_fem.diagnose.compare import (ConditionMatch, DevianceTerms, MeasuredPeak, gap,
-                                         match_condition, residual_summary)
-from copdea_fem.diagnose.effects import CATALOGUE, Parameter
-from copdea_fem.diagnose.engine import Engine, ModelMode, safe_predict
+                                         match_condition)
+from copdea_fem.diagnose.effects import CATALOGUE
+from copdea_fem.diagnose.engine import Engine, safe_predict
+from copdea_fem.diagnose.fe import BAND_MARGIN
+from copdea_fem.diagnose.evidence import describe_evidence, goodness_of_fit, verdict
 from copdea_fem.diagnose.peaks import find_spectrum_peaks, peak_height
+from copdea_fem.diagnose.tabulation import INVALID, Tabulation
 
 ALPHA = 0.05
 ORDERINGS = 3          # cyclic orderings averaged in the prequential evidence (fixed in advance)
-EXPENSIVE = ("electrostatic_softening", "uniform_stiffness")   # need a new static solve
-_INVALID = math.inf
+MAX_RINGS = 48         # the largest ring count the convergence check suggests
+BOUND_MARGIN = 1e-3    # a fitted u this close to 0 or 1 is at a bound of the fit range
 
 
 @dataclass(frozen=True)
@@ -123,6 +119,9 @@ class CandidateScore:
     significant : bool
     held_out : dict
         Held-out deviance per condition.
+    at_bound : tuple of str
+        Parameters fitted at a bound of their fit range (``effect.parameter``): such a
+        fit is reported, never accepted (the effect's range cannot explain the data).
     """
 
     effects: tuple
@@ -138,6 +137,7 @@ class CandidateScore:
     state: tuple = ()
     prequential: tuple = ()       # per ordering: {condition: deviance with past-fitted params}
     in_sample: dict = field(default_factory=dict)   # {condition: deviance at the full fit}
+    at_bound: tuple = ()
 
     @property
     def parameters(self) -> list:
@@ -197,6 +197,11 @@ class DiagnosisResult:
     alpha: float
     predictions_before: dict = field(default_factory=dict)
     predictions_after: dict = field(default_factory=dict)
+    rejected: list = field(default_factory=list)   # significant fits the acceptance refused
+    ring_convergence: dict | None = None           # the surrogate against the FE at the base
+    model: str = "reduced"                         # the model of record: "fe" or "reduced"
+    fe_solves: int = 0
+    fe_seconds: float = 0.0
 
 
 def condition_peaks(condition) -> list[MeasuredPeak]:
@@ -226,10 +231,15 @@ class Diagnoser:
                  progress=None):
         self.measured = measured
         self.alpha = alpha
+        self.progress = progress or (lambda message: None)
+        if engine is None and measured.model == "fe":
+            from copdea_fem.diagnose.anchored import AnchoredEngine
+            from copdea_fem.diagnose.fe import FEModel
+            engine = AnchoredEngine(measured, FEModel(progress=self.progress))
         self.engine = engine or Engine(measured)
+        self.uses_fe = hasattr(self.engine, "anchor")
         self.conditions = measured.conditions
         self.peaks = {c.name: condition_peaks(c) for c in self.conditions}
-        self.progress = progress or (lambda message: None)
         self._terms: dict = {}
         self.meta = {}
         for c in self.conditions:
@@ -237,13 +247,17 @@ class Diagnoser:
             self.meta[c.name] = {"voltage": study["load"]["voltage"], "z": study["load"]["z"]}
 
     # -- evaluation ------------------------------------------------------------------------
-    def match(self, condition, modes) -> ConditionMatch:
-        terms = self._terms.get(condition.name)
+    def terms(self, name) -> DevianceTerms:
+        """The deviance constants of condition ``name``."""
+        terms = self._terms.get(name)
         if terms is None:
-            terms = self._terms[condition.name] = DevianceTerms(self.measured.noise,
-                                                                condition.band)
+            condition = next(c for c in self.conditions if c.name == name)
+            terms = self._terms[name] = DevianceTerms(self.measured.noise, condition.band)
+        return terms
+
+    def match(self, condition, modes) -> ConditionMatch:
         return match_condition(condition.name, modes, self.peaks[condition.name],
-                               condition.band, self.measured.noise, terms)
+                               condition.band, self.measured.noise, self.terms(condition.name))
 
     def evaluate(self, state) -> tuple[dict, dict]:
         """Exact predictions and matches of every condition ({} entries None if invalid)."""
@@ -256,7 +270,7 @@ class Diagnoser:
 
     @staticmethod
     def deviances(matches) -> dict:
-        return {name: (m.deviance if m is not None else _INVALID) for name, m in matches.items()}
+        return {name: (m.deviance if m is not None else INVALID) for name, m in matches.items()}
 
     # -- candidates --------------------------------------------------------------------------
     def candidates(self, state, base_study) -> tuple[list, dict]:
@@ -270,14 +284,15 @@ class Diagnoser:
         groups, skipped = [], {}
         for effect_id in self.measured.candidates:
             entry = CATALOGUE[effect_id]
-            if entry.engine != "reduced":
-                setting = (" (the base study's geometry.frame = "
-                           f"{base_study['geometry']['frame']} acts only there)"
-                           if effect_id == "frame_reflection" else "")
-                skipped[effect_id] = ("needs the fully-coupled air/PML FE engine, which this "
-                                      f"version does not have{setting}")
+            if entry.engine == "coupled_fe" and not self.uses_fe:
+                skipped[effect_id] = ("needs the fully-coupled air/PML FE as the model of "
+                                      "record (measured.yaml model: fe)")
                 continue
             if effect_id in on:
+                continue
+            if entry.engine == "coupled_fe" and "air_loading" not in on:
+                skipped[effect_id] = ("needs air in the model (the frame reflects sound): "
+                                      "tested once air_loading is on")
                 continue
             if entry.needs == "quality_factors" and not has_quality:
                 skipped[effect_id] = ("needs quality factors (a quality_factor column or "
@@ -300,7 +315,7 @@ class Diagnoser:
     def score(self, state, group, current_deviance: dict, tested: int) -> CandidateScore:
         """Fit, cross-validate and test one candidate group (module notes)."""
         parameters = [p for e in group for p in CATALOGUE[e].parameters]
-        table = _Tabulation(self, state, group, parameters, nuisance=True)
+        table = Tabulation(self, state, group, parameters, nuisance=True)
         names = [c.name for c in self.conditions]
         full_u = table.fit(names)
         values = table.values(full_u)
@@ -336,12 +351,17 @@ class Diagnoser:
             significant = log_evidence >= threshold
         if not math.isfinite(delta_cv):
             significant = False
+        at_bound = tuple(f"{effect}.{p.name}" for (effect, p), x in zip(
+            ((e, p) for e in group for p in CATALOGUE[e].parameters), full_u[:k])
+            if x <= BOUND_MARGIN or x >= 1 - BOUND_MARGIN)
+        if at_bound:
+            significant = False
         return CandidateScore(effects=tuple(group), values=tuple(values), deviance=total,
                               delta_in=delta_in, fold_delta=fold_delta, delta_cv=delta_cv,
                               log_evidence=log_evidence, threshold=threshold,
                               significant=significant, held_out=held_out,
                               state=table.state_at(full_u), prequential=prequential,
-                              in_sample=dict(deviance))
+                              in_sample=dict(deviance), at_bound=at_bound)
 
     def _held_out(self, table, name, u) -> float:
         """Deviance of one condition at u, on the interpolated modes (error << sigma_f)."""
@@ -362,7 +382,7 @@ class Diagnoser:
         if not parameters:
             return state
         rest = state[:index] + state[index + 1:]
-        table = _Tabulation(self, rest, (effect_id,), parameters)
+        table = Tabulation(self, rest, (effect_id,), parameters)
         u = table.fit([c.name for c in self.conditions])
         values = tuple(table.values(u))
         return state[:index] + ((effect_id, values),) + state[index + 1:]
@@ -371,17 +391,19 @@ class Diagnoser:
     def run(self) -> DiagnosisResult:
         base = self.measured.base_study
         state: tuple = ()
+        self._anchor(state)
         predictions_before, matches_before = self.evaluate(state)
         if any(m is None for m in matches_before.values()):
             bad = [n for n, m in matches_before.items() if m is None]
             from copdea_fem.study import StudyError
             raise StudyError(f"conditions {', '.join(bad)} are not allowed: the base model "
                              "cannot be evaluated there (see copdea-fem spectrum on that "
-                             "condition's study); allowed: operating points the reduced model "
+                             "condition's study); allowed: operating points the model "
                              "solves")
+        convergence = self.ring_convergence() if self.uses_fe else None
         deviance = self.deviances(matches_before)
         matches = matches_before
-        steps, missing, ambiguous = [], [], []
+        steps, missing, ambiguous, rejected = [], [], [], []
         not_tested: dict = {}
         tested_ever: set = set()
         for index in range(1, len(CATALOGUE) + 1):
@@ -389,24 +411,37 @@ class Diagnoser:
             not_tested.update(skipped)
             if not groups:
                 break
+            for group in groups:
+                not_tested.pop(group[-1], None)
             self.progress(f"step {index}: testing {', '.join(g[-1] for g in groups)}")
             scores = [self.score(state, g, deviance, len(groups)) for g in groups]
             tested_ever.update(g[-1] for g in groups)
             scores.sort(key=lambda s: -s.delta_cv if math.isfinite(s.delta_cv) else math.inf)
-            passing = [s for s in scores if s.significant]
-            if not passing:
+            accepted = None
+            for best in (s for s in scores if s.significant):
+                new_state = best.state
+                for position in range(len(state)):
+                    new_state = self.refit(new_state, position)
+                previous = self._anchor(new_state)
+                _, new_matches = self.evaluate(new_state)
+                reason = self._refusal(matches, new_matches, best.effects)
+                if reason is None:
+                    accepted = best
+                    break
+                rejected.append({"step": index, "effect": best.effects[-1],
+                                 "values": _values_dict(new_state, best.effects),
+                                 "reason": reason})
+                self.progress(f"step {index}: {best.described()} refused: {reason}")
+                self._restore_anchor(previous)
+            if accepted is None:
                 steps.append(Step(index, "none", (), {}, scores[0],
                                   gap(matches.values()), gap(matches.values()),
                                   sum(deviance.values()), sum(deviance.values()), [],
                                   candidates=scores))
                 break
-            best = passing[0]
+            best = accepted
             rivals = [s for s in scores if s is not best and math.isfinite(s.delta_cv)
                       and s.delta_cv > 0 and self._indistinguishable(best, s)]
-            new_state = best.state
-            for position in range(len(state)):
-                new_state = self.refit(new_state, position)
-            _, new_matches = self.evaluate(new_state)
             new_deviance = self.deviances(new_matches)
             evidence = describe_evidence(matches, new_matches, self.meta)
             action = "ambiguous" if rivals else "added"
@@ -429,7 +464,7 @@ class Diagnoser:
         added = {e for e, _ in state}
         ambiguous_ids = {e for group in ambiguous for e in group}
         base_on = [e for e, entry in CATALOGUE.items()
-                   if entry.is_on(base) and entry.engine == "reduced"]
+                   if entry.is_on(base) and (entry.engine == "reduced" or self.uses_fe)]
         for effect_id in CATALOGUE:
             if effect_id in missing:
                 status[effect_id] = "missing: added"
@@ -458,9 +493,94 @@ class Diagnoser:
                                        if e not in added}, base_on=base_on,
             goodness=goodness, verdict="", cross_validated=len(self.conditions) >= 2,
             alpha=self.alpha, predictions_before=predictions_before,
-            predictions_after=predictions_after)
+            predictions_after=predictions_after, rejected=rejected,
+            ring_convergence=convergence, model="fe" if self.uses_fe else "reduced",
+            fe_solves=self.engine.fe.solves if self.uses_fe else 0,
+            fe_seconds=self.engine.fe.seconds if self.uses_fe else 0.0)
         result.verdict = verdict(result)
         return result
+
+    # -- acceptance --------------------------------------------------------------------------
+    def _anchor(self, state):
+        """Solve the FE at ``state``'s FE parameters from now on; the previous anchor."""
+        if not self.uses_fe:
+            return None
+        previous = dict(self.engine.anchored)
+        self.engine.set_anchor(state)
+        return previous
+
+    def _restore_anchor(self, previous) -> None:
+        if self.uses_fe:
+            self.engine.anchored = previous
+
+    @staticmethod
+    def _refusal(matches, new_matches, effects) -> str | None:
+        """Why an effect that passed the test is not accepted (None: accepted).
+
+        Exact evaluation (the FE re-solved at the fitted FE parameters): accepted only
+        when the model can be evaluated everywhere and both the headline gap and the
+        in-sample deviance fall -- an accepted step never makes the model worse.  (An
+        effect on the quality factors alone, modal_damping, cannot move the gap -- a
+        frequency error -- so there the gap must only not rise.)
+        """
+        if any(m is None for m in new_matches.values()):
+            bad = [n for n, m in new_matches.items() if m is None]
+            return f"the fitted model cannot be evaluated at {', '.join(bad)}"
+        before, after = gap(matches.values()), gap(new_matches.values())
+        widths_only = all(CATALOGUE[e].needs == "quality_factors" for e in effects)
+        if after > before or (after == before and not widths_only):
+            return f"the gap does not fall ({100 * before:.2f} % -> {100 * after:.2f} %)"
+        old = sum(m.deviance for m in matches.values())
+        new = sum(m.deviance for m in new_matches.values())
+        if not new < old:
+            return f"the deviance does not fall ({old:.1f} -> {new:.1f})"
+        return None
+
+    def ring_convergence(self) -> dict:
+        """The ring surrogate against the FE at the base point (FE model of record only).
+
+        The anchor (A1 of :mod:`copdea_fem.diagnose.anchored`) removes the ring model's
+        discretisation error at the anchor, but a surrogate far from the FE also moves
+        its modes differently with the parameters; it is flagged when its largest error
+        on an axisymmetric mode in a band exceeds the data's scatter sigma_f, with the
+        ring count (doubling, up to :data:`MAX_RINGS`) that brings it below sigma_f / 2.
+        """
+        sigma = self.measured.noise.frequency_relative
+        rings = self.measured.base_study["reduced"]["rings"]
+
+        def worst(ring_count):
+            out = (0.0, "", "")
+            for c in self.conditions:
+                study = self.engine.condition_study(c)
+                study = study.replace(CATALOGUE["air_loading"].off(study))   # in vacuo
+                fe = self.engine.fe.modes(study, f_max=BAND_MARGIN * c.band[1]).frequencies()
+                if ring_count != rings:
+                    study = study.replace({"reduced.rings": ring_count})
+                try:
+                    modes = self.engine.ring_predict_study(study, c).modes
+                except Exception:        # noqa: BLE001 - a ring count the model cannot take
+                    return None
+                for m in modes:
+                    if (m.kind == "axisymmetric" and m.label in fe
+                            and c.band[0] <= fe[m.label] <= c.band[1]):
+                        error = m.frequency_hz / fe[m.label] - 1
+                        if abs(error) > abs(out[0]):
+                            out = (error, m.label, c.name)
+            return out
+
+        error, label, where = worst(rings)
+        report = {"rings": rings, "sigma": sigma, "largest_error": error, "label": label,
+                  "condition": where, "converged": abs(error) <= sigma, "suggested_rings": None}
+        if not report["converged"]:
+            count = rings
+            while count < MAX_RINGS:
+                count = min(2 * count, MAX_RINGS)
+                found = worst(count)
+                if found is not None and abs(found[0]) <= sigma / 2:
+                    report["suggested_rings"] = count
+                    report["suggested_error"] = found[0]
+                    break
+        return report
 
     def _indistinguishable(self, best: CandidateScore, other: CandidateScore) -> bool:
         if len(self.conditions) >= 2:
@@ -475,7 +595,7 @@ class Diagnoser:
         """The probe operating point where the two fitted models differ most.
 
         Probes: V_b in {0, 1, 2, 3} kV x z in the data's z values and {0, 11, 16, 18} mm,
-        at the first condition's geometry.  A probe's separation is
+        at the first condition's geometry, on the ring model (no FE solve per probe).  A probe's separation is
         ``sqrt(sum_modes (ln(f_first / f_second) / sigma_f)^2)`` over the expected modes in
         the band (what one measurement there would add to the deviance difference); the
         mode that differs most is named.
@@ -489,8 +609,8 @@ class Diagnoser:
             for z in z_values:
                 probe = _probe(template, {**template.overrides, "load.z": z,
                                           "load.voltage": voltage})
-                a = safe_predict(self.engine, probe, first.state)
-                b = safe_predict(self.engine, probe, second.state)
+                a = safe_predict(self.engine, probe, first.state, ring_only=True)
+                b = safe_predict(self.engine, probe, second.state, ring_only=True)
                 if a is None or b is None:
                     continue
                 distances = []
@@ -521,15 +641,6 @@ def _probe(template, overrides):
                      overrides=overrides, resonances=None, spectrum=None, band=template.band)
 
 
-def _extend(state, group, values) -> tuple:
-    out, offset = list(state), 0
-    for effect_id in group:
-        count = len(CATALOGUE[effect_id].parameters)
-        out.append((effect_id, tuple(float(v) for v in values[offset:offset + count])))
-        offset += count
-    return tuple(out)
-
-
 def _values_dict(state, effects) -> dict:
     out = {}
     for effect_id, values in state:
@@ -547,380 +658,3 @@ def _log_mean_exp(values) -> float:
     if not math.isfinite(top):
         return float(top)
     return float(top + math.log(np.mean(np.exp(values - top))))
-
-
-class _Tabulation:
-    """Per-condition modes of a candidate on a coarse parameter grid, interpolated anywhere.
-
-    Parameters are mapped to u in [0, 1] (log or linear between the bounds).
-    """
-
-    def __init__(self, diagnoser: Diagnoser, state, group, parameters: list[Parameter],
-                 nuisance: bool = False):
-        self.d = diagnoser
-        self.state, self.group, self.parameters = state, tuple(group), parameters
-        self.k = len(parameters)
-        expensive = any(e in EXPENSIVE for e in group)
-        count = (9 if expensive else 17) if self.k == 1 else 9
-        self.axes = [np.linspace(0, 1, count) for _ in range(self.k)]
-        self.default_u = np.array([self._to_u(p, p.default) for p in parameters])
-        self.cache: dict = {}
-        self.splines: dict = {}
-        # nuisance: the fitted parameters of the effects already in the state
-        self.nuisance = [(i, j, p) for i, (e, values) in enumerate(state) if nuisance
-                         for j, p in enumerate(CATALOGUE[e].parameters)]
-        self.nuisance_u0 = np.array([self._to_u(p, state[i][1][j])
-                                     for i, j, p in self.nuisance])
-        self.jacobian: dict = {}
-        if self.k:
-            self._tabulate()
-        if self.nuisance:
-            self._linearise()
-
-    @property
-    def dimension(self) -> int:
-        return self.k + len(self.nuisance)
-
-    def state_at(self, u) -> tuple:
-        """The full effect state at a point (candidate + nuisance parameters)."""
-        u = np.atleast_1d(np.asarray(u, float))
-        state = [list(entry) for entry in self.state]
-        for (i, j, p), x in zip(self.nuisance, u[self.k:]):
-            values = list(state[i][1])
-            values[j] = self._from_u(p, x)
-            state[i][1] = tuple(values)
-        base = tuple((e, tuple(v)) for e, v in state)
-        return _extend(base, self.group, self.values(u[:self.k]))
-
-    def _linearise(self):
-        """d ln f / d u_nuisance of every mode at the candidate's default, per condition."""
-        u0 = np.concatenate([self.default_u, self.nuisance_u0])
-        step = 0.02
-        for c in self.d.conditions:
-            centre = safe_predict(self.d.engine, c, self.state_at(u0))
-            rows = []
-            for n in range(len(self.nuisance)):
-                u = u0.copy()
-                u[self.k + n] += step if u[self.k + n] + step <= 1 else -step
-                shifted = safe_predict(self.d.engine, c, self.state_at(u))
-                if centre is None or shifted is None or [m.label for m in centre.modes] != [
-                        m.label for m in shifted.modes]:
-                    rows = None
-                    break
-                rows.append([(math.log(b.frequency_hz / a.frequency_hz)) / (u[self.k + n]
-                                                                          - u0[self.k + n])
-                             for a, b in zip(centre.modes, shifted.modes)])
-            self.jacobian[c.name] = (
-                {m.label: np.array([row[q] for row in rows]) for q, m in
-                 enumerate(centre.modes)} if rows is not None else None)
-
-    # parameter <-> u
-    @staticmethod
-    def _to_u(p: Parameter, value: float) -> float:
-        if p.log:
-            return math.log(value / p.lower) / math.log(p.upper / p.lower)
-        return (value - p.lower) / (p.upper - p.lower)
-
-    @staticmethod
-    def _from_u(p: Parameter, x: float) -> float:
-        x = float(np.clip(x, 0, 1))
-        return p.lower * (p.upper / p.lower) ** x if p.log else p.lower + x * (p.upper - p.lower)
-
-    def values(self, u) -> list:
-        """Candidate parameter values (SI) at a point."""
-        return [self._from_u(p, x) for p, x in zip(self.parameters, np.atleast_1d(u))]
-
-    def _tabulate(self):
-        grid = np.array(np.meshgrid(*self.axes, indexing="ij")).reshape(self.k, -1).T
-        shape = tuple(a.size for a in self.axes)
-        for c in self.d.conditions:
-            predictions = [safe_predict(self.d.engine, c, _extend(self.state, self.group,
-                                                                  self.values(u)))
-                           for u in grid]
-            valid = [p for p in predictions if p is not None]
-            if not valid:
-                self.splines[c.name] = None
-                continue
-            template = valid[len(valid) // 2].modes
-            labels = [m.label for m in template]
-            ok = np.array([p is not None and [m.label for m in p.modes] == labels
-                           for p in predictions])
-            freq = np.full((grid.shape[0], len(labels)), np.nan)
-            quality = np.full_like(freq, np.nan)
-            for g, p in enumerate(predictions):
-                if ok[g]:
-                    freq[g] = [math.log(m.frequency_hz) for m in p.modes]
-                    quality[g] = [math.log(m.quality_factor) if 0 < m.quality_factor < math.inf
-                                  else np.nan for m in p.modes]
-            self.splines[c.name] = _ModeInterpolator(self.axes, shape, ok, freq, quality,
-                                                     template)
-
-    def modes_at(self, name, u):
-        u = np.atleast_1d(np.asarray(u, float))
-        if self.k:
-            spline = self.splines.get(name)
-            if spline is None:
-                return None
-            modes = spline(u[:self.k])
-        else:
-            modes = self._fixed_modes(name)
-        if modes is None or not self.nuisance:
-            return modes
-        jacobian = self.jacobian.get(name)
-        if jacobian is None or u.size == self.k:
-            return modes
-        shift = u[self.k:] - self.nuisance_u0
-        out = []
-        for m in modes:
-            row = jacobian.get(m.label)
-            factor = math.exp(float(row @ shift)) if row is not None else 1.0
-            out.append(ModelMode(m.label, m.kind, m.frequency_hz * factor, m.quality_factor,
-                                 m.radial_ratio, m.expected))
-        return out
-
-    def _fixed_modes(self, name):
-        if not hasattr(self, "_fixed"):
-            self._fixed = {}
-            for c in self.d.conditions:
-                p = safe_predict(self.d.engine, c, _extend(self.state, self.group, []))
-                self._fixed[c.name] = list(p.modes) if p is not None else None
-        return self._fixed.get(name)
-
-    def deviance(self, names, u) -> float:
-        """Deviance of the named conditions at u (candidate [+ nuisance] parameters)."""
-        total = 0.0
-        for c in self.d.conditions:
-            if c.name not in names:
-                continue
-            modes = self.modes_at(c.name, u)
-            if modes is None:
-                return _INVALID
-            total += self.d.match(c, modes).deviance
-        return total
-
-    def profile(self, names, candidate_u) -> tuple[float, np.ndarray]:
-        """Deviance with the nuisance parameters profiled out, and the full u.
-
-        ln f is linear in the nuisance parameters (:meth:`_linearise`), so for the
-        pairs within the strict gate (the Gaussian branch of the deviance) their best
-        shift is a least-squares solution; two Gauss-Newton passes with re-matching,
-        kept only where they lower the deviance.
-        """
-        candidate_u = np.atleast_1d(np.asarray(candidate_u, float))[:self.k]
-        best_u = np.concatenate([candidate_u, self.nuisance_u0])
-        best = self.deviance(names, best_u)
-        if not self.nuisance or not math.isfinite(best):
-            return best, best_u
-        u = best_u.copy()
-        for _ in range(2):
-            rows, residuals = [], []
-            for c in self.d.conditions:
-                if c.name not in names or self.jacobian.get(c.name) is None:
-                    continue
-                modes = self.modes_at(c.name, u)
-                match = self.d.match(c, modes)
-                limit = self.d._terms[c.name].strict_gate()
-                for pair in match.pairs:
-                    row = self.jacobian[c.name].get(pair.model.label)
-                    if row is not None and abs(pair.log_error) <= limit:
-                        rows.append(row)
-                        residuals.append(pair.log_error)
-            if len(rows) < len(self.nuisance):
-                break
-            step = np.linalg.lstsq(np.array(rows), np.array(residuals), rcond=None)[0]
-            u = u.copy()
-            u[self.k:] = np.clip(u[self.k:] + step, 0, 1)
-            value = self.deviance(names, u)
-            if value < best:
-                best, best_u = value, u.copy()
-            else:
-                break
-        return best, best_u
-
-    def start(self) -> np.ndarray:
-        """The physical defaults of the candidate, the current nuisance values (u)."""
-        return np.concatenate([self.default_u, self.nuisance_u0])
-
-    def check_interpolation(self, name) -> float:
-        """Largest |ln f| error of the interpolation against exact predictions, at the
-        midpoints of the coarse grid (for tests)."""
-        condition = next(c for c in self.d.conditions if c.name == name)
-        worst = 0.0
-        if self.k != 1:
-            return worst
-        axis = self.axes[0]
-        for x in 0.5 * (axis[1:] + axis[:-1]):
-            u = np.concatenate([[x], self.nuisance_u0])
-            exact = safe_predict(self.d.engine, condition, self.state_at(u))
-            modes = self.modes_at(name, u)
-            if exact is None or modes is None:
-                continue
-            for a, b in zip(exact.modes, modes):
-                worst = max(worst, abs(math.log(a.frequency_hz / b.frequency_hz)))
-        return worst
-
-    def fit(self, names) -> np.ndarray:
-        """u minimising the interpolated deviance of the named conditions (candidate
-        parameters, then the nuisance ones)."""
-        key = tuple(sorted(names))
-        if key in self.cache:
-            return self.cache[key]
-        if not self.k:
-            _, u = self.profile(names, [])
-            self.cache[key] = u
-            return u
-        fine = 61 if self.k == 1 else 13
-        axes = [np.linspace(0, 1, fine) for _ in range(self.k)]
-        points = np.array(np.meshgrid(*axes, indexing="ij")).reshape(self.k, -1).T
-        per_condition = self._fine_table(points)
-        total = sum(per_condition[n] for n in names)
-        start = points[int(np.argmin(total))]
-        objective = lambda x: min(self.profile(names, np.clip(x, 0, 1))[0], 1e12)  # noqa
-        step = 1.0 / (fine - 1)
-        reach = 3 * step if self.nuisance else step   # the nuisance can move the optimum
-        if self.k == 1:
-            low, high = max(0.0, start[0] - reach), min(1.0, start[0] + reach)
-            found = scipy.optimize.minimize_scalar(lambda x: objective([x]), bounds=(low, high),
-                                                   method="bounded",
-                                                   options={"xatol": 1e-4})
-            best = np.array([found.x]) if found.fun <= objective(start) else start
-        else:   # two parameters: simplex with the nuisance held, profiled at the end
-            held = lambda x: min(self.deviance(names, np.clip(x, 0, 1)), 1e12)  # noqa: E731
-            simplex = np.array([start, start + [step, 0], start + [0, step]])
-            found = scipy.optimize.minimize(held, start, method="Nelder-Mead",
-                                            options={"initial_simplex": simplex,
-                                                     "xatol": 1e-3, "fatol": 1e-2,
-                                                     "maxfev": 60})
-            best = np.clip(found.x, 0, 1) if found.fun <= held(start) else start
-        _, u = self.profile(names, best)
-        self.cache[key] = u
-        return u
-
-    def _fine_table(self, points) -> dict:
-        if hasattr(self, "_fine"):
-            return self._fine
-        table = {}
-        for c in self.d.conditions:
-            table[c.name] = np.array([self.deviance([c.name], u) for u in points])
-        self._fine = table
-        return table
-
-
-class _ModeInterpolator:
-    """Cubic interpolation of ln f and ln Q of every mode over the coarse grid (one spline
-    object for all modes; a Q that is not finite everywhere keeps its template value)."""
-
-    def __init__(self, axes, shape, ok, freq, quality, template):
-        self.template = template
-        self.k = len(axes)
-        self.has_q = np.all(np.isfinite(quality[ok]), axis=0) if np.any(ok) else \
-            np.zeros(freq.shape[1], bool)
-        quality = np.where(self.has_q, quality, 0.0)
-        values = np.concatenate([freq, quality], axis=1)
-        self.low, self.high, self.spline = 1.0, 0.0, None
-        if self.k == 1:
-            x = axes[0][ok]
-            if x.size >= 2:
-                self.low, self.high = x.min(), x.max()
-                self.spline = (scipy.interpolate.CubicSpline(x, values[ok], axis=0)
-                               if x.size >= 4 else scipy.interpolate.interp1d(
-                                   x, values[ok], axis=0))
-        elif np.all(ok):
-            self.low, self.high = 0.0, 1.0
-            self.spline = [scipy.interpolate.RectBivariateSpline(*axes,
-                                                                 values[:, j].reshape(shape))
-                           for j in range(values.shape[1])]
-
-    def __call__(self, u):
-        if self.spline is None or not all(self.low - 1e-12 <= x <= self.high + 1e-12
-                                          for x in u[:self.k]):
-            return None
-        if self.k == 1:
-            values = np.asarray(self.spline(u[0]))
-        else:
-            values = np.array([s(u[0], u[1])[0, 0] for s in self.spline])
-        count = len(self.template)
-        out = []
-        for j, mode in enumerate(self.template):
-            ln_f, ln_q = values[j], values[count + j]
-            if not math.isfinite(ln_f):
-                return None
-            quality = math.exp(ln_q) if self.has_q[j] else mode.quality_factor
-            out.append(ModelMode(mode.label, mode.kind, math.exp(ln_f), quality,
-                                 mode.radial_ratio, mode.expected))
-        return out
-
-
-# -- evidence, goodness of fit, verdict ---------------------------------------------------------
-def describe_evidence(before, after, meta) -> list[str]:
-    """Which residual patterns a step removed, largest first (sentences)."""
-    b, a = residual_summary(before.values(), meta), residual_summary(after.values(), meta)
-    items = []
-    change = b["unexplained_pumping"] - a["unexplained_pumping"]
-    if change > 0:
-        items.append((10 + change, f"{change} unexplained pistonic peak(s) now explained "
-                                   f"({b['unexplained_pumping']} -> {a['unexplained_pumping']})"))
-    change = b["unexplained"] + b["unseen"] - a["unexplained"] - a["unseen"]
-    if change > 0:
-        items.append((5 + change, f"unexplained peaks + unseen modes {b['unexplained']} + "
-                                  f"{b['unseen']} -> {a['unexplained']} + {a['unseen']}"))
-    for label, error in b["mean_error_by_label"].items():
-        new = a["mean_error_by_label"].get(label)
-        if new is not None and abs(error) - abs(new) > 0.005:
-            items.append((100 * (abs(error) - abs(new)),
-                          f"{label}: mean frequency error {100 * error:+.1f} % -> "
-                          f"{100 * new:+.1f} %"))
-    for key, text in (("span_vs_log_frequency", "frequency"),
-                      ("span_vs_voltage_squared", "V_b^2"), ("span_vs_z", "z")):
-        old, new = -b[key], -a[key]          # model error (f_model/f_meas) across the range
-        if abs(old) - abs(new) > 0.005 and abs(old) > 2 * abs(new):
-            items.append((100 * (abs(old) - abs(new)),
-                          f"model error changing with {text} (across the data's range): "
-                          f"{100 * old:+.1f} % -> {100 * new:+.1f} %"))
-    old, new = b["median_log_quality_ratio"], a["median_log_quality_ratio"]
-    if math.isfinite(new) and (not math.isfinite(old) or abs(old) - abs(new) > 0.2):
-        shown = "infinite" if not math.isfinite(old) else f"{math.exp(-old):.3g}"
-        items.append((20, f"model/measured quality factor (median) {shown} -> "
-                          f"{math.exp(-new):.3g}"))
-    items.sort(key=lambda item: -item[0])
-    return [text for _, text in items]
-
-
-def goodness_of_fit(matches, noise) -> dict:
-    """Chi-square of the paired ln-frequency residuals against the stated sigma_f.
-
-    ``p_value`` small: the remaining scatter exceeds the noise model (a cause outside the
-    catalogue, or sigma_f set too small).  Pairs beyond 4 sigma_f count as outliers.
-    """
-    sigma = noise.frequency_relative
-    errors = np.array([p.log_error for m in matches if m is not None for p in m.pairs])
-    inliers = errors[np.abs(errors) <= 4 * sigma]
-    chi2 = float(np.sum((inliers / sigma) ** 2))
-    count = int(inliers.size)
-    p_value = float(scipy.stats.chi2.sf(chi2, count)) if count else math.nan
-    rms = float(np.sqrt(np.mean(inliers ** 2))) if count else math.nan
-    return {"pairs": int(errors.size), "inliers": count, "outliers": int(errors.size - count),
-            "chi2": chi2, "p_value": p_value, "rms_log_error": rms, "sigma": sigma}
-
-
-def verdict(result: DiagnosisResult) -> str:
-    parts = []
-    if result.missing_effects:
-        parts.append("Missing: " + ", ".join(result.missing_effects)
-                     + f" (in order of importance); gap {100 * result.gap_before:.1f} % -> "
-                     f"{100 * result.gap_after:.1f} %.")
-    for group in result.ambiguous:
-        parts.append("The data cannot tell " + " from ".join(group) + " apart (see the "
-                     "separating measurement).")
-    if not result.missing_effects and not result.ambiguous:
-        parts.append(f"Nothing is missing: no catalogued effect improves the model "
-                     f"significantly (alpha = {result.alpha:g}); gap "
-                     f"{100 * result.gap_before:.1f} %.")
-    g = result.goodness
-    if g["inliers"] and g["p_value"] < 0.01:
-        parts.append(f"The remaining frequency scatter ({100 * g['rms_log_error']:.2f} % rms) "
-                     f"exceeds the stated noise ({100 * g['sigma']:.2f} %): a cause outside the "
-                     "catalogue, or noise.frequency_relative set too small.")
-    if result.not_tested:
-        parts.append("Not tested: " + ", ".join(result.not_tested) + ".")
-    return " ".join(parts)

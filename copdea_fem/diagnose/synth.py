@@ -25,6 +25,10 @@ all drawn from one seeded generator (:func:`numpy.random.default_rng`):
   line and component, plus a floor of 0.2 % of the largest value; only
   where the chirp drives anything (z > 0 and V_b > 0).
 
+The data are the reduced (ring) model's, so the ``measured.yaml`` names it as the
+model of record (``model: reduced``): diagnosing it tests that the diagnosis can
+invert its own surrogate, not the FE (for that: ``tests/diagnose/fe_battery.py``).
+
 Written: ``measured.yaml``, ``base_study.yaml`` (the study as given,
 resolved), ``<condition>_resonances.csv``, ``<condition>_spectrum.csv`` and
 ``synth_truth.json`` (effects, parameters, seed, options, true frequencies).
@@ -300,6 +304,7 @@ def write_synthetic(study: Study, effects: dict, items: list[SynthCondition],
         "description": "synthetic measurement (copdea-fem synth): effects "
                        + (", ".join(effects) or "none") + f" on, seed {options.seed}",
         "base_study": "base_study.yaml",
+        "model": "reduced",       # made by the ring model: diagnosed against it
         "noise": {"frequency_relative": max(options.frequency_noise, 1e-4),
                   "quality_relative": max(options.quality_noise, 1e-3),
                   "missing_probability": min(max(options.missing_probability, 1e-3), 0.9),

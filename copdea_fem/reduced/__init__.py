@@ -5,6 +5,7 @@ Pipeline (each step a pure module; file glue in :mod:`copdea_fem.reduced.io`):
 ``rings``   ring model: energies (eqs 9-13), static equilibrium, F(z), eq. (14)
 ``modal``   dry modes (eqs 15-16), labels P1 / (0,n) / IPn, mode profiles (Fig. 9d)
 ``spring``  Annex I: pumping frequencies (eq. 22) and shapes (eq. 23)
+``airmass`` incompressible-air added mass of the axisymmetric modes (eq. 19's m_ad)
 ``response`` eq. (19) in air, chirp spectra (Sects 4.2, 5.3), damping calibration
 ``fit``     c10, c20, c01 from force-displacement data (Sect. 5.1)
 ``model``   everything above for a study: :func:`build_reduced`

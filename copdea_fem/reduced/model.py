@@ -13,7 +13,7 @@ Added mass per kept mode (eq. 19), first rule that applies:
 - ``(0,1)``, ``(0,2)``: ``reduced.coupled_freq_01/02``; else the FE
   frequency of that label; else, with ``effects.air_added_mass =
   incompressible``, the incompressible-air estimate
-  (:mod:`copdea_fem.diagnose.airmass`); else 0 (dry).
+  (:mod:`copdea_fem.reduced.airmass`); else 0 (dry).
 - ``(0,n)``, n >= 3: the FE frequency; else the estimate as above; else 0.
 - every ``(0,n)``: times ``effects.air_mass_scale``.
 
@@ -122,7 +122,7 @@ def operating_point(ring_model: RingModel, z: float, voltage: float,
 @functools.lru_cache(maxsize=4096)
 def _air_added_mass_ratio(ring_model: RingModel, z: float, voltage: float, maxwell_scale: float,
                           label: str, air_density: float) -> float:
-    from copdea_fem.diagnose.airmass import ring_mode_added_mass
+    from copdea_fem.reduced.airmass import ring_mode_added_mass
     linearisation, basis, _ = operating_point(ring_model, z, voltage, maxwell_scale)
     mode = basis[label]
     return ring_mode_added_mass(linearisation.equilibrium, mode.radial, mode.axial, air_density)

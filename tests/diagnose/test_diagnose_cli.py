@@ -35,7 +35,7 @@ def test_diagnose_the_bundled_example_writes_the_contract(tmp_path, capsys):
                  "spectra_z16_v2.png"):
         assert (out / name).is_file(), name
     report = (out / "report.md").read_text()
-    assert "frame_reflection" in report and "coupled air/PML FE engine" in report
+    assert "frame_reflection" in report and "coupled air/PML FE" in report
     # the final model reruns as an ordinary study, with the fitted effects in it
     final = load_study(out / "final_study.yaml")
     assert final["spring"]["mass"] == pytest.approx(

@@ -1,4 +1,4 @@
-"""Incompressible-air added mass (eq. A1 of copdea_fem.diagnose.airmass) against closed forms."""
+"""Incompressible-air added mass (eq. A1 of copdea_fem.reduced.airmass) against closed forms."""
 
 import math
 
@@ -7,7 +7,7 @@ import pytest
 import scipy.integrate
 import scipy.special
 
-from copdea_fem.diagnose.airmass import face_added_mass, hankel_transform, ring_sources
+from copdea_fem.reduced.airmass import face_added_mass, hankel_transform, ring_sources
 from copdea_fem.reduced import build_reduced
 from copdea_fem.study import parse_study
 
