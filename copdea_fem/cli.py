@@ -314,7 +314,8 @@ def cmd_diagnose(args) -> int:
     with _output(args, out_dir, "diagnose", inputs):
         return _reduced_action(lambda: run_diagnose(args.measured, out_dir=out_dir,
                                                     progress=_progress(args.quiet),
-                                                    alpha=args.alpha))
+                                                    alpha=args.alpha, model=args.model,
+                                                    fe_cache=args.fe_cache))
 
 
 def cmd_synth(args) -> int:
@@ -348,6 +349,13 @@ def _add_diagnose_commands(commands, with_study) -> None:
     diagnose.add_argument("--out", help="report directory (default: results/diagnose_<name>)")
     diagnose.add_argument("--alpha", type=float, default=0.05,
                           help="false-alarm probability per step (default 0.05)")
+    diagnose.add_argument("--model", choices=("fe", "reduced"),
+                          help="model of record (default: measured.yaml's model, else fe: the "
+                               "FE as the base study is written, the ring model its anchored "
+                               "surrogate; reduced: the ring model alone)")
+    diagnose.add_argument("--fe-cache", metavar="DIR",
+                          help="folder of cached FE solves (default: $COPDEA_FEM_FE_CACHE, else "
+                               "the user cache folder)")
     diagnose.add_argument("--quiet", action="store_true", help="no progress messages")
     diagnose.set_defaults(handler=cmd_diagnose)
 

@@ -24,6 +24,7 @@ staged and moved into place only when complete):
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 from copdea_fem.diagnose.effects import CATALOGUE, EFFECT_IDS, Effect, Parameter, catalogue_table
@@ -41,7 +42,8 @@ def synth_out_dir(study, seed: int) -> Path:
     return Path("results") / f"synth_{study.name}_seed{seed}"
 
 
-def run_diagnose(measured_path, out_dir=None, progress=None, alpha: float = 0.05) -> dict:
+def run_diagnose(measured_path, out_dir=None, progress=None, alpha: float = 0.05,
+                 model: str | None = None, fe_cache=None) -> dict:
     """Diagnose a measured data set and write the report.
 
     Parameters
@@ -52,6 +54,10 @@ def run_diagnose(measured_path, out_dir=None, progress=None, alpha: float = 0.05
         Default ``results/diagnose_<name>``.
     alpha : float
         False-alarm probability per step (:mod:`copdea_fem.diagnose.select`).
+    model : str, optional
+        ``"fe"`` or ``"reduced"``: overrides the manifest's ``model``.
+    fe_cache : path, optional
+        Folder of cached FE solves (:class:`copdea_fem.diagnose.fe.FEModel`).
 
     Returns
     -------
@@ -63,12 +69,21 @@ def run_diagnose(measured_path, out_dir=None, progress=None, alpha: float = 0.05
     if not 0 < alpha < 1:
         raise StudyError(f"--alpha = {alpha!r} is not allowed; allowed: (0, 1)")
     measured = load_measured(measured_path)
+    if model is not None:
+        measured = dataclasses.replace(measured, model=model)
     out = Path(out_dir) if out_dir else diagnose_out_dir(measured)
-    result = Diagnoser(measured, alpha=alpha, progress=progress).run()
+    engine = None
+    if measured.model == "fe":
+        from copdea_fem.diagnose.anchored import AnchoredEngine
+        from copdea_fem.diagnose.fe import FEModel
+        engine = AnchoredEngine(measured, FEModel(cache_dir=fe_cache, progress=progress))
+    result = Diagnoser(measured, alpha=alpha, engine=engine, progress=progress).run()
     with result_directory(out, "diagnose") as staging:
         files = write_report(result, staging)
     files = [out / f.name for f in files]
-    lines = [result.verdict,
+    fe = (f"; model of record: FE ({result.fe_solves} solves, {result.fe_seconds:.0f} s)"
+          if result.model == "fe" else "; model of record: ring model")
+    lines = [result.verdict + fe,
              f"gap {100 * result.gap_before:.2f} % -> {100 * result.gap_after:.2f} %; "
              f"missing: {', '.join(result.missing_effects) or 'none'}; ambiguous: "
              f"{'; '.join('/'.join(g) for g in result.ambiguous) or 'none'}",

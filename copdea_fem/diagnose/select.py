@@ -396,10 +396,14 @@ class Diagnoser:
         if any(m is None for m in matches_before.values()):
             bad = [n for n, m in matches_before.items() if m is None]
             from copdea_fem.study import StudyError
+            why = ""
+            try:
+                self.engine.predict(next(c for c in self.conditions if c.name == bad[0]))
+            except Exception as error:        # noqa: BLE001 - only to say why
+                why = f" ({error})"
             raise StudyError(f"conditions {', '.join(bad)} are not allowed: the base model "
-                             "cannot be evaluated there (see copdea-fem spectrum on that "
-                             "condition's study); allowed: operating points the model "
-                             "solves")
+                             f"cannot be evaluated there{why}; allowed: operating points the "
+                             "model solves")
         convergence = self.ring_convergence() if self.uses_fe else None
         deviance = self.deviances(matches_before)
         matches = matches_before

@@ -128,3 +128,20 @@ def test_a_manifest_naming_an_unknown_candidate_fails_before_any_work(tmp_path, 
     assert main(["diagnose", str(path), "--out", str(tmp_path / "out")]) == 2
     assert "candidates = 'spring_wave' is not allowed (unknown effect)" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()
+
+
+def test_diagnose_the_fe_made_example_names_air_with_the_fe_as_model_of_record(tmp_path, capsys):
+    """studies/measured_fe_example: coupled 3-D FE data, dry base; FE solves from the
+    committed cache (the same FE studies as tests/diagnose/fe_battery.py)."""
+    example = ROOT / "studies" / "measured_fe_example" / "measured.yaml"
+    cache = ROOT / "tests" / "data" / "fe_cache"
+    out = tmp_path / "report"
+    assert main(["diagnose", str(example), "--out", str(out), "--quiet",
+                 "--fe-cache", str(cache)]) == 0
+    printed = capsys.readouterr().out
+    assert "missing: air_loading" in printed and "model of record: FE (0 solves" in printed
+    document = json.loads((out / "diagnosis.json").read_text())
+    assert document["model_of_record"] == "fe" and document["missing_effects"] == ["air_loading"]
+    assert document["gap_before"] > 5 * document["gap_after"]
+    assert document["status"]["frame_reflection"] == "on in the base model"
+    assert "## Model of record" in (out / "report.md").read_text()
