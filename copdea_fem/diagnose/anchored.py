@@ -16,7 +16,9 @@ called by the search at every accepted step: a candidate costs no FE solve
 unless it needs the FE, and one that does is solved with the earlier fits'
 FE parameters at the base values, so those solves are shared by every step
 and every data set of the same conditions); ring-only effects (air-mass
-scale, visco-elasticity, spring mass, damping) off.  At the anchor (A1) is the FE exactly, so the ring model's
+scale, visco-elasticity, spring mass, damping) off -- also where the base
+study has them on (:func:`ring_only_off`), so that they act through the ring
+model's ratio and are not cancelled by the anchor.  At the anchor (A1) is the FE exactly, so the ring model's
 discretisation error (a 6-ring (0,2) 4-5 % too stiff) never reads as physics
 and an effect that only the FE has (the frame; the real coupled added mass
 in place of the baffled estimate) acts through f_FE(anchor).
@@ -36,6 +38,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
+from copdea_fem.diagnose.effects import CATALOGUE
 from copdea_fem.diagnose.engine import Engine, ModelMode
 from copdea_fem.diagnose.fe import BAND_MARGIN, FEModel
 from copdea_fem.reduced.rings import ReducedModelError
@@ -48,6 +51,18 @@ FE_ROLES = {"air_loading": "switch", "frame_reflection": "switch", "disc_pumping
             "electrostatic_softening": "anchored", "uniform_stiffness": "anchored"}
 # Parameter values of a switch in the anchor state (the ring side of the ratio).
 SWITCH_VALUES = {"air_loading": (1.0,)}
+
+
+def ring_only_off(study):
+    """``study`` with the physics only the ring model has switched off (the FE's side of
+    (A1)): effects without an FE role, and the air-mass scale at 1."""
+    overrides = {}
+    for effect_id, entry in CATALOGUE.items():
+        if effect_id not in FE_ROLES and entry.is_on(study):
+            overrides.update(entry.off(study))
+    if study["effects"]["air_mass_scale"] != 1.0:
+        overrides["effects.air_mass_scale"] = 1.0
+    return study.replace(overrides) if overrides else study
 
 
 class FEFailure(ReducedModelError):
@@ -153,7 +168,7 @@ class AnchoredEngine(Engine):
             raise FEFailure(f"the FE cannot be solved at {condition.name} with "
                             f"{[e for e, _ in anchor_state] or 'the base model'}: "
                             f"{error}") from error
-        ring = self.ring_predict(condition, anchor_state).modes
+        ring = self.ring_predict_study(ring_only_off(study), condition).modes
         fe = result.frequencies()
         ratio = {m.label: fe[m.label] / m.frequency_hz for m in ring if m.label in fe}
         hit = self._anchors[key] = Anchor(result, ring, ratio)

@@ -79,6 +79,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.stats
 
+from copdea_fem.diagnose.anchored import ring_only_off
 from copdea_fem.diagnose.compare import (ConditionMatch, DevianceTerms, MeasuredPeak, gap,
                                          match_condition)
 from copdea_fem.diagnose.effects import CATALOGUE
@@ -556,7 +557,7 @@ class Diagnoser:
             out = (0.0, "", "")
             for c in self.conditions:
                 study = self.engine.condition_study(c)
-                study = study.replace(CATALOGUE["air_loading"].off(study))   # in vacuo
+                study = ring_only_off(study.replace(CATALOGUE["air_loading"].off(study)))
                 fe = self.engine.fe.modes(study, f_max=BAND_MARGIN * c.band[1]).frequencies()
                 if ring_count != rings:
                     study = study.replace({"reduced.rings": ring_count})

@@ -242,3 +242,27 @@ def test_fe_cache_round_trip_and_a_damaged_entry_is_solved_again(tmp_path):
     repaired = FEModel(cache_dir=tmp_path)
     assert repaired.modes(study).frequencies() == pytest.approx(solved.frequencies())
     assert repaired.solves == 1
+
+
+def test_ring_only_physics_of_the_base_acts_through_the_ring_ratio(tmp_path):
+    """A base with the spring's mass on (ring-only physics: the FE's spring is massless):
+    the anchored P1 is the FE's P1 times ring(with mass)/ring(without), not the FE's P1."""
+    from copdea_fem.diagnose.measured import parse_measured
+    (tmp_path / "r.csv").write_text("freq_hz,label\n40,P1\n380,(0,1)\n")
+    base = dict(battery.DRY, disc={"mass": "3.0 g", "motion": "spring"},
+                spring={"stiffness": "52 N/m", "mass": "1.8 g", "length": "30 mm"})
+    import yaml
+    (tmp_path / "base.yaml").write_text(yaml.safe_dump(base))
+    measured = parse_measured({"base_study": "base.yaml", "conditions": [
+        {"name": "z16", "set": {"load.z": "16 mm", "load.voltage": "2 kV"},
+         "resonances": "r.csv", "band": ["20 Hz", "1000 Hz"]}]}, tmp_path)
+    condition = measured.conditions[0]
+    engine = AnchoredEngine(measured, FEModel(cache_dir=tmp_path / "fe"))
+    anchored = engine.predict(condition).mode("P1").frequency_hz
+    fe = engine.anchor(condition).fe.frequencies()["P1"]
+    study = engine.condition_study(condition)
+    with_mass = Engine.predict(engine, condition).mode("P1").frequency_hz
+    without = engine.ring_predict_study(study.replace({"spring.mass": 0.0}),
+                                        condition).mode("P1").frequency_hz
+    assert with_mass < 0.97 * without                      # the mass matters
+    assert anchored == pytest.approx(fe * with_mass / without, rel=1e-9)
