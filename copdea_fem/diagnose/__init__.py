@@ -5,14 +5,17 @@ two actions below):
 
 ``measured``  ``measured.yaml`` + resonance/spectrum CSVs -> :class:`MeasuredSet` (checked)
 ``effects``   the catalogue: 8 effects, parameters, signatures, study overrides
+``engine``    ring-model modes and spectra of a condition under an effect state
 ``fe``        the FE model of record: study -> structural modes, cached
-``anchored``  the ring model anchored to the FE (the surrogate the fits run on)
-``engine``    reduced-model modes and spectra of a condition under an effect state
+``anchored``  the ring model anchored to the FE: the surrogate the fits run on
 ``peaks``     resonance peaks of measured spectra
 ``compare``   one-to-one matching, deviance (-2 ln L), the headline gap
-``select``    fit, cross-validate, test, rank; ambiguity; the loop
+``tabulation`` a candidate's modes over its parameters, interpolated
+``select``    fit, cross-validate, test, accept, rank; ambiguity; the loop
+``evidence``  the sentences: evidence of a step, goodness of fit, verdict
 ``report``    report.md, diagnosis.json, PNG figures, final_study.yaml
-``synth``     synthetic measurements with chosen effects on
+``synth``     synthetic measurements from the ring model with chosen effects on
+``bench``     ``python -m copdea_fem.diagnose.bench``: wall time of an FE diagnosis
 
 Actions (used by ``copdea-fem diagnose`` and ``copdea-fem synth``; each
 returns a summary dict with ``files`` and ``lines`` to print; outputs are
