@@ -309,6 +309,42 @@ def write_mode_vtus(directory: Path, state, modes, sampler: MembraneSampler) -> 
     return files
 
 
+class _AirHalves:
+    """The air's element corners with the lower half on its own copy of the mesh vertices
+    (the pressure jumps across the screens; values are taken inside each element), on the
+    mesh moved by ``mesh_motion``; 3-D tetrahedra or meridian triangles (the dimension of
+    ``mesh``).  ``copy[e, k]``: the (doubled) vertex of corner k of element e; ``moved``:
+    the moved coordinates of every doubled vertex; ``used``/``renumber``: the vertices a
+    cell uses and their new numbers."""
+
+    def __init__(self, mesh, points, mesh_motion):
+        import ngsolve as ngs
+
+        from .acoustics import LOWER, PML_REGIONS
+        dim = mesh.dim
+        elements = list(mesh.Elements(ngs.VOL))
+        self.lower = np.array([mesh.Materials(LOWER).Mask()[el.index] for el in elements])
+        self.in_pml = np.array([mesh.Materials(PML_REGIONS).Mask()[el.index]
+                                for el in elements])
+        reference = np.asarray(ngs.CF((ngs.x, ngs.y, ngs.z)[:dim])(points)).reshape(
+            len(elements), -1, dim)
+        corners = reference.shape[1]
+        coordinates = mesh.ngmesh.Coordinates()[:, :dim]
+        vertex_ids = np.array([[v.nr for v in el.vertices] for el in elements])
+        corner_vertex = np.empty((len(elements), corners), dtype=int)
+        for k in range(corners):      # which mesh vertex each reference corner is: by coordinates
+            distance = np.linalg.norm(reference[:, k:k + 1, :] - coordinates[vertex_ids], axis=2)
+            corner_vertex[:, k] = vertex_ids[np.arange(len(elements)), distance.argmin(axis=1)]
+        self.count = count = len(coordinates)
+        self.copy = np.where(self.lower, count, 0)[:, None] + corner_vertex   # lower: 2nd copy
+        motion = np.asarray(mesh_motion(points)).reshape(len(elements), corners, dim)
+        self.moved = np.zeros((2 * count, dim))
+        self.moved[self.copy.ravel()] = (reference + motion).reshape(-1, dim)
+        self.used = np.unique(self.copy)
+        self.renumber = -np.ones(2 * count, dtype=int)
+        self.renumber[self.used] = np.arange(len(self.used))
+
+
 def write_air_vtus(directory: Path, operators, modes, pressures) -> list[Path]:
     """One .vtu per mode of the air on the deformed mesh: pressure re/im/abs, PML flag.
 
@@ -323,7 +359,7 @@ def write_air_vtus(directory: Path, operators, modes, pressures) -> list[Path]:
     import meshio
     import ngsolve as ngs
 
-    from .acoustics import LOWER, PML_REGIONS, pressure_field
+    from .acoustics import pressure_field
     from .symmetry import Symmetry
 
     by_sector = {coupled.membrane.sector: coupled for coupled in operators}
@@ -335,34 +371,19 @@ def write_air_vtus(directory: Path, operators, modes, pressures) -> list[Path]:
     field = pressure_field(gf.components[0], gf.components[1], mesh)
     corners = ngs.IntegrationRule([(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)], [0.0] * 4)
     points = mesh.MapToAllElements(corners, ngs.VOL)
-    elements = list(mesh.Elements(ngs.VOL))
-    lower = np.array([mesh.Materials(LOWER).Mask()[el.index] for el in elements])
-    in_pml = np.array([mesh.Materials(PML_REGIONS).Mask()[el.index] for el in elements])
-    # which mesh vertex each reference corner maps to: matched by coordinates
-    reference = np.asarray(ngs.CF((ngs.x, ngs.y, ngs.z))(points)).reshape(len(elements), 4, 3)
-    coordinates = mesh.ngmesh.Coordinates()
-    vertex_ids = np.array([[v.nr for v in el.vertices] for el in elements])
-    corner_vertex = np.empty((len(elements), 4), dtype=int)
-    for k in range(4):
-        distance = np.linalg.norm(reference[:, k:k + 1, :] - coordinates[vertex_ids], axis=2)
-        corner_vertex[:, k] = vertex_ids[np.arange(len(elements)), distance.argmin(axis=1)]
-    count = len(coordinates)
-    copy = np.where(lower, count, 0)[:, None] + corner_vertex         # lower half: second copy
-    motion = np.asarray(first.mesh_motion(points)).reshape(len(elements), 4, 3)
-    moved = np.zeros((2 * count, 3))
-    moved[copy.ravel()] = (reference + motion).reshape(-1, 3)
-    used = np.unique(copy)
-    renumber = -np.ones(2 * count, dtype=int)
-    renumber[used] = np.arange(len(used))
-    cells = _unfold_cells(renumber[copy], len(used), symmetry)
-    moved = _unfold_values(moved[used], symmetry).astype(np.float32)
+    halves = _AirHalves(mesh, points, first.mesh_motion)
+    lower, in_pml, copy, used, count = (halves.lower, halves.in_pml, halves.copy, halves.used,
+                                        halves.count)
+    moved = halves.moved[used]
+    cells = _unfold_cells(halves.renumber[copy], len(used), symmetry)
+    moved = _unfold_values(moved, symmetry).astype(np.float32)
     cell_data = {"pml": [np.tile(in_pml.astype(np.int8), symmetry.copies)],
                  "lower_half": [np.tile(lower.astype(np.int8), symmetry.copies)]}
     files = []
     for number, (mode, pressure) in enumerate(zip(modes, pressures)):
         gf.vec.FV().NumPy()[:] = 0
         gf.vec.FV().NumPy()[by_sector[mode.sector].pressure_free] = pressure
-        values = np.asarray(field(points)).reshape(len(elements), 4)
+        values = np.asarray(field(points))
         nodal = np.zeros(2 * count, dtype=complex)
         nodal[copy.ravel()] = values.ravel()
         nodal = _unfold_values(nodal[used], symmetry, mode.sector)
@@ -504,32 +525,17 @@ def write_revolved_air_vtus(directory: Path, operators, modes, pressures) -> lis
     import meshio
     import ngsolve as ngs
 
-    from .acoustics import LOWER, PML_REGIONS, pressure_field
+    from .acoustics import pressure_field
 
     by_order = {coupled.m: coupled for coupled in operators}
     mesh = operators[0].pressure_space.mesh
-    motion = operators[0].mesh_motion
     corners = ngs.IntegrationRule([(1, 0), (0, 1), (0, 0)], [0.0] * 3)
     points = mesh.MapToAllElements(corners, ngs.VOL)
-    elements = list(mesh.Elements(ngs.VOL))
-    lower = np.array([mesh.Materials(LOWER).Mask()[el.index] for el in elements])
-    in_pml = np.array([mesh.Materials(PML_REGIONS).Mask()[el.index] for el in elements])
-    reference = np.asarray(ngs.CF((ngs.x, ngs.y))(points)).reshape(len(elements), 3, 2)
-    coordinates = mesh.ngmesh.Coordinates()[:, :2]
-    vertex_ids = np.array([[v.nr for v in el.vertices] for el in elements])
-    corner_vertex = np.empty((len(elements), 3), dtype=int)
-    for k in range(3):      # which mesh vertex each reference corner is: by coordinates
-        distance = np.linalg.norm(reference[:, k:k + 1, :] - coordinates[vertex_ids], axis=2)
-        corner_vertex[:, k] = vertex_ids[np.arange(len(elements)), distance.argmin(axis=1)]
-    count = len(coordinates)
-    copy = np.where(lower, count, 0)[:, None] + corner_vertex      # lower half: second copy
-    moved = np.zeros((2 * count, 2))
-    moved[copy.ravel()] = (reference + np.asarray(motion(points)).reshape(
-        len(elements), 3, 2)).reshape(-1, 2)
-    used = np.unique(copy)
-    renumber = -np.ones(2 * count, dtype=int)
-    renumber[used] = np.arange(len(used))
-    triangles = renumber[copy]
+    halves = _AirHalves(mesh, points, operators[0].mesh_motion)
+    lower, in_pml, copy, used, count = (halves.lower, halves.in_pml, halves.copy, halves.used,
+                                        halves.count)
+    moved = halves.moved
+    triangles = halves.renumber[copy]
     # the air of every mode is a large file: 36 angles, or 4 per wavelength
     angles = revolution_angles(max([mode.m for mode in modes], default=0), 36, 4)
     n_t = len(angles)
