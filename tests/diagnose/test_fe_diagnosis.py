@@ -266,3 +266,23 @@ def test_ring_only_physics_of_the_base_acts_through_the_ring_ratio(tmp_path):
                                         condition).mode("P1").frequency_hz
     assert with_mass < 0.97 * without                      # the mass matters
     assert anchored == pytest.approx(fe * with_mass / without, rel=1e-9)
+
+
+def test_the_fe_study_keeps_the_frame_only_where_there_is_air():
+    """In vacuo the frame plays no part: one FE study (axisymmetric) for every frame; with
+    air the frames none / baffle / square are three FE studies (square on the 3-D quadrant)."""
+    from copdea_fem.study import engine_of
+    dry = parse_study(battery.DRY, name="dry")
+    keys = {fe_key(fe_study(dry.replace({"geometry.frame": f}))) for f in
+            ("none", "baffle", "square")}
+    assert len(keys) == 1 and engine_of(fe_study(dry)) == "axisymmetric"
+    wet = dry.replace({"air.enabled": True})
+    studies = {f: fe_study(wet.replace({"geometry.frame": f})) for f in ("none", "baffle",
+                                                                         "square")}
+    assert len({fe_key(s) for s in studies.values()}) == 3
+    assert engine_of(studies["square"]) == "3d" and engine_of(studies["baffle"]) == \
+        "axisymmetric"
+    # ring-only keys do not change the FE study
+    assert fe_key(wet) == fe_key(wet.replace({"effects.air_mass_scale": 2.0,
+                                              "effects.viscoelastic_strength": 0.5,
+                                              "reduced.rings": 24}))
