@@ -75,11 +75,10 @@ def _single_threaded_blas():
 
 
 def _workers(tasks: int, backend: str) -> int:
-    """Worker threads for ``tasks`` independent sector solves: one per usable core when
-    the back-end's solves release the GIL (NGSolve's UMFPACK and PARDISO do; SciPy's
-    SuperLU does not, so its sectors run one after the other)."""
-    if backend == "superlu":
-        return 1
+    """Worker threads for ``tasks`` independent sector solves: one per usable core.  Every
+    back-end releases the GIL in its factorisations and solves (NGSolve's UMFPACK and
+    PARDISO, and SciPy's SuperLU 5: the four coupled sectors of G1 on 2 cores take
+    ... s side by side, ... s one after the other)."""
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     return max(1, min(tasks, cores or 1))
 
