@@ -152,7 +152,7 @@ def solve_band(
     initial_shifts=None,
     factorize: Callable[[float], "Factorization"] | None = None,
     start_modes: int | None = None,
-    krylov: str = "block",
+    krylov: str = "krylov-schur",
 ) -> BandResult:
     """All eigenpairs of ``A x = lam B x`` whose frequency lies in a band.
 
@@ -213,7 +213,7 @@ def solve_band(
         ``k`` of the first run at the band's centre (default 20) when no
         ``initial_shifts`` are given: an estimate of the band's count (e.g.
         from the dry modes) saves Krylov vectors; a low one costs another run.
-    krylov : {"block", "arpack"}
+    krylov : {"krylov-schur", "arpack"}
         Krylov method of a general pencil's runs (:mod:`copdea_fem.eigen.krylov`):
         block Krylov-Schur with block solves (default) or ARPACK one vector at a
         time.  Hermitian pencils always use ARPACK's Lanczos.

@@ -8,22 +8,22 @@ pairs move to ``nu = 0``), so a run returns only new pairs.
 
 Two Krylov methods, :data:`KRYLOV_METHODS`:
 
-``"block"`` (default for general pencils)
-    Block Krylov-Schur (Stewart 2001, in its block form: Zhou & Saad 2008) on the
-    deflated operator.  A block of ``p`` vectors is expanded per step, so the
-    factorisation is swept once for ``p`` right-hand sides (SuperLU's level-3
-    triangular solves: a 48k coupled sector solves 16 right-hand sides at 32 ms
-    each instead of 101 ms one at a time).  The basis is restarted thickly (the
-    Schur vectors of the wanted Ritz values are kept) at :func:`basis_size`
-    vectors, which is large enough for the eigenvalues of a crowded disc
-    (air/PML modes fill the lam-plane in two dimensions, so the ``|nu|`` of the
-    wanted and the next ones are close) to converge in a few restarts.  The
-    random start block also sees every member of a multiple eigenvalue at once
-    (up to ``p`` copies), where a single-vector Krylov space sees one.
+``"krylov-schur"`` (default for general pencils)
+    Krylov-Schur (Stewart 2001; in block form Zhou & Saad 2008) on the deflated
+    operator, with a basis of :func:`basis_size` vectors (three per wanted pair):
+    where air/PML modes crowd the lam-plane in two dimensions the ``|nu|`` of the
+    wanted and the next ones lie close together, and ARPACK's default basis
+    (``max(2 k + 1, k + 20)``) restarts many times.  Thick restarts keep the
+    Schur vectors of the wanted Ritz values.  ``BLOCK_SIZE`` right-hand sides
+    per step are possible (one sweep of the factors for ``p`` vectors), but a
+    block space of ``m`` vectors has only degree ``m / p``, which costs more
+    solves than the block saves (measured, see :data:`BLOCK_SIZE`): the default is
+    one vector per step.
 ``"arpack"``
-    ARPACK's implicitly restarted Arnoldi (``eigs``) one vector at a time, as
-    before the block method; and always for Hermitian pencils (``eigsh``,
-    Lanczos in the B-inner product: the dry membrane, whose runs are cheap).
+    ARPACK's implicitly restarted Arnoldi (``eigs``), the method before
+    Krylov-Schur; and always for Hermitian pencils (``eigsh``, Lanczos in the
+    B-inner product with ARPACK's default basis: the dry membrane, whose runs
+    are cheap).
 
 Both stop at ``||OP x - nu x|| <= tol |nu|`` for the ``k`` largest ``|nu|``.
 """
@@ -40,25 +40,32 @@ import scipy.sparse.linalg as spla
 from .errors import EigenInputError, EigenSolverError
 from .spectrum import format_hz
 
-KRYLOV_METHODS: tuple[str, ...] = ("block", "arpack")
+KRYLOV_METHODS: tuple[str, ...] = ("krylov-schur", "arpack")
 """Names accepted by ``krylov`` (:func:`copdea_fem.eigen.solve_band`)."""
 
 PROGRESS_INTERVAL_S = 15.0
 """A long run reports its solve count this often [s] (``progress``)."""
 
-BLOCK_SIZE = 8
-"""Right-hand sides per block solve.  Coupled sectors, SuperLU, one BLAS thread
-(per right-hand side, single / 4 / 8 / 16 / 32 at a time): 13.5k unknowns 17.7 /
-8.5 / 6.5 / 5.4 / 4.9 ms; 48k unknowns 101 / 50 / 38 / 32 / 30 ms.  A larger block
-needs more vectors in all (a block Krylov space of p vectors per step has degree
-m / p), so the gain flattens beyond 8."""
+BLOCK_SIZE = 1
+"""Right-hand sides per step of a Krylov-Schur run.  A block solve is cheaper per
+right-hand side (coupled sectors, SuperLU, one BLAS thread, ms per right-hand side
+alone / 4 / 8 / 16 at a time: 13.5k unknowns 17.7 / 8.5 / 6.5 / 5.4; 48k unknowns
+101 / 50 / 38 / 32), but the block Krylov space needs more vectors: G1's even-even
+coupled sector (k = 17, then certified) takes 88 solves at p = 1 (1.97 s), 125 in 63
+blocks at p = 2 (2.12 s), 241 in 61 at p = 4 (2.90 s), 385 in 49 at p = 8 (3.91 s);
+the drum's first run (k = 11) 98 solves at p = 1, 340 at p = 4.  So one."""
+
+
+BASIS_FACTOR = 3
+"""Basis vectors per wanted eigenvalue before a restart (ARPACK's default is ~2)."""
 
 
 def basis_size(k: int, block: int, n: int) -> int:
-    """Most basis vectors before a thick restart: ``2 k + 3 p``, at least ``k + 4 p``
-    and ``6 p`` (ARPACK's default ``ncv`` is ``max(2 k + 1, k + 20)``; a block basis
-    needs ``p - 1`` more vectors per step for the same polynomial degree), below ``n``."""
-    return int(min(n - 1, max(2 * k + 3 * block, k + 4 * block, 6 * block)))
+    """Most basis vectors before a thick restart: ``BASIS_FACTOR k`` plus ``2 p`` for the
+    block, at least ``k + 20 p`` (ARPACK's default ``ncv`` is ``max(2 k + 1, k + 20)``,
+    too few where air/PML modes crowd the disc: their ``|nu|`` then lie close together
+    and a small basis restarts many times), below ``n``."""
+    return int(min(n - 1, max(BASIS_FACTOR * k + 2 * block, k + 20 * block)))
 
 
 def check_krylov(method) -> None:
@@ -148,15 +155,20 @@ class DeflatedOperator:
         return W + self.X @ coefficients
 
 
+def _project(V, W):
+    """``V^H W`` without forming ``V^H`` (``V`` is the large basis: no copy of it)."""
+    return (W.conj().T @ V).conj().T
+
+
 def _orthogonalise(V, W):
     """``W = V C + Q R`` with ``Q`` orthonormal and orthogonal to ``V`` (classical
     Gram-Schmidt twice, then a QR); columns of ``W`` that lie in ``span V`` (an
     invariant subspace reached) are replaced by random directions with ``R = 0``."""
     norms = np.linalg.norm(W, axis=0)
     C = np.zeros((V.shape[1], W.shape[1]), dtype=W.dtype)
-    for _ in range(2):
-        if V.shape[1]:
-            coefficients = V.conj().T @ W
+    if V.shape[1]:
+        for _ in range(2):
+            coefficients = _project(V, W)
             W = W - V @ coefficients
             C += coefficients
     Q, R = np.linalg.qr(W)
@@ -168,7 +180,7 @@ def _orthogonalise(V, W):
             fresh = rng.standard_normal(W.shape[0]).astype(W.dtype)
             basis = np.concatenate([V, Q[:, :column]], axis=1)
             for _ in range(2):
-                fresh = fresh - basis @ (basis.conj().T @ fresh)
+                fresh = fresh - basis @ _project(basis, fresh[:, None])[:, 0]
             Q[:, column] = fresh / np.linalg.norm(fresh)
     return C, Q, R
 
@@ -182,7 +194,8 @@ def block_krylov_schur(apply: Callable, start: np.ndarray, k: int, tol: float,
     apply : callable
         ``apply(V)`` for ``V`` of shape (n, p).
     start : numpy.ndarray, shape (n, p)
-        Start block (any full-rank block; random here).
+        Start block (any full-rank block; random here).  A real block and a real
+        operator keep the basis real (complex eigenvalues in exact conjugate pairs).
     k : int
         Wanted eigenvalues.
     tol : float
@@ -205,23 +218,26 @@ def block_krylov_schur(apply: Callable, start: np.ndarray, k: int, tol: float,
     a Ritz pair ``(theta, V_m y)`` of ``S`` is ``||E y||``.  A restart keeps the
     Schur vectors of the ``keep`` largest Ritz values (``S = U T U^H`` reordered,
     ``V_m <- V_m U_keep``, ``S <- T_keep``, ``E <- E U_keep``), which keeps the
-    decomposition exact.
+    decomposition exact.  The basis lives in one preallocated array, so a step
+    costs the block solve plus two passes over the basis.
     """
     n, block = start.shape
     dtype = start.dtype          # a real operator keeps a real basis (exact conjugate pairs)
-    _, V, _ = _orthogonalise(np.zeros((n, 0), dtype), np.asarray(start, dtype=dtype))
-    H = np.zeros((block, 0), dtype)          # rows: basis, columns: expanded vectors
+    capacity = max_basis + 2 * block
+    basis = np.zeros((n, capacity), dtype=dtype, order="F")
+    _, first, _ = _orthogonalise(basis[:, :0], np.asarray(start, dtype=dtype))
+    basis[:, :block] = first
+    size = block                             # columns of the basis in use
+    H = np.zeros((capacity, capacity), dtype)  # OP V[:, :m] = V[:, :m + p] H[:m + p, :m]
     expanded = 0
     restarts = 0
     while True:
-        W = apply(V[:, expanded:expanded + block])
-        C, Q, R = _orthogonalise(V, W)
-        rows = V.shape[1]
-        grown = np.zeros((rows + block, expanded + block), dtype)
-        grown[:rows, :expanded] = H
-        grown[:rows, expanded:] = C
-        grown[rows:, expanded:] = R
-        H, V = grown, np.concatenate([V, Q], axis=1)
+        W = apply(basis[:, expanded:expanded + block])
+        C, Q, R = _orthogonalise(basis[:, :size], W)
+        H[:size, expanded:expanded + block] = C
+        H[size:size + block, expanded:expanded + block] = R
+        basis[:, size:size + block] = Q
+        size += block
         expanded += block
         if expanded < k:
             continue
@@ -230,10 +246,10 @@ def block_krylov_schur(apply: Callable, start: np.ndarray, k: int, tol: float,
         order = np.argsort(-np.abs(theta), kind="stable")
         theta, Y = theta[order], Y[:, order]
         Y = Y / np.linalg.norm(Y, axis=0)
-        residual = np.linalg.norm(H[expanded:, :expanded] @ Y[:, :k], axis=0)
+        residual = np.linalg.norm(H[expanded:size, :expanded] @ Y[:, :k], axis=0)
         if np.all(residual <= tol * np.abs(theta[:k])):
-            return theta[:k], V[:, :expanded] @ Y[:, :k]
-        if V.shape[1] + block <= max_basis:
+            return theta[:k], basis[:, :expanded] @ Y[:, :k]
+        if size + block <= max_basis:
             continue
         restarts += 1
         if restarts > max_restarts:
@@ -249,9 +265,14 @@ def block_krylov_schur(apply: Callable, start: np.ndarray, k: int, tol: float,
         kept = int(min(max(kept, 1), expanded - block))
         if kept < expanded and T[kept, kept - 1] != 0:    # never split a real 2x2 block
             kept -= 1 if kept > 1 else -1
-        V = np.concatenate([V[:, :expanded] @ U[:, :kept], V[:, expanded:]], axis=1)
-        H = np.concatenate([T[:kept, :kept], H[expanded:, :expanded] @ U[:, :kept]], axis=0)
-        expanded = kept
+        coupling = H[expanded:size, :expanded] @ U[:, :kept]
+        residual_block = basis[:, expanded:size].copy()
+        basis[:, :kept] = basis[:, :expanded] @ U[:, :kept]
+        basis[:, kept:kept + block] = residual_block
+        H[:] = 0.0
+        H[:kept, :kept] = T[:kept, :kept]
+        H[kept:kept + block, :kept] = coupling
+        expanded, size = kept, kept + block
 
 
 def counting(solve: Callable, say: Callable[[int, float], None]) -> Callable:
@@ -272,7 +293,7 @@ def counting(solve: Callable, say: Callable[[int, float], None]) -> Callable:
 
 
 def nearest_unknown(operator: DeflatedOperator, k: int, tol: float, start: np.ndarray,
-                    method: str, real_arithmetic: bool):
+                    method: str, real_arithmetic: bool, basis: int | None = None):
     """The ``k`` eigenpairs of the pencil nearest ``operator.sigma`` that are not known.
 
     Parameters
@@ -283,10 +304,12 @@ def nearest_unknown(operator: DeflatedOperator, k: int, tol: float, start: np.nd
         Relative tolerance on ``nu`` (see the module doc).
     start : numpy.ndarray, shape (n, p)
         Deterministic start block; the ARPACK paths use its first column.
-    method : {"block", "arpack"}
+    method : {"krylov-schur", "arpack"}
         Hermitian pencils always take ARPACK's Lanczos.
     real_arithmetic : bool
         Real symmetric pencil: vectors returned real.
+    basis : int or None
+        Basis vectors of a general pencil's run (default :func:`basis_size`).
 
     Returns
     -------
@@ -301,7 +324,9 @@ def nearest_unknown(operator: DeflatedOperator, k: int, tol: float, start: np.nd
     n = B.shape[0]
     operator_dtype = operator.dtype
     start_vector = start[:, 0] if np.dtype(operator_dtype).kind == "c" else start[:, 0].real
-    ncv = min(n, max(2 * k + 1, k + 20))
+    ncv = min(n, max(2 * k + 1, k + 20))       # ARPACK's default (Hermitian pencils)
+    if not operator.hermitian:
+        ncv = min(n - 1, max(basis or 0, basis_size(k, 1, n)))
     if operator.hermitian:
         # eigsh, generalised shift-invert (ARPACK mode 3, B-inner product):
         # OP = OPinv B with OPinv Hermitian, so the deflated problem stays a
@@ -325,7 +350,8 @@ def nearest_unknown(operator: DeflatedOperator, k: int, tol: float, start: np.nd
     else:
         block = start if np.dtype(operator_dtype).kind == "c" else start.real.copy()
         theta, W = block_krylov_schur(operator.apply, block, k, tol,
-                                      basis_size(k, start.shape[1], n))
+                                      min(n - 1, max(basis or 0,
+                                                     basis_size(k, start.shape[1], n))))
         with np.errstate(divide="ignore"):
             values = sigma + 1.0 / theta
         return _finish(operator, values, W, real_arithmetic)
