@@ -74,7 +74,7 @@ def _single_threaded_blas():
     return threadpool_limits(limits=1, user_api="blas")
 
 
-def _workers(tasks: int, backend: str) -> int:
+def _workers(tasks: int) -> int:
     """Worker threads for ``tasks`` independent sector solves: one per usable core.  Every
     back-end releases the GIL in its factorisations and solves (NGSolve's UMFPACK and
     PARDISO, and SciPy's SuperLU 5: the four coupled sectors of G1 on 2 cores take
@@ -235,8 +235,9 @@ def coupled_modes(study: Study, mesh=None, progress=_quiet, timings: Timings | N
         return key, dry_result, result
 
     with timings.stage("eigen"), _single_threaded_blas():
-        # NGSolve's solves release the GIL: sectors run side by side on the cores
-        with ThreadPoolExecutor(max_workers=_workers(len(sectors), eigen["backend"])) as pool:
+        # every back-end releases the GIL in its factorisations and solves: sectors run
+        # side by side on the cores
+        with ThreadPoolExecutor(max_workers=_workers(len(sectors))) as pool:
             solved = list(pool.map(lambda item: solve_sector(*item), sectors))
     modes, pressures, dry, results = [], [], [], {}
     with timings.stage("classify"), _task_manager():

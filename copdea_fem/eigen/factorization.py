@@ -34,6 +34,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import importlib.util
+import threading
 import time
 
 import numpy as np
@@ -148,14 +149,20 @@ def fill_reducing_order(matrix) -> np.ndarray | None:
     matrix.sort_indices()
     key = (matrix.shape, hashlib.sha1(matrix.indptr.tobytes()).hexdigest(),
            hashlib.sha1(matrix.indices.tobytes()).hexdigest())
-    if key not in _ORDERINGS:            # every shift of a pencil has the same pattern
+    with _ORDERINGS_LOCK:                # sector threads share the cache
+        cached = _ORDERINGS.get(key)
+    if cached is not None:               # every shift of a pencil has the same pattern
+        return cached
+    ordering = _nested_dissection(matrix)
+    with _ORDERINGS_LOCK:
         if len(_ORDERINGS) >= 16:
             _ORDERINGS.pop(next(iter(_ORDERINGS)))
-        _ORDERINGS[key] = _nested_dissection(matrix)
-    return _ORDERINGS[key]
+        _ORDERINGS[key] = ordering
+    return ordering
 
 
 _ORDERINGS: dict = {}     # sparsity pattern -> METIS permutation (this process)
+_ORDERINGS_LOCK = threading.Lock()
 
 
 def _nested_dissection(matrix) -> np.ndarray:
