@@ -74,13 +74,17 @@ def _single_threaded_blas():
     return threadpool_limits(limits=1, user_api="blas")
 
 
-def _workers(tasks: int) -> int:
-    """Worker threads for ``tasks`` independent sector solves: one per usable core.  Every
-    back-end releases the GIL in its factorisations and solves (NGSolve's UMFPACK and
-    PARDISO, and SciPy's SuperLU 5: the four coupled sectors of G1 on 2 cores take
-    ... s side by side, ... s one after the other)."""
+def _workers(pencils: list, memory_gb: float) -> int:
+    """Worker threads for independent sector solves of ``pencils``: one per usable core,
+    as many as the sectors' estimated LU factors fit into ``memory_gb``
+    (:func:`copdea_fem.eigen.factor_memory_estimate`).  Every back-end releases the GIL
+    in its factorisations and solves (NGSolve's UMFPACK and PARDISO, and SciPy's
+    SuperLU 5), so the threads share the cores."""
+    from .eigen import factor_memory_estimate
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    return max(1, min(tasks, cores or 1))
+    largest = max((factor_memory_estimate(pencil) for pencil in pencils), default=0.0)
+    fitting = int(memory_gb * 1e9 // largest) if largest > 0 else len(pencils)
+    return max(1, min(len(pencils), cores or 1, fitting))
 
 
 def require_backend(study: Study) -> None:
@@ -237,7 +241,9 @@ def coupled_modes(study: Study, mesh=None, progress=_quiet, timings: Timings | N
     with timings.stage("eigen"), _single_threaded_blas():
         # every back-end releases the GIL in its factorisations and solves: sectors run
         # side by side on the cores
-        with ThreadPoolExecutor(max_workers=_workers(len(sectors))) as pool:
+        workers = _workers([coupled.stiffness for _, _, coupled in sectors],
+                           eigen["factor_memory_gb"])
+        with ThreadPoolExecutor(max_workers=workers) as pool:
             solved = list(pool.map(lambda item: solve_sector(*item), sectors))
     modes, pressures, dry, results = [], [], [], {}
     with timings.stage("classify"), _task_manager():

@@ -38,7 +38,8 @@ from .errors import (BackendUnavailableError, EigenInputError, EigenResidualErro
                      EigenSolverError, TooManyModesError)
 from .factorization import (BACKENDS, NESTED_DISSECTION_MIN, SUPERLU_PIVOT_THRESHOLD,
                             Factorization, NativeShiftedInverse, available_backends,
-                            backend_available, fill_reducing_order)
+                            backend_available, factor_memory_estimate,
+                            fill_reducing_order)
 from .krylov import KRYLOV_METHODS
 from .spectrum import (TWO_PI, eigenvalue_from_frequency, frequency_from_eigenvalue,
                        is_hermitian, matrix_norm_estimate, relative_residuals)
@@ -48,6 +49,6 @@ __all__ = [
     "BackendUnavailableError", "BandResult", "EigenInputError", "EigenResidualError",
     "EigenSolverError", "Factorization", "NativeShiftedInverse", "SectorBandResults",
     "TooManyModesError", "available_backends", "backend_available",
-    "eigenvalue_from_frequency", "fill_reducing_order", "frequency_from_eigenvalue",
+    "eigenvalue_from_frequency", "factor_memory_estimate", "fill_reducing_order", "frequency_from_eigenvalue",
     "is_hermitian", "matrix_norm_estimate", "relative_residuals", "solve_band",
 ]
