@@ -214,6 +214,7 @@ def coupled_modes(study: Study, mesh=None, progress=_quiet, timings: Timings | N
             for sector in state.symmetry.sectors:
                 operators = linearised_operators(state, study, sector, matrices)
                 sectors.append((sector, operators, coupled_forms.restrict(operators)))
+            coupled_forms.release()
     # outside the TaskManager: its workers would compete with the sector threads
 
     def solve_sector(sector, operators, coupled):
