@@ -18,7 +18,15 @@ m = 0 pencil, the modal solve, then the 800-line velocity spectra + SPL (``after
 the direct path per frequency (``direct_per_line``, mean of 10 lines across the band);
 ``response-3d`` the same on the 3-D quadrant (its even-even sector).
 ``drum``: the 0.65 m Mylar drum head of ``studies/drum_mylar_650mm.yaml`` (50-450 Hz,
-baffle, in air); ``--set mesh.engine=3d`` puts it on the 3-D quadrant (issue 14).
+baffle, in air) on the axisymmetric engine; ``drum-3d`` the same on the 3-D quadrant
+(``mesh.engine: 3d``, issue 14's benchmark): its four sectors of ~47k unknowns hold many
+lightly damped air/PML modes of the 1.14 m air sphere; they run one after the other under
+the default ``eigen.factor_memory_gb`` (``--set eigen.factor_memory_gb=2`` runs two at a
+time: faster, above 2 GB).  Both report the structural modes (m,1), m = 0..5, and the
+ratios f(m,1)/f(1,1).
+
+Coupled cases also report, per sector, the factorisations, the right-hand sides solved
+(``solves_per_sector``) and the block solves they took (``block_solves_per_sector``).
 
 ``total`` is the in-process time of the solve with its result files; ``process_wall``
 adds the start of a fresh Python (imports of NGSolve, SciPy, pint: ~1-2 s).
@@ -46,6 +54,7 @@ CASES = {
     "axisymmetric": (G1_Z16, ["geometry.frame=baffle", "mesh.engine=axisymmetric"]),
     "axisymmetric-3d": (G1_Z16, ["geometry.frame=baffle", "mesh.engine=3d"]),
     "drum": (DRUM, []),
+    "drum-3d": (DRUM, ["mesh.engine=3d"]),
     "response": (ROOT / "studies" / "g1_z16_v2_response.yaml", []),
     "response-3d": (ROOT / "studies" / "g1_z16_v2_response.yaml", ["mesh.engine=3d"]),
 }
@@ -94,6 +103,14 @@ def _once_coupled(study) -> dict:
     seconds["total"] = total
     coupled = result.coupled
     labels = {mode.label: mode.freq_hz for mode in result.modes if mode.kind != "air"}
+    sectors = result.eigen.by_sector
+    drum_modes = {}
+    for order in range(6):                  # (m,1): the "a" member of a degenerate pair
+        label = next((name for name in (f"({order},1)", f"({order},1)a") if name in labels),
+                     None)
+        if label is not None:
+            drum_modes[label] = labels[label]
+    reference = drum_modes.get("(1,1)a") or drum_modes.get("(1,1)")
     return {"seconds": seconds,
             "engine": getattr(result.state, "engine", "3d"),
             "frequencies_hz": {label: labels[label] for label in
@@ -107,6 +124,16 @@ def _once_coupled(study) -> dict:
             "newton_iterations": result.state.newton_iterations,
             "modes": sum(1 for mode in result.modes if mode.kind != "air"),
             "factorisations": int(result.eigen.n_factorisations),
+            "factorisations_per_sector": {key: int(part.n_factorisations)
+                                          for key, part in sectors.items()},
+            "solves_per_sector": {key: int(part.n_solves) for key, part in sectors.items()},
+            "block_solves_per_sector": {key: int(part.n_block_solves)
+                                        for key, part in sectors.items()},
+            "eigen_seconds_per_sector": {key: float(part.total_seconds)
+                                         for key, part in sectors.items()},
+            "m1_modes_hz": drum_modes,
+            "m1_ratios_to_11": ({label: f / reference for label, f in drum_modes.items()}
+                                if reference else {}),
             "peak_memory_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
 
 

@@ -74,14 +74,17 @@ def _single_threaded_blas():
     return threadpool_limits(limits=1, user_api="blas")
 
 
-def _workers(tasks: int, backend: str) -> int:
-    """Worker threads for ``tasks`` independent sector solves: one per usable core when
-    the back-end's solves release the GIL (NGSolve's UMFPACK and PARDISO do; SciPy's
-    SuperLU does not, so its sectors run one after the other)."""
-    if backend == "superlu":
-        return 1
+def _workers(pencils: list, memory_gb: float) -> int:
+    """Worker threads for independent sector solves of ``pencils``: one per usable core,
+    as many as the sectors' estimated LU factors fit into ``memory_gb``
+    (:func:`copdea_fem.eigen.factor_memory_estimate`).  Every back-end releases the GIL
+    in its factorisations and solves (NGSolve's UMFPACK and PARDISO, and SciPy's
+    SuperLU 5), so the threads share the cores."""
+    from .eigen import factor_memory_estimate
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    return max(1, min(tasks, cores or 1))
+    largest = max((factor_memory_estimate(pencil) for pencil in pencils), default=0.0)
+    fitting = int(memory_gb * 1e9 // largest) if largest > 0 else len(pencils)
+    return max(1, min(len(pencils), cores or 1, fitting))
 
 
 def require_backend(study: Study) -> None:
@@ -211,6 +214,7 @@ def coupled_modes(study: Study, mesh=None, progress=_quiet, timings: Timings | N
             for sector in state.symmetry.sectors:
                 operators = linearised_operators(state, study, sector, matrices)
                 sectors.append((sector, operators, coupled_forms.restrict(operators)))
+            coupled_forms.release()
     # outside the TaskManager: its workers would compete with the sector threads
 
     def solve_sector(sector, operators, coupled):
@@ -236,8 +240,11 @@ def coupled_modes(study: Study, mesh=None, progress=_quiet, timings: Timings | N
         return key, dry_result, result
 
     with timings.stage("eigen"), _single_threaded_blas():
-        # NGSolve's solves release the GIL: sectors run side by side on the cores
-        with ThreadPoolExecutor(max_workers=_workers(len(sectors), eigen["backend"])) as pool:
+        # every back-end releases the GIL in its factorisations and solves: sectors run
+        # side by side on the cores
+        workers = _workers([coupled.stiffness for _, _, coupled in sectors],
+                           eigen["factor_memory_gb"])
+        with ThreadPoolExecutor(max_workers=workers) as pool:
             solved = list(pool.map(lambda item: solve_sector(*item), sectors))
     modes, pressures, dry, results = [], [], [], {}
     with timings.stage("classify"), _task_manager():

@@ -212,3 +212,40 @@ def test_m1_pair_stays_degenerate_under_the_square_frame(capsys):
     _report(capsys, "square frame, 4 mm order 3: relative splitting of the pairs",
             [f"(1,1): {split_1:.2e}", f"(2,1): {split_2:.2e}"])
     assert split_1 < 0.2 * split_2, (split_1, split_2)
+
+
+def test_crowded_air_sphere_krylov_schur_finds_every_mode_with_fewer_solves():
+    """A 0.5 m air sphere around G1 (coarse): the band's disc also holds many lightly and
+    strongly damped air/PML modes.  Krylov-Schur with its larger basis finds exactly the
+    modes ARPACK's default basis finds (the method before it), with fewer solves
+    (measured 245 against 391: the ratio 0.8 leaves room for round-off in the restarts)."""
+    from copdea_fem.coupled import assemble_coupled
+    from copdea_fem.eigen import solve_band
+    from copdea_fem.linearise import linearised_operators, membrane_matrices
+    from copdea_fem.prestress import solve_prestress
+    from copdea_fem.solve import prepare_mesh
+
+    study = coupled_study(air={"enabled": True, "domain_radius": "0.5 m"},
+                          mesh={"air_size": "50 mm"}, eigen={"f_max": "1000 Hz"})
+    mesh = prepare_mesh(study, with_air=True)
+    state = solve_prestress(study, mesh)
+    sector = state.symmetry.sectors[0]
+    coupled = assemble_coupled(study, mesh, state).restrict(
+        linearised_operators(state, study, sector, membrane_matrices(state)))
+    eigen = study["eigen"]
+    messages = {"arpack": [], "krylov-schur": []}
+    results = {method: solve_band(coupled.stiffness, coupled.mass, eigen["f_min"], eigen["f_max"],
+                                  hermitian=False, factorize=coupled.factorize,
+                                  max_imag_hz=eigen["max_damping_ratio"] * eigen["f_max"],
+                                  backend=eigen["backend"], krylov=method,
+                                  progress=messages[method].append)
+               for method in messages}
+    old, new = results["arpack"], results["krylov-schur"]
+    known = max(int(line.split(" known")[0].split()[-1]) for line in messages["krylov-schur"]
+                if " known" in line)
+    assert known >= 2 * len(new)             # crowded: most pairs in the disc are outside the band
+    assert len(new) == len(old) >= 10
+    np.testing.assert_allclose(new.freq_hz, old.freq_hz, rtol=1e-8)
+    np.testing.assert_allclose(new.freq_im_hz, old.freq_im_hz, rtol=1e-5, atol=1e-6)
+    assert np.all(new.residuals < 1e-6)
+    assert new.n_solves < 0.8 * old.n_solves

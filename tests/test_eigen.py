@@ -28,6 +28,7 @@ import scipy.linalg  # noqa: E402
 import scipy.sparse as sp  # noqa: E402
 
 from copdea_fem import eigen  # noqa: E402
+from copdea_fem.eigen import planner  # noqa: E402
 from copdea_fem.eigen import (  # noqa: E402
     BACKENDS,
     BackendUnavailableError,
@@ -123,16 +124,17 @@ def test_string_band_matches_closed_form():
 def test_long_arpack_runs_report_their_solves(monkeypatch):
     import re
 
-    from copdea_fem import eigen
+    from copdea_fem.eigen import krylov
     stiffness, mass, exact = string_matrices(400)
     f_min, f_max, _ = band_between(frequencies(exact).real, 3, 24)
     quiet = []
     solve_band(stiffness, mass, f_min, f_max, backend="superlu", progress=quiet.append)
     assert not any(message.endswith("s ...") for message in quiet)   # fast: no heartbeat
-    monkeypatch.setattr(eigen, "PROGRESS_INTERVAL_S", 0.0)
+    monkeypatch.setattr(krylov, "PROGRESS_INTERVAL_S", 0.0)
     messages = []
     solve_band(stiffness, mass, f_min, f_max, backend="superlu", progress=messages.append)
-    beats = [m for m in messages if re.fullmatch(r"shift 1 at .* Hz: \d+ solves, \d+ s \.\.\.", m)]
+    beats = [m for m in messages if re.fullmatch(
+        r"shift 1 at .* Hz: \d+ solves, \d+ s \(band \d+ % certified\) \.\.\.", m)]
     counts = [int(re.search(r"(\d+) solves", m).group(1)) for m in beats]
     assert len(beats) > 10 and counts[:3] == [1, 2, 3]
 
@@ -170,11 +172,11 @@ def test_band_needing_several_shifts_is_complete_and_deduplicated():
 
 def test_missed_degenerate_partner_is_recovered_by_the_confirmation_run(monkeypatch):
     """Simulate ARPACK returning one copy of each double eigenvalue in its first run."""
-    original = eigen._BandSolver._arpack
+    original = planner.BandSolver.nearest_unknown
     calls = []
 
-    def arpack_missing_partners(self, shift, k, tol=None):
-        values, vectors, exhausted = original(self, shift, k, tol=tol)
+    def arpack_missing_partners(self, shift, k, tol=None, basis=None):
+        values, vectors, exhausted = original(self, shift, k, tol=tol, basis=basis)
         calls.append(values.size)
         if len(calls) == 1:
             keep = np.ones(values.size, dtype=bool)
@@ -187,7 +189,7 @@ def test_missed_degenerate_partner_is_recovered_by_the_confirmation_run(monkeypa
             values, vectors = values[keep], vectors[:, keep]
         return values, vectors, exhausted
 
-    monkeypatch.setattr(eigen._BandSolver, "_arpack", arpack_missing_partners)
+    monkeypatch.setattr(planner.BandSolver, "nearest_unknown", arpack_missing_partners)
     stiffness, mass, exact = square_matrices(24)
     exact_f = frequencies(exact).real
     f_min, f_max, expected = band_between(exact_f, 0, 15)
@@ -198,6 +200,69 @@ def test_missed_degenerate_partner_is_recovered_by_the_confirmation_run(monkeypa
     assert any("missed multiple eigenvalue" in message for message in messages)
     assert multiplicities(result.freq_hz) == multiplicities(expected)
     np.testing.assert_allclose(result.freq_hz, expected, rtol=FREQUENCY_RTOL)
+
+
+@pytest.mark.parametrize("krylov", ["krylov-schur", "arpack"])
+def test_certification_finds_an_eigenvalue_a_crippled_run_missed(monkeypatch, krylov):
+    """A general pencil with a known eigenvalue in the band; every Krylov run before the
+    first certification is made to lose it (and to claim discs that hold it).  The
+    certification run must see the unknown eigenvalue inside the trusted disc, and the
+    band must hold it."""
+    loss_factor = 0.05
+    stiffness, mass, exact = square_matrices(20)
+    exact_complex = np.sort_complex(frequencies((1 + 1j * loss_factor) * exact))
+    f_min, f_max, _ = band_between(exact_complex.real, 2, 25)
+    expected = exact_complex[(exact_complex.real >= f_min) & (exact_complex.real <= f_max)]
+    single = [f for f in expected
+              if np.count_nonzero(np.abs(expected - f) <= 1e-8 * abs(f)) == 1]
+    planted = single[len(single) // 2]   # a simple eigenvalue, the one the crippled run loses
+    original = planner.BandSolver.nearest_unknown
+    calls = []
+
+    def crippled(self, shift, k, tol=None, basis=None):
+        values, vectors, exhausted = original(self, shift, k, tol=tol, basis=basis)
+        certifying = tol is not None               # certification runs pass their tol
+        calls.append(certifying)
+        if not any(calls):                         # no certification yet: lose it
+            lost = np.abs(frequencies(values) - planted) <= 1e-6 * abs(planted)
+            values, vectors = values[~lost], vectors[:, ~lost]
+        return values, vectors, exhausted
+
+    monkeypatch.setattr(planner.BandSolver, "nearest_unknown", crippled)
+    messages = []
+    result = solve_band((1 + 1j * loss_factor) * stiffness, mass, f_min, f_max,
+                        backend="superlu", krylov=krylov, progress=messages.append)
+    assert any("an unknown eigenvalue lies inside the trusted radius" in message
+               for message in messages)
+    assert len(result) == expected.size
+    assert np.min(np.abs(result.frequencies_hz - planted)) <= FREQUENCY_RTOL * abs(planted)
+    np.testing.assert_allclose(result.frequencies_hz, expected, rtol=FREQUENCY_RTOL)
+    assert re_certified(messages)
+
+
+def re_certified(messages):
+    """The last progress line of the band solve says it is 100 % certified."""
+    shift_lines = [m for m in messages if "% certified" in m]
+    return bool(shift_lines) and shift_lines[-1].endswith("band 100 % certified")
+
+
+@pytest.mark.parametrize("krylov", ["krylov-schur", "arpack"])
+def test_block_and_arpack_runs_give_the_same_general_band(krylov):
+    """Both Krylov methods on the damped membrane: the same modes, residual-checked."""
+    loss_factor = 0.05
+    stiffness, mass, exact = square_matrices(24)
+    exact_complex = np.sort_complex(frequencies((1 + 1j * loss_factor) * exact))
+    f_min, f_max, _ = band_between(exact_complex.real, 3, 40)
+    expected = exact_complex[(exact_complex.real >= f_min) & (exact_complex.real <= f_max)]
+    result = solve_band((1 + 1j * loss_factor) * stiffness, mass, f_min, f_max,
+                        backend="superlu", krylov=krylov)
+    assert len(result) == expected.size
+    np.testing.assert_allclose(result.frequencies_hz, expected, rtol=FREQUENCY_RTOL)
+    assert result.n_solves > 0 and result.n_block_solves > 0
+    if krylov == "krylov-schur" and eigen.krylov.BLOCK_SIZE > 1:   # blocks of right-hand sides
+        assert result.n_solves >= 4 * result.n_block_solves
+    else:
+        assert result.n_solves == result.n_block_solves
 
 
 def test_wide_band_with_default_settings_uses_more_than_one_shift():
