@@ -1,7 +1,7 @@
 """The FE as the model of record, the ring model as its anchored surrogate (issue 13).
 
 A diagnosis evaluates thousands of effect states per condition; the FE takes
-0.5-2 s (axisymmetric engine) to ~20 s (3-D quadrant, square frame) per solve,
+0.5-2 s (axisymmetric engine) to ~10-30 s (3-D quadrant, square frame) per solve,
 the ring model milliseconds.  So the FE fixes the numbers and the ring model
 interpolates between FE solves:
 
