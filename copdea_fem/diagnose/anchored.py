@@ -77,13 +77,6 @@ class Anchor:
     ring: tuple                   # ring ModelModes at the anchor
     ratio: dict                   # label -> f_FE / f_ring at the anchor
 
-    def ring_error(self, band) -> dict:
-        """f_ring / f_FE - 1 of every axisymmetric mode in ``band`` [-]."""
-        fe = self.fe.frequencies()
-        return {m.label: m.frequency_hz / fe[m.label] - 1 for m in self.ring
-                if m.label in fe and m.kind == "axisymmetric"
-                and band[0] <= fe[m.label] <= band[1]}
-
     def apply(self, modes) -> tuple:
         """(A1) on the ring modes of a state, plus the FE modes the ring model lacks."""
         ring_anchor = {m.label: m for m in self.ring}
