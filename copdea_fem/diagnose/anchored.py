@@ -36,7 +36,7 @@ the proxy's for the modes it lacks.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 from copdea_fem.diagnose.effects import CATALOGUE
 from copdea_fem.diagnose.engine import Engine, ModelMode
@@ -76,11 +76,24 @@ class Anchor:
     fe: object                    # FEResult
     ring: tuple                   # ring ModelModes at the anchor
     ratio: dict                   # label -> f_FE / f_ring at the anchor
+    proxies: tuple = field(init=False, default=())   # (FE mode, its ring proxy), derived
+
+    def __post_init__(self):
+        # the proxy of every FE mode the ring model lacks: the ring mode nearest in
+        # frequency at the anchor (fixed per anchor; apply() runs in the fits' hot loop)
+        ring_labels = {m.label for m in self.ring}
+        membrane = [m for m in self.ring if m.kind != "pumping"]
+        proxies = []
+        for fe_mode in self.fe.modes:
+            if fe_mode.label in ring_labels or fe_mode.kind == "pumping" or not membrane:
+                continue
+            proxy = min(membrane, key=lambda m: abs(math.log(m.frequency_hz
+                                                             / fe_mode.frequency_hz)))
+            proxies.append((fe_mode, proxy))
+        object.__setattr__(self, "proxies", tuple(proxies))
 
     def apply(self, modes) -> tuple:
         """(A1) on the ring modes of a state, plus the FE modes the ring model lacks."""
-        ring_anchor = {m.label: m for m in self.ring}
-        membrane = [m for m in self.ring if m.kind != "pumping"]
         now = {m.label: m for m in modes}
         out = []
         for mode in modes:
@@ -88,14 +101,11 @@ class Anchor:
             if ratio is None:
                 ratio = self._fallback(mode)
             out.append(replace(mode, frequency_hz=mode.frequency_hz * ratio))
-        for fe_mode in self.fe.modes:
-            if fe_mode.label in now or fe_mode.kind == "pumping" or not membrane:
+        for fe_mode, proxy in self.proxies:
+            if fe_mode.label in now:
                 continue
-            proxy = min(membrane, key=lambda m: abs(math.log(m.frequency_hz
-                                                             / fe_mode.frequency_hz)))
             current = now.get(proxy.label)
-            change = (current.frequency_hz / ring_anchor[proxy.label].frequency_hz
-                      if current is not None else 1.0)
+            change = current.frequency_hz / proxy.frequency_hz if current is not None else 1.0
             quality = current.quality_factor if current is not None else math.inf
             optional = fe_mode.kind == "non-axisymmetric"
             out.append(ModelMode(fe_mode.label, fe_mode.kind, fe_mode.frequency_hz * change,

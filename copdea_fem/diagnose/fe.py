@@ -37,9 +37,13 @@ from pathlib import Path
 from copdea_fem.study import Study
 
 FE_CACHE_VERSION = 1           # bump when the FE's numbers change for the same study
-PAIR_MERGE = 2e-3              # split pairs closer than this (relative) are one peak
+PAIR_MERGE = 2e-3              # split pairs closer than this (relative) are one peak: a
+                               # fifth of a 1 % identification scatter, not resolvable
+
 FE_EFFECT_KEYS = ("effects.stiffness_scale", "effects.maxwell_scale")
-# The FE's band reaches past the data's: a mode just above the band edge is still paired.
+# The FE's band reaches past the data's, so a mode just above the band edge is still
+# paired: 25 % is past the 4 sigma_f strict gate of unknown-kind peaks and near the 50 %
+# gate of known ones (copdea_fem.diagnose.compare), at the cost of more FE modes.
 BAND_MARGIN = 1.25
 
 
@@ -208,9 +212,13 @@ class FEModel:
         path = self._path(result.key)
         if path is None:
             return
-        path.parent.mkdir(parents=True, exist_ok=True)
         document = {"modes": [m.__dict__ for m in result.modes], "engine": result.engine,
                     "coupled": result.coupled, "seconds": result.seconds}
         staging = path.with_suffix(f".tmp{os.getpid()}")
-        staging.write_text(json.dumps(document, indent=1))
-        os.replace(staging, path)
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            staging.write_text(json.dumps(document, indent=1))
+            os.replace(staging, path)          # only <key>.json: the names this class makes
+        except OSError as error:               # the cache only saves time: never fail on it
+            self.progress(f"FE cache {self.cache_dir} not written ({error.strerror or error})")
+            staging.unlink(missing_ok=True)

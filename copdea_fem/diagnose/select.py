@@ -88,6 +88,8 @@ from copdea_fem.diagnose.fe import BAND_MARGIN
 from copdea_fem.diagnose.evidence import describe_evidence, goodness_of_fit, verdict
 from copdea_fem.diagnose.peaks import find_spectrum_peaks, peak_height
 from copdea_fem.diagnose.tabulation import INVALID, Tabulation
+from copdea_fem.reduced.rings import ReducedModelError
+from copdea_fem.study import StudyError
 
 ALPHA = 0.05
 ORDERINGS = 3          # cyclic orderings averaged in the prequential evidence (fixed in advance)
@@ -396,11 +398,10 @@ class Diagnoser:
         predictions_before, matches_before = self.evaluate(state)
         if any(m is None for m in matches_before.values()):
             bad = [n for n, m in matches_before.items() if m is None]
-            from copdea_fem.study import StudyError
             why = ""
             try:
                 self.engine.predict(next(c for c in self.conditions if c.name == bad[0]))
-            except Exception as error:        # noqa: BLE001 - only to say why
+            except (ReducedModelError, StudyError) as error:   # what safe_predict hid
                 why = f" ({error})"
             raise StudyError(f"conditions {', '.join(bad)} are not allowed: the base model "
                              f"cannot be evaluated there{why}; allowed: operating points the "
@@ -563,7 +564,7 @@ class Diagnoser:
                     study = study.replace({"reduced.rings": ring_count})
                 try:
                     modes = self.engine.ring_predict_study(study, c).modes
-                except Exception:        # noqa: BLE001 - a ring count the model cannot take
+                except (ReducedModelError, StudyError):    # a ring count it cannot take
                     return None
                 for m in modes:
                     if (m.kind == "axisymmetric" and m.label in fe

@@ -286,3 +286,23 @@ def test_the_fe_study_keeps_the_frame_only_where_there_is_air():
     assert fe_key(wet) == fe_key(wet.replace({"effects.air_mass_scale": 2.0,
                                               "effects.viscoelastic_strength": 0.5,
                                               "reduced.rings": 24}))
+
+
+def test_a_passing_candidate_is_refused_when_the_exact_gap_or_deviance_does_not_fall():
+    """The acceptance rule on exact matches: gap and deviance must both fall (a width-only
+    effect: the gap must not rise); an unevaluable fitted model is refused too."""
+    peaks = [MeasuredPeak(400.0, "(0,1)"), MeasuredPeak(900.0, "(0,2)")]
+    noise, band = NoiseModel(frequency_relative=0.01), (20.0, 1000.0)
+
+    def matches(f01, f02):
+        modes = [ModelMode("(0,1)", "axisymmetric", f01, math.inf, math.nan, True),
+                 ModelMode("(0,2)", "axisymmetric", f02, math.inf, math.nan, True)]
+        return {"c": match_condition("c", modes, peaks, band, noise)}
+
+    far, near = matches(440.0, 950.0), matches(402.0, 905.0)
+    refusal = Diagnoser._refusal
+    assert refusal(far, near, ("air_loading",)) is None
+    assert "gap does not fall" in refusal(near, far, ("air_loading",))
+    assert "gap does not fall" in refusal(near, near, ("air_loading",))
+    assert refusal(near, near, ("modal_damping",)).startswith("the deviance")
+    assert "cannot be evaluated at c" in refusal(near, {"c": None}, ("air_loading",))
