@@ -65,7 +65,12 @@ class ModeSampler:
     On a quadrant mesh the grid is folded into the quadrant and a sector's
     field is unfolded with its parity signs (:mod:`copdea_fem.symmetry`):
     normal and radial components take s(q), the hoop component s(q) q_x q_y
-    (e_theta flips under each reflection).
+    (e_theta flips under each reflection).  Grid points that fold onto the same
+    quadrant point (theta, pi - theta, pi + theta, -theta: 64 angles hold 17
+    distinct ones) are evaluated once.
+
+    A sampler describes one prestressed state (the deformed normal, the normal
+    mass matrix): make a new one after the state moves.
     """
 
     def __init__(self, state, n_radii: int = 40, n_angles: int = 64):
@@ -76,8 +81,15 @@ class ModeSampler:
         rr, tt = np.meshgrid(self.radii, self.angles, indexing="ij")
         xs, ys, self._qx, self._qy = state.symmetry.fold(rr.ravel() * np.cos(tt.ravel()),
                                                          rr.ravel() * np.sin(tt.ravel()))
-        self.points = state.mesh(xs, ys, np.zeros(rr.size), ngs.BND)
+        # folded copies agree to round-off in cos/sin: merge them on a 1e-9 r_o grid
+        keys = np.round(np.stack([xs, ys], axis=1) / (1e-9 * r_o)).astype(np.int64)
+        _, first, self._copy_of = np.unique(keys, axis=0, return_index=True,
+                                            return_inverse=True)
+        self._copy_of = self._copy_of.ravel()
+        self.points = state.mesh(xs[first], ys[first], np.zeros(first.size), ngs.BND)
         self.shape = rr.shape
+        self._state = state
+        self._normal_mass = None
         self.gf = ngs.GridFunction(state.space)
         normal = deformed_normal(state.displacement)
         radial = ngs.CF((ngs.x, ngs.y, 0)) / ngs.sqrt(ngs.x**2 + ngs.y**2)
@@ -92,12 +104,19 @@ class ModeSampler:
         values = []
         for part in (np.real(vector), np.imag(vector)) if np.iscomplexobj(vector) else (vector,):
             self.gf.vec.FV().NumPy()[:] = part
-            values.append(np.asarray(self._components(self.points)))
+            values.append(np.asarray(self._components(self.points))[self._copy_of])
         field_ = values[0] + 1j * values[1] if len(values) == 2 else values[0]
         if sector is not None:
             sign = sector.sign(self._qx, self._qy)
             field_ = field_ * np.stack([sign, sign, sign * self._qx * self._qy], axis=1)
         return np.moveaxis(field_.reshape(*self.shape, 3), -1, 0)
+
+    @property
+    def normal_mass(self):
+        """:func:`normal_mass_matrix` of the sampler's state, assembled on first use [kg]."""
+        if self._normal_mass is None:
+            self._normal_mass = normal_mass_matrix(self._state)
+        return self._normal_mass
 
 
 def circumferential_order(field_: np.ndarray, radii: np.ndarray) -> tuple[int, np.ndarray]:
@@ -136,7 +155,7 @@ def classify_modes(operators: MembraneOperators, eigen_result, sampler: ModeSamp
     sampler = sampler or ModeSampler(state)
     copies = state.symmetry.copies      # a quadrant's masses are a quarter of the device's
     full = operators.to_full(eigen_result.vectors)
-    normal_mass = normal_mass_matrix(state)
+    normal_mass = sampler.normal_mass
     modes = []
     for k in range(full.shape[1]):
         reduced = eigen_result.vectors[:, k]

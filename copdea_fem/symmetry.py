@@ -36,6 +36,7 @@ Lumped parts (disc mass, spring) enter the quadrant's pencil divided by 4.
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -128,11 +129,7 @@ def bitarray(mask: np.ndarray):
     """NGSolve BitArray of a boolean array."""
     import ngsolve as ngs
 
-    bits = ngs.BitArray(len(mask))
-    bits.Clear()
-    for index in np.flatnonzero(mask):
-        bits.Set(int(index))
-    return bits
+    return ngs.BitArray(np.asarray(mask, dtype=bool).tolist())
 
 
 def membrane_mirror_dofs(space, mesh, order: int, sector: Sector | None) -> np.ndarray:
@@ -142,24 +139,43 @@ def membrane_mirror_dofs(space, mesh, order: int, sector: Sector | None) -> np.n
     ``membrane``); the uncompressed space is rebuilt to find each component's
     DOFs on the mirror edges.
     """
-    import ngsolve as ngs
-
     if sector is None:
         return np.zeros(0, dtype=int)
-    whole = ngs.VectorH1(mesh, order=order, definedon=mesh.Boundaries("membrane"))
-    scalar = whole.components[0]
-    fixed = np.zeros(whole.ndof, dtype=bool)
-    for edge, parity, in_plane in (("mirror_x_edge", sector.parity_x, 0),
-                                   ("mirror_y_edge", sector.parity_y, 1)):
-        on_edge = np.array(scalar.GetDofs(mesh.BBoundaries(edge)))
+    scalar_dofs, on_edges, active = _membrane_layout(mesh, order)
+    fixed = np.zeros(3 * scalar_dofs, dtype=bool)
+    for on_edge, parity, in_plane in ((on_edges[0], sector.parity_x, 0),
+                                      (on_edges[1], sector.parity_y, 1)):
         # even: the component normal to the mirror plane vanishes; odd: the others
         components = (in_plane,) if parity > 0 else tuple(c for c in range(3) if c != in_plane)
         for component in components:
-            fixed[component * scalar.ndof:(component + 1) * scalar.ndof] |= on_edge
-    active = np.array(whole.GetDofs(mesh.Boundaries("membrane")))   # what Compress keeps
+            fixed[component * scalar_dofs:(component + 1) * scalar_dofs] |= on_edge
     if int(active.sum()) != space.ndof:
         raise RuntimeError("membrane space layout differs from VectorH1 on 'membrane'")
     return np.flatnonzero(fixed[active])
+
+
+_LAYOUTS: dict = {}     # (id(mesh), order) -> (weak reference to the mesh, layout)
+
+
+def _membrane_layout(mesh, order: int):
+    """The uncompressed VectorH1 on ``membrane``: DOFs per component, each mirror edge's
+    scalar DOFs, and the DOFs ``Compress`` keeps; built once per mesh and order (the
+    space on a 3-D air mesh costs ~40 ms, and every sector asks twice)."""
+    import ngsolve as ngs
+
+    key = (id(mesh), order)       # NGSolve meshes are not hashable
+    cached = _LAYOUTS.get(key)
+    if cached is not None and cached[0]() is mesh:
+        return cached[1]
+    whole = ngs.VectorH1(mesh, order=order, definedon=mesh.Boundaries("membrane"))
+    scalar = whole.components[0]
+    on_edges = tuple(np.array(scalar.GetDofs(mesh.BBoundaries(edge)))
+                     for edge in ("mirror_x_edge", "mirror_y_edge"))
+    active = np.array(whole.GetDofs(mesh.Boundaries("membrane")))   # what Compress keeps
+    layout = (scalar.ndof, on_edges, active)
+    _LAYOUTS[key] = (weakref.ref(mesh), layout)
+    weakref.finalize(mesh, _LAYOUTS.pop, key, None)
+    return layout
 
 
 def pressure_mirror_dofs(pressure_space, mesh, sector: Sector | None) -> np.ndarray:

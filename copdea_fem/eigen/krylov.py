@@ -186,8 +186,49 @@ def _orthogonalise(V, W):
     return C, Q, R
 
 
+class KrylovDecomposition:
+    """A Krylov decomposition ``OP V[:, :m] = V[:, :m + p] H[:m + p, :m]`` kept between runs.
+
+    ``m`` (``expanded``) columns are expanded, ``p`` (``block``) more hold the residual
+    block still to expand.  :func:`block_krylov_schur` returns it at convergence, and a
+    later run at the same shift resumes it (:meth:`copdea_fem.eigen.planner.BandSolver.
+    nearest_unknown`): the Ritz values beyond those already converged are then partly
+    converged, so asking for more pairs, or for the nearest one still unknown (the
+    certification), costs a few solves instead of a new Krylov space.
+    """
+
+    def __init__(self, start: np.ndarray, capacity: int):
+        n, block = start.shape
+        self.block = block
+        self.basis = np.zeros((n, capacity + 2 * block), dtype=start.dtype, order="F")
+        self.H = np.zeros((capacity + 2 * block,) * 2, dtype=start.dtype)
+        _, first, _ = _orthogonalise(self.basis[:, :0], start)
+        self.basis[:, :block] = first
+        self.expanded, self.size = 0, block
+
+    @property
+    def capacity(self) -> int:
+        return self.basis.shape[1] - 2 * self.block
+
+    def reserve(self, capacity: int) -> None:
+        """Room for ``capacity`` basis vectors (the content is kept)."""
+        if capacity <= self.capacity:
+            return
+        rows = capacity + 2 * self.block
+        basis = np.zeros((self.basis.shape[0], rows), dtype=self.basis.dtype, order="F")
+        basis[:, :self.size] = self.basis[:, :self.size]
+        H = np.zeros((rows, rows), dtype=self.H.dtype)
+        H[:self.size, :self.expanded] = self.H[:self.size, :self.expanded]
+        self.basis, self.H = basis, H
+
+    @property
+    def nbytes(self) -> int:
+        return int(self.basis.nbytes + self.H.nbytes)
+
+
 def block_krylov_schur(apply: Callable, start: np.ndarray, k: int, tol: float,
-                       max_basis: int, max_restarts: int = 60):
+                       max_basis: int, max_restarts: int = 60,
+                       resume: KrylovDecomposition | None = None):
     """The ``k`` largest-``|theta|`` eigenpairs of the operator ``apply`` (block Krylov-Schur).
 
     Parameters
@@ -204,12 +245,17 @@ def block_krylov_schur(apply: Callable, start: np.ndarray, k: int, tol: float,
         (``||x|| = 1``), ARPACK's criterion.
     max_basis : int
         Thick restart beyond this many vectors (:func:`basis_size`).
+    resume : KrylovDecomposition or None
+        Continue this decomposition of the same operator (``start`` unused) instead
+        of starting afresh.
 
     Returns
     -------
     theta : numpy.ndarray, shape (k,)
     vectors : numpy.ndarray, shape (n, k)
         Unit Ritz vectors.
+    decomposition : KrylovDecomposition
+        The decomposition at convergence, to resume.
 
     Notes
     -----
@@ -220,17 +266,19 @@ def block_krylov_schur(apply: Callable, start: np.ndarray, k: int, tol: float,
     Schur vectors of the ``keep`` largest Ritz values (``S = U T U^H`` reordered,
     ``V_m <- V_m U_keep``, ``S <- T_keep``, ``E <- E U_keep``), which keeps the
     decomposition exact.  The basis lives in one preallocated array, so a step
-    costs the block solve plus two passes over the basis.
+    costs the block solve plus two passes over the basis.  Resuming continues
+    the same decomposition: the pairs it had converged stay converged and the
+    next ones start from what the earlier run already built.
     """
-    n, block = start.shape
-    dtype = start.dtype          # a real operator keeps a real basis (exact conjugate pairs)
-    capacity = max_basis + 2 * block
-    basis = np.zeros((n, capacity), dtype=dtype, order="F")
-    _, first, _ = _orthogonalise(basis[:, :0], np.asarray(start, dtype=dtype))
-    basis[:, :block] = first
-    size = block                             # columns of the basis in use
-    H = np.zeros((capacity, capacity), dtype)  # OP V[:, :m] = V[:, :m + p] H[:m + p, :m]
-    expanded = 0
+    n = start.shape[0]
+    if resume is None:
+        decomposition = KrylovDecomposition(np.asarray(start), max_basis)
+    else:
+        decomposition = resume
+        decomposition.reserve(max_basis)
+    block, dtype = decomposition.block, decomposition.basis.dtype
+    basis, H = decomposition.basis, decomposition.H
+    expanded, size = decomposition.expanded, decomposition.size
     restarts = 0
     # The Ritz values cost an eig of the m x m projection, ~1e-8 m^3 s, against a
     # solve of ~5e-7 n s (SuperLU, coupled sectors of 5k-48k unknowns): check
@@ -257,7 +305,8 @@ def block_krylov_schur(apply: Callable, start: np.ndarray, k: int, tol: float,
         Y = Y / np.linalg.norm(Y, axis=0)
         residual = np.linalg.norm(H[expanded:size, :expanded] @ Y[:, :k], axis=0)
         if np.all(residual <= tol * np.abs(theta[:k])):
-            return theta[:k], basis[:, :expanded] @ Y[:, :k]
+            decomposition.expanded, decomposition.size = expanded, size
+            return theta[:k], basis[:, :expanded] @ Y[:, :k], decomposition
         if not full:
             continue
         restarts += 1
@@ -302,7 +351,8 @@ def counting(solve: Callable, say: Callable[[int, float], None]) -> Callable:
 
 
 def nearest_unknown(operator: DeflatedOperator, k: int, tol: float, start: np.ndarray,
-                    method: str, real_arithmetic: bool, basis: int | None = None):
+                    method: str, real_arithmetic: bool, basis: int | None = None,
+                    resume: KrylovDecomposition | None = None):
     """The ``k`` eigenpairs of the pencil nearest ``operator.sigma`` that are not known.
 
     Parameters
@@ -320,6 +370,8 @@ def nearest_unknown(operator: DeflatedOperator, k: int, tol: float, start: np.nd
     basis : int or None
         Least basis of a Krylov-Schur run (default :func:`basis_size`); ARPACK
         runs keep ARPACK's default ``max(2 k + 1, k + 20)``.
+    resume : KrylovDecomposition or None
+        A Krylov-Schur decomposition of this same ``operator`` to continue.
 
     Returns
     -------
@@ -329,6 +381,8 @@ def nearest_unknown(operator: DeflatedOperator, k: int, tol: float, start: np.nd
     exhausted : bool
         The run reached the deflated (``nu ~ 0``) directions: no finite
         eigenvalue is left unknown.
+    decomposition : KrylovDecomposition or None
+        The Krylov-Schur run's decomposition, to resume (None for ARPACK).
     """
     sigma, B = operator.sigma, operator.B
     n = B.shape[0]
@@ -357,12 +411,12 @@ def nearest_unknown(operator: DeflatedOperator, k: int, tol: float, start: np.nd
                 return sigma + 1.0 / nu, W
     else:
         block = start if np.dtype(operator_dtype).kind == "c" else start.real.copy()
-        theta, W = block_krylov_schur(operator.apply, block, k, tol,
-                                      min(n - 1, max(basis or 0,
-                                                     basis_size(k, start.shape[1], n))))
+        theta, W, decomposition = block_krylov_schur(
+            operator.apply, block, k, tol,
+            min(n - 1, max(basis or 0, basis_size(k, start.shape[1], n))), resume=resume)
         with np.errstate(divide="ignore"):
             values = sigma + 1.0 / theta
-        return _finish(operator, values, W, real_arithmetic)
+        return (*_finish(operator, values, W, real_arithmetic), decomposition)
     try:
         try:
             values, W = call(ncv, None)
@@ -373,7 +427,7 @@ def nearest_unknown(operator: DeflatedOperator, k: int, tol: float, start: np.nd
             f"ARPACK did not converge at shift {format_hz(sigma)} for k={k} "
             f"(ncv={min(n, 2 * ncv)}): {error}"
         ) from error
-    return _finish(operator, values, W, real_arithmetic)
+    return (*_finish(operator, values, W, real_arithmetic), None)
 
 
 def _finish(operator: DeflatedOperator, values, W, real_arithmetic: bool):

@@ -102,6 +102,33 @@ class KnownPairs:
         self.vectors = (np.concatenate(new_vectors, axis=1) if new_vectors
                         else np.zeros((self.n, 0), self.dtype))
 
+    def contains(self, values, vectors) -> np.ndarray:
+        """Which of the pairs ``(values, vectors)`` are known already: boolean mask.
+
+        A pair is known when its eigenvalue lies within ``CLUSTER_RELATIVE`` of known
+        ones and its vector lies in their span (the part outside is below
+        ``sqrt(DUPLICATE_GRAM_RATIO)`` = 1e-3 of its norm, the angle under which
+        :meth:`add` treats two directions as one).  A degenerate partner of a known
+        pair has the same eigenvalue but a direction outside the span: unknown.
+        """
+        values = np.asarray(values, dtype=complex)
+        known = np.zeros(values.size, dtype=bool)
+        floor = 1e-6 * self.scale
+        for index, value in enumerate(values):
+            tolerance = self.CLUSTER_RELATIVE * (np.abs(self.values) + abs(value) + floor)
+            members = np.flatnonzero(np.abs(self.values - value) <= tolerance)
+            if not members.size:
+                continue
+            vector = vectors[:, index]
+            span = self.vectors[:, members]
+            weighted = self.B @ span if self.hermitian else span
+            gram = span.conj().T @ weighted
+            coefficients = np.linalg.lstsq(gram, weighted.conj().T @ vector, rcond=None)[0]
+            outside = vector - span @ coefficients
+            ratio = self.norm(outside[:, None])[0] / max(self.norm(vector[:, None])[0], 1e-300)
+            known[index] = ratio <= np.sqrt(self.DUPLICATE_GRAM_RATIO)
+        return known
+
     def clusters(self, values: np.ndarray) -> list[list[int]]:
         """Groups of indices whose eigenvalues are within ``CLUSTER_RELATIVE`` (transitively)."""
         count = values.size

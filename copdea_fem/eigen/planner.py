@@ -36,6 +36,7 @@ class Shift:
     confirmed_radius: float = 0.0    # |lam - sigma| of the nearest *new* pair of the latest run
     modes_found: int = 0             # pairs added by runs at this shift
     runs: int = 0
+    session: tuple | None = None     # (operator, Krylov decomposition, pairs it converged)
 
 
 class BandSolver:
@@ -262,7 +263,17 @@ class BandSolver:
     def nearest_unknown(self, shift: Shift, k: int, tol: float | None = None,
                         basis: int | None = None):
         """The Krylov run at ``shift``: ``(values, vectors, exhausted)`` of the ``k`` unknown
-        eigenpairs nearest it (:func:`copdea_fem.eigen.krylov.nearest_unknown`)."""
+        eigenpairs nearest it (:func:`copdea_fem.eigen.krylov.nearest_unknown`).
+
+        A Krylov-Schur run keeps its decomposition on the shift (``shift.session``); the
+        next run there (more pairs, or the certification) resumes it: the ``c`` pairs it
+        converged plus ``k`` more are asked of the *same* operator (deflated by the pairs
+        known when the session began), and the pairs among them that are known by now
+        (:meth:`KnownPairs.contains`) are dropped.  Whatever the Krylov space holds
+        nearer than the farthest of those ``c + k`` is then either known or returned,
+        as after a fresh run; a resumed run that returns nothing new (the pairs of other
+        shifts fill it) is redone fresh.
+        """
         index = self.shifts.index(shift) + 1
 
         def heartbeat(solves, seconds):
@@ -270,11 +281,29 @@ class BandSolver:
                           f"{seconds:.0f} s ({self.certified_percent()}) ...")
 
         solve = counting(shift.factorization.solve, heartbeat)
+        tol = self.tol if tol is None else tol
+        if shift.session is not None:
+            operator, decomposition, converged = shift.session
+            operator.solve = solve
+            values, vectors, exhausted, decomposition = nearest_unknown(
+                operator, converged + k, tol, self.start_block, self.krylov,
+                self.real_arithmetic, basis, resume=decomposition)
+            shift.session = (operator, decomposition, converged + k)
+            new = ~self.known.contains(values, vectors)
+            if np.any(new) or exhausted:
+                return values[new], vectors[:, new], exhausted
         operator = DeflatedOperator(self.B, solve, shift.sigma, self.known.values,
                                     self.known.vectors, self.hermitian,
                                     shift.factorization.dtype)
-        return nearest_unknown(operator, k, self.tol if tol is None else tol, self.start_block,
-                               self.krylov, self.real_arithmetic, basis)
+        values, vectors, exhausted, decomposition = nearest_unknown(
+            operator, k, tol, self.start_block, self.krylov, self.real_arithmetic, basis)
+        shift.session = None if decomposition is None else (operator, decomposition, k)
+        return values, vectors, exhausted
+
+    def end_sessions(self) -> None:
+        """Free every shift's kept Krylov decomposition (the band is certified)."""
+        for shift in self.shifts:
+            shift.session = None
 
     # ---------------------------------------------------------------- dense fallback
 
@@ -421,6 +450,7 @@ class BandSolver:
             if self.runs > self.MAX_RUNS:
                 raise EigenSolverError(f"band not covered after {self.MAX_RUNS} Krylov runs")
             if np.all(self.covered(use_confirmed=True) <= 0):
+                self.end_sessions()
                 return
             shortfall = self.covered(use_confirmed=False)
             if np.all(shortfall <= 0):
