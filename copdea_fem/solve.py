@@ -13,6 +13,7 @@ Library entry points used by the CLI, the benchmarks and the tests:
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import os
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -72,6 +73,17 @@ def _single_threaded_blas():
     (coupled sectors of G1, default mesh: 12.0 s on one BLAS thread, 17.7 s on two)."""
     from threadpoolctl import threadpool_limits
     return threadpool_limits(limits=1, user_api="blas")
+
+
+def _return_freed_memory() -> None:
+    """Hand the heap's freed pages back to the system (glibc ``malloc_trim``; a no-op where
+    there is none).  Cutting the sector pencils out of the whole-space matrices leaves
+    ~175 MB of freed temporaries in the heap on the 0.65 m drum, under the LU factors
+    that come next."""
+    try:
+        ctypes.CDLL(None).malloc_trim(0)
+    except (OSError, AttributeError):
+        pass
 
 
 def _workers(pencils: list, memory_gb: float) -> int:
@@ -215,6 +227,7 @@ def coupled_modes(study: Study, mesh=None, progress=_quiet, timings: Timings | N
                 operators = linearised_operators(state, study, sector, matrices)
                 sectors.append((sector, operators, coupled_forms.restrict(operators)))
             coupled_forms.release()
+            _return_freed_memory()
     # outside the TaskManager: its workers would compete with the sector threads
 
     def solve_sector(sector, operators, coupled):

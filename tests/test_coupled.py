@@ -218,7 +218,8 @@ def test_crowded_air_sphere_krylov_schur_finds_every_mode_with_fewer_solves():
     """A 0.5 m air sphere around G1 (coarse): the band's disc also holds many lightly and
     strongly damped air/PML modes.  Krylov-Schur with its larger basis finds exactly the
     modes ARPACK's default basis finds (the method before it), with fewer solves
-    (measured 245 against 391: the ratio 0.8 leaves room for round-off in the restarts)."""
+    (measured 127 against 391 since the certification resumes the run's decomposition,
+    245 before: the ratio 0.45 leaves room for round-off in the restarts)."""
     from copdea_fem.coupled import assemble_coupled
     from copdea_fem.eigen import solve_band
     from copdea_fem.linearise import linearised_operators, membrane_matrices
@@ -248,4 +249,4 @@ def test_crowded_air_sphere_krylov_schur_finds_every_mode_with_fewer_solves():
     np.testing.assert_allclose(new.freq_hz, old.freq_hz, rtol=1e-8)
     np.testing.assert_allclose(new.freq_im_hz, old.freq_im_hz, rtol=1e-5, atol=1e-6)
     assert np.all(new.residuals < 1e-6)
-    assert new.n_solves < 0.8 * old.n_solves
+    assert new.n_solves < 0.45 * old.n_solves

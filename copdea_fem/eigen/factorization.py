@@ -116,12 +116,22 @@ def real_equivalent(matrix: sp.csr_matrix) -> sp.csr_matrix:
     return (sp.kron(real_part, identity_block) + sp.kron(imag_part, rotation_block)).tocsr()
 
 
-#: SuperLU's diagonal pivot threshold in nested-dissection order: a diagonal
-#: entry at least this share of its column's largest is kept as the pivot.
-#: Coupled sector pencil (13.5k unknowns, sigma inside the band): 0 -> nnz(LU)
-#: 4.1 M, solve 0.018 s; 0.01 -> 5.4 M, 0.021 s; 0.1 -> 5.7 M, 0.020 s; SuperLU's
-#: own MMD_AT_PLUS_A order at 0.1: 6.1 M, 0.051 s; UMFPACK 0.055 s.
+#: SuperLU's diagonal pivot threshold when static pivoting fails its probe
+#: (:data:`STATIC_PIVOT_BACKWARD_ERROR`): a diagonal entry at least this share of its
+#: column's largest is kept as the pivot.
 SUPERLU_PIVOT_THRESHOLD = 0.1
+#: First try: threshold 0, i.e. the diagonal is the pivot whenever it is nonzero (static
+#: pivoting in the fill-reducing order, as the ordering assumed).  Measured (SciPy 1.17,
+#: one BLAS thread), threshold 0.1 -> 0: G1's odd-even coupled sector (n = 12775) nnz(LU)
+#: 5.14 -> 3.67 M, factorisation 0.78 -> 0.50 s, solve 16.1 -> 12.7 ms; the 0.65 m drum's
+#: even-even sector (n = 46913) 35.2 -> 25.1 M, 8.7 -> 4.6 s, 89 -> 69 ms; the probe's
+#: backward error 3.6e-16 and 1.4e-17 (0.1: 3.3e-16, 4.4e-18).  Even threshold 0.001
+#: keeps the drum at 33 M: the smallest diagonal of its columns is 1.3e-3 of the largest.
+SUPERLU_STATIC_PIVOT_THRESHOLD = 0.0
+#: Normwise backward error ``||S x - b||_1 / (||S||_1 ||x||_1 + ||b||_1)`` of a random
+#: probe solve above which static pivoting is refused (growth of 1e4 over round-off)
+#: and the matrix is factorised again with :data:`SUPERLU_PIVOT_THRESHOLD`.
+STATIC_PIVOT_BACKWARD_ERROR = 1e-12
 #: Below this size the METIS call costs more than the fill it saves (a 2-D FE-like
 #: pattern of 1600 unknowns: factorisation + 20 solves 0.019 s in METIS order,
 #: 0.013 s in SuperLU's own; the 3-D pencils here are 9k-14k).  Small matrices take
@@ -184,15 +194,16 @@ def _nested_dissection(matrix) -> np.ndarray:
 def factor_memory_estimate(matrix) -> float:
     """Estimated bytes of the SuperLU factors of a 3-D FE pencil ``A - sigma B`` (METIS order).
 
-    ``nnz(L + U) ~ 12.1 nnz(A) (n / 13538)^(1/3)``: nested dissection of a 3-D mesh
-    fills like ``n^(4/3)`` (George 1973), fitted on G1's even-even coupled sector
-    (n = 13538: 12.1 entries of L + U per entry of A) and checked on the 0.65 m drum's
-    (n = 48310: 19.9, the fit 18.5).  22.4 bytes per complex entry (values and
-    indices: the drum sector's factors take 790 MB for 35.2 M entries), 14.4 real.
+    ``nnz(L + U) ~ 8.5 nnz(A) (n / 13538)^0.44`` with static pivoting
+    (:data:`SUPERLU_STATIC_PIVOT_THRESHOLD`): nested dissection of a 3-D mesh fills like
+    ``n^(4/3)`` (George 1973, exponent 1/3 here); the power fitted through G1's odd-even
+    coupled sector (n = 12775: 8.3 entries of L + U per entry of A) and the 0.65 m
+    drum's even-even one (n = 46913: 14.7).  22.4 bytes per complex entry (values and
+    indices: the drum sector's factors take 539 MB for 25.1 M entries), 14.4 real.
     """
     matrix = sp.csr_matrix(matrix)
     n = max(matrix.shape[0], 1)
-    entries = 12.1 * matrix.nnz * (n / 13538.0) ** (1.0 / 3.0)
+    entries = 8.5 * matrix.nnz * (n / 13538.0) ** 0.44
     return entries * (22.4 if np.iscomplexobj(matrix.data) else 14.4)
 
 
@@ -248,19 +259,11 @@ class Factorization:
             matrix = matrix.astype(float)
         self.solve_count = 0
         self.block_solve_count = 0
+        self.static_pivoting = False
         start = time.perf_counter()
         try:
             if backend == "superlu":
-                self._order = fill_reducing_order(matrix)
-                if self._order is None:     # small: minimum degree, the same diagonal pivoting
-                    self._superlu = spla.splu(matrix.tocsc(), permc_spec="MMD_AT_PLUS_A",
-                                              diag_pivot_thresh=SUPERLU_PIVOT_THRESHOLD,
-                                              options={"SymmetricMode": True})
-                else:
-                    permuted = matrix[self._order][:, self._order].tocsc()
-                    self._superlu = spla.splu(permuted, permc_spec="NATURAL",
-                                              diag_pivot_thresh=SUPERLU_PIVOT_THRESHOLD,
-                                              options={"SymmetricMode": True})
+                self._factorise_superlu(matrix)
             else:
                 self._factorise_ngsolve(matrix)
         except Exception as error:  # NGSolve's NgException derives from Exception only
@@ -269,6 +272,38 @@ class Factorization:
                 f"(singular?): {error}"
             ) from error
         self.factorisation_seconds = time.perf_counter() - start
+
+    def _factorise_superlu(self, matrix: sp.csr_matrix) -> None:
+        """SuperLU in METIS order (small matrices: SuperLU's minimum degree), static
+        diagonal pivots first, threshold pivoting if the probe's backward error says so."""
+        self._order = fill_reducing_order(matrix)
+        if self._order is None:
+            permuted, ordering = matrix.tocsc(), "MMD_AT_PLUS_A"
+        else:
+            permuted, ordering = matrix[self._order][:, self._order].tocsc(), "NATURAL"
+        for threshold in (SUPERLU_STATIC_PIVOT_THRESHOLD, SUPERLU_PIVOT_THRESHOLD):
+            self._superlu = None                 # free the refused factors first
+            self._superlu = spla.splu(permuted, permc_spec=ordering,
+                                      diag_pivot_thresh=threshold,
+                                      options={"SymmetricMode": True})
+            self.static_pivoting = threshold == SUPERLU_STATIC_PIVOT_THRESHOLD
+            if not self.static_pivoting or \
+                    self.backward_error(matrix) <= STATIC_PIVOT_BACKWARD_ERROR:
+                return
+
+    def backward_error(self, matrix) -> float:
+        """Normwise backward error of a solve with a fixed random right-hand side:
+        ``||S x - b||_1 / (||S||_1 ||x||_1 + ||b||_1)`` [-] (round-off: ~1e-16)."""
+        rng = np.random.default_rng(7)
+        rhs = rng.standard_normal(self.shape[0])
+        if self.is_complex:
+            rhs = rhs + 1j * rng.standard_normal(self.shape[0])
+        solution = self._solve_block(rhs[:, None])[:, 0]
+        self.solve_count -= 1             # the probe is not one of the caller's solves
+        self.block_solve_count -= 1
+        norm = float(abs(matrix).sum(axis=0).max())
+        residual = np.linalg.norm(matrix @ solution - rhs, 1)
+        return float(residual / (norm * np.linalg.norm(solution, 1) + np.linalg.norm(rhs, 1)))
 
     def _factorise_ngsolve(self, matrix: sp.csr_matrix) -> None:
         from ngsolve import la
