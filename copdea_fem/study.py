@@ -197,11 +197,12 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "residual_tol": Key(None, 1e-6, "largest accepted relative residual "
                             "|Ax - lambda Bx| / (|A| |x|)", minimum=0, maximum=1e-2,
                             open_min=True),
-        "factor_memory_gb": Key(None, 1.2, "memory (GB) the sparse LU factors of the 3-D "
+        "factor_memory_gb": Key(None, 1.0, "memory (GB) the sparse LU factors of the 3-D "
                                 "coupled sectors may take at once: sectors run side by "
                                 "side on the cores while their estimated factors fit, else "
-                                "one after the other (0.65 m drum: 0.8 GB a sector, so one "
-                                "at a time and the whole solve under 2 GB; G1: 0.13 GB)",
+                                "one after the other (0.65 m drum: ~0.57 GB a sector, so "
+                                "one at a time and the whole solve under 1.6 GB; 1.2 runs "
+                                "two at a time, 2x faster, 2.1 GB; G1: 0.08 GB)",
                                 minimum=0, maximum=1e4, open_min=True),
     },
     "output": {
