@@ -21,8 +21,8 @@ the direct path per frequency (``direct_per_line``, mean of 10 lines across the 
 baffle, in air) on the axisymmetric engine; ``drum-3d`` the same on the 3-D quadrant
 (``mesh.engine: 3d``, issue 14's benchmark): its four sectors of ~47k unknowns hold many
 lightly damped air/PML modes of the 1.14 m air sphere; they run one after the other under
-the default ``eigen.factor_memory_gb`` (``--set eigen.factor_memory_gb=2`` runs two at a
-time: faster, above 2 GB).  Both report the structural modes (m,1), m = 0..5, and the
+the default ``eigen.factor_memory_gb`` (``--set eigen.factor_memory_gb=1.2`` runs two at
+a time: faster, above 2 GB).  Both report the structural modes (m,1), m = 0..5, and the
 ratios f(m,1)/f(1,1).
 
 Coupled cases also report, per sector, the factorisations, the right-hand sides solved

@@ -266,7 +266,9 @@ def solve_band(
     held, more if they fill the disc in two dimensions, see
     :meth:`BandSolver.plan_next`).  When the trusted discs cover the band, a *certification* run
     (``k = 2``, tol 1e-8, nothing stored) at a shift whose trusted disc is
-    still needed gives the distance of the nearest eigenvalue still unknown;
+    still needed gives the distance of the nearest eigenvalue still unknown
+    (a Krylov-Schur run resumes the shift's last decomposition and drops the pairs
+    known by now, so it costs a few solves, see :meth:`BandSolver.nearest_unknown`);
     shrunk by 1e-4 for its error, it is the certified radius and must reach
     the trusted one.  If a degenerate partner had been missed, it is nearer
     (the deflated operator no longer contains the found copy), the radius

@@ -213,7 +213,8 @@ class BandSolver:
         """Nearest eigenvalue still unknown at ``shift``: sets its certified radius.
 
         Only the dominant eigenvalue of the deflated operator is needed and
-        nothing is stored, so two Ritz values at ``CERTIFY_TOL`` suffice.  The
+        nothing is stored, so two Ritz values at ``CERTIFY_TOL`` suffice (a Krylov-Schur
+        run resumes the shift's last decomposition: :meth:`nearest_unknown`).  The
         radius is shrunk by ``CERTIFY_MARGIN`` to absorb the Ritz value's
         error (relative ~tol for Hermitian pencils, ~condition * tol otherwise:
         the margin covers condition numbers up to 1e4).  A nearer unknown
@@ -229,8 +230,9 @@ class BandSolver:
         # The nearest unknown eigenvalue sits in a ring of others just outside
         # the trusted disc; where air/PML modes crowd it (as many as the disc
         # holds), a basis of CERTIFY_BASIS_PER_PAIR vectors per pair inside keeps
-        # the run from restarting hundreds of times (0.65 m drum sector, 43
-        # pairs inside: 418 solves with ARPACK's default 22 vectors, ... with 65).
+        # a fresh run from restarting hundreds of times (0.65 m drum sector, 43
+        # pairs inside: 418 solves with ARPACK's default 22 vectors, 101 with 65;
+        # resuming the shift's decomposition, 1-2).
         crowd = int(self.CERTIFY_BASIS_PER_PAIR * self.count_within(shift, shift.trusted_radius))
         values, _, exhausted = self.nearest_unknown(shift, self.CERTIFY_MODES,
                                                     tol=self.CERTIFY_TOL, basis=crowd)
