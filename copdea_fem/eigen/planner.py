@@ -22,7 +22,7 @@ import scipy.linalg
 from .errors import EigenSolverError, TooManyModesError
 from .factorization import Factorization
 from . import krylov as krylov_module
-from .krylov import DeflatedOperator, counting, nearest_unknown
+from .krylov import DeflatedOperator, basis_size, counting, nearest_unknown
 from .pairs import KnownPairs
 from .region import BandRegion
 from .spectrum import format_hz, format_radius
@@ -284,7 +284,8 @@ class BandSolver:
 
         solve = counting(shift.factorization.solve, heartbeat)
         tol = self.tol if tol is None else tol
-        if shift.session is not None:
+        # resume only while the decomposition's basis (3 vectors a pair) stays below n
+        if shift.session is not None and basis_size(shift.session[2] + k, 1, self.n) < self.n - 1:
             operator, decomposition, converged = shift.session
             operator.solve = solve
             values, vectors, exhausted, decomposition = nearest_unknown(
