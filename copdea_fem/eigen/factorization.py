@@ -301,7 +301,7 @@ class Factorization:
         solution = self._solve_block(rhs[:, None])[:, 0]
         self.solve_count -= 1             # the probe is not one of the caller's solves
         self.block_solve_count -= 1
-        norm = float(abs(matrix).sum(axis=0).max())
+        norm = float(spla.norm(matrix, 1))
         residual = np.linalg.norm(matrix @ solution - rhs, 1)
         return float(residual / (norm * np.linalg.norm(solution, 1) + np.linalg.norm(rhs, 1)))
 

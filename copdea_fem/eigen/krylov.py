@@ -209,8 +209,9 @@ class KrylovDecomposition:
 
     ``m`` (``expanded``) columns are expanded, ``p`` (``block``) more hold the residual
     block still to expand.  :func:`block_krylov_schur` returns it at convergence, and a
-    later run at the same shift resumes it (:meth:`copdea_fem.eigen.planner.BandSolver.
-    nearest_unknown`): the Ritz values beyond those already converged are then partly
+    later run at the same shift resumes it
+    (:meth:`copdea_fem.eigen.planner.BandSolver.nearest_unknown`): the Ritz values beyond
+    those already converged are then partly
     converged, so asking for more pairs, or for the nearest one still unknown (the
     certification), costs a few solves instead of a new Krylov space.
     """
@@ -238,10 +239,6 @@ class KrylovDecomposition:
         H = np.zeros((rows, rows), dtype=self.H.dtype)
         H[:self.size, :self.expanded] = self.H[:self.size, :self.expanded]
         self.basis, self.H = basis, H
-
-    @property
-    def nbytes(self) -> int:
-        return int(self.basis.nbytes + self.H.nbytes)
 
 
 def block_krylov_schur(apply: Callable, start: np.ndarray, k: int, tol: float,

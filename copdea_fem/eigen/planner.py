@@ -285,7 +285,9 @@ class BandSolver:
         solve = counting(shift.factorization.solve, heartbeat)
         tol = self.tol if tol is None else tol
         # resume only while the decomposition's basis (3 vectors a pair) stays below n
-        if shift.session is not None and basis_size(shift.session[2] + k, 1, self.n) < self.n - 1:
+        block = self.start_block.shape[1]
+        if shift.session is not None and \
+                basis_size(shift.session[2] + k, block, self.n) < self.n - 1:
             operator, decomposition, converged = shift.session
             operator.solve = solve
             values, vectors, exhausted, decomposition = nearest_unknown(
