@@ -307,6 +307,9 @@ def _add_sweep_command(commands) -> None:
 def cmd_diagnose(args) -> int:
     """Which catalogued effect the model lacks; report.md, diagnosis.json, PNGs."""
     from .diagnose import diagnose_out_dir, load_measured, run_diagnose
+    if args.fe_cache:
+        from .diagnose.fe import check_cache_dir
+        check_cache_dir(args.fe_cache, "--fe-cache")    # a file: exit 2 before any work
     measured = load_measured(args.measured)
     out_dir = Path(args.out) if args.out else diagnose_out_dir(measured)
     inputs = [args.measured, *(path for condition in measured.conditions
@@ -355,7 +358,8 @@ def _add_diagnose_commands(commands, with_study) -> None:
                                "surrogate; reduced: the ring model alone)")
     diagnose.add_argument("--fe-cache", metavar="DIR",
                           help="folder of cached FE solves (default: $COPDEA_FEM_FE_CACHE, else "
-                               "the user cache folder)")
+                               "the user cache folder; a $COPDEA_FEM_FE_CACHE that names a "
+                               "file is ignored with a warning)")
     diagnose.add_argument("--quiet", action="store_true", help="no progress messages")
     diagnose.set_defaults(handler=cmd_diagnose)
 

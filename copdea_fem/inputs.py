@@ -17,7 +17,8 @@ short prefix.
 
 from __future__ import annotations
 
-from pathlib import Path
+import os
+from pathlib import Path, PurePath
 
 import yaml
 
@@ -31,11 +32,29 @@ PATH_CHARACTERS = 500
 
 
 def preview(value, width: int = PREVIEW_CHARACTERS) -> str:
-    """``repr(value)``, cut to ``width`` characters with the full length noted."""
+    """``repr(value)``, cut to ``width`` characters with the full length noted.
+
+    A path (:class:`pathlib.PurePath`) is shown as its text, and a long one keeps
+    its file name whole: the folder part is cut instead (:func:`preview_path`).
+    """
+    if isinstance(value, PurePath):
+        return preview_path(value, width)
     text = repr(value)
     if len(text) <= width:
         return text
     return f"{text[:width]}... ({len(text)} characters)"
+
+
+def preview_path(path, width: int = PREVIEW_CHARACTERS) -> str:
+    """``repr(str(path))``; above ``width`` characters the start of the folder part and the
+    whole file name, ``'/work/runs/...a/z16_v2_resonance.csv' (74 characters)``."""
+    text = str(path)
+    if len(repr(text)) <= width:
+        return repr(text)
+    name = PurePath(text).name or text
+    head = text[:len(text) - len(name)]
+    keep = max(0, width - len(name) - 6)          # quotes, "..." and a separator
+    return f"{repr(head[:keep] + '...' + os.sep + name)} ({len(text)} characters)"
 
 
 def read_text(path: str | Path, what: str, limit: int = MAX_DATA_BYTES,
@@ -48,7 +67,7 @@ def read_text(path: str | Path, what: str, limit: int = MAX_DATA_BYTES,
     path = Path(path)
 
     def refuse(reason):
-        return error(f"{what} = {preview(str(path), PATH_CHARACTERS)} is not allowed ({reason}); "
+        return error(f"{what} = {preview(path, PATH_CHARACTERS)} is not allowed ({reason}); "
                      f"allowed: a UTF-8 text file of at most {limit} bytes")
 
     try:
@@ -119,7 +138,7 @@ def parse_yaml(text: str, where: str, error: type[Exception] = ValueError):
 def read_yaml(path: str | Path, what: str, error: type[Exception] = ValueError):
     """:func:`read_text` + :func:`parse_yaml` with the YAML size limit; a mapping or error."""
     path = Path(path)
-    shown = preview(str(path), PATH_CHARACTERS)
+    shown = preview(path, PATH_CHARACTERS)
     raw = parse_yaml(read_text(path, what, MAX_YAML_BYTES, error), f"{what} {shown}", error)
     if raw is None:
         raise error(f"{what} = {shown} is not allowed (only comments); allowed: a mapping of "

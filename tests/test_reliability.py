@@ -587,3 +587,192 @@ def test_leftover_cleaning_spares_look_alike_folders(tmp_path):
         pass
     assert not mine_staging.exists()
     assert all((folder / "data.txt").read_text() == "keep" for folder in look_alikes)
+
+
+# ------------------------------------------------------------------- FE cache (issue 22)
+
+def fake_fe(monkeypatch, seconds=0.0):
+    """FEModel._solve replaced by a counted stand-in taking ``seconds``: returns the list
+    of keys solved (one item per solve, from any thread)."""
+    from copdea_fem.diagnose import fe
+
+    solved = []
+
+    def solve(self, run, key):
+        time.sleep(seconds)
+        solved.append(key)
+        self.solves += 1
+        return fe.FEResult((fe.FEMode("(0,1)", "axisymmetric", 505.8),
+                            fe.FEMode("(1,1)", "non-axisymmetric", 511.6, 0.01)),
+                           "axisymmetric", False, seconds, key)
+    monkeypatch.setattr(fe.FEModel, "_solve", solve)
+    return solved
+
+
+def fe_entry(cache: Path, monkeypatch) -> tuple:
+    """A good cache entry of :data:`DRY_STUDY` written by a (fake) solve: (study, path)."""
+    from copdea_fem.diagnose import fe
+    from copdea_fem.study import load_study
+    study = load_study(DRY_STUDY)
+    fake_fe(monkeypatch)
+    result = fe.FEModel(cache_dir=cache).modes(study)
+    return study, cache / f"{result.key}.json"
+
+
+@pytest.mark.parametrize("damage, problem", [
+    (lambda d: d["modes"][0].update(frequency_hz="abc"),
+     "modes[0].frequency_hz = 'abc', not a finite number > 0"),
+    (lambda d: d["modes"][1].update(damping_ratio=float("nan")), "NaN is not a finite number"),
+    (lambda d: d["modes"][0].update(frequency_hz=float("inf")),
+     "Infinity is not a finite number"),
+    (lambda d: d["modes"][0].update(frequency_hz=True), "modes[0].frequency_hz = True"),
+    (lambda d: d["modes"][0].update(label=7), "modes[0].label = 7, not a label"),
+    (lambda d: d["modes"][0].pop("kind"), "modes[0] is not an object with keys"),
+    (lambda d: d.update(modes={"(0,1)": 505.8}), "modes is not a list"),
+    (lambda d: d.update(coupled="no"), "coupled = 'no', not true or false"),
+    (lambda d: d.pop("engine"), "no 'engine'"),
+    (lambda d: d.update(seconds=-1), "seconds = -1, not a finite number >= 0"),
+    (lambda d: d.clear() or d.update(modes=[]), "no 'engine', 'coupled', 'seconds'"),
+], ids=["text frequency", "NaN", "Infinity", "bool", "label type", "missing kind",
+        "modes dict", "coupled text", "no engine", "negative seconds", "keys missing"])
+def test_a_damaged_fe_cache_entry_is_solved_again_and_replaced(tmp_path, monkeypatch, caplog,
+                                                               damage, problem):
+    import json
+    from copdea_fem.diagnose import fe
+    study, path = fe_entry(tmp_path / "cache", monkeypatch)
+    good = json.loads(path.read_text())
+    document = json.loads(path.read_text())
+    damage(document)
+    path.write_text(json.dumps(document))
+    solved = fake_fe(monkeypatch)
+    model = fe.FEModel(cache_dir=tmp_path / "cache")
+    with caplog.at_level("WARNING", logger="copdea_fem.diagnose.fe"):
+        result = model.modes(study)
+    assert len(solved) == 1                                  # solved again ...
+    assert all(isinstance(m.frequency_hz, float) for m in result.modes)
+    assert json.loads(path.read_text()) == good             # ... and replaced
+    warnings = [r.getMessage() for r in caplog.records]
+    assert len(warnings) == 1 and "\n" not in warnings[0]
+    assert warnings[0].startswith(f"FE cache entry {path} is damaged (") and problem in \
+        warnings[0] and warnings[0].endswith("); solving it again and replacing it")
+    assert fe.FEModel(cache_dir=tmp_path / "cache").modes(study) == result and len(solved) == 1
+
+
+def test_fe_cache_option_naming_a_file_is_refused_before_work(work, capsys):
+    data = work / "data"
+    shutil.copytree(EXAMPLE, data)
+    line = refused(["diagnose", data / "measured.yaml", "--fe-cache", work / "notes.txt",
+                    "--out", work / "report"], work, capsys)
+    assert line == (f"error: --fe-cache = '{work / 'notes.txt'}' is not allowed (an existing "
+                    "file, not a folder); allowed: a folder (created when missing)")
+    line = refused(["diagnose", data / "measured.yaml", "--fe-cache",
+                    work / "notes.txt" / "fe", "--out", work / "report"], work, capsys)
+    assert f"is not allowed ({work / 'notes.txt'} is an existing file)" in line
+
+
+def test_fe_cache_variable_naming_a_file_is_ignored_with_a_warning(tmp_path, monkeypatch,
+                                                                   caplog):
+    from copdea_fem.diagnose import fe
+    from copdea_fem.study import load_study
+    notes = tmp_path / "notes.txt"
+    notes.write_text("my notes\n")
+    monkeypatch.setenv(fe.CACHE_VARIABLE, str(notes))
+    solved = fake_fe(monkeypatch)
+    with caplog.at_level("WARNING", logger="copdea_fem.diagnose.fe"):
+        model = fe.FEModel()
+        model.modes(load_study(DRY_STUDY))
+    assert [r.getMessage() for r in caplog.records] == [
+        f"FE cache {notes} ignored (an existing file, not a folder); FE solves are kept in "
+        "memory only"]
+    assert len(solved) == 1 and notes.read_text() == "my notes\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"]
+
+
+def test_an_unwritable_fe_cache_never_fails_a_diagnosis(tmp_path, monkeypatch, caplog):
+    """The folder turns into a file after the model was made (or cannot be written)."""
+    from copdea_fem.diagnose import fe
+    from copdea_fem.study import load_study
+    cache = tmp_path / "cache"
+    model = fe.FEModel(cache_dir=cache)
+    cache.write_text("now a file\n")
+    solved = fake_fe(monkeypatch)
+    with caplog.at_level("WARNING", logger="copdea_fem.diagnose.fe"):
+        result = model.modes(load_study(DRY_STUDY))
+    assert len(solved) == 1 and result.modes and cache.read_text() == "now a file\n"
+    assert all(str(cache) in r.getMessage() for r in caplog.records) and caplog.records
+
+
+def test_two_diagnoses_sharing_an_fe_cache_solve_an_entry_once(tmp_path, monkeypatch):
+    """Two runs (threads here; the lock is per open file, as between processes) need the
+    same entry at once: the second waits for the first's <key>.lock and reads its entry."""
+    import threading
+    from copdea_fem.diagnose import fe
+    from copdea_fem.study import load_study
+    study = load_study(DRY_STUDY)
+    solved = fake_fe(monkeypatch, seconds=1.0)
+    results = []
+
+    def diagnose():
+        results.append(fe.FEModel(cache_dir=tmp_path / "cache").modes(study))
+    runs = [threading.Thread(target=diagnose) for _ in range(2)]
+    for run in runs:
+        run.start()
+        time.sleep(0.1)
+    for run in runs:
+        run.join(timeout=30)
+    assert len(solved) == 1 and len(results) == 2 and results[0] == results[1]
+    assert sorted(p.name for p in (tmp_path / "cache").iterdir()) == [f"{results[0].key}.json"]
+
+
+def test_an_fe_cache_entry_locked_too_long_is_solved_here(tmp_path, monkeypatch, caplog):
+    import fcntl
+    from copdea_fem.diagnose import fe
+    from copdea_fem.study import load_study
+    study = load_study(DRY_STUDY)
+    solved = fake_fe(monkeypatch)
+    key = fe.fe_key(fe.fe_study(study))
+    (tmp_path / "cache").mkdir()
+    holder = os.open(tmp_path / "cache" / f"{key}.lock", os.O_RDWR | os.O_CREAT)
+    fcntl.flock(holder, fcntl.LOCK_EX)                   # a hung run holding the entry
+    os.write(holder, b"4242\n")
+    try:
+        start = time.perf_counter()
+        with caplog.at_level("WARNING", logger="copdea_fem.diagnose.fe"):
+            fe.FEModel(cache_dir=tmp_path / "cache", lock_wait=0.5).modes(study)
+        assert 0.5 <= time.perf_counter() - start < 5
+    finally:
+        os.close(holder)
+    assert len(solved) == 1 and (tmp_path / "cache" / f"{key}.json").is_file()
+    assert [r.getMessage() for r in caplog.records] == [
+        f"FE cache entry {tmp_path / 'cache' / key}.json is still being computed by process "
+        "4242 after 0.5 s; solving it here too"]
+
+
+# ------------------------------------------------------------- paths in messages (issue 22)
+
+def test_a_missing_data_file_is_named_whole_in_the_refusal(work, capsys):
+    """A path above the 60-character preview keeps its file name: the folder part is cut."""
+    data = work / "a_campaign_folder_with_a_rather_long_name" / "day_1"
+    shutil.copytree(EXAMPLE, data)
+    (data / "z16_v2_resonances.csv").rename(data / "z16_v2_resonances_moved.csv")
+    path = data / "z16_v2_resonances.csv"
+    assert len(repr(str(path))) > 60
+    line = refused(["diagnose", data / "measured.yaml", "--out", work / "report"], work, capsys)
+    assert line.startswith("error: conditions[1].resonances = '") and \
+        f"...{os.sep}z16_v2_resonances.csv' ({len(str(path))} characters) is not allowed " \
+        "(file does not exist)" in line, line
+
+
+def test_the_path_preview_keeps_the_name_and_the_limit():
+    from pathlib import PurePosixPath
+    from copdea_fem.inputs import preview
+    short = PurePosixPath("/data/z16.csv")
+    assert preview(short) == "'/data/z16.csv'"
+    deep = PurePosixPath("/" + "campaign/" * 20 + "z16_v2_resonances.csv")
+    shown = preview(deep)
+    assert shown == f"'/campaign/campaign/campaign/campa.../z16_v2_resonances.csv' ({len(str(deep))}" \
+                    " characters)"
+    assert len(shown.split(" (")[0]) == 60
+    name = "n" * 80 + ".csv"                                 # a name longer than the width
+    assert preview(PurePosixPath("/d/" + name)) == f"'.../{name}' ({len(name) + 3} characters)"
+    assert preview("x" * 100).endswith("... (102 characters)")   # other values: as before

@@ -71,6 +71,9 @@ def run_diagnose(measured_path, out_dir=None, progress=None, alpha: float = 0.05
     from copdea_fem.study import StudyError
     if not 0 < alpha < 1:
         raise StudyError(f"--alpha = {alpha!r} is not allowed; allowed: (0, 1)")
+    if fe_cache:
+        from copdea_fem.diagnose.fe import check_cache_dir
+        check_cache_dir(fe_cache, "fe_cache")
     measured = load_measured(measured_path)
     if model is not None:
         measured = dataclasses.replace(measured, model=model)

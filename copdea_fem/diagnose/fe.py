@@ -26,15 +26,25 @@ left out.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
+import logging
 import math
 import os
 import time
+import uuid
 from dataclasses import dataclass
 from pathlib import Path
 
-from copdea_fem.study import Study
+from copdea_fem.study import Study, StudyError
+
+try:
+    import fcntl
+except ImportError:          # Windows: no advisory locks; concurrent runs may solve twice
+    fcntl = None
+
+logger = logging.getLogger(__name__)
 
 FE_CACHE_VERSION = 1           # bump when the FE's numbers change for the same study
 PAIR_MERGE = 2e-3              # split pairs closer than this (relative) are one peak: a
@@ -132,6 +142,14 @@ def structural_modes(modes) -> tuple:
 
 
 CACHE_VARIABLE = "COPDEA_FEM_FE_CACHE"
+#: Longest wait [s] for an entry another run is computing (its lock file held) before this
+#: run solves it itself: past the longest single FE solve of a diagnosis (~10 s for the 3-D
+#: square frame coupled, minutes on a fine mesh), so only a hung run is overtaken.
+LOCK_WAIT_SECONDS = 600.0
+LOCK_POLL_SECONDS = 0.2
+
+ENTRY_ENGINES = ("axisymmetric", "3d")
+ENTRY_KINDS = ("pumping", "axisymmetric", "non-axisymmetric")
 
 
 def fe_cache_dir() -> Path:
@@ -143,6 +161,73 @@ def fe_cache_dir() -> Path:
     return Path(platformdirs.user_cache_dir("copdea-fem")) / "fe-modes"
 
 
+def cache_dir_problem(path) -> str | None:
+    """Why ``path`` cannot be an FE cache folder (it, or a folder above it, is an existing
+    file), or None: a folder, or a path that can be created."""
+    path = Path(path).expanduser()
+    for item in (path, *path.parents):
+        if item.exists() or item.is_symlink():
+            if item.is_dir():
+                return None
+            return ("an existing file, not a folder" if item == path else
+                    f"{item} is an existing file")
+    return None
+
+
+def check_cache_dir(path, option: str = "--fe-cache") -> Path:
+    """``path`` as an FE cache folder, or :class:`StudyError` naming ``option`` and the path
+    (called before any work: the CLI's ``--fe-cache`` exits 2 on a file)."""
+    problem = cache_dir_problem(path)
+    if problem:
+        from copdea_fem.inputs import PATH_CHARACTERS, preview
+        raise StudyError(f"{option} = {preview(Path(path), PATH_CHARACTERS)} is not allowed ({problem}); "
+                         "allowed: a folder (created when missing)")
+    return Path(path).expanduser()
+
+
+def entry_problem(document) -> str | None:
+    """Why a decoded cache entry does not follow the schema of :meth:`FEModel._write`, or None.
+
+    Schema: ``{"modes": [{"label": non-empty str, "kind": one of ENTRY_KINDS,
+    "frequency_hz": finite number > 0, "damping_ratio": finite number in [0, 1]}, ...],
+    "engine": one of ENTRY_ENGINES, "coupled": bool, "seconds": finite number >= 0}``
+    (numbers: int or float, not bool; every key present).
+    """
+    def number(value, low, high=math.inf, open_low=False):
+        return (isinstance(value, (int, float)) and not isinstance(value, bool)
+                and math.isfinite(value) and (value > low if open_low else value >= low)
+                and value <= high)
+
+    if not isinstance(document, dict):
+        return f"a JSON {type(document).__name__}, not an object"
+    missing = [key for key in ("modes", "engine", "coupled", "seconds") if key not in document]
+    if missing:
+        return "no " + ", ".join(repr(key) for key in missing)
+    if document["engine"] not in ENTRY_ENGINES:
+        return f"engine = {document['engine']!r}, not one of {', '.join(ENTRY_ENGINES)}"
+    if not isinstance(document["coupled"], bool):
+        return f"coupled = {document['coupled']!r}, not true or false"
+    if not number(document["seconds"], 0.0):
+        return f"seconds = {document['seconds']!r}, not a finite number >= 0"
+    if not isinstance(document["modes"], list):
+        return "modes is not a list"
+    fields = {"label", "kind", "frequency_hz", "damping_ratio"}
+    for index, mode in enumerate(document["modes"]):
+        where = f"modes[{index}]"
+        if not isinstance(mode, dict) or set(mode) != fields:
+            return f"{where} is not an object with keys {', '.join(sorted(fields))}"
+        if not isinstance(mode["label"], str) or not mode["label"]:
+            return f"{where}.label = {mode['label']!r}, not a label"
+        if mode["kind"] not in ENTRY_KINDS:
+            return f"{where}.kind = {mode['kind']!r}, not one of {', '.join(ENTRY_KINDS)}"
+        if not number(mode["frequency_hz"], 0.0, open_low=True):
+            return f"{where}.frequency_hz = {mode['frequency_hz']!r}, not a finite number > 0"
+        if not number(mode["damping_ratio"], 0.0, 1.0):
+            return f"{where}.damping_ratio = {mode['damping_ratio']!r}, not a finite number " \
+                   "in [0, 1]"
+    return None
+
+
 class FEModel:
     """FE structural modes of diagnosis studies, solved once per FE study.
 
@@ -150,15 +235,35 @@ class FEModel:
     ----------
     cache_dir : path, optional
         Folder of ``<key>.json`` files kept between runs (default
-        :func:`fe_cache_dir`); ``False``: memory only.
+        :func:`fe_cache_dir`); ``False``: memory only.  A path that is an existing
+        file is ignored with a warning (memory only): the cache only saves time.
     progress : callable, optional
+    lock_wait : float, optional
+        Longest wait [s] for an entry another run is computing (default
+        :data:`LOCK_WAIT_SECONDS`).
+
+    The cache never fails a diagnosis.  An entry is read only when it follows the
+    schema of :func:`entry_problem`; a damaged one (not JSON, a wrong type, a
+    non-finite number, a missing key) is solved again and replaced, with a one-line
+    warning naming the file.  Runs sharing the folder coordinate per entry: the
+    one that solves holds ``<key>.lock`` (``flock``, released by the system if
+    the process dies); another that needs the entry waits for it and reads it,
+    at most ``lock_wait`` seconds, then solves it itself.  Warnings go through
+    :mod:`logging` (the CLI prints them on stderr, also with ``--quiet``).
     """
 
-    def __init__(self, cache_dir=None, progress=None):
+    def __init__(self, cache_dir=None, progress=None, lock_wait: float = LOCK_WAIT_SECONDS):
         if cache_dir is None:
             cache_dir = fe_cache_dir()
-        self.cache_dir = Path(cache_dir) if cache_dir else None
+        self.cache_dir = Path(cache_dir).expanduser() if cache_dir else None
+        if self.cache_dir is not None:
+            problem = cache_dir_problem(self.cache_dir)
+            if problem:
+                logger.warning(f"FE cache {self.cache_dir} ignored ({problem}); FE solves "
+                               "are kept in memory only")
+                self.cache_dir = None
         self.progress = progress or (lambda message: None)
+        self.lock_wait = lock_wait
         self._memory: dict = {}
         self.solves = 0
         self.seconds = 0.0
@@ -167,14 +272,15 @@ class FEModel:
         """Structural modes of ``study`` (a diagnosis study: :func:`fe_study` applied)."""
         run = fe_study(study, f_max)
         key = fe_key(run)
-        hit = self._memory.get(key) or self._read(key)
-        if hit is not None:
-            self._memory[key] = hit
-            return hit
-        result = self._solve(run, key)
-        self._memory[key] = result
-        self._write(result)
-        return result
+        hit = self._memory.get(key) or self._read(key, quiet=True)
+        if hit is None:
+            with self._entry_lock(key):
+                hit = self._read(key)          # written by another run while we waited?
+                if hit is None:
+                    hit = self._solve(run, key)
+                    self._write(hit)
+        self._memory[key] = hit
+        return hit
 
     def _solve(self, run: Study, key: str) -> FEResult:
         from copdea_fem.solve import coupled_modes, dry_modes
@@ -197,16 +303,51 @@ class FEModel:
     def _path(self, key: str):
         return self.cache_dir / f"{key}.json" if self.cache_dir else None
 
-    def _read(self, key: str):
+    def _read(self, key: str, quiet: bool = False):
+        """The entry of ``key``, or None: absent, or damaged (then, unless ``quiet``, a
+        warning naming the file; the caller solves it again and replaces it)."""
         path = self._path(key)
         if path is None or not path.is_file():
             return None
         try:
-            raw = json.loads(path.read_text())
-            modes = tuple(FEMode(**m) for m in raw["modes"])
-            return FEResult(modes, raw["engine"], raw["coupled"], float(raw["seconds"]), key)
-        except (ValueError, KeyError, TypeError):
-            return None           # a damaged entry is solved again (and rewritten)
+            document = json.loads(path.read_text(), parse_constant=_refuse_constant)
+        except (OSError, ValueError) as error:
+            problem = f"not readable JSON: {error}"[:200]
+        else:
+            problem = entry_problem(document)
+        if problem:
+            if not quiet:
+                logger.warning(f"FE cache entry {path} is damaged ({problem}); solving it "
+                               "again and replacing it")
+            return None
+        modes = tuple(FEMode(m["label"], m["kind"], float(m["frequency_hz"]),
+                             float(m["damping_ratio"])) for m in document["modes"])
+        return FEResult(modes, document["engine"], document["coupled"],
+                        float(document["seconds"]), key)
+
+    @contextlib.contextmanager
+    def _entry_lock(self, key: str):
+        """Hold ``<key>.lock`` in the cache folder while solving ``key`` (class notes);
+        without a cache folder, or where it cannot be locked, no lock."""
+        if self.cache_dir is None or fcntl is None:
+            yield
+            return
+        path = self.cache_dir / f"{key}.lock"
+        fd = None
+        try:
+            self.cache_dir.mkdir(parents=True, exist_ok=True)
+            fd = _acquire(path, self.lock_wait, self.progress)
+        except OSError as error:           # a read-only folder: solve without the lock
+            logger.warning(f"FE cache {self.cache_dir} cannot be locked "
+                           f"({error.strerror or error}); solving without coordination")
+        try:
+            yield
+        finally:
+            if fd is not None:
+                with contextlib.suppress(OSError):
+                    if os.stat(path).st_ino == os.fstat(fd).st_ino:
+                        os.unlink(path)
+                os.close(fd)
 
     def _write(self, result: FEResult) -> None:
         path = self._path(result.key)
@@ -214,11 +355,50 @@ class FEModel:
             return
         document = {"modes": [m.__dict__ for m in result.modes], "engine": result.engine,
                     "coupled": result.coupled, "seconds": result.seconds}
-        staging = path.with_suffix(f".tmp{os.getpid()}")
+        staging = path.with_suffix(f".tmp{os.getpid()}-{uuid.uuid4().hex[:8]}")
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
-            staging.write_text(json.dumps(document, indent=1))
+            staging.write_text(json.dumps(document, indent=1, allow_nan=False))
             os.replace(staging, path)          # only <key>.json: the names this class makes
-        except OSError as error:               # the cache only saves time: never fail on it
-            self.progress(f"FE cache {self.cache_dir} not written ({error.strerror or error})")
-            staging.unlink(missing_ok=True)
+        except (OSError, ValueError) as error:  # the cache only saves time: never fail on it
+            logger.warning(f"FE cache {self.cache_dir} not written "
+                           f"({getattr(error, 'strerror', None) or error})")
+            with contextlib.suppress(OSError):
+                staging.unlink(missing_ok=True)
+
+
+def _refuse_constant(name: str):
+    """``json.loads`` hook: NaN and Infinity are not numbers of an entry."""
+    raise ValueError(f"{name} is not a finite number")
+
+
+def _acquire(path: Path, wait: float, progress) -> int | None:
+    """An exclusive ``flock`` of the lock file ``path``, waiting up to ``wait`` seconds
+    for another holder; None after the wait (the caller solves anyway).  The holder
+    removes the file when done, so only the file still in place counts as locked."""
+    deadline = time.monotonic() + wait
+    told = False
+    while True:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.read(fd, 32).decode(errors="replace").strip() or "unknown"
+            os.close(fd)
+            if time.monotonic() >= deadline:
+                logger.warning(f"FE cache entry {path.with_suffix('.json')} is still being "
+                               f"computed by process {holder} after {wait:g} s; solving it "
+                               "here too")
+                return None
+            if not told:
+                progress(f"waiting for FE cache entry {path.stem}, being computed by another "
+                         f"run (process {holder}) ...")
+                told = True
+            time.sleep(LOCK_POLL_SECONDS)
+            continue
+        with contextlib.suppress(FileNotFoundError):
+            if os.stat(path).st_ino == os.fstat(fd).st_ino:
+                os.ftruncate(fd, 0)
+                os.write(fd, f"{os.getpid()}\n".encode())
+                return fd
+        os.close(fd)

@@ -202,12 +202,12 @@ def normalise_label(text: str, where: str) -> tuple[str, str]:
 
 def _read_rows(path: Path, key: str):
     if not path.exists():
-        raise _fail(key, str(path), "an existing CSV file", "file does not exist")
+        raise _fail(key, path, "an existing CSV file", "file does not exist")
     text = read_text(path, key, error=MeasuredDataError)
     lines = text.splitlines()
     rows = list(csv.reader(r for r in lines if r.strip() and not r.lstrip().startswith("#")))
     if not rows:
-        raise _fail(key, str(path), "a CSV with a header row", "empty file")
+        raise _fail(key, path, "a CSV with a header row", "empty file")
     return [name.strip() for name in rows[0]], rows[1:]
 
 
@@ -276,7 +276,7 @@ def read_resonances(path, key: str = "resonances") -> tuple:
             seen[label] = line
         out.append(Resonance(frequency, label, kind, quality))
     if not out:
-        raise _fail(key, str(path), "at least one resonance row")
+        raise _fail(key, path, "at least one resonance row")
     return tuple(sorted(out, key=lambda r: r.frequency_hz))
 
 
@@ -322,7 +322,7 @@ def load_measured(path) -> MeasuredSet:
     """Read and check ``measured.yaml`` and every file it names (no model runs)."""
     path = Path(path)
     if not path.exists():
-        raise _fail("measured file", str(path), "an existing measured.yaml", "does not exist")
+        raise _fail("measured file", path, "an existing measured.yaml", "does not exist")
     raw = read_yaml(path, "measured file", MeasuredDataError)
     return parse_measured(raw, path.parent, name=str(raw.get("name") or path.stem), path=path)
 

@@ -251,7 +251,8 @@ def _base_study(raw: dict, base_dir: Path, name: str, overrides: dict) -> Study:
                           "file (e.g. ../g1_z16_v2.yaml)")
     full = Path(study_path) if Path(study_path).is_absolute() else base_dir / study_path
     if not full.exists():
-        raise sweep_error("study", study_path, "an existing study file", f"{full} does not exist")
+        raise sweep_error("study", Path(study_path), "an existing study file",
+                          f"{full} does not exist")
     try:
         study = load_study(full, overrides=overrides)
     except SweepError:
