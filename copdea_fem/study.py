@@ -538,6 +538,8 @@ def _check_across_keys(v: dict[str, dict[str, Any]]) -> None:
                     f"<= {(r_o - r_i) / 2:g} m = half the membrane width",
                     "fewer than two elements across the membrane")
     _check_reduced_keys(v)
+    response_microphones(v["response"]["microphones"], v["response"]["microphone_distance"],
+                         g["frame"])
 
 
 def engine_of(study) -> str:
@@ -620,6 +622,53 @@ def reduced_mode_labels(text: str, disc_motion: str) -> tuple[str, ...]:
         raise _fail("reduced.modes", text, "labels without P1 when disc.motion = held",
                     "the pumping mode needs the disc on the spring")
     return tuple(labels)
+
+
+MICROPHONES_ALLOWED = "'name = x, y, z; ...' with lengths, e.g. 'side = 0.5 m, 0 m, 0.5 m'"
+
+
+def response_microphones(text: str, distance: float,
+                         frame: str = "square") -> list[tuple[str, tuple[float, float, float]]]:
+    """Named microphone positions (x, y, z) [m] of the ``response`` section: ``axis`` at
+    ``distance`` (``response.microphone_distance``) on the +z axis, then those of
+    ``response.microphones`` (``"name = x, y, z; ..."``, units allowed, a bare number in m).
+
+    Refused (key ``response.microphones``): an item that is not ``name = x, y, z`` (a name of
+    letters, digits and ``_``; three coordinates), a name given twice (``axis`` included),
+    a coordinate that is not a length in [-1e4, 1e4] m, a point at the origin (the
+    membrane's centre), and with ``frame = "baffle"`` a point on the rigid plane z = 0
+    (the Rayleigh integral is taken on the microphone's side of the baffle).
+    """
+    key = "response.microphones"
+    microphones = [("axis", (0.0, 0.0, float(distance)))]
+    text = text or ""
+    for item in filter(None, (part.strip() for part in text.split(";"))):
+        name, _, coordinates = item.partition("=")
+        name = name.strip()
+        values = [part.strip() for part in coordinates.split(",")]
+        if not name or not name.replace("_", "").isalnum() or len(values) != 3:
+            raise _fail(key, text, MICROPHONES_ALLOWED, f"cannot read {item!r}")
+        if name in {existing for existing, _ in microphones}:
+            raise _fail(key, text, f"{MICROPHONES_ALLOWED} with distinct names",
+                        f"microphone {name!r} repeated")
+        position = tuple(convert_quantity(key, _number_or_text(value), "m", -1e4, 1e4)
+                         for value in values)
+        if not any(position):
+            raise _fail(key, text, "a point away from the membrane centre",
+                        f"microphone {name!r} at the origin")
+        if frame == "baffle" and position[2] == 0:
+            raise _fail(key, text, "z != 0 with geometry.frame = baffle", f"microphone {name!r} "
+                        f"at z = 0 lies on the rigid plane (position {list(position)} m)")
+        microphones.append((name, position))
+    return microphones
+
+
+def _number_or_text(text: str):
+    """A bare number is in SI (m), as everywhere in a study; else a quantity with a unit."""
+    try:
+        return float(text)
+    except ValueError:
+        return text
 
 
 def _check_reduced_keys(v: dict[str, dict[str, Any]]) -> None:

@@ -776,3 +776,32 @@ def test_the_path_preview_keeps_the_name_and_the_limit():
     name = "n" * 80 + ".csv"                                 # a name longer than the width
     assert preview(PurePosixPath("/d/" + name)) == f"'.../{name}' ({len(name) + 3} characters)"
     assert preview("x" * 100).endswith("... (102 characters)")   # other values: as before
+
+
+# ------------------------------------------------------ response.* in the schema (issue 22)
+
+BAD_MICROPHONES = [
+    ("side = 0.5 m, 0 m", "", "(cannot read 'side = 0.5 m, 0 m')"),
+    ("side = 0.5 m, 0 m, 1 m; side = 1 m, 0 m, 1 m", "", "(microphone 'side' repeated)"),
+    ("axis = 1 m, 0 m, 1 m", "", "(microphone 'axis' repeated)"),
+    ("side = 0.5 kg, 0 m, 1 m", "", "wrong unit, expected a quantity in m"),
+    ("centre = 0, 0, 0", "", "(microphone 'centre' at the origin)"),
+    ("low = 0.5 m, 0 m, 0 m", "geometry.frame=baffle",
+     "(microphone 'low' at z = 0 lies on the rigid plane (position [0.5, 0.0, 0.0] m))"),
+]
+
+
+@pytest.mark.parametrize("command", ["check", "response"])
+@pytest.mark.parametrize("microphones, extra, fragment", BAD_MICROPHONES,
+                         ids=["two coordinates", "same name twice", "axis again", "not a length",
+                              "at the origin", "on the baffle"])
+def test_bad_microphones_are_refused_before_any_work(work, capsys, monkeypatch, command,
+                                                     microphones, extra, fragment):
+    def forbidden(*args, **kwargs):
+        raise AssertionError("the run did work before refusing")
+    monkeypatch.setattr("copdea_fem.response.run.prepare_order_zero", forbidden)
+    sets = ["--set", f"response.microphones={microphones}"] + (["--set", extra] if extra else [])
+    out = ["--out", work / "r"] if command == "response" else []
+    line = refused([command, ROOT / "studies" / "g1_z16_v2_quick.yaml", *sets, *out], work,
+                   capsys)
+    assert line.startswith("error: response.microphones = ") and fragment in line, line

@@ -57,37 +57,12 @@ def _quiet(message: str) -> None:
 def parse_microphones(study) -> list[tuple[str, np.ndarray]]:
     """Named microphone positions (x, y, z) [m]: ``axis`` at ``response.microphone_distance``
     on the +z axis, then those of ``response.microphones`` ("name = x, y, z; ...", units
-    allowed, e.g. ``side = 0.5 m, 0 m, 0.5 m``)."""
-    from ..study import convert_quantity
-    key = "response.microphones"
-    microphones = [("axis", np.array([0.0, 0.0, study["response"]["microphone_distance"]]))]
-    text = study["response"]["microphones"] or ""
-    allowed = "'name = x, y, z; ...' with lengths, e.g. 'side = 0.5 m, 0 m, 0.5 m'"
-    for item in filter(None, (part.strip() for part in text.split(";"))):
-        name, _, coordinates = item.partition("=")
-        name = name.strip()
-        values = [part.strip() for part in coordinates.split(",")]
-        if not name or not name.replace("_", "").isalnum() or len(values) != 3:
-            raise StudyError(f"{key} = {text!r} is not allowed (cannot read {item!r}); "
-                             f"allowed: {allowed}")
-        if name in {existing for existing, _ in microphones}:
-            raise StudyError(f"{key} = {text!r} is not allowed: microphone {name!r} repeated; "
-                             f"allowed: {allowed} with distinct names")
-        position = np.array([convert_quantity(key, _number_or_text(value), "m", -1e4, 1e4)
-                             for value in values])
-        if np.linalg.norm(position) == 0:
-            raise StudyError(f"{key}: microphone {name!r} at the origin is not allowed; "
-                             "allowed: a point away from the membrane centre")
-        microphones.append((name, position))
-    return microphones
-
-
-def _number_or_text(text: str):
-    """A bare number is in SI (m), as everywhere in a study; else a quantity with a unit."""
-    try:
-        return float(text)
-    except ValueError:
-        return text
+    allowed, e.g. ``side = 0.5 m, 0 m, 0.5 m``); parsed and checked with the study
+    (:func:`copdea_fem.study.response_microphones`), so a bad one never reaches a solve."""
+    from ..study import response_microphones
+    return [(name, np.array(position)) for name, position in response_microphones(
+        study["response"]["microphones"], study["response"]["microphone_distance"],
+        study["geometry"]["frame"])]
 
 
 @dataclass
@@ -276,10 +251,7 @@ def forced_response(problem: OrderZero, progress=_quiet, frequency_hz=None,
     pressure_vectors = forced.pressure(vectors)
     sampled = {name: sampler.sample(pressure_vectors) for name, sampler in samplers.items()}
     pressure = np.zeros((frequency_hz.size, len(microphones)), complex)
-    for j, (_, position) in enumerate(microphones):
-        if baffle and position[2] == 0:
-            raise StudyError(f"microphone at z = 0 in a baffle is not allowed; allowed: z != 0 "
-                             f"(position {position.tolist()} m is on the rigid plane)")
+    for j, (_, position) in enumerate(microphones):      # z != 0 in a baffle: study.py
         side = ("upper" if position[2] > 0 else "lower") if baffle else "all"
         sampler, (p_values, dp_values) = samplers[side], sampled[side]
         field_p, field_dp = weights @ p_values.T, weights @ dp_values.T     # (lines, points)
