@@ -464,10 +464,8 @@ def _interrupted(args) -> str:
     if record is not None and record.command == "sweep":
         return f"interrupted; the points finished so far are kept in {record.target}; run " \
                "the sweep again to resume"
-    if record is not None and record.written:
-        return f"interrupted; the result in {record.target} is complete"
-    if record is not None and record.had_result:
-        return f"interrupted; previous result kept in {record.target}"
+    if record is not None:
+        return f"interrupted; {record.whereabouts()}"
     return "interrupted; no result written"
 
 

@@ -19,11 +19,20 @@ run wrote (with the tool version and the command).  The rules, checked by
 Writing (:func:`result_directory`) is staged: the files go to a hidden sibling
 ``.NAME.staging-*``; when complete, the old result (if any) is renamed to
 ``.NAME.old-*``, the staging folder renamed to ``NAME``, and the old copy
-deleted last, with SIGINT/SIGTERM held back during those renames.  At every
-instant a complete old or a complete new result exists.  Leftovers of a run
-that was killed (SIGKILL, power loss) are cleaned by the next run into the same
-folder: staging folders are removed, an old copy whose swap did not finish is
-renamed back.
+deleted last (its manifest after all its other files, so that a copy whose
+deletion was cut short is still recognised as ours).  SIGINT/SIGTERM that
+arrive during this swap are acted on after it (:func:`_signals_deferred`: the
+Python handlers are replaced for the swap, since a signal mask is per thread
+and NGSolve's, BLAS's or a pool's threads would take the signal and let Python
+raise it in the middle of the swap); :class:`Claim` records whether the new
+result is in place and where a previous result is when it is not in ``NAME``,
+so the CLI's message after an interruption says where the complete result is.
+A rename that fails puts the previous result back; an old copy that cannot be
+deleted is named in a one-line warning.  At every instant a complete old or a
+complete new result exists.  Leftovers of a run that was killed (SIGKILL, power
+loss) are cleaned by the next run into the same folder: staging folders are
+removed, an old copy whose swap did not finish is renamed back, one whose new
+result is in place is removed.
 
 Concurrent runs into one folder: :func:`claim` takes an exclusive lock
 (``.NAME.copdea-fem-lock`` beside the folder, ``flock``, released by the
@@ -37,6 +46,7 @@ from __future__ import annotations
 import contextlib
 import datetime
 import json
+import logging
 import os
 import re
 import shutil
@@ -51,6 +61,8 @@ try:
 except ImportError:          # Windows: no advisory locks; folders are not locked
     fcntl = None
 
+logger = logging.getLogger(__name__)
+
 MANIFEST = ".copdea-fem-result.json"
 #: Test hook: seconds to sleep inside the write phase (staging written, not yet swapped).
 WRITE_DELAY_VARIABLE = "COPDEA_FEM_TEST_WRITE_DELAY"
@@ -58,6 +70,11 @@ WRITE_DELAY_VARIABLE = "COPDEA_FEM_TEST_WRITE_DELAY"
 
 class OutputFolderError(ValueError):
     """An output folder this run may not write; the message says which and what to do."""
+
+
+class ResultWriteError(RuntimeError):
+    """Writing or swapping a result failed (a full disk, a rename refused); the message
+    says where the complete result is (exit 1 in the CLI)."""
 
 
 @dataclass
@@ -68,6 +85,23 @@ class Claim:
     command: str
     had_result: bool            # a previous result was there when the run started
     written: bool = False       # this run's result is in place
+    old_copy: Path | None = None    # where the previous result (or what is left of it) is
+                                    # when a swap could not finish; None: nowhere else
+
+    def whereabouts(self) -> str:
+        """Where the complete result is, for a message after an interruption or a failure."""
+        if self.written:
+            where = f"the result in {self.target} is complete"
+            if self.old_copy is not None:
+                where += (f"; the rest of the previous result, {self.old_copy}, is removed by "
+                          "the next run into it (or delete it)")
+            return where
+        if self.old_copy is not None:
+            return (f"previous result kept in {self.old_copy} (the next run into {self.target} "
+                    "puts it back)")
+        if self.had_result:
+            return f"previous result kept in {self.target}"
+        return "no result written"
 
 
 _claims: dict[Path, Claim] = {}
@@ -255,17 +289,82 @@ def _clean_leftovers(target: Path, progress) -> None:
         say(f"removed {path.name}, an unfinished result an interrupted run left")
 
 
+SWAP_SIGNALS = ("SIGINT", "SIGTERM")
+
+
 @contextlib.contextmanager
-def _signals_held():
-    """SIGINT and SIGTERM are delivered after the block (the renames of a swap)."""
-    if not hasattr(signal, "pthread_sigmask"):
+def _signals_deferred():
+    """SIGINT and SIGTERM that arrive in the block are acted on after it (the swap).
+
+    In the main thread the Python handlers are replaced by ones that note the
+    signal; the first noted one is handed to the previous handler after the block
+    (Ctrl-C's KeyboardInterrupt, the CLI's SIGTERM handler).  A signal mask alone
+    would not do: it is per thread, the kernel hands a process signal to a thread
+    that does not block it, and Python then runs the handler in the main thread
+    at its next instruction, inside the swap.  Python runs handlers in the main
+    thread only, so a swap in another thread is never interrupted by them.
+    """
+    import threading
+    if threading.current_thread() is not threading.main_thread():
         yield
         return
-    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    numbers = [getattr(signal, name) for name in SWAP_SIGNALS if hasattr(signal, name)
+               and signal.getsignal(getattr(signal, name)) is not None]   # None: set in C
+    noted = []
+    previous = {number: signal.signal(number, lambda signum, frame: noted.append(signum))
+                for number in numbers}
     try:
         yield
     finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+        if noted:
+            handler = previous[noted[0]]
+            if callable(handler):
+                handler(noted[0], None)
+            elif handler == signal.SIG_DFL:
+                signal.raise_signal(noted[0])
+
+
+def _remove_result(folder: Path) -> None:
+    """Delete a result folder, its manifest last (module doc)."""
+    for entry in sorted(folder.iterdir(), key=lambda path: path.name == MANIFEST):
+        if entry.is_dir() and not entry.is_symlink():
+            shutil.rmtree(entry)
+        else:
+            os.unlink(entry)
+    os.rmdir(folder)
+
+
+def _swap(staging: Path, target: Path, record: Claim) -> None:
+    """Move the complete result ``staging`` to ``target``, the previous one aside and away
+    (module doc); signals are deferred by the caller."""
+    if not target.exists():
+        os.rename(staging, target)
+        record.written = True
+        return
+    old = target.parent / f".{target.name}.old-{uuid.uuid4().hex[:8]}"
+    os.rename(target, old)
+    try:
+        os.rename(staging, target)
+    except BaseException:
+        try:
+            os.rename(old, target)             # the previous result back in place
+        except BaseException:
+            record.old_copy = old              # the next run into target puts it back
+        raise
+    record.written = True
+    try:
+        _remove_result(old)
+    except BaseException as error:
+        record.old_copy = old if old.exists() else None
+        if record.old_copy is not None:
+            why = "interrupted" if isinstance(error, KeyboardInterrupt) else \
+                getattr(error, "strerror", None) or str(error)
+            logger.warning(f"the previous result {old} was not removed ({why}); the next run "
+                           f"into {target} removes it (or delete it)")
+        if not isinstance(error, OSError):
+            raise
 
 
 @contextlib.contextmanager
@@ -274,7 +373,9 @@ def result_directory(target, command: str):
 
     ``target`` is checked and locked (:func:`claim`); on any exception,
     KeyboardInterrupt included, the staging folder is removed and ``target``
-    is left as it was.
+    holds the previous result (or nothing, or the new result when the exception
+    came after the swap; :meth:`Claim.whereabouts` says which).  An OSError while
+    writing or swapping becomes :class:`ResultWriteError`, saying where the result is.
     """
     with claim(target, command) as record:
         target = record.target
@@ -284,15 +385,13 @@ def result_directory(target, command: str):
             yield staging
             write_manifest(staging, command)
             time.sleep(float(os.environ.get(WRITE_DELAY_VARIABLE, 0)))
-            with _signals_held():
-                if target.exists():
-                    old = target.parent / f".{target.name}.old-{uuid.uuid4().hex[:8]}"
-                    target.rename(old)
-                    staging.rename(target)
-                    shutil.rmtree(old)
-                else:
-                    staging.rename(target)
-                record.written = True
+            with _signals_deferred():
+                _swap(staging, target, record)
+        except OSError as error:
+            shutil.rmtree(staging, ignore_errors=True)
+            raise ResultWriteError(f"output folder {target}: the result could not be written "
+                                   f"({error.strerror or error}); "
+                                   f"{record.whereabouts()}") from None
         except BaseException:
             shutil.rmtree(staging, ignore_errors=True)
             raise

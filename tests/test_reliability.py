@@ -805,3 +805,116 @@ def test_bad_microphones_are_refused_before_any_work(work, capsys, monkeypatch, 
     line = refused([command, ROOT / "studies" / "g1_z16_v2_quick.yaml", *sets, *out], work,
                    capsys)
     assert line.startswith("error: response.microphones = ") and fragment in line, line
+
+
+# ------------------------------------------------- faults and signals in the swap (issue 22)
+
+def is_new(out: Path) -> bool:
+    """``out`` holds the complete result of the run at load.voltage = 1 kV."""
+    from copdea_fem.study import load_study
+    saved = load_study(out / "reduced_study.resolved.yaml")
+    return saved["load"]["voltage"] == 1000.0 and set(folders.read_manifest(out)["files"]) == {
+        p.name for p in out.iterdir() if p.name != folders.MANIFEST}
+
+
+def swap_fault(monkeypatch, step, fault):
+    """Make one step of the swap of ``run`` fail with ``fault`` (an exception instance):
+    aside (run -> .run.old-*), in (.run.staging-* -> run), back (the previous result put
+    back after a failed 'in'), remove (deleting the old copy: after its first file)."""
+    real_rename, real_unlink = os.rename, os.unlink
+    calls = {"unlink": 0}
+
+    def rename(source, destination, *args, **kwargs):
+        source, destination = Path(source), Path(destination)
+        kind = ("aside" if destination.name.startswith(".run.old-") else
+                "in" if source.name.startswith(".run.staging-") else
+                "back" if source.name.startswith(".run.old-") else None)
+        if kind == step or (step == "back" and kind == "in"):
+            raise fault
+        return real_rename(source, destination, *args, **kwargs)
+
+    def unlink(path, *args, **kwargs):
+        if step == "remove" and Path(path).parent.name.startswith(".run.old-"):
+            calls["unlink"] += 1
+            if calls["unlink"] == 2:
+                raise fault
+        return real_unlink(path, *args, **kwargs)
+    monkeypatch.setattr(folders.os, "rename", rename)
+    monkeypatch.setattr(folders.os, "unlink", unlink)
+
+
+@pytest.mark.parametrize("step", ["aside", "in", "back", "remove"])
+@pytest.mark.parametrize("fault", ["oserror", "interrupt"])
+def test_a_fault_at_each_step_of_the_swap(tmp_path, capsys, monkeypatch, step, fault):
+    """Whatever step fails, ``run`` holds a complete result (the previous or the new one),
+    the message (one line) says which and where, and any old copy left is named there and
+    removed by the next run."""
+    monkeypatch.chdir(tmp_path)
+    out = tmp_path / "run"
+    assert main(["spectrum", str(REDUCED_STUDY), "--out", str(out)]) == 0
+    previous = snapshot(out)
+    argv = ["spectrum", str(REDUCED_STUDY), "--out", str(out), "--set", "load.voltage=1 kV"]
+    capsys.readouterr()
+    error = OSError(5, "Input/output error (injected)") if fault == "oserror" else \
+        KeyboardInterrupt()
+    with monkeypatch.context() as patched:
+        swap_fault(patched, step, error)
+        code = main(argv)
+    err = capsys.readouterr().err.strip().splitlines()
+    old = sorted(tmp_path.glob(".run.old-*"))
+    if step in ("aside", "in"):                         # the previous result back in place
+        assert snapshot(out) == previous and not leftovers(tmp_path)
+        where = f"previous result kept in {out}"
+    elif step == "back":                                # it stays beside, named, put back
+        assert not out.exists() and len(old) == 1 and snapshot(old[0]) == previous
+        where = f"previous result kept in {old[0]} (the next run into {out} puts it back)"
+    else:                                               # the new result is in place
+        assert is_new(out) and len(old) == 1
+        assert (old[0] / folders.MANIFEST).is_file()    # the manifest goes last
+        where = f"the result in {out} is complete"
+    if step == "remove" and fault == "oserror":         # a warning; the run succeeded
+        assert code == 0
+    elif fault == "oserror":
+        assert code == 1 and err == [f"error: output folder {out}: the result could not be "
+                                     f"written (Input/output error (injected)); {where}"]
+    else:
+        assert code == 130 and len(err) == 1 and err[0].startswith(f"interrupted; {where}")
+    if step == "remove" and fault == "interrupt":
+        assert err[0].endswith(f"; the rest of the previous result, {old[0]}, is removed by "
+                               "the next run into it (or delete it)")
+    assert main(argv) == 0                              # the next run tidies up
+    assert is_new(out) and not leftovers(tmp_path)
+
+
+def test_a_signal_during_the_swap_is_acted_on_after_it(tmp_path, capsys, monkeypatch):
+    """SIGTERM from another thread (as from NGSolve's or BLAS's, which a signal mask of
+    the main thread does not cover) while the new result is moved in: the swap finishes,
+    then the run ends with 143 saying the new result is complete; no old copy is left."""
+    import threading
+    monkeypatch.chdir(tmp_path)
+    out = tmp_path / "run"
+    assert main(["spectrum", str(REDUCED_STUDY), "--out", str(out)]) == 0
+    capsys.readouterr()
+    real_rename = os.rename
+    go, sent = threading.Event(), threading.Event()
+
+    def send():                  # a thread started before the swap: its signal mask is open
+        go.wait(30)
+        os.kill(os.getpid(), signal.SIGTERM)
+        sent.set()
+    sender = threading.Thread(target=send, daemon=True)
+    sender.start()
+
+    def rename(source, destination, *args, **kwargs):
+        if Path(source).name.startswith(".run.staging-"):
+            go.set()
+            sent.wait(30)
+            time.sleep(0.2)                             # the handler's chance to run here
+        return real_rename(source, destination, *args, **kwargs)
+    monkeypatch.setattr(os, "rename", rename)
+    code = main(["spectrum", str(REDUCED_STUDY), "--out", str(out), "--set",
+                 "load.voltage=1 kV"])
+    sender.join(5)
+    assert capsys.readouterr().err.strip().splitlines() == [
+        f"interrupted; the result in {out} is complete"]
+    assert code == 143 and is_new(out) and not leftovers(tmp_path)
