@@ -918,3 +918,92 @@ def test_a_signal_during_the_swap_is_acted_on_after_it(tmp_path, capsys, monkeyp
     assert capsys.readouterr().err.strip().splitlines() == [
         f"interrupted; the result in {out} is complete"]
     assert code == 143 and is_new(out) and not leftovers(tmp_path)
+
+
+# ------------------------------------------------------- pool sweep workers (issue 22)
+
+SLOW_SWEEP = """\
+# The CLI with every sweep point slowed down by {delay} s; the pool's spawned workers run this
+# file's top level too (as __mp_main__), so their points are slowed as well.
+import sys
+import time
+
+import copdea_fem.sweep.executors as executors
+
+_solve_point = executors.solve_point
+
+
+def slow_solve_point(*args, **kwargs):
+    time.sleep({delay})
+    return _solve_point(*args, **kwargs)
+
+
+executors.solve_point = slow_solve_point
+
+if __name__ == "__main__":
+    from copdea_fem.cli import main
+    sys.exit(main(sys.argv[1:]))
+"""
+
+
+def children_of(pid: int) -> list:
+    """Process ids whose parent is ``pid`` (from /proc)."""
+    found = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[1]) == pid:
+            found.append(int(stat.parent.name))
+    return found
+
+
+def running(pid: int) -> bool:
+    """The process exists and is not a zombie (a container's init may not reap one)."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+def finished_points(out: Path) -> set:
+    return {p.name for p in (out / "points").glob("*") if (p / "result.json").is_file()}
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_pool_workers_die_with_a_killed_sweep(tmp_path):
+    """SIGKILL to a `sweep --executor pool --workers 2` after its first point: no worker
+    (nor the resource tracker) lives on, and no point folder appears afterwards."""
+    script = tmp_path / "slow_sweep.py"
+    script.write_text(SLOW_SWEEP.format(delay=1.0))
+    out = tmp_path / "sweep"
+    process = subprocess.Popen(
+        [sys.executable, str(script), "sweep",
+         str(ROOT / "studies" / "sweeps" / "coarse_reduced_grid.yaml"), "--executor", "pool",
+         "--workers", "2", "--quiet", "--out", str(out)], cwd=tmp_path,
+        env={**os.environ, "PYTHONPATH": str(ROOT)}, stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE)
+    children = []
+    try:
+        start = time.perf_counter()
+        while not finished_points(out):
+            assert process.poll() is None, process.communicate()
+            assert time.perf_counter() - start < 120, "no point written"
+            time.sleep(0.05)
+        children = children_of(process.pid)
+        assert len(children) >= 2                       # two workers (and the tracker)
+        process.kill()
+        process.wait()
+        time.sleep(1.0)
+        at_kill = finished_points(out)
+        assert len(at_kill) < 12
+        time.sleep(3.0)                                 # three more points each, were they alive
+        assert [pid for pid in children if running(pid)] == []
+        assert finished_points(out) == at_kill
+    finally:
+        if process.poll() is None:
+            process.kill()
+        for pid in children:
+            if running(pid):
+                os.kill(pid, signal.SIGKILL)

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import itertools
 import os
+import signal
+import sys
 import threading
 import time
 from pathlib import Path
@@ -67,6 +69,42 @@ def _pool_chain_task(sweep: Sweep, chain_ids: list[str], reuse: ReuseSettings,
     store = PointStore(directory)
     _run_chain(sweep, chain_ids, reuse, store.write)
     return chain_ids
+
+
+#: How often a pool worker checks that the sweep that started it is still there [s].
+PARENT_POLL_SECONDS = 0.25
+_PR_SET_PDEATHSIG = 1              # <linux/prctl.h>
+
+
+def _tie_to_parent(parent_pid: int) -> None:
+    """Pool worker initializer: the worker dies with the sweep process that started it.
+
+    A worker outliving its parent (killed with SIGKILL, or crashed) would go on
+    writing point folders into a sweep folder whose lock is gone.  On Linux the
+    kernel sends the worker SIGKILL when its parent dies (``prctl(PR_SET_PDEATHSIG)``);
+    everywhere a daemon thread checks every :data:`PARENT_POLL_SECONDS` that the
+    parent is still the one that started it (``os.getppid``: a dead parent's
+    children are handed to another process) and ends the worker at once if not.
+    A point being written when the worker stops is a staging folder, which the
+    next run into the sweep folder removes (:mod:`copdea_fem.folders`).
+    """
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+        except (OSError, AttributeError):    # no prctl: the watchdog below still acts
+            pass
+    if os.getppid() != parent_pid:          # the parent died before prctl took effect
+        os._exit(1)
+    threading.Thread(target=_watch_parent, args=(parent_pid,), name="copdea-parent-watch",
+                     daemon=True).start()
+
+
+def _watch_parent(parent_pid: int) -> None:
+    while os.getppid() == parent_pid:
+        time.sleep(PARENT_POLL_SECONDS)
+    os._exit(1)
 
 
 _WORKER_CHAINS: dict = {}          # dask worker-local chain states, by chain key
@@ -204,7 +242,9 @@ def _run_pool(sweep, chains, reuse, directory, workers, store, sink) -> None:
 
     try:
         with concurrent.futures.ProcessPoolExecutor(max_workers=min(workers, len(chains) or 1),
-                                                    mp_context=context) as pool:
+                                                    mp_context=context,
+                                                    initializer=_tie_to_parent,
+                                                    initargs=(os.getpid(),)) as pool:
             futures = {pool.submit(_pool_chain_task, sweep, chain, reuse, str(directory),
                                    threads): chain for chain in chains}
             pending = set(futures)
