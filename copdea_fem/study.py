@@ -272,7 +272,8 @@ SCHEMA["response"] = {
                                "axis in front of the membrane", minimum=0, maximum=1e4,
                                open_min=True),
     "microphones": Key(None, "", "more microphones: 'name = x, y, z; ...' (lengths, e.g. "
-                       "'side = 0.5 m, 0 m, 0.5 m'); SPL in spl.csv as spl_<name>", kind=str),
+                       "'side = 0.5 m, 0 m, 0.5 m'; distinct names, not at the origin, z != 0 "
+                       "with a baffle); SPL in spl.csv as spl_<name>", kind=str),
     "peaks": Key(None, 3, "operating-deflection shapes written at this many spectrum peaks",
                  kind=int, minimum=0, maximum=50),
 }
