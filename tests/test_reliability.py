@@ -770,8 +770,8 @@ def test_the_path_preview_keeps_the_name_and_the_limit():
     assert preview(short) == "'/data/z16.csv'"
     deep = PurePosixPath("/" + "campaign/" * 20 + "z16_v2_resonances.csv")
     shown = preview(deep)
-    assert shown == f"'/campaign/campaign/campaign/campa.../z16_v2_resonances.csv' ({len(str(deep))}" \
-                    " characters)"
+    assert shown == "'/campaign/campaign/campaign/campa.../z16_v2_resonances.csv' " \
+                    f"({len(str(deep))} characters)"
     assert len(shown.split(" (")[0]) == 60
     name = "n" * 80 + ".csv"                                 # a name longer than the width
     assert preview(PurePosixPath("/d/" + name)) == f"'.../{name}' ({len(name) + 3} characters)"

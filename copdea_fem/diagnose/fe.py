@@ -180,8 +180,9 @@ def check_cache_dir(path, option: str = "--fe-cache") -> Path:
     problem = cache_dir_problem(path)
     if problem:
         from copdea_fem.inputs import PATH_CHARACTERS, preview
-        raise StudyError(f"{option} = {preview(Path(path), PATH_CHARACTERS)} is not allowed ({problem}); "
-                         "allowed: a folder (created when missing)")
+        shown = preview(Path(path), PATH_CHARACTERS)
+        raise StudyError(f"{option} = {shown} is not allowed ({problem}); allowed: a folder "
+                         "(created when missing)")
     return Path(path).expanduser()
 
 
