@@ -356,15 +356,14 @@ def _swap(staging: Path, target: Path, record: Claim) -> None:
     record.written = True
     try:
         _remove_result(old)
-    except BaseException as error:
+    except BaseException as error:        # the message after an interrupt names it
         record.old_copy = old if old.exists() else None
-        if record.old_copy is not None:
-            why = "interrupted" if isinstance(error, KeyboardInterrupt) else \
-                getattr(error, "strerror", None) or str(error)
-            logger.warning(f"the previous result {old} was not removed ({why}); the next run "
-                           f"into {target} removes it (or delete it)")
         if not isinstance(error, OSError):
             raise
+        if record.old_copy is not None:
+            logger.warning(f"the previous result {old} was not removed "
+                           f"({error.strerror or error}); the next run into {target} removes "
+                           "it (or delete it)")
 
 
 @contextlib.contextmanager
