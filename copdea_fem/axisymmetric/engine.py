@@ -1,18 +1,28 @@
 """The axisymmetric engine's stages: meridian mesh -> prestress -> orders m -> modes.
 
-Orders are solved m = 0, 1, 2, ... until one has no mode in the band: the
-dry partner band of an order is solved to 1.5 f_max (as the 3-D engine does)
-and the orders stop at the first m whose dry band is empty below 1.5 f_max
-and whose coupled band holds no structural mode (the lowest frequency of an
-order rises with m; an added mass above 125 % of a modal mass would be needed
-for a wet mode below f_max with its dry partner above 1.5 f_max).
+Orders are solved m = 0, 1, 2, ... from 0 Hz up (:mod:`copdea_fem.bands`): each
+order's dry band is solved from 0 Hz, so the radial order n of an out-of-plane
+mode is its rank among all the out-of-plane modes of its order, whatever the
+band asked (the modes below ``f_min`` are dropped after numbering).  The loop
+stops by :class:`copdea_fem.bands.OrderStop`: at the first order whose lowest
+mode lies above the top of the band and above the lowest mode of the order
+before (the lowest frequency of an order rises with m, checked; the higher
+modes of an order do not, so an order with nothing in the band does not stop
+it).  Coupled: the dry partner band reaches 1.5 f_max, an order whose lowest
+dry mode lies above it holds no structural mode in the band (an added mass
+above 125 % of a modal mass would be needed) and is not solved coupled; the
+n of a coupled out-of-plane mode is its dry partner's (best MAC).
 """
 
 from __future__ import annotations
 
 import numpy as np
+from scipy.optimize import linear_sum_assignment
 
+from ..bands import (DRY_PARTNER_FACTOR, OrderStop, band_options, coupled_start_modes,
+                     lowest_frequency_hz)
 from ..eigen import SectorBandResults, solve_band
+from ..modes import OUT_OF_PLANE, mac
 from ..modes import AIR, match_dry, membrane_energy_fractions
 from .air import meridian_motion
 from .meridian import MeridianSpec, meridian_mesh
@@ -51,16 +61,22 @@ def _prestressed(study, mesh, progress, timings, solver):
 
 
 def _band(study, hermitian=True, **extra):
-    eigen = study["eigen"]
-    return dict(backend=eigen["backend"], max_modes=eigen["max_modes"],
-                residual_tol=eigen["residual_tol"], hermitian=hermitian, **extra)
+    return band_options(study["eigen"], hermitian, **extra)
 
 
 def _dry_order(study, forms, m, f_max, progress, initial_shifts=None):
+    """The dry pencil of order m and its modes from 0 Hz to ``f_max``, and the frequency
+    of its lowest mode [Hz] (from the band, else one lowest-eigenvalue solve)."""
     operators = forms.operators(m)
-    result = solve_band(operators.stiffness, operators.mass, study["eigen"]["f_min"], f_max,
+    result = solve_band(operators.stiffness, operators.mass, 0.0, f_max,
                         progress=progress, initial_shifts=initial_shifts, **_band(study))
-    return operators, result
+    lowest = float(np.min(result.freq_hz)) if len(result) else \
+        lowest_frequency_hz(operators.stiffness, operators.mass)
+    return operators, result, lowest
+
+
+def _in_band(modes, f_min, f_max):
+    return [mode for mode in modes if f_min <= mode.freq_hz <= f_max]
 
 
 def axisymmetric_dry_modes(study, mesh=None, progress=_quiet, timings=None, solver=None,
@@ -73,19 +89,23 @@ def axisymmetric_dry_modes(study, mesh=None, progress=_quiet, timings=None, solv
     modes, results = [], {}
     initial_shifts = initial_shifts or {}
     forms = OrderForms(state, study)
+    stop = OrderStop(eigen["f_max"])
     for m in range(MAX_ORDER + 1):
         with timings.stage("eigen"):
-            operators, result = _dry_order(study, forms, m, eigen["f_max"],
-                                           lambda text: progress(f"m = {m}: {text}"),
-                                           initial_shifts.get(f"m={m}"))
-        if len(result) == 0:
+            operators, result, lowest = _dry_order(study, forms, m, eigen["f_max"],
+                                                   lambda text: progress(f"m = {m}: {text}"),
+                                                   initial_shifts.get(f"m={m}"))
+        stop.record(lowest)
+        if stop.done():
             break
+        if len(result) == 0:
+            continue
         results[f"m={m}"] = result
         with timings.stage("classify"):
             order_modes = classify_order(operators, result.vectors, result.freq_hz,
                                          result.freq_im_hz, result.residuals)
             number_out_of_plane(order_modes)
-            modes += with_pairs(order_modes)
+            modes += with_pairs(_in_band(order_modes, eigen["f_min"], eigen["f_max"]))
     modes.sort(key=lambda mode: (mode.freq_hz, mode.m, mode.family))
     for index, mode in enumerate(modes):
         mode.index = index
@@ -96,6 +116,23 @@ def axisymmetric_dry_modes(study, mesh=None, progress=_quiet, timings=None, solv
 def same_order_family(mode, dry) -> bool:
     """Pairing rule within one order: same kind and (out-of-plane) the same n."""
     return dry.kind == mode.kind and (mode.kind == "in-plane" or dry.n == mode.n)
+
+
+def number_from_dry(modes, dry_modes, mass) -> None:
+    """n of the coupled out-of-plane modes of one order: their dry partner's (the one-to-one
+    assignment of largest total MAC between the order's out-of-plane modes), so that n
+    counts from 0 Hz up (the dry band starts there) whatever band the coupled solve had.
+    Without dry out-of-plane modes (none below 1.5 f_max) the rank among the coupled
+    ones stands."""
+    wet = [mode for mode in modes if mode.kind == OUT_OF_PLANE]
+    dry = [mode for mode in dry_modes if mode.kind == OUT_OF_PLANE]
+    number_out_of_plane(modes)
+    if not wet or not dry:
+        return
+    macs = np.array([[mac(w.vector, d.vector, mass) for d in dry] for w in wet])
+    rows, columns = linear_sum_assignment(-macs)
+    for row, column in zip(rows, columns):
+        wet[row].n = dry[column].n
 
 
 def axisymmetric_coupled_modes(study, mesh=None, progress=_quiet, timings=None, solver=None,
@@ -117,14 +154,21 @@ def axisymmetric_coupled_modes(study, mesh=None, progress=_quiet, timings=None, 
     initial_shifts = initial_shifts or {}
     forms = OrderForms(state, study)
     modes, pressures, dry, partners, results, operators = [], [], [], {}, {}, []
+    stop = OrderStop(DRY_PARTNER_FACTOR * eigen["f_max"])
     for m in range(MAX_ORDER + 1):
         def say(text, m=m):
             progress(f"m = {m}: {text}")
         with timings.stage("eigen"):
-            dry_operators, dry_result = _dry_order(study, forms, m, 1.5 * eigen["f_max"], say)
+            dry_operators, dry_result, lowest = _dry_order(
+                study, forms, m, DRY_PARTNER_FACTOR * eigen["f_max"], say)
+        stop.record(lowest)
+        if stop.done():
+            break
+        if stop.above():      # no dry partner below 1.5 f_max: no structural mode in the band
+            continue
         with timings.stage("assembly"):
             coupled = coupled_order_operators(state, study, dry_operators, meridian_air)
-        expected = int(np.count_nonzero(dry_result.freq_hz <= 1.1 * eigen["f_max"])) + 2
+        expected = coupled_start_modes(dry_result.freq_hz, eigen["f_min"], eigen["f_max"])
         with timings.stage("eigen"):
             say(f"coupled modes ({coupled.stiffness.shape[0]} unknowns) ...")
             result = solve_band(coupled.stiffness, coupled.mass, eigen["f_min"], eigen["f_max"],
@@ -150,12 +194,9 @@ def axisymmetric_coupled_modes(study, mesh=None, progress=_quiet, timings=None, 
                 scale = np.linalg.norm(mode.vector) / max(np.linalg.norm(full[:, k]), 1e-300)
                 order_pressures.append(result.vectors[coupled.pressure_index, k]
                                        * coupled.pressure_scale * scale)
-            number_out_of_plane(order_modes)
+            number_from_dry(order_modes, order_dry, dry_operators.mass_full)
             order_partners = match_dry(order_modes, order_dry, dry_operators.mass_full,
                                        same_order_family)
-        structural = [mode for mode in order_modes if mode.kind != AIR]
-        if not structural and not np.any(dry_result.freq_hz <= 1.5 * eigen["f_max"]):
-            break
         results[f"m={m}"] = result
         operators.append(coupled)
         for k, mode in enumerate(order_modes):
@@ -174,6 +215,9 @@ def axisymmetric_coupled_modes(study, mesh=None, progress=_quiet, timings=None, 
     label_all(modes)
     dry.sort(key=lambda mode: (mode.freq_hz, mode.m, mode.family))
     label_all(dry)
+    # the dry partner band as the 3-D engine's: f_min .. 1.5 f_max (below f_min it only
+    # numbered the modes); a wet mode's partner lies above it, so none is dropped
+    dry = [mode for mode in dry if mode.freq_hz >= eigen["f_min"]]
     partner_hz = {index: partners[id(mode)].freq_hz for index, mode in enumerate(modes)
                   if id(mode) in partners}
     return CoupledSolution(state, modes, pressures, dry, partner_hz, SectorBandResults(results),
