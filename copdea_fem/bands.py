@@ -1,7 +1,8 @@
 """Band rules shared by both engines: band-solver options, the dry partner band, the coupled
 start count, and the stop rule of an order-by-order (axisymmetric) solve.
 
-* Band-solver options come from ``study["eigen"]`` once (:func:`band_options`).
+* The band solver is built once from ``study["eigen"]`` (:class:`BandSolver`) and handed
+  to the engine.
 * The dry partner band of a coupled solve reaches :data:`DRY_PARTNER_FACTOR` ``f_max``:
   a wet mode lies below its dry partner, and an added mass above 125 % of a modal mass
   would be needed for a wet mode below ``f_max`` with its dry partner above 1.5 ``f_max``
@@ -18,11 +19,14 @@ start count, and the stop rule of an order-by-order (axisymmetric) solve.
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+
+from .eigen import solve_band
 
 log = logging.getLogger(__name__)
 
@@ -36,6 +40,43 @@ def band_options(eigen: dict, hermitian: bool = True, **extra) -> dict:
     """Keyword options of :func:`copdea_fem.eigen.solve_band` from ``study["eigen"]``."""
     return dict(backend=eigen["backend"], max_modes=eigen["max_modes"],
                 residual_tol=eigen["residual_tol"], hermitian=hermitian, **extra)
+
+
+@dataclass(frozen=True)
+class BandSolver:
+    """The band solves of one study (``study["eigen"]``): its band [Hz] and the options of
+    :func:`copdea_fem.eigen.solve_band`, read once."""
+
+    f_min: float
+    f_max: float
+    backend: str
+    max_modes: int
+    residual_tol: float
+    max_damping_ratio: float
+    factor_memory_gb: float
+
+    @classmethod
+    def from_study(cls, study) -> "BandSolver":
+        eigen = study["eigen"]
+        return cls(eigen["f_min"], eigen["f_max"], eigen["backend"], eigen["max_modes"],
+                   eigen["residual_tol"], eigen["max_damping_ratio"], eigen["factor_memory_gb"])
+
+    @property
+    def dry_partner_top(self) -> float:
+        """Top of the dry partner band of a coupled solve [Hz] (module doc)."""
+        return DRY_PARTNER_FACTOR * self.f_max
+
+    @property
+    def max_imag_hz(self) -> float:
+        """Half-height in Im f of a coupled band [Hz]: eigen.max_damping_ratio f_max."""
+        return self.max_damping_ratio * self.f_max
+
+    def solve(self, stiffness, mass, f_min: float, f_max: float, hermitian: bool = True,
+              **extra):
+        """:func:`copdea_fem.eigen.solve_band` on [f_min, f_max] with the study's options."""
+        return solve_band(stiffness, mass, f_min, f_max, backend=self.backend,
+                          max_modes=self.max_modes, residual_tol=self.residual_tol,
+                          hermitian=hermitian, **extra)
 
 
 def coupled_start_modes(dry_freq_hz, f_min: float, f_max: float) -> int:

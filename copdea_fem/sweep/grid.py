@@ -9,7 +9,7 @@ import json
 import numpy as np
 
 from ..study import (Study, StudyError, check_air_lift)
-from .spec import Axis, LOAD_LIKE_SECTIONS, MAX_POINTS, SweepError, SweepPoint, sweep_error
+from .axes import Axis, LOAD_LIKE_SECTIONS, MAX_POINTS, SweepError, SweepPoint, sweep_error
 
 
 def content_hash(data) -> str:
