@@ -90,9 +90,10 @@ def dry_modes(study: Study, mesh=None, progress=_quiet, timings: Timings | None 
     """
     timings = timings or Timings()
     require_backend(study)
+    engine = engine_for(study)        # its modules imported here, not in the mesh stage
     mesh = _meshed(study, mesh, study["air"]["enabled"], timings, cache_dir, progress)
-    return engine_for(study).dry_modes(study, mesh, progress, timings, solver, initial_shifts,
-                                       BandSolver.from_study(study))
+    return engine.dry_modes(study, mesh, progress, timings, solver, initial_shifts,
+                            BandSolver.from_study(study))
 
 
 def coupled_modes(study: Study, mesh=None, progress=_quiet, timings: Timings | None = None,
@@ -110,9 +111,10 @@ def coupled_modes(study: Study, mesh=None, progress=_quiet, timings: Timings | N
     timings = timings or Timings()
     require_backend(study)
     check_air_lift(study)
+    engine = engine_for(study)        # its modules imported here, not in the mesh stage
     mesh = _meshed(study, mesh, True, timings, cache_dir, progress)
-    return engine_for(study).coupled_modes(study, mesh, progress, timings, solver,
-                                           initial_shifts, BandSolver.from_study(study))
+    return engine.coupled_modes(study, mesh, progress, timings, solver, initial_shifts,
+                                BandSolver.from_study(study))
 
 
 def run_solve(study: Study, out_dir: str | Path | None = None, progress=_quiet,
