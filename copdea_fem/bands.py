@@ -36,12 +36,6 @@ DRY_PARTNER_FACTOR = 1.5
 DENSE_LOWEST = 400
 
 
-def band_options(eigen: dict, hermitian: bool = True, **extra) -> dict:
-    """Keyword options of :func:`copdea_fem.eigen.solve_band` from ``study["eigen"]``."""
-    return dict(backend=eigen["backend"], max_modes=eigen["max_modes"],
-                residual_tol=eigen["residual_tol"], hermitian=hermitian, **extra)
-
-
 @dataclass(frozen=True)
 class BandSolver:
     """The band solves of one study (``study["eigen"]``): its band [Hz] and the options of

@@ -23,8 +23,7 @@ from scipy.optimize import linear_sum_assignment
 
 from ..bands import BandSolver, OrderStop, coupled_start_modes, lowest_frequency_hz
 from ..eigen import SectorBandResults
-from ..modes import OUT_OF_PLANE, mac
-from ..modes import AIR, match_dry, membrane_energy_fractions
+from ..modes import AIR, OUT_OF_PLANE, mac, match_dry, membrane_energy_fractions
 from ..pipeline import CoupledSolution, Timings, quiet, single_threaded_blas
 from .air import meridian_motion
 from .meridian import MeridianSpec, meridian_mesh
