@@ -160,7 +160,7 @@ def stale_message(missing: list) -> str:
     return (f"tests/data/fe_cache is stale: {len(missing)} of its battery entries are missing "
             f"for the current FE code (copdea_fem.fingerprint.FE_SOURCES changed since it was "
             f"filled); refill it with `python tests/diagnose/fe_battery.py --refill` "
-            f"(about 30 min on two shared cores) or set {REFILL_VARIABLE}=1 to let the "
+            f"(measured: 36 min on two shared cores) or set {REFILL_VARIABLE}=1 to let the "
             f"tests solve what they miss")
 
 
