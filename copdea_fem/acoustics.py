@@ -192,7 +192,7 @@ def radial_pml(domain_radius: float, pml_thickness: float, strength: float = PML
     ngsolve.comp.pml.PML
         Pass to ``mesh.SetPML(..., PML_REGIONS)`` or use :func:`set_pml`.
     """
-    from ngsolve import CF, Id, IfPos, OuterProduct, log, pml, sqrt, x, y, z
+    from ngsolve import CF, Id, OuterProduct, pml, sqrt, x, y, z
 
     if not strength > 0:
         raise ValueError(f"PML strength = {strength!r} is not allowed; allowed: > 0")
@@ -202,6 +202,24 @@ def radial_pml(domain_radius: float, pml_thickness: float, strength: float = PML
     if profile != "unbounded":
         raise ValueError(f"PML profile = {profile!r} is not allowed; allowed: unbounded, constant")
     r = sqrt(x * x + y * y + z * z)
+    r_stretched, derivative = unbounded_stretch(r, R, t, strength)
+    scale = r_stretched / r                                 # x~ = scale * x
+    position = CF((x, y, z))
+    trafo = scale * position
+    # d x~_i / d x_j = scale delta_ij + (dr~/dr - scale) x_i x_j / r^2
+    radial_projector = OuterProduct(position, position) / (r * r)
+    jacobian = scale * Id(3) + (derivative - scale) * radial_projector
+    return pml.Custom(trafo=trafo, jac=jacobian)
+
+
+def unbounded_stretch(r, domain_radius: float, pml_thickness: float,
+                      strength: float = PML_STRENGTH):
+    """``(r~, dr~/dr)`` of the unbounded profile (:func:`radial_pml`) at the radius ``r``
+    (a CoefficientFunction [m]: the spherical radius, in 3-D or in the meridian plane of
+    :mod:`copdea_fem.axisymmetric.air`): ``r~ = r + i b t ln(t / (R + t - r))``."""
+    from ngsolve import IfPos, log
+
+    R, t = float(domain_radius), float(pml_thickness)
     # Distance to the outer sphere.  Quadrature points stay inside; the floor
     # only keeps log() finite should a point of a curved element lie on or
     # beyond the sphere (its polynomial approximation).
@@ -210,13 +228,7 @@ def radial_pml(domain_radius: float, pml_thickness: float, strength: float = PML
     beta = strength * t * log(t / depth_left)              # [m]
     dbeta_dr = strength * t / depth_left                    # [-]
     r_stretched = r + 1j * beta
-    scale = r_stretched / r                                 # x~ = scale * x
-    position = CF((x, y, z))
-    trafo = scale * position
-    # d x~_i / d x_j = scale delta_ij + (dr~/dr - scale) x_i x_j / r^2
-    radial_projector = OuterProduct(position, position) / (r * r)
-    jacobian = scale * Id(3) + ((1 + 1j * dbeta_dr) - scale) * radial_projector
-    return pml.Custom(trafo=trafo, jac=jacobian)
+    return r_stretched, 1 + 1j * dbeta_dr
 
 
 def set_pml(mesh, domain_radius: float, pml_thickness: float, strength: float = PML_STRENGTH,
@@ -446,11 +458,27 @@ def coupled_forms(pressure, pressure_test, normal_displacement, normal_displacem
     (a, b) : tuple of SumOfIntegrals
         ``a = k_s(u,u') + c(u',p) + k_a(p,p')``, ``b = m_s(u,u') - c(u,p') + m_a(p,p')``.
     """
-    a = (membrane_stiffness + screen_coupling(pressure, normal_displacement_test, moving_screens)
-         + air_stiffness(pressure, pressure_test, density))
-    b = (membrane_mass - screen_coupling(pressure_test, normal_displacement, moving_screens)
-         + air_mass(pressure, pressure_test, density, sound_speed))
+    traction, acceleration = coupling_forms(pressure, pressure_test, normal_displacement,
+                                            normal_displacement_test, moving_screens)
+    a = membrane_stiffness + traction + air_stiffness(pressure, pressure_test, density)
+    b = membrane_mass + acceleration + air_mass(pressure, pressure_test, density, sound_speed)
     return a, b
+
+
+def coupling_forms(pressure, pressure_test, normal_displacement, normal_displacement_test,
+                   moving_screens: str = "membrane", deformation=None):
+    """The two coupling terms of eq. (A3), with their signs: ``(c(u', p), -c(u, p'))``.
+
+    The first (the air's traction on the screens) goes into ``A``, the second (the
+    screens' acceleration driving the air) into ``B``; :func:`coupled_forms` and the
+    3-D engine's assembly (:mod:`copdea_fem.coupled`) both take them from here.
+    ``deformation``: the ALE air mesh displacement, as :func:`screen_coupling`.
+    """
+    traction = screen_coupling(pressure, normal_displacement_test, moving_screens,
+                               deformation=deformation)
+    acceleration = (-1.0) * screen_coupling(pressure_test, normal_displacement, moving_screens,
+                                            deformation=deformation)
+    return traction, acceleration
 
 
 def pressure_field(gf_continuous, gf_jump, mesh):

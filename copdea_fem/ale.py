@@ -35,7 +35,7 @@ from __future__ import annotations
 import ngsolve as ngs
 import numpy as np
 
-from .geometry import ale_decay_length
+from .airbox import ale_decay_length
 
 MIN_JACOBIAN = 0.2   # det(I + Grad D) below this at any point = badly distorted element
 

@@ -120,20 +120,22 @@ def assemble_coupled(study, mesh, state, progress=None) -> "CoupledAssembly":
     stiffness = ngs.BilinearForm(space)
     stiffness += ngs.Variation(energy_density(None, material, state.voltage, gradient=gradient)
                                * measure)
-    stiffness += acoustics.screen_coupling(pressure, v * normal, "membrane", deformation=motion)
+    membrane_traction, membrane_acceleration = acoustics.coupling_forms(
+        pressure, pressure_test, u * normal, v * normal, "membrane", deformation=motion)
+    stiffness += membrane_traction
     stiffness += acoustics.air_stiffness(pressure, pressure_test, density, deformation=motion)
     mass = ngs.BilinearForm(space)
     mass += material.areal_density * u * v * measure
-    mass += (-1.0) * acoustics.screen_coupling(pressure_test, u * normal, "membrane",
-                                               deformation=motion)
+    mass += membrane_acceleration
     mass += acoustics.air_mass(pressure, pressure_test, density, sound_speed, deformation=motion)
     if with_disc:
         stiffness += (study["spring"]["stiffness"] / disc_area) * trial[3] * test[3] * ngs.ds("disc")
-        stiffness += acoustics.screen_coupling(pressure, test[3] * normal[2], "disc",
-                                               deformation=motion)
+        disc_traction, disc_acceleration = acoustics.coupling_forms(
+            pressure, pressure_test, trial[3] * normal[2], test[3] * normal[2], "disc",
+            deformation=motion)
+        stiffness += disc_traction
         mass += (disc_mass / disc_area) * trial[3] * test[3] * ngs.ds("disc")
-        mass += (-1.0) * acoustics.screen_coupling(pressure_test, trial[3] * normal[2], "disc",
-                                           deformation=motion)
+        mass += disc_acceleration
 
     progress(f"assembling the coupled operators ({space.ndof} DOFs) ...")
     zero = ngs.GridFunction(space)

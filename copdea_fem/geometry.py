@@ -40,9 +40,13 @@ import uuid
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
+from .airbox import ale_decay_length  # noqa: F401  (geometry.ale_decay_length, as before)
+from .fingerprint import mesh_fingerprint
+
 SCREENS = "membrane|disc|frame"
 SYMMETRIES = ("quarter", "none")
-GEOMETRY_VERSION = 2  # bump when build_shape changes: it keys the mesh cache
+
+GEOMETRY_VERSION = 2  # keys the mesh cache with the code fingerprint (GeometrySpec.key)
 CACHE_VARIABLE = "COPDEA_FEM_MESH_CACHE"
 
 
@@ -82,17 +86,11 @@ class GeometrySpec:
         if self.symmetry == "none":    # full meshes keep the keys they had before the key
             data.pop("symmetry")
         data["version"] = GEOMETRY_VERSION
+        # the code that builds and meshes the shapes (copdea_fem.fingerprint): a change
+        # there gives new keys, never a stale mesh
+        data["code"] = mesh_fingerprint()
         text = json.dumps(data, sort_keys=True)
         return hashlib.sha1(text.encode()).hexdigest()[:12]
-
-
-def ale_decay_length(domain_radius: float, outer_radius: float) -> float:
-    """Height L [m] over which the air mesh follows the membrane (see :mod:`ale`).
-
-    Half the air radius, capped so that the moved cylinder r < r_o, |z| < L
-    stays well inside the air sphere (away from the PML).
-    """
-    return min(0.5 * domain_radius, 0.8 * math.sqrt(domain_radius**2 - outer_radius**2))
 
 
 def _extent(shape) -> float:

@@ -5,9 +5,13 @@ wavenumber, from the Fourier content of the normal displacement around the
 membrane) and radial order n (n - 1 interior nodal circles, counted along the
 radius in the dominant Fourier component).  Two modes with the same (m, n)
 (the cos/sin pair of a circular membrane, split slightly by a square frame)
-are ``(m,n)a`` and ``(m,n)b`` in frequency order.  Pumping modes (the disc
-carries most of the kinetic energy) are ``P1, P2, ...``; in-plane modes
-``ip(m,n)`` from their dominant in-plane component.
+are ``(m,n)a`` and ``(m,n)b``, named by what each mode is, never by its rank in
+the band (:func:`assign_labels`): ``a`` the cos m theta member (normal
+displacement even about y = 0), ``b`` the sin m theta one.  Pumping modes (the
+disc carries most of the kinetic energy) are ``P1, P2, ...``; in-plane modes
+``ip(m,n)`` take n from their dominant in-plane component and the letters
+``a``/``b`` (hoop-dominant, cos/sin) or ``c``/``d`` (radial-dominant, cos/sin);
+at m = 0 ``a`` is the torsion, ``b`` the radial mode.
 
 Energy fractions are kinetic-energy (mass-weighted) fractions, exact FE
 integrals: ``normal_fraction = x^H M_n x / x^H M x`` over the membrane with
@@ -50,6 +54,8 @@ class Mode:
     disc_displacement: complex = 0.0
     membrane_energy_fraction: float = 1.0    # kinetic energy share of the membrane (+ disc)
     sector: object = None          # symmetry.Sector on a quadrant mesh (vector: quadrant part)
+    family: str = ""               # "cos" / "sin": normal and radial parts go as cos / sin m theta
+    in_plane_component: str = ""   # in-plane modes: "radial" or "hoop", the dominant component
 
     @property
     def damping_ratio(self) -> float:
@@ -179,6 +185,9 @@ def classify_modes(operators: MembraneOperators, eigen_result, sampler: ModeSamp
             field_ = radial if np.sum(np.abs(radial) ** 2) >= np.sum(np.abs(hoop) ** 2) else hoop
         m, profile = circumferential_order(field_, sampler.radii)
         n = radial_order(profile)
+        component = "" if kind != IN_PLANE else ("radial" if field_ is radial else "hoop")
+        family = sector_family(m, operators.sector) if operators.sector is not None else \
+            field_family(field_, m, sampler.angles, hoop=field_ is hoop)
         peak_normal = float(np.abs(normal).max())
         reference = abs(disc) if kind == PUMPING else (peak_normal if kind == OUT_OF_PLANE else
                                                        float(np.abs([radial, hoop]).max()))
@@ -190,13 +199,58 @@ def classify_modes(operators: MembraneOperators, eigen_result, sampler: ModeSamp
             residual=float(eigen_result.residuals[k]), kind=kind, m=m, n=n, label="",
             normal_fraction=normal_fraction, disc_fraction=disc_fraction,
             modal_mass=copies * total * scale**2, vector=vector * scale / max(peak, 1e-300),
-            disc_displacement=disc * scale / max(peak, 1e-300), sector=operators.sector))
+            disc_displacement=disc * scale / max(peak, 1e-300), sector=operators.sector,
+            family=family, in_plane_component=component))
     assign_labels(modes)
     return modes
 
 
+def sector_family(m: int, sector) -> str:
+    """``"cos"`` / ``"sin"`` member of a pair from its mirror class: a cos m theta normal
+    displacement is even about y = 0 (:func:`copdea_fem.axisymmetric.modes.family_sector`);
+    an m = 0 mode has only one member, ``"cos"``."""
+    return "cos" if m == 0 or sector.parity_y == 1 else "sin"
+
+
+def field_family(field_: np.ndarray, m: int, angles: np.ndarray, hoop: bool = False) -> str:
+    """``"cos"`` / ``"sin"`` member of a pair on a whole mesh (any orientation): whichever of
+    cos m theta and sin m theta carries more of the (n_radii, n_angles) field; the hoop
+    component of the cos member goes as sin m theta (``hoop=True`` swaps them).  The two
+    members of a pair are orthogonal, so they fall on different sides (a pair turned by
+    exactly pi/(4m) is the tie, broken towards cos)."""
+    if m == 0:
+        return "cos"
+    cos_part = float(np.sum(np.abs(field_ @ np.cos(m * angles)) ** 2))
+    sin_part = float(np.sum(np.abs(field_ @ np.sin(m * angles)) ** 2))
+    return "cos" if (cos_part >= sin_part) != hoop else "sin"
+
+
+def pair_letter(mode: Mode) -> str:
+    """The letter of a labelled mode, from what the mode is (module doc): out-of-plane
+    ``a``/``b`` = cos/sin member (none for m = 0); in-plane ``a``/``b`` hoop-dominant
+    (shear), ``c``/``d`` radial-dominant, cos/sin member, and at m = 0 (one member each)
+    ``a`` the hoop-dominant (torsion), ``b`` the radial one; ``""`` when the family is
+    unknown.  (Shear modes lie below the radial ones of the same (m, n) in a tensioned
+    membrane, so a band from 0 Hz reads a, b, c, d in frequency order.)"""
+    if mode.family not in ("cos", "sin"):
+        return ""
+    if mode.kind == OUT_OF_PLANE:
+        return "" if mode.m == 0 else "ab"[mode.family == "sin"]
+    radial = mode.in_plane_component == "radial"
+    if mode.m == 0:
+        return "ab"[radial]
+    return "abcd"[2 * radial + (mode.family == "sin")]
+
+
 def assign_labels(modes: list[Mode]) -> None:
-    """(m,n) / ip(m,n) / P_k labels, with a/b suffixes for pairs, in frequency order."""
+    """(m,n) / ip(m,n) / P_k labels (module doc).
+
+    The letters come from the mode (:func:`pair_letter`), so a mode keeps its label
+    whatever band holds it.  Modes whose family is unknown take ``a, b, ...`` in
+    frequency order among their (m, n), and two modes that would share one label
+    (a classification the rule cannot tell apart) keep it with ``-2``, ``-3`` appended
+    in frequency order, so labels stay unique.
+    """
     pumping = 0
     seen: dict[str, list[Mode]] = {}
     for mode in sorted(modes, key=lambda mode: mode.freq_hz):
@@ -207,7 +261,14 @@ def assign_labels(modes: list[Mode]) -> None:
         base = f"({mode.m},{mode.n})" if mode.kind == OUT_OF_PLANE else f"ip({mode.m},{mode.n})"
         seen.setdefault(base, []).append(mode)
     for base, group in seen.items():
-        if len(group) == 1:
+        letters = [pair_letter(mode) for mode in group]
+        if group[0].kind == OUT_OF_PLANE and group[0].m == 0 or all(letters):
+            used: dict[str, int] = {}
+            for mode, letter in zip(group, letters):
+                label = base + letter
+                used[label] = used.get(label, 0) + 1
+                mode.label = label if used[label] == 1 else f"{label}-{used[label]}"
+        elif len(group) == 1:
             group[0].label = base
         else:
             for suffix, mode in zip("abcdefghijklmnopqrstuvwxyz", group):

@@ -559,7 +559,7 @@ def check_air_lift(study: Study) -> None:
     Called before any meshing by the coupled solve and by coupled sweeps (the
     dry and reduced models do not move the air).
     """
-    from .geometry import ale_decay_length   # pure; netgen is imported lazily there
+    from .airbox import ale_decay_length
     limit = 0.45 * ale_decay_length(study["air"]["domain_radius"],
                                     study["geometry"]["outer_radius"])
     if study["load"]["z"] >= limit:

@@ -111,23 +111,21 @@ MUTATIONS = (
              'return "membrane|disc|frame"',
              "air: the baffle does not continue through the PML (an edge at r = R)"),
     # --- coupling ------------------------------------------------------------------------
-    Mutation("air_row_coupling_sign", "copdea_fem/coupled.py",
-             'mass += (-1.0) * acoustics.screen_coupling(pressure_test, u * normal, "membrane",',
-             'mass += (1.0) * acoustics.screen_coupling(pressure_test, u * normal, "membrane",',
+    Mutation("air_row_coupling_sign", "copdea_fem/acoustics.py",
+             "acceleration = (-1.0) * screen_coupling(pressure_test, normal_displacement,",
+             "acceleration = (1.0) * screen_coupling(pressure_test, normal_displacement,",
              "coupling: the membrane's acceleration enters the air with the wrong sign"),
     Mutation("membrane_traction_halved", "copdea_fem/coupled.py",
-             'stiffness += acoustics.screen_coupling(pressure, v * normal, "membrane", '
-             "deformation=motion)",
-             'stiffness += 0.5 * acoustics.screen_coupling(pressure, v * normal, "membrane", '
-             "deformation=motion)",
+             "stiffness += membrane_traction\n",
+             "stiffness += 0.5 * membrane_traction\n",
              "coupling: the air pushes the membrane with half the pressure jump"),
     Mutation("coupled_membrane_mass_halved", "copdea_fem/coupled.py",
              "mass += material.areal_density * u * v * measure",
              "mass += 0.5 * material.areal_density * u * v * measure",
              "coupled assembly: membrane mass halved"),
     Mutation("no_air_force_on_the_disc", "copdea_fem/coupled.py",
-             'stiffness += acoustics.screen_coupling(pressure, test[3] * normal[2], "disc",',
-             'stiffness += 0 * acoustics.screen_coupling(pressure, test[3] * normal[2], "disc",',
+             "stiffness += disc_traction",
+             "stiffness += 0 * disc_traction",
              "coupling: the disc on its spring feels no air pressure"),
     # --- membrane energy, mass, disc -----------------------------------------------------
     Mutation("electrostatic_coenergy_sign", "copdea_fem/materials.py",
@@ -240,7 +238,10 @@ def suite_files(root: Path) -> list[str]:
 
 def run_suite(root: Path, timeout: float) -> tuple[str, str, float]:
     """Fast suite against the copy at ``root``: (status, first failure, seconds)."""
-    env = dict(os.environ, PYTHONPATH=str(root), PYTHONDONTWRITEBYTECODE="1")
+    # a mutated FE has a new code fingerprint: the committed FE cache cannot judge it, so
+    # the tests that read it are skipped, not failed (tests/diagnose/conftest.py)
+    env = dict(os.environ, PYTHONPATH=str(root), PYTHONDONTWRITEBYTECODE="1",
+               COPDEA_FEM_FE_STALE="skip")
     check = subprocess.run([sys.executable, "-c", "import copdea_fem; print(copdea_fem.__file__)"],
                            cwd=root, env=env, capture_output=True, text=True)
     if not check.stdout.strip().startswith(str(root)):

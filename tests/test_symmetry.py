@@ -43,7 +43,9 @@ def _structural(solution):
 def _compare(quarter, whole, frequency_tol):
     assert quarter.state.symmetry.quarter and not whole.state.symmetry.quarter
     q, w = _structural(quarter), _structural(whole)
-    assert list(q) == list(w) and len(q) >= 5
+    # the same labels (a letter names the cos / sin member, issue 21): a split pair's order
+    # is not compared, its splitting (0.4 %) lies below the two coarse meshes' difference
+    assert sorted(q) == sorted(w) and len(q) >= 5
     for label in q:
         (kq, mq), (kw, mw) = q[label], w[label]
         assert mq.freq_hz == pytest.approx(mw.freq_hz, rel=frequency_tol), label

@@ -14,7 +14,7 @@ from __future__ import annotations
 import ngsolve as ngs
 import numpy as np
 
-from ..acoustics import PML_STRENGTH
+from ..acoustics import PML_STRENGTH, unbounded_stretch
 from .meridian import theta_integral
 
 
@@ -24,12 +24,8 @@ def pml_stretch(domain_radius: float, pml_thickness: float, strength: float = PM
     ``r~ = rho + i b t ln(t / (R + t - rho))`` with rho the spherical radius;
     ``s = r~/rho``, ``e = (r, z)/rho``.
     """
-    R, t = float(domain_radius), float(pml_thickness)
     rho = ngs.sqrt(ngs.x**2 + ngs.y**2)
-    floor = 1e-9 * t
-    depth_left = ngs.IfPos(R + t - rho - floor, R + t - rho, floor)
-    stretched = rho + 1j * strength * t * ngs.log(t / depth_left)
-    derivative = 1 + 1j * strength * t / depth_left
+    stretched, derivative = unbounded_stretch(rho, domain_radius, pml_thickness, strength)
     return stretched / rho, derivative, ngs.CF((ngs.x, ngs.y)) / rho
 
 

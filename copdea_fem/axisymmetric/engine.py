@@ -1,19 +1,30 @@
 """The axisymmetric engine's stages: meridian mesh -> prestress -> orders m -> modes.
 
-Orders are solved m = 0, 1, 2, ... until one has no mode in the band: the
-dry partner band of an order is solved to 1.5 f_max (as the 3-D engine does)
-and the orders stop at the first m whose dry band is empty below 1.5 f_max
-and whose coupled band holds no structural mode (the lowest frequency of an
-order rises with m; an added mass above 125 % of a modal mass would be needed
-for a wet mode below f_max with its dry partner above 1.5 f_max).
+Orders are solved m = 0, 1, 2, ... from 0 Hz up (:mod:`copdea_fem.bands`): each
+order's dry band is solved from 0 Hz, so the radial order n of an out-of-plane
+mode is its rank among all the out-of-plane modes of its order, whatever the
+band asked (the modes below ``f_min`` are dropped after numbering).  The loop
+stops by :class:`copdea_fem.bands.OrderStop`: at the first order whose lowest
+mode lies above the top of the band and above the lowest mode of the order
+before (the lowest frequency of an order rises with m, checked; the higher
+modes of an order do not, so an order with nothing in the band does not stop
+it).  Coupled: the dry partner band reaches 1.5 f_max, an order whose lowest
+dry mode lies above it holds no structural mode in the band (an added mass
+above 125 % of a modal mass would be needed) and is not solved coupled; the
+n of a coupled out-of-plane mode is its dry partner's (best MAC).
 """
 
 from __future__ import annotations
 
-import numpy as np
+import contextlib
 
-from ..eigen import SectorBandResults, solve_band
-from ..modes import AIR, match_dry, membrane_energy_fractions
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from ..bands import BandSolver, OrderStop, coupled_start_modes, lowest_frequency_hz
+from ..eigen import SectorBandResults
+from ..modes import AIR, OUT_OF_PLANE, mac, match_dry, membrane_energy_fractions
+from ..pipeline import CoupledSolution, Timings, quiet, single_threaded_blas
 from .air import meridian_motion
 from .meridian import MeridianSpec, meridian_mesh
 from .modes import (OrderSampler, classify_order, label_all, number_out_of_plane,
@@ -25,8 +36,7 @@ from .prestress import make_axisymmetric_solver
 MAX_ORDER = 400
 
 
-def _quiet(message: str) -> None:
-    pass
+_quiet = quiet
 
 
 def prepare_meridian(study, progress=_quiet):
@@ -50,42 +60,47 @@ def _prestressed(study, mesh, progress, timings, solver):
         return solve_axisymmetric_prestress(study, mesh, progress, solver)
 
 
-def _band(study, hermitian=True, **extra):
-    eigen = study["eigen"]
-    return dict(backend=eigen["backend"], max_modes=eigen["max_modes"],
-                residual_tol=eigen["residual_tol"], hermitian=hermitian, **extra)
-
-
-def _dry_order(study, forms, m, f_max, progress, initial_shifts=None):
+def _dry_order(band: BandSolver, forms, m, f_max, progress, initial_shifts=None):
+    """The dry pencil of order m and its modes from 0 Hz to ``f_max``, and the frequency
+    of its lowest mode [Hz] (from the band, else one lowest-eigenvalue solve)."""
     operators = forms.operators(m)
-    result = solve_band(operators.stiffness, operators.mass, study["eigen"]["f_min"], f_max,
-                        progress=progress, initial_shifts=initial_shifts, **_band(study))
-    return operators, result
+    result = band.solve(operators.stiffness, operators.mass, 0.0, f_max, progress=progress,
+                        initial_shifts=initial_shifts)
+    lowest = float(np.min(result.freq_hz)) if len(result) else \
+        lowest_frequency_hz(operators.stiffness, operators.mass)
+    return operators, result, lowest
+
+
+def _in_band(modes, f_min, f_max):
+    return [mode for mode in modes if f_min <= mode.freq_hz <= f_max]
 
 
 def axisymmetric_dry_modes(study, mesh=None, progress=_quiet, timings=None, solver=None,
-                           initial_shifts=None):
+                           initial_shifts=None, band: BandSolver | None = None):
     """Prestress and dry modes in the band, order by order: (state, modes, results)."""
-    from ..solve import Timings
     timings = timings or Timings()
-    eigen = study["eigen"]
+    band = band or BandSolver.from_study(study)
     state = _prestressed(study, mesh, progress, timings, solver)
     modes, results = [], {}
     initial_shifts = initial_shifts or {}
     forms = OrderForms(state, study)
+    stop = OrderStop(band.f_max)
     for m in range(MAX_ORDER + 1):
         with timings.stage("eigen"):
-            operators, result = _dry_order(study, forms, m, eigen["f_max"],
-                                           lambda text: progress(f"m = {m}: {text}"),
-                                           initial_shifts.get(f"m={m}"))
-        if len(result) == 0:
+            operators, result, lowest = _dry_order(band, forms, m, band.f_max,
+                                                   lambda text: progress(f"m = {m}: {text}"),
+                                                   initial_shifts.get(f"m={m}"))
+        stop.record(lowest)
+        if stop.done():
             break
+        if len(result) == 0:
+            continue
         results[f"m={m}"] = result
         with timings.stage("classify"):
             order_modes = classify_order(operators, result.vectors, result.freq_hz,
                                          result.freq_im_hz, result.residuals)
             number_out_of_plane(order_modes)
-            modes += with_pairs(order_modes)
+            modes += with_pairs(_in_band(order_modes, band.f_min, band.f_max))
     modes.sort(key=lambda mode: (mode.freq_hz, mode.m, mode.family))
     for index, mode in enumerate(modes):
         mode.index = index
@@ -98,16 +113,33 @@ def same_order_family(mode, dry) -> bool:
     return dry.kind == mode.kind and (mode.kind == "in-plane" or dry.n == mode.n)
 
 
+def number_from_dry(modes, dry_modes, mass) -> None:
+    """n of the coupled out-of-plane modes of one order: their dry partner's (the one-to-one
+    assignment of largest total MAC between the order's out-of-plane modes), so that n
+    counts from 0 Hz up (the dry band starts there) whatever band the coupled solve had.
+    Without dry out-of-plane modes (none below 1.5 f_max) the rank among the coupled
+    ones stands."""
+    wet = [mode for mode in modes if mode.kind == OUT_OF_PLANE]
+    dry = [mode for mode in dry_modes if mode.kind == OUT_OF_PLANE]
+    number_out_of_plane(modes)
+    if not wet or not dry:
+        return
+    macs = np.array([[mac(w.vector, d.vector, mass) for d in dry] for w in wet])
+    rows, columns = linear_sum_assignment(-macs)
+    for row, column in zip(rows, columns):
+        wet[row].n = dry[column].n
+
+
 def axisymmetric_coupled_modes(study, mesh=None, progress=_quiet, timings=None, solver=None,
-                               initial_shifts=None):
+                               initial_shifts=None, band: BandSolver | None = None):
     """Prestress, dry partners and fully-coupled membrane-air modes, order by order.
 
     Returns a :class:`copdea_fem.solve.CoupledSolution` (``operators``: the
     coupled pencil of each order, in order).
     """
-    from ..solve import CoupledSolution, Timings
     timings = timings or Timings()
-    eigen, air = study["eigen"], study["air"]
+    band = band or BandSolver.from_study(study)
+    air = study["air"]
     state = _prestressed(study, mesh, progress, timings, solver)
     with timings.stage("assembly"):
         progress("air mesh follows the membrane (ALE) ...")
@@ -117,21 +149,27 @@ def axisymmetric_coupled_modes(study, mesh=None, progress=_quiet, timings=None, 
     initial_shifts = initial_shifts or {}
     forms = OrderForms(state, study)
     modes, pressures, dry, partners, results, operators = [], [], [], {}, {}, []
+    stop = OrderStop(band.dry_partner_top)
     for m in range(MAX_ORDER + 1):
         def say(text, m=m):
             progress(f"m = {m}: {text}")
         with timings.stage("eigen"):
-            dry_operators, dry_result = _dry_order(study, forms, m, 1.5 * eigen["f_max"], say)
+            dry_operators, dry_result, lowest = _dry_order(band, forms, m,
+                                                           band.dry_partner_top, say)
+        stop.record(lowest)
+        if stop.done():
+            break
+        if stop.above():      # no dry partner below 1.5 f_max: no structural mode in the band
+            continue
         with timings.stage("assembly"):
             coupled = coupled_order_operators(state, study, dry_operators, meridian_air)
-        expected = int(np.count_nonzero(dry_result.freq_hz <= 1.1 * eigen["f_max"])) + 2
+        expected = coupled_start_modes(dry_result.freq_hz, band.f_min, band.f_max)
         with timings.stage("eigen"):
             say(f"coupled modes ({coupled.stiffness.shape[0]} unknowns) ...")
-            result = solve_band(coupled.stiffness, coupled.mass, eigen["f_min"], eigen["f_max"],
-                                factorize=coupled.factorize, start_modes=expected,
-                                max_imag_hz=eigen["max_damping_ratio"] * eigen["f_max"],
-                                initial_shifts=initial_shifts.get(f"m={m}"), progress=say,
-                                **_band(study, hermitian=False))
+            result = band.solve(coupled.stiffness, coupled.mass, band.f_min, band.f_max,
+                                hermitian=False, factorize=coupled.factorize,
+                                start_modes=expected, max_imag_hz=band.max_imag_hz,
+                                initial_shifts=initial_shifts.get(f"m={m}"), progress=say)
         with timings.stage("classify"):
             sampler = OrderSampler(state, dry_operators.space, dry_operators.axis_m1)
             order_dry = classify_order(dry_operators, dry_result.vectors, dry_result.freq_hz,
@@ -150,12 +188,9 @@ def axisymmetric_coupled_modes(study, mesh=None, progress=_quiet, timings=None, 
                 scale = np.linalg.norm(mode.vector) / max(np.linalg.norm(full[:, k]), 1e-300)
                 order_pressures.append(result.vectors[coupled.pressure_index, k]
                                        * coupled.pressure_scale * scale)
-            number_out_of_plane(order_modes)
+            number_from_dry(order_modes, order_dry, dry_operators.mass_full)
             order_partners = match_dry(order_modes, order_dry, dry_operators.mass_full,
                                        same_order_family)
-        structural = [mode for mode in order_modes if mode.kind != AIR]
-        if not structural and not np.any(dry_result.freq_hz <= 1.5 * eigen["f_max"]):
-            break
         results[f"m={m}"] = result
         operators.append(coupled)
         for k, mode in enumerate(order_modes):
@@ -174,7 +209,43 @@ def axisymmetric_coupled_modes(study, mesh=None, progress=_quiet, timings=None, 
     label_all(modes)
     dry.sort(key=lambda mode: (mode.freq_hz, mode.m, mode.family))
     label_all(dry)
+    # the dry partner band as the 3-D engine's: f_min .. 1.5 f_max (below f_min it only
+    # numbered the modes); a wet mode's partner lies above it, so none is dropped
+    dry = [mode for mode in dry if mode.freq_hz >= band.f_min]
     partner_hz = {index: partners[id(mode)].freq_hz for index, mode in enumerate(modes)
                   if id(mode) in partners}
     return CoupledSolution(state, modes, pressures, dry, partner_hz, SectorBandResults(results),
                            operators)
+
+
+class AxisymmetricEngine:
+    """The axisymmetric engine (``mesh.engine: axisymmetric``) behind
+    :class:`copdea_fem.engines.Engine`: a meridian (r, z) mesh, one 2-D problem per order m."""
+
+    name = "axisymmetric"
+
+    def mesh_key(self, study, with_air: bool):
+        """What the meridian mesh depends on (it always holds the air)."""
+        return MeridianSpec.from_study(study), study["mesh"]["curve_order"]
+
+    def prepare_mesh(self, study, with_air=None, cache_dir=None, progress=_quiet):
+        return prepare_meridian(study, progress)
+
+    def prestress_solver(self, study, mesh, progress=None):
+        return make_axisymmetric_solver(study, mesh, progress)
+
+    def dry_modes(self, study, mesh, progress=_quiet, timings=None, solver=None,
+                  initial_shifts=None, band=None):
+        with single_threaded_blas():   # 2-D problems: NGSolve's TaskManager only costs here
+            return axisymmetric_dry_modes(study, mesh, progress, timings, solver,
+                                          initial_shifts, band)
+
+    def coupled_modes(self, study, mesh, progress=_quiet, timings=None, solver=None,
+                      initial_shifts=None, band=None):
+        with single_threaded_blas():
+            return axisymmetric_coupled_modes(study, mesh, progress, timings, solver,
+                                              initial_shifts, band)
+
+    def threads(self):
+        """The threading context of the output and force stages: none (2-D problems)."""
+        return contextlib.nullcontext()

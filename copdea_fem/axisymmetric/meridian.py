@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..geometry import ale_decay_length
+from ..airbox import ale_decay_length
 
 #: frames with a meridian geometry (the square frame needs the 3-D engine)
 AXISYMMETRIC_FRAMES = ("none", "baffle", "circle")

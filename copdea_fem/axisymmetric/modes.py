@@ -56,6 +56,20 @@ class OrderSampler:
         self.radii = self.line.radii.ravel()
         order = np.argsort(self.radii, kind="stable")
         self._order, self.radii = order, self.radii[order]
+        inner = max(state.inner_radius, 0.02 * state.outer_radius)
+        self._uniform = inner + (state.outer_radius - inner) * (np.arange(40) + 0.5) / 40
+
+    def radial_dominant(self, a: np.ndarray, b: np.ndarray) -> bool:
+        """Whether the radial amplitude ``a`` carries at least the hoop one's ``b`` share,
+        summed on the 3-D engine's uniform sample radii (:class:`copdea_fem.modes.ModeSampler`:
+        the same decision there)."""
+        uniform = self._uniform
+
+        def energy(part):
+            return float(np.sum(np.abs(np.interp(uniform, self.radii, part.real)) ** 2
+                                + np.abs(np.interp(uniform, self.radii, part.imag)) ** 2))
+
+        return energy(a) >= energy(b)
 
     def components(self, vector) -> np.ndarray:
         """(normal, a, b, c) on the sorted sample radii: array (4, n_points)."""
@@ -106,8 +120,10 @@ def classify_order(operators, vectors, freq_hz, freq_im_hz, residuals,
             kind, reference = OUT_OF_PLANE, float(np.abs(normal).max())
         else:
             kind, reference = IN_PLANE, float(np.abs([a, b]).max())
-        in_plane = a if np.sum(np.abs(a) ** 2) >= np.sum(np.abs(b) ** 2) else b
+        radial_dominant = sampler.radial_dominant(a, b)
+        in_plane = a if radial_dominant else b
         n = radial_order(in_plane) if kind == IN_PLANE else 0
+        component = "" if kind != IN_PLANE else ("radial" if radial_dominant else "hoop")
         scale = 1.0 / reference if reference > 0 else 1.0
         peak = float(np.abs(np.stack([a, b, c])).max()) * scale
         modes.append(OrderMode(
@@ -116,7 +132,8 @@ def classify_order(operators, vectors, freq_hz, freq_im_hz, residuals,
             normal_fraction=normal_fraction, disc_fraction=disc_fraction,
             modal_mass=total * scale**2, vector=vector * scale / max(peak, 1e-300),
             disc_displacement=disc * scale / max(peak, 1e-300),
-            sector=family_sector(m, "cos"), family="cos", operators=operators))
+            sector=family_sector(m, "cos"), family="cos", in_plane_component=component,
+            operators=operators))
     return modes
 
 

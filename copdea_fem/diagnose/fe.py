@@ -37,6 +37,7 @@ import uuid
 from dataclasses import dataclass
 from pathlib import Path
 
+from copdea_fem.fingerprint import fe_fingerprint
 from copdea_fem.study import Study, StudyError
 
 try:
@@ -46,7 +47,7 @@ except ImportError:          # Windows: no advisory locks; concurrent runs may s
 
 logger = logging.getLogger(__name__)
 
-FE_CACHE_VERSION = 1           # bump when the FE's numbers change for the same study
+FE_CACHE_VERSION = 1           # bump when structural_modes changes (the FE code: fe_fingerprint)
 PAIR_MERGE = 2e-3              # split pairs closer than this (relative) are one peak: a
                                # fifth of a 1 % identification scatter, not resolvable
 
@@ -100,16 +101,18 @@ def fe_study(study: Study, f_max: float | None = None) -> Study:
 
 
 def fe_key(study: Study) -> str:
-    """Hash of what the FE reads from a study (:func:`fe_study` applied) and
-    :data:`FE_CACHE_VERSION`: the cache key of :class:`FEModel`.  Sections of the
+    """Hash of what the FE reads from a study (:func:`fe_study` applied), of the FE code
+    (:func:`copdea_fem.fingerprint.fe_fingerprint`: a physics change gives new keys) and
+    :data:`FE_CACHE_VERSION` (this module's own post-processing): the cache key of
+    :class:`FEModel`.  Sections of the
     physics and the mesh, whole; of the others only the keys that change the modes."""
     whole = ("geometry", "membrane", "disc", "load", "air", "mesh")
     picked = ("spring.stiffness", "eigen.f_min", "eigen.f_max", "eigen.max_damping_ratio",
               "air.min_membrane_energy") + FE_EFFECT_KEYS
     items = {f"{s}.{k}": v for s in whole for k, v in study[s].items()}
     items.update({key: study.get(key) for key in picked})
-    text = json.dumps({"version": FE_CACHE_VERSION, "study": items}, sort_keys=True,
-                      default=repr)
+    text = json.dumps({"version": FE_CACHE_VERSION, "code": fe_fingerprint(), "study": items},
+                      sort_keys=True, default=repr)
     return hashlib.sha256(text.encode()).hexdigest()[:24]
 
 

@@ -10,6 +10,12 @@ from pathlib import Path
 
 import numpy as np
 
+AVERAGE_COLUMNS = ("freq_hz", "v_axial", "v_radial")
+POINT_COLUMNS = ("freq_hz",) + tuple(f"v_{component}_q{i}" for i in (1, 2, 3)
+                                     for component in ("axial", "radial"))
+MODE_COLUMNS = ("label", "kind", "freq_hz", "freq_im_hz", "damping_per_mass",
+                "membrane_energy_fraction")
+
 
 @dataclass
 class ShapeAt:
@@ -122,7 +128,6 @@ def write_response(result, out_dir: Path, reduced=(None, None)) -> None:
     from ..folders import result_directory
     from ..reduced.io import write_csv
     from ..study import dump_resolved
-    from .run import AVERAGE_COLUMNS, MODE_COLUMNS, POINT_COLUMNS
 
     study = result.problem.study
     f = result.frequency_hz

@@ -72,7 +72,7 @@ def prepare_quadrant(study, progress=None):
     from ..prestress import solve_prestress
     from ..solve import prepare_mesh
     from ..symmetry import SECTORS
-    from .run import OrderZero
+    from .problem import OrderZero
 
     progress = progress or (lambda message: None)
     timings = {}

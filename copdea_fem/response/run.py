@@ -42,12 +42,9 @@ from pathlib import Path
 import numpy as np
 
 from ..study import StudyError, check_air_lift, engine_of
+from .files import AVERAGE_COLUMNS, MODE_COLUMNS, POINT_COLUMNS  # noqa: F401
+from .problem import OrderZero
 
-AVERAGE_COLUMNS = ("freq_hz", "v_axial", "v_radial")
-POINT_COLUMNS = ("freq_hz",) + tuple(f"v_{component}_q{i}" for i in (1, 2, 3)
-                                     for component in ("axial", "radial"))
-MODE_COLUMNS = ("label", "kind", "freq_hz", "freq_im_hz", "damping_per_mass",
-                "membrane_energy_fraction")
 
 
 def _quiet(message: str) -> None:
@@ -63,22 +60,6 @@ def parse_microphones(study) -> list[tuple[str, np.ndarray]]:
     return [(name, np.array(position)) for name, position in response_microphones(
         study["response"]["microphones"], study["response"]["microphone_distance"],
         study["geometry"]["frame"])]
-
-
-@dataclass
-class OrderZero:
-    """The prestressed m = 0 problem of a study, ready to be driven."""
-
-    study: object
-    state: object
-    coupled: object
-    forced: object
-    timings: dict = field(default_factory=dict)
-
-    @property
-    def engine(self) -> str:
-        """``"axisymmetric"`` (the order m = 0) or ``"3d"`` (the even-even sector)."""
-        return getattr(self.state, "engine", "3d")
 
 
 def prepare_order_zero(study, progress=_quiet) -> OrderZero:

@@ -9,7 +9,8 @@ import json
 import numpy as np
 
 from ..study import (Study, StudyError, check_air_lift)
-from .spec import Axis, LOAD_LIKE_SECTIONS, MAX_POINTS, SweepError, SweepPoint, sweep_error
+from ..fingerprint import model_fingerprint
+from .axes import Axis, LOAD_LIKE_SECTIONS, MAX_POINTS, SweepError, SweepPoint, sweep_error
 
 
 def content_hash(data) -> str:
@@ -57,6 +58,8 @@ def expand_grid(base: Study, axes: list[Axis], model: str) -> list[SweepPoint]:
                               "the air)", f"grid point p{number:0{width}d}")
         study.name = f"{base.name}/p{number:0{width}d}"
         hashed = {s: v for s, v in study.values.items() if s != "output"}
+        # a finished point is resumed only under the code that computed it
+        hashed["code"] = model_fingerprint(model)
         points.append(SweepPoint(point_id=f"p{number:0{width}d}", index=tuple(index),
                                  overrides=overrides, study=study,
                                  context_key=_context_key(study, model),

@@ -43,15 +43,9 @@ _NGSOLVE_LOCK = threading.Lock()    # NGSolve solves in one thread at a time per
 
 
 def _mesh_for(study: Study, with_air: bool, reuse: bool, timings):
-    from ..geometry import GeometrySpec
+    from ..engines import engine_for
     from ..solve import prepare_mesh
-    from ..study import engine_of
-    if engine_of(study) == "axisymmetric":
-        from ..axisymmetric.meridian import MeridianSpec
-        key = (MeridianSpec.from_study(study), study["mesh"]["curve_order"])
-    else:
-        key = (GeometrySpec.from_study(study, with_air=with_air).key(),
-               study["mesh"]["curve_order"])
+    key = engine_for(study).mesh_key(study, with_air)
     if reuse and key in _MESHES:
         return _MESHES[key], True
     with timings.stage("mesh"):

@@ -8,89 +8,25 @@ import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
-from ..inputs import preview, read_yaml
+from ..inputs import read_yaml
 from ..study import (SCHEMA, Study, StudyError, _convert, load_study, package_versions)
 from ..tracking import TrackingSettings, TrackingInputError
-
+from .axes import (LOAD_LIKE_SECTIONS, MAX_POINTS, Axis, SweepError, SweepPoint,  # noqa: F401
+                   sweep_error)
+from .grid import continuation_path, expand_grid
 
 MODELS = ("dry", "reduced", "coupled")
 EXECUTORS = ("local", "pool", "dask")
 TOP_KEYS = ("name", "description", "study", "set", "model", "axes", "tracking", "execution",
             "output")
-# Sections whose keys change neither the mesh nor the membrane solver: points that
-# differ only there can continue from each other.
-LOAD_LIKE_SECTIONS = ("load", "eigen", "disc", "spring", "reduced", "excitation", "effects",
-                      "output")
 #: What a sweep folder holds (its manifest lists these; each point folder has its own).
 SWEEP_FILES = ("sweep.csv", "sweep.csv.tmp", "sweep.json", "sweep.json.tmp",
                "sweep.resolved.yaml", "sweep.png", "points")
 DEFAULT_PLOT_KINDS = ("out-of-plane", "pumping")
 KINDS = ("out-of-plane", "in-plane", "pumping", "air")
-
-
-class SweepError(StudyError):
-    """A sweep file value is outside what is allowed; the message names key, value, allowed."""
-
-
-def sweep_error(key: str, value: Any, allowed: str, why: str = "") -> SweepError:
-    why = f" ({why})" if why else ""
-    return SweepError(f"{key} = {preview(value)} is not allowed{why}; allowed: {allowed}")
-
-
-@dataclass(frozen=True)
-class Axis:
-    """One swept study key.
-
-    Attributes
-    ----------
-    key : str
-        ``section.key`` of the study schema.
-    values : tuple
-        SI values in sweep order (numbers; text or bool for choice keys).
-    unit : str or None
-        SI unit of the values (from the schema).
-    display_unit : str or None
-        Unit the sweep file used (``kV``, ``mm``), for plots.
-    """
-
-    key: str
-    values: tuple
-    unit: str | None
-    display_unit: str | None
-
-    @property
-    def changes_context(self) -> bool:
-        return self.key.split(".", 1)[0] not in LOAD_LIKE_SECTIONS
-
-    def column(self) -> str:
-        """CSV column name: key plus its SI unit, e.g. ``load.voltage_v``."""
-        if not self.unit:
-            return self.key
-        return f"{self.key}_{self.unit.lower().replace('/', '_').replace('^', '')}"
-
-    def display(self, value) -> float:
-        """An SI value in the display unit."""
-        if not isinstance(value, (int, float)) or not self.display_unit or \
-                self.display_unit == self.unit:
-            return value
-        from ..study import _units
-        return float(_units().Quantity(value, self.unit).to(self.display_unit).magnitude)
-
-    def format(self, value) -> str:
-        """A value as text in the display unit: ``2 kV``, ``12 mm``, ``square``."""
-        shown = self.display(value)
-        if isinstance(shown, bool) or not isinstance(shown, (int, float)):
-            return str(shown)
-        unit = self.display_unit or self.unit or ""
-        return f"{shown:g} {unit}".rstrip()
-
-    def label(self) -> str:
-        unit = self.display_unit or self.unit
-        return f"{self.key} [{unit}]" if unit else self.key
 
 
 @dataclass(frozen=True)
@@ -109,19 +45,6 @@ class ExecutionSettings:
     scheduler: str | None = None
     chain_length: int | str = "auto"
     reuse: ReuseSettings = ReuseSettings()
-
-
-@dataclass(frozen=True)
-class SweepPoint:
-    """One grid point: its id, grid index, overrides and validated study."""
-
-    point_id: str
-    index: tuple
-    overrides: dict
-    study: Study
-    context_key: str
-    space_key: str
-    study_hash: str
 
 
 @dataclass
@@ -227,7 +150,6 @@ def parse_sweep(raw: dict, base_dir: Path | str = ".", name: str = "sweep",
     directory = output.get("directory", f"results/sweeps/{name}")
     if not isinstance(directory, str) or not directory.strip():
         raise sweep_error("output.directory", directory, "a path")
-    from .grid import continuation_path, expand_grid   # the grid builds on these types
     points = expand_grid(base, axes, model)
     path = continuation_path(points, axes)
     return Sweep(name=name, description=str(raw.get("description", "")), source=source,
@@ -266,7 +188,6 @@ def _base_study(raw: dict, base_dir: Path, name: str, overrides: dict) -> Study:
 _RANGE = re.compile(r"^\s*(?P<start>[^,]+?)\s*\.\.\s*(?P<stop>[^,]+?)\s*,\s*"
                     r"(?:(?P<points>\d+)\s*points?|step\s+(?P<step>.+?))\s*$")
 _NUMBER_UNIT = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(.*?)\s*$")
-MAX_POINTS = 10_000
 
 
 def _unit_of(text) -> str | None:

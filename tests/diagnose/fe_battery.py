@@ -9,11 +9,15 @@ for unlabelled peaks.  A vibrometer on a nominally axisymmetric device sees
 the axisymmetric modes and, through imperfections, the low non-axisymmetric
 ones: orders m <= :data:`SEEN_ORDERS` are kept.
 
-FE solves are cached in ``tests/data/fe_cache`` (keyed by the FE study's hash,
-:func:`copdea_fem.diagnose.fe.fe_key`): fill it with
-``python tests/diagnose/fe_battery.py`` (3-D quadrant solves of the square
-frame: a few minutes); the tests then read it and the diagnosis reads it
-too (the FE model of record of the same studies).
+FE solves are cached in ``tests/data/fe_cache`` (keyed by the FE study's hash and
+the FE code's fingerprint, :func:`copdea_fem.diagnose.fe.fe_key`): the tests read it
+and the diagnosis reads it too (the FE model of record of the same studies).  A change
+to the FE code (:data:`copdea_fem.fingerprint.FE_SOURCES`) leaves no entry with the new
+keys: the tests that read the cache then fail at once naming the refill command
+(``tests/diagnose/conftest.py``), rather than solving for many minutes.  Refill:
+``python tests/diagnose/fe_battery.py --refill`` (empties the folder, fills the battery's
+studies, then runs the diagnosis tests with ``COPDEA_FEM_FE_REFILL=1`` so that they
+write every other FE study they ask for).
 """
 
 from __future__ import annotations
@@ -28,7 +32,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from copdea_fem.diagnose.fe import BAND_MARGIN, FEModel
+from copdea_fem.diagnose.fe import BAND_MARGIN, FEModel, fe_key, fe_study
 from copdea_fem.study import parse_study
 
 FE_CACHE = Path(__file__).resolve().parent.parent / "data" / "fe_cache"
@@ -132,17 +136,71 @@ def write_measured(case_name: str, seed: int, folder: Path, fe: FEModel | None =
     return path
 
 
+#: Set to 1: the tests may solve (and write) FE entries missing from the committed cache.
+REFILL_VARIABLE = "COPDEA_FEM_FE_REFILL"
+
+
+def battery_keys() -> set:
+    """The cache keys of every FE study the battery fills (truth and base of every case)."""
+    keys = set()
+    for case in CASES.values():
+        for raw in (case.truth, case.base):
+            study = parse_study(raw, name="fe")
+            keys |= {fe_key(fe_study(study.replace(o), BAND_MARGIN * BAND[1]))
+                     for o in case.conditions}
+    return keys
+
+
+def missing_entries(cache: Path = FE_CACHE) -> list:
+    """Battery keys with no entry in ``cache``: non-empty after a change to the FE code."""
+    return sorted(key for key in battery_keys() if not (cache / f"{key}.json").is_file())
+
+
+def stale_message(missing: list) -> str:
+    return (f"tests/data/fe_cache is stale: {len(missing)} of its battery entries are missing "
+            f"for the current FE code (copdea_fem.fingerprint.FE_SOURCES changed since it was "
+            f"filled); refill it with `python tests/diagnose/fe_battery.py --refill` "
+            f"(measured: 36 min on two shared cores) or set {REFILL_VARIABLE}=1 to let the "
+            f"tests solve what they miss")
+
+
+def refill() -> None:
+    """Empty the committed cache, fill the battery, then run the diagnosis tests with
+    :data:`REFILL_VARIABLE` so that they write the other FE studies they ask for."""
+    import os
+    import subprocess
+    import time
+    start = time.perf_counter()
+    for entry in FE_CACHE.glob("*.json"):
+        entry.unlink()
+    fill(list(CASES))
+    root = Path(__file__).resolve().parent.parent.parent
+    tests = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
+                            "tests/diagnose"], cwd=root, env={**os.environ, REFILL_VARIABLE: "1"})
+    print(f"{len(list(FE_CACHE.glob('*.json')))} entries in {FE_CACHE}, "
+          f"{time.perf_counter() - start:.0f} s in all; the diagnosis tests "
+          f"{'passed' if tests.returncode == 0 else 'FAILED (see above)'}")
+
+
+def fill(keys) -> None:
+    """Fill the FE cache of the named cases (truth and base at every condition)."""
+    model = FEModel(cache_dir=FE_CACHE, progress=print)
+    for key in keys:
+        truth_modes(CASES[key], model)
+        base = CASES[key].base
+        # the base's own FE (the model of record) at the same conditions
+        truth_modes(Case(base, base, CASES[key].conditions, ()), model)
+    print(f"{model.solves} FE solves, {model.seconds:.0f} s")
+
+
 def right(case_name: str, result) -> bool:
     """The case's right verdict: exactly its missing effects, nothing ambiguous."""
     case = CASES[case_name]
     return tuple(result.missing_effects) == case.missing and not result.ambiguous
 
 
-if __name__ == "__main__":       # fill the FE cache of every case
-    model = FEModel(cache_dir=FE_CACHE, progress=print)
-    for key in (sys.argv[1:] or CASES):
-        truth_modes(CASES[key], model)
-        base = CASES[key].base
-        # the base's own FE (the model of record) at the same conditions
-        truth_modes(Case(base, base, CASES[key].conditions, ()), model)
-    print(f"{model.solves} FE solves, {model.seconds:.0f} s")
+if __name__ == "__main__":       # fill the FE cache of every case (or the named ones)
+    if sys.argv[1:] == ["--refill"]:
+        refill()
+    else:
+        fill(sys.argv[1:] or list(CASES))

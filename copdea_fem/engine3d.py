@@ -1,0 +1,174 @@
+"""The 3-D engine (``mesh.engine: 3d``) behind :class:`copdea_fem.engines.Engine`.
+
+A 3-D mesh of the membrane (and the air): the whole plane for dry modes, a quadrant
+for coupled ones (``mesh.symmetry: quarter``, :mod:`copdea_fem.symmetry`: the four
+mirror-symmetry sectors are solved apart, side by side on the cores, and merged).
+Assembly lives in :mod:`coupled` / :mod:`linearise`, the band solves in :mod:`eigen`
+(configured once: :class:`copdea_fem.bands.BandSolver`), classification, labels and
+dry matching in :mod:`modes`.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import os
+from concurrent.futures import ThreadPoolExecutor
+
+from .bands import BandSolver, coupled_start_modes
+from .geometry import GeometrySpec, load_mesh
+from .linearise import linearised_operators
+from .modes import ModeSampler, classify_modes
+from .pipeline import CoupledSolution, Timings, quiet, single_threaded_blas
+from .prestress import solve_prestress
+
+
+def task_manager():
+    import ngsolve as ngs
+    return ngs.TaskManager()
+
+
+def return_freed_memory() -> None:
+    """Hand the heap's freed pages back to the system (glibc ``malloc_trim``; a no-op where
+    there is none).  Cutting the sector pencils out of the whole-space matrices leaves
+    ~175 MB of freed temporaries in the heap on the 0.65 m drum, under the LU factors
+    that come next."""
+    try:
+        ctypes.CDLL(None).malloc_trim(0)
+    except (OSError, AttributeError):
+        pass
+
+
+def sector_workers(pencils: list, memory_gb: float) -> int:
+    """Worker threads for independent sector solves of ``pencils``: one per usable core,
+    as many as the sectors' estimated LU factors fit into ``memory_gb``
+    (:func:`copdea_fem.eigen.factor_memory_estimate`).  Every back-end releases the GIL
+    in its factorisations and solves (NGSolve's UMFPACK and PARDISO, and SciPy's
+    SuperLU 5), so the threads share the cores."""
+    from .eigen import factor_memory_estimate
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    largest = max((factor_memory_estimate(pencil) for pencil in pencils), default=0.0)
+    fitting = int(memory_gb * 1e9 // largest) if largest > 0 else len(pencils)
+    return max(1, min(len(pencils), cores or 1, fitting))
+
+
+class QuadrantEngine:
+    """The 3-D engine: whole-plane dry modes, quadrant sectors for coupled modes."""
+
+    name = "3d"
+
+    def mesh_key(self, study, with_air: bool):
+        """What the 3-D mesh depends on: its geometry spec (with or without air)."""
+        return GeometrySpec.from_study(study, with_air=with_air).key(), \
+            study["mesh"]["curve_order"]
+
+    def prepare_mesh(self, study, with_air=None, cache_dir=None, progress=quiet):
+        """The (cached) 3-D mesh; ``cache_dir=None``: :func:`geometry.mesh_cache_dir`."""
+        spec = GeometrySpec.from_study(study, with_air=with_air)
+        return load_mesh(spec, study["mesh"]["curve_order"], cache_dir=cache_dir,
+                         progress=progress)
+
+    def prestress_solver(self, study, mesh, progress=None):
+        from .prestress import make_solver
+        return make_solver(study, mesh, progress)
+
+    def threads(self):
+        """NGSolve's TaskManager for the output and force stages."""
+        return task_manager()
+
+    def dry_modes(self, study, mesh, progress=quiet, timings=None, solver=None,
+                  initial_shifts=None, band: BandSolver | None = None):
+        """Prestress and dry modes of the whole plane: (state, modes, eigen result)."""
+        timings = timings or Timings()
+        band = band or BandSolver.from_study(study)
+        with task_manager():
+            with timings.stage("prestress"):
+                progress("prestress (Newton, load steps in z then V_b) ...")
+                state = solve_prestress(study, mesh, progress=progress, solver=solver)
+            with timings.stage("assembly"):
+                operators = linearised_operators(state, study)
+            with timings.stage("eigen"), single_threaded_blas():
+                progress(f"dry modes in [{band.f_min:g}, {band.f_max:g}] Hz "
+                         f"({operators.size} unknowns) ...")
+                result = band.solve(operators.stiffness, operators.mass, band.f_min,
+                                    band.f_max, progress=progress, initial_shifts=initial_shifts)
+            with timings.stage("classify"):
+                modes = classify_modes(operators, result, ModeSampler(state))
+        return state, modes, result
+
+    def coupled_modes(self, study, mesh, progress=quiet, timings=None, solver=None,
+                      initial_shifts=None, band: BandSolver | None = None) -> CoupledSolution:
+        """Prestress, dry partners and coupled modes, per symmetry sector on a quadrant
+        mesh (:func:`copdea_fem.solve.coupled_modes`)."""
+        from .coupled import assemble_coupled
+        from .eigen import SectorBandResults
+        from .linearise import membrane_matrices
+        from .modes import assign_labels, coupled_mode_list, match_dry
+
+        timings = timings or Timings()
+        band = band or BandSolver.from_study(study)
+        initial_shifts = initial_shifts or {}
+        with task_manager():
+            with timings.stage("prestress"):
+                progress("prestress (Newton, load steps in z then V_b) ...")
+                state = solve_prestress(study, mesh, progress=progress, solver=solver)
+            with timings.stage("assembly"):
+                matrices = membrane_matrices(state)
+                coupled_forms = assemble_coupled(study, mesh, state, progress=progress)
+            sectors = []
+            with timings.stage("assembly"):
+                for sector in state.symmetry.sectors:
+                    operators = linearised_operators(state, study, sector, matrices)
+                    sectors.append((sector, operators, coupled_forms.restrict(operators)))
+                coupled_forms.release()
+                return_freed_memory()
+        # outside the TaskManager: its workers would compete with the sector threads
+
+        def solve_sector(sector, operators, coupled):
+            """Dry partner band and coupled band of one sector (runs in a worker thread)."""
+            where = "" if sector is None else f"{sector.name}: "
+
+            def say(message):
+                progress(where + message)
+
+            say(f"dry modes on the same mesh ({operators.size} unknowns) ...")
+            dry_result = band.solve(operators.stiffness, operators.mass, band.f_min,
+                                    band.dry_partner_top, progress=say)
+            # wet modes lie below their dry partners: the dry count is the first run's k
+            expected = coupled_start_modes(dry_result.freq_hz, band.f_min, band.f_max)
+            say(f"coupled modes in [{band.f_min:g}, {band.f_max:g}] Hz "
+                f"({coupled.stiffness.shape[0]} unknowns) ...")
+            key = "all" if sector is None else sector.name
+            plan = initial_shifts.get(key) if isinstance(initial_shifts, dict) else initial_shifts
+            result = band.solve(coupled.stiffness, coupled.mass, band.f_min, band.f_max,
+                                hermitian=False, factorize=coupled.factorize,
+                                max_imag_hz=band.max_imag_hz, initial_shifts=plan,
+                                start_modes=expected, progress=say)
+            return key, dry_result, result
+
+        with timings.stage("eigen"), single_threaded_blas():
+            # every back-end releases the GIL in its factorisations and solves: sectors run
+            # side by side on the cores
+            workers = sector_workers([coupled.stiffness for _, _, coupled in sectors],
+                                     band.factor_memory_gb)
+            with ThreadPoolExecutor(max_workers=workers) as pool:
+                solved = list(pool.map(lambda item: solve_sector(*item), sectors))
+        modes, pressures, dry, results = [], [], [], {}
+        with timings.stage("classify"), task_manager():
+            sampler = ModeSampler(state)
+            for (sector, operators, coupled), (key, dry_result, result) in zip(sectors, solved):
+                dry += classify_modes(operators, dry_result, sampler)
+                sector_modes, sector_pressures = coupled_mode_list(
+                    coupled, result, study["air"]["min_membrane_energy"], sampler)
+                modes += sector_modes
+                pressures += sector_pressures
+                results[key] = result
+            order = sorted(range(len(modes)), key=lambda k: (modes[k].freq_hz, k))
+            modes, pressures = [modes[k] for k in order], [pressures[k] for k in order]
+            for index, mode in enumerate(modes):
+                mode.index = index
+            assign_labels([mode for mode in modes if mode.kind != "air"])
+            assign_labels(dry)
+            partners = match_dry(modes, dry, matrices[1])
+        return CoupledSolution(state, modes, pressures, dry,
+                               {k: mode.freq_hz for k, mode in partners.items()},
+                               SectorBandResults(results), [coupled for _, _, coupled in sectors])

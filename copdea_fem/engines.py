@@ -1,0 +1,54 @@
+"""The FE engines behind one interface, chosen once from ``mesh.engine``.
+
+:class:`Engine` is what the pipeline (:mod:`copdea_fem.solve`), the sweeps and the
+resource guard ask of an engine; :func:`engine_for` picks the implementation of a
+study (:func:`copdea_fem.study.engine_of`): the 3-D quadrant
+(:class:`copdea_fem.engine3d.QuadrantEngine`) or the axisymmetric one
+(:class:`copdea_fem.axisymmetric.engine.AxisymmetricEngine`).  The band solves of a
+study are configured once (:class:`copdea_fem.bands.BandSolver`) and handed to the
+engine; the rules both engines share (dry partner band, coupled start count, order
+stop rule) live in :mod:`copdea_fem.bands`, the labels in :mod:`copdea_fem.modes`.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+from .study import engine_of
+
+
+class Engine(Protocol):
+    """One FE engine: mesh, prestress solver, dry and coupled modes, threading."""
+
+    name: str
+
+    def mesh_key(self, study, with_air: bool):
+        """A hashable key of what the mesh depends on (the sweeps' mesh reuse)."""
+
+    def prepare_mesh(self, study, with_air=None, cache_dir=None, progress=None):
+        """The mesh of the study (``cache_dir``: the 3-D mesh cache)."""
+
+    def prestress_solver(self, study, mesh, progress=None):
+        """The Newton solver on ``mesh`` (:class:`copdea_fem.prestress.MembraneSolver`)."""
+
+    def dry_modes(self, study, mesh, progress=None, timings=None, solver=None,
+                  initial_shifts=None, band=None):
+        """Prestress and dry modes in the band: (state, modes, eigen result)."""
+
+    def coupled_modes(self, study, mesh, progress=None, timings=None, solver=None,
+                      initial_shifts=None, band=None):
+        """Prestress, dry partners and coupled modes: a
+        :class:`copdea_fem.pipeline.CoupledSolution`."""
+
+    def threads(self):
+        """Context manager for the output and force stages (NGSolve's TaskManager or none)."""
+
+
+def engine_for(study) -> Engine:
+    """The engine of the study (``mesh.engine``, ``auto`` resolved by the frame)."""
+    if engine_of(study) == "axisymmetric":
+        from .axisymmetric.engine import AxisymmetricEngine
+        return AxisymmetricEngine()
+    from .engine3d import QuadrantEngine
+    return QuadrantEngine()
+

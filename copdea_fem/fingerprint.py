@@ -1,0 +1,62 @@
+"""Fingerprints of the code that computes a cached result: part of every cache key.
+
+A cache entry (a mesh, an FE result of the diagnosis, a finished sweep point) is keyed
+by what made it: the inputs *and* the sources of the code that computed it, hashed
+here once per process.  A change to those sources gives new keys, so an old entry is
+never reused after a physics change (no hand-bumped version to forget).  Each cache
+hashes only the sources that compute its numbers, so unrelated edits (the CLI, the
+output files, the docs) keep it warm.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+from pathlib import Path
+
+PACKAGE = Path(__file__).resolve().parent
+
+#: The 3-D mesh: the shapes and the meshing (:mod:`copdea_fem.geometry`).
+MESH_SOURCES = ("geometry.py", "airbox.py")
+
+#: FE modes (frequencies, damping, kinds, labels): the physics, the assembly, the band
+#: solves, the classification and labels of both engines.  Not the orchestration
+#: (solve.py, engines.py, pipeline.py) nor the study schema: a changed default changes
+#: the resolved study, which every key already hashes.
+FE_SOURCES = ("materials.py", "membrane.py", "prestress.py", "linearise.py", "coupled.py",
+              "acoustics.py", "ale.py", "airbox.py", "geometry.py", "symmetry.py", "modes.py",
+              "bands.py", "engine3d.py", "eigen", "axisymmetric")
+
+#: The reduced (ring) model of the sweeps and the diagnosis.
+REDUCED_SOURCES = ("materials.py", "reduced")
+
+
+@functools.lru_cache(maxsize=None)
+def code_fingerprint(sources: tuple[str, ...]) -> str:
+    """SHA-256 (first 16 hex digits) of the named package files and folders (every
+    ``*.py`` below a folder): their paths and contents, line endings normalised."""
+    digest = hashlib.sha256()
+    for name in sorted(sources):
+        path = PACKAGE / name
+        if not path.exists():
+            raise FileNotFoundError(f"fingerprint source {name} is not in {PACKAGE}")
+        files = sorted(path.rglob("*.py")) if path.is_dir() else [path]
+        for file in files:
+            digest.update(file.relative_to(PACKAGE).as_posix().encode())
+            digest.update(b"\0")
+            digest.update(file.read_bytes().replace(b"\r\n", b"\n"))
+            digest.update(b"\0")
+    return digest.hexdigest()[:16]
+
+
+def mesh_fingerprint() -> str:
+    return code_fingerprint(MESH_SOURCES)
+
+
+def fe_fingerprint() -> str:
+    return code_fingerprint(FE_SOURCES)
+
+
+def model_fingerprint(model: str) -> str:
+    """The fingerprint of a sweep model's code: ``reduced`` or an FE model."""
+    return code_fingerprint(REDUCED_SOURCES if model == "reduced" else FE_SOURCES)

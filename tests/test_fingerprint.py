@@ -1,0 +1,85 @@
+"""Cache keys hold a fingerprint of the code that made the entry (issue 21)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pytest
+
+from copdea_fem import fingerprint
+from copdea_fem.study import parse_study
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+@pytest.fixture
+def fresh_fingerprints():
+    fingerprint.code_fingerprint.cache_clear()
+    yield
+    fingerprint.code_fingerprint.cache_clear()
+
+
+def test_the_fingerprint_follows_its_sources_only(tmp_path, monkeypatch, fresh_fingerprints):
+    (tmp_path / "solver").mkdir()
+    (tmp_path / "physics.py").write_text("K = 1.0\n")
+    (tmp_path / "solver" / "band.py").write_text("TOL = 1e-6\n")
+    (tmp_path / "cli.py").write_text("print('hello')\n")
+    monkeypatch.setattr(fingerprint, "PACKAGE", tmp_path)
+    sources = ("physics.py", "solver")
+
+    def current():
+        fingerprint.code_fingerprint.cache_clear()
+        return fingerprint.code_fingerprint(sources)
+
+    first = current()
+    (tmp_path / "cli.py").write_text("print('bye')\n")            # not a source: same key
+    assert current() == first
+    (tmp_path / "solver" / "band.py").write_text("TOL = 1e-8\n")  # a file below a folder
+    changed = current()
+    assert changed != first
+    (tmp_path / "solver" / "band.py").write_bytes(b"TOL = 1e-8\r\n")   # line endings only
+    assert current() == changed
+    with pytest.raises(FileNotFoundError, match="gone.py"):
+        fingerprint.code_fingerprint(("gone.py",))
+
+
+def test_every_named_source_exists(fresh_fingerprints):
+    for sources in (fingerprint.MESH_SOURCES, fingerprint.FE_SOURCES,
+                    fingerprint.REDUCED_SOURCES):
+        assert len(fingerprint.code_fingerprint(sources)) == 16
+
+
+def test_mesh_fe_and_sweep_keys_change_with_the_code(monkeypatch):
+    from copdea_fem import geometry
+    from copdea_fem.diagnose import fe
+    from copdea_fem.sweep import grid, parse_sweep
+
+    study = parse_study({"geometry": {"frame": "baffle"}}, name="keys")
+    spec = geometry.GeometrySpec.from_study(study)
+    sweep_raw = {"study": "g1_z16_v2.yaml", "model": "dry",
+                 "set": {"air.enabled": False}, "axes": {"load.voltage": ["1 kV", "2 kV"]}}
+
+    def keys():
+        sweep = parse_sweep(sweep_raw, base_dir=ROOT / "studies")
+        return spec.key(), fe.fe_key(fe.fe_study(study)), sweep.points[0].study_hash
+
+    before = keys()
+    monkeypatch.setattr(geometry, "mesh_fingerprint", lambda: "other mesh code")
+    monkeypatch.setattr(fe, "fe_fingerprint", lambda: "other FE code")
+    monkeypatch.setattr(grid, "model_fingerprint", lambda model: "other FE code")
+    after = keys()
+    assert all(a != b for a, b in zip(before, after)), (before, after)
+
+
+def test_a_stale_committed_fe_cache_is_named_with_its_refill_command(tmp_path):
+    sys.path.insert(0, str(ROOT / "tests" / "diagnose"))
+    try:
+        import fe_battery
+    finally:
+        sys.path.pop(0)
+    missing = fe_battery.missing_entries(tmp_path)          # an empty folder: all missing
+    assert missing and set(missing) == fe_battery.battery_keys()
+    message = fe_battery.stale_message(missing)
+    assert "python tests/diagnose/fe_battery.py --refill" in message
+    assert fe_battery.REFILL_VARIABLE in message
