@@ -175,10 +175,14 @@ class MembraneSampler:
 
     Every membrane face element is split into ``subdivision**2`` triangles in
     its reference coordinates; fields are evaluated at the mapped points, so
-    curved elements and high-order fields are drawn faithfully.  Points on
-    shared element edges are repeated (ParaView's "Clean" merges them).
-    On a quadrant mesh (:mod:`copdea_fem.symmetry`) the four quadrants are
-    written: points, vectors and a sector's fields are unfolded by reflection.
+    curved elements and high-order fields are drawn faithfully.  On a quadrant
+    mesh (:mod:`copdea_fem.symmetry`) the four quadrants are written: points,
+    vectors and a sector's fields are unfolded by reflection.  Coincident points
+    (shared element edges, the copies on the mirror planes) are merged
+    (:class:`PointMerge`): a field continuous across them (the displacement) is
+    written as it is, one taken inside each element (the prestress stretches, the
+    normal) as the mean of the elements' values; on the mirror planes the copies
+    agree by parity.
     """
 
     def __init__(self, mesh, subdivision: int = 3, region: str = "membrane"):
@@ -205,18 +209,86 @@ class MembraneSampler:
         cells = (np.arange(count)[:, None, None] * per_element
                  + np.array(triangles)[None, :, :]).reshape(-1, 3)
         self.symmetry = Symmetry.of_mesh(mesh)
-        self.cells = _unfold_cells(cells, count * per_element, self.symmetry)
-        self.coordinates = self.evaluate(ngs.CF((ngs.x, ngs.y, ngs.z)))
+        reference = _unfold_values(np.asarray(ngs.CF((ngs.x, ngs.y, ngs.z))(self.points)),
+                                   self.symmetry)
+        self.merge = PointMerge.coincident(reference)
+        self.cells = self.merge.labels[_unfold_cells(cells, count * per_element, self.symmetry)]
+        self.coordinates = self.merge.reduce(reference)
 
     def evaluate(self, coefficient, sector=None) -> np.ndarray:
         """Values of a CoefficientFunction at the sample points, (n_points,) or (n_points, d).
 
         ``sector``: the symmetry class of a mode field on a quadrant mesh (None:
-        even about both planes, like the prestress and the coordinates).
+        even about both planes, like the prestress and the coordinates).  A point
+        shared by several elements (or quadrant copies) gets the mean of their values.
         """
         values = np.asarray(coefficient(self.points))
         values = values[:, 0] if values.ndim == 2 and values.shape[1] == 1 else values
-        return _unfold_values(values, self.symmetry, sector)
+        return self.merge.reduce(_unfold_values(values, self.symmetry, sector))
+
+
+class PointMerge:
+    """Coincident output points merged into one: ``labels[i]`` is the written point of
+    sample point ``i``; :meth:`reduce` writes the mean of the values merged into a point.
+
+    Slices, clips and integrals in ParaView need a conforming mesh: two copies of one
+    point (an element edge sampled twice, a quadrant and its mirror image on the plane
+    x = 0) make a slice exactly on the plane count faces twice or leave holes.
+    """
+
+    def __init__(self, labels: np.ndarray, size: int):
+        import scipy.sparse as sp
+
+        self.labels = np.asarray(labels, dtype=np.int64)
+        self.size = int(size)
+        self.identity = self.size == len(self.labels) and bool(
+            np.all(self.labels == np.arange(self.size)))
+        counts = np.bincount(self.labels, minlength=self.size).astype(float)
+        self._mean = sp.csr_matrix((1.0 / counts[self.labels],
+                                    (self.labels, np.arange(len(self.labels)))),
+                                   shape=(self.size, len(self.labels)))
+
+    @classmethod
+    def coincident(cls, points: np.ndarray, groups=None, tolerance: float = 1e-9) -> "PointMerge":
+        """Merge points closer than ``tolerance`` times the extent of ``points`` (n, d);
+        points of different ``groups`` (e.g. the two sides of a pressure jump) stay apart.
+        Written points keep the order of their first sample point."""
+        from scipy.sparse import coo_matrix
+        from scipy.sparse.csgraph import connected_components
+        from scipy.spatial import cKDTree
+
+        points = np.asarray(points, dtype=float)
+        n = len(points)
+        if n == 0:
+            return cls(np.zeros(0, dtype=np.int64), 0)
+        extent = float(np.ptp(points, axis=0).max()) or 1.0
+        key = points if groups is None else np.column_stack(
+            [points, 10.0 * extent * np.asarray(groups, dtype=float)])
+        pairs = cKDTree(key).query_pairs(tolerance * extent, output_type="ndarray")
+        if len(pairs) == 0:
+            return cls(np.arange(n), n)
+        graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+        _, component = connected_components(graph, directed=False)
+        return cls.from_components(component)
+
+    @classmethod
+    def from_components(cls, component: np.ndarray) -> "PointMerge":
+        """Points with equal ``component`` merged; numbered in order of first appearance."""
+        _, first, inverse = np.unique(component, return_index=True, return_inverse=True)
+        order = np.argsort(first)
+        rank = np.empty_like(order)
+        rank[order] = np.arange(len(order))
+        return cls(rank[inverse.ravel()], len(first))
+
+    def reduce(self, values) -> np.ndarray:
+        """Per-sample values (n[, ...]) -> per-written-point means (size[, ...])."""
+        values = np.asarray(values)
+        if self.identity:
+            return values
+        flat = values.reshape(len(values), -1)
+        dtype = np.result_type(values.dtype, np.float64)
+        merged = np.asarray(self._mean @ flat.astype(dtype, copy=False))
+        return merged.reshape(self.size, *values.shape[1:])
 
 
 def _quadrants(symmetry):
@@ -313,9 +385,11 @@ class _AirHalves:
     mesh moved by ``mesh_motion``; 3-D tetrahedra or meridian triangles (the dimension of
     ``mesh``).  ``copy[e, k]``: the (doubled) vertex of corner k of element e; ``moved``:
     the moved coordinates of every doubled vertex; ``used``/``renumber``: the vertices a
-    cell uses and their new numbers."""
+    cell uses and their new numbers.  ``split``: per mesh vertex, whether its lower copy is
+    its own point (where the pressure jumps: :func:`_jump_vertices`); None: every lower
+    vertex (the open plane then carries two coincident copies of one pressure)."""
 
-    def __init__(self, mesh, points, mesh_motion):
+    def __init__(self, mesh, points, mesh_motion, split=None):
         import ngsolve as ngs
 
         from .acoustics import LOWER, PML_REGIONS
@@ -334,13 +408,29 @@ class _AirHalves:
             distance = np.linalg.norm(reference[:, k:k + 1, :] - coordinates[vertex_ids], axis=2)
             corner_vertex[:, k] = vertex_ids[np.arange(len(elements)), distance.argmin(axis=1)]
         self.count = count = len(coordinates)
-        self.copy = np.where(self.lower, count, 0)[:, None] + corner_vertex   # lower: 2nd copy
+        second = self.lower[:, None] if split is None else \
+            self.lower[:, None] & np.asarray(split, dtype=bool)[corner_vertex]
+        self.copy = np.where(second, count, 0) + corner_vertex      # lower: 2nd copy
         motion = np.asarray(mesh_motion(points)).reshape(len(elements), corners, dim)
         self.moved = np.zeros((2 * count, dim))
         self.moved[self.copy.ravel()] = (reference + motion).reshape(-1, dim)
+        self.reference = np.zeros((2 * count, dim))
+        self.reference[self.copy.ravel()] = reference.reshape(-1, dim)
         self.used = np.unique(self.copy)
         self.renumber = -np.ones(2 * count, dtype=int)
         self.renumber[self.used] = np.arange(len(self.used))
+
+
+def _jump_vertices(pressure_space, vertices: int):
+    """Per mesh vertex: whether the pressure jump ``q`` of :func:`acoustics.pressure_space`
+    has a free DOF there (a screen vertex; the lower half needs its own copy); None when
+    the space has no jump component (every lower vertex is then split)."""
+    try:
+        active = pressure_space.components[1].GetActiveDofs()
+    except (AttributeError, IndexError):
+        return None
+    # H1 numbers the vertex DOFs first, one per mesh vertex
+    return np.array([active[k] for k in range(vertices)], dtype=bool)
 
 
 def write_air_vtus(directory: Path, operators, modes, pressures) -> list[Path]:
@@ -350,8 +440,9 @@ def write_air_vtus(directory: Path, operators, modes, pressures) -> list[Path]:
     sector (one on a whole mesh); a mode's pressure vector is read with its
     sector's.  The pressure jumps across the screens, so the upper and lower
     halves get their own copies of the mesh vertices; values are taken inside
-    each element (no ambiguity at the plane).  A quadrant mesh is unfolded
-    into the whole air.  Pressures are per unit peak membrane displacement
+    each element (no ambiguity at the plane); elsewhere, on the open plane too, a vertex
+    is written once.  A quadrant mesh is unfolded into the whole air, the copies of the
+    mirror planes' vertices merged (:class:`PointMerge`; they agree by parity).  Pressures are per unit peak membrane displacement
     [Pa/m], like the membrane files.
     """
     import meshio
@@ -369,12 +460,18 @@ def write_air_vtus(directory: Path, operators, modes, pressures) -> list[Path]:
     field = pressure_field(gf.components[0], gf.components[1], mesh)
     corners = ngs.IntegrationRule([(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)], [0.0] * 4)
     points = mesh.MapToAllElements(corners, ngs.VOL)
-    halves = _AirHalves(mesh, points, first.mesh_motion)
+    halves = _AirHalves(mesh, points, first.mesh_motion,
+                        split=_jump_vertices(space, len(mesh.ngmesh.Coordinates())))
     lower, in_pml, copy, used, count = (halves.lower, halves.in_pml, halves.copy, halves.used,
                                         halves.count)
-    moved = halves.moved[used]
-    cells = _unfold_cells(halves.renumber[copy], len(used), symmetry)
-    moved = _unfold_values(moved, symmetry).astype(np.float32)
+    moved = _unfold_values(halves.moved[used], symmetry)
+    # the copies of the mirror planes' vertices merged (the two sides of a screen kept apart);
+    # found on the reference mesh (the ALE motion leaves ~1e-8 m normal to the planes there),
+    # so the merged point, the mean of the mirror images, lies exactly on the plane
+    merge = PointMerge.coincident(_unfold_values(halves.reference[used], symmetry),
+                                  groups=np.tile(used >= count, symmetry.copies))
+    cells = merge.labels[_unfold_cells(halves.renumber[copy], len(used), symmetry)]
+    moved = merge.reduce(moved).astype(np.float32)
     cell_data = {"pml": [np.tile(in_pml.astype(np.int8), symmetry.copies)],
                  "lower_half": [np.tile(lower.astype(np.int8), symmetry.copies)]}
     files = []
@@ -384,7 +481,7 @@ def write_air_vtus(directory: Path, operators, modes, pressures) -> list[Path]:
         values = np.asarray(field(points))
         nodal = np.zeros(2 * count, dtype=complex)
         nodal[copy.ravel()] = values.ravel()
-        nodal = _unfold_values(nodal[used], symmetry, mode.sector)
+        nodal = merge.reduce(_unfold_values(nodal[used], symmetry, mode.sector))
         data = {"pressure_real": nodal.real.astype(np.float32),
                 "pressure_imag": nodal.imag.astype(np.float32),
                 "pressure_abs": np.abs(nodal).astype(np.float32)}
@@ -434,9 +531,17 @@ class RevolvedMembraneSampler:
         nxt = np.roll(index, -1, axis=1)
         lower, upper = index[:-1], index[1:]
         lower_next, upper_next = nxt[:-1], nxt[1:]
-        self.cells = np.concatenate([
+        cells = np.concatenate([
             np.stack([lower, upper, upper_next], axis=-1).reshape(-1, 3),
             np.stack([lower, upper_next, lower_next], axis=-1).reshape(-1, 3)])
+        # a ring at r = 0 (a membrane without a disc) is one point
+        component = index.copy()
+        component[self.radii <= 1e-12 * max(self.radii.max(), 1e-300)] = index[0, 0]
+        self.merge = PointMerge.from_components(component.ravel())
+        keep = self.merge.labels[cells]
+        self.cells = keep[(keep[:, 0] != keep[:, 1]) & (keep[:, 1] != keep[:, 2])
+                          & (keep[:, 0] != keep[:, 2])]
+        self.coordinates = self.merge.reduce(self.coordinates)
 
     def profile(self, coefficient) -> np.ndarray:
         """Values of a CoefficientFunction at the sample radii: (n_r,) or (n_r, d)."""
@@ -445,6 +550,10 @@ class RevolvedMembraneSampler:
         return values[self._unique]
 
     def ring(self, values, factor) -> np.ndarray:
+        """Radial values (n_r[, d]) times an angular factor (n_t,) -> the written points."""
+        return self.merge.reduce(self._ring(values, factor))
+
+    def _ring(self, values, factor) -> np.ndarray:
         """Radial values (n_r[, d]) times an angular factor (n_t,) -> (n_r n_t[, d])."""
         values = np.asarray(values)
         out = values[:, None] * factor[None, :] if values.ndim == 1 else \
@@ -454,9 +563,10 @@ class RevolvedMembraneSampler:
     def vector(self, radial, hoop, axial, m=0, family="cos") -> np.ndarray:
         """Cartesian vectors (n, 3) of (u_r, u_theta, u_z) amplitudes of an order-m field."""
         main, cross = _harmonics(m, family, self.angles)
-        u_r, u_t, u_z = (self.ring(radial, main), self.ring(hoop, cross), self.ring(axial, main))
-        return np.column_stack([u_r * self._cos - u_t * self._sin,
-                                u_r * self._sin + u_t * self._cos, u_z])
+        u_r, u_t, u_z = (self._ring(radial, main), self._ring(hoop, cross),
+                         self._ring(axial, main))
+        return self.merge.reduce(np.column_stack([u_r * self._cos - u_t * self._sin,
+                                                  u_r * self._sin + u_t * self._cos, u_z]))
 
     def prestress_displacement(self) -> np.ndarray:
         u = self.profile(self.state.displacement)
@@ -529,7 +639,9 @@ def write_revolved_air_vtus(directory: Path, operators, modes, pressures) -> lis
     mesh = operators[0].pressure_space.mesh
     corners = ngs.IntegrationRule([(1, 0), (0, 1), (0, 0)], [0.0] * 3)
     points = mesh.MapToAllElements(corners, ngs.VOL)
-    halves = _AirHalves(mesh, points, operators[0].mesh_motion)
+    halves = _AirHalves(mesh, points, operators[0].mesh_motion,
+                        split=_jump_vertices(operators[0].pressure_space,
+                                             len(mesh.ngmesh.Coordinates())))
     lower, in_pml, copy, used, count = (halves.lower, halves.in_pml, halves.copy, halves.used,
                                         halves.count)
     moved = halves.moved
@@ -538,13 +650,21 @@ def write_revolved_air_vtus(directory: Path, operators, modes, pressures) -> lis
     angles = revolution_angles(max([mode.m for mode in modes], default=0), 36, 4)
     n_t = len(angles)
     r, z = moved[used, 0], moved[used, 1]
-    xyz = np.column_stack([(r[:, None] * np.cos(angles)).ravel(),
-                           (r[:, None] * np.sin(angles)).ravel(),
-                           np.repeat(z, n_t)]).astype(np.float32)
+    # a vertex on the axis (reference r = 0) is one point, not one per angle
+    component = np.arange(len(used) * n_t).reshape(len(used), n_t)
+    reference_r = np.abs(halves.reference[used, 0])
+    on_axis = reference_r <= 1e-9 * reference_r.max()
+    component[on_axis] = component[on_axis, :1]
+    merge = PointMerge.from_components(component.ravel())
+    xyz = merge.reduce(np.column_stack([(r[:, None] * np.cos(angles)).ravel(),
+                                        (r[:, None] * np.sin(angles)).ravel(),
+                                        np.repeat(z, n_t)])).astype(np.float32)
     step = np.arange(n_t)
     ring = triangles[:, :, None] * n_t                              # (el, 3, 1)
     cells = np.concatenate([ring + step, ring + (step + 1) % n_t], axis=1)   # (el, 6, n_t)
-    cells = np.moveaxis(cells, 2, 1).reshape(-1, 6)
+    # a wedge with a corner on the axis keeps its two (now equal) corner numbers: ParaView
+    # reads it as the collapsed wedge it is
+    cells = merge.labels[np.moveaxis(cells, 2, 1).reshape(-1, 6)]
     cell_data = {"pml": [np.repeat(in_pml.astype(np.int8), n_t)],
                  "lower_half": [np.repeat(lower.astype(np.int8), n_t)]}
     files = []
@@ -556,7 +676,7 @@ def write_revolved_air_vtus(directory: Path, operators, modes, pressures) -> lis
         nodal = np.zeros(2 * count, dtype=complex)
         nodal[copy.ravel()] = values.ravel()
         main, _ = _harmonics(mode.m, mode.family, angles)
-        field = (nodal[used][:, None] * main[None, :]).ravel()
+        field = merge.reduce((nodal[used][:, None] * main[None, :]).ravel())
         data = {"pressure_real": field.real.astype(np.float32),
                 "pressure_imag": field.imag.astype(np.float32),
                 "pressure_abs": np.abs(field).astype(np.float32)}
