@@ -319,11 +319,25 @@ def _unfold_values(values: np.ndarray, symmetry, sector=None) -> np.ndarray:
 
 def write_membrane_vtu(path: Path, sampler: MembraneSampler, fields: dict,
                        displacement=None) -> Path:
-    """VTU of the membrane with point data (meshio).
+    """VTU of the membrane with point data (meshio): :func:`membrane_mesh` written.
 
     ``fields`` maps names to CoefficientFunctions or to arrays already sampled;
     ``displacement`` (the prestress u) moves the points to the deformed shape.
     """
+    path = path.with_suffix(".vtu")
+    write_vtu(path, membrane_mesh(sampler, fields, displacement))
+    return path
+
+
+def write_vtu(path: Path, mesh) -> None:
+    """A :class:`meshio.Mesh` as a binary VTU (:data:`VTU_COMPRESSION`)."""
+    import meshio
+
+    meshio.write(path, mesh, compression=VTU_COMPRESSION)
+
+
+def membrane_mesh(sampler, fields: dict, displacement=None):
+    """The :class:`meshio.Mesh` of :func:`write_membrane_vtu` (triangles, point data)."""
     import meshio
 
     coordinates = sampler.coordinates
@@ -333,10 +347,7 @@ def write_membrane_vtu(path: Path, sampler: MembraneSampler, fields: dict,
         coordinates = coordinates + sampler.evaluate(displacement)
     data = {name: value if isinstance(value, np.ndarray) else sampler.evaluate(value)
             for name, value in fields.items()}
-    path = path.with_suffix(".vtu")
-    meshio.write(path, meshio.Mesh(coordinates, [("triangle", sampler.cells)], point_data=data),
-                 compression=VTU_COMPRESSION)
-    return path
+    return meshio.Mesh(coordinates, [("triangle", sampler.cells)], point_data=data)
 
 
 def write_pvd(path: Path, files: list[Path], times: list[float]) -> None:
@@ -353,13 +364,27 @@ def write_mode_vtus(directory: Path, state, modes, sampler: MembraneSampler) -> 
     Mode shapes are normalised to peak |u| = 1 (dimensionless); the normal
     velocity amplitude is omega |u.n| for that normalisation [1/s].
     """
+    return _write_all(directory, mode_meshes(state, modes, sampler))
+
+
+def _write_all(directory: Path, meshes) -> list[Path]:
+    """``(name, meshio.Mesh)`` pairs as ``directory/name.vtu``; the paths in order."""
+    files = []
+    for name, mesh in meshes:
+        path = directory / f"{name}.vtu"
+        write_vtu(path, mesh)
+        files.append(path)
+    return files
+
+
+def mode_meshes(state, modes, sampler: MembraneSampler):
+    """``(file stem, meshio.Mesh)`` of each mode of :func:`write_mode_vtus`, one at a time."""
     import ngsolve as ngs
 
     from .membrane import deformed_normal
 
     mode_field = ngs.GridFunction(state.space)
     normal = sampler.evaluate(deformed_normal(state.displacement))
-    files = []
     for number, mode in enumerate(modes):
         parts = []
         for part in (np.real(mode.vector), np.imag(mode.vector)):
@@ -373,10 +398,8 @@ def write_mode_vtus(directory: Path, state, modes, sampler: MembraneSampler) -> 
                   "normal_displacement_real": normal_shape.real,
                   "normal_displacement_imag": normal_shape.imag,
                   "normal_velocity_abs": omega * np.abs(normal_shape)}
-        name = f"mode_{number:03d}_{_safe(mode.label)}"
-        files.append(write_membrane_vtu(directory / name, sampler, fields,
-                                        displacement=state.displacement))
-    return files
+        yield (f"mode_{number:03d}_{_safe(mode.label)}",
+               membrane_mesh(sampler, fields, displacement=state.displacement))
 
 
 class _AirHalves:
@@ -434,7 +457,13 @@ def _jump_vertices(pressure_space, vertices: int):
 
 
 def write_air_vtus(directory: Path, operators, modes, pressures) -> list[Path]:
-    """One .vtu per mode of the air on the deformed mesh: pressure re/im/abs, PML flag.
+    """One .vtu per mode of the air (:func:`air_meshes`), ``air_NNN_<label>.vtu``."""
+    return _write_all(directory, air_meshes(operators, modes, pressures))
+
+
+def air_meshes(operators, modes, pressures):
+    """``(file stem, meshio.Mesh)`` per mode of the air on the deformed mesh: pressure
+    re/im/abs, PML flag.
 
     ``operators``: the :class:`copdea_fem.coupled.CoupledOperators` of each
     sector (one on a whole mesh); a mode's pressure vector is read with its
@@ -474,7 +503,6 @@ def write_air_vtus(directory: Path, operators, modes, pressures) -> list[Path]:
     moved = merge.reduce(moved).astype(np.float32)
     cell_data = {"pml": [np.tile(in_pml.astype(np.int8), symmetry.copies)],
                  "lower_half": [np.tile(lower.astype(np.int8), symmetry.copies)]}
-    files = []
     for number, (mode, pressure) in enumerate(zip(modes, pressures)):
         gf.vec.FV().NumPy()[:] = 0
         gf.vec.FV().NumPy()[by_sector[mode.sector].pressure_free] = pressure
@@ -485,11 +513,8 @@ def write_air_vtus(directory: Path, operators, modes, pressures) -> list[Path]:
         data = {"pressure_real": nodal.real.astype(np.float32),
                 "pressure_imag": nodal.imag.astype(np.float32),
                 "pressure_abs": np.abs(nodal).astype(np.float32)}
-        path = directory / f"air_{number:03d}_{_safe(mode.label)}.vtu"
-        meshio.write(path, meshio.Mesh(moved, [("tetra", cells)], point_data=data,
-                                       cell_data=cell_data), compression=VTU_COMPRESSION)
-        files.append(path)
-    return files
+        yield (f"air_{number:03d}_{_safe(mode.label)}",
+               meshio.Mesh(moved, [("tetra", cells)], point_data=data, cell_data=cell_data))
 
 
 # -- ParaView, axisymmetric engine: meridian fields revolved to 3-D --------------------
@@ -586,14 +611,25 @@ class RevolvedMembraneSampler:
 
 def write_revolved_mode_vtus(directory: Path, state, modes, sampler=None) -> list[Path]:
     """One .vtu per mode of the axisymmetric engine, revolved; fields as write_mode_vtus."""
-    import ngsolve as ngs
+    return _write_all(directory, revolved_mode_meshes(state, modes, sampler))
 
+
+def revolved_sampler(state, modes, sampler=None) -> RevolvedMembraneSampler:
+    """``sampler`` if its angles resolve the highest order of ``modes``, else a finer one."""
     highest = max([mode.m for mode in modes], default=0)
     if sampler is None or len(sampler.angles) < len(revolution_angles(highest)):
         sampler = RevolvedMembraneSampler(state, highest)
+    return sampler
+
+
+def revolved_mode_meshes(state, modes, sampler=None):
+    """``(file stem, meshio.Mesh)`` of each mode of :func:`write_revolved_mode_vtus`;
+    ``sampler`` as the writer would choose it for ``modes`` (:func:`revolved_sampler`)."""
+    import ngsolve as ngs
+
+    sampler = revolved_sampler(state, modes, sampler)
     displacement = sampler.prestress_displacement()
     normal_profile = sampler.profile(state.fields()["normal"])
-    files = []
     for number, mode in enumerate(modes):
         operators = mode.operators
         gf = ngs.GridFunction(operators.space)
@@ -615,14 +651,19 @@ def write_revolved_mode_vtus(directory: Path, state, modes, sampler=None) -> lis
                   "normal_displacement_real": normal_shape.real,
                   "normal_displacement_imag": normal_shape.imag,
                   "normal_velocity_abs": omega * np.abs(normal_shape)}
-        name = f"mode_{number:03d}_{_safe(mode.label)}"
-        files.append(write_membrane_vtu(directory / name, sampler, fields,
-                                        displacement=displacement))
-    return files
+        yield (f"mode_{number:03d}_{_safe(mode.label)}",
+               membrane_mesh(sampler, fields, displacement=displacement))
 
 
 def write_revolved_air_vtus(directory: Path, operators, modes, pressures) -> list[Path]:
-    """One .vtu per mode of the air of the axisymmetric engine, revolved (wedge cells).
+    """One .vtu per mode of the revolved air (:func:`revolved_air_meshes`)."""
+    return _write_all(directory, revolved_air_meshes(operators, modes, pressures))
+
+
+def revolved_air_meshes(operators, modes, pressures, max_order: int | None = None):
+    """``(file stem, meshio.Mesh)`` of each mode of the air of the axisymmetric engine,
+    revolved (wedge cells); ``max_order``: the highest order of the modes written together
+    (sets the angles; default: that of ``modes``).
 
     The meridian's vertices are revolved on the deformed meridian; as in
     :func:`write_air_vtus` the lower half gets its own copy of the vertices (the
@@ -647,7 +688,9 @@ def write_revolved_air_vtus(directory: Path, operators, modes, pressures) -> lis
     moved = halves.moved
     triangles = halves.renumber[copy]
     # the air of every mode is a large file: 36 angles, or 4 per wavelength
-    angles = revolution_angles(max([mode.m for mode in modes], default=0), 36, 4)
+    if max_order is None:
+        max_order = max([mode.m for mode in modes], default=0)
+    angles = revolution_angles(max_order, 36, 4)
     n_t = len(angles)
     r, z = moved[used, 0], moved[used, 1]
     # a vertex on the axis (reference r = 0) is one point, not one per angle
@@ -667,7 +710,6 @@ def write_revolved_air_vtus(directory: Path, operators, modes, pressures) -> lis
     cells = merge.labels[np.moveaxis(cells, 2, 1).reshape(-1, 6)]
     cell_data = {"pml": [np.repeat(in_pml.astype(np.int8), n_t)],
                  "lower_half": [np.repeat(lower.astype(np.int8), n_t)]}
-    files = []
     for number, (mode, pressure) in enumerate(zip(modes, pressures)):
         coupled = by_order[mode.m]
         gf = ngs.GridFunction(coupled.pressure_space)
@@ -680,11 +722,8 @@ def write_revolved_air_vtus(directory: Path, operators, modes, pressures) -> lis
         data = {"pressure_real": field.real.astype(np.float32),
                 "pressure_imag": field.imag.astype(np.float32),
                 "pressure_abs": np.abs(field).astype(np.float32)}
-        path = directory / f"air_{number:03d}_{_safe(mode.label)}.vtu"
-        meshio.write(path, meshio.Mesh(xyz, [("wedge", cells)], point_data=data,
-                                       cell_data=cell_data), compression=VTU_COMPRESSION)
-        files.append(path)
-    return files
+        yield (f"air_{number:03d}_{_safe(mode.label)}",
+               meshio.Mesh(xyz, [("wedge", cells)], point_data=data, cell_data=cell_data))
 
 
 def _safe(label: str) -> str:

@@ -22,7 +22,7 @@ ROOT = Path(__file__).resolve().parents[1]
 def quadrant_result(tmp_path_factory):
     out = tmp_path_factory.mktemp("paraview") / "run"
     code = main(["solve", str(ROOT / "studies/g1_z16_v2_quick.yaml"), "--out", str(out),
-                 "--quiet", "--set", "eigen.f_max=450 Hz", "--set", "output.plots=false"])
+                 "--quiet", "--set", "eigen.f_max=500 Hz", "--set", "output.plots=false"])
     assert code == 0
     return out
 
