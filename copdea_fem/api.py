@@ -237,7 +237,7 @@ class Solution:
     def membrane(self, label: str):
         """pyvista grid of the whole membrane with mode ``label``'s fields, equal to its
         ``mode_NNN_<label>.vtu`` (displacement re/im/abs, normal displacement re/im, normal
-        velocity; peak |u| = 1; points on the prestressed shape)."""
+        velocity; peak ``|u| = 1``; points on the prestressed shape)."""
         from . import output
 
         mode = self._structural()[self._find(label)]
@@ -643,7 +643,7 @@ def diagnose(measured: str | Path, *, alpha: float = 0.05, model: str | None = N
     import dataclasses
 
     from .diagnose import load_measured
-    from .diagnose.engine import Diagnoser
+    from .diagnose.select import Diagnoser
 
     if not 0 < alpha < 1:
         raise StudyError(f"--alpha = {alpha!r} is not allowed; allowed: (0, 1)")
