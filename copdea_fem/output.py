@@ -360,13 +360,18 @@ def write_vtu(path: Path, mesh) -> None:
         return tag
 
     (kind, cells), = [(block.type, block.data) for block in mesh.cells]
-    cells = np.asarray(cells, dtype=np.int64)
+    cells = np.asarray(cells)
+    if kind in _VTK_ORDER:          # meshio's node order -> VTK's (as meshio.write does)
+        cells = cells[:, _VTK_ORDER[kind]]
+    # 32-bit connectivity where it fits: the air's wedges are most of a file's bytes
+    cells = cells.astype(np.int32 if cells.size < 2**31 - 1 and len(mesh.points) < 2**31 - 1
+                         else np.int64, copy=False)
     points = np.asarray(mesh.points)
     n_points, (n_cells, corners) = len(points), cells.shape
     header.append(f'<Points>{array(points, components=3)}</Points>')
     header.append('<Cells>'
                   + array(cells.ravel(), "connectivity")
-                  + array(np.arange(1, n_cells + 1, dtype=np.int64) * corners, "offsets")
+                  + array(np.arange(1, n_cells + 1, dtype=cells.dtype) * corners, "offsets")
                   + array(np.full(n_cells, _VTK_CELLS[kind], dtype=np.uint8), "types")
                   + '</Cells>')
     header.append("<PointData>" + "".join(array(values, name)
@@ -391,6 +396,8 @@ def write_vtu(path: Path, mesh) -> None:
 _VTK_TYPES = {"f8": "Float64", "f4": "Float32", "i8": "Int64", "i4": "Int32", "i2": "Int16",
               "i1": "Int8", "u8": "UInt64", "u4": "UInt32", "u2": "UInt16", "u1": "UInt8"}
 _VTK_CELLS = {"triangle": 5, "tetra": 10, "wedge": 13}
+#: meshio orders a wedge's corners as gmsh does, VTK with the first face turned over
+_VTK_ORDER = {"wedge": [0, 2, 1, 3, 5, 4]}
 
 
 def membrane_mesh(sampler, fields: dict, displacement=None):
