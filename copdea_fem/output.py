@@ -338,7 +338,8 @@ def write_vtu(path: Path, mesh) -> None:
     """A :class:`meshio.Mesh` (points, one cell block, point and cell data) as a VTU file
     with its arrays appended as raw binary: the XML header, then every array's bytes as
     they lie in memory.  ParaView, VTK (pyvista) and meshio read it; meshio's own writer
-    took ~20 ms a file (base64 and per-array XML), this one ~1 ms."""
+    took ~20 ms a file (base64 and per-array XML), this one ~7 ms, mostly the disk
+    (97 files of the baffled G1 command: 1.9 s and 0.64 s on a loaded machine)."""
     blocks, header = [], []
     offset = 0
 
