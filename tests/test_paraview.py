@@ -71,3 +71,31 @@ def test_slice_on_a_mirror_plane_has_the_area_of_a_slice_beside_it(quadrant_resu
     # the clip at the plane holds half of the air
     assert air.clip(normal=normal, origin=(0.0, 0.0, 0.0)).volume == pytest.approx(
         air.volume / 2, rel=1e-3)
+
+
+@pytest.mark.parametrize("kind, corners", [("triangle", 3), ("tetra", 4), ("wedge", 6)])
+def test_vtu_writer_reads_back_as_meshio_writes(tmp_path, kind, corners):
+    """copdea_fem.output.write_vtu (raw appended arrays) against meshio's own writer: the
+    same grid for VTK (pyvista) and for meshio, wedges in VTK's corner order."""
+    import meshio
+
+    from copdea_fem.output import write_vtu
+
+    generator = np.random.default_rng(1)
+    mesh = meshio.Mesh(generator.random((40, 3)), [(kind, generator.integers(0, 40, (25, corners)))],
+                       point_data={"scalar": generator.random(40).astype(np.float32),
+                                   "vector": generator.random((40, 3))},
+                       cell_data={"flag": [generator.integers(0, 2, 25).astype(np.int8)]})
+    write_vtu(tmp_path / "ours.vtu", mesh)
+    meshio.write(tmp_path / "meshio.vtu", mesh)
+    ours, theirs = pv.read(tmp_path / "ours.vtu"), pv.read(tmp_path / "meshio.vtu")
+    np.testing.assert_array_equal(ours.points, theirs.points)
+    assert list(ours.cells_dict) == list(theirs.cells_dict)
+    for cell_type in theirs.cells_dict:
+        np.testing.assert_array_equal(ours.cells_dict[cell_type], theirs.cells_dict[cell_type])
+    for name in ("scalar", "vector"):
+        np.testing.assert_array_equal(ours.point_data[name], theirs.point_data[name])
+    np.testing.assert_array_equal(ours.cell_data["flag"], theirs.cell_data["flag"])
+    back = meshio.read(tmp_path / "ours.vtu")
+    np.testing.assert_array_equal(back.cells[0].data, mesh.cells[0].data)
+    np.testing.assert_array_equal(back.point_data["scalar"], mesh.point_data["scalar"])
