@@ -1,5 +1,8 @@
 """Command line: ``copdea-fem solve|check|force|schema ...`` (thin: parse, call, print).
 
+``solve``, ``response`` and ``force`` call the Python API (:mod:`copdea_fem.api`): the
+command checks its inputs and output folder, calls the API, writes and prints.
+
 Exit codes: 0 success; 2 bad input (study, --set, options, input files, an
 output folder that may not be written, a problem too large), before any
 meshing; 3 a solve that failed for a physical or numerical reason (the message
@@ -18,16 +21,13 @@ import sys
 import threading
 from pathlib import Path
 
+from .api import SolveFailed, solving as _solving  # noqa: F401 (kept for callers)
 from .folders import OutputFolderError, claim
 from .study import StudyError, load_study, parse_overrides
 
 
 class Terminated(KeyboardInterrupt):
     """SIGTERM, raised like Ctrl-C so that every cleanup on the way out runs."""
-
-
-class SolveFailed(RuntimeError):
-    """A solver failure, described for the user (exit 3)."""
 
 
 def _progress(quiet: bool):
@@ -67,35 +67,6 @@ def _check_size(args, *studies) -> None:
             check_size(study)
 
 
-def _load_text(study) -> str:
-    load = study["load"]
-    return f"load.z = {load['z'] * 1e3:g} mm, load.voltage = {load['voltage']:g} V"
-
-
-@contextlib.contextmanager
-def _solving(study):
-    """Solver failures -> :class:`SolveFailed`: what failed, at which load, which key to change."""
-    from .ale import MeshMotionError
-    from .eigen import EigenResidualError, EigenSolverError, TooManyModesError
-    eigen = study["eigen"]
-    advice = {
-        MeshMotionError: ("the air mesh motion", "air.domain_radius, mesh.membrane_size or "
-                          "load.z"),
-        EigenResidualError: ("the eigen solve", f"eigen.residual_tol (now "
-                             f"{eigen['residual_tol']:g}) or eigen.backend"),
-        TooManyModesError: ("the eigen solve", f"eigen.max_modes (now {eigen['max_modes']}) or "
-                            "the band eigen.f_min..eigen.f_max"),
-        EigenSolverError: ("the eigen solve", "the band eigen.f_min..eigen.f_max, "
-                           "eigen.max_damping_ratio or eigen.backend"),
-    }
-    try:
-        yield
-    except tuple(advice) as error:
-        what, keys = next(item for kind, item in advice.items() if isinstance(error, kind))
-        raise SolveFailed(f"{what} failed at {_load_text(study)}: {error}; change {keys}") \
-            from None
-
-
 def cmd_check(args) -> int:
     study = _study(args)
     _check_size(args, study)
@@ -110,14 +81,17 @@ def cmd_schema(args) -> int:
 
 
 def cmd_solve(args) -> int:
+    from . import api
     from .output import frequency_table
-    from .solve import run_solve
 
     study = _study(args)
     _check_size(args, study)
     out_dir = _out_dir(args, study)
-    with _output(args, out_dir, "solve", [args.study]), _solving(study):
-        result = run_solve(study, out_dir=out_dir, progress=_progress(args.quiet))
+    progress = _progress(args.quiet)
+    with _output(args, out_dir, "solve", [args.study]):
+        solution = api.solve(study, allow_large=True, progress=progress)
+        solution.write(out_dir, progress=progress)
+    result = solution.result
     print(frequency_table(result.rows))
     state = result.state
     print(f"prestress: z = {state.z * 1e3:g} mm, V_b = {state.voltage:g} V, disc force "
@@ -128,47 +102,31 @@ def cmd_solve(args) -> int:
 
 def cmd_response(args) -> int:
     """Forced response of the coupled FE under the chirp, with radiated sound (issue 15)."""
-    from .response.run import run_response, summary_lines
+    from . import api
+    from .response.run import summary_lines
 
     study = _study(args)
     _check_size(args, study)
     out_dir = _out_dir(args, study)
-    with _output(args, out_dir, "response", [args.study]), _solving(study):
-        result = run_response(study, out_dir=out_dir, progress=_progress(args.quiet))
-    print("\n".join(summary_lines(result)))
+    progress = _progress(args.quiet)
+    with _output(args, out_dir, "response", [args.study]):
+        solution = api.response(study, allow_large=True, progress=progress)
+        solution.write(out_dir, progress=progress)
+    print("\n".join(summary_lines(solution.result)))
     return 0
 
 
-def _quantity_list(text: str, key: str, unit: str) -> list[float]:
-    from .study import Key, _convert
-    spec = Key(unit, 0.0, key, minimum=0)
-    return [_convert(key, spec, item.strip()) for item in text.split(",") if item.strip()]
-
-
 def cmd_force(args) -> int:
-    import numpy as np
-
-    from .solve import run_force
+    from . import api
 
     study = _study(args)
-    if study["geometry"]["inner_radius"] == 0:
-        raise StudyError("geometry.inner_radius = 0 is not allowed for `force`; allowed: > 0 "
-                         "(a full membrane has no disc to pull)")
-    voltages = _quantity_list(args.voltages, "--voltages", "V")
-    z_max = _quantity_list(args.z_max, "--z-max", "m")[0] if args.z_max else \
-        max(study["load"]["z"], 0.018)
-    if args.points < 2:
-        raise StudyError(f"--points = {args.points} is not allowed; allowed: >= 2")
-    if not voltages:
-        raise StudyError(f"--voltages = {args.voltages!r} is not allowed; allowed: a comma "
-                         "separated list such as '0 kV, 3 kV'")
-    study.replace({"load.z": z_max})  # validates z_max against the geometry
-    _check_size(args, study)
-    z_values = np.linspace(0.0, z_max, args.points)[1:]
+    study, z_values, voltages = api.prepare_force(study, args.voltages, args.z_max or None,
+                                                  args.points, args.allow_large)
     out_dir = _out_dir(args, study)
     with _output(args, out_dir, "force", [args.study]):
-        forces = run_force(study, z_values, voltages, out_dir=out_dir,
-                           progress=_progress(args.quiet))
+        curve = api.compute_force(study, z_values, voltages, progress=_progress(args.quiet))
+        curve.write(out_dir)
+    forces = curve.forces
     print(f"{'z [mm]':>8}" + "".join(f"{f'F @ {v / 1e3:g} kV [N]':>16}" for v in voltages))
     for j, z in enumerate(z_values):
         print(f"{z * 1e3:8.3f}" + "".join(f"{forces[i, j]:16.5f}" for i in range(len(voltages))))

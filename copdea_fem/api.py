@@ -1,0 +1,693 @@
+"""Python API: the commands of ``copdea-fem`` as functions that return their results.
+
+::
+
+    import copdea_fem as cf
+    study = cf.load_study("studies/g1_z16_v2.yaml", {"load.voltage": "1 kV"})  # validated, SI
+    sol = cf.solve(study)          # nothing written unless asked
+    sol.modes                      # pandas.DataFrame: the columns of modes.csv, one row per mode
+    sol.membrane("(0,1)")          # pyvista grid of the whole membrane with that mode's fields
+    sol.air("(0,1)")               # pyvista grid of the air with its pressure fields (coupled)
+    sol.write("results/g1")        # the files and folder rules of `copdea-fem solve --out`
+
+:func:`response`, :func:`force`, :func:`spectrum`, :func:`sweep` and :func:`diagnose`
+have the same shape: a result object with its tables as :class:`pandas.DataFrame` and a
+``write(folder)`` that writes the command's files under the rules of
+:mod:`copdea_fem.folders`.  The command line (:mod:`copdea_fem.cli`) calls these.
+
+Progress messages go to the :mod:`logging` logger ``"copdea_fem"`` at level INFO, so
+they are off unless asked (``logging.basicConfig(level=logging.INFO)``), or to a callable
+passed as ``progress``.  Errors are the command line's: :class:`~copdea_fem.study.StudyError`
+(bad input; the CLI's exit 2), :class:`~copdea_fem.folders.OutputFolderError` (a folder that
+may not be written; exit 2), :class:`SolveFailed` and
+:class:`~copdea_fem.prestress.PrestressError` (a solve that failed for a physical or
+numerical reason; exit 3), with the same messages.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import shutil
+import tempfile
+import weakref
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+from .folders import OutputFolderError
+from .study import Study, StudyError
+
+__all__ = ["load_study", "solve", "response", "force", "spectrum", "sweep", "diagnose",
+           "Solution", "ResponseSolution", "ForceCurve", "Spectrum", "SweepResult",
+           "Diagnosis", "SolveFailed", "StudyError", "OutputFolderError"]
+
+logger = logging.getLogger("copdea_fem")
+
+#: Study -> the file it was read from (the folder checks of ``write`` need it).
+_SOURCES: "weakref.WeakKeyDictionary[Study, Path]" = weakref.WeakKeyDictionary()
+
+
+class SolveFailed(RuntimeError):
+    """A solver failure, described for the user: what failed, at which load, which key to
+    change (the CLI's exit 3)."""
+
+
+def _progress(progress) -> Callable[[str], None]:
+    """A progress callable: ``progress`` itself, or the ``copdea_fem`` logger at INFO."""
+    if callable(progress):
+        return progress
+    return logger.info
+
+
+def load_study(path: str | Path, overrides: dict[str, Any] | list[str] | None = None) -> Study:
+    """Read, override, validate and resolve a study file (every value in SI).
+
+    Parameters
+    ----------
+    path : str or Path
+        A study YAML file (``copdea-fem schema`` lists its keys).
+    overrides : dict or list of str, optional
+        ``{"load.voltage": "1 kV"}`` (values with units, as in the file) or the command
+        line's ``["load.voltage=1 kV"]``.
+
+    Raises
+    ------
+    StudyError
+        A missing file, an unknown key, a value out of range or in a wrong unit.
+    """
+    from .study import load_study as _load, parse_overrides
+
+    if isinstance(overrides, (list, tuple)):
+        overrides = parse_overrides(list(overrides))
+    study = _load(path, overrides=overrides)
+    _SOURCES[study] = Path(path)
+    return study
+
+
+def _as_study(study: Study | str | Path) -> Study:
+    return study if isinstance(study, Study) else load_study(study)
+
+
+def _inputs(study: Study) -> list:
+    source = _SOURCES.get(study)
+    return [source] if source is not None else []
+
+
+def _load_text(study) -> str:
+    load = study["load"]
+    return f"load.z = {load['z'] * 1e3:g} mm, load.voltage = {load['voltage']:g} V"
+
+
+@contextlib.contextmanager
+def solving(study):
+    """Solver failures -> :class:`SolveFailed`: what failed, at which load, which key to change."""
+    from .ale import MeshMotionError
+    from .eigen import EigenResidualError, EigenSolverError, TooManyModesError
+    eigen = study["eigen"]
+    advice = {
+        MeshMotionError: ("the air mesh motion", "air.domain_radius, mesh.membrane_size or "
+                          "load.z"),
+        EigenResidualError: ("the eigen solve", f"eigen.residual_tol (now "
+                             f"{eigen['residual_tol']:g}) or eigen.backend"),
+        TooManyModesError: ("the eigen solve", f"eigen.max_modes (now {eigen['max_modes']}) or "
+                            "the band eigen.f_min..eigen.f_max"),
+        EigenSolverError: ("the eigen solve", "the band eigen.f_min..eigen.f_max, "
+                           "eigen.max_damping_ratio or eigen.backend"),
+    }
+    try:
+        yield
+    except tuple(advice) as error:
+        what, keys = next(item for kind, item in advice.items() if isinstance(error, kind))
+        raise SolveFailed(f"{what} failed at {_load_text(study)}: {error}; change {keys}") \
+            from None
+
+
+def check_size(study: Study, allow_large: bool = False) -> None:
+    """The resource guard (:func:`copdea_fem.geometry.check_size`) unless ``allow_large``."""
+    if not allow_large:
+        from .geometry import check_size as guard
+        guard(study)
+
+
+@contextlib.contextmanager
+def _claimed(folder, command: str, inputs) -> Path:
+    from .folders import claim
+    with claim(folder, command, inputs=inputs) as record:
+        yield record.target
+
+
+def _frame(rows: list[dict], columns) -> "pandas.DataFrame":  # noqa: F821
+    import pandas as pd
+    return pd.DataFrame(rows, columns=list(columns))
+
+
+def _grid(mesh):
+    """A :class:`meshio.Mesh` as a pyvista grid (the VTU file's points, cells and data)."""
+    import pyvista as pv
+    return pv.from_meshio(mesh)
+
+
+# -- solve ---------------------------------------------------------------------------------
+def solve(study: Study | str | Path, *, allow_large: bool = False, mesh_cache=None,
+          progress: Callable[[str], None] | None = None) -> "Solution":
+    """Prestress and modes of a study (``copdea-fem solve``, nothing written).
+
+    Parameters
+    ----------
+    study : Study or path
+        From :func:`load_study`, or a study file.
+    allow_large : bool
+        Start even when the problem is estimated above the size limit.
+    mesh_cache : path, optional
+        Mesh cache folder of the 3-D engine (default as the CLI's ``--mesh-cache``).
+    progress : callable(str), optional
+        Progress messages (default: the ``copdea_fem`` logger at INFO).
+
+    Returns
+    -------
+    Solution
+
+    Raises
+    ------
+    StudyError, SolveFailed, PrestressError
+    """
+    from .solve import run_solve
+
+    study = _as_study(study)
+    check_size(study, allow_large)
+    with solving(study):
+        result = run_solve(study, out_dir=None, progress=_progress(progress),
+                           cache_dir=mesh_cache)
+    return Solution(result)
+
+
+class Solution:
+    """The result of :func:`solve`: the mode table, mode fields as grids, ``write``.
+
+    ``result`` is the :class:`copdea_fem.solve.SolveResult` (prestress state, modes with
+    their vectors, eigen summary, timings).
+    """
+
+    def __init__(self, result):
+        self.result = result
+        self._sampler = None
+
+    @property
+    def study(self) -> Study:
+        return self.result.study
+
+    @property
+    def modes(self):
+        """:class:`pandas.DataFrame` of the modes: the columns of modes.csv (SI: Hz, kg)."""
+        from .output import MODE_COLUMNS
+        return _frame(self.result.rows, MODE_COLUMNS)
+
+    @property
+    def prestress(self) -> dict:
+        """The prestress block of modes.json: z [m], voltage [V], disc force [N], steps."""
+        from .output import prestress_summary
+        return prestress_summary(self.result.state)
+
+    @property
+    def timings(self) -> dict:
+        """Wall time per stage [s]."""
+        return dict(self.result.timings.seconds)
+
+    @property
+    def labels(self) -> list[str]:
+        """Labels of the modes with a membrane file (all but air modes), in file order."""
+        return [mode.label for mode in self._structural()]
+
+    @property
+    def axisymmetric(self) -> bool:
+        return getattr(self.result.state, "engine", "3d") == "axisymmetric"
+
+    def _structural(self) -> list:
+        from .modes import IN_PLANE, OUT_OF_PLANE, PUMPING
+        return [mode for mode in self.result.modes
+                if mode.kind in (OUT_OF_PLANE, PUMPING, IN_PLANE)]
+
+    def _find(self, label: str) -> int:
+        labels = self.labels
+        if label not in labels:
+            raise KeyError(f"no mode labelled {label!r}; labels: {', '.join(labels)}")
+        return labels.index(label)
+
+    def membrane(self, label: str):
+        """pyvista grid of the whole membrane with mode ``label``'s fields, equal to its
+        ``mode_NNN_<label>.vtu`` (displacement re/im/abs, normal displacement re/im, normal
+        velocity; peak ``|u| = 1``; points on the prestressed shape)."""
+        from . import output
+
+        mode = self._structural()[self._find(label)]
+        state = self.result.state
+        if self.axisymmetric:
+            if self._sampler is None:
+                sampler = output.RevolvedMembraneSampler(state)
+                self._sampler = output.revolved_sampler(state, self._structural(), sampler)
+            _, mesh = next(output.revolved_mode_meshes(state, [mode], self._sampler))
+        else:
+            if self._sampler is None:
+                self._sampler = output.MembraneSampler(state.mesh)
+            with _threads(self.result.study):
+                _, mesh = next(output.mode_meshes(state, [mode], self._sampler))
+        return _grid(mesh)
+
+    def air(self, label: str):
+        """pyvista grid of the air with mode ``label``'s pressure (re/im/abs, Pa per unit peak
+        membrane displacement; cell data ``pml``, ``lower_half``), equal to its
+        ``air_NNN_<label>.vtu``.  Only for a coupled solve (``air.enabled: true``)."""
+        from . import output
+
+        coupled = self.result.coupled
+        if coupled is None:
+            raise StudyError("air.enabled = false has no air field; allowed: a coupled solve "
+                             "(air.enabled: true)")
+        index = self._find(label)
+        mode = self._structural()[index]
+        k = next(k for k, item in enumerate(self.result.modes) if item is mode)
+        pressure = coupled.pressures[k]
+        if self.axisymmetric:
+            highest = max([item.m for item in self._structural()], default=0)
+            _, mesh = next(output.revolved_air_meshes(coupled.operators, [mode], [pressure],
+                                                      max_order=highest))
+        else:
+            with _threads(self.result.study):
+                _, mesh = next(output.air_meshes(coupled.operators, [mode], [pressure]))
+        return _grid(mesh)
+
+    def write(self, folder: str | Path, progress: Callable[[str], None] | None = None) -> Path:
+        """Every file of ``copdea-fem solve --out folder`` (modes.csv/json, resolved study,
+        ParaView files and plots as ``output.*`` asks); the folder rules of
+        :mod:`copdea_fem.folders` (checked first; an earlier result of ``solve`` replaced
+        only when complete).  Returns the folder."""
+        from . import output
+
+        result = self.result
+        with _claimed(folder, "solve", _inputs(result.study)) as target:
+            with result.timings.stage("output"), _threads(result.study):
+                _progress(progress)("writing results ...")
+                output.write_results(result, Path(folder))
+            result.out_dir = Path(folder)
+        return target
+
+
+def _threads(study):
+    """NGSolve's TaskManager for the 3-D engine's output (as :func:`solve.run_solve`)."""
+    from .study import engine_of
+    if engine_of(study) == "axisymmetric":
+        return contextlib.nullcontext()
+    import ngsolve as ngs
+    return ngs.TaskManager()
+
+
+# -- response ------------------------------------------------------------------------------
+def response(study: Study | str | Path, *, allow_large: bool = False,
+             progress: Callable[[str], None] | None = None) -> "ResponseSolution":
+    """Forced response of the coupled FE under the study's chirp, with radiated sound
+    (``copdea-fem response``, nothing written)."""
+    from .response.run import forced_response, prepare_order_zero
+
+    study = _as_study(study)
+    check_size(study, allow_large)
+    say = _progress(progress)
+    with solving(study):
+        problem = prepare_order_zero(study, say)
+        result = forced_response(problem, say)
+    return ResponseSolution(result)
+
+
+class ResponseSolution:
+    """The result of :func:`response`: spectra and SPL as DataFrames, ``write``.
+
+    ``result`` is the :class:`copdea_fem.response.run.ResponseResult`.
+    """
+
+    def __init__(self, result):
+        self.result = result
+
+    @property
+    def average(self):
+        """response_average.csv: ``freq_hz, v_axial, v_radial`` [Hz, m/s]."""
+        import pandas as pd
+
+        from .response.run import AVERAGE_COLUMNS
+        r = self.result
+        return pd.DataFrame(dict(zip(AVERAGE_COLUMNS, (r.frequency_hz, r.average_axial,
+                                                       r.average_radial))))
+
+    @property
+    def points(self):
+        """response_points.csv: ``freq_hz`` and the axial/radial velocity at Q1-Q3 [m/s]."""
+        import pandas as pd
+
+        from .response.run import POINT_COLUMNS
+        r = self.result
+        columns = (r.frequency_hz,) + tuple(values[:, i] for i in range(3)
+                                            for values in (r.point_axial, r.point_radial))
+        return pd.DataFrame(dict(zip(POINT_COLUMNS, columns)))
+
+    @property
+    def spl(self):
+        """spl.csv: ``freq_hz, spl_<microphone>`` [Hz, dB re 20 uPa]."""
+        import pandas as pd
+        r = self.result
+        data = {"freq_hz": r.frequency_hz}
+        for j, (name, _) in enumerate(r.microphones):
+            data[f"spl_{name}"] = r.spl_db[:, j]
+        return pd.DataFrame(data)
+
+    @property
+    def modes(self):
+        """response_modes.csv: the modal basis (label, kind, frequencies, damping b/m [1/s],
+        membrane energy fraction); empty for a direct solve."""
+        import pandas as pd
+
+        from .response.run import MODE_COLUMNS
+        r = self.result
+        if not r.modes:
+            return pd.DataFrame(columns=list(MODE_COLUMNS))
+        columns = ([m.label for m in r.modes], [m.kind for m in r.modes],
+                   [m.freq_hz for m in r.modes], [m.freq_im_hz for m in r.modes],
+                   list(r.basis.damping_per_mass),
+                   [m.membrane_energy_fraction for m in r.modes])
+        return pd.DataFrame(dict(zip(MODE_COLUMNS, columns)))
+
+    @property
+    def peaks_hz(self) -> list[float]:
+        return list(self.result.peaks_hz)
+
+    def write(self, folder: str | Path, progress: Callable[[str], None] | None = None) -> Path:
+        """Every file of ``copdea-fem response --out folder``; returns the folder."""
+        import time
+
+        from .response.files import write_response
+        from .response.run import reduced_spectrum
+
+        result = self.result
+        study = result.problem.study
+        with _claimed(folder, "response", _inputs(study)) as target:
+            _progress(progress)("writing results ...")
+            start = time.perf_counter()
+            write_response(result, Path(folder), reduced_spectrum(study, result))
+            result.timings["output"] = time.perf_counter() - start
+            result.out_dir = Path(folder)
+        return target
+
+
+# -- force ---------------------------------------------------------------------------------
+def _quantity_list(values, key: str, unit: str) -> list[float]:
+    from .study import Key, _convert
+    spec = Key(unit, 0.0, key, minimum=0)
+    items = values.split(",") if isinstance(values, str) else list(values)
+    return [_convert(key, spec, item.strip() if isinstance(item, str) else item)
+            for item in items if not isinstance(item, str) or item.strip()]
+
+
+def prepare_force(study: Study, voltages="0 kV, 3 kV", z_max=None, points: int = 10,
+                  allow_large: bool = False):
+    """Check the inputs of :func:`force` before any work: ``(study, z values [m], voltages
+    [V])``; a :class:`StudyError` names the bad one."""
+    import numpy as np
+
+    if study["geometry"]["inner_radius"] == 0:
+        raise StudyError("geometry.inner_radius = 0 is not allowed for `force`; allowed: > 0 "
+                         "(a full membrane has no disc to pull)")
+    voltage_list = _quantity_list(voltages, "--voltages", "V")
+    if z_max is None:
+        z_max = max(study["load"]["z"], 0.018)
+    else:
+        z_max = _quantity_list(z_max if isinstance(z_max, str) else [z_max], "--z-max", "m")[0]
+    if points < 2:
+        raise StudyError(f"--points = {points} is not allowed; allowed: >= 2")
+    if not voltage_list:
+        raise StudyError(f"--voltages = {voltages!r} is not allowed; allowed: a comma "
+                         "separated list such as '0 kV, 3 kV'")
+    study.replace({"load.z": z_max})  # validates z_max against the geometry
+    check_size(study, allow_large)
+    return study, np.linspace(0.0, z_max, points)[1:], voltage_list
+
+
+def force(study: Study | str | Path, voltages="0 kV, 3 kV", z_max=None, points: int = 10, *,
+          allow_large: bool = False, mesh_cache=None,
+          progress: Callable[[str], None] | None = None) -> "ForceCurve":
+    """Static disc force F(z) at each voltage (Fig. 4b; ``copdea-fem force``).
+
+    ``voltages``: ``"0 kV, 3 kV"`` or a list of quantities; ``z_max``: the largest z
+    (default max(load.z, 18 mm)); ``points``: z values including 0 (0 is not solved).
+    """
+    study, z_values, voltage_list = prepare_force(_as_study(study), voltages, z_max, points,
+                                                  allow_large)
+    return compute_force(study, z_values, voltage_list, mesh_cache=mesh_cache,
+                         progress=progress)
+
+
+def compute_force(study: Study, z_values, voltages, *, mesh_cache=None,
+                  progress: Callable[[str], None] | None = None) -> "ForceCurve":
+    """F(z) [N] at the checked inputs of :func:`prepare_force`."""
+    from .solve import run_force
+
+    forces = run_force(study, z_values, voltages, out_dir=None, progress=_progress(progress),
+                       cache_dir=mesh_cache)
+    return ForceCurve(study, z_values, list(voltages), forces)
+
+
+@dataclass
+class ForceCurve:
+    """The result of :func:`force`: ``forces[i, j]`` [N] at ``voltages[i]`` [V] and
+    ``z_values[j]`` [m]."""
+
+    study: Study
+    z_values: Any
+    voltages: list
+    forces: Any
+
+    @property
+    def table(self):
+        """force_displacement.csv: ``voltage_v, z_m, force_n`` (long format)."""
+        import pandas as pd
+        rows = [(voltage, z, self.forces[i, j]) for i, voltage in enumerate(self.voltages)
+                for j, z in enumerate(self.z_values)]
+        return pd.DataFrame(rows, columns=["voltage_v", "z_m", "force_n"])
+
+    def write(self, folder: str | Path) -> Path:
+        """Every file of ``copdea-fem force --out folder``; returns the folder."""
+        from .output import write_force_results
+        with _claimed(folder, "force", _inputs(self.study)) as target:
+            write_force_results(self.study, Path(folder), self.z_values, self.voltages,
+                                self.forces)
+        return target
+
+
+# -- spectrum (reduced model) ----------------------------------------------------------------
+def spectrum(study: Study | str | Path, modes_json=None) -> "Spectrum":
+    """Reduced-model velocity spectra under the study's chirp (Sect. 3.2, eq. 19;
+    ``copdea-fem spectrum``).  ``modes_json``: an FE modes.json whose coupled frequencies
+    set the added masses (default ``reduced.modes_json``).
+
+    Raises :class:`~copdea_fem.reduced.rings.ReducedModelError` where the model fails
+    (the CLI's exit 3)."""
+    from .inputs import read_text
+    from .reduced.io import _fe_frequencies
+    from .reduced.model import build_reduced, spectra_of
+
+    study = _as_study(study)
+    if modes_json is not None:
+        read_text(modes_json, "--modes-json", error=StudyError)
+    elif study["reduced"]["modes_json"]:
+        read_text(study["reduced"]["modes_json"], "reduced.modes_json", error=StudyError)
+    fe, _ = _fe_frequencies(study, modes_json)
+    setup = build_reduced(study, fe)
+    return Spectrum(study, setup, spectra_of(setup), modes_json)
+
+
+@dataclass
+class Spectrum:
+    """The result of :func:`spectrum`: the reduced model (``setup``) and its spectra."""
+
+    study: Study
+    setup: Any
+    result: Any
+    modes_json: Any = None
+
+    @property
+    def average(self):
+        """spectrum_average.csv: ``freq_hz, v_axial, v_radial`` [Hz, m/s]."""
+        import pandas as pd
+
+        from .response.run import AVERAGE_COLUMNS
+        r = self.result
+        return pd.DataFrame(dict(zip(AVERAGE_COLUMNS, (r.frequency_hz, r.average_axial,
+                                                       r.average_radial))))
+
+    @property
+    def points(self):
+        """spectrum_points.csv: the velocities at Q1-Q3 [m/s]."""
+        import pandas as pd
+
+        from .response.run import POINT_COLUMNS
+        r = self.result
+        columns = (r.frequency_hz,) + tuple(values[:, i] for i in range(3)
+                                            for values in (r.point_axial, r.point_radial))
+        return pd.DataFrame(dict(zip(POINT_COLUMNS, columns)))
+
+    @property
+    def modes(self):
+        """reduced_modes.csv: ``label, freq_hz, modal_mass, added_mass, damping`` (SI)."""
+        import pandas as pd
+        reduced = self.setup.reduced
+        return pd.DataFrame({"label": list(reduced.labels), "freq_hz": reduced.frequency_hz,
+                             "modal_mass": reduced.modal_mass,
+                             "added_mass": reduced.added_mass, "damping": reduced.damping})
+
+    def write(self, folder: str | Path) -> Path:
+        """Every file of ``copdea-fem spectrum --out folder``; returns the folder."""
+        from .folders import result_directory
+        from .reduced.io import _write_spectrum_files
+        inputs = _inputs(self.study) + ([self.modes_json] if self.modes_json else [])
+        with _claimed(folder, "spectrum", inputs) as target:
+            with result_directory(Path(folder), "spectrum") as staging:
+                _write_spectrum_files(staging, self.study, self.setup, self.result)
+        return target
+
+
+# -- sweep and diagnose: run in a private folder unless one is given -------------------------
+@dataclass
+class _Folder:
+    """A command's result folder: the one asked for, or a private temporary one."""
+
+    path: Path
+    temporary: Any = None
+
+    def copy_to(self, folder, command: str, inputs) -> Path:
+        from .folders import result_directory
+        with _claimed(folder, command, inputs) as target:
+            if Path(folder).resolve() == self.path.resolve():
+                return target
+            with result_directory(Path(folder), command) as staging:
+                for item in self.path.iterdir():
+                    if item.name.startswith(".copdea-fem"):
+                        continue
+                    if item.is_dir():
+                        shutil.copytree(item, staging / item.name)
+                    else:
+                        shutil.copy2(item, staging / item.name)
+        return target
+
+
+def _private(command: str, out) -> _Folder:
+    if out is not None:
+        return _Folder(Path(out))
+    temporary = tempfile.TemporaryDirectory(prefix=f"copdea-fem-{command}-")
+    return _Folder(Path(temporary.name) / "result", temporary)
+
+
+def sweep(sweep_file: str | Path, overrides: dict[str, Any] | list[str] | None = None, *,
+          out: str | Path | None = None, executor: str | None = None,
+          workers: int | None = None, allow_large: bool = False,
+          progress: Callable[[str], None] | None = None) -> "SweepResult":
+    """A parameter sweep with tracked modes (``copdea-fem sweep``).
+
+    ``out``: the result folder (resumable: a second call continues); without it the sweep
+    runs in a private temporary folder, kept while the result lives (``write`` copies it).
+    """
+    from .study import parse_overrides
+    from .sweep import load_sweep, run_sweep
+
+    if isinstance(overrides, (list, tuple)):
+        overrides = parse_overrides(list(overrides))
+    spec = load_sweep(sweep_file, overrides=overrides)
+    if spec.model != "reduced":
+        for point in spec.points:
+            check_size(point.study, allow_large)
+    folder = _private("sweep", out)
+    if out is not None:
+        with _claimed(out, "sweep", [sweep_file]):
+            outcome = run_sweep(spec, out_dir=folder.path, executor=executor,
+                                workers=workers, progress=_progress(progress))
+    else:
+        outcome = run_sweep(spec, out_dir=folder.path, executor=executor, workers=workers,
+                            progress=_progress(progress))
+    return SweepResult(spec, outcome, folder, Path(sweep_file))
+
+
+@dataclass
+class SweepResult:
+    """The result of :func:`sweep`: ``outcome`` (:class:`copdea_fem.sweep.gather.SweepOutcome`)."""
+
+    spec: Any
+    outcome: Any
+    folder: _Folder = field(repr=False)
+    source: Path | None = None
+
+    @property
+    def table(self):
+        """sweep.csv: one row per point and tracked mode."""
+        import pandas as pd
+        return pd.read_csv(self.folder.path / "sweep.csv")
+
+    @property
+    def failed(self) -> dict:
+        return dict(self.outcome.failed)
+
+    def write(self, folder: str | Path) -> Path:
+        """The sweep's files (sweep.csv/json/png, the point store) in ``folder``."""
+        return self.folder.copy_to(folder, "sweep", [self.source] if self.source else [])
+
+
+def diagnose(measured: str | Path, *, alpha: float = 0.05, model: str | None = None,
+             fe_cache=None, progress: Callable[[str], None] | None = None) -> "Diagnosis":
+    """Which catalogued effects the model lacks, from measured resonances and spectra
+    (``copdea-fem diagnose``, nothing written)."""
+    import dataclasses
+
+    from .diagnose import load_measured
+    from .diagnose.select import Diagnoser
+
+    if not 0 < alpha < 1:
+        raise StudyError(f"--alpha = {alpha!r} is not allowed; allowed: (0, 1)")
+    data = load_measured(measured)
+    if model is not None:
+        data = dataclasses.replace(data, model=model)
+    engine = None
+    say = _progress(progress)
+    if data.model == "fe":
+        from .diagnose.anchored import AnchoredEngine
+        from .diagnose.fe import FEModel
+        engine = AnchoredEngine(data, FEModel(cache_dir=fe_cache, progress=say))
+    result = Diagnoser(data, alpha=alpha, engine=engine, progress=say).run()
+    return Diagnosis(result, Path(measured))
+
+
+@dataclass
+class Diagnosis:
+    """The result of :func:`diagnose`: ``result`` (the diagnosis), ``document`` (the
+    content of diagnosis.json), ``write``."""
+
+    result: Any
+    source: Path | None = None
+
+    @property
+    def verdict(self) -> str:
+        return self.result.verdict
+
+    @property
+    def missing_effects(self) -> list:
+        return list(self.result.missing_effects)
+
+    @property
+    def document(self) -> dict:
+        from .diagnose.report import diagnosis_document
+        return diagnosis_document(self.result)
+
+    def write(self, folder: str | Path) -> Path:
+        """report.md, diagnosis.json, figures and final_study.yaml in ``folder``."""
+        from .diagnose.report import write_report
+        from .folders import result_directory
+        inputs = [self.source] + [path for condition in self.result.measured.conditions
+                                  for path in condition.files.values()]
+        with _claimed(folder, "diagnose", inputs) as target:
+            with result_directory(Path(folder), "diagnose") as staging:
+                write_report(self.result, staging)
+        return target
