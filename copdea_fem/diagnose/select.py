@@ -350,7 +350,13 @@ class Diagnoser:
         names = [c.name for c in self.conditions]
         full_u = table.fit(names)
         values = table.values(full_u)
-        _, matches = self.evaluate(table.state_at(full_u))
+        if self.direct:      # the FE's own tabulation (exact at the grid; no seed-dependent
+            matches = {}     # solve per candidate -- an accepted model is solved exactly)
+            for c in self.conditions:
+                modes = table.modes_at(c.name, full_u)
+                matches[c.name] = self.match(c, modes) if modes is not None else None
+        else:
+            _, matches = self.evaluate(table.state_at(full_u))
         deviance = self.deviances(matches)
         total = sum(deviance.values())
         current_total = sum(current_deviance.values())
