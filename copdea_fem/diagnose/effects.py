@@ -264,6 +264,7 @@ def frame_overrides(study, shape=None) -> dict:
         side = g["frame_side"]
         if side <= 2 * r_o:
             side = out["geometry.frame_side"] = FRAME_OVER_DIAMETER * 2 * r_o
+            out["geometry.frame_radius"] = 0.5 * side       # its derived default, kept in step
         if side / 2 ** 0.5 >= radius:
             out["air.domain_radius"] = 1.1 * side / 2 ** 0.5
     else:
