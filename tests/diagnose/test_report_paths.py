@@ -154,3 +154,22 @@ def test_the_acceptance_boundary_a_gap_rising_by_one_percent_is_refused():
     assert "gap does not fall" in refusal(base, worse, ("uniform_stiffness",))
     assert "gap does not fall" in refusal(base, worse, ("modal_damping",))
     assert refusal(base, better, ("uniform_stiffness",)) is None
+
+
+def test_an_ambiguity_between_a_mounting_and_a_material_effect_names_what_separates_them():
+    """The separating measurement of two explanations: the mode where the FE-evaluated
+    models differ most, and in vacuo where one acts through the air only."""
+    from copdea_fem.diagnose.report import _separation_text
+    from copdea_fem.diagnose.select import CandidateScore, _in_vacuo_separates
+
+    def score(effect):
+        return CandidateScore((effect,), (), 0.0, 0.0, {}, 0.0, 0.0, 0.0, False, {})
+
+    assert _in_vacuo_separates(score("baffle"), score("uniform_stiffness"))
+    assert _in_vacuo_separates(score("viscoelastic_stiffening"), score("frame_reflection"))
+    assert not _in_vacuo_separates(score("baffle"), score("frame_reflection"))
+    assert not _in_vacuo_separates(score("uniform_stiffness"), score("electrostatic_softening"))
+    text = _separation_text({"first": "baffle", "second": "uniform_stiffness", "sigma": 9.0,
+                             "label": "(0,1)", "condition": "stretch1p05", "first_hz": 57.0,
+                             "second_hz": 62.1, "in_vacuo": True}, 0.01)
+    assert "(0,1) at stretch1p05" in text and "in vacuo" in text
