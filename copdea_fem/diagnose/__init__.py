@@ -81,8 +81,11 @@ def run_diagnose(measured_path, out_dir=None, progress=None, alpha: float = 0.05
     engine = None
     if measured.model == "fe":
         from copdea_fem.diagnose.anchored import AnchoredEngine
+        from copdea_fem.diagnose.direct import DirectFEEngine, ring_can_represent
         from copdea_fem.diagnose.fe import FEModel
-        engine = AnchoredEngine(measured, FEModel(cache_dir=fe_cache, progress=progress))
+        fe = FEModel(cache_dir=fe_cache, progress=progress)
+        engine = (AnchoredEngine(measured, fe) if ring_can_represent(measured.base_study)
+                  else DirectFEEngine(measured, fe))     # no disc: the FE directly
     result = Diagnoser(measured, alpha=alpha, engine=engine, progress=progress).run()
     with result_directory(out, "diagnose") as staging:
         files = write_report(result, staging)

@@ -47,7 +47,8 @@ from copdea_fem.reduced.rings import ReducedModelError
 # on in the state; its parameters, if any, act on the ring surrogate only), "anchored" (the
 # ring model moves it well: in the FE from the step that accepts it, at the accepted
 # values), or absent (ring only).
-FE_ROLES = {"air_loading": "switch", "frame_reflection": "switch", "disc_pumping": "anchored",
+FE_ROLES = {"air_loading": "switch", "frame_reflection": "switch", "baffle": "switch",
+            "disc_pumping": "anchored",
             "electrostatic_softening": "anchored", "uniform_stiffness": "anchored"}
 # Parameter values of a switch in the anchor state (the ring side of the ratio).
 SWITCH_VALUES = {"air_loading": (1.0,)}

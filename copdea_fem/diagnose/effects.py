@@ -17,7 +17,7 @@ FE can (tested only with the FE as the model of record and air in the model).
 
 Identifiers are a contract (``diagnosis.json``): ``air_loading,
 electrostatic_softening, spring_mass, disc_pumping, modal_damping,
-frame_reflection, viscoelastic_stiffening, uniform_stiffness``.
+frame_reflection, viscoelastic_stiffening, uniform_stiffness`` and (issue 24) ``baffle``.
 """
 
 from __future__ import annotations
@@ -241,18 +241,76 @@ _register(Effect(
     detect=lambda s: any(s.get(key) > 0 for key in PAPER_DAMPING),
     needs="quality_factors"))
 
+# G1's frame over its membrane diameter (Sect. 5.1: an 80 mm square around r_o = 35.5 mm):
+# the size of a frame the base study does not state validly for its membrane.
+FRAME_OVER_DIAMETER = 0.080 / 0.071
+MOUNTINGS = ("baffle", "frame_reflection")     # mutually exclusive: one mounting at a time
+
+
+def frame_overrides(study, shape=None) -> dict:
+    """Overrides that put the membrane in a reflecting frame (module notes of issue 24).
+
+    Shape: the base study's ``geometry.frame`` when it is square or circle, else square
+    (Sect. 5.1).  Size: the study's ``geometry.frame_side`` / ``frame_radius`` (stated)
+    when it fits the membrane and the air sphere, else G1's proportion
+    (:data:`FRAME_OVER_DIAMETER` x 2 r_o) -- so any membrane size has a frame; the air
+    sphere grows to keep a square frame's corners inside it (R >= 1.1 x side / sqrt 2).
+    """
+    g, air = study["geometry"], study["air"]
+    shape = shape or (g["frame"] if g["frame"] in ("square", "circle") else "square")
+    r_o, radius = g["outer_radius"], air["domain_radius"]
+    out = {"geometry.frame": shape}
+    if shape == "square":
+        side = g["frame_side"]
+        if side <= 2 * r_o:
+            side = out["geometry.frame_side"] = FRAME_OVER_DIAMETER * 2 * r_o
+            out["geometry.frame_radius"] = 0.5 * side       # its derived default, kept in step
+        if side / 2 ** 0.5 >= radius:
+            out["air.domain_radius"] = 1.1 * side / 2 ** 0.5
+    else:
+        frame_radius = g["frame_radius"]
+        if not r_o < frame_radius < radius:
+            frame_radius = out["geometry.frame_radius"] = FRAME_OVER_DIAMETER * r_o
+        if frame_radius >= radius:
+            out["air.domain_radius"] = 1.1 * frame_radius
+    return out
+
+
 _register(Effect(
     id="frame_reflection", title="reflecting frame",
-    description="The square 80 mm frame reflects the membrane's sound (Sect. 5.1); the paper "
-                "blames its remaining <= 8 % error on reflecting parts near the device "
-                "(Sect. 5.2).  Only the coupled air/PML FE can represent it (tested with FE "
-                "solves of the square frame: the 3-D quadrant); the ring model has no frame.",
+    description="A rigid frame in the membrane plane around it reflects the membrane's sound "
+                "(Sect. 5.1: the square 80 mm frame); the paper blames its remaining <= 8 % "
+                "error on reflecting parts near the device (Sect. 5.2).  Only the coupled "
+                "air/PML FE can represent it: the base study's frame shape and size when it "
+                "states a square or circle frame that fits the membrane, else a square of G1's "
+                "proportion (side 1.13 x the membrane diameter; 80 mm for G1); the circle on "
+                "the axisymmetric engine, the square on the 3-D quadrant.  The ring model has "
+                "no frame.",
     kind="physics", engine="coupled_fe", parameters=(),
-    signature="mode-dependent shifts of a few per cent, largest on (0,1) (Sect. 5.2), and "
-              "split (m,n) pairs",
-    on_overrides=lambda s, v: {"geometry.frame": "square"},
+    signature="mode-dependent shifts of a few per cent, largest on (0,1) (Sect. 5.2): a "
+              "weaker baffle -- the (0,n) modes lowered most, the (m,1) less, falling with m "
+              "(0.65 m drum head in a square of side 0.73 m, coupled FE: (0,1) -3.7 %, (1,1) "
+              "-2.2 %, (2,1) -1.4 %, (0,2) -2.1 %); split (m,n) pairs (square frame only: "
+              "a/b of m = 2 shifted differently)",
+    on_overrides=lambda s, v: frame_overrides(s),
     off_overrides=lambda s: {"geometry.frame": "none"},
-    detect=lambda s: s["geometry"]["frame"] != "none"))
+    detect=lambda s: s["geometry"]["frame"] in ("square", "circle")))
+
+_register(Effect(
+    id="baffle", title="membrane in an infinite baffle (mounting)",
+    description="The membrane's rim sits in an infinite rigid plane (a drum head in a wall, a "
+                "loudspeaker in a box front; issue 24): the air cannot flow round the rim from "
+                "one face to the other.  Evaluated with the coupled air/PML FE on the "
+                "axisymmetric engine (geometry.frame: baffle); the ring model has no baffle.",
+    kind="physics", engine="coupled_fe", parameters=(),
+    signature="every membrane mode lower than open in air, (0,1) most (a monopole: the baffle "
+              "blocks the short circuit round the rim), (0,2) and the (m,1) modes less, "
+              "falling with m (0.65 m drum head, coupled FE: (0,1) -12 %, (1,1) -4.4 %, (2,1) "
+              "-2.2 %, (3,1) -1.3 %, (0,2) -3.1 %; G1 at z = 11 mm, 2 kV: (0,1) -9 %, (1,1) -3 %); "
+              "no split pairs (axisymmetric)",
+    on_overrides=lambda s, v: {"geometry.frame": "baffle"},
+    off_overrides=lambda s: {"geometry.frame": "none"},
+    detect=lambda s: s["geometry"]["frame"] == "baffle"))
 
 _register(Effect(
     id="viscoelastic_stiffening", title="visco-elastic stiffening",

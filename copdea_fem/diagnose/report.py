@@ -24,6 +24,7 @@ import yaml
 from copdea_fem.diagnose.compare import GATE
 from copdea_fem.diagnose.effects import CATALOGUE, catalogue_table
 from copdea_fem.diagnose.engine import state_overrides
+from copdea_fem.diagnose.evidence import explained
 from copdea_fem.diagnose.peaks import peak_height, peak_width
 from copdea_fem.study import package_versions
 
@@ -60,7 +61,7 @@ def _pair_rows(result, name, which) -> list:
     spectrum = condition.spectrum
     model_spectrum = None
     if spectrum is not None and prediction is not None:
-        model_spectrum = prediction.spectra()
+        model_spectrum = prediction.spectra()       # None: the FE evaluated directly
     rows = []
     for pair in matches.pairs:
         row = {"model_label": pair.model.label, "model_hz": pair.model.frequency_hz,
@@ -156,6 +157,8 @@ def diagnosis_document(result) -> dict:
                        "sqrt(V) of the noise model"},
         "model_of_record": result.model,
         "fe": {"solves": result.fe_solves, "seconds": result.fe_seconds},
+        "engines": result.engines,
+        "explained": explained(result), "remaining_off": result.remaining_off,
         "ring_convergence": result.ring_convergence,
         "rejected": result.rejected,
         "acceptance": "an effect that passes the test is accepted only when, evaluated "
@@ -234,7 +237,7 @@ def plot_spectra(path, result, condition):
     for which, predictions, style in (("base model", result.predictions_before, "-"),
                                       ("final model", result.predictions_after, "-")):
         prediction = predictions[condition.name]
-        if prediction is not None:
+        if prediction is not None and prediction.spectra() is not None:
             models.append((which, prediction.spectra(), style))
     for axis, name in ((axes[0], "axial"), (axes[1], "radial")):
         measured = spectrum.axial if name == "axial" else spectrum.radial
@@ -268,7 +271,16 @@ def model_of_record_lines(result) -> list:
     """The report's section on the model of record, the surrogate's convergence and the
     steps the acceptance rule refused."""
     lines = ["## Model of record", ""]
-    if result.model == "fe":
+    if result.model == "fe" and result.engines.get("states") is not None:
+        states = "; ".join(f"{k}: {', '.join(v)} engine" for k, v in
+                           result.engines["states"].items())
+        lines += [f"The FE as the base study is written, evaluated **directly** at every "
+                  f"effect state (the ring surrogate cannot represent a membrane without a "
+                  f"central disc), solved {result.fe_solves} time(s) in "
+                  f"{result.fe_seconds:.0f} s (others from the FE cache); a parameter is "
+                  f"tabulated on {result.engines['fitted_grid']} and interpolated.  Effects "
+                  f"the FE does not model are not tested.  Engines per state: {states}.", ""]
+    elif result.model == "fe":
         lines += [f"The FE as the base study is written (in vacuo where `air.enabled` is "
                   f"false, coupled with the air and its frame where true), solved "
                   f"{result.fe_solves} time(s) in {result.fe_seconds:.0f} s (others from the "
@@ -312,7 +324,11 @@ def report_markdown(result, document: dict, figures: list) -> str:
               f"- missing effects (in order): {', '.join(result.missing_effects) or 'none'}",
               f"- ambiguous: {'; '.join(' / '.join(g) for g in result.ambiguous) or 'none'}",
               f"- gap: {100 * result.gap_before:.2f} % (base model) -> "
-              f"{100 * result.gap_after:.2f} % (final model)", ""]
+              f"{100 * result.gap_after:.2f} % (final model)",
+              f"- explained: {explained(result)}"
+              + (f"; modes still off beyond the noise: "
+                 + ", ".join(i["label"] for i in result.remaining_off)
+                 if result.remaining_off else ""), ""]
     lines += ["## Data", "",
               "| condition | overrides | peaks in scope | out of scope | spectrum | band [Hz] |",
               "|---|---|---|---|---|---|"]
@@ -467,15 +483,23 @@ def report_markdown(result, document: dict, figures: list) -> str:
 
 
 def _separation_text(sep, sigma) -> str:
+    vacuo = (f"  A measurement in vacuo separates them: {sep['first']} or {sep['second']} "
+             "acts through the air only, the other does not." if sep.get("in_vacuo") else "")
+    if sep.get("condition"):                       # the FE evaluated directly: mode by mode
+        return (f"To separate {sep['first']} from {sep['second']}: the two fitted models "
+                f"differ most on {sep['label']} at {sep['condition']} ({sep['first']} "
+                f"{sep['first_hz']:.1f} Hz, {sep['second']} {sep['second_hz']:.1f} Hz: "
+                f"{sep['sigma']:.1f} sigma_f, sigma_f = {100 * sigma:g} %): measure that mode "
+                "(labelled, several times) and the (0,n) modes." + vacuo)
     if not sep.get("label"):
         return (f"No operating point of the reduced model separates {sep['first']} from "
                 f"{sep['second']}: a different observable is needed (e.g. the static force "
-                "F(z) at two voltages, Fig. 4b).")
+                "F(z) at two voltages, Fig. 4b)." + vacuo)
     return (f"To separate {sep['first']} from {sep['second']}: measure at z = "
             f"{1e3 * sep['z']:g} mm, V_b = {sep['voltage'] / 1e3:g} kV, where the two fitted "
             f"models differ by {sep['sigma']:.1f} sigma_f over all modes (sigma_f = "
             f"{100 * sigma:g} %); most in {sep['label']}: {sep['first']} predicts "
-            f"{sep['first_hz']:.1f} Hz, {sep['second']} {sep['second_hz']:.1f} Hz.")
+            f"{sep['first_hz']:.1f} Hz, {sep['second']} {sep['second_hz']:.1f} Hz." + vacuo)
 
 
 def write_report(result, directory) -> list[Path]:
@@ -504,7 +528,7 @@ def write_report(result, directory) -> list[Path]:
               "# conditions (use --set): " + "; ".join(
                   f"{c.name}: " + ", ".join(f"{k}={v}" for k, v in c.overrides.items())
                   for c in result.measured.conditions)]
-    data = study.as_dict()
+    data = _yaml_plain(study.as_dict())
     data["provenance"] = package_versions()
     (out / "final_study.yaml").write_text("\n".join(header) + "\n"
                                           + yaml.safe_dump(data, sort_keys=False))
@@ -515,23 +539,50 @@ def write_report(result, directory) -> list[Path]:
 
 
 def _json_default(value):
-    if isinstance(value, (np.floating, np.integer)):
+    """What ``json.dumps`` cannot write itself, as a plain type (after :func:`_clean`, a
+    last resort: a value of an unknown type becomes its text, never an exception)."""
+    plain = _plain(value)
+    if plain is not value:
+        return plain
+    return str(value)
+
+
+def _plain(value):
+    """numpy scalars (bool included) and arrays, paths, sets and mappings as plain Python;
+    other values unchanged."""
+    if isinstance(value, np.bool_):
+        return bool(value)
+    if isinstance(value, np.generic):             # numpy integers, floats, strings
         return value.item()
     if isinstance(value, np.ndarray):
         return value.tolist()
     if isinstance(value, Path):
         return str(value)
-    raise TypeError(f"cannot serialise {type(value).__name__}")
+    if isinstance(value, (set, frozenset)):
+        return sorted(value, key=str)
+    return value
 
 
 def _clean(value):
-    """Strict JSON: non-finite floats become null, tuples lists, numpy scalars Python."""
+    """Strict JSON: non-finite floats become null, tuples and sets lists, numpy scalars
+    (bools included) and arrays Python, paths text, keys text."""
+    value = _plain(value)
     if isinstance(value, dict):
-        return {str(k): _clean(v) for k, v in value.items()}
+        return {str(_plain(k)): _clean(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
         return [_clean(v) for v in value]
-    if isinstance(value, (np.floating, np.integer)):
-        value = value.item()
     if isinstance(value, float) and not math.isfinite(value):
         return None
+    if value is None or isinstance(value, (bool, int, float, str)):
+        return value
+    return str(value)                               # anything else: its text, never a crash
+
+
+def _yaml_plain(value):
+    """Like :func:`_clean` for ``final_study.yaml`` (YAML keeps non-finite floats)."""
+    value = _plain(value)
+    if isinstance(value, dict):
+        return {str(_plain(k)): _yaml_plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_yaml_plain(v) for v in value]
     return value

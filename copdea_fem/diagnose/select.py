@@ -82,10 +82,13 @@ import scipy.stats
 from copdea_fem.diagnose.anchored import ring_only_off
 from copdea_fem.diagnose.compare import (ConditionMatch, DevianceTerms, MeasuredPeak, gap,
                                          match_condition)
-from copdea_fem.diagnose.effects import CATALOGUE
+from copdea_fem.diagnose.direct import (DIRECT_EFFECTS, DIRECT_GRID, PINNED_KEYS,
+                                        DirectFEEngine, ring_can_represent)
+from copdea_fem.diagnose.effects import CATALOGUE, MOUNTINGS
 from copdea_fem.diagnose.engine import Engine, safe_predict
 from copdea_fem.diagnose.fe import BAND_MARGIN
-from copdea_fem.diagnose.evidence import describe_evidence, goodness_of_fit, verdict
+from copdea_fem.diagnose.evidence import (describe_evidence, goodness_of_fit, remaining_off,
+                                         verdict)
 from copdea_fem.diagnose.peaks import find_spectrum_peaks, peak_height
 from copdea_fem.diagnose.tabulation import INVALID, Tabulation
 from copdea_fem.reduced.rings import ReducedModelError
@@ -205,6 +208,8 @@ class DiagnosisResult:
     model: str = "reduced"                         # the model of record: "fe" or "reduced"
     fe_solves: int = 0
     fe_seconds: float = 0.0
+    remaining_off: list = field(default_factory=list)   # modes off beyond the noise (final)
+    engines: dict = field(default_factory=dict)          # what evaluated what (report)
 
 
 def condition_peaks(condition) -> list[MeasuredPeak]:
@@ -238,9 +243,17 @@ class Diagnoser:
         if engine is None and measured.model == "fe":
             from copdea_fem.diagnose.anchored import AnchoredEngine
             from copdea_fem.diagnose.fe import FEModel
-            engine = AnchoredEngine(measured, FEModel(progress=self.progress))
+            fe = FEModel(progress=self.progress)
+            engine = (AnchoredEngine(measured, fe) if ring_can_represent(measured.base_study)
+                      else DirectFEEngine(measured, fe))
+        if engine is None and not ring_can_represent(measured.base_study):
+            raise StudyError(f"model = {measured.model!r} is not allowed for a membrane without "
+                             "a disc (geometry.inner_radius = 0: the ring model of Sect. 3.2.1 "
+                             "needs the central disc); allowed: fe (the FE evaluated directly)")
         self.engine = engine or Engine(measured)
         self.uses_fe = hasattr(self.engine, "anchor")
+        self.direct = bool(getattr(self.engine, "direct", False))
+        self.pinned = PINNED_KEYS if self.direct else ()
         self.conditions = measured.conditions
         self.peaks = {c.name: condition_peaks(c) for c in self.conditions}
         self._terms: dict = {}
@@ -293,6 +306,19 @@ class Diagnoser:
                 continue
             if effect_id in on:
                 continue
+            if self.direct and effect_id not in DIRECT_EFFECTS:
+                skipped[effect_id] = ("needs the ring surrogate, which cannot represent this "
+                                      "membrane (no central disc), and the FE does not model "
+                                      "it")
+                continue
+            if effect_id == "disc_pumping" and base_study["geometry"]["inner_radius"] == 0:
+                skipped[effect_id] = "a membrane without a disc has no disc to pump"
+                continue
+            mounted = [m for m in MOUNTINGS if m in on and m != effect_id]
+            if effect_id in MOUNTINGS and mounted:
+                skipped[effect_id] = (f"another mounting ({mounted[0]}) is in the model: one "
+                                      "mounting at a time")
+                continue
             if entry.engine == "coupled_fe" and "air_loading" not in on:
                 skipped[effect_id] = ("needs air in the model (the frame reflects sound): "
                                       "tested once air_loading is on")
@@ -317,12 +343,20 @@ class Diagnoser:
     # -- fitting -----------------------------------------------------------------------------
     def score(self, state, group, current_deviance: dict, tested: int) -> CandidateScore:
         """Fit, cross-validate and test one candidate group (module notes)."""
-        parameters = [p for e in group for p in CATALOGUE[e].parameters]
-        table = Tabulation(self, state, group, parameters, nuisance=True)
+        parameters = [p for e in group for p in CATALOGUE[e].parameters
+                      if p.key not in self.pinned]
+        table = Tabulation(self, state, group, parameters, nuisance=True, pinned=self.pinned,
+                           grid=DIRECT_GRID if self.direct else None)
         names = [c.name for c in self.conditions]
         full_u = table.fit(names)
         values = table.values(full_u)
-        _, matches = self.evaluate(table.state_at(full_u))
+        if self.direct:      # the FE's own tabulation (exact at the grid; no seed-dependent
+            matches = {}     # solve per candidate -- an accepted model is solved exactly)
+            for c in self.conditions:
+                modes = table.modes_at(c.name, full_u)
+                matches[c.name] = self.match(c, modes) if modes is not None else None
+        else:
+            _, matches = self.evaluate(table.state_at(full_u))
         deviance = self.deviances(matches)
         total = sum(deviance.values())
         current_total = sum(current_deviance.values())
@@ -355,7 +389,8 @@ class Diagnoser:
         if not math.isfinite(delta_cv):
             significant = False
         at_bound = tuple(f"{effect}.{p.name}" for (effect, p), x in zip(
-            ((e, p) for e in group for p in CATALOGUE[e].parameters), full_u[:k])
+            ((e, p) for e in group for p in CATALOGUE[e].parameters
+             if p.key not in self.pinned), full_u[:k])
             if x <= BOUND_MARGIN or x >= 1 - BOUND_MARGIN)
         if at_bound:
             significant = False
@@ -381,11 +416,12 @@ class Diagnoser:
     def refit(self, state, index) -> tuple:
         """Re-fit the parameters of state entry ``index`` with the others fixed."""
         effect_id, _ = state[index]
-        parameters = list(CATALOGUE[effect_id].parameters)
+        parameters = [p for p in CATALOGUE[effect_id].parameters if p.key not in self.pinned]
         if not parameters:
             return state
         rest = state[:index] + state[index + 1:]
-        table = Tabulation(self, rest, (effect_id,), parameters)
+        table = Tabulation(self, rest, (effect_id,), parameters, pinned=self.pinned,
+                           grid=DIRECT_GRID if self.direct else None)
         u = table.fit([c.name for c in self.conditions])
         values = tuple(table.values(u))
         return state[:index] + ((effect_id, values),) + state[index + 1:]
@@ -406,7 +442,7 @@ class Diagnoser:
             raise StudyError(f"conditions {', '.join(bad)} are not allowed: the base model "
                              f"cannot be evaluated there{why}; allowed: operating points the "
                              "model solves")
-        convergence = self.ring_convergence() if self.uses_fe else None
+        convergence = self.ring_convergence() if self.uses_fe and not self.direct else None
         deviance = self.deviances(matches_before)
         matches = matches_before
         steps, missing, ambiguous, rejected = [], [], [], []
@@ -414,7 +450,7 @@ class Diagnoser:
         tested_ever: set = set()
         for index in range(1, len(CATALOGUE) + 1):
             groups, skipped = self.candidates(state, base)
-            not_tested.update(skipped)
+            not_tested.update({e: r for e, r in skipped.items() if e not in tested_ever})
             if not groups:
                 break
             for group in groups:
@@ -503,8 +539,25 @@ class Diagnoser:
             ring_convergence=convergence, model="fe" if self.uses_fe else "reduced",
             fe_solves=self.engine.fe.solves if self.uses_fe else 0,
             fe_seconds=self.engine.fe.seconds if self.uses_fe else 0.0)
+        result.remaining_off = remaining_off(matches_after.values(), self.measured.noise)
+        result.engines = self.engines_used()
         result.verdict = verdict(result)
         return result
+
+    def engines_used(self) -> dict:
+        """Which engine evaluated what (the report's "model of record" section)."""
+        if not self.uses_fe:
+            return {"predictions": "ring model (model: reduced)"}
+        if self.direct:
+            used = getattr(self.engine, "engines", {})
+            return {"predictions": "FE directly (no ring surrogate: the device has no "
+                                   "central disc)",
+                    "states": {" + ".join(k) or "base": sorted(v) for k, v in used.items()},
+                    "fitted_grid": f"{DIRECT_GRID} FE solves per condition and parameter"}
+        return {"predictions": "ring surrogate anchored to the FE (A1)",
+                "fe_switches": "air_loading, baffle, frame_reflection: FE solves "
+                               "(axisymmetric engine for frames none/baffle/circle, 3-D for "
+                               "the square frame)"}
 
     # -- acceptance --------------------------------------------------------------------------
     def _anchor(self, state):
@@ -606,6 +659,8 @@ class Diagnoser:
         the band (what one measurement there would add to the deviance difference); the
         mode that differs most is named.
         """
+        if self.direct:
+            return self._mode_separation(first, second)
         sigma = self.measured.noise.frequency_relative
         template = self.conditions[0]
         z_values = sorted({round(m["z"], 6) for m in self.meta.values()}
@@ -637,8 +692,40 @@ class Diagnoser:
                             "first_hz": mode.frequency_hz, "second_hz": other.frequency_hz,
                             "sigma": combined}
         if best is None:
-            return {"first": first.effects[-1], "second": second.effects[-1], "sigma": 0.0}
+            best = {"first": first.effects[-1], "second": second.effects[-1], "sigma": 0.0}
+        best["in_vacuo"] = _in_vacuo_separates(first, second)
         return best
+
+    def _mode_separation(self, first: CandidateScore, second: CandidateScore) -> dict:
+        """The mode where the two fitted models differ most at the data's conditions, both
+        evaluated by the FE (the direct engine: no operating point to vary on a device
+        without a disc and voltage); a mode seen in few conditions, or one the data lack,
+        measured more carefully separates them."""
+        sigma = self.measured.noise.frequency_relative
+        best = {"first": first.effects[-1], "second": second.effects[-1], "sigma": 0.0}
+        for c in self.conditions:
+            a = safe_predict(self.engine, c, first.state)
+            b = safe_predict(self.engine, c, second.state)
+            if a is None or b is None:
+                continue
+            for mode in a.modes:
+                other = b.mode(mode.label)
+                if other is None or not c.band[0] <= mode.frequency_hz <= c.band[1]:
+                    continue
+                distance = abs(math.log(mode.frequency_hz / other.frequency_hz)) / sigma
+                if distance > best["sigma"]:
+                    best.update({"label": mode.label, "condition": c.name, "sigma": distance,
+                                 "first_hz": mode.frequency_hz,
+                                 "second_hz": other.frequency_hz})
+        best["in_vacuo"] = _in_vacuo_separates(first, second)
+        return best
+
+
+def _in_vacuo_separates(first, second) -> bool:
+    """Whether a measurement in vacuo separates the two: one is an effect of the air (the
+    air loading or a mounting, which act through the air only), the other not."""
+    airy = {"air_loading", *MOUNTINGS}
+    return (first.effects[-1] in airy) != (second.effects[-1] in airy)
 
 
 def _probe(template, overrides):

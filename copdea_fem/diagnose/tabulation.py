@@ -47,19 +47,26 @@ class Tabulation:
     """
 
     def __init__(self, diagnoser, state, group, parameters: list[Parameter],
-                 nuisance: bool = False):
+                 nuisance: bool = False, pinned=(), grid: int | None = None):
         self.d = diagnoser
-        self.state, self.group, self.parameters = state, tuple(group), parameters
-        self.k = len(parameters)
+        self.state, self.group = state, tuple(group)
+        # ``pinned``: study keys the engine does not read (held at their defaults, not
+        # fitted); ``grid``: points per parameter axis (default 9 or 17, module notes)
+        self.pinned = tuple(pinned)
+        self.group_parameters = [p for e in self.group for p in CATALOGUE[e].parameters]
+        self.parameters = [p for p in parameters if p.key not in self.pinned]
+        self.k = len(self.parameters)
+        parameters = self.parameters
         expensive = any(e in EXPENSIVE for e in group)
-        count = (9 if expensive else 17) if self.k == 1 else 9
+        count = grid or ((9 if expensive else 17) if self.k == 1 else 9)
         self.axes = [np.linspace(0, 1, count) for _ in range(self.k)]
         self.default_u = np.array([self._to_u(p, p.default) for p in parameters])
         self.cache: dict = {}
         self.splines: dict = {}
         # nuisance: the fitted parameters of the effects already in the state
         self.nuisance = [(i, j, p) for i, (e, values) in enumerate(state) if nuisance
-                         for j, p in enumerate(CATALOGUE[e].parameters)]
+                         for j, p in enumerate(CATALOGUE[e].parameters)
+                         if p.key not in self.pinned]
         self.nuisance_u0 = np.array([self._to_u(p, state[i][1][j])
                                      for i, j, p in self.nuisance])
         self.jacobian: dict = {}
@@ -122,8 +129,11 @@ class Tabulation:
         return p.lower * (p.upper / p.lower) ** x if p.log else p.lower + x * (p.upper - p.lower)
 
     def values(self, u) -> list:
-        """Candidate parameter values (SI) at a point."""
-        return [self._from_u(p, x) for p, x in zip(self.parameters, np.atleast_1d(u))]
+        """Candidate parameter values (SI) at a point: every parameter of the group, the
+        pinned ones at their defaults."""
+        free = iter(np.atleast_1d(u)[:self.k])
+        return [p.default if p.key in self.pinned else self._from_u(p, next(free))
+                for p in self.group_parameters]
 
     def _tabulate(self):
         grid = np.array(np.meshgrid(*self.axes, indexing="ij")).reshape(self.k, -1).T
@@ -183,7 +193,8 @@ class Tabulation:
         if not hasattr(self, "_fixed"):
             self._fixed = {}
             for c in self.d.conditions:
-                p = safe_predict(self.d.engine, c, extend_state(self.state, self.group, []))
+                p = safe_predict(self.d.engine, c,
+                                 extend_state(self.state, self.group, self.values([])))
                 self._fixed[c.name] = list(p.modes) if p is not None else None
         return self._fixed.get(name)
 
