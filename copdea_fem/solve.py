@@ -156,14 +156,18 @@ def dry_modes(study: Study, mesh=None, progress=_quiet, timings: Timings | None 
             operators = linearised_operators(state, study)
         eigen = study["eigen"]
         with timings.stage("eigen"), _single_threaded_blas():
-            from .eigen import solve_band
+            from .eigen.damped import solve_structural_band
+            from .linearise import operator_damping
             progress(f"dry modes in [{eigen['f_min']:g}, {eigen['f_max']:g}] Hz "
                      f"({operators.size} unknowns) ...")
-            result = solve_band(operators.stiffness, operators.mass, eigen["f_min"],
-                                eigen["f_max"], backend=eigen["backend"],
-                                max_modes=eigen["max_modes"], hermitian=True,
-                                residual_tol=eigen["residual_tol"], progress=progress,
-                                initial_shifts=initial_shifts)
+            # damping keys: the quadratic/rational step in omega (eigen.damped), else linear
+            result = solve_structural_band(
+                operators.stiffness, operators.mass, eigen["f_min"], eigen["f_max"],
+                operator_damping(operators, study),
+                damped_imag_hz=eigen["max_damping_ratio"] * eigen["f_max"],
+                backend=eigen["backend"], max_modes=eigen["max_modes"], hermitian=True,
+                residual_tol=eigen["residual_tol"], progress=progress,
+                initial_shifts=initial_shifts)
         with timings.stage("classify"):
             modes = classify_modes(operators, result, ModeSampler(state))
     return state, modes, result
@@ -195,8 +199,9 @@ def coupled_modes(study: Study, mesh=None, progress=_quiet, timings: Timings | N
     "all": shifts}``); the dry partner solves start afresh.
     """
     from .coupled import assemble_coupled
-    from .eigen import SectorBandResults, solve_band
-    from .linearise import membrane_matrices
+    from .eigen import SectorBandResults
+    from .eigen.damped import solve_structural_band
+    from .linearise import membrane_matrices, operator_damping
     from .modes import assign_labels, coupled_mode_list, match_dry
 
     timings = timings or Timings()
@@ -238,15 +243,22 @@ def coupled_modes(study: Study, mesh=None, progress=_quiet, timings: Timings | N
             progress(where + message)
 
         say(f"dry modes on the same mesh ({operators.size} unknowns) ...")
-        dry_result = solve_band(operators.stiffness, operators.mass, eigen["f_min"],
-                                eigen["f_max"] * 1.5, hermitian=True, progress=say, **band)
+        # damping keys: the quadratic/rational step in omega (eigen.damped), else linear
+        damping = operator_damping(operators, study)
+        dry_result = solve_structural_band(
+            operators.stiffness, operators.mass, eigen["f_min"], eigen["f_max"] * 1.5,
+            damping, damped_imag_hz=eigen["max_damping_ratio"] * eigen["f_max"] * 1.5,
+            hermitian=True, progress=say, **band)
         # wet modes lie below their dry partners: the dry count is the first run's k
         expected = int(np.count_nonzero(dry_result.freq_hz <= 1.1 * eigen["f_max"])) + 2
         say(f"coupled modes in [{eigen['f_min']:g}, {eigen['f_max']:g}] Hz "
             f"({coupled.stiffness.shape[0]} unknowns) ...")
         key = "all" if sector is None else sector.name
         plan = initial_shifts.get(key) if isinstance(initial_shifts, dict) else initial_shifts
-        result = solve_band(coupled.stiffness, coupled.mass, eigen["f_min"], eigen["f_max"],
+        result = solve_structural_band(
+                            coupled.stiffness, coupled.mass, eigen["f_min"], eigen["f_max"],
+                            None if damping is None else damping.embedded(
+                                coupled.membrane_index, coupled.stiffness.shape[0]),
                             hermitian=False, factorize=coupled.factorize,
                             max_imag_hz=eigen["max_damping_ratio"] * eigen["f_max"],
                             initial_shifts=plan, start_modes=expected, progress=say, **band)

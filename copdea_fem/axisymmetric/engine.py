@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..eigen import SectorBandResults, solve_band
+from ..eigen import SectorBandResults
+from ..eigen.damped import solve_structural_band
 from ..modes import AIR, match_dry, membrane_energy_fractions
 from .air import meridian_motion
 from .meridian import MeridianSpec, meridian_mesh
@@ -58,8 +59,11 @@ def _band(study, hermitian=True, **extra):
 
 def _dry_order(study, forms, m, f_max, progress, initial_shifts=None):
     operators = forms.operators(m)
-    result = solve_band(operators.stiffness, operators.mass, study["eigen"]["f_min"], f_max,
-                        progress=progress, initial_shifts=initial_shifts, **_band(study))
+    # damping keys: the quadratic/rational step in omega (eigen.damped), else linear
+    result = solve_structural_band(
+        operators.stiffness, operators.mass, study["eigen"]["f_min"], f_max,
+        forms.damping(operators), damped_imag_hz=study["eigen"]["max_damping_ratio"] * f_max,
+        progress=progress, initial_shifts=initial_shifts, **_band(study))
     return operators, result
 
 
@@ -127,7 +131,11 @@ def axisymmetric_coupled_modes(study, mesh=None, progress=_quiet, timings=None, 
         expected = int(np.count_nonzero(dry_result.freq_hz <= 1.1 * eigen["f_max"])) + 2
         with timings.stage("eigen"):
             say(f"coupled modes ({coupled.stiffness.shape[0]} unknowns) ...")
-            result = solve_band(coupled.stiffness, coupled.mass, eigen["f_min"], eigen["f_max"],
+            damping = forms.damping(dry_operators)
+            result = solve_structural_band(
+                                coupled.stiffness, coupled.mass, eigen["f_min"], eigen["f_max"],
+                                None if damping is None else damping.embedded(
+                                    coupled.membrane_index, coupled.stiffness.shape[0]),
                                 factorize=coupled.factorize, start_modes=expected,
                                 max_imag_hz=eigen["max_damping_ratio"] * eigen["f_max"],
                                 initial_shifts=initial_shifts.get(f"m={m}"), progress=say,

@@ -25,7 +25,6 @@ from . import krylov as krylov_module
 from .krylov import DeflatedOperator, basis_size, counting, nearest_unknown
 from .pairs import KnownPairs
 from .region import BandRegion
-from .spectrum import format_hz, format_radius
 
 
 @dataclass(eq=False)
@@ -136,7 +135,7 @@ class BandSolver:
                 self._check_factorization(factorization)
             except EigenSolverError as error:
                 self.factorisation_seconds += time.perf_counter() - start
-                self.progress(f"shift at {format_hz(sigma)} is singular ({error}); moving it")
+                self.progress(f"shift at {self.region.format_hz(sigma)} is singular ({error}); moving it")
                 sigma += 1e-4 * scale * 10.0**attempt
                 last_error = error
                 continue
@@ -144,12 +143,12 @@ class BandSolver:
             shift = Shift(sigma, factorization)
             self.shifts.append(shift)
             self.progress(
-                f"shift {len(self.shifts)} at {format_hz(sigma)}: factorised n={self.n} "
+                f"shift {len(self.shifts)} at {self.region.format_hz(sigma)}: factorised n={self.n} "
                 f"with {self.backend} in {factorization.factorisation_seconds:.3g} s"
             )
             return shift
         raise EigenSolverError(
-            f"A - sigma B stays singular near sigma = {sigma:.6g} rad^2/s^2 ({format_hz(sigma)}) "
+            f"A - sigma B stays singular near sigma = {sigma:.6g} rad^2/s^2 ({self.region.format_hz(sigma)}) "
             f"after 4 nudges: is the pencil singular (a DOF with zero rows in both A and B)? "
             f"last error: {last_error}"
         )
@@ -197,9 +196,9 @@ class BandSolver:
         self.known.add(values, vectors)
         in_band = int(np.count_nonzero(self.band_contains(self.known.values)))
         self.progress(
-            f"shift {self.shifts.index(shift) + 1} at {format_hz(sigma)}: {values.size} new modes "
+            f"shift {self.shifts.index(shift) + 1} at {self.region.format_hz(sigma)}: {values.size} new modes "
             f"(k={k}, {solves} solves, {run_seconds:.3g} s), {self.known.count} known, "
-            f"{in_band} in band; radius {format_radius(sigma, shift.trusted_radius)}; "
+            f"{in_band} in band; radius {self.region.format_radius(sigma, shift.trusted_radius)}; "
             f"{self.certified_percent()}"
         )
         if in_band > self.max_modes:
@@ -249,8 +248,8 @@ class BandSolver:
                 f"trusted radius (a missed multiple eigenvalue); extending"
             )
         self.progress(
-            f"shift {self.shifts.index(shift) + 1} at {format_hz(shift.sigma)}: certified radius "
-            f"{format_radius(shift.sigma, shift.confirmed_radius)} "
+            f"shift {self.shifts.index(shift) + 1} at {self.region.format_hz(shift.sigma)}: certified radius "
+            f"{self.region.format_radius(shift.sigma, shift.confirmed_radius)} "
             f"({shift.factorization.solve_count - solves_before} solves, {run_seconds:.3g} s); "
             f"{self.certified_percent()}"
         )
@@ -279,7 +278,7 @@ class BandSolver:
         index = self.shifts.index(shift) + 1
 
         def heartbeat(solves, seconds):
-            self.progress(f"shift {index} at {format_hz(shift.sigma)}: {solves} solves, "
+            self.progress(f"shift {index} at {self.region.format_hz(shift.sigma)}: {solves} solves, "
                           f"{seconds:.0f} s ({self.certified_percent()}) ...")
 
         solve = counting(shift.factorization.solve, heartbeat)
@@ -400,7 +399,7 @@ class BandSolver:
         duplicate = any(abs(s.sigma - sigma) <= 1e-12 * self.region.scale for s in self.shifts)
         if duplicate or len(self.shifts) >= self.MAX_SHIFTS:
             raise EigenSolverError(
-                f"cannot cover the band near f = {format_hz(point)}: {len(self.shifts)} shifts, "
+                f"cannot cover the band near f = {self.region.format_hz(point)}: {len(self.shifts)} shifts, "
                 f"max_modes_per_shift={self.max_modes_per_shift} reached at the nearest one; "
                 "raise max_modes_per_shift or lower max_imag_hz"
             )
