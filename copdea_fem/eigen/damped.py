@@ -179,7 +179,7 @@ class LinearisedPencil:
             k_tilde = k_tilde + self._place(g_s, support, support)
         c_block = None if self.C is None else -1j * self.s * self.C
         rows_a = [[None, self.c1 * self.s * identity] + [None] * len(self.branches),
-                  [k_tilde, c_block] + [-self._place(g_s, np.arange(n), support)
+                  [k_tilde, c_block] + [-self._columns(g_s, support)
                                         for g_s, support, _ in self.branches]]
         rows_b = [[self.c1 * identity, None] + [None] * len(self.branches),
                   [None, self.s * self.M] + [None] * len(self.branches)]
@@ -202,6 +202,12 @@ class LinearisedPencil:
         coo = sp.coo_matrix(block)
         return sp.csr_matrix((coo.data, (rows[coo.row], columns[coo.col])),
                              shape=(self.n, self.n))
+
+    def _columns(self, block, support):
+        """``G_j E``: the n x |S| matrix of a branch's block (rows put back at ``S``)."""
+        coo = sp.coo_matrix(block)
+        return sp.csr_matrix((coo.data, (support[coo.row], coo.col)),
+                             shape=(self.n, support.size))
 
     def t_matrix(self, sigma: float) -> sp.csr_matrix:
         """``T(sigma) = K - i sigma C - sigma^2 M + sum_j G_j sigma tau_j/(i + sigma tau_j)``."""
