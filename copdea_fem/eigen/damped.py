@@ -321,6 +321,25 @@ def solve_damped_band(stiffness, mass, f_min: float, f_max: float, terms: Dampin
         return ((f.real >= f_min - edge) & (f.real <= f_max + edge)
                 & (np.abs(f.imag) <= max_imag_hz + edge))
 
+    excluded = None
+    if terms.relaxation:
+        # The relaxation spectrum (internal variables, Re omega ~ 0): one eigenvalue per
+        # unknown of each branch, crowded near -i/(tau_max (1 + sum g)) .. -i/tau_min.  It is
+        # outside the band (study check), so the Krylov runs never want it (a cone of
+        # +-5 % about that stretch of the imaginary axis): a disc then certifies every
+        # eigenvalue but those, which keeps the band's cells certified.
+        taus = [tau for _, tau in terms.relaxation]
+        ratio = sum(matrix_norm_estimate(g) for g, _ in terms.relaxation) / max(
+            matrix_norm_estimate(stiffness), 1e-300)
+        lowest = 1.0 / (max(taus) * (1.0 + max(ratio, 0.0) + 1.0))
+        highest = 1.0 / min(taus)
+
+        def excluded(omegas):
+            omegas = np.asarray(omegas, dtype=complex)
+            depth = -omegas.imag
+            return ((depth >= 0.5 * lowest) & (depth <= 2.0 * highest)
+                    & (np.abs(omegas.real) <= 0.05 * depth) & ~band_contains(omegas))
+
     region = OmegaBandRegion(f_min, f_max, max_imag_hz, 1e-3 * (f_max - f_min))
     plan = None
     if initial_shifts is not None:
@@ -332,7 +351,7 @@ def solve_damped_band(stiffness, mass, f_min: float, f_max: float, terms: Dampin
                         band_contains=band_contains, tol=krylov_tol, progress=progress,
                         initial_shifts=plan, start_modes=start_modes,
                         factorize=lambda sigma: ShiftedLinearisation(pencil, sigma, factorize_t),
-                        krylov=krylov)
+                        krylov=krylov, excluded=excluded)
     solver.solve()
     omegas, vectors = solver.known.values, solver.known.vectors
     selected = band_contains(omegas)

@@ -63,6 +63,10 @@ class BandSolver:
     block_size : int or None
         Right-hand sides per block solve of the ``"krylov-schur"`` method (default
         :data:`copdea_fem.eigen.krylov.BLOCK_SIZE`).
+    excluded : callable or None
+        ``excluded(values)`` -> mask of eigenvalues that no Krylov-Schur run wants: they
+        must lie outside the band, and the discs then certify every eigenvalue but them
+        (the Prony relaxation spectrum of :mod:`copdea_fem.eigen.damped`).
     """
 
     START_MODES = 20           # k of the first run at a new shift
@@ -80,7 +84,7 @@ class BandSolver:
                  max_modes: int, max_modes_per_shift: int, band_contains: Callable,
                  tol: float, progress=None, initial_shifts=None, start_modes=None,
                  factorize: Callable | None = None, krylov: str = "krylov-schur",
-                 block_size: int | None = None):
+                 block_size: int | None = None, excluded: Callable | None = None):
         self.A, self.B = A, B
         self.n = A.shape[0]
         self.start_modes = int(start_modes) if start_modes else self.START_MODES
@@ -89,6 +93,7 @@ class BandSolver:
         self.backend = backend
         self.factorize = factorize
         self.krylov = krylov
+        self.excluded = excluded      # eigenvalues no Krylov-Schur run wants (outside the band)
         self.hermitian = hermitian
         complex_pencil = np.iscomplexobj(A.data) or np.iscomplexobj(B.data)
         self.real_arithmetic = hermitian and not complex_pencil
@@ -291,7 +296,7 @@ class BandSolver:
             operator.solve = solve
             values, vectors, exhausted, decomposition = nearest_unknown(
                 operator, converged + k, tol, self.start_block, self.krylov,
-                self.real_arithmetic, basis, resume=decomposition)
+                self.real_arithmetic, basis, resume=decomposition, excluded=self.excluded)
             shift.session = (operator, decomposition, converged + k)
             new = ~self.known.contains(values, vectors)
             if np.any(new) or exhausted:
@@ -300,7 +305,8 @@ class BandSolver:
                                     self.known.vectors, self.hermitian,
                                     shift.factorization.dtype)
         values, vectors, exhausted, decomposition = nearest_unknown(
-            operator, k, tol, self.start_block, self.krylov, self.real_arithmetic, basis)
+            operator, k, tol, self.start_block, self.krylov, self.real_arithmetic, basis,
+            excluded=self.excluded)
         shift.session = None if decomposition is None else (operator, decomposition, k)
         return values, vectors, exhausted
 
