@@ -197,14 +197,20 @@ class OrderForms:
         unknowns (the Prony branches, :func:`copdea_fem.linearise.damping_terms`): the
         Hessian of :func:`.membrane.order_energy` with ``material_only``, bordered with the
         rim lift like K_s (no spring: it is elastic)."""
-        state, m, space = self.state, operators.m, operators.space
-        trial, test = space.TnT()
-        energy, _ = membrane_forms(state, m, trial, test, operators.axis_m1,
-                                   theta=theta_integral(m), material_only=True)
-        hessian = ngs.BilinearForm(space, symmetric=False)
-        hessian += ngs.Variation(energy)
+        state, m = self.state, operators.m
+        space, _, _, axis_m1 = self._forms_for(m)     # the same space as K_s
+        key = ("material", self._space_key(m), m == 0)
+        if key not in self._forms:          # one symbolic form per space, m a Parameter
+            trial, test = space.TnT()
+            energy, _ = membrane_forms(state, 0 if m == 0 else self.order, trial, test,
+                                       axis_m1, theta=1.0, material_only=True)
+            hessian = ngs.BilinearForm(space, symmetric=False)
+            hessian += ngs.Variation(energy)
+            self._forms[key] = hessian
+        hessian = self._forms[key]
+        self.order.Set(float(m))
         hessian.AssembleLinearization(ngs.GridFunction(space).vec)
-        full = to_scipy(hessian.mat)
+        full = theta_integral(m) * to_scipy(hessian.mat)
         free = operators.free_dofs
         block = full[free][:, free]
         if operators.disc_dof:
@@ -214,8 +220,12 @@ class OrderForms:
     def damping(self, operators: OrderOperators):
         """:func:`copdea_fem.linearise.damping_terms` of one order (None: undamped)."""
         from ..linearise import damping_terms
-        return damping_terms(operators.stiffness, operators.mass, self.study["membrane"],
-                             lambda: self.material_tangent(operators))
+        cache = self.__dict__.setdefault("_damping", {})   # once per order (dry + coupled)
+        if id(operators) not in cache:
+            cache[id(operators)] = (operators, damping_terms(
+                operators.stiffness, operators.mass, self.study["membrane"],
+                lambda: self.material_tangent(operators)))
+        return cache[id(operators)][1]
 
 
 def order_operators(state, study, m: int) -> OrderOperators:
