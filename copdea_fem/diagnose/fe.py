@@ -98,6 +98,9 @@ def fe_key(study: Study) -> str:
               "air.min_membrane_energy") + FE_EFFECT_KEYS
     items = {f"{s}.{k}": v for s in whole for k, v in study[s].items()}
     items.update({key: study.get(key) for key in picked})
+    for key in ("membrane.rayleigh_alpha", "membrane.rayleigh_beta", "membrane.prony"):
+        if not items.get(key):          # undamped (the default): the keys of before issue 23
+            items.pop(key, None)
     text = json.dumps({"version": FE_CACHE_VERSION, "study": items}, sort_keys=True,
                       default=repr)
     return hashlib.sha256(text.encode()).hexdigest()[:24]
