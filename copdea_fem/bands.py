@@ -27,6 +27,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .eigen import solve_band
+from .eigen.damped import solve_structural_band
 
 log = logging.getLogger(__name__)
 
@@ -66,11 +67,18 @@ class BandSolver:
         return self.max_damping_ratio * self.f_max
 
     def solve(self, stiffness, mass, f_min: float, f_max: float, hermitian: bool = True,
-              **extra):
-        """:func:`copdea_fem.eigen.solve_band` on [f_min, f_max] with the study's options."""
-        return solve_band(stiffness, mass, f_min, f_max, backend=self.backend,
-                          max_modes=self.max_modes, residual_tol=self.residual_tol,
-                          hermitian=hermitian, **extra)
+              damping=None, **extra):
+        """The band [f_min, f_max] with the study's options: :func:`copdea_fem.eigen.solve_band`
+        on ``K x = omega^2 M x``, or, with ``damping`` (:class:`copdea_fem.eigen.damped.
+        DampingTerms`: Rayleigh C, Prony branches), the quadratic/rational step in omega of
+        :func:`copdea_fem.eigen.damped.solve_structural_band`, whose band reaches
+        ``|Im f| <= eigen.max_damping_ratio f_max`` when ``extra`` sets no ``max_imag_hz``."""
+        options = dict(backend=self.backend, max_modes=self.max_modes,
+                       residual_tol=self.residual_tol, hermitian=hermitian, **extra)
+        if damping is None or damping.empty:
+            return solve_band(stiffness, mass, f_min, f_max, **options)
+        return solve_structural_band(stiffness, mass, f_min, f_max, damping,
+                                     damped_imag_hz=self.max_damping_ratio * f_max, **options)
 
 
 def coupled_start_modes(dry_freq_hz, f_min: float, f_max: float) -> int:

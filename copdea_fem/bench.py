@@ -12,6 +12,10 @@ assembly, factorisation, eigen iterations, output -- every coupled mode below
 ``axisymmetric`` / ``axisymmetric-3d``: the same in a baffle (frame: baffle) on the
 axisymmetric engine / on the 3-D quadrant; ``engines`` runs both interleaved and
 reports the ratio of the medians (issue 12's benchmark).
+``prony-dry`` / ``prony-coupled`` / ``prony-axisymmetric``: ``dry`` / ``coupled`` /
+``axisymmetric`` interleaved with the same case plus one Prony term (``membrane.prony``,
+ratio 0.5, 1 ms: the damped eigen step in omega of :mod:`copdea_fem.eigen.damped`),
+ratio of the medians (issue 23's target: <= 2).
 ``response``: the forced response of issue 15 (``copdea_fem.response``): G1, z = 16 mm, 2 kV,
 disc on the spring, baffle (``studies/g1_z16_v2_response.yaml``), 800 chirp lines: prestress and
 m = 0 pencil, the modal solve, then the 800-line velocity spectra + SPL (``after_modal``), and
@@ -46,6 +50,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 G1_Z16 = ROOT / "studies" / "g1_z16_v2.yaml"
 DRUM = ROOT / "studies" / "drum_mylar_650mm.yaml"
+#: one Prony term of the damped benchmarks (issue 23)
+PRONY = "membrane.prony=[{modulus_ratio: 0.5, relaxation_time: 1 ms}]"
 #: case -> (study file, overrides); every case but dry is a coupled solve with result files
 CASES = {
     "dry": (G1_Z16, []),
@@ -55,11 +61,19 @@ CASES = {
     "axisymmetric-3d": (G1_Z16, ["geometry.frame=baffle", "mesh.engine=3d"]),
     "drum": (DRUM, []),
     "drum-3d": (DRUM, ["mesh.engine=3d"]),
+    # issue 23: the same with one Prony term (the damped eigen step in omega)
+    "dry-prony": (G1_Z16, [PRONY]),
+    "coupled-prony": (G1_Z16, [PRONY]),
+    "axisymmetric-prony": (G1_Z16, ["geometry.frame=baffle", "mesh.engine=axisymmetric",
+                                    PRONY]),
     "response": (ROOT / "studies" / "g1_z16_v2_response.yaml", []),
     "response-3d": (ROOT / "studies" / "g1_z16_v2_response.yaml", ["mesh.engine=3d"]),
 }
 #: benchmarks that run two cases interleaved and report the ratio of their medians
-PAIRS = {"engines": ("axisymmetric", "axisymmetric-3d")}
+PAIRS = {"engines": ("axisymmetric", "axisymmetric-3d"),
+         # issue 23: one Prony term against the undamped solve (target: ratio <= 2)
+         "prony-dry": ("dry", "dry-prony"), "prony-coupled": ("coupled", "coupled-prony"),
+         "prony-axisymmetric": ("axisymmetric", "axisymmetric-prony")}
 
 
 def _once(case: str, overrides: list[str]) -> dict:
@@ -70,7 +84,7 @@ def _once(case: str, overrides: list[str]) -> dict:
     study = load_study(path, overrides=parse_overrides(fixed + overrides))
     if case.startswith("response"):
         return _once_response(study)
-    if case != "dry":
+    if not case.startswith("dry"):
         return _once_coupled(study)
     timings = Timings()
     start = time.perf_counter()

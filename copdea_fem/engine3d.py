@@ -16,7 +16,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 from .bands import BandSolver, coupled_start_modes
 from .geometry import GeometrySpec, load_mesh
-from .linearise import linearised_operators
+from .linearise import linearised_operators, operator_damping
 from .modes import ModeSampler, classify_modes
 from .pipeline import CoupledSolution, Timings, quiet, single_threaded_blas
 from .prestress import solve_prestress
@@ -89,8 +89,10 @@ class QuadrantEngine:
             with timings.stage("eigen"), single_threaded_blas():
                 progress(f"dry modes in [{band.f_min:g}, {band.f_max:g}] Hz "
                          f"({operators.size} unknowns) ...")
+                # damping keys: the quadratic/rational step in omega (eigen.damped)
                 result = band.solve(operators.stiffness, operators.mass, band.f_min,
-                                    band.f_max, progress=progress, initial_shifts=initial_shifts)
+                                    band.f_max, damping=operator_damping(operators, study),
+                                    progress=progress, initial_shifts=initial_shifts)
             with timings.stage("classify"):
                 modes = classify_modes(operators, result, ModeSampler(state))
         return state, modes, result
@@ -131,8 +133,9 @@ class QuadrantEngine:
                 progress(where + message)
 
             say(f"dry modes on the same mesh ({operators.size} unknowns) ...")
+            damping = operator_damping(operators, study)    # None: undamped
             dry_result = band.solve(operators.stiffness, operators.mass, band.f_min,
-                                    band.dry_partner_top, progress=say)
+                                    band.dry_partner_top, damping=damping, progress=say)
             # wet modes lie below their dry partners: the dry count is the first run's k
             expected = coupled_start_modes(dry_result.freq_hz, band.f_min, band.f_max)
             say(f"coupled modes in [{band.f_min:g}, {band.f_max:g}] Hz "
@@ -141,6 +144,8 @@ class QuadrantEngine:
             plan = initial_shifts.get(key) if isinstance(initial_shifts, dict) else initial_shifts
             result = band.solve(coupled.stiffness, coupled.mass, band.f_min, band.f_max,
                                 hermitian=False, factorize=coupled.factorize,
+                                damping=None if damping is None else damping.embedded(
+                                    coupled.membrane_index, coupled.stiffness.shape[0]),
                                 max_imag_hz=band.max_imag_hz, initial_shifts=plan,
                                 start_modes=expected, progress=say)
             return key, dry_result, result

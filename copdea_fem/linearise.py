@@ -16,6 +16,23 @@ Annex I's business) and stiffness ``k_d`` (eq. 4, linear spring).
 On a quadrant mesh (:mod:`symmetry`) the operators are those of one sector:
 its mirror conditions remove DOFs, the disc DOF exists in the even-even
 sector only, and the disc's mass and stiffness enter divided by 4.
+
+Damping (:func:`damping_terms`, study keys ``membrane.rayleigh_alpha/beta`` and
+``membrane.prony``).  Rayleigh: ``C = alpha M_s + beta K_s`` on the same unknowns (the
+disc's lumped mass and spring included).  Prony (generalised Maxwell): the long-term
+(relaxed) law is eq. (20), which the prestress uses; branch ``j`` adds a spring
+``g_j K_mat`` (``K_mat`` the MATERIAL part of the tangent,
+:func:`copdea_fem.membrane.material_energy_density`) in series with a dashpot of time
+``tau_j``.  With the branch's internal displacement ``q_j`` the energy and dissipation
+are ``E = 1/2 u^T K_s u + sum_j 1/2 g_j (u - q_j)^T K_mat (u - q_j)``, ``D = sum_j 1/2
+g_j tau_j q_j'^T K_mat q_j'``, and Lagrange-Rayleigh gives ``M u'' + C u' + K_s u + sum_j
+g_j K_mat (u - q_j) = 0`` and ``g_j K_mat (tau_j q_j' + q_j - u) = 0``, i.e. ``tau_j
+q_j' + q_j = u``.  The branch carries no stress in the prestressed equilibrium (relaxed),
+so it adds no initial-stress term.  For ``e^{-i omega t}``, ``q_j = u / (1 - i omega
+tau_j)`` and the stiffness becomes ``K_s + sum_j g_j K_mat (-i omega tau_j) / (1 - i omega
+tau_j)``: relaxed (``K_s``) for ``omega tau -> 0``, glassy (``K_s + sum g_j K_mat``) for
+``omega tau -> inf``.  :mod:`copdea_fem.eigen.damped` solves the resulting rational
+eigenproblem exactly by its linearisation with ``q_j`` as unknowns.
 """
 
 from __future__ import annotations
@@ -26,7 +43,8 @@ import ngsolve as ngs
 import numpy as np
 import scipy.sparse as sp
 
-from .membrane import energy_density
+from .eigen.damped import DampingTerms
+from .membrane import energy_density, material_energy_density, tangent_gradient
 from .prestress import PrestressedState
 from .symmetry import SECTORS, Sector, membrane_mirror_dofs
 
@@ -90,6 +108,58 @@ def membrane_matrices(state: PrestressedState):
                             symmetric=False).Assemble()
     state.matrices = (to_scipy(hessian.mat), to_scipy(mass.mat))
     return state.matrices
+
+
+def material_tangent(state: PrestressedState) -> sp.csr_matrix:
+    """Full-space material part of the tangent K_mat [N/m] (SciPy CSR; see
+    :func:`copdea_fem.membrane.material_energy_density`), kept in ``state`` once assembled."""
+    cached = getattr(state, "material_matrix", None)
+    if cached is not None:
+        return cached
+    space, material = state.space, state.material
+    u = space.TrialFunction()
+    form = ngs.BilinearForm(space, symmetric=False)
+    form += ngs.Variation(material_energy_density(tangent_gradient(state.displacement),
+                                                  tangent_gradient(u), material)
+                          * state.measure)
+    zero = ngs.GridFunction(space)
+    form.AssembleLinearization(zero.vec)
+    state.material_matrix = to_scipy(form.mat)
+    return state.material_matrix
+
+
+def damping_terms(stiffness, mass, membrane_keys, material=None) -> DampingTerms | None:
+    """The damping of a membrane pencil (module doc): ``C = alpha M + beta K`` and the
+    Prony branches ``(g_j K_mat, tau_j)``; None without damping keys (the linear path).
+
+    ``stiffness, mass``: ``K_s`` [N/m], ``M_s`` [kg] on the pencil's unknowns;
+    ``membrane_keys``: ``study["membrane"]``; ``material``: a callable returning ``K_mat``
+    on the same unknowns, called only when ``membrane.prony`` is given.
+    """
+    alpha, beta = membrane_keys["rayleigh_alpha"], membrane_keys["rayleigh_beta"]
+    prony = membrane_keys.get("prony") or []
+    if not (alpha or beta or prony):
+        return None
+    damping = (alpha * mass + beta * stiffness).tocsr() if (alpha or beta) else None
+    relaxation = []
+    if prony:
+        tangent = material()
+        relaxation = [(term["modulus_ratio"] * tangent, term["relaxation_time"])
+                      for term in prony]
+    return DampingTerms(damping, relaxation)
+
+
+def operator_damping(operators: MembraneOperators, study) -> DampingTerms | None:
+    """:func:`damping_terms` of one (sector's) :class:`MembraneOperators`."""
+    def reduced_material():
+        full = material_tangent(operators.state)
+        free = operators.free_dofs
+        block = full[free][:, free]
+        if operators.disc_dof:      # the rim lift strains the film; the spring is elastic
+            block = _border(block, full, operators.state.disc_lift.vec.FV().NumPy(), free, 0.0)
+        return block.tocsr()
+    return damping_terms(operators.stiffness, operators.mass, study["membrane"],
+                         reduced_material)
 
 
 def linearised_operators(state: PrestressedState, study, sector: Sector | None = None,

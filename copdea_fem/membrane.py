@@ -83,6 +83,28 @@ def energy_density(u, material: Membrane, voltage, gradient=None):
         tr_c, det_c, voltage)
 
 
+def material_energy_density(base_gradient, increment_gradient, material: Membrane):
+    """Strain energy per pre-stretched area whose Hessian at a zero increment is the
+    MATERIAL part of the tangent only [J/m^2] (for the Prony branches, :mod:`linearise`).
+
+    The whole tangent is ``d2/du2 Psi(C(u0 + u))`` = ``Psi'' : dC : dC`` (material) +
+    ``Psi' : d2C`` (initial stress) + the electrostatic terms.  With ``Ct`` replaced by
+    its linearisation about the prestress, ``Ct0 + D0^T g + g^T D0`` (``D0 = P +
+    Grad_s u0``, ``g = Grad_s u``, affine in ``u``: ``d2C = 0``), the Hessian of the strain
+    energy alone (eq. 20, no co-energy) is exactly ``Psi'' : dC : dC``.  A flat membrane
+    (``Grad_s u0`` in-plane) has ``dC = 0`` for an out-of-plane ``u``: its out-of-plane
+    rows vanish (docs/damping.md).
+    """
+    projector = ngs.CF((1, 0, 0, 0, 1, 0, 0, 0, 0), dims=(3, 3))
+    normal_dyad = ngs.CF((0, 0, 0, 0, 0, 0, 0, 0, 1), dims=(3, 3))
+    base = projector + base_gradient
+    ct = (base.trans * base + base.trans * increment_gradient + increment_gradient.trans * base
+          + normal_dyad)
+    stretch = material.prestretch
+    tr_c, det_c = stretch**2 * (ngs.Trace(ct) - 1), stretch**4 * ngs.Det(ct)
+    return material.thickness / stretch**2 * material.strain_energy(tr_c, det_c)
+
+
 def deformed_normal(u):
     """Unit normal of the deformed surface, n = (F e_x x F e_y)/|.| (points to +z at z = 0)."""
     deformation = ngs.CF((1, 0, 0, 0, 1, 0, 0, 0, 0), dims=(3, 3)) + tangent_gradient(u)

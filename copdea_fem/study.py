@@ -48,6 +48,8 @@ class Key:
     def allowed(self) -> str:
         if self.choices:
             return "one of " + ", ".join(map(str, self.choices))
+        if self.kind is list:
+            return "a list (see the description)"
         if self.kind is bool:
             return "true or false"
         if self.kind is str:
@@ -101,6 +103,20 @@ SCHEMA: dict[str, dict[str, Key]] = {
                            "stiffness in `response` (K_el -> (1 - i eta) K_el for e^{-i omega t}; "
                            "the electrostatic part, the spring and the air stay lossless)",
                            minimum=0, maximum=1),
+        "rayleigh_alpha": Key("1/s", 0.0, "mass-proportional Rayleigh damping alpha of the "
+                              "membrane (and disc): C = alpha M + beta K, K the whole tangent "
+                              "(material + initial stress + electrostatic); the eigen step then "
+                              "solves (K - i omega C - omega^2 M) x = 0 (fields e^{-i omega t}, "
+                              "decaying modes Im f < 0); modal damping ratio alpha/(2 omega) + "
+                              "beta omega/2", minimum=0, maximum=1e6),
+        "rayleigh_beta": Key("s", 0.0, "stiffness-proportional Rayleigh damping beta "
+                             "(see membrane.rayleigh_alpha)", minimum=0, maximum=1.0),
+        "prony": Key(None, [], "viscoelastic membrane: a generalised Maxwell (Prony) series on "
+                     "the material part of the tangent, list of {modulus_ratio: g_j (to the "
+                     "long-term modulus of eq. (20), which the prestress uses), "
+                     "relaxation_time: tau_j [s]}; the material tangent becomes "
+                     "K_mat (1 + sum g_j (-i omega tau_j)/(1 - i omega tau_j)); [] = elastic",
+                     kind=list),
     },
     "disc": {
         "mass": Key("kg", 3.0e-3, f"rigid disc mass M_d ({G1}; G2: 1.9 g)",
@@ -331,6 +347,8 @@ def _convert(key: str, spec: Key, value: Any) -> Any:
     """Turn one raw value into its SI value, checking type, unit and bounds."""
     if value is None and spec.default is None:
         return None
+    if spec.kind is list:
+        return _LIST_KEYS[key](key, value)
     if spec.kind is bool:
         if not isinstance(value, bool):
             raise _fail(key, value, spec.allowed())
@@ -352,6 +370,35 @@ def _convert(key: str, spec: Key, value: Any) -> Any:
         shown = value if not isinstance(value, str) else f"{value} = {number:g} {spec.unit or ''}"
         raise _fail(key, shown, spec.allowed())
     return number
+
+
+#: Prony series: at most this many terms (each adds a block of internal variables).
+MAX_PRONY_TERMS = 8
+PRONY_ALLOWED = ("a list of at most 8 mappings {modulus_ratio: number in (0, 1000], "
+                 "relaxation_time: time in (0, 1000] s, e.g. '1 ms'}")
+
+
+def _prony_terms(key: str, value: Any) -> list:
+    """``membrane.prony`` -> ``[{"modulus_ratio": g_j, "relaxation_time": tau_j [s]}, ...]``."""
+    if value is None:
+        value = []
+    if not isinstance(value, (list, tuple)) or len(value) > MAX_PRONY_TERMS:
+        raise _fail(key, value, PRONY_ALLOWED)
+    terms = []
+    for index, item in enumerate(value):
+        where = f"{key}[{index}]"
+        if not isinstance(item, dict) or set(item) != {"modulus_ratio", "relaxation_time"}:
+            raise _fail(where, item, PRONY_ALLOWED, "each term needs exactly the keys "
+                        "modulus_ratio and relaxation_time")
+        ratio = _convert(f"{where}.modulus_ratio", Key(None, 0.0, "", minimum=0, maximum=1e3,
+                                                       open_min=True), item["modulus_ratio"])
+        tau = _convert(f"{where}.relaxation_time", Key("s", 0.0, "", minimum=0, maximum=1e3,
+                                                       open_min=True), item["relaxation_time"])
+        terms.append({"modulus_ratio": ratio, "relaxation_time": tau})
+    return terms
+
+
+_LIST_KEYS = {"membrane.prony": _prony_terms}
 
 
 def convert_quantity(key: str, value: Any, unit: str, minimum: float | None = None,
@@ -534,6 +581,18 @@ def _check_across_keys(v: dict[str, dict[str, Any]]) -> None:
     e = v["eigen"]
     if e["f_max"] <= e["f_min"]:
         raise _fail("eigen.f_max", e["f_max"], f"> eigen.f_min = {e['f_min']:g} Hz")
+    prony = v["membrane"]["prony"]
+    if prony:
+        # the rational eigen problem's relaxation spectrum lies on Re f = 0 from
+        # |Im f| = 1/(2 pi tau_max (1 + sum g)) (copdea_fem.eigen.damped): keep it out of the band
+        lowest = 1.0 / (2 * math.pi * max(t["relaxation_time"] for t in prony)
+                        * (1 + sum(t["modulus_ratio"] for t in prony)))
+        height = e["max_damping_ratio"] * e["f_max"]
+        if e["f_min"] < 0.5 * lowest and lowest <= 2 * height:
+            raise _fail("eigen.f_min", e["f_min"], f">= {0.5 * lowest:.4g} Hz with this "
+                        "membrane.prony", f"the Prony relaxation spectrum (Re f = 0, |Im f| >= "
+                        f"{lowest:.4g} Hz) would reach the band |Im f| <= eigen.max_damping_ratio"
+                        f" * eigen.f_max = {height:.4g} Hz")
     if v["mesh"]["membrane_size"] > (r_o - r_i) / 2:
         raise _fail("mesh.membrane_size", v["mesh"]["membrane_size"],
                     f"<= {(r_o - r_i) / 2:g} m = half the membrane width",

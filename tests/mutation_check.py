@@ -38,7 +38,7 @@ ROOT = Path(__file__).resolve().parent.parent
 COPIED = ("copdea_fem", "tests", "studies", "meshes", "pyproject.toml", "README.md")
 #: The test files that kill most physics mutations, run first (the rest follow in
 #: name order): with -x a killed mutation then costs seconds to a minute, not the suite.
-FIRST = ("tests/test_materials.py", "tests/test_coupled_references.py",
+FIRST = ("tests/test_materials.py", "tests/test_damping.py", "tests/test_coupled_references.py",
          "tests/test_axisymmetric.py",
          "tests/test_acoustics.py", "tests/test_coupled.py", "tests/test_symmetry.py",
          "tests/test_dry_modes.py", "tests/test_prestress.py")
@@ -199,6 +199,23 @@ MUTATIONS = (
              "return 2 * math.pi if m == 0 else math.pi",
              "return math.pi",
              "axisymmetric: int cos^2(0 theta) d theta = pi instead of 2 pi (masses of m = 0)"),
+    # --- the damped eigen step (issue 23) -------------------------------------------------
+    Mutation("damping_sign_of_c", "copdea_fem/linearise.py",
+             'damping = (alpha * mass + beta * stiffness).tocsr() if (alpha or beta) else None',
+             'damping = (-alpha * mass - beta * stiffness).tocsr() if (alpha or beta) else None',
+             "Rayleigh damping C with the wrong sign (modes grow)"),
+    Mutation("damping_beta_on_mass", "copdea_fem/linearise.py",
+             'damping = (alpha * mass + beta * stiffness).tocsr() if (alpha or beta) else None',
+             'damping = (alpha * mass + beta * mass).tocsr() if (alpha or beta) else None',
+             "Rayleigh damping: beta multiplies the mass instead of the stiffness"),
+    Mutation("prony_ratio_ignored", "copdea_fem/linearise.py",
+             'relaxation = [(term["modulus_ratio"] * tangent, term["relaxation_time"])',
+             'relaxation = [(tangent, term["relaxation_time"])',
+             "Prony series: every branch with the full material tangent (ratio ignored)"),
+    Mutation("prony_internal_variable_sign", "copdea_fem/eigen/damped.py",
+             "= (1j * x[support] - r3[j]) / (1j + sigma * tau)",
+             "= (1j * x[support] + r3[j]) / (1j + sigma * tau)",
+             "damped shift-invert: the Prony internal variable's back-substitution sign"),
     Mutation("axisymmetric_pair_missing", "copdea_fem/axisymmetric/modes.py",
              'if mode.m > 0 and mode.kind != AIR:',
              'if mode.m > 1 and mode.kind != AIR:',

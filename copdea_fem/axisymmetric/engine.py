@@ -64,7 +64,9 @@ def _dry_order(band: BandSolver, forms, m, f_max, progress, initial_shifts=None)
     """The dry pencil of order m and its modes from 0 Hz to ``f_max``, and the frequency
     of its lowest mode [Hz] (from the band, else one lowest-eigenvalue solve)."""
     operators = forms.operators(m)
-    result = band.solve(operators.stiffness, operators.mass, 0.0, f_max, progress=progress,
+    # damping keys: the quadratic/rational step in omega (eigen.damped), else linear
+    result = band.solve(operators.stiffness, operators.mass, 0.0, f_max,
+                        damping=forms.damping(operators), progress=progress,
                         initial_shifts=initial_shifts)
     lowest = float(np.min(result.freq_hz)) if len(result) else \
         lowest_frequency_hz(operators.stiffness, operators.mass)
@@ -166,8 +168,11 @@ def axisymmetric_coupled_modes(study, mesh=None, progress=_quiet, timings=None, 
         expected = coupled_start_modes(dry_result.freq_hz, band.f_min, band.f_max)
         with timings.stage("eigen"):
             say(f"coupled modes ({coupled.stiffness.shape[0]} unknowns) ...")
+            damping = forms.damping(dry_operators)
             result = band.solve(coupled.stiffness, coupled.mass, band.f_min, band.f_max,
                                 hermitian=False, factorize=coupled.factorize,
+                                damping=None if damping is None else damping.embedded(
+                                    coupled.membrane_index, coupled.stiffness.shape[0]),
                                 start_modes=expected, max_imag_hz=band.max_imag_hz,
                                 initial_shifts=initial_shifts.get(f"m={m}"), progress=say)
         with timings.stage("classify"):

@@ -48,7 +48,7 @@ from __future__ import annotations
 
 import ngsolve as ngs
 
-from ..membrane import energy_density
+from ..membrane import energy_density, material_energy_density
 from .meridian import theta_integral
 
 
@@ -83,11 +83,13 @@ def prestress_energy(u, material, voltage):
                                                    gradient=prestress_gradient(u))
 
 
-def order_energy(m, base, amplitudes, material, voltage, theta=None):
+def order_energy(m, base, amplitudes, material, voltage, theta=None, material_only=False):
     """Energy whose Hessian at 0 is the order-m stiffness (module doc) [J/m].
 
     ``m``: the order, an int or an NGSolve Parameter (then m >= 1); ``theta``
-    replaces Theta_m (e.g. 1 when the caller scales).
+    replaces Theta_m (e.g. 1 when the caller scales); ``material_only``: the energy whose
+    Hessian is the material part of the tangent alone
+    (:func:`copdea_fem.membrane.material_energy_density`, no voltage).
     ``base``: the prestress (u_r, u_z) (GridFunction on the membrane line),
     ``amplitudes`` = ((a, da), (b, db), (c, dc)) of the order-m field.
     """
@@ -97,6 +99,8 @@ def order_energy(m, base, amplitudes, material, voltage, theta=None):
     weight = (theta_integral(m) if theta is None else theta) * radius()
 
     def w(gradient):
+        if material_only:       # Hessian at 0 = the material part only (Prony branches)
+            return material_energy_density(g0, gradient - g0, material)
         return energy_density(None, material, voltage, gradient=gradient)
 
     if isinstance(m, int) and m == 0:

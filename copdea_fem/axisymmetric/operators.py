@@ -111,7 +111,7 @@ def _amplitude_proxies(function, axis_m1: bool, lift=None, disc=None):
 
 
 def membrane_forms(state, m, trial, test, axis_m1: bool, lift=None, disc=(None, None),
-                   theta=None):
+                   theta=None, material_only=False):
     """(energy integrand, mass integrand) of the membrane for order m (module doc).
 
     ``m`` may be an NGSolve Parameter (m >= 1); ``theta`` replaces the theta integral
@@ -119,7 +119,8 @@ def membrane_forms(state, m, trial, test, axis_m1: bool, lift=None, disc=(None, 
     material = state.material
     u = _amplitude_proxies(trial, axis_m1, lift, disc[0])
     v = _amplitude_proxies(test, axis_m1, lift, disc[1])
-    energy = order_energy(m, state.displacement, u, material, state.voltage, theta=theta)
+    energy = order_energy(m, state.displacement, u, material, state.voltage, theta=theta,
+                          material_only=material_only)
     theta = theta_integral(m) if theta is None else theta
     mass = theta * material.areal_density * radius() * sum(
         ui[0] * vi[0] for ui, vi in zip(u, v))
@@ -189,6 +190,42 @@ class OrderForms:
             m_ff = _border(m_ff, mass, vector, free, disc_mass)
         return OrderOperators(m, k_ff.tocsr(), m_ff.tocsr(), space, free, with_disc, lift,
                               axis_m1, state, mass.tocsr(), disc_mass)
+
+
+    def material_tangent(self, operators: OrderOperators):
+        """The material part of the tangent K_mat [N/m] of ``operators``' order on its
+        unknowns (the Prony branches, :func:`copdea_fem.linearise.damping_terms`): the
+        Hessian of :func:`.membrane.order_energy` with ``material_only``, bordered with the
+        rim lift like K_s (no spring: it is elastic)."""
+        state, m = self.state, operators.m
+        space, _, _, axis_m1 = self._forms_for(m)     # the same space as K_s
+        key = ("material", self._space_key(m), m == 0)
+        if key not in self._forms:          # one symbolic form per space, m a Parameter
+            trial, test = space.TnT()
+            energy, _ = membrane_forms(state, 0 if m == 0 else self.order, trial, test,
+                                       axis_m1, theta=1.0, material_only=True)
+            hessian = ngs.BilinearForm(space, symmetric=False)
+            hessian += ngs.Variation(energy)
+            self._forms[key] = hessian
+        hessian = self._forms[key]
+        self.order.Set(float(m))
+        hessian.AssembleLinearization(ngs.GridFunction(space).vec)
+        full = theta_integral(m) * to_scipy(hessian.mat)
+        free = operators.free_dofs
+        block = full[free][:, free]
+        if operators.disc_dof:
+            block = _border(block, full, operators.lift.vec.FV().NumPy(), free, 0.0)
+        return block.tocsr()
+
+    def damping(self, operators: OrderOperators):
+        """:func:`copdea_fem.linearise.damping_terms` of one order (None: undamped)."""
+        from ..linearise import damping_terms
+        cache = self.__dict__.setdefault("_damping", {})   # once per order (dry + coupled)
+        if id(operators) not in cache:
+            cache[id(operators)] = (operators, damping_terms(
+                operators.stiffness, operators.mass, self.study["membrane"],
+                lambda: self.material_tangent(operators)))
+        return cache[id(operators)][1]
 
 
 def order_operators(state, study, m: int) -> OrderOperators:

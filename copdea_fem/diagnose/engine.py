@@ -294,7 +294,8 @@ def _frozen(study, exclude=()) -> tuple:
     for section, keys in study.values.items():
         for key, value in keys.items():
             if f"{section}.{key}" not in exclude:
-                items.append((section, key, value))
+                # a list value (membrane.prony: list of mappings) as hashable text
+                items.append((section, key, repr(value) if isinstance(value, list) else value))
     return tuple(items)
 
 

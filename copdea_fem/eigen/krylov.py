@@ -243,7 +243,8 @@ class KrylovDecomposition:
 
 def block_krylov_schur(apply: Callable, start: np.ndarray, k: int, tol: float,
                        max_basis: int, max_restarts: int = 60,
-                       resume: KrylovDecomposition | None = None):
+                       resume: KrylovDecomposition | None = None,
+                       excluded: Callable | None = None):
     """The ``k`` largest-``|theta|`` eigenpairs of the operator ``apply`` (block Krylov-Schur).
 
     Parameters
@@ -263,6 +264,10 @@ def block_krylov_schur(apply: Callable, start: np.ndarray, k: int, tol: float,
     resume : KrylovDecomposition or None
         Continue this decomposition of the same operator (``start`` unused) instead
         of starting afresh.
+    excluded : callable or None
+        ``excluded(theta)`` -> boolean mask of Ritz values that are never wanted (neither
+        returned nor kept at a restart): e.g. the relaxation spectrum of a Prony series,
+        outside the band (:mod:`copdea_fem.eigen.damped`).
 
     Returns
     -------
@@ -315,11 +320,14 @@ def block_krylov_schur(apply: Callable, start: np.ndarray, k: int, tol: float,
         steps = 0
         S = H[:expanded, :expanded]
         theta, Y = np.linalg.eig(S)
-        order = np.argsort(-np.abs(theta), kind="stable")
-        theta, Y = theta[order], Y[:, order]
+        magnitude = np.abs(theta)
+        if excluded is not None:
+            magnitude = np.where(excluded(theta), -1.0, magnitude)
+        order = np.argsort(-magnitude, kind="stable")
+        theta, Y, magnitude = theta[order], Y[:, order], magnitude[order]
         Y = Y / np.linalg.norm(Y, axis=0)
         residual = np.linalg.norm(H[expanded:size, :expanded] @ Y[:, :k], axis=0)
-        if np.all(residual <= tol * np.abs(theta[:k])):
+        if np.all(residual <= tol * np.abs(theta[:k])) and np.all(magnitude[:k] >= 0):
             decomposition.expanded, decomposition.size = expanded, size
             return theta[:k], basis[:, :expanded] @ Y[:, :k], decomposition
         if not full:
@@ -330,11 +338,19 @@ def block_krylov_schur(apply: Callable, start: np.ndarray, k: int, tol: float,
                                    f"{max_restarts} restarts of {max_basis} vectors")
         keep = min(k + (expanded - k) // 2, expanded - block)
         cutoff = abs(theta[keep - 1]) * (1.0 - 1e-12)
+        if excluded is not None:
+            cutoff = max(magnitude[keep - 1], 0.0) * (1.0 - 1e-12)
+
+            def wanted(x):
+                return abs(x) >= cutoff and not bool(excluded(np.array([x]))[0])
+        else:
+            def wanted(x):
+                return abs(x) >= cutoff
         if dtype.kind == "c":
-            T, U, kept = scipy.linalg.schur(S, output="complex", sort=lambda x: abs(x) >= cutoff)
+            T, U, kept = scipy.linalg.schur(S, output="complex", sort=wanted)
         else:                    # real Schur form: a conjugate pair stays in one 2x2 block
             T, U, kept = scipy.linalg.schur(S, output="real",
-                                            sort=lambda re, im: abs(complex(re, im)) >= cutoff)
+                                            sort=lambda re, im: wanted(complex(re, im)))
         kept = int(min(max(kept, 1), expanded - block))
         if kept < expanded and T[kept, kept - 1] != 0:    # never split a real 2x2 block
             kept -= 1 if kept > 1 else -1
@@ -367,7 +383,8 @@ def counting(solve: Callable, say: Callable[[int, float], None]) -> Callable:
 
 def nearest_unknown(operator: DeflatedOperator, k: int, tol: float, start: np.ndarray,
                     method: str, real_arithmetic: bool, basis: int | None = None,
-                    resume: KrylovDecomposition | None = None):
+                    resume: KrylovDecomposition | None = None,
+                    excluded: Callable | None = None):
     """The ``k`` eigenpairs of the pencil nearest ``operator.sigma`` that are not known.
 
     Parameters
@@ -387,6 +404,9 @@ def nearest_unknown(operator: DeflatedOperator, k: int, tol: float, start: np.nd
         runs keep ARPACK's default ``max(2 k + 1, k + 20)``.
     resume : KrylovDecomposition or None
         A Krylov-Schur decomposition of this same ``operator`` to continue.
+    excluded : callable or None
+        ``excluded(lam)`` -> mask of eigenvalues a Krylov-Schur run never wants (they
+        lie outside the band; :func:`block_krylov_schur`).
 
     Returns
     -------
@@ -426,9 +446,15 @@ def nearest_unknown(operator: DeflatedOperator, k: int, tol: float, start: np.nd
                 return sigma + 1.0 / nu, W
     else:
         block = start if np.dtype(operator_dtype).kind == "c" else start.real.copy()
+        skip = None
+        if excluded is not None:
+            def skip(theta):
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    return np.asarray(excluded(sigma + 1.0 / theta), dtype=bool)
         theta, W, decomposition = block_krylov_schur(
             operator.apply, block, k, tol,
-            min(n - 1, max(basis or 0, basis_size(k, start.shape[1], n))), resume=resume)
+            min(n - 1, max(basis or 0, basis_size(k, start.shape[1], n))), resume=resume,
+            excluded=skip)
         with np.errstate(divide="ignore"):
             values = sigma + 1.0 / theta
         return (*_finish(operator, values, W, real_arithmetic), decomposition)

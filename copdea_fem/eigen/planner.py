@@ -25,7 +25,6 @@ from . import krylov as krylov_module
 from .krylov import DeflatedOperator, basis_size, counting, nearest_unknown
 from .pairs import KnownPairs
 from .region import BandRegion
-from .spectrum import format_hz, format_radius
 
 
 @dataclass(eq=False)
@@ -64,6 +63,10 @@ class BandSolver:
     block_size : int or None
         Right-hand sides per block solve of the ``"krylov-schur"`` method (default
         :data:`copdea_fem.eigen.krylov.BLOCK_SIZE`).
+    excluded : callable or None
+        ``excluded(values)`` -> mask of eigenvalues that no Krylov-Schur run wants: they
+        must lie outside the band, and the discs then certify every eigenvalue but them
+        (the Prony relaxation spectrum of :mod:`copdea_fem.eigen.damped`).
     """
 
     START_MODES = 20           # k of the first run at a new shift
@@ -81,7 +84,7 @@ class BandSolver:
                  max_modes: int, max_modes_per_shift: int, band_contains: Callable,
                  tol: float, progress=None, initial_shifts=None, start_modes=None,
                  factorize: Callable | None = None, krylov: str = "krylov-schur",
-                 block_size: int | None = None):
+                 block_size: int | None = None, excluded: Callable | None = None):
         self.A, self.B = A, B
         self.n = A.shape[0]
         self.start_modes = int(start_modes) if start_modes else self.START_MODES
@@ -90,6 +93,7 @@ class BandSolver:
         self.backend = backend
         self.factorize = factorize
         self.krylov = krylov
+        self.excluded = excluded      # eigenvalues no Krylov-Schur run wants (outside the band)
         self.hermitian = hermitian
         complex_pencil = np.iscomplexobj(A.data) or np.iscomplexobj(B.data)
         self.real_arithmetic = hermitian and not complex_pencil
@@ -136,7 +140,7 @@ class BandSolver:
                 self._check_factorization(factorization)
             except EigenSolverError as error:
                 self.factorisation_seconds += time.perf_counter() - start
-                self.progress(f"shift at {format_hz(sigma)} is singular ({error}); moving it")
+                self.progress(f"shift at {self.region.format_hz(sigma)} is singular ({error}); moving it")
                 sigma += 1e-4 * scale * 10.0**attempt
                 last_error = error
                 continue
@@ -144,12 +148,12 @@ class BandSolver:
             shift = Shift(sigma, factorization)
             self.shifts.append(shift)
             self.progress(
-                f"shift {len(self.shifts)} at {format_hz(sigma)}: factorised n={self.n} "
+                f"shift {len(self.shifts)} at {self.region.format_hz(sigma)}: factorised n={self.n} "
                 f"with {self.backend} in {factorization.factorisation_seconds:.3g} s"
             )
             return shift
         raise EigenSolverError(
-            f"A - sigma B stays singular near sigma = {sigma:.6g} rad^2/s^2 ({format_hz(sigma)}) "
+            f"A - sigma B stays singular near sigma = {sigma:.6g} rad^2/s^2 ({self.region.format_hz(sigma)}) "
             f"after 4 nudges: is the pencil singular (a DOF with zero rows in both A and B)? "
             f"last error: {last_error}"
         )
@@ -197,9 +201,9 @@ class BandSolver:
         self.known.add(values, vectors)
         in_band = int(np.count_nonzero(self.band_contains(self.known.values)))
         self.progress(
-            f"shift {self.shifts.index(shift) + 1} at {format_hz(sigma)}: {values.size} new modes "
+            f"shift {self.shifts.index(shift) + 1} at {self.region.format_hz(sigma)}: {values.size} new modes "
             f"(k={k}, {solves} solves, {run_seconds:.3g} s), {self.known.count} known, "
-            f"{in_band} in band; radius {format_radius(sigma, shift.trusted_radius)}; "
+            f"{in_band} in band; radius {self.region.format_radius(sigma, shift.trusted_radius)}; "
             f"{self.certified_percent()}"
         )
         if in_band > self.max_modes:
@@ -249,8 +253,8 @@ class BandSolver:
                 f"trusted radius (a missed multiple eigenvalue); extending"
             )
         self.progress(
-            f"shift {self.shifts.index(shift) + 1} at {format_hz(shift.sigma)}: certified radius "
-            f"{format_radius(shift.sigma, shift.confirmed_radius)} "
+            f"shift {self.shifts.index(shift) + 1} at {self.region.format_hz(shift.sigma)}: certified radius "
+            f"{self.region.format_radius(shift.sigma, shift.confirmed_radius)} "
             f"({shift.factorization.solve_count - solves_before} solves, {run_seconds:.3g} s); "
             f"{self.certified_percent()}"
         )
@@ -279,7 +283,7 @@ class BandSolver:
         index = self.shifts.index(shift) + 1
 
         def heartbeat(solves, seconds):
-            self.progress(f"shift {index} at {format_hz(shift.sigma)}: {solves} solves, "
+            self.progress(f"shift {index} at {self.region.format_hz(shift.sigma)}: {solves} solves, "
                           f"{seconds:.0f} s ({self.certified_percent()}) ...")
 
         solve = counting(shift.factorization.solve, heartbeat)
@@ -292,7 +296,7 @@ class BandSolver:
             operator.solve = solve
             values, vectors, exhausted, decomposition = nearest_unknown(
                 operator, converged + k, tol, self.start_block, self.krylov,
-                self.real_arithmetic, basis, resume=decomposition)
+                self.real_arithmetic, basis, resume=decomposition, excluded=self.excluded)
             shift.session = (operator, decomposition, converged + k)
             new = ~self.known.contains(values, vectors)
             if np.any(new) or exhausted:
@@ -301,7 +305,8 @@ class BandSolver:
                                     self.known.vectors, self.hermitian,
                                     shift.factorization.dtype)
         values, vectors, exhausted, decomposition = nearest_unknown(
-            operator, k, tol, self.start_block, self.krylov, self.real_arithmetic, basis)
+            operator, k, tol, self.start_block, self.krylov, self.real_arithmetic, basis,
+            excluded=self.excluded)
         shift.session = None if decomposition is None else (operator, decomposition, k)
         return values, vectors, exhausted
 
@@ -400,7 +405,7 @@ class BandSolver:
         duplicate = any(abs(s.sigma - sigma) <= 1e-12 * self.region.scale for s in self.shifts)
         if duplicate or len(self.shifts) >= self.MAX_SHIFTS:
             raise EigenSolverError(
-                f"cannot cover the band near f = {format_hz(point)}: {len(self.shifts)} shifts, "
+                f"cannot cover the band near f = {self.region.format_hz(point)}: {len(self.shifts)} shifts, "
                 f"max_modes_per_shift={self.max_modes_per_shift} reached at the nearest one; "
                 "raise max_modes_per_shift or lower max_imag_hz"
             )

@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from .spectrum import TWO_PI
+from .spectrum import TWO_PI, format_hz, format_radius
 
 
 class BandRegion:
@@ -62,6 +62,16 @@ class BandRegion:
                             float(self.centres.real.max() + self.slack.max()))
         self.scale = max(abs(self.real_extent[0]), abs(self.real_extent[1]),
                          float(np.max(np.abs(self.centres))))
+
+    @staticmethod
+    def format_hz(point) -> str:
+        """A point of the region's plane (here lam) as a frequency text (progress lines)."""
+        return format_hz(point)
+
+    @staticmethod
+    def format_radius(sigma, radius) -> str:
+        """A disc about the real shift ``sigma`` as text (progress lines)."""
+        return format_radius(sigma, radius)
 
     def uncovered(self, shifts: np.ndarray, radii: np.ndarray) -> np.ndarray:
         """Shortfall of every cell: ``min_j (|c - sigma_j| + slack - r_j)``; > 0 = not covered."""

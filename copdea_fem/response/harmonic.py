@@ -37,6 +37,19 @@ Direct path::
 on the scaled pencil of :func:`copdea_fem.axisymmetric.operators.coupled_order_operators`
 (membrane rows are not scaled, ``p = beta p^``).
 
+Rayleigh and Prony damping (issue 23)
+-------------------------------------
+With ``membrane.rayleigh_alpha/beta`` or ``membrane.prony`` the membrane block of the
+pencil gets the same terms as the damped eigen step (:mod:`copdea_fem.eigen.damped`,
+:func:`copdea_fem.linearise.damping_terms`).  The direct path solves, exactly,
+
+    (A - i eta K_el^ - i omega C - omega^2 B + sum_j r_j(omega) G_j) x = F V~,
+    r_j(omega) = -i omega tau_j / (1 - i omega tau_j);
+
+the modal path adds their modal (diagonal) projections ``-i omega lambda_j u_j^T C u_j``
+and ``r_j(omega) lambda_j u_j^T G_j u_j`` to each mode's denominator (like the hysteretic
+term below): exact for one isolated mode, an approximation where the damping couples modes.
+
 Modal superposition
 -------------------
 Unscaled, ``A = [[K_s, C^T], [0, K_a]]``, ``B = [[M_s, 0], [-C, M_a]]`` (eq. A3 of
@@ -166,6 +179,18 @@ def elastic_stiffness(state, dry) -> sp.csr_matrix:
     return reduce_matrix(to_scipy(form.mat), dry.free_dofs, _order_lift(dry))
 
 
+def damping_matrix(terms, omega: float) -> sp.csr_matrix:
+    """``-i omega C + sum_j r_j(omega) G_j`` (module doc) at the angular frequency ``omega``
+    [rad/s]."""
+    size = (terms.damping if terms.damping is not None else terms.relaxation[0][0]).shape[0]
+    matrix = sp.csr_matrix((size, size), dtype=complex)
+    if terms.damping is not None:
+        matrix = matrix - 1j * omega * terms.damping
+    for tangent, tau in terms.relaxation:
+        matrix = matrix + (-1j * omega * tau / (1 - 1j * omega * tau)) * tangent
+    return matrix.tocsr()
+
+
 @dataclass
 class ForcedOrder:
     """The m = 0 coupled pencil with its forcing: everything both paths need.
@@ -180,6 +205,7 @@ class ForcedOrder:
     alpha: float
     equilibrium_residual: float
     backend: str = "superlu"
+    damping: object = None          # eigen.damped.DampingTerms on the scaled unknowns, or None
 
     @classmethod
     def build(cls, state, coupled, backend="superlu") -> "ForcedOrder":
@@ -214,7 +240,15 @@ class ForcedOrder:
         matrix = self.coupled.stiffness - complex(omega) ** 2 * self.coupled.mass
         if loss_factor:
             matrix = matrix - 1j * loss_factor * self.elastic
+        if self.damping is not None:
+            matrix = matrix + damping_matrix(self.damping, omega)
         return matrix.tocsc()
+
+    def with_damping(self, terms) -> "ForcedOrder":
+        """The same, with the membrane's damping terms (on its unknowns) in the pencil."""
+        if terms is not None and not terms.empty:
+            self.damping = terms.embedded(np.asarray(self.coupled.membrane_index), self.size)
+        return self
 
     def direct(self, frequency_hz, loss_factor: float = 0.0) -> np.ndarray:
         """Scaled solutions x^ per volt at each frequency [m/V; Pa/(beta V)]: (n, lines)."""
@@ -257,6 +291,8 @@ class ModalBasis:
     labels: tuple
     damping_per_mass: np.ndarray
     left_residuals: np.ndarray
+    viscous_modal: np.ndarray = None      # u_j^T C u_j [N s/m] (Rayleigh), or None
+    relaxation_modal: tuple = ()          # (u_j^T G_j u_j [N/m], tau_j [s]) per Prony term
 
     @classmethod
     def build(cls, forced: ForcedOrder, eigenvalues, vectors, labels, damping_per_mass):
@@ -286,9 +322,16 @@ class ModalBasis:
         weights = participation / norms
         residual0 = first - vectors @ (weights / eigenvalues)
         residual1 = second - vectors @ (weights / eigenvalues ** 2)
+        viscous, relaxation = None, ()
+        if forced.damping is not None:
+            terms = forced.damping
+            if terms.damping is not None:
+                viscous = np.einsum("ij,ij->j", vectors, terms.damping @ vectors)
+            relaxation = tuple((np.einsum("ij,ij->j", vectors, tangent @ vectors), tau)
+                               for tangent, tau in terms.relaxation)
         return cls(eigenvalues, vectors, norms, participation, structural, elastic, residual0,
                    residual1, tuple(labels), np.asarray(damping_per_mass, float),
-                   left_residuals)
+                   left_residuals, viscous, relaxation)
 
     def coefficients(self, frequency_hz, loss_factor: float = 0.0) -> np.ndarray:
         """Weights (lines, J + 2) of [x_1 .. x_J, r0, r1] per volt (module doc)."""
@@ -297,6 +340,11 @@ class ModalBasis:
         denominator = (self.norms * (lam - omega ** 2)
                        - 1j * loss_factor * lam * self.elastic_modal
                        - 1j * omega * lam * self.damping_per_mass * self.structural_mass)
+        if self.viscous_modal is not None:      # Rayleigh, diagonal projection (module doc)
+            denominator = denominator - 1j * omega * lam * self.viscous_modal
+        for modal_tangent, tau in self.relaxation_modal:
+            denominator = denominator + (-1j * omega * tau / (1 - 1j * omega * tau)) \
+                * lam * modal_tangent
         modal = self.participation / denominator
         return np.hstack([modal, np.ones_like(omega), omega ** 2])
 

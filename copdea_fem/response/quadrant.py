@@ -68,7 +68,7 @@ def quadrant_elastic(state, operators):
 def prepare_quadrant(study, progress=None):
     """Mesh, prestress, coupled assembly and the even-even sector, forced."""
     from ..coupled import assemble_coupled
-    from ..linearise import linearised_operators, membrane_matrices
+    from ..linearise import linearised_operators, membrane_matrices, operator_damping
     from ..prestress import solve_prestress
     from ..solve import prepare_mesh
     from ..symmetry import SECTORS
@@ -90,6 +90,7 @@ def prepare_quadrant(study, progress=None):
     force, balance = quadrant_forcing(state, operators)
     elastic = quadrant_elastic(state, operators)
     forced = ForcedOrder.from_parts(coupled, force, elastic, balance, study["eigen"]["backend"])
+    forced.with_damping(operator_damping(operators, study))
     timings["assembly"] = time.perf_counter() - start
     return OrderZero(study, state, coupled, forced, timings)
 

@@ -86,9 +86,11 @@ def prepare_order_zero(study, progress=_quiet) -> OrderZero:
     progress("assembling the m = 0 membrane-air pencil and the voltage forcing ...")
     motion = meridian_motion(state, mesh, study["air"]["domain_radius"])
     air = MeridianAir(state, study, motion)
-    dry = OrderForms(state, study).operators(0)
+    forms = OrderForms(state, study)
+    dry = forms.operators(0)
     coupled = coupled_order_operators(state, study, dry, air)
-    forced = ForcedOrder.build(state, coupled, study["eigen"]["backend"])
+    forced = ForcedOrder.build(state, coupled, study["eigen"]["backend"]).with_damping(
+        forms.damping(dry))
     timings["assembly"] = time.perf_counter() - start
     return OrderZero(study, state, coupled, forced, timings)
 
