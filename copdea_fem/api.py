@@ -318,6 +318,27 @@ def response(study: Study | str | Path, *, allow_large: bool = False,
     return ResponseSolution(result)
 
 
+def _average_table(result):
+    """The average velocity spectra of a response or reduced-model result as a DataFrame
+    (the columns of ``*_average.csv``: ``freq_hz, v_axial, v_radial`` [Hz, m/s])."""
+    import pandas as pd
+
+    from .response.run import AVERAGE_COLUMNS
+    return pd.DataFrame(dict(zip(AVERAGE_COLUMNS, (result.frequency_hz, result.average_axial,
+                                                   result.average_radial))))
+
+
+def _points_table(result):
+    """The point velocity spectra at Q1-Q3 as a DataFrame (``*_points.csv``) [m/s]."""
+    import pandas as pd
+
+    from .response.run import POINT_COLUMNS
+    columns = (result.frequency_hz,) + tuple(values[:, i] for i in range(3)
+                                             for values in (result.point_axial,
+                                                            result.point_radial))
+    return pd.DataFrame(dict(zip(POINT_COLUMNS, columns)))
+
+
 class ResponseSolution:
     """The result of :func:`response`: spectra and SPL as DataFrames, ``write``.
 
@@ -330,23 +351,12 @@ class ResponseSolution:
     @property
     def average(self):
         """response_average.csv: ``freq_hz, v_axial, v_radial`` [Hz, m/s]."""
-        import pandas as pd
-
-        from .response.run import AVERAGE_COLUMNS
-        r = self.result
-        return pd.DataFrame(dict(zip(AVERAGE_COLUMNS, (r.frequency_hz, r.average_axial,
-                                                       r.average_radial))))
+        return _average_table(self.result)
 
     @property
     def points(self):
         """response_points.csv: ``freq_hz`` and the axial/radial velocity at Q1-Q3 [m/s]."""
-        import pandas as pd
-
-        from .response.run import POINT_COLUMNS
-        r = self.result
-        columns = (r.frequency_hz,) + tuple(values[:, i] for i in range(3)
-                                            for values in (r.point_axial, r.point_radial))
-        return pd.DataFrame(dict(zip(POINT_COLUMNS, columns)))
+        return _points_table(self.result)
 
     @property
     def spl(self):
@@ -514,23 +524,12 @@ class Spectrum:
     @property
     def average(self):
         """spectrum_average.csv: ``freq_hz, v_axial, v_radial`` [Hz, m/s]."""
-        import pandas as pd
-
-        from .response.run import AVERAGE_COLUMNS
-        r = self.result
-        return pd.DataFrame(dict(zip(AVERAGE_COLUMNS, (r.frequency_hz, r.average_axial,
-                                                       r.average_radial))))
+        return _average_table(self.result)
 
     @property
     def points(self):
         """spectrum_points.csv: the velocities at Q1-Q3 [m/s]."""
-        import pandas as pd
-
-        from .response.run import POINT_COLUMNS
-        r = self.result
-        columns = (r.frequency_hz,) + tuple(values[:, i] for i in range(3)
-                                            for values in (r.point_axial, r.point_radial))
-        return pd.DataFrame(dict(zip(POINT_COLUMNS, columns)))
+        return _points_table(self.result)
 
     @property
     def modes(self):

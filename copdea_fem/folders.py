@@ -66,6 +66,21 @@ logger = logging.getLogger(__name__)
 MANIFEST = ".copdea-fem-result.json"
 #: Test hook: seconds to sleep inside the write phase (staging written, not yet swapped).
 WRITE_DELAY_VARIABLE = "COPDEA_FEM_TEST_WRITE_DELAY"
+#: Test hook: a path; when set, the write-phase delay ends early once that file exists (a
+#: test holds a run in its write phase exactly as long as it needs, whatever the load).
+WRITE_GATE_VARIABLE = "COPDEA_FEM_TEST_WRITE_GATE"
+
+
+def _test_write_delay() -> None:
+    """The tests' hold inside the write phase (:data:`WRITE_DELAY_VARIABLE`,
+    :data:`WRITE_GATE_VARIABLE`); nothing when neither is set."""
+    delay = float(os.environ.get(WRITE_DELAY_VARIABLE, 0))
+    gate = os.environ.get(WRITE_GATE_VARIABLE)
+    deadline = time.monotonic() + delay
+    while time.monotonic() < deadline:
+        if gate and os.path.exists(gate):
+            return
+        time.sleep(min(0.05, max(deadline - time.monotonic(), 0.0)))
 
 
 class OutputFolderError(ValueError):
@@ -383,7 +398,7 @@ def result_directory(target, command: str):
         try:
             yield staging
             write_manifest(staging, command)
-            time.sleep(float(os.environ.get(WRITE_DELAY_VARIABLE, 0)))
+            _test_write_delay()
             with _signals_deferred():
                 _swap(staging, target, record)
         except OSError as error:

@@ -212,10 +212,12 @@ def test_a_held_folder_is_refused_naming_the_holder(work, capsys):
 
 # ------------------------------------------------------------- writing, interruptions
 
-def cli_process(argv, cwd, delay=None):
+def cli_process(argv, cwd, delay=None, gate=None):
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     if delay is not None:
         env[folders.WRITE_DELAY_VARIABLE] = str(delay)
+    if gate is not None:
+        env[folders.WRITE_GATE_VARIABLE] = str(gate)
     return subprocess.Popen([sys.executable, "-m", "copdea_fem.cli", *map(str, argv)], cwd=cwd,
                             env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
@@ -273,10 +275,13 @@ def test_a_swap_cut_between_its_renames_is_restored(tmp_path):
 
 def test_two_concurrent_runs_into_one_folder(tmp_path):
     out = tmp_path / "run"
-    first = cli_process(["spectrum", REDUCED_STUDY, "--out", out], tmp_path, delay=3)
+    gate = tmp_path / "gate"        # the first run holds its write phase until the second is done
+    first = cli_process(["spectrum", REDUCED_STUDY, "--out", out], tmp_path, delay=120,
+                        gate=gate)
     wait_for_staging(tmp_path, first)
     second = cli_process(["spectrum", REDUCED_STUDY, "--out", out], tmp_path)
     _, err = second.communicate(timeout=60)
+    gate.touch()
     assert second.returncode == 2
     assert err.strip() == (f"error: output folder {out} is being written by another copdea-fem "
                            f"run (process {first.pid}); wait for it to finish or choose another "
