@@ -13,9 +13,17 @@ import scipy.linalg
 from copdea_fem.eigen import TWO_PI, solve_band
 from copdea_fem.eigen.damped import (DampingTerms, LinearisedPencil, solve_damped_band,
                                      solve_structural_band)
-from copdea_fem.study import StudyError
+from copdea_fem.study import StudyError, parse_study
 
-from conftest import coarse_study
+
+
+def coarse_study(**sections):
+    """A coarse study (tests/conftest.py's mesh; imported by name, ``conftest`` would be
+    ambiguous beside tests/diagnose/conftest.py when the whole suite is collected)."""
+    raw = {"mesh": {"membrane_size": "6 mm", "order": 2}}
+    for section, values in sections.items():
+        raw.setdefault(section, {}).update(values)
+    return parse_study(raw, name="test")
 
 # G1 on a cone (z = 8 mm, 2 kV): the material tangent acts on the out-of-plane modes
 AXISYMMETRIC = dict(mesh={"engine": "axisymmetric"}, geometry={"frame": "baffle"},
