@@ -16,7 +16,6 @@ from copdea_fem.eigen.damped import (DampingTerms, LinearisedPencil, solve_dampe
 from copdea_fem.study import StudyError, parse_study
 
 
-
 def coarse_study(**sections):
     """A coarse study (tests/conftest.py's mesh; imported by name, ``conftest`` would be
     ambiguous beside tests/diagnose/conftest.py when the whole suite is collected)."""
@@ -24,6 +23,7 @@ def coarse_study(**sections):
     for section, values in sections.items():
         raw.setdefault(section, {}).update(values)
     return parse_study(raw, name="test")
+
 
 # G1 on a cone (z = 8 mm, 2 kV): the material tangent acts on the out-of-plane modes
 AXISYMMETRIC = dict(mesh={"engine": "axisymmetric"}, geometry={"frame": "baffle"},
