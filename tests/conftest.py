@@ -25,3 +25,25 @@ def coarse_study(**sections):
 @pytest.fixture
 def make_study():
     return coarse_study
+
+
+@pytest.fixture
+def figures(request):
+    """``figures(title, lines)``: a slow test's measured figures, printed in the summary at
+    the end of the run (they go into the CI log and the issue notes).  Carried as a report
+    section, so they reach the summary from pytest-xdist's workers too."""
+    def record(title, lines=()):
+        text = "\n".join([title, *(f"  {line}" for line in lines)])
+        request.node.add_report_section("call", "figures", text)
+    return record
+
+
+def pytest_terminal_summary(terminalreporter):
+    texts = [content for outcome in ("passed", "failed")
+             for report in terminalreporter.stats.get(outcome, [])
+             for name, content in getattr(report, "sections", ())
+             if name == "Captured figures call"]
+    if texts:
+        terminalreporter.section("measured figures")
+        for text in texts:
+            terminalreporter.write_line(text)

@@ -131,16 +131,8 @@ def test_coupled_solve_writes_contract_files(tmp_path):
     assert largest[0] * largest[1] < 0
 
 
-def _report(capsys, title, lines):
-    """Print a slow test's figures (they go into the CI log and the issue notes)."""
-    with capsys.disabled():
-        print(f"\n{title}")
-        for line in lines:
-            print(f"  {line}")
-
-
 @pytest.mark.slow
-def test_air_radius_does_not_move_the_modes(capsys):
+def test_air_radius_does_not_move_the_modes(figures):
     """(0,1), (0,2): < 0.5 % from 3.5 r_o to 5 r_o (issue 3)."""
     results = []
     for radius in ("124.25 mm", "177.5 mm"):
@@ -148,7 +140,7 @@ def test_air_radius_does_not_move_the_modes(capsys):
                                                eigen={"f_max": "900 Hz"},
                                                mesh={"membrane_size": "6 mm"}))
         results.append({m.label: m.freq_hz for m in solution.modes})
-    _report(capsys, "air radius 3.5 r_o -> 5 r_o (6 mm, order 2, pressure order 1):",
+    figures("air radius 3.5 r_o -> 5 r_o (6 mm, order 2, pressure order 1):",
             [f"{label}: {results[0][label]:.3f} -> {results[1][label]:.3f} Hz "
              f"({results[1][label] / results[0][label] - 1:+.2e})" for label in ("(0,1)", "(0,2)")])
     for label in ("(0,1)", "(0,2)"):
@@ -156,7 +148,7 @@ def test_air_radius_does_not_move_the_modes(capsys):
 
 
 @pytest.mark.slow
-def test_mesh_convergence_of_coupled_modes(capsys):
+def test_mesh_convergence_of_coupled_modes(figures):
     """(0,1), (1,1)a, (0,2) at 4 / 3 (the default) / 2.5 mm: the changes shrink, and the
     default mesh's error estimate is < 1 %.
 
@@ -191,7 +183,7 @@ def test_mesh_convergence_of_coupled_modes(capsys):
         orders.append(p)
         errors.append(abs(frequencies[1, j] - frequencies[2, j]) * sizes[1]**p
                       / (sizes[1]**p - sizes[2]**p) / frequencies[1, j])
-    _report(capsys, "coupled mesh convergence (order 3, pressure order 2), f [Hz] at 4/3/2.5 mm:",
+    figures("coupled mesh convergence (order 3, pressure order 2), f [Hz] at 4/3/2.5 mm:",
             [f"{label}: " + " / ".join(f"{f:.3f}" for f in frequencies[:, j])
              + f"  changes {change[0, j]:.2e}, {change[1, j]:.2e}; order {orders[j]:.2f}, "
              f"error of the 3 mm mesh {errors[j]:.2e}"
@@ -201,7 +193,7 @@ def test_mesh_convergence_of_coupled_modes(capsys):
 
 
 @pytest.mark.slow
-def test_m1_pair_stays_degenerate_under_the_square_frame(capsys):
+def test_m1_pair_stays_degenerate_under_the_square_frame(figures):
     """C4v symmetry: m = 1 stays a degenerate pair, m = 2 splits."""
     solution = coupled_modes(coupled_study(eigen={"f_max": "480 Hz"},
                                            mesh={"membrane_size": "4 mm", "order": 3,
@@ -209,7 +201,7 @@ def test_m1_pair_stays_degenerate_under_the_square_frame(capsys):
     found = {m.label: m.freq_hz for m in solution.modes}
     split_1 = abs(found["(1,1)a"] - found["(1,1)b"]) / found["(1,1)a"]
     split_2 = abs(found["(2,1)a"] - found["(2,1)b"]) / found["(2,1)a"]
-    _report(capsys, "square frame, 4 mm order 3: relative splitting of the pairs",
+    figures("square frame, 4 mm order 3: relative splitting of the pairs",
             [f"(1,1): {split_1:.2e}", f"(2,1): {split_2:.2e}"])
     assert split_1 < 0.2 * split_2, (split_1, split_2)
 

@@ -69,15 +69,14 @@ def test_quarter_mesh_gives_the_modes_of_the_whole_mesh(pair):
 
 
 @pytest.mark.slow
-def test_quarter_and_whole_mesh_converge_together(capsys):
+def test_quarter_and_whole_mesh_converge_together(figures):
     """6 mm, order 3, pressure order 2: the quarter-whole gap shrinks tenfold (< 0.1 %)."""
-    from test_coupled import _report
     mesh = {"membrane_size": "6 mm", "order": 3, "pressure_order": 2}
     solutions = [coupled_modes(coupled_study(eigen={"f_max": "450 Hz"},
                                              mesh={**mesh, "symmetry": symmetry}))
                  for symmetry in ("quarter", "none")]
     pairs = _compare(*solutions, frequency_tol=1e-3)
-    _report(capsys, "quarter vs whole mesh (6 mm, order 3, pressure order 2), f [Hz]:",
+    figures("quarter vs whole mesh (6 mm, order 3, pressure order 2), f [Hz]:",
             [f"{label}: {fq:.3f} / {fw:.3f} ({fq / fw - 1:+.1e})"
              for label, (fq, fw) in pairs.items()])
 

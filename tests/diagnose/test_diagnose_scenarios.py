@@ -89,17 +89,15 @@ def test_two_indistinguishable_explanations_are_reported_not_guessed(tmp_path):
 
 
 @pytest.mark.slow
-def test_battery_hit_rates_over_ten_seeds(tmp_path, capsys):
+def test_battery_hit_rates_over_ten_seeds(tmp_path, figures):
     seeds = range(100, 110)
     rates, false_discoveries = {}, {}
     for name in SCENARIOS:
         results = [diagnose_scenario(name, seed, tmp_path / f"{name}_{seed}") for seed in seeds]
         rates[name] = sum(hit(name, r) for r in results) / len(results)
         false_discoveries[name] = sum(wrong(name, r) for r in results)
-    with capsys.disabled():
-        print("\nhit rates over seeds 100-109 (false discoveries):")
-        for name, rate in rates.items():
-            print(f"  {name:26s} {rate:.0%} ({false_discoveries[name]})")
+    figures("hit rates over seeds 100-109 (false discoveries):",
+            [f"{name:26s} {rate:.0%} ({false_discoveries[name]})" for name, rate in rates.items()])
     # the README's table (right verdicts of seeds 100-109), asserted as stated
     claimed = {"air_loading": 10, "spring_mass": 10, "electrostatic_softening": 8,
                "viscoelastic_stiffening": 10, "two_effects": 8, "modal_damping": 10,
