@@ -43,6 +43,18 @@ class Engine(Protocol):
     def threads(self):
         """Context manager for the output and force stages (NGSolve's TaskManager or none)."""
 
+    def estimate_size(self, study):
+        """(elements, unknowns) the study's mesh will have, estimated before meshing (the
+        resource guard, :func:`check_size`)."""
+
+    def forced_problem(self, study, progress=None):
+        """Mesh, prestress and the forced-response operators of the part of the problem a
+        uniform electrode drives: a :class:`copdea_fem.response.problem.OrderZero` whose
+        ``sector`` (:class:`copdea_fem.response.problem.DrivenSector`) describes it."""
+
+    def tracking_arrays(self, state, modes, needs_sampling: bool) -> dict:
+        """What the sweeps track a point's modes by (:mod:`copdea_fem.tracking`)."""
+
 
 def engine_for(study) -> Engine:
     """The engine of the study (``mesh.engine``, ``auto`` resolved by the frame)."""
@@ -52,3 +64,11 @@ def engine_for(study) -> Engine:
     from .engine3d import QuadrantEngine
     return QuadrantEngine()
 
+
+
+def check_size(study, limit: float | None = None) -> None:
+    """The resource guard: refuse (StudyError) a study whose engine estimates more unknowns
+    than ``limit`` (default :data:`copdea_fem.geometry.MAX_UNKNOWNS`), before meshing."""
+    from .geometry import MAX_UNKNOWNS, refuse_size
+    elements, unknowns = engine_for(study).estimate_size(study)
+    refuse_size(study, elements, unknowns, MAX_UNKNOWNS if limit is None else limit)
