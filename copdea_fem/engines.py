@@ -9,8 +9,8 @@ study are configured once (:class:`copdea_fem.bands.BandSolver`) and handed to t
 engine; the rules both engines share (dry partner band, coupled start count, order
 stop rule) live in :mod:`copdea_fem.bands`, the labels in :mod:`copdea_fem.modes`.
 What the forced response (:mod:`copdea_fem.response`), the sweeps' mode tracking and the
-resource guard (:func:`check_size`) need of an engine is asked of it too: no module
-outside this one and the study's schema tests the engine's name (``tests/test_imports.py``; the
+resource guard (:func:`check_size`) need of an engine is asked of it too: no module but
+this one and the study's schema tests the engine's name (``tests/test_imports.py``; the
 output sampling of :mod:`copdea_fem.output` excepted, for now).
 """
 
