@@ -192,7 +192,7 @@ def radial_pml(domain_radius: float, pml_thickness: float, strength: float = PML
     ngsolve.comp.pml.PML
         Pass to ``mesh.SetPML(..., PML_REGIONS)`` or use :func:`set_pml`.
     """
-    from ngsolve import CF, Id, OuterProduct, pml, sqrt, x, y, z
+    from ngsolve import CF, Id, OuterProduct, pml, x, y, z
 
     if not strength > 0:
         raise ValueError(f"PML strength = {strength!r} is not allowed; allowed: > 0")
@@ -201,15 +201,26 @@ def radial_pml(domain_radius: float, pml_thickness: float, strength: float = PML
         return pml.Radial(origin=(0.0, 0.0, 0.0), rad=R, alpha=1j * float(strength))
     if profile != "unbounded":
         raise ValueError(f"PML profile = {profile!r} is not allowed; allowed: unbounded, constant")
-    r = sqrt(x * x + y * y + z * z)
-    r_stretched, derivative = unbounded_stretch(r, R, t, strength)
-    scale = r_stretched / r                                 # x~ = scale * x
-    position = CF((x, y, z))
-    trafo = scale * position
+    scale, derivative, direction = radial_stretch((x, y, z), R, t, strength)
+    trafo = scale * CF((x, y, z))                           # x~ = scale * x
     # d x~_i / d x_j = scale delta_ij + (dr~/dr - scale) x_i x_j / r^2
-    radial_projector = OuterProduct(position, position) / (r * r)
-    jacobian = scale * Id(3) + (derivative - scale) * radial_projector
+    jacobian = scale * Id(3) + (derivative - scale) * OuterProduct(direction, direction)
     return pml.Custom(trafo=trafo, jac=jacobian)
+
+
+def radial_stretch(position, domain_radius: float, pml_thickness: float,
+                   strength: float = PML_STRENGTH):
+    """``(s, dr~/dr, e)`` of the unbounded profile (:func:`radial_pml`) at ``position``:
+    the stretch ``s = r~/r`` (``x~ = s x``), the radial derivative ``dr~/dr`` and the unit
+    radial direction ``e = x/r``, with ``r = |x|``.  ``position``: the coordinates as
+    CoefficientFunctions, ``(x, y, z)`` in 3-D (:func:`radial_pml`) or ``(r, z)`` in the
+    meridian plane (:func:`copdea_fem.axisymmetric.air.pml_stretch`): the one source of
+    the PML profile of both engines."""
+    from ngsolve import CF, sqrt
+
+    r = sqrt(sum(component * component for component in position))
+    r_stretched, derivative = unbounded_stretch(r, domain_radius, pml_thickness, strength)
+    return r_stretched / r, derivative, CF(tuple(position)) / r
 
 
 def unbounded_stretch(r, domain_radius: float, pml_thickness: float,
@@ -435,8 +446,13 @@ def screen_coupling(pressure, normal_displacement, screens: str, deformation=Non
 
 def coupled_forms(pressure, pressure_test, normal_displacement, normal_displacement_test,
                   membrane_stiffness, membrane_mass, density: float, sound_speed: float,
-                  moving_screens: str = "membrane"):
+                  moving_screens: str = "membrane", deformation=None):
     """Integrands of ``A`` and ``B`` in ``A x = omega^2 B x`` (eq. A3), ``x = (u, p)``.
+
+    The one source of the coupled forms: the 3-D engine's assembly
+    (:func:`copdea_fem.coupled.assemble_coupled`) calls it, and the sign test
+    (``tests/test_acoustics.py``, air loading lowers every frequency) tests it.
+    Derivation: module doc, "Weak form" (A1)-(A3).
 
     Parameters
     ----------
@@ -444,14 +460,19 @@ def coupled_forms(pressure, pressure_test, normal_displacement, normal_displacem
         ``(p, q)`` trial and test functions of :func:`pressure_space`.
     normal_displacement, normal_displacement_test : CoefficientFunction
         ``u . n`` and ``u' . n`` [m] of the membrane trial and test functions.
-    membrane_stiffness, membrane_mass : SumOfIntegrals
+    membrane_stiffness, membrane_mass : SumOfIntegrals or None
         The caller's membrane forms ``k_s(u, u')`` and ``m_s(u, u')`` (per unit test
-        displacement a force [N]).
+        displacement a force [N]); None leaves the term out, for a caller that adds its
+        own (the 3-D engine's ``k_s`` is the ``Variation`` of the membrane energy, which
+        NGSolve cannot add to a sum of integrals).
     density, sound_speed : float
         rho_a [kg/m^3], c_a [m/s].
     moving_screens : str
         Screens whose motion is the unknown ``u`` (``"membrane"``; add
         ``"|disc"`` when the disc moves with the field ``u``).
+    deformation : GridFunction, optional
+        The ALE air mesh displacement (:mod:`copdea_fem.ale`): the air and coupling
+        terms are integrated on the deformed air (Eulerian), the membrane's as given.
 
     Returns
     -------
@@ -459,9 +480,15 @@ def coupled_forms(pressure, pressure_test, normal_displacement, normal_displacem
         ``a = k_s(u,u') + c(u',p) + k_a(p,p')``, ``b = m_s(u,u') - c(u,p') + m_a(p,p')``.
     """
     traction, acceleration = coupling_forms(pressure, pressure_test, normal_displacement,
-                                            normal_displacement_test, moving_screens)
-    a = membrane_stiffness + traction + air_stiffness(pressure, pressure_test, density)
-    b = membrane_mass + acceleration + air_mass(pressure, pressure_test, density, sound_speed)
+                                            normal_displacement_test, moving_screens,
+                                            deformation=deformation)
+    a = traction + air_stiffness(pressure, pressure_test, density, deformation=deformation)
+    b = acceleration + air_mass(pressure, pressure_test, density, sound_speed,
+                                deformation=deformation)
+    if membrane_stiffness is not None:
+        a = membrane_stiffness + a
+    if membrane_mass is not None:
+        b = membrane_mass + b
     return a, b
 
 

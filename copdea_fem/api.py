@@ -124,9 +124,9 @@ def solving(study):
 
 
 def check_size(study: Study, allow_large: bool = False) -> None:
-    """The resource guard (:func:`copdea_fem.geometry.check_size`) unless ``allow_large``."""
+    """The resource guard (:func:`copdea_fem.engines.check_size`) unless ``allow_large``."""
     if not allow_large:
-        from .geometry import check_size as guard
+        from .engines import check_size as guard
         guard(study)
 
 
@@ -294,12 +294,10 @@ class Solution:
 
 
 def _threads(study):
-    """NGSolve's TaskManager for the 3-D engine's output (as :func:`solve.run_solve`)."""
-    from .study import engine_of
-    if engine_of(study) == "axisymmetric":
-        return contextlib.nullcontext()
-    import ngsolve as ngs
-    return ngs.TaskManager()
+    """The engine's threading for the output (NGSolve's TaskManager on the 3-D engine, as
+    :func:`solve.run_solve`)."""
+    from .engines import engine_for
+    return engine_for(study).threads()
 
 
 # -- response ------------------------------------------------------------------------------

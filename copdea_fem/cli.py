@@ -60,8 +60,8 @@ def _output(args, out_dir, command: str, inputs):
 
 
 def _check_size(args, *studies) -> None:
-    """The resource guard (:func:`copdea_fem.geometry.check_size`) unless --allow-large."""
-    from .geometry import check_size
+    """The resource guard (:func:`copdea_fem.engines.check_size`) unless --allow-large."""
+    from .engines import check_size
     if not args.allow_large:
         for study in studies:
             check_size(study)

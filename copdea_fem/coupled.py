@@ -120,14 +120,14 @@ def assemble_coupled(study, mesh, state, progress=None) -> "CoupledAssembly":
     stiffness = ngs.BilinearForm(space)
     stiffness += ngs.Variation(energy_density(None, material, state.voltage, gradient=gradient)
                                * measure)
-    membrane_traction, membrane_acceleration = acoustics.coupling_forms(
-        pressure, pressure_test, u * normal, v * normal, "membrane", deformation=motion)
-    stiffness += membrane_traction
-    stiffness += acoustics.air_stiffness(pressure, pressure_test, density, deformation=motion)
+    # eq. (A3) with the tested forms (acoustics.coupled_forms); k_s is the Variation above
+    coupling_and_air, membrane_mass_and_air = acoustics.coupled_forms(
+        pressure, pressure_test, u * normal, v * normal, None,
+        material.areal_density * u * v * measure, density, sound_speed, "membrane",
+        deformation=motion)
+    stiffness += coupling_and_air
     mass = ngs.BilinearForm(space)
-    mass += material.areal_density * u * v * measure
-    mass += membrane_acceleration
-    mass += acoustics.air_mass(pressure, pressure_test, density, sound_speed, deformation=motion)
+    mass += membrane_mass_and_air
     if with_disc:
         stiffness += (study["spring"]["stiffness"] / disc_area) * trial[3] * test[3] * ngs.ds("disc")
         disc_traction, disc_acceleration = acoustics.coupling_forms(

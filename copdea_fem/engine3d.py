@@ -14,8 +14,10 @@ import ctypes
 import os
 from concurrent.futures import ThreadPoolExecutor
 
+import numpy as np
+
 from .bands import BandSolver, coupled_start_modes
-from .geometry import GeometrySpec, load_mesh
+from .geometry import GeometrySpec, estimate_size, study_mesh
 from .linearise import linearised_operators, operator_damping
 from .modes import ModeSampler, classify_modes
 from .pipeline import CoupledSolution, Timings, quiet, single_threaded_blas
@@ -51,6 +53,21 @@ def sector_workers(pencils: list, memory_gb: float) -> int:
     return max(1, min(len(pencils), cores or 1, fitting))
 
 
+def sampled_shapes(state, modes) -> np.ndarray:
+    """(normal, radial, hoop) displacement of each mode on the normalised polar grid.
+
+    :class:`copdea_fem.modes.ModeSampler` samples at r = r_i + (r_o - r_i)(k + 1/2)/n_r:
+    the same normalised radius for every geometry, so shapes of different meshes
+    (an inner-radius sweep) compare point by point.  Area weights r dr dtheta are
+    folded in as sqrt(r / r_o) (dr and dtheta are equal at all samples of one point).
+    """
+    from .modes import ModeSampler
+    sampler = ModeSampler(state)
+    weights = np.sqrt(sampler.radii / state.outer_radius)[None, :, None]
+    rows = [(sampler.components(mode.vector, mode.sector) * weights).ravel() for mode in modes]
+    return np.array(rows) if rows else np.zeros((0, 3 * sampler.shape[0] * sampler.shape[1]))
+
+
 class QuadrantEngine:
     """The 3-D engine: whole-plane dry modes, quadrant sectors for coupled modes."""
 
@@ -63,9 +80,35 @@ class QuadrantEngine:
 
     def prepare_mesh(self, study, with_air=None, cache_dir=None, progress=quiet):
         """The (cached) 3-D mesh; ``cache_dir=None``: :func:`geometry.mesh_cache_dir`."""
-        spec = GeometrySpec.from_study(study, with_air=with_air)
-        return load_mesh(spec, study["mesh"]["curve_order"], cache_dir=cache_dir,
-                         progress=progress)
+        return study_mesh(study, with_air=with_air, cache_dir=cache_dir, progress=progress)
+
+    def estimate_size(self, study):
+        """(elements, unknowns) of the 3-D mesh (:func:`geometry.estimate_size`)."""
+        mesh = study["mesh"]
+        return estimate_size(GeometrySpec.from_study(study), mesh["order"],
+                             mesh["pressure_order"])
+
+    def forced_problem(self, study, progress=quiet):
+        """The even-even symmetry sector, forced (:mod:`copdea_fem.response.quadrant`)."""
+        from .response.quadrant import prepare_quadrant
+        return prepare_quadrant(study, progress)
+
+    def tracking_arrays(self, state, modes, needs_sampling: bool) -> dict:
+        """Membrane vectors of the device and M times them (M the pipeline's own,
+        :func:`copdea_fem.linearise.membrane_matrices`, cached on the state), and the
+        sampled shapes when asked."""
+        from .linearise import membrane_matrices
+        vectors = np.column_stack([mode.vector for mode in modes]) if modes else \
+            np.zeros((state.space.ndof, 0))
+        weighted = membrane_matrices(state)[1] @ vectors
+        if state.symmetry.quarter:   # device vectors: sectors orthogonal (symmetry doc)
+            signatures = np.array([mode.sector.signature() for mode in modes]).reshape(-1, 4)
+            vectors = np.vstack([vectors * column for column in signatures.T])
+            weighted = np.vstack([weighted * column for column in signatures.T])
+        arrays = {"vectors": vectors, "weighted": weighted}
+        if needs_sampling:
+            arrays["sampled"] = sampled_shapes(state, modes)
+        return arrays
 
     def prestress_solver(self, study, mesh, progress=None):
         from .prestress import make_solver

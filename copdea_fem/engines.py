@@ -8,6 +8,10 @@ study (:func:`copdea_fem.study.engine_of`): the 3-D quadrant
 study are configured once (:class:`copdea_fem.bands.BandSolver`) and handed to the
 engine; the rules both engines share (dry partner band, coupled start count, order
 stop rule) live in :mod:`copdea_fem.bands`, the labels in :mod:`copdea_fem.modes`.
+What the forced response (:mod:`copdea_fem.response`), the sweeps' mode tracking and the
+resource guard (:func:`check_size`) need of an engine is asked of it too: no module but
+this one and the study's schema tests the engine's name (``tests/test_imports.py``; the
+output sampling of :mod:`copdea_fem.output` excepted, for now).
 """
 
 from __future__ import annotations
@@ -43,6 +47,18 @@ class Engine(Protocol):
     def threads(self):
         """Context manager for the output and force stages (NGSolve's TaskManager or none)."""
 
+    def estimate_size(self, study):
+        """(elements, unknowns) the study's mesh will have, estimated before meshing (the
+        resource guard, :func:`check_size`)."""
+
+    def forced_problem(self, study, progress=None):
+        """Mesh, prestress and the forced-response operators of the part of the problem a
+        uniform electrode drives: a :class:`copdea_fem.response.problem.OrderZero` whose
+        ``sector`` (:class:`copdea_fem.response.problem.DrivenSector`) describes it."""
+
+    def tracking_arrays(self, state, modes, needs_sampling: bool) -> dict:
+        """What the sweeps track a point's modes by (:mod:`copdea_fem.tracking`)."""
+
 
 def engine_for(study) -> Engine:
     """The engine of the study (``mesh.engine``, ``auto`` resolved by the frame)."""
@@ -52,3 +68,10 @@ def engine_for(study) -> Engine:
     from .engine3d import QuadrantEngine
     return QuadrantEngine()
 
+
+def check_size(study, limit: float | None = None) -> None:
+    """The resource guard: refuse (StudyError) a study whose engine estimates more unknowns
+    than ``limit`` (default :data:`copdea_fem.geometry.MAX_UNKNOWNS`), before meshing."""
+    from .geometry import MAX_UNKNOWNS, refuse_size
+    elements, unknowns = engine_for(study).estimate_size(study)
+    refuse_size(study, elements, unknowns, MAX_UNKNOWNS if limit is None else limit)

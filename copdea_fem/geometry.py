@@ -371,18 +371,12 @@ def estimate_size(spec: GeometrySpec, order: int, pressure_order: int) -> tuple[
     return elements, unknowns
 
 
-def check_size(study, limit: float = MAX_UNKNOWNS) -> None:
-    """Refuse (StudyError) a study whose estimated unknowns exceed ``limit``, before meshing."""
-    from .study import StudyError, engine_of
+def refuse_size(study, elements: float, unknowns: float, limit: float = MAX_UNKNOWNS) -> None:
+    """Refuse (StudyError) a study whose estimated unknowns (the engine's estimate:
+    :func:`copdea_fem.engines.check_size`) exceed ``limit``, before meshing."""
+    from .study import StudyError
     with_air = study["air"]["enabled"]
     mesh = study["mesh"]
-    if engine_of(study) == "axisymmetric":
-        from .axisymmetric.meridian import MeridianSpec, estimate_size as meridian_size
-        elements, unknowns = meridian_size(MeridianSpec.from_study(study), mesh["order"],
-                                           mesh["pressure_order"])
-    else:
-        elements, unknowns = estimate_size(GeometrySpec.from_study(study), mesh["order"],
-                                           mesh["pressure_order"])
     if unknowns > limit:
         coarser = "a larger mesh.membrane_size" + (" or mesh.air_size" if with_air else "")
         lower = "a lower mesh.order" + (" or mesh.pressure_order" if with_air else "")
@@ -390,6 +384,12 @@ def check_size(study, limit: float = MAX_UNKNOWNS) -> None:
             f"mesh.membrane_size = {mesh['membrane_size']:g} m (mesh.order = {mesh['order']}) "
             f"gives about {elements:.3g} elements and {unknowns:.3g} unknowns, more than the "
             f"limit of {limit:.3g}; allowed: {coarser}, {lower}, or --allow-large")
+
+
+def study_mesh(study, with_air=None, cache_dir=None, progress=None):
+    """The (cached) 3-D mesh of the study; ``cache_dir=None``: :func:`mesh_cache_dir`."""
+    spec = GeometrySpec.from_study(study, with_air=with_air)
+    return load_mesh(spec, study["mesh"]["curve_order"], cache_dir=cache_dir, progress=progress)
 
 
 def membrane_area(spec: GeometrySpec) -> float:

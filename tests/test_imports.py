@@ -93,3 +93,46 @@ def test_a_circle_is_found(tmp_path):
     graph = import_graph(package)
     assert graph["pkg.c"] == {"pkg.a"}
     assert circles(graph) == [["pkg.a", "pkg.sub.b"]]
+
+
+#: Where the engine's name may still be read (issue 21): where it is chosen, the study's
+#: schema (which frames an engine allows), and the output sampling (output.py, api.py's
+#: Solution: issue 25 moves it behind the engine interface).
+ENGINE_NAME_ALLOWED = {"engines.py", "study.py", "output.py", "api.py"}
+
+
+def engine_name_tests(root: Path = PACKAGE) -> list[str]:
+    """``file:line`` of every comparison with the engine's name (``== "axisymmetric"``,
+    ``engine_of(...)``) outside :data:`ENGINE_NAME_ALLOWED`."""
+    found = []
+    for path in sorted(root.rglob("*.py")):
+        name = path.relative_to(root).as_posix()
+        if name in ENGINE_NAME_ALLOWED:
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Call):
+                hit = ast.unparse(node.func).rpartition(".")[2] == "engine_of"
+            elif isinstance(node, ast.Compare):
+                texts = [ast.unparse(part) for part in (node.left, *node.comparators)]
+                hit = any(text in ("'axisymmetric'", "'3d'") for text in texts) and \
+                    any("engine" in text for text in texts)
+            else:
+                continue
+            if hit and f"{name}:{node.lineno}" not in found:
+                found.append(f"{name}:{node.lineno}")
+    return found
+
+
+def test_no_engine_name_branch_outside_the_engine_interface():
+    """The response, the sweeps, the resource guard and the diagnosis ask the engine
+    (:class:`copdea_fem.engines.Engine`), they do not test its name."""
+    assert engine_name_tests() == []
+
+
+def test_an_engine_name_branch_is_found(tmp_path):
+    package = tmp_path / "pkg"
+    package.mkdir()
+    (package / "a.py").write_text('def f(p):\n    return 1 if p.engine == "axisymmetric" else 2\n')
+    (package / "b.py").write_text("def g(s, m):\n    return engine_of(s), m.kind == '3d'\n")
+    (package / "engines.py").write_text('def h(s):\n    return engine_of(s) == "3d"\n')
+    assert engine_name_tests(package) == ["a.py:2", "b.py:2"]

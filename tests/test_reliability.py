@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from copdea_fem import folders, geometry
+from copdea_fem import engines, folders, geometry
 from copdea_fem.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -536,7 +536,7 @@ def test_allow_large_lifts_the_guard(work, capsys):
 def test_bundled_studies_pass_the_guard():
     from copdea_fem.study import load_study
     for path in sorted((ROOT / "studies").glob("*.yaml")):
-        geometry.check_size(load_study(path))
+        engines.check_size(load_study(path))
 
 
 # -------------------------------------------------------------- solver failures

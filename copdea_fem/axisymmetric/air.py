@@ -14,7 +14,7 @@ from __future__ import annotations
 import ngsolve as ngs
 import numpy as np
 
-from ..acoustics import PML_STRENGTH, unbounded_stretch
+from ..acoustics import PML_STRENGTH, radial_stretch
 from .meridian import theta_integral
 
 
@@ -22,11 +22,10 @@ def pml_stretch(domain_radius: float, pml_thickness: float, strength: float = PM
     """(s, dr~/dr, e) of the unbounded radial profile (acoustics.radial_pml) in the meridian.
 
     ``r~ = rho + i b t ln(t / (R + t - rho))`` with rho the spherical radius;
-    ``s = r~/rho``, ``e = (r, z)/rho``.
+    ``s = r~/rho``, ``e = (r, z)/rho``: :func:`copdea_fem.acoustics.radial_stretch`, the
+    profile of the 3-D engine's PML.
     """
-    rho = ngs.sqrt(ngs.x**2 + ngs.y**2)
-    stretched, derivative = unbounded_stretch(rho, domain_radius, pml_thickness, strength)
-    return stretched / rho, derivative, ngs.CF((ngs.x, ngs.y)) / rho
+    return radial_stretch((ngs.x, ngs.y), domain_radius, pml_thickness, strength)
 
 
 def _off_axis(region: str, deformation):

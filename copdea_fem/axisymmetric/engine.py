@@ -28,7 +28,7 @@ from ..pipeline import CoupledSolution, Timings, quiet, single_threaded_blas
 from .air import meridian_motion
 from .meridian import MeridianSpec, meridian_mesh
 from .modes import (OrderSampler, classify_order, label_all, number_out_of_plane,
-                    with_pairs)
+                    sampled_shapes, with_pairs)
 from .operators import MeridianAir, OrderForms, coupled_order_operators
 from .prestress import make_axisymmetric_solver
 
@@ -254,3 +254,29 @@ class AxisymmetricEngine:
     def threads(self):
         """The threading context of the output and force stages: none (2-D problems)."""
         return contextlib.nullcontext()
+
+    def estimate_size(self, study):
+        """(elements, unknowns) of the meridian mesh (:func:`.meridian.estimate_size`)."""
+        from .meridian import estimate_size
+        mesh = study["mesh"]
+        return estimate_size(MeridianSpec.from_study(study), mesh["order"],
+                             mesh["pressure_order"])
+
+    def forced_problem(self, study, progress=_quiet):
+        """Meridian mesh, prestress and the forced order m = 0
+        (:mod:`copdea_fem.response.meridian`)."""
+        import time
+
+        from ..response.meridian import order_zero_problem
+        timings = {}
+        start = time.perf_counter()
+        mesh = prepare_meridian(study, progress)
+        progress("prestress (axisymmetric Newton, load steps in z then V_b) ...")
+        state = solve_axisymmetric_prestress(study, mesh, progress)
+        timings["prestress"] = time.perf_counter() - start
+        return order_zero_problem(study, mesh, state, timings, progress)
+
+    def tracking_arrays(self, state, modes, needs_sampling: bool) -> dict:
+        """Orders have spaces of their own: the sweeps compare shapes on the polar grid
+        (:func:`.modes.sampled_shapes`)."""
+        return {"sampled": sampled_shapes(state, modes)}

@@ -288,10 +288,11 @@ class FEModel:
 
     def _solve(self, run: Study, key: str) -> FEResult:
         from copdea_fem.solve import coupled_modes, dry_modes
-        from copdea_fem.study import engine_of
+        from copdea_fem.engines import engine_for
+        engine = engine_for(run).name
         coupled = bool(run["air"]["enabled"])
         load = run["load"]
-        self.progress(f"FE ({engine_of(run)}, {'coupled' if coupled else 'in vacuo'}) at "
+        self.progress(f"FE ({engine}, {'coupled' if coupled else 'in vacuo'}) at "
                       f"z = {1e3 * load['z']:g} mm, V_b = {1e-3 * load['voltage']:g} kV ...")
         start = time.perf_counter()
         if coupled:
@@ -301,7 +302,7 @@ class FEModel:
         seconds = time.perf_counter() - start
         self.solves += 1
         self.seconds += seconds
-        return FEResult(structural_modes(modes), engine_of(run), coupled, seconds, key)
+        return FEResult(structural_modes(modes), engine, coupled, seconds, key)
 
     # -- disk cache ------------------------------------------------------------------------
     def _path(self, key: str):

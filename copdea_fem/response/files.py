@@ -97,21 +97,15 @@ def _paraview(staging: Path, result) -> None:
     from .. import output
     coupled, forced = result.problem.coupled, result.problem.forced
     dry, state = coupled.membrane, result.problem.state
-    axisymmetric = result.problem.engine == "axisymmetric"
+    driven = result.problem.sector
     shapes, pressures = [], []
     for f in result.peaks_hz:
         line = int(np.argmin(abs(result.frequency_hz - f)))
         x = result.solution(line)
         shapes.append(ShapeAt(f"ODS {f:.2f} Hz", f, dry.to_full(forced.membrane(x))[:, 0], dry,
-                              sector=None if axisymmetric else dry.sector))
+                              sector=driven.shape_sector(dry)))
         pressures.append(forced.pressure(x))
-    if axisymmetric:
-        files = output.write_revolved_mode_vtus(staging, state, shapes)
-        air = output.write_revolved_air_vtus(staging, [coupled], shapes, pressures)
-    else:
-        files = output.write_mode_vtus(staging, state, shapes,
-                                       output.MembraneSampler(state.mesh))
-        air = output.write_air_vtus(staging, [coupled], shapes, pressures)
+    files, air = driven.write_shapes(staging, state, coupled, shapes, pressures)
     for paths, old, new, pvd in ((files, "mode_", "ods_", "ods.pvd"),
                                  (air, "air_", "air_ods_", "air_ods.pvd")):
         renamed = []
@@ -149,8 +143,7 @@ def write_response(result, out_dir: Path, reduced=(None, None)) -> None:
         dump_resolved(study, staging / "study.resolved.yaml")
         document = {
             "engine": result.problem.engine,
-            "excited": ("order m = 0" if result.problem.engine == "axisymmetric"
-                        else "even-even symmetry sector"), "method": result.method,
+            "excited": result.problem.sector.excited, "method": result.method,
             "far_field": result.far_field,
             "units": {"frequency": "Hz", "velocity": "m/s", "spl": "dB re 20 uPa",
                       "position": "m"},

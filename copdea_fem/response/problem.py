@@ -1,12 +1,33 @@
 """The prestressed problem that ``copdea-fem response`` drives (either engine).
 
-Kept apart from :mod:`.run` so that the 3-D builder (:mod:`.quadrant`) and the
-pipeline (:mod:`.run`) share it without importing each other.
+Kept apart from :mod:`.run` so that the engines' builders (:mod:`.quadrant`,
+:mod:`.meridian`) and the pipeline (:mod:`.run`) share it without importing each other.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Callable
+
+
+@dataclass(frozen=True)
+class DrivenSector:
+    """What the response needs to know of the part of the problem that the voltage drives:
+    the order m = 0 (axisymmetric engine, :mod:`.meridian`) or the even-even symmetry
+    sector (3-D engine, :mod:`.quadrant`).  Built by the engine with its forced problem
+    (:meth:`copdea_fem.engines.Engine.forced_problem`), so that :mod:`.run` and
+    :mod:`.files` never test the engine's name."""
+
+    name: str                       # progress: "coupled modes of the <name>"
+    excited: str                    # response.json "excited"
+    summary: str                    # the summary's first line: "forced response (<summary>, ...)"
+    classify: Callable              # (problem, band result) -> modes, membrane fractions set
+    label: Callable                 # (modes) -> None: labels as ``solve`` gives them
+    observer: type                  # the membrane velocity observer at the scan radii
+    angles: int                     # angles per radius the observer averages over
+    sphere: type                    # the Kirchhoff sphere's pressure sampler
+    shape_sector: Callable          # (membrane operators) -> the ShapeAt sector (or None)
+    write_shapes: Callable          # (staging, state, coupled, shapes, pressures) -> (files, air)
 
 
 @dataclass
@@ -18,6 +39,7 @@ class OrderZero:
     coupled: object
     forced: object
     timings: dict = field(default_factory=dict)
+    sector: DrivenSector | None = None
 
     @property
     def engine(self) -> str:

@@ -25,6 +25,7 @@ import ngsolve as ngs
 import numpy as np
 
 from .harmonic import ForcedOrder, reduce_matrix_3d, reduce_vector_3d
+from .problem import DrivenSector, OrderZero
 from .radiation import AZIMUTH_POINTS, POLAR_POINTS
 
 #: Polar angles of the observation points in the quadrant [rad].
@@ -68,16 +69,15 @@ def quadrant_elastic(state, operators):
 def prepare_quadrant(study, progress=None):
     """Mesh, prestress, coupled assembly and the even-even sector, forced."""
     from ..coupled import assemble_coupled
+    from ..geometry import study_mesh
     from ..linearise import linearised_operators, membrane_matrices, operator_damping
     from ..prestress import solve_prestress
-    from ..solve import prepare_mesh
     from ..symmetry import SECTORS
-    from .problem import OrderZero
 
     progress = progress or (lambda message: None)
     timings = {}
     start = time.perf_counter()
-    mesh = prepare_mesh(study, with_air=True, progress=progress)
+    mesh = study_mesh(study, with_air=True, progress=progress)
     progress("prestress (Newton, load steps in z then V_b) ...")
     state = solve_prestress(study, mesh, progress=progress)
     timings["prestress"] = time.perf_counter() - start
@@ -92,7 +92,7 @@ def prepare_quadrant(study, progress=None):
     forced = ForcedOrder.from_parts(coupled, force, elastic, balance, study["eigen"]["backend"])
     forced.with_damping(operator_damping(operators, study))
     timings["assembly"] = time.perf_counter() - start
-    return OrderZero(study, state, coupled, forced, timings)
+    return OrderZero(study, state, coupled, forced, timings, QUADRANT_SECTOR)
 
 
 class QuadrantObserver:
@@ -199,3 +199,33 @@ class QuadrantSphere:
                                                                  self.normal) / d
             kg += green
         return kp * self.area, kg * self.area
+
+
+def _classify(problem, result):
+    """The modes of the forced even-even band, with their membrane-energy fractions."""
+    from ..modes import ModeSampler, coupled_mode_list
+    modes, _ = coupled_mode_list(problem.coupled, result,
+                                 problem.study["air"]["min_membrane_energy"],
+                                 ModeSampler(problem.state))
+    return modes
+
+
+def _label(modes) -> None:
+    from ..modes import AIR, assign_labels
+    for mode in modes:
+        if mode.kind == AIR:
+            mode.label, mode.m, mode.n = "air", 0, 0
+    assign_labels([mode for mode in modes if mode.kind != AIR])
+
+
+def _write_shapes(staging, state, coupled, shapes, pressures):
+    from .. import output
+    return (output.write_mode_vtus(staging, state, shapes, output.MembraneSampler(state.mesh)),
+            output.write_air_vtus(staging, [coupled], shapes, pressures))
+
+
+QUADRANT_SECTOR = DrivenSector(
+    name="even-even sector", excited="even-even symmetry sector",
+    summary="3-D, even-even sector", classify=_classify, label=_label,
+    observer=QuadrantObserver, angles=len(OBSERVATION_ANGLES), sphere=QuadrantSphere,
+    shape_sector=lambda operators: operators.sector, write_shapes=_write_shapes)

@@ -41,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..study import StudyError, check_air_lift, engine_of
+from ..study import StudyError, check_air_lift
 from .files import AVERAGE_COLUMNS, MODE_COLUMNS, POINT_COLUMNS  # noqa: F401
 from .problem import OrderZero
 
@@ -63,81 +63,41 @@ def parse_microphones(study) -> list[tuple[str, np.ndarray]]:
 
 
 def prepare_order_zero(study, progress=_quiet) -> OrderZero:
-    """Meridian mesh, prestress, ALE air and the forced m = 0 pencil."""
-    from ..axisymmetric.air import meridian_motion
-    from ..axisymmetric.engine import prepare_meridian, solve_axisymmetric_prestress
-    from ..axisymmetric.operators import MeridianAir, OrderForms, coupled_order_operators
-    from .harmonic import ForcedOrder
+    """Mesh, prestress, ALE air and the forced pencil of the driven part of the problem (the
+    order m = 0 or the even-even sector: the engine's
+    :meth:`copdea_fem.engines.Engine.forced_problem`)."""
+    from ..engines import engine_for
 
     if study["load"]["voltage"] <= 0:
         raise StudyError("load.voltage = 0 is not allowed for `response`; allowed: > 0 V (the "
                          "linear forcing V_b dC/du vanishes without a bias)")
     check_air_lift(study)
-    if engine_of(study) == "3d":
-        from .quadrant import prepare_quadrant
-        return prepare_quadrant(study, progress)
-    timings = {}
-    start = time.perf_counter()
-    mesh = prepare_meridian(study, progress)
-    progress("prestress (axisymmetric Newton, load steps in z then V_b) ...")
-    state = solve_axisymmetric_prestress(study, mesh, progress)
-    timings["prestress"] = time.perf_counter() - start
-    start = time.perf_counter()
-    progress("assembling the m = 0 membrane-air pencil and the voltage forcing ...")
-    motion = meridian_motion(state, mesh, study["air"]["domain_radius"])
-    air = MeridianAir(state, study, motion)
-    forms = OrderForms(state, study)
-    dry = forms.operators(0)
-    coupled = coupled_order_operators(state, study, dry, air)
-    forced = ForcedOrder.build(state, coupled, study["eigen"]["backend"]).with_damping(
-        forms.damping(dry))
-    timings["assembly"] = time.perf_counter() - start
-    return OrderZero(study, state, coupled, forced, timings)
+    return engine_for(study).forced_problem(study, progress)
 
 
 def modal_solution(problem: OrderZero, f_end: float, progress=_quiet):
     """(ModalBasis, modes) of the m = 0 band (module doc), labelled as ``solve`` labels them."""
-    from ..axisymmetric.modes import OrderSampler, classify_order, label_all, number_out_of_plane
     from ..eigen import solve_band
-    from ..modes import AIR, membrane_energy_fractions
+    from ..modes import AIR
     from .harmonic import ModalBasis, modal_damping
 
     study, coupled = problem.study, problem.coupled
-    dry = coupled.membrane
     reach = study["response"]["modal_band"] * f_end
     eigen = study["eigen"]
-    driven = "order m = 0" if problem.engine == "axisymmetric" else "even-even sector"
-    progress(f"coupled modes of the {driven}, Re f <= {reach:g} Hz, |Im f| <= {reach:g} Hz ...")
+    progress(f"coupled modes of the {problem.sector.name}, Re f <= {reach:g} Hz, "
+             f"|Im f| <= {reach:g} Hz ...")
     result = solve_band(coupled.stiffness, coupled.mass, 0.0, reach, factorize=coupled.factorize,
                         hermitian=False, max_imag_hz=reach, backend=eigen["backend"],
                         max_modes=eigen["max_modes"], residual_tol=eigen["residual_tol"],
                         progress=progress)
-    if problem.engine == "axisymmetric":
-        membrane = result.vectors[coupled.membrane_index]
-        sampler = OrderSampler(problem.state, dry.space, dry.axis_m1)
-        modes = classify_order(dry, membrane, result.freq_hz, result.freq_im_hz,
-                               result.residuals, sampler)
-        for mode, fraction in zip(modes, membrane_energy_fractions(coupled, result)):
-            mode.membrane_energy_fraction = fraction
-    else:
-        from ..modes import ModeSampler, coupled_mode_list
-        modes, _ = coupled_mode_list(coupled, result, study["air"]["min_membrane_energy"],
-                                     ModeSampler(problem.state))
+    modes = problem.sector.classify(problem, result)
     for mode in modes:
         # air/PML modes: little membrane energy, or damped beyond what `solve` looks for
         # (its band holds |Im f| <= eigen.max_damping_ratio f_max; PML modes reach zeta ~ 1)
         if (mode.membrane_energy_fraction < study["air"]["min_membrane_energy"]
                 or mode.damping_ratio > eigen["max_damping_ratio"]):
             mode.kind = AIR
-    if problem.engine == "axisymmetric":
-        number_out_of_plane(modes)
-        label_all(modes)
-    else:
-        from ..modes import assign_labels
-        for mode in modes:
-            if mode.kind == AIR:
-                mode.label, mode.m, mode.n = "air", 0, 0
-        assign_labels([mode for mode in modes if mode.kind != AIR])
+    problem.sector.label(modes)
     damping = modal_damping([m.label for m in modes], [m.kind for m in modes], study)
     basis = ModalBasis.build(problem.forced, result.eigenvalues, result.vectors,
                              [m.label for m in modes], damping)
@@ -183,7 +143,7 @@ def forced_response(problem: OrderZero, progress=_quiet, frequency_hz=None,
                     voltage_lines=None) -> ResponseResult:
     """Spectra and SPL on the chirp's lines (or given lines and complex amplitudes [V])."""
     from ..reduced.response import QUARTER_POINTS, Chirp, scan_fractions
-    from .radiation import KIRCHHOFF_FRACTION, MembraneObserver, SphereSampler, spl_db
+    from .radiation import KIRCHHOFF_FRACTION, spl_db
 
     study, forced, coupled = problem.study, problem.forced, problem.coupled
     timings = dict(problem.timings)
@@ -205,11 +165,7 @@ def forced_response(problem: OrderZero, progress=_quiet, frequency_hz=None,
     timings["solve"] = time.perf_counter() - start
     start = time.perf_counter()
     omega = 2 * np.pi * frequency_hz
-    if problem.engine == "axisymmetric":
-        observer_type, angles = MembraneObserver, 1
-    else:
-        from .quadrant import OBSERVATION_ANGLES, QuadrantObserver
-        observer_type, angles = QuadrantObserver, len(OBSERVATION_ANGLES)
+    observer_type, angles = problem.sector.observer, problem.sector.angles
     membrane = forced.membrane(vectors)
     spectra = []
     for fractions in (scan_fractions(study["reduced"]["scan_radii"]), QUARTER_POINTS):
@@ -224,10 +180,7 @@ def forced_response(problem: OrderZero, progress=_quiet, frequency_hz=None,
     microphones = parse_microphones(study)
     radius = KIRCHHOFF_FRACTION * study["air"]["domain_radius"]
     baffle = study["geometry"]["frame"] == "baffle"
-    if problem.engine == "axisymmetric":
-        sphere = SphereSampler
-    else:
-        from .quadrant import QuadrantSphere as sphere
+    sphere = problem.sector.sphere
     samplers = ({"upper": sphere(coupled, radius, ("upper",)),
                  "lower": sphere(coupled, radius, ("lower",))} if baffle else
                 {"all": sphere(coupled, radius)})
@@ -289,7 +242,7 @@ def run_response(study, out_dir=None, progress=_quiet) -> ResponseResult:
 def summary_lines(result: ResponseResult) -> list[str]:
     study = result.problem.study
     g, load = study["geometry"], study["load"]
-    where = "m = 0" if result.problem.engine == "axisymmetric" else "3-D, even-even sector"
+    where = result.problem.sector.summary
     lines = [f"{study.name}: forced response ({where}, {result.method}), r_i = "
              f"{1e3 * g['inner_radius']:g} mm, z = {1e3 * load['z']:g} mm, V_b = "
              f"{load['voltage'] / 1e3:g} kV, frame {g['frame']}, {result.frequency_hz.size} lines",

@@ -103,6 +103,7 @@ class _FEModel:
 
     def solve(self, point: SweepPoint, chain: ChainState, reuse: ReuseSettings, progress,
               needs_sampling: bool) -> PointResult:
+        from ..engines import engine_for
         from ..solve import Timings, make_prestress_solver
         study = point.study
         timings = Timings()
@@ -134,12 +135,7 @@ class _FEModel:
             raise
         modes = [mode for mode in modes if mode.kind != "air"]   # air/PML-only modes
         with timings.stage("tracking_data"):
-            if getattr(state, "engine", "3d") == "axisymmetric":
-                # orders have spaces of their own: shapes are compared on the polar grid
-                from ..axisymmetric.modes import sampled_shapes
-                arrays = {"sampled": sampled_shapes(state, modes)}
-            else:
-                arrays = _device_vectors_of(state, modes, needs_sampling)
+            arrays = engine_for(study).tracking_arrays(state, modes, needs_sampling)
         chain.context_key, chain.solver = point.context_key, solver
         chain.last_point, chain.last_eigen, chain.last_band = point.point_id, eigen_result, band
         seconds = dict(timings.seconds)
@@ -160,23 +156,6 @@ class _FEModel:
             "space": point.space_key,
         }
         return PointResult(point.point_id, "ok", record, arrays)
-
-
-def _device_vectors_of(state, modes, needs_sampling) -> dict:
-    """Tracking arrays of a 3-D result: membrane vectors of the device and M times them
-    (M the pipeline's own, :func:`copdea_fem.linearise.membrane_matrices`, cached on the state)."""
-    from ..linearise import membrane_matrices
-    vectors = np.column_stack([mode.vector for mode in modes]) if modes else \
-        np.zeros((state.space.ndof, 0))
-    weighted = membrane_matrices(state)[1] @ vectors
-    if state.symmetry.quarter:   # device vectors: sectors orthogonal (symmetry doc)
-        signatures = np.array([mode.sector.signature() for mode in modes]).reshape(-1, 4)
-        vectors = np.vstack([vectors * column for column in signatures.T])
-        weighted = np.vstack([weighted * column for column in signatures.T])
-    arrays = {"vectors": vectors, "weighted": weighted}
-    if needs_sampling:
-        arrays["sampled"] = _sampled_shapes(state, modes)
-    return arrays
 
 
 class _CoupledModel(_FEModel):
@@ -246,21 +225,6 @@ def _mode_record(mode) -> dict:
             "freq_hz": float(mode.freq_hz), "freq_im_hz": float(getattr(mode, "freq_im_hz", 0.0)),
             "residual": float(getattr(mode, "residual", 0.0)),
             "modal_mass": float(getattr(mode, "modal_mass", math.nan))}
-
-
-def _sampled_shapes(state, modes) -> np.ndarray:
-    """(normal, radial, hoop) displacement of each mode on the normalised polar grid.
-
-    :class:`copdea_fem.modes.ModeSampler` samples at r = r_i + (r_o - r_i)(k + 1/2)/n_r:
-    the same normalised radius for every geometry, so shapes of different meshes
-    (an inner-radius sweep) compare point by point.  Area weights r dr dtheta are
-    folded in as sqrt(r / r_o) (dr and dtheta are equal at all samples of one point).
-    """
-    from ..modes import ModeSampler
-    sampler = ModeSampler(state)
-    weights = np.sqrt(sampler.radii / state.outer_radius)[None, :, None]
-    rows = [(sampler.components(mode.vector, mode.sector) * weights).ravel() for mode in modes]
-    return np.array(rows) if rows else np.zeros((0, 3 * sampler.shape[0] * sampler.shape[1]))
 
 
 def solve_point(model_name: str, point: SweepPoint, chain: ChainState, reuse: ReuseSettings,

@@ -1,0 +1,68 @@
+"""The forced response on the axisymmetric engine: the order m = 0 that a uniform electrode
+drives, on the meridian (the 3-D counterpart: :mod:`.quadrant`).
+
+:func:`order_zero_problem` builds the forced m = 0 pencil on a prestressed meridian (the
+engine, :meth:`copdea_fem.axisymmetric.engine.AxisymmetricEngine.forced_problem`, makes
+the mesh and the prestress); :data:`MERIDIAN_SECTOR` says how :mod:`.run` and
+:mod:`.files` read its modes, velocities, far field and ParaView shapes.
+"""
+
+from __future__ import annotations
+
+import time
+
+from .problem import DrivenSector, OrderZero
+from .radiation import MembraneObserver, SphereSampler
+
+
+def order_zero_problem(study, mesh, state, timings: dict, progress) -> OrderZero:
+    """The ALE air and the forced m = 0 pencil on the prestressed meridian."""
+    from ..axisymmetric.air import meridian_motion
+    from ..axisymmetric.operators import MeridianAir, OrderForms, coupled_order_operators
+    from .harmonic import ForcedOrder
+
+    start = time.perf_counter()
+    progress("assembling the m = 0 membrane-air pencil and the voltage forcing ...")
+    motion = meridian_motion(state, mesh, study["air"]["domain_radius"])
+    air = MeridianAir(state, study, motion)
+    forms = OrderForms(state, study)
+    dry = forms.operators(0)
+    coupled = coupled_order_operators(state, study, dry, air)
+    forced = ForcedOrder.build(state, coupled, study["eigen"]["backend"]).with_damping(
+        forms.damping(dry))
+    timings["assembly"] = time.perf_counter() - start
+    return OrderZero(study, state, coupled, forced, timings, MERIDIAN_SECTOR)
+
+
+def _classify(problem, result):
+    """The modes of the forced m = 0 band, with their membrane-energy fractions."""
+    from ..axisymmetric.modes import OrderSampler, classify_order
+    from ..modes import membrane_energy_fractions
+
+    coupled = problem.coupled
+    dry = coupled.membrane
+    membrane = result.vectors[coupled.membrane_index]
+    sampler = OrderSampler(problem.state, dry.space, dry.axis_m1)
+    modes = classify_order(dry, membrane, result.freq_hz, result.freq_im_hz,
+                           result.residuals, sampler)
+    for mode, fraction in zip(modes, membrane_energy_fractions(coupled, result)):
+        mode.membrane_energy_fraction = fraction
+    return modes
+
+
+def _label(modes) -> None:
+    from ..axisymmetric.modes import label_all, number_out_of_plane
+    number_out_of_plane(modes)
+    label_all(modes)
+
+
+def _write_shapes(staging, state, coupled, shapes, pressures):
+    from .. import output
+    return (output.write_revolved_mode_vtus(staging, state, shapes),
+            output.write_revolved_air_vtus(staging, [coupled], shapes, pressures))
+
+
+MERIDIAN_SECTOR = DrivenSector(
+    name="order m = 0", excited="order m = 0", summary="m = 0", classify=_classify,
+    label=_label, observer=MembraneObserver, angles=1, sphere=SphereSampler,
+    shape_sector=lambda operators: None, write_shapes=_write_shapes)
