@@ -312,6 +312,8 @@ class FEModel:
         left out (the caller's :meth:`modes` solves it again and raises its error).
         Returns the number of studies solved here (0 with one worker or < 2 to solve).
         """
+        if self.workers < 2:
+            return 0
         todo = {}
         for study, f_max in requests:
             run = fe_study(study, f_max)
@@ -323,7 +325,7 @@ class FEModel:
                 self._memory[key] = hit
                 continue
             todo[key] = (study, f_max)
-        if self.workers < 2 or len(todo) < 2:
+        if len(todo) < 2:
             return 0
         import concurrent.futures
         self.progress(f"FE: {len(todo)} solves on {self.workers} processes side by side ...")
