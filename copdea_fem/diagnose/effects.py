@@ -331,13 +331,12 @@ _register(Effect(
                 "FE on the axisymmetric engine; the ring model has no mounting.",
     kind="physics", engine="coupled_fe", parameters=(),
     signature="every membrane mode higher than the baffled model predicts, (0,1) most (the "
-              "air short-circuits round the rim: a monopole loses most of its added mass), "
-              "(0,2) and the (m,1) less, rising less with m (0.65 m drum head, coupled FE, "
-              "open over baffled: (0,1) +14 %, (1,1) +4.6 %, (2,1) +2.2 %, (3,1) +1.3 %, "
-              "(0,2) +3.2 %; G1 at z = 11 mm, 2 kV: (0,1) +10 %, (1,1) +3 %: the inverse of "
-              "baffle's shifts); against a "
-              "frame, the same pattern a few per cent; the split (m,n) pairs of a square "
-              "frame merge",
+              "air short-circuits round the rim: a monopole loses much of its added mass), "
+              "(0,2) and the (m,1) less, the less the higher m (coupled FE, open over "
+              "baffled: 0.65 m drum head at pre-stretch 1.05, (0,1) +14.1 %, (1,1) +4.6 %, "
+              "(2,1) +2.2 %, (3,1) +1.4 %, (0,2) +3.2 %; G1 at z = 11 mm, 2 kV, (0,1) "
+              "+10.2 %, (1,1) +2.8 %, (2,1) +1.2 %, (0,2) +0.4 %); against a frame, the "
+              "same pattern by a few per cent; the split (m,n) pairs of a square frame merge",
     on_overrides=lambda s, v: {"geometry.frame": "none"},
     off_overrides=lambda s: {"geometry.frame": "baffle"},
     detect=lambda s: s["geometry"]["frame"] == "none"))

@@ -121,6 +121,11 @@ def test_a_stated_mounting_is_replaced_not_stacked():
     dry_framed = parse_study(battery.fe_battery.DRY)          # square frame, air off
     assert "without air" in skipped("baffle", (("air_loading", (1.0,)),), dry_framed)
     assert skipped("baffle", (), parse_study(battery.G1_OPEN)) is None
+    # the frame's size is stated: a frame-less base's frame_side that fits is the one tried
+    stated = parse_study(battery.fe_battery._with(battery.DRUM, geometry={
+        "frame_side": "0.9 m"}, air={"domain_radius": "0.8 m"}))
+    framed = stated.replace(CATALOGUE["frame_reflection"].on(stated))
+    assert framed["geometry"]["frame"] == "square" and framed["geometry"]["frame_side"] == 0.9
 
 
 @pytest.mark.slow
