@@ -268,6 +268,9 @@ def cmd_diagnose(args) -> int:
     if args.fe_cache:
         from .diagnose.fe import check_cache_dir
         check_cache_dir(args.fe_cache, "--fe-cache")    # a file: exit 2 before any work
+    if args.fe_workers is not None:
+        from .diagnose.fe import check_workers
+        check_workers(args.fe_workers, "--fe-workers")
     measured = load_measured(args.measured)
     out_dir = Path(args.out) if args.out else diagnose_out_dir(measured)
     inputs = [args.measured, *(path for condition in measured.conditions
@@ -276,7 +279,8 @@ def cmd_diagnose(args) -> int:
         return _reduced_action(lambda: run_diagnose(args.measured, out_dir=out_dir,
                                                     progress=_progress(args.quiet),
                                                     alpha=args.alpha, model=args.model,
-                                                    fe_cache=args.fe_cache))
+                                                    fe_cache=args.fe_cache,
+                                                    fe_workers=args.fe_workers))
 
 
 def cmd_synth(args) -> int:
@@ -318,6 +322,10 @@ def _add_diagnose_commands(commands, with_study) -> None:
                           help="folder of cached FE solves (default: $COPDEA_FEM_FE_CACHE, else "
                                "the user cache folder; a $COPDEA_FEM_FE_CACHE that names a "
                                "file is ignored with a warning)")
+    diagnose.add_argument("--fe-workers", metavar="N",
+                          help="processes solving FE studies side by side (default: "
+                               "$COPDEA_FEM_FE_WORKERS, else the cores, at most 4; 1: one at "
+                               "a time)")
     diagnose.add_argument("--quiet", action="store_true", help="no progress messages")
     diagnose.set_defaults(handler=cmd_diagnose)
 

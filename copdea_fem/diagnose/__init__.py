@@ -46,7 +46,7 @@ def synth_out_dir(study, seed: int) -> Path:
 
 
 def run_diagnose(measured_path, out_dir=None, progress=None, alpha: float = 0.05,
-                 model: str | None = None, fe_cache=None) -> dict:
+                 model: str | None = None, fe_cache=None, fe_workers=None) -> dict:
     """Diagnose a measured data set and write the report.
 
     Parameters
@@ -61,6 +61,9 @@ def run_diagnose(measured_path, out_dir=None, progress=None, alpha: float = 0.05
         ``"fe"`` or ``"reduced"``: overrides the manifest's ``model``.
     fe_cache : path, optional
         Folder of cached FE solves (:class:`copdea_fem.diagnose.fe.FEModel`).
+    fe_workers : int, optional
+        Processes solving FE studies side by side (default
+        :func:`copdea_fem.diagnose.fe.default_workers`).
 
     Returns
     -------
@@ -74,6 +77,9 @@ def run_diagnose(measured_path, out_dir=None, progress=None, alpha: float = 0.05
     if fe_cache:
         from copdea_fem.diagnose.fe import check_cache_dir
         check_cache_dir(fe_cache, "fe_cache")
+    if fe_workers is not None:
+        from copdea_fem.diagnose.fe import check_workers
+        fe_workers = check_workers(fe_workers, "fe_workers")
     measured = load_measured(measured_path)
     if model is not None:
         measured = dataclasses.replace(measured, model=model)
@@ -83,10 +89,14 @@ def run_diagnose(measured_path, out_dir=None, progress=None, alpha: float = 0.05
         from copdea_fem.diagnose.anchored import AnchoredEngine
         from copdea_fem.diagnose.direct import DirectFEEngine, ring_can_represent
         from copdea_fem.diagnose.fe import FEModel
-        fe = FEModel(cache_dir=fe_cache, progress=progress)
+        fe = FEModel(cache_dir=fe_cache, progress=progress, workers=fe_workers)
         engine = (AnchoredEngine(measured, fe) if ring_can_represent(measured.base_study)
                   else DirectFEEngine(measured, fe))     # no disc: the FE directly
-    result = Diagnoser(measured, alpha=alpha, engine=engine, progress=progress).run()
+    try:
+        result = Diagnoser(measured, alpha=alpha, engine=engine, progress=progress).run()
+    finally:
+        if engine is not None:
+            engine.fe.close()                            # the FE worker processes, if any
     with result_directory(out, "diagnose") as staging:
         files = write_report(result, staging)
     files = [out / f.name for f in files]

@@ -48,6 +48,7 @@ from copdea_fem.reduced.rings import ReducedModelError
 # ring model moves it well: in the FE from the step that accepts it, at the accepted
 # values), or absent (ring only).
 FE_ROLES = {"air_loading": "switch", "frame_reflection": "switch", "baffle": "switch",
+            "open_air": "switch",
             "disc_pumping": "anchored",
             "electrostatic_softening": "anchored", "uniform_stiffness": "anchored"}
 # Parameter values of a switch in the anchor state (the ring side of the ratio).
@@ -157,6 +158,23 @@ class AnchoredEngine(Engine):
             elif role == "anchored" and effect_id in self.anchored and not testing:
                 out.append((effect_id, self.anchored[effect_id]))
         return tuple(out)
+
+    def prefetch(self, pairs) -> None:
+        """The FE solves of the anchors of ``(condition, state)`` pairs not yet anchored,
+        side by side (:meth:`FEModel.solve_many`); :meth:`anchor` then finds them."""
+        requests, seen = [], set()
+        for condition, state in pairs:
+            anchor_state = self.anchor_state(state)
+            key = (condition.name, anchor_state)
+            if key in self._anchors or key in seen:
+                continue
+            seen.add(key)
+            try:
+                study = self.study(condition, anchor_state)
+            except (ReducedModelError, ValueError):    # predict() reports it (safe_predict)
+                continue
+            requests.append((study, BAND_MARGIN * condition.band[1]))
+        self.fe.solve_many(requests)
 
     def anchor(self, condition, state=()) -> Anchor:
         """The FE and the ring model at the anchor of ``state`` (cached)."""

@@ -10,7 +10,7 @@ modes, frames none/baffle/circle), tens of seconds to minutes on the 3-D quadran
 (square frame).
 
 What it can evaluate: the effects the FE represents (:data:`DIRECT_EFFECTS`) --
-the switches ``air_loading``, ``baffle``, ``frame_reflection`` (geometry and
+the switches ``air_loading``, ``baffle``, ``frame_reflection``, ``open_air`` (geometry and
 air keys) and the parameters ``effects.stiffness_scale`` (uniform_stiffness: the
 membrane's tension) and ``effects.maxwell_scale`` (electrostatic_softening), and
 ``disc_pumping`` where there is a disc.  The parameters the FE does not read
@@ -34,10 +34,11 @@ from dataclasses import dataclass
 from copdea_fem.diagnose.anchored import FEFailure
 from copdea_fem.diagnose.engine import Engine, ModelMode
 from copdea_fem.diagnose.fe import BAND_MARGIN, FEModel
+from copdea_fem.reduced.rings import ReducedModelError
 
 # The effects the FE evaluates by itself (its study keys: fe.FE_EFFECT_KEYS, geometry, air).
-DIRECT_EFFECTS = ("air_loading", "baffle", "frame_reflection", "uniform_stiffness",
-                  "electrostatic_softening", "disc_pumping")
+DIRECT_EFFECTS = ("air_loading", "baffle", "frame_reflection", "open_air",
+                  "uniform_stiffness", "electrostatic_softening", "disc_pumping")
 # Parameters the FE does not read: held at the catalogue's default, not fitted.
 PINNED_KEYS = ("effects.air_mass_scale",)
 DIRECT_GRID = 5            # FE solves per condition tabulating one parameter
@@ -87,6 +88,20 @@ class DirectFEEngine(Engine):
 
     def anchor(self, condition, state=()):   # marks an FE model of record (Diagnoser.uses_fe)
         return None
+
+    def prefetch(self, pairs) -> None:
+        """The FE solves of ``(condition, state)`` pairs, side by side
+        (:meth:`FEModel.solve_many`); :meth:`predict` then finds them."""
+        requests = []
+        for condition, state in pairs:
+            if any(e not in DIRECT_EFFECTS for e, _ in state):
+                continue
+            try:
+                study = self.study(condition, state)
+            except (ReducedModelError, ValueError):     # predict() reports it (safe_predict)
+                continue
+            requests.append((study, BAND_MARGIN * condition.band[1]))
+        self.fe.solve_many(requests)
 
     def predict(self, condition, state=(), perturbation=None) -> DirectPrediction:
         if perturbation:

@@ -17,7 +17,8 @@ FE can (tested only with the FE as the model of record and air in the model).
 
 Identifiers are a contract (``diagnosis.json``): ``air_loading,
 electrostatic_softening, spring_mass, disc_pumping, modal_damping,
-frame_reflection, viscoelastic_stiffening, uniform_stiffness`` and (issue 24) ``baffle``.
+frame_reflection, viscoelastic_stiffening, uniform_stiffness`` and (issue 24) ``baffle``,
+``open_air``.
 """
 
 from __future__ import annotations
@@ -244,7 +245,15 @@ _register(Effect(
 # G1's frame over its membrane diameter (Sect. 5.1: an 80 mm square around r_o = 35.5 mm):
 # the size of a frame the base study does not state validly for its membrane.
 FRAME_OVER_DIAMETER = 0.080 / 0.071
-MOUNTINGS = ("baffle", "frame_reflection")     # mutually exclusive: one mounting at a time
+# Mutually exclusive: one mounting at a time.  The base study's own mounting is the starting
+# point; the others are candidates that replace it (select.Diagnoser.candidates).
+MOUNTINGS = ("baffle", "frame_reflection", "open_air")
+
+
+def base_mounting(study) -> str | None:
+    """The mounting effect a study states (:data:`MOUNTINGS`): ``open_air`` for
+    ``geometry.frame: none``, ``baffle``, ``frame_reflection`` for a square or circle."""
+    return next((m for m in MOUNTINGS if CATALOGUE[m].is_on(study)), None)
 
 
 def frame_overrides(study, shape=None) -> dict:
@@ -311,6 +320,26 @@ _register(Effect(
     on_overrides=lambda s, v: {"geometry.frame": "baffle"},
     off_overrides=lambda s: {"geometry.frame": "none"},
     detect=lambda s: s["geometry"]["frame"] == "baffle"))
+
+_register(Effect(
+    id="open_air", title="membrane open in air (the base's mounting removed)",
+    description="The reverse of baffle and frame_reflection (issue 24): the membrane hangs "
+                "open in air, nothing in its plane around it, so the air flows round the rim "
+                "from one face to the other.  A candidate only for a base that states a "
+                "mounting (geometry.frame: baffle, square or circle, with air): it replaces "
+                "that mounting by geometry.frame: none.  Evaluated with the coupled air/PML "
+                "FE on the axisymmetric engine; the ring model has no mounting.",
+    kind="physics", engine="coupled_fe", parameters=(),
+    signature="every membrane mode higher than the baffled model predicts, (0,1) most (the "
+              "air short-circuits round the rim: a monopole loses much of its added mass), "
+              "(0,2) and the (m,1) less, the less the higher m (coupled FE, open over "
+              "baffled: 0.65 m drum head at pre-stretch 1.05, (0,1) +14.1 %, (1,1) +4.6 %, "
+              "(2,1) +2.2 %, (3,1) +1.4 %, (0,2) +3.2 %; G1 at z = 11 mm, 2 kV, (0,1) "
+              "+10.2 %, (1,1) +2.8 %, (2,1) +1.2 %, (0,2) +0.4 %); against a frame, the "
+              "same pattern by a few per cent; the split (m,n) pairs of a square frame merge",
+    on_overrides=lambda s, v: {"geometry.frame": "none"},
+    off_overrides=lambda s: {"geometry.frame": "baffle"},
+    detect=lambda s: s["geometry"]["frame"] == "none"))
 
 _register(Effect(
     id="viscoelastic_stiffening", title="visco-elastic stiffening",

@@ -217,6 +217,10 @@ class Engine:
         cheap = _cheap_values(study, {k: v for k, v in overrides.items() if k in CHEAP_KEYS})
         return self._predict(study, condition, cheap, overrides, perturbation)
 
+    def prefetch(self, pairs) -> None:
+        """Solve ahead, side by side, what :meth:`predict` of the ``(condition, state)``
+        pairs will need (the FE engines); nothing for the ring model alone."""
+
     def ring_predict(self, condition, state=(), perturbation=None) -> Prediction:
         """The ring model alone (the same as :meth:`predict` here)."""
         return Engine.predict(self, condition, state, perturbation)

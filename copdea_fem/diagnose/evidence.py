@@ -119,6 +119,11 @@ def verdict(result) -> str:
                      f"{100 * result.gap_after:.1f} %.")
     elif state == "partly explained":
         parts.append("Partly explained.")
+    for effect_id, text in result.status.items():    # a mounting change (issue 24)
+        prefix = "on in the base model: replaced by "
+        if text.startswith(prefix) and text[len(prefix):] in result.missing_effects:
+            parts.append(f"The base study's mounting ({effect_id}) does not fit the data: "
+                         f"{text[len(prefix):]} replaces it.")
     for group in result.ambiguous:
         parts.append("The data cannot tell " + " from ".join(group) + " apart (see the "
                      "separating measurement).")

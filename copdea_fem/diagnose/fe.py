@@ -17,6 +17,12 @@ What it does not: the ring model's own keys (``reduced.*``), the air-mass
 estimate and its scale, visco-elasticity, the spring's mass, modal damping --
 those act through the anchored ring surrogate (:mod:`copdea_fem.diagnose.anchored`).
 
+Side by side (issue 24).  A cold diagnosis needs tens of independent FE solves (every
+condition at every switch state, the grid of a fitted parameter on the direct engine):
+the search hands each batch to :meth:`FEModel.solve_many` first, which solves what the
+cache lacks in spawned worker processes (``workers``, ``--fe-workers``), each writing
+its entry under the per-entry lock, so runs and workers share one cache folder safely.
+
 Modes.  Frequencies are the real parts of the (coupled) eigenfrequencies [Hz].
 A split pair ``(m,n)a``/``(m,n)b`` that a vibrometer cannot resolve (relative
 split below :data:`PAIR_MERGE`) is one mode ``(m,n)`` at the mean frequency;
@@ -245,6 +251,9 @@ class FEModel:
     lock_wait : float, optional
         Longest wait [s] for an entry another run is computing (default
         :data:`LOCK_WAIT_SECONDS`).
+    workers : int, optional
+        Processes that solve a batch of FE studies side by side (:meth:`solve_many`);
+        default :func:`default_workers`; 1: every solve in this process, one at a time.
 
     The cache never fails a diagnosis.  An entry is read only when it follows the
     schema of :func:`entry_problem`; a damaged one (not JSON, a wrong type, a
@@ -256,7 +265,8 @@ class FEModel:
     :mod:`logging` (the CLI prints them on stderr, also with ``--quiet``).
     """
 
-    def __init__(self, cache_dir=None, progress=None, lock_wait: float = LOCK_WAIT_SECONDS):
+    def __init__(self, cache_dir=None, progress=None, lock_wait: float = LOCK_WAIT_SECONDS,
+                 workers: int | None = None):
         if cache_dir is None:
             cache_dir = fe_cache_dir()
         self.cache_dir = Path(cache_dir).expanduser() if cache_dir else None
@@ -268,7 +278,9 @@ class FEModel:
                 self.cache_dir = None
         self.progress = progress or (lambda message: None)
         self.lock_wait = lock_wait
+        self.workers = default_workers() if workers is None else check_workers(workers)
         self._memory: dict = {}
+        self._pool = None
         self.solves = 0
         self.seconds = 0.0
 
@@ -285,6 +297,101 @@ class FEModel:
                     self._write(hit)
         self._memory[key] = hit
         return hit
+
+    def solve_many(self, requests) -> int:
+        """Solve the FE studies of ``requests`` (``(study, f_max)`` pairs, as :meth:`modes`
+        takes them) that neither memory nor the cache folder holds, side by side in
+        :attr:`workers` spawned processes (NGSolve's threads do not survive a fork; one
+        BLAS thread each: the axisymmetric solves are single-threaded anyway); the
+        results land in memory, and in the cache folder as :meth:`modes` writes them.
+
+        Safe with the cache shared: each worker is an :class:`FEModel` on the same
+        folder, so an entry is solved under its ``<key>.lock`` (class notes) -- two
+        workers, or two runs, never solve the same entry at once, and a worker that
+        finds an entry another run wrote reads it.  A study a worker cannot solve is
+        left out (the caller's :meth:`modes` solves it again and raises its error).
+        Returns the number of studies solved here (0 with one worker or < 2 to solve).
+        """
+        if self.workers < 2:
+            return 0
+        todo = {}
+        for study, f_max in requests:
+            run = fe_study(study, f_max)
+            key = fe_key(run)
+            if key in self._memory or key in todo:
+                continue
+            hit = self._read(key, quiet=True)
+            if hit is not None:
+                self._memory[key] = hit
+                continue
+            todo[key] = (study, f_max)
+        if len(todo) < 2:
+            return 0
+        import concurrent.futures
+        self.progress(f"FE: {len(todo)} solves on {self.workers} processes side by side ...")
+        folder = str(self.cache_dir) if self.cache_dir is not None else None
+        saved = {name: os.environ.get(name) for name in THREAD_VARIABLES}
+        for name in saved:                   # read by the workers as they start
+            os.environ[name] = "1"
+        solved, broken = 0, None
+        start = time.perf_counter()
+        try:
+            pool = self._worker_pool()
+            futures = {pool.submit(_solve_in_worker, study, f_max, folder,
+                                   self.lock_wait): key
+                       for key, (study, f_max) in todo.items()}
+            for future in concurrent.futures.as_completed(futures):
+                try:
+                    result, solves = future.result()
+                except (RuntimeError, ValueError) as error:   # the FE's own error:
+                    if isinstance(error, concurrent.futures.process.BrokenProcessPool):
+                        broken = broken or error
+                    logger.debug(f"FE worker failed on {futures[future]}: {error!r}")
+                    continue                                  # modes() raises it here
+                except Exception as error:  # noqa: BLE001 -- the workers, not the FE
+                    broken = broken or error
+                    continue
+                self._memory[futures[future]] = result
+                if solves:
+                    solved += 1
+                    self.solves += 1
+                    self.seconds += result.seconds
+        finally:
+            for name, value in saved.items():
+                if value is None:
+                    os.environ.pop(name, None)
+                else:
+                    os.environ[name] = value
+        if broken is not None:             # do not try again: one at a time from now on
+            self.close()
+            self.workers = 1
+            logger.warning(f"FE worker processes failed ({broken!r}); the remaining FE "
+                           "studies are solved here, one at a time")
+        self.progress(f"FE: {solved} solves in {time.perf_counter() - start:.1f} s "
+                      f"(side by side)")
+        return solved
+
+    def _worker_pool(self):
+        """The spawned worker processes of :meth:`solve_many`, started at its first batch
+        and kept for the next ones (a worker's start -- Python, NGSolve -- costs seconds);
+        ended by :meth:`close`, or when this model is collected or the process exits."""
+        if self._pool is None:
+            import concurrent.futures
+            import multiprocessing
+            import weakref
+            from copdea_fem.sweep.executors import _tie_to_parent
+            self._pool = concurrent.futures.ProcessPoolExecutor(
+                max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"),
+                initializer=_tie_to_parent, initargs=(os.getpid(),))
+            self._finalizer = weakref.finalize(self, self._pool.shutdown, wait=True,
+                                               cancel_futures=True)
+        return self._pool
+
+    def close(self) -> None:
+        """End the worker processes of :meth:`solve_many` (if any were started)."""
+        if self._pool is not None:
+            self._finalizer()
+            self._pool = None
 
     def _solve(self, run: Study, key: str) -> FEResult:
         from copdea_fem.solve import coupled_modes, dry_modes
@@ -370,6 +477,43 @@ class FEModel:
                            f"({getattr(error, 'strerror', None) or error})")
             with contextlib.suppress(OSError):
                 staging.unlink(missing_ok=True)
+
+
+#: Thread counts of the BLAS and OpenMP libraries, set to 1 in the worker processes of
+#: :meth:`FEModel.solve_many` (one solve per core, no oversubscription).
+THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+WORKERS_VARIABLE = "COPDEA_FEM_FE_WORKERS"
+MAX_DEFAULT_WORKERS = 4
+
+
+def check_workers(value, option: str = "--fe-workers") -> int:
+    """``value`` as a worker count (an integer >= 1), or :class:`StudyError` naming
+    ``option`` (called before any work)."""
+    try:
+        count = int(value)
+    except (TypeError, ValueError):
+        count = None
+    if count is None or isinstance(value, bool) or count < 1 or str(count) != str(value).strip():
+        raise StudyError(f"{option} = {value!r} is not allowed; allowed: an integer >= 1 "
+                         "(processes solving FE studies side by side)")
+    return count
+
+
+def default_workers() -> int:
+    """``$COPDEA_FEM_FE_WORKERS`` when set, else the machine's cores up to
+    :data:`MAX_DEFAULT_WORKERS` (a cold diagnosis has tens of independent solves)."""
+    if os.environ.get(WORKERS_VARIABLE):
+        return check_workers(os.environ[WORKERS_VARIABLE], WORKERS_VARIABLE)
+    return max(1, min(MAX_DEFAULT_WORKERS, os.cpu_count() or 1))
+
+
+def _solve_in_worker(study, f_max, folder, lock_wait):
+    """Worker process of :meth:`FEModel.solve_many`: one study through an :class:`FEModel`
+    on the shared folder (its per-entry lock); the result and whether it was solved here."""
+    model = FEModel(cache_dir=folder if folder is not None else False, lock_wait=lock_wait,
+                    workers=1)
+    result = model.modes(study, f_max)
+    return result, model.solves
 
 
 def _refuse_constant(name: str):

@@ -84,7 +84,7 @@ from copdea_fem.diagnose.compare import (ConditionMatch, DevianceTerms, Measured
                                          match_condition)
 from copdea_fem.diagnose.direct import (DIRECT_EFFECTS, DIRECT_GRID, PINNED_KEYS,
                                         DirectFEEngine, ring_can_represent)
-from copdea_fem.diagnose.effects import CATALOGUE, MOUNTINGS
+from copdea_fem.diagnose.effects import CATALOGUE, MOUNTINGS, base_mounting
 from copdea_fem.diagnose.engine import Engine, safe_predict
 from copdea_fem.diagnose.fe import BAND_MARGIN
 from copdea_fem.diagnose.evidence import (describe_evidence, goodness_of_fit, remaining_off,
@@ -278,6 +278,7 @@ class Diagnoser:
     def evaluate(self, state) -> tuple[dict, dict]:
         """Exact predictions and matches of every condition ({} entries None if invalid)."""
         predictions, matches = {}, {}
+        self.engine.prefetch([(c, state) for c in self.conditions])
         for c in self.conditions:
             prediction = safe_predict(self.engine, c, state)
             predictions[c.name] = prediction
@@ -314,11 +315,11 @@ class Diagnoser:
             if effect_id == "disc_pumping" and base_study["geometry"]["inner_radius"] == 0:
                 skipped[effect_id] = "a membrane without a disc has no disc to pump"
                 continue
-            mounted = [m for m in MOUNTINGS if m in on and m != effect_id]
-            if effect_id in MOUNTINGS and mounted:
-                skipped[effect_id] = (f"another mounting ({mounted[0]}) is in the model: one "
-                                      "mounting at a time")
-                continue
+            if effect_id in MOUNTINGS:
+                why = self._mounting_skipped(effect_id, state, base_study)
+                if why:
+                    skipped[effect_id] = why
+                    continue
             if entry.engine == "coupled_fe" and "air_loading" not in on:
                 skipped[effect_id] = ("needs air in the model (the frame reflects sound): "
                                       "tested once air_loading is on")
@@ -339,6 +340,43 @@ class Diagnoser:
                 continue
             groups.append(group)
         return groups, skipped
+
+    @staticmethod
+    def _mounting_skipped(effect_id, state, base_study) -> str | None:
+        """Why the mounting ``effect_id`` is not a candidate at ``state`` (None: it is).
+
+        One mounting at a time: the base study's own (:func:`base_mounting`: open in air,
+        baffled or framed) is the starting point, and every other mounting is a candidate
+        that *replaces* it (its overrides set ``geometry.frame``) -- the search adds
+        effects, and this is how a base with the wrong mounting is corrected (issue 24:
+        open-air data from a baffled base).  Once a mounting is accepted (or held
+        provisionally) no other is tested.  A framed or baffled base without air
+        (``air.enabled: false``, the frame inert) keeps its stated mounting: only a base
+        that models the air states a mounting to replace.
+        """
+        added = next((e for e, _ in state if e in MOUNTINGS and e != effect_id), None)
+        if added:
+            return f"another mounting ({added}) is in the model: one mounting at a time"
+        stated = base_mounting(base_study)
+        if stated not in (None, "open_air") and not base_study["air"]["enabled"]:
+            return (f"another mounting ({stated}) is in the model: one mounting at a time "
+                    "(the base study states it without air, air.enabled: false)")
+        return None
+
+    def _prefetch_switches(self, state, groups) -> None:
+        """The FE solves every candidate of a step needs at its defaults, side by side
+        (:meth:`FEModel.solve_many`: the cold diagnosis's switches -- air, mountings --
+        at every condition at once); on the direct engine only the candidates without a
+        fitted parameter (the others are solved on their grids, a batch each)."""
+        pairs = []
+        for group in groups:
+            free = [p for e in group for p in CATALOGUE[e].parameters
+                    if p.key not in self.pinned]
+            if self.direct and free:
+                continue
+            candidate = state + tuple((e, CATALOGUE[e].defaults) for e in group)
+            pairs.extend((c, candidate) for c in self.conditions)
+        self.engine.prefetch(pairs)
 
     # -- fitting -----------------------------------------------------------------------------
     def score(self, state, group, current_deviance: dict, tested: int) -> CandidateScore:
@@ -456,6 +494,7 @@ class Diagnoser:
             for group in groups:
                 not_tested.pop(group[-1], None)
             self.progress(f"step {index}: testing {', '.join(g[-1] for g in groups)}")
+            self._prefetch_switches(state, groups)
             scores = [self.score(state, g, deviance, len(groups)) for g in groups]
             tested_ever.update(g[-1] for g in groups)
             scores.sort(key=lambda s: -s.delta_cv if math.isfinite(s.delta_cv) else math.inf)
@@ -507,6 +546,7 @@ class Diagnoser:
         ambiguous_ids = {e for group in ambiguous for e in group}
         base_on = [e for e, entry in CATALOGUE.items()
                    if entry.is_on(base) and (entry.engine == "reduced" or self.uses_fe)]
+        replaced_by = next((e for e in added if e in MOUNTINGS), None)
         for effect_id in CATALOGUE:
             if effect_id in missing:
                 status[effect_id] = "missing: added"
@@ -515,6 +555,8 @@ class Diagnoser:
                                      else "ambiguous")
             elif effect_id in not_tested:
                 status[effect_id] = "not tested: " + not_tested[effect_id]
+            elif effect_id in base_on and effect_id in MOUNTINGS and replaced_by:
+                status[effect_id] = f"on in the base model: replaced by {replaced_by}"
             elif effect_id in base_on:
                 status[effect_id] = "on in the base model"
             elif effect_id not in self.measured.candidates:
@@ -555,7 +597,7 @@ class Diagnoser:
                     "states": {" + ".join(k) or "base": sorted(v) for k, v in used.items()},
                     "fitted_grid": f"{DIRECT_GRID} FE solves per condition and parameter"}
         return {"predictions": "ring surrogate anchored to the FE (A1)",
-                "fe_switches": "air_loading, baffle, frame_reflection: FE solves "
+                "fe_switches": "air_loading, baffle, frame_reflection, open_air: FE solves "
                                "(axisymmetric engine for frames none/baffle/circle, 3-D for "
                                "the square frame)"}
 

@@ -95,6 +95,13 @@ class Tabulation:
         (the modes present at the centre and at every shifted point)."""
         u0 = np.concatenate([self.default_u, self.nuisance_u0])
         step = 0.02
+        points = [u0]
+        for n in range(len(self.nuisance)):
+            u = u0.copy()
+            u[self.k + n] += step if u[self.k + n] + step <= 1 else -step
+            points.append(u)
+        self.d.engine.prefetch([(c, self.state_at(u)) for c in self.d.conditions
+                                for u in points])
         for c in self.d.conditions:
             centre = safe_predict(self.d.engine, c, self.state_at(u0))
             columns = []
@@ -138,6 +145,8 @@ class Tabulation:
     def _tabulate(self):
         grid = np.array(np.meshgrid(*self.axes, indexing="ij")).reshape(self.k, -1).T
         shape = tuple(a.size for a in self.axes)
+        self.d.engine.prefetch([(c, extend_state(self.state, self.group, self.values(u)))
+                                for c in self.d.conditions for u in grid])
         for c in self.d.conditions:
             predictions = [safe_predict(self.d.engine, c, extend_state(self.state, self.group,
                                                                   self.values(u)))
@@ -192,6 +201,8 @@ class Tabulation:
     def _fixed_modes(self, name):
         if not hasattr(self, "_fixed"):
             self._fixed = {}
+            state = extend_state(self.state, self.group, self.values([]))
+            self.d.engine.prefetch([(c, state) for c in self.d.conditions])
             for c in self.d.conditions:
                 p = safe_predict(self.d.engine, c,
                                  extend_state(self.state, self.group, self.values([])))

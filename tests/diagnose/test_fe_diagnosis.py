@@ -20,7 +20,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import fe_battery as battery  # noqa: E402
 from copdea_fem.diagnose.anchored import AnchoredEngine  # noqa: E402
-from copdea_fem.diagnose.compare import MeasuredPeak, match_condition  # noqa: E402
+from copdea_fem.diagnose.compare import MeasuredPeak, gap, match_condition  # noqa: E402
 from copdea_fem.diagnose.engine import Engine, ModelMode  # noqa: E402
 from copdea_fem.diagnose.fe import FEModel, fe_key, fe_study  # noqa: E402
 from copdea_fem.diagnose.measured import NoiseModel, load_measured  # noqa: E402
@@ -244,6 +244,45 @@ def test_fe_cache_round_trip_and_a_damaged_entry_is_solved_again(tmp_path):
     assert repaired.solves == 1
 
 
+def test_a_batch_of_fe_solves_runs_side_by_side_sharing_the_cache(tmp_path):
+    """FEModel.solve_many (issue 24, item 5): the studies a cache lacks are solved in worker
+    processes on the shared folder -- the same modes as one solve at a time in memory, each
+    entry written once; a second run finds them all (nothing solved) and a serial model
+    reads them."""
+    study = parse_study(battery.DRY, name="flat").replace(
+        {"load.z": 0.0, "load.voltage": 0.0, "eigen.f_max": 600.0, "mesh.membrane_size": 0.004})
+    studies = [study.replace({"effects.stiffness_scale": s}) for s in (0.9, 1.1)]
+    requests = [(s, None) for s in studies] * 2                      # duplicates solved once
+    parallel = FEModel(cache_dir=tmp_path, workers=2)
+    assert parallel.solve_many(requests) == 2 and parallel.solves == 2
+    assert len(list(tmp_path.glob("*.json"))) == 2 and not list(tmp_path.glob("*.lock"))
+    serial = FEModel(cache_dir=False, workers=1)
+    for s in studies:
+        assert parallel.modes(s).modes == serial.modes(s).modes
+    assert parallel.solves == 2                                      # memory hits
+    again = FEModel(cache_dir=tmp_path, workers=2)
+    assert again.solve_many(requests) == 0 and again.solves == 0
+    assert FEModel(cache_dir=tmp_path, workers=1).solve_many(requests) == 0
+
+
+def test_fe_worker_counts_are_checked_before_any_work(monkeypatch, capsys):
+    from copdea_fem.diagnose.fe import WORKERS_VARIABLE, default_workers
+    from copdea_fem.study import StudyError
+    for bad in (0, -1, "two", 1.5, True):
+        with pytest.raises(StudyError, match="is not allowed; allowed: an integer >= 1"):
+            FEModel(cache_dir=False, workers=bad)
+    from copdea_fem.cli import main
+    assert main(["diagnose", "absent.yaml", "--fe-workers", "0"]) == 2     # before reading
+    assert capsys.readouterr().err.strip() == ("error: --fe-workers = '0' is not allowed; "
+                                               "allowed: an integer >= 1 (processes solving "
+                                               "FE studies side by side)")
+    monkeypatch.setenv(WORKERS_VARIABLE, "3")
+    assert default_workers() == 3
+    monkeypatch.setenv(WORKERS_VARIABLE, "0")
+    with pytest.raises(StudyError, match=WORKERS_VARIABLE):
+        default_workers()
+
+
 def test_ring_only_physics_of_the_base_acts_through_the_ring_ratio(tmp_path):
     """A base with the spring's mass on (ring-only physics: the FE's spring is massless):
     the anchored P1 is the FE's P1 times ring(with mass)/ring(without), not the FE's P1."""
@@ -306,3 +345,27 @@ def test_a_passing_candidate_is_refused_when_the_exact_gap_or_deviance_does_not_
     assert "gap does not fall" in refusal(near, near, ("air_loading",))
     assert refusal(near, near, ("modal_damping",)).startswith("the deviance")
     assert "cannot be evaluated at c" in refusal(near, {"c": None}, ("air_loading",))
+
+
+def test_the_acceptance_rule_refuses_a_step_that_raises_the_gap_by_one_per_cent():
+    """The boundary of the acceptance rule (issue 24): a step whose exact gap is 1 % above
+    the current one is refused even when its deviance falls, and one 1 % below is accepted
+    -- a rule that let the gap grow by up to 50 % would pass the 20-fold test above."""
+    peaks = [MeasuredPeak(400.0, "(0,1)"), MeasuredPeak(900.0, "(0,2)")]
+    noise, band = NoiseModel(frequency_relative=0.01), (20.0, 1000.0)
+
+    def matches(e01, e02):
+        modes = [ModelMode("(0,1)", "axisymmetric", 400.0 * (1 + e01), math.inf, math.nan,
+                           True),
+                 ModelMode("(0,2)", "axisymmetric", 900.0 * (1 + e02), math.inf, math.nan,
+                           True)]
+        return {"c": match_condition("c", modes, peaks, band, noise)}
+
+    current = matches(0.03, 0.0)
+    rising = matches(0.0, 0.0303)          # the error moved to (0,2), 1 % larger
+    before, after = gap(current.values()), gap(rising.values())
+    assert 1.005 < after / before < 1.015
+    assert "gap does not fall" in Diagnoser._refusal(current, rising, ("uniform_stiffness",))
+    falling = matches(0.0, 0.0297)
+    assert gap(falling.values()) < before
+    assert Diagnoser._refusal(current, falling, ("uniform_stiffness",)) is None
