@@ -1,8 +1,8 @@
 """Reliability: results never destroy data, every bad input and every fault ends cleanly.
 
-Each case checks the exit code, the first line of the message, the time to a
-refusal (before any meshing or solving: the expensive entry points are
-replaced by ones that fail the test if called) and the file system afterwards
+Each case checks the exit code, the first line of the message, that a refusal
+comes before any meshing or solving (the expensive entry points are replaced by
+ones that fail the test if called; no clock) and the file system afterwards
 (nothing the test made beforehand changed, no staging folder, old copy or lock
 file left).  Interruptions and concurrent runs use real processes.
 """
@@ -24,8 +24,6 @@ ROOT = Path(__file__).resolve().parent.parent
 REDUCED_STUDY = ROOT / "tests" / "reduced" / "data" / "g1_z16_2kV.yaml"   # ring model: ms
 DRY_STUDY = ROOT / "studies" / "g1_z16_pumping.yaml"
 EXAMPLE = ROOT / "studies" / "measured_example"
-# a refusal does no work; the bound is loose for a loaded 2-core machine
-REFUSAL_SECONDS = 2.0
 LEFTOVER_MARKS = (".staging-", ".old-", ".copdea-fem-lock")
 
 
@@ -40,6 +38,8 @@ def work(tmp_path, monkeypatch):
 
     monkeypatch.setattr("copdea_fem.solve.prepare_mesh", forbidden)
     monkeypatch.setattr("copdea_fem.geometry.generate_mesh", forbidden)
+    monkeypatch.setattr("copdea_fem.axisymmetric.engine.meridian_mesh", forbidden)
+    monkeypatch.setattr("copdea_fem.bands.BandSolver.solve", forbidden)
     monkeypatch.setattr("copdea_fem.reduced.io.build_reduced", forbidden)
     monkeypatch.setattr("copdea_fem.diagnose.select.Diagnoser.run", forbidden)
     monkeypatch.setattr("copdea_fem.sweep.executors.solve_point", forbidden)
@@ -56,12 +56,10 @@ def leftovers(folder: Path) -> list:
 
 
 def refused(argv, folder, capsys, code=2):
-    """Run the CLI expecting a quick refusal; return the first line of its message."""
+    """Run the CLI expecting a refusal before any expensive stage (the ``work`` fixture
+    makes them fail; no clock: the machines are loaded); return its first line."""
     before = snapshot(folder)
-    start = time.perf_counter()
     assert main([str(item) for item in argv]) == code
-    seconds = time.perf_counter() - start
-    assert seconds < REFUSAL_SECONDS, seconds
     after = snapshot(folder)
     assert after == before, "files were written, changed or deleted"
     assert not leftovers(folder)
@@ -197,9 +195,7 @@ def test_a_held_folder_is_refused_naming_the_holder(work, capsys):
     try:
         assert holder.stdout.readline().strip() == "held"
         before = snapshot(work)
-        start = time.perf_counter()
         assert main(["spectrum", str(REDUCED_STUDY), "--out", str(work / "run")]) == 2
-        assert time.perf_counter() - start < REFUSAL_SECONDS
         line = capsys.readouterr().err.strip()
         assert line == (f"error: output folder {work / 'run'} is being written by another "
                         f"copdea-fem run (process {holder.pid}); wait for it to finish or choose "

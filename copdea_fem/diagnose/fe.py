@@ -379,10 +379,10 @@ class FEModel:
             import concurrent.futures
             import multiprocessing
             import weakref
-            from copdea_fem.sweep.executors import _tie_to_parent
+            from copdea_fem.sweep.executors import tie_to_parent
             self._pool = concurrent.futures.ProcessPoolExecutor(
                 max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"),
-                initializer=_tie_to_parent, initargs=(os.getpid(),))
+                initializer=tie_to_parent, initargs=(os.getpid(),))
             self._finalizer = weakref.finalize(self, self._pool.shutdown, wait=True,
                                                cancel_futures=True)
         return self._pool

@@ -76,7 +76,7 @@ PARENT_POLL_SECONDS = 0.25
 _PR_SET_PDEATHSIG = 1              # <linux/prctl.h>
 
 
-def _tie_to_parent(parent_pid: int) -> None:
+def tie_to_parent(parent_pid: int) -> None:
     """Pool worker initializer: the worker dies with the sweep process that started it.
 
     A worker outliving its parent (killed with SIGKILL, or crashed) would go on
@@ -243,7 +243,7 @@ def _run_pool(sweep, chains, reuse, directory, workers, store, sink) -> None:
     try:
         with concurrent.futures.ProcessPoolExecutor(max_workers=min(workers, len(chains) or 1),
                                                     mp_context=context,
-                                                    initializer=_tie_to_parent,
+                                                    initializer=tie_to_parent,
                                                     initargs=(os.getpid(),)) as pool:
             futures = {pool.submit(_pool_chain_task, sweep, chain, reuse, str(directory),
                                    threads): chain for chain in chains}
