@@ -43,6 +43,12 @@ class Engine(Protocol):
     def threads(self):
         """Context manager for the output and force stages (NGSolve's TaskManager or none)."""
 
+    def output(self, state, modes=()):
+        """The result fields of a prestress ``state`` for ParaView and the API: an object with
+        ``symmetry`` (modes.json), ``prestress_mesh()``, ``mode_meshes(modes)`` and
+        ``air_meshes(operators, modes, pressures)`` (meshio meshes, see
+        :mod:`copdea_fem.output`); ``modes``: the structural modes written together."""
+
 
 def engine_for(study) -> Engine:
     """The engine of the study (``mesh.engine``, ``auto`` resolved by the frame)."""
@@ -52,3 +58,13 @@ def engine_for(study) -> Engine:
     from .engine3d import QuadrantEngine
     return QuadrantEngine()
 
+
+
+def engine_of_state(state) -> Engine:
+    """The engine that computed a prestress ``state`` (the axisymmetric engine's states say
+    so in ``state.engine``; the 3-D engine's have no such attribute)."""
+    if getattr(state, "engine", "3d") == "axisymmetric":
+        from .axisymmetric.engine import AxisymmetricEngine
+        return AxisymmetricEngine()
+    from .engine3d import QuadrantEngine
+    return QuadrantEngine()

@@ -254,3 +254,10 @@ class AxisymmetricEngine:
     def threads(self):
         """The threading context of the output and force stages: none (2-D problems)."""
         return contextlib.nullcontext()
+
+    def output(self, state, modes=()):
+        """The result fields of ``state`` revolved to 3-D for ParaView and the API
+        (:class:`copdea_fem.output.revolved.RevolvedOutput`; ``modes``: those written
+        together, their highest order sets the angles)."""
+        from ..output.revolved import RevolvedOutput
+        return RevolvedOutput(state, modes)

@@ -161,3 +161,40 @@ def air_meshes(operators, modes, pressures):
                 "pressure_abs": np.abs(nodal).astype(np.float32)}
         yield (f"air_{number:03d}_{_safe(mode.label)}",
                meshio.Mesh(moved, [("tetra", cells)], point_data=data, cell_data=cell_data))
+
+
+class QuadrantOutput:
+    """The 3-D engine's result fields for ParaView and the API, behind the engine interface
+    (:meth:`copdea_fem.engine3d.QuadrantEngine.output`): the membrane sampled on its
+    elements (:class:`MembraneSampler`, built on first use), a quadrant mesh unfolded.
+
+    ``modes``: the structural modes written together (unused here: the sample points do
+    not depend on the modes; the axisymmetric counterpart sets its angles from them).
+    """
+
+    def __init__(self, state, modes=()):
+        self.state = state
+        self._sampler = None
+
+    @property
+    def symmetry(self) -> str:
+        """What modes.json's eigen block calls the symmetry: the mesh's (quarter, ...)."""
+        return self.state.symmetry.kind
+
+    @property
+    def sampler(self) -> MembraneSampler:
+        if self._sampler is None:
+            self._sampler = MembraneSampler(self.state.mesh)
+        return self._sampler
+
+    def prestress_mesh(self):
+        """The :class:`meshio.Mesh` of prestress.vtu (the prestress fields, deformed)."""
+        return membrane_mesh(self.sampler, self.state.fields(), self.state.displacement)
+
+    def mode_meshes(self, modes):
+        """``(file stem, meshio.Mesh)`` of each mode's membrane file (:func:`mode_meshes`)."""
+        return mode_meshes(self.state, modes, self.sampler)
+
+    def air_meshes(self, operators, modes, pressures):
+        """``(file stem, meshio.Mesh)`` of each mode's air file (:func:`air_meshes`)."""
+        return air_meshes(operators, modes, pressures)

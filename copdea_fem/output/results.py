@@ -6,10 +6,8 @@ from pathlib import Path
 
 from ..study import Study, dump_resolved
 from .plots import plot_force_displacement, plot_modes
-from .quadrant import MembraneSampler, mode_meshes, write_air_vtus
-from .revolved import RevolvedMembraneSampler, revolved_mode_meshes, write_revolved_air_vtus
 from .tables import write_force_csv, write_modes
-from .vtu import _write_all, write_membrane_vtu, write_pvd
+from .vtu import _write_all, write_pvd, write_vtu
 
 
 def prestress_summary(state) -> dict:
@@ -23,35 +21,35 @@ def prestress_summary(state) -> dict:
 def write_results(result, out_dir: Path) -> None:
     """Every file of ``solve`` for a :class:`copdea_fem.solve.SolveResult` (either engine),
     staged and moved into place (:func:`copdea_fem.folders.result_directory`)."""
+    from ..engines import engine_of_state
     from ..folders import result_directory
     from ..modes import IN_PLANE, OUT_OF_PLANE, PUMPING
 
     study = result.study
-    axisymmetric = getattr(result.state, "engine", "3d") == "axisymmetric"
+    structural = [mode for mode in result.modes if mode.kind in (OUT_OF_PLANE, PUMPING, IN_PLANE)]
+    engine = engine_of_state(result.state)
+    fields = engine.output(result.state, structural)
     extra = {"prestress": prestress_summary(result.state),
-             "eigen": {"engine": "axisymmetric" if axisymmetric else "3d",
+             "eigen": {"engine": engine.name,
                        "shifts_hz": [float(f) for f in result.eigen.shift_freq_hz],
                        "unknowns": int(result.eigen.unknowns),
                        "factorisations": int(result.eigen.n_factorisations),
-                       "symmetry": "orders" if axisymmetric else result.state.symmetry.kind,
+                       "symmetry": fields.symmetry,
                        **_sector_summary(result.eigen)},
              "timings_s": result.timings.seconds}
     with result_directory(out_dir, "solve") as staging:
         write_modes(staging, result.rows, study, extra)
         if study["output"]["paraview"] or study["output"]["plots"]:
-            structural = [mode for mode in result.modes
-                          if mode.kind in (OUT_OF_PLANE, PUMPING, IN_PLANE)]
             plotted = [k for k, mode in enumerate(structural)
                        if mode.kind in (OUT_OF_PLANE, PUMPING)][:8]
             kept = {k: None for k in plotted}
-            files = write_paraview(staging, result.state, structural, kept=kept)
+            files = write_paraview(staging, result.state, structural, kept=kept,
+                                   fields=fields)
             if result.coupled is not None and study["output"]["paraview"]:
                 indices = [k for k, mode in enumerate(result.modes) if mode.kind != "air"]
-                write_air = write_revolved_air_vtus if axisymmetric else \
-                    write_air_vtus
-                air_files = write_air(
-                    staging, result.coupled.operators, [result.modes[k] for k in indices],
-                    [result.coupled.pressures[k] for k in indices])
+                air_files = _write_all(staging, fields.air_meshes(
+                    result.coupled.operators, [result.modes[k] for k in indices],
+                    [result.coupled.pressures[k] for k in indices]))
                 write_pvd(staging / "air.pvd", air_files, list(range(len(air_files))))
             if study["output"]["plots"]:
                 plot_modes(staging / "modes.png", [kept[k] or files[k] for k in plotted],
@@ -70,22 +68,20 @@ def _sector_summary(eigen_result) -> dict:
                         for name, part in eigen_result.by_sector.items()}}
 
 
-def write_paraview(directory: Path, state, modes, kept: dict | None = None) -> list[Path]:
+def write_paraview(directory: Path, state, modes, kept: dict | None = None,
+                   fields=None) -> list[Path]:
     """prestress.vtu + modes.pvd with one .vtu per mode (revolved to 3-D when axisymmetric).
 
     ``kept``: ``{position in modes: None}``; receives the :class:`meshio.Mesh` of those
-    modes' files (for the plot, without reading them back).
+    modes' files (for the plot, without reading them back).  ``fields``: the engine's
+    result fields (:meth:`copdea_fem.engines.Engine.output`; default: those of the engine
+    that computed ``state``, for ``modes``).
     """
-    if getattr(state, "engine", "3d") == "axisymmetric":
-        sampler = RevolvedMembraneSampler(state)
-        write_membrane_vtu(directory / "prestress", sampler, sampler.prestress_fields(),
-                           displacement=sampler.prestress_displacement())
-        files = _write_all(directory, revolved_mode_meshes(state, modes, sampler), kept)
-    else:
-        sampler = MembraneSampler(state.mesh)
-        write_membrane_vtu(directory / "prestress", sampler, state.fields(),
-                           displacement=state.displacement)
-        files = _write_all(directory, mode_meshes(state, modes, sampler), kept)
+    if fields is None:
+        from ..engines import engine_of_state
+        fields = engine_of_state(state).output(state, modes)
+    write_vtu(directory / "prestress.vtu", fields.prestress_mesh())
+    files = _write_all(directory, fields.mode_meshes(modes), kept)
     write_pvd(directory / "modes.pvd", files, list(range(len(files))))
     return files
 

@@ -216,3 +216,52 @@ def revolved_air_meshes(operators, modes, pressures, max_order: int | None = Non
                 "pressure_abs": np.abs(field).astype(np.float32)}
         yield (f"air_{number:03d}_{_safe(mode.label)}",
                meshio.Mesh(xyz, [("wedge", cells)], point_data=data, cell_data=cell_data))
+
+
+class RevolvedOutput:
+    """The axisymmetric engine's result fields for ParaView and the API, behind the engine
+    interface (:meth:`copdea_fem.axisymmetric.engine.AxisymmetricEngine.output`): the
+    meridian's fields revolved.
+
+    ``modes``: the structural modes written together; their highest order sets the angles
+    of every mode's membrane and air (:func:`revolved_sampler`, :func:`revolved_air_meshes`),
+    so one mode's grid equals its file.  The prestress is revolved on the coarsest angles.
+    """
+
+    symmetry = "orders"     # modes.json: one problem per azimuthal order m
+
+    def __init__(self, state, modes=()):
+        self.state = state
+        self.modes = list(modes)
+        self.max_order = max([mode.m for mode in self.modes], default=0)
+        self._prestress = None
+        self._sampler = None
+
+    @property
+    def prestress_sampler(self) -> RevolvedMembraneSampler:
+        if self._prestress is None:
+            self._prestress = RevolvedMembraneSampler(self.state)
+        return self._prestress
+
+    @property
+    def sampler(self) -> RevolvedMembraneSampler:
+        """The sampler of the mode files (angles resolving the highest order)."""
+        if self._sampler is None:
+            self._sampler = revolved_sampler(self.state, self.modes, self.prestress_sampler)
+        return self._sampler
+
+    def prestress_mesh(self):
+        """The :class:`meshio.Mesh` of prestress.vtu (the prestress fields, deformed)."""
+        sampler = self.prestress_sampler
+        return membrane_mesh(sampler, sampler.prestress_fields(),
+                             sampler.prestress_displacement())
+
+    def mode_meshes(self, modes):
+        """``(file stem, meshio.Mesh)`` of each mode's membrane file
+        (:func:`revolved_mode_meshes`)."""
+        return revolved_mode_meshes(self.state, modes, self.sampler)
+
+    def air_meshes(self, operators, modes, pressures):
+        """``(file stem, meshio.Mesh)`` of each mode's air file (:func:`revolved_air_meshes`)."""
+        highest = max([self.max_order] + [mode.m for mode in modes])
+        return revolved_air_meshes(operators, modes, pressures, max_order=highest)
