@@ -42,11 +42,12 @@ def test_a_linear_field_is_drawn_exactly_where_the_mesh_is():
 
 
 def test_colours_are_coolwarm_and_white_off_the_mesh():
-    rgb = colour(np.array([[-1.0, 0.0, 1.0, np.nan]]))
+    rgb = colour(np.array([[-1.0, 0.0, 1.0, np.nan, -5.0]])).astype(int)
     np.testing.assert_array_equal(rgb[0, 0], np.round(255 * COOLWARM[0]))
-    np.testing.assert_array_equal(rgb[0, 1], np.round(255 * COOLWARM[16]))
+    np.testing.assert_allclose(rgb[0, 1], 255 * COOLWARM[16], atol=2)   # the 256-entry table
     np.testing.assert_array_equal(rgb[0, 2], np.round(255 * COOLWARM[-1]))
     np.testing.assert_array_equal(rgb[0, 3], [255, 255, 255])
+    np.testing.assert_array_equal(rgb[0, 4], rgb[0, 0])                  # clipped
 
 
 def test_plot_modes_writes_the_panels_without_matplotlib(tmp_path):

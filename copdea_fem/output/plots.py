@@ -50,13 +50,15 @@ def plot_modes(path: Path, vtu_files: list, modes, columns: int = 4) -> None:
         return
     width, rows = min(columns, count), (count + columns - 1) // columns
     picture = np.full((rows * (PANEL_PX + TITLE_PX), width * PANEL_PX, 3), 255, dtype=np.uint8)
-    titles = []
+    titles, raster = [], None
     for k, (item, mode) in enumerate(zip(vtu_files, modes)):
         mesh = item if hasattr(item, "points") else _read_vtu(item)
-        points, triangles = np.asarray(mesh.points), np.asarray(mesh.cells[0].data)
+        points, triangles = np.asarray(mesh.points)[:, :2], np.asarray(mesh.cells[0].data)
         values = np.asarray(mesh.point_data["normal_displacement_real"], dtype=float)
         limit = float(np.abs(values).max()) or 1.0
-        image = rasterise(points[:, :2], triangles, values / limit, PANEL_PX - 8)
+        if raster is None or not raster.covers(points, triangles):
+            raster = Raster(points, triangles, PANEL_PX - 8)
+        image = raster.image(values / limit)
         row, column = divmod(k, width)
         top, left = row * (PANEL_PX + TITLE_PX) + TITLE_PX + 4, column * PANEL_PX + 4
         picture[top:top + PANEL_PX - 8, left:left + PANEL_PX - 8] = colour(image)
@@ -67,7 +69,7 @@ def plot_modes(path: Path, vtu_files: list, modes, columns: int = 4) -> None:
     font = ImageFont.load_default(size=15)
     for x, y, text in titles:
         draw.text((x, y), text, fill=(0, 0, 0), font=font, anchor="mm")
-    canvas.save(path, optimize=False, compress_level=3)
+    canvas.save(path, optimize=False, compress_level=1)
 
 
 def rasterise(points: np.ndarray, triangles: np.ndarray, values: np.ndarray,
@@ -75,53 +77,95 @@ def rasterise(points: np.ndarray, triangles: np.ndarray, values: np.ndarray,
     """A (size, size) image of a field on triangles seen from above (x right, y up), the
     mesh's bounding box fitted with equal scales; ``values`` at the points are interpolated
     linearly inside each triangle (barycentric weights at the pixel centres); NaN outside
-    the mesh."""
-    points = np.asarray(points, dtype=float)
-    low, high = points.min(axis=0), points.max(axis=0)
-    scale = (size - 1) / max(float((high - low).max()), 1e-300)
-    centre = 0.5 * (low + high)
-    pixel = np.column_stack([(points[:, 0] - centre[0]) * scale + 0.5 * size,
-                             (centre[1] - points[:, 1]) * scale + 0.5 * size])
-    image = np.full(size * size, np.nan)
-    corners = pixel[triangles]                                        # (t, 3, 2)
-    first = np.clip(np.floor(corners.min(axis=1) - 0.5).astype(int), 0, size - 1)
-    last = np.clip(np.ceil(corners.max(axis=1) - 0.5).astype(int), 0, size - 1)
-    extent = last - first + 1                                         # (t, 2) pixels
-    # triangles grouped by their bounding box rounded up to powers of two: one vectorised
-    # pass per group over every pixel of the boxes
-    bucket = 2 ** np.ceil(np.log2(np.maximum(extent, 1))).astype(int)
-    keys = bucket[:, 0] * (4 * size) + bucket[:, 1]
-    for key in np.unique(keys):
-        chosen = np.flatnonzero(keys == key)
-        bx, by = bucket[chosen[0]]
-        ox, oy = np.meshgrid(np.arange(bx), np.arange(by), indexing="ij")
-        px = first[chosen, 0][:, None] + ox.ravel()[None, :]          # (t, bx by)
-        py = first[chosen, 1][:, None] + oy.ravel()[None, :]
-        a, b, c = (corners[chosen, k] for k in range(3))
-        denominator = ((b[:, 1] - c[:, 1]) * (a[:, 0] - c[:, 0])
-                       + (c[:, 0] - b[:, 0]) * (a[:, 1] - c[:, 1]))
-        usable = np.abs(denominator) > 1e-12
-        denominator = np.where(usable, denominator, 1.0)[:, None]
-        x, y = px + 0.5 - c[:, 0, None], py + 0.5 - c[:, 1, None]
-        w0 = ((b[:, 1] - c[:, 1])[:, None] * x + (c[:, 0] - b[:, 0])[:, None] * y) / denominator
-        w1 = ((c[:, 1] - a[:, 1])[:, None] * x + (a[:, 0] - c[:, 0])[:, None] * y) / denominator
-        w2 = 1.0 - w0 - w1
-        inside = ((w0 >= -1e-9) & (w1 >= -1e-9) & (w2 >= -1e-9) & usable[:, None]
-                  & (px < size) & (py < size))
-        v = values[triangles[chosen]]                                 # (t, 3)
-        field = w0 * v[:, 0, None] + w1 * v[:, 1, None] + w2 * v[:, 2, None]
-        image[(py * size + px)[inside]] = field[inside]
-    return image.reshape(size, size)
+    the mesh.  (:class:`Raster` once, then :meth:`Raster.image` per field.)"""
+    return Raster(points, triangles, size).image(values)
+
+
+class Raster:
+    """Which triangle covers each pixel centre and its barycentric weights there: the modes
+    of one result share their mesh, so modes.png finds them once for all its panels."""
+
+    def __init__(self, points: np.ndarray, triangles: np.ndarray, size: int):
+        self.points, self.triangles = np.asarray(points, dtype=float), np.asarray(triangles)
+        self.size = size
+        points = self.points
+        low, high = points.min(axis=0), points.max(axis=0)
+        scale = (size - 1) / max(float((high - low).max()), 1e-300)
+        centre = 0.5 * (low + high)
+        pixel = np.column_stack([(points[:, 0] - centre[0]) * scale + 0.5 * size,
+                                 (centre[1] - points[:, 1]) * scale + 0.5 * size])
+        corners = pixel[self.triangles]                                   # (t, 3, 2)
+        first = np.clip(np.floor(corners.min(axis=1) - 0.5).astype(int), 0, size - 1)
+        last = np.clip(np.ceil(corners.max(axis=1) - 0.5).astype(int), 0, size - 1)
+        extent = last - first + 1                                         # (t, 2) pixels
+        # triangles grouped by their bounding box rounded up to powers of two: one
+        # vectorised pass per group over every pixel of the boxes
+        bucket = 2 ** np.ceil(np.log2(np.maximum(extent, 1))).astype(int)
+        keys = bucket[:, 0] * (4 * size) + bucket[:, 1]
+        pixels, owners, weights = [], [], []
+        for key in np.unique(keys):
+            chosen = np.flatnonzero(keys == key)
+            bx, by = bucket[chosen[0]]
+            ox, oy = np.meshgrid(np.arange(bx), np.arange(by), indexing="ij")
+            px = first[chosen, 0][:, None] + ox.ravel()[None, :]          # (t, bx by)
+            py = first[chosen, 1][:, None] + oy.ravel()[None, :]
+            a, b, c = (corners[chosen, k] for k in range(3))
+            denominator = ((b[:, 1] - c[:, 1]) * (a[:, 0] - c[:, 0])
+                           + (c[:, 0] - b[:, 0]) * (a[:, 1] - c[:, 1]))
+            usable = np.abs(denominator) > 1e-12
+            denominator = np.where(usable, denominator, 1.0)[:, None]
+            x, y = px + 0.5 - c[:, 0, None], py + 0.5 - c[:, 1, None]
+            w0 = ((b[:, 1] - c[:, 1])[:, None] * x
+                  + (c[:, 0] - b[:, 0])[:, None] * y) / denominator
+            w1 = ((c[:, 1] - a[:, 1])[:, None] * x
+                  + (a[:, 0] - c[:, 0])[:, None] * y) / denominator
+            w2 = 1.0 - w0 - w1
+            inside = ((w0 >= -1e-9) & (w1 >= -1e-9) & (w2 >= -1e-9) & usable[:, None]
+                      & (px < size) & (py < size))
+            rows, _ = np.nonzero(inside)
+            pixels.append((py * size + px)[inside])
+            owners.append(chosen[rows])
+            weights.append(np.column_stack([w0[inside], w1[inside], w2[inside]]))
+        self.pixels = np.concatenate(pixels) if pixels else np.zeros(0, dtype=int)
+        self.owners = np.concatenate(owners) if owners else np.zeros(0, dtype=int)
+        self.weights = np.concatenate(weights) if weights else np.zeros((0, 3))
+
+    def covers(self, points: np.ndarray, triangles: np.ndarray) -> bool:
+        """Whether this raster is that of ``points`` (n, 2) and ``triangles``."""
+        return (np.shape(points) == self.points.shape and np.shape(triangles)
+                == self.triangles.shape and np.array_equal(points, self.points)
+                and np.array_equal(triangles, self.triangles))
+
+    def image(self, values: np.ndarray) -> np.ndarray:
+        """The (size, size) image of point ``values``; NaN off the mesh."""
+        image = np.full(self.size * self.size, np.nan)
+        corner_values = np.asarray(values, dtype=float)[self.triangles[self.owners]]
+        image[self.pixels] = np.sum(self.weights * corner_values, axis=1)
+        return image.reshape(self.size, self.size)
+
+
+def _lookup_table(count: int = 256) -> np.ndarray:
+    """:data:`COOLWARM` sampled at ``count`` evenly spaced values (RGB bytes), as matplotlib
+    samples a colormap into its 256-entry table."""
+    position = np.linspace(0.0, len(COOLWARM) - 1, count)
+    low = np.minimum(position.astype(int), len(COOLWARM) - 2)
+    weight = (position - low)[:, None]
+    return np.round(255 * ((1 - weight) * COOLWARM[low] + weight * COOLWARM[low + 1])
+                    ).astype(np.uint8)
+
+
+_TABLE = _lookup_table()
 
 
 def colour(image: np.ndarray) -> np.ndarray:
-    """Values in [-1, 1] -> RGB bytes of :data:`COOLWARM`; NaN (outside the mesh) white."""
-    position = (np.clip(np.nan_to_num(image), -1.0, 1.0) + 1.0) * 0.5 * (len(COOLWARM) - 1)
-    low = np.minimum(position.astype(int), len(COOLWARM) - 2)
-    weight = (position - low)[..., None]
-    rgb = (1 - weight) * COOLWARM[low] + weight * COOLWARM[low + 1]
-    rgb[np.isnan(image)] = 1.0
-    return np.round(255 * rgb).astype(np.uint8)
+    """Values in [-1, 1] -> RGB bytes of :data:`COOLWARM` (its 256-entry table); NaN (outside
+    the mesh) white."""
+    missing = np.isnan(image)
+    index = np.rint((np.clip(np.where(missing, 0.0, image), -1.0, 1.0) + 1.0)
+                    * (0.5 * (len(_TABLE) - 1))).astype(np.intp)
+    rgb = _TABLE[index]
+    rgb[missing] = 255
+    return rgb
 
 
 def _read_vtu(path):
