@@ -26,14 +26,14 @@ from .revolved import RevolvedMembraneSampler, _harmonics, revolution_angles, \
     write_revolved_mode_vtus
 from .tables import MODE_COLUMNS, _json, frequency_table, mode_rows, write_force_csv, \
     write_json, write_modes
-from .vtu import VTU_COMPRESSION, _VTK_CELLS, _VTK_ORDER, _VTK_TYPES, _safe, _write_all, \
-    membrane_mesh, write_membrane_vtu, write_pvd, write_vtu
+from .vtu import VTU_COMPRESSION, CellBlock, VtuMesh, _VTK_CELLS, _VTK_ORDER, _VTK_TYPES, \
+    _safe, _write_all,     membrane_mesh, write_membrane_vtu, write_pvd, write_vtu
 
 __all__ = ["MODE_COLUMNS", "MembraneSampler", "PointMerge", "RevolvedMembraneSampler",
-           "VTU_COMPRESSION", "air_meshes", "frequency_table", "membrane_mesh", "mode_meshes",
-           "mode_rows", "plot_force_displacement", "plot_modes", "prestress_summary",
-           "revolution_angles", "revolved_air_meshes", "revolved_mode_meshes",
-           "revolved_sampler", "write_air_vtus", "write_force_csv", "write_force_results",
-           "write_json", "write_membrane_vtu", "write_mode_vtus", "write_modes",
-           "write_paraview", "write_pvd", "write_results", "write_revolved_air_vtus",
-           "write_revolved_mode_vtus", "write_vtu"]
+           "VTU_COMPRESSION", "VtuMesh", "air_meshes", "frequency_table", "membrane_mesh",
+           "mode_meshes", "mode_rows", "plot_force_displacement", "plot_modes",
+           "prestress_summary", "revolution_angles", "revolved_air_meshes",
+           "revolved_mode_meshes", "revolved_sampler", "write_air_vtus", "write_force_csv",
+           "write_force_results", "write_json", "write_membrane_vtu", "write_mode_vtus",
+           "write_modes", "write_paraview", "write_pvd", "write_results",
+           "write_revolved_air_vtus", "write_revolved_mode_vtus", "write_vtu"]

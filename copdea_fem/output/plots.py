@@ -37,11 +37,11 @@ def plot_modes(path: Path, vtu_files: list, modes, columns: int = 4) -> None:
     """PNG of the lowest structural modes seen from above, coloured by the normal
     displacement (red up, blue down, each mode on its own symmetric scale).
 
-    ``vtu_files``: the modes' VTU files, or their :class:`meshio.Mesh` objects (as written,
-    not read back).  Nodal diameters and circles show as the pale lines.  Drawn with numpy
-    (:func:`rasterise`: values interpolated linearly inside each triangle, as matplotlib's
-    gouraud ``tripcolor``) and Pillow: matplotlib's import and ``savefig`` took ~2 s of the
-    baffled G1 command's ~3 s of result files (issue 25).
+    ``vtu_files``: the modes' VTU files, or their :class:`~copdea_fem.output.vtu.VtuMesh`
+    objects (as written, not read back).  Nodal diameters and circles show as the pale
+    lines.  Drawn with numpy (:class:`Raster`: values interpolated linearly inside each
+    triangle, as matplotlib's gouraud ``tripcolor``) and Pillow: matplotlib's import and
+    ``savefig`` took ~2 s of the baffled G1 command's ~3 s of result files (issue 25).
     """
     from PIL import Image, ImageDraw, ImageFont
 

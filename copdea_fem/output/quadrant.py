@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from .merge import PointMerge, _AirHalves, _jump_vertices, _unfold_cells, _unfold_values
-from .vtu import _safe, _write_all, membrane_mesh
+from .vtu import VtuMesh, _safe, _write_all, membrane_mesh
 
 
 class MembraneSampler:
@@ -78,7 +78,7 @@ def write_mode_vtus(directory: Path, state, modes, sampler: MembraneSampler) -> 
 
 
 def mode_meshes(state, modes, sampler: MembraneSampler):
-    """``(file stem, meshio.Mesh)`` of each mode of :func:`write_mode_vtus`, one at a time."""
+    """``(file stem, VtuMesh)`` of each mode of :func:`write_mode_vtus`, one at a time."""
     import ngsolve as ngs
 
     from ..membrane import deformed_normal
@@ -108,7 +108,7 @@ def write_air_vtus(directory: Path, operators, modes, pressures) -> list[Path]:
 
 
 def air_meshes(operators, modes, pressures):
-    """``(file stem, meshio.Mesh)`` per mode of the air on the deformed mesh: pressure
+    """``(file stem, VtuMesh)`` per mode of the air on the deformed mesh: pressure
     re/im/abs, PML flag.
 
     ``operators``: the :class:`copdea_fem.coupled.CoupledOperators` of each
@@ -120,7 +120,6 @@ def air_meshes(operators, modes, pressures):
     mirror planes' vertices merged (:class:`PointMerge`; they agree by parity).  Pressures are per unit peak membrane displacement
     [Pa/m], like the membrane files.
     """
-    import meshio
     import ngsolve as ngs
 
     from ..acoustics import pressure_field
@@ -160,7 +159,7 @@ def air_meshes(operators, modes, pressures):
                 "pressure_imag": nodal.imag.astype(np.float32),
                 "pressure_abs": np.abs(nodal).astype(np.float32)}
         yield (f"air_{number:03d}_{_safe(mode.label)}",
-               meshio.Mesh(moved, [("tetra", cells)], point_data=data, cell_data=cell_data))
+               VtuMesh(moved, [("tetra", cells)], point_data=data, cell_data=cell_data))
 
 
 class QuadrantOutput:
@@ -188,13 +187,14 @@ class QuadrantOutput:
         return self._sampler
 
     def prestress_mesh(self):
-        """The :class:`meshio.Mesh` of prestress.vtu (the prestress fields, deformed)."""
+        """The :class:`~copdea_fem.output.vtu.VtuMesh` of prestress.vtu (the prestress
+        fields, deformed)."""
         return membrane_mesh(self.sampler, self.state.fields(), self.state.displacement)
 
     def mode_meshes(self, modes):
-        """``(file stem, meshio.Mesh)`` of each mode's membrane file (:func:`mode_meshes`)."""
+        """``(file stem, VtuMesh)`` of each mode's membrane file (:func:`mode_meshes`)."""
         return mode_meshes(self.state, modes, self.sampler)
 
     def air_meshes(self, operators, modes, pressures):
-        """``(file stem, meshio.Mesh)`` of each mode's air file (:func:`air_meshes`)."""
+        """``(file stem, VtuMesh)`` of each mode's air file (:func:`air_meshes`)."""
         return air_meshes(operators, modes, pressures)

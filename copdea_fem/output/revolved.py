@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from .merge import PointMerge, _AirHalves, _jump_vertices
-from .vtu import _safe, _write_all, membrane_mesh
+from .vtu import VtuMesh, _safe, _write_all, membrane_mesh
 
 
 def revolution_angles(max_order: int, minimum: int = 72, per_wave: int = 8) -> np.ndarray:
@@ -115,7 +115,7 @@ def revolved_sampler(state, modes, sampler=None) -> RevolvedMembraneSampler:
 
 
 def revolved_mode_meshes(state, modes, sampler=None):
-    """``(file stem, meshio.Mesh)`` of each mode of :func:`write_revolved_mode_vtus`;
+    """``(file stem, VtuMesh)`` of each mode of :func:`write_revolved_mode_vtus`;
     ``sampler`` as the writer would choose it for ``modes`` (:func:`revolved_sampler`)."""
     import ngsolve as ngs
 
@@ -153,7 +153,7 @@ def write_revolved_air_vtus(directory: Path, operators, modes, pressures) -> lis
 
 
 def revolved_air_meshes(operators, modes, pressures, max_order: int | None = None):
-    """``(file stem, meshio.Mesh)`` of each mode of the air of the axisymmetric engine,
+    """``(file stem, VtuMesh)`` of each mode of the air of the axisymmetric engine,
     revolved (wedge cells); ``max_order``: the highest order of the modes written together
     (sets the angles; default: that of ``modes``).
 
@@ -163,7 +163,6 @@ def revolved_air_meshes(operators, modes, pressures, max_order: int | None = Non
     Fields and cell data as there; a field of order m is ``p(r, z) cos m theta``
     (or the sin family's turned copy).
     """
-    import meshio
     import ngsolve as ngs
 
     from ..acoustics import pressure_field
@@ -215,7 +214,7 @@ def revolved_air_meshes(operators, modes, pressures, max_order: int | None = Non
                 "pressure_imag": field.imag.astype(np.float32),
                 "pressure_abs": np.abs(field).astype(np.float32)}
         yield (f"air_{number:03d}_{_safe(mode.label)}",
-               meshio.Mesh(xyz, [("wedge", cells)], point_data=data, cell_data=cell_data))
+               VtuMesh(xyz, [("wedge", cells)], point_data=data, cell_data=cell_data))
 
 
 class RevolvedOutput:
@@ -251,17 +250,18 @@ class RevolvedOutput:
         return self._sampler
 
     def prestress_mesh(self):
-        """The :class:`meshio.Mesh` of prestress.vtu (the prestress fields, deformed)."""
+        """The :class:`~copdea_fem.output.vtu.VtuMesh` of prestress.vtu (the prestress
+        fields, deformed)."""
         sampler = self.prestress_sampler
         return membrane_mesh(sampler, sampler.prestress_fields(),
                              sampler.prestress_displacement())
 
     def mode_meshes(self, modes):
-        """``(file stem, meshio.Mesh)`` of each mode's membrane file
+        """``(file stem, VtuMesh)`` of each mode's membrane file
         (:func:`revolved_mode_meshes`)."""
         return revolved_mode_meshes(self.state, modes, self.sampler)
 
     def air_meshes(self, operators, modes, pressures):
-        """``(file stem, meshio.Mesh)`` of each mode's air file (:func:`revolved_air_meshes`)."""
+        """``(file stem, VtuMesh)`` of each mode's air file (:func:`revolved_air_meshes`)."""
         highest = max([self.max_order] + [mode.m for mode in modes])
         return revolved_air_meshes(operators, modes, pressures, max_order=highest)
