@@ -376,7 +376,8 @@ class _VersionAction(argparse.Action):
         super().__init__(option_strings, dest=dest, default=default, nargs=0, help=help)
 
     def __call__(self, parser, namespace, values, option_string=None):
-        parser.exit(message=f"copdea-fem {_version()}\n")
+        parser._print_message(f"copdea-fem {_version()}\n", sys.stdout)   # as "version"
+        parser.exit()
 
 
 def build_parser() -> argparse.ArgumentParser:
