@@ -143,9 +143,10 @@ def _frame(rows: list[dict], columns) -> "pandas.DataFrame":  # noqa: F821
 
 
 def _grid(mesh):
-    """A :class:`meshio.Mesh` as a pyvista grid (the VTU file's points, cells and data)."""
+    """A :class:`~copdea_fem.output.vtu.VtuMesh` (or meshio.Mesh) as a pyvista grid (the VTU
+    file's points, cells and data)."""
     import pyvista as pv
-    return pv.from_meshio(mesh)
+    return pv.from_meshio(mesh.to_meshio() if hasattr(mesh, "to_meshio") else mesh)
 
 
 # -- solve ---------------------------------------------------------------------------------
@@ -191,7 +192,7 @@ class Solution:
 
     def __init__(self, result):
         self.result = result
-        self._sampler = None
+        self._fields = None
 
     @property
     def study(self) -> Study:
@@ -220,8 +221,20 @@ class Solution:
         return [mode.label for mode in self._structural()]
 
     @property
+    def engine(self):
+        """The engine that solved it (:class:`copdea_fem.engines.Engine`)."""
+        from .engines import engine_of_state
+        return engine_of_state(self.result.state)
+
+    @property
     def axisymmetric(self) -> bool:
-        return getattr(self.result.state, "engine", "3d") == "axisymmetric"
+        return self.engine.name == "axisymmetric"
+
+    def _output(self):
+        """The engine's result fields for every structural mode (as the files are written)."""
+        if self._fields is None:
+            self._fields = self.engine.output(self.result.state, self._structural())
+        return self._fields
 
     def _structural(self) -> list:
         from .modes import IN_PLANE, OUT_OF_PLANE, PUMPING
@@ -238,28 +251,15 @@ class Solution:
         """pyvista grid of the whole membrane with mode ``label``'s fields, equal to its
         ``mode_NNN_<label>.vtu`` (displacement re/im/abs, normal displacement re/im, normal
         velocity; peak ``|u| = 1``; points on the prestressed shape)."""
-        from . import output
-
         mode = self._structural()[self._find(label)]
-        state = self.result.state
-        if self.axisymmetric:
-            if self._sampler is None:
-                sampler = output.RevolvedMembraneSampler(state)
-                self._sampler = output.revolved_sampler(state, self._structural(), sampler)
-            _, mesh = next(output.revolved_mode_meshes(state, [mode], self._sampler))
-        else:
-            if self._sampler is None:
-                self._sampler = output.MembraneSampler(state.mesh)
-            with _threads(self.result.study):
-                _, mesh = next(output.mode_meshes(state, [mode], self._sampler))
+        with self.engine.threads():
+            _, mesh = next(self._output().mode_meshes([mode]))
         return _grid(mesh)
 
     def air(self, label: str):
         """pyvista grid of the air with mode ``label``'s pressure (re/im/abs, Pa per unit peak
         membrane displacement; cell data ``pml``, ``lower_half``), equal to its
         ``air_NNN_<label>.vtu``.  Only for a coupled solve (``air.enabled: true``)."""
-        from . import output
-
         coupled = self.result.coupled
         if coupled is None:
             raise StudyError("air.enabled = false has no air field; allowed: a coupled solve "
@@ -268,13 +268,8 @@ class Solution:
         mode = self._structural()[index]
         k = next(k for k, item in enumerate(self.result.modes) if item is mode)
         pressure = coupled.pressures[k]
-        if self.axisymmetric:
-            highest = max([item.m for item in self._structural()], default=0)
-            _, mesh = next(output.revolved_air_meshes(coupled.operators, [mode], [pressure],
-                                                      max_order=highest))
-        else:
-            with _threads(self.result.study):
-                _, mesh = next(output.air_meshes(coupled.operators, [mode], [pressure]))
+        with self.engine.threads():
+            _, mesh = next(self._output().air_meshes(coupled.operators, [mode], [pressure]))
         return _grid(mesh)
 
     def write(self, folder: str | Path, progress: Callable[[str], None] | None = None) -> Path:
@@ -286,18 +281,11 @@ class Solution:
 
         result = self.result
         with _claimed(folder, "solve", _inputs(result.study)) as target:
-            with result.timings.stage("output"), _threads(result.study):
+            with result.timings.stage("output"), self.engine.threads():
                 _progress(progress)("writing results ...")
                 output.write_results(result, Path(folder))
             result.out_dir = Path(folder)
         return target
-
-
-def _threads(study):
-    """The engine's threading for the output (NGSolve's TaskManager on the 3-D engine, as
-    :func:`solve.run_solve`)."""
-    from .engines import engine_for
-    return engine_for(study).threads()
 
 
 # -- response ------------------------------------------------------------------------------

@@ -32,6 +32,16 @@ ratios f(m,1)/f(1,1).
 Coupled cases also report, per sector, the factorisations, the right-hand sides solved
 (``solves_per_sector``) and the block solves they took (``block_solves_per_sector``).
 
+``command`` (issue 25): the baffled G1 command as a user runs it, ``copdea-fem solve
+studies/g1_z16_v2.yaml --set geometry.frame=baffle --out DIR``, each repetition a fresh
+``python -m copdea_fem.cli`` process, with its ParaView files and plots (``files``) and
+without them (``bare``: ``--set output.paraview=false --set output.plots=false``), one after
+the other; wall and CPU seconds (user + system of the child) per run, medians, against the
+targets (``files`` <= 2 s, ``bare`` <= the FreeFEM peer's whole process, 1.07 s).
+``--baseline PATH`` runs another checkout (e.g. ``/work/main``, by ``PYTHONPATH``) interleaved
+with this one and reports the ratios this / baseline (median of the pairwise ratios): on a
+shared machine the CPU ratios carry the comparison.
+
 ``total`` is the in-process time of the solve with its result files; ``process_wall``
 adds the start of a fresh Python (imports of NGSolve, SciPy, pint: ~1-2 s).
 """
@@ -177,6 +187,66 @@ def _once_response(study) -> dict:
             "peak_memory_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
 
 
+#: issue 25: the FreeFEM peer's whole process on the same case [s] and the targets
+PEER_PROCESS_S = 1.07
+COMMAND_TARGETS_S = {"files": 2.0, "bare": PEER_PROCESS_S}
+COMMAND_VARIANTS = {"files": [], "bare": ["output.paraview=false", "output.plots=false"]}
+
+
+def _command_once(variant: str, overrides: list[str], checkout: Path) -> dict:
+    """One fresh ``python -m copdea_fem.cli solve`` of the baffled G1 command from ``checkout``:
+    wall and CPU (user + system) seconds of the child process."""
+    import os
+    import tempfile
+
+    command = [sys.executable, "-m", "copdea_fem.cli", "solve", str(G1_Z16),
+               "--set", "geometry.frame=baffle"]
+    for item in COMMAND_VARIANTS[variant] + overrides:
+        command += ["--set", item]
+    environment = dict(os.environ, PYTHONPATH=str(checkout))
+    with tempfile.TemporaryDirectory() as directory:
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        started = time.perf_counter()
+        subprocess.run(command + ["--out", str(Path(directory) / "out")], cwd=directory,
+                       env=environment, check=True, capture_output=True)
+        wall = time.perf_counter() - started
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return {"wall_s": wall, "cpu_s": cpu}
+
+
+def run_command(repeat: int, overrides: list[str], baseline: str | None) -> dict:
+    """The ``command`` benchmark: both variants, this checkout (and ``baseline``) interleaved."""
+    checkouts = {"this": ROOT}
+    if baseline:
+        checkouts["baseline"] = Path(baseline).resolve()
+    runs = {(name, variant): [] for name in checkouts for variant in COMMAND_VARIANTS}
+    for k in range(repeat):
+        for variant in COMMAND_VARIANTS:
+            for name, checkout in checkouts.items():
+                runs[name, variant].append(_command_once(variant, overrides, checkout))
+                print(f"run {k + 1}/{repeat} {name} {variant}: "
+                      f"{runs[name, variant][-1]['wall_s']:.2f} s wall, "
+                      f"{runs[name, variant][-1]['cpu_s']:.2f} s CPU", file=sys.stderr)
+    report = {"peer_process_s": PEER_PROCESS_S, "targets_s": COMMAND_TARGETS_S,
+              "repeat": repeat}
+    for (name, variant), values in runs.items():
+        report.setdefault(name, {})[variant] = {
+            key: {"median": statistics.median(r[key] for r in values),
+                  "min": min(r[key] for r in values), "max": max(r[key] for r in values)}
+            for key in ("wall_s", "cpu_s")}
+    for variant, target in COMMAND_TARGETS_S.items():
+        report["this"][variant]["wall_target_met"] = \
+            report["this"][variant]["wall_s"]["median"] <= target
+    if baseline:
+        report["ratio_this_to_baseline"] = {
+            variant: {key: statistics.median(a[key] / b[key] for a, b in
+                                             zip(runs["this", variant], runs["baseline", variant]))
+                      for key in ("wall_s", "cpu_s")}
+            for variant in COMMAND_VARIANTS}
+    return report
+
+
 def _run_once(case: str, overrides: list[str]) -> dict:
     command = [sys.executable, "-m", "copdea_fem.bench", case, "--once"]
     for item in overrides:
@@ -224,15 +294,20 @@ def _summary(runs: list[dict], repeat: int) -> dict:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m copdea_fem.bench")
-    parser.add_argument("case", choices=sorted(CASES) + sorted(PAIRS))
+    parser.add_argument("case", choices=sorted(CASES) + sorted(PAIRS) + ["command"])
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE")
+    parser.add_argument("--baseline", metavar="PATH",
+                        help="command: another checkout run interleaved (ratios to it)")
     parser.add_argument("--once", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.once:
         print(json.dumps(_once(args.case, args.set)))
         return 0
-    report = (run_pair if args.case in PAIRS else run)(args.case, args.repeat, args.set)
+    if args.case == "command":
+        report = run_command(args.repeat, args.set, args.baseline)
+    else:
+        report = (run_pair if args.case in PAIRS else run)(args.case, args.repeat, args.set)
     print(json.dumps(report, indent=1))
     return 0
 

@@ -118,6 +118,12 @@ class QuadrantEngine:
         """NGSolve's TaskManager for the output and force stages."""
         return task_manager()
 
+    def output(self, state, modes=()):
+        """The result fields of ``state`` for ParaView and the API
+        (:class:`copdea_fem.output.quadrant.QuadrantOutput`)."""
+        from .output.quadrant import QuadrantOutput
+        return QuadrantOutput(state, modes)
+
     def dry_modes(self, study, mesh, progress=quiet, timings=None, solver=None,
                   initial_shifts=None, band: BandSolver | None = None):
         """Prestress and dry modes of the whole plane: (state, modes, eigen result)."""

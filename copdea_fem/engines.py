@@ -59,6 +59,12 @@ class Engine(Protocol):
     def tracking_arrays(self, state, modes, needs_sampling: bool) -> dict:
         """What the sweeps track a point's modes by (:mod:`copdea_fem.tracking`)."""
 
+    def output(self, state, modes=()):
+        """The result fields of a prestress ``state`` for ParaView and the API: an object with
+        ``symmetry`` (modes.json), ``prestress_mesh()``, ``mode_meshes(modes)`` and
+        ``air_meshes(operators, modes, pressures)`` (meshio meshes, see
+        :mod:`copdea_fem.output`); ``modes``: the structural modes written together."""
+
 
 def engine_for(study) -> Engine:
     """The engine of the study (``mesh.engine``, ``auto`` resolved by the frame)."""
@@ -75,3 +81,13 @@ def check_size(study, limit: float | None = None) -> None:
     from .geometry import MAX_UNKNOWNS, refuse_size
     elements, unknowns = engine_for(study).estimate_size(study)
     refuse_size(study, elements, unknowns, MAX_UNKNOWNS if limit is None else limit)
+
+
+def engine_of_state(state) -> Engine:
+    """The engine that computed a prestress ``state`` (the axisymmetric engine's states say
+    so in ``state.engine``; the 3-D engine's have no such attribute)."""
+    if getattr(state, "engine", "3d") == "axisymmetric":
+        from .axisymmetric.engine import AxisymmetricEngine
+        return AxisymmetricEngine()
+    from .engine3d import QuadrantEngine
+    return QuadrantEngine()

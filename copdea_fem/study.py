@@ -20,6 +20,7 @@ from typing import Any
 import yaml
 
 from .inputs import parse_yaml, preview, read_yaml
+from .units import fast_to_si
 
 
 class StudyError(ValueError):
@@ -417,6 +418,9 @@ def _to_si(key: str, spec: Key, value: Any) -> float:
     if len(value) > MAX_QUANTITY_CHARACTERS:    # pint takes minutes on 100 000 digits
         raise _fail(key, value, spec.allowed(), f"longer than {MAX_QUANTITY_CHARACTERS} "
                     "characters, not a quantity")
+    fast = fast_to_si(value.strip(), spec.unit)     # "16 mm" without pint's ~1 s start
+    if fast is not None:
+        return fast
     import pint
     try:
         quantity = _units().Quantity(value.strip())

@@ -162,7 +162,7 @@ MUTATIONS = (
              "return float(ngs.InnerProduct(self.residual, self.disc_lift.vec))",
              "prestress: a quadrant's disc force reported for the device"),
     # --- post-processing -----------------------------------------------------------------
-    Mutation("added_mass_ratio_not_squared", "copdea_fem/output.py",
+    Mutation("added_mass_ratio_not_squared", "copdea_fem/output/tables.py",
              '"added_mass_ratio": (dry / mode.freq_hz) ** 2 - 1 if mode.freq_hz > 0 else 0.0,',
              '"added_mass_ratio": (dry / mode.freq_hz) - 1 if mode.freq_hz > 0 else 0.0,',
              "modes.csv: added-mass ratio f_dry/f - 1 instead of (f_dry/f)^2 - 1"),

@@ -280,3 +280,10 @@ class AxisymmetricEngine:
         """Orders have spaces of their own: the sweeps compare shapes on the polar grid
         (:func:`.modes.sampled_shapes`)."""
         return {"sampled": sampled_shapes(state, modes)}
+
+    def output(self, state, modes=()):
+        """The result fields of ``state`` revolved to 3-D for ParaView and the API
+        (:class:`copdea_fem.output.revolved.RevolvedOutput`; ``modes``: those written
+        together, their highest order sets the angles)."""
+        from ..output.revolved import RevolvedOutput
+        return RevolvedOutput(state, modes)

@@ -1,0 +1,99 @@
+"""The result folder of ``solve`` and ``force``: which files, staged and moved into place."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..study import Study, dump_resolved
+from .plots import plot_force_displacement, plot_modes
+from .tables import write_force_csv, write_modes
+from .vtu import _write_all, write_pvd, write_vtu
+
+
+def prestress_summary(state) -> dict:
+    """The prestress block of modes.json (SI)."""
+    return {"z_m": state.z, "voltage_v": state.voltage, "disc_force_n": state.disc_force,
+            "newton_iterations": state.newton_iterations,
+            "load_steps": [{"z_m": z, "voltage_v": v, "newton_iterations": it}
+                           for z, v, it in state.load_steps]}
+
+
+def write_results(result, out_dir: Path) -> None:
+    """Every file of ``solve`` for a :class:`copdea_fem.solve.SolveResult` (either engine),
+    staged and moved into place (:func:`copdea_fem.folders.result_directory`)."""
+    from ..engines import engine_of_state
+    from ..folders import result_directory
+    from ..modes import IN_PLANE, OUT_OF_PLANE, PUMPING
+
+    study = result.study
+    structural = [mode for mode in result.modes if mode.kind in (OUT_OF_PLANE, PUMPING, IN_PLANE)]
+    engine = engine_of_state(result.state)
+    fields = engine.output(result.state, structural)
+    extra = {"prestress": prestress_summary(result.state),
+             "eigen": {"engine": engine.name,
+                       "shifts_hz": [float(f) for f in result.eigen.shift_freq_hz],
+                       "unknowns": int(result.eigen.unknowns),
+                       "factorisations": int(result.eigen.n_factorisations),
+                       "symmetry": fields.symmetry,
+                       **_sector_summary(result.eigen)},
+             "timings_s": result.timings.seconds}
+    with result_directory(out_dir, "solve") as staging:
+        write_modes(staging, result.rows, study, extra)
+        if study["output"]["paraview"] or study["output"]["plots"]:
+            plotted = [k for k, mode in enumerate(structural)
+                       if mode.kind in (OUT_OF_PLANE, PUMPING)][:8]
+            kept = {k: None for k in plotted}
+            files = write_paraview(staging, result.state, structural, kept=kept,
+                                   fields=fields)
+            if result.coupled is not None and study["output"]["paraview"]:
+                indices = [k for k, mode in enumerate(result.modes) if mode.kind != "air"]
+                air_files = _write_all(staging, fields.air_meshes(
+                    result.coupled.operators, [result.modes[k] for k in indices],
+                    [result.coupled.pressures[k] for k in indices]))
+                write_pvd(staging / "air.pvd", air_files, list(range(len(air_files))))
+            if study["output"]["plots"]:
+                plot_modes(staging / "modes.png", [kept[k] or files[k] for k in plotted],
+                           [structural[k] for k in plotted])
+            if not study["output"]["paraview"]:
+                for path in list(staging.glob("*.vtu")) + list(staging.glob("*.pvd")):
+                    path.unlink()
+
+
+def _sector_summary(eigen_result) -> dict:
+    """Per-sector unknowns, shifts and eigenpair counts of a coupled solve (modes.json)."""
+    if not hasattr(eigen_result, "by_sector"):
+        return {}
+    return {"sectors": {name: {"unknowns": part.unknowns, "eigenpairs": len(part),
+                               "shifts_hz": [float(f) for f in part.shift_freq_hz]}
+                        for name, part in eigen_result.by_sector.items()}}
+
+
+def write_paraview(directory: Path, state, modes, kept: dict | None = None,
+                   fields=None) -> list[Path]:
+    """prestress.vtu + modes.pvd with one .vtu per mode (revolved to 3-D when axisymmetric).
+
+    ``kept``: ``{position in modes: None}``; receives the
+    :class:`~copdea_fem.output.vtu.VtuMesh` of those modes' files (for the plot, without
+    reading them back).  ``fields``: the engine's result fields
+    (:meth:`copdea_fem.engines.Engine.output`; default: those of the engine that computed
+    ``state``, for ``modes``).
+    """
+    if fields is None:
+        from ..engines import engine_of_state
+        fields = engine_of_state(state).output(state, modes)
+    write_vtu(directory / "prestress.vtu", fields.prestress_mesh())
+    files = _write_all(directory, fields.mode_meshes(modes), kept)
+    write_pvd(directory / "modes.pvd", files, list(range(len(files))))
+    return files
+
+
+def write_force_results(study: Study, out_dir: Path, z_values, voltages, forces) -> None:
+    """force_displacement.csv (+ PNG) and study.resolved.yaml of ``force``."""
+    from ..folders import result_directory
+
+    with result_directory(out_dir, "force") as staging:
+        write_force_csv(staging / "force_displacement.csv", z_values, voltages, forces)
+        if study["output"]["plots"]:
+            plot_force_displacement(staging / "force_displacement.png", z_values, voltages,
+                                    forces)
+        dump_resolved(study, staging / "study.resolved.yaml")

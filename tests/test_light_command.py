@@ -1,0 +1,49 @@
+"""The baffled G1 command imports only what it needs (issue 25: whole-command speed).
+
+pint (~1 s with its registry), matplotlib (~1.5 s with savefig) and meshio (~0.4 s) were
+most of the command's time beside the solve; the command now writes the same files
+without them.  Speed itself is measured by ``python -m copdea_fem.bench command``."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from copdea_fem.output.vtu import VtuMesh, write_vtu
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def test_solve_with_its_files_imports_no_pint_meshio_matplotlib_or_pyvista(tmp_path):
+    code = (
+        "import sys\n"
+        "from copdea_fem.cli import main\n"
+        f"code = main(['solve', {str(ROOT / 'studies' / 'g1_z16_v2_quick.yaml')!r}, "
+        f"'--set', 'geometry.frame=baffle', '--out', {str(tmp_path / 'out')!r}])\n"
+        "print(code, sorted(m for m in ('pint', 'meshio', 'matplotlib', 'pyvista', 'pandas') "
+        "if m in sys.modules))\n")
+    completed = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                               cwd=ROOT)
+    assert completed.returncode == 0, completed.stderr[-2000:]
+    assert completed.stdout.strip().splitlines()[-1] == "0 []"
+    written = {path.name for path in (tmp_path / "out").iterdir()}
+    assert {"modes.csv", "modes.pvd", "air.pvd", "prestress.vtu", "modes.png"} <= written
+
+
+def test_vtumesh_writes_the_bytes_of_the_meshio_mesh(tmp_path):
+    import meshio
+
+    generator = np.random.default_rng(3)
+    points = generator.random((30, 3))
+    cells = generator.integers(0, 30, (12, 6))
+    point_data = {"p": generator.random(30).astype(np.float32)}
+    cell_data = {"pml": [generator.integers(0, 2, 12).astype(np.int8)]}
+    ours = VtuMesh(points, [("wedge", cells)], point_data=point_data, cell_data=cell_data)
+    write_vtu(tmp_path / "a.vtu", ours)
+    write_vtu(tmp_path / "b.vtu", meshio.Mesh(points, [("wedge", cells)],
+                                              point_data=point_data, cell_data=cell_data))
+    assert (tmp_path / "a.vtu").read_bytes() == (tmp_path / "b.vtu").read_bytes()
+    back = ours.to_meshio()
+    np.testing.assert_array_equal(back.cells[0].data, cells)
+    np.testing.assert_array_equal(back.point_data["p"], point_data["p"])
