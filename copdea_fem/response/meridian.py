@@ -57,9 +57,9 @@ def _label(modes) -> None:
 
 
 def _write_shapes(staging, state, coupled, shapes, pressures):
-    from .. import output
-    return (output.write_revolved_mode_vtus(staging, state, shapes),
-            output.write_revolved_air_vtus(staging, [coupled], shapes, pressures))
+    from ..output.revolved import write_revolved_air_vtus, write_revolved_mode_vtus
+    return (write_revolved_mode_vtus(staging, state, shapes),
+            write_revolved_air_vtus(staging, [coupled], shapes, pressures))
 
 
 MERIDIAN_SECTOR = DrivenSector(

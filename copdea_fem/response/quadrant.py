@@ -219,9 +219,9 @@ def _label(modes) -> None:
 
 
 def _write_shapes(staging, state, coupled, shapes, pressures):
-    from .. import output
-    return (output.write_mode_vtus(staging, state, shapes, output.MembraneSampler(state.mesh)),
-            output.write_air_vtus(staging, [coupled], shapes, pressures))
+    from ..output.quadrant import MembraneSampler, write_air_vtus, write_mode_vtus
+    return (write_mode_vtus(staging, state, shapes, MembraneSampler(state.mesh)),
+            write_air_vtus(staging, [coupled], shapes, pressures))
 
 
 QUADRANT_SECTOR = DrivenSector(
