@@ -173,13 +173,26 @@ def refill() -> None:
     start = time.perf_counter()
     for entry in FE_CACHE.glob("*.json"):
         entry.unlink()
-    fill(list(CASES))
+    fill_side_by_side(list(CASES))
     root = Path(__file__).resolve().parent.parent.parent
+    # the slow tests too (the ten-seed batteries ask for studies of their own), one
+    # process per core (pytest-xdist); concurrent writers share entries by their locks
     tests = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
-                            "tests/diagnose"], cwd=root, env={**os.environ, REFILL_VARIABLE: "1"})
+                            "-m", "slow or not slow", "-n", "auto", "tests/diagnose"],
+                           cwd=root, env={**os.environ, REFILL_VARIABLE: "1"})
     print(f"{len(list(FE_CACHE.glob('*.json')))} entries in {FE_CACHE}, "
           f"{time.perf_counter() - start:.0f} s in all; the diagnosis tests "
           f"{'passed' if tests.returncode == 0 else 'FAILED (see above)'}")
+
+
+def fill_side_by_side(keys) -> None:
+    """:func:`fill` with one process per core, one case at a time per process (entries two
+    cases share are solved once: :class:`FEModel` locks each entry)."""
+    import os
+    from concurrent.futures import ProcessPoolExecutor
+    with ProcessPoolExecutor(max_workers=min(len(keys), os.cpu_count() or 1)) as pool:
+        for _ in pool.map(fill, [[key] for key in keys]):
+            pass
 
 
 def fill(keys) -> None:
