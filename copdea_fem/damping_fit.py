@@ -343,7 +343,15 @@ def fit_damping(study, measured: MeasuredDamping, kind: str, relaxation_time=Non
     progress("calibrate-damping: FE solve without damping keys (frequencies, radiation) ...")
     undamped = fe_modes(base, progress)
     missing = [label for label in measured.labels if label not in undamped]
-    if missing:
+    notes = []
+    if missing and len(missing) < len(measured.labels):
+        notes.append(f"measured mode(s) {', '.join(missing)} are not in the FE band "
+                     f"[eigen.f_min, eigen.f_max] = [{study['eigen']['f_min']:g}, "
+                     f"{study['eigen']['f_max']:g}] Hz: left out")
+        kept = [j for j, label in enumerate(measured.labels) if label in undamped]
+        measured = MeasuredDamping([measured.labels[j] for j in kept],
+                                   measured.damping_ratio[kept], None, measured.source)
+    elif missing:
         raise DampingFitError(
             f"measured mode(s) {', '.join(missing)} are not in the FE band of the study "
             f"(its modes: {', '.join(undamped)}); allowed: labels of the FE modes in "
@@ -351,10 +359,9 @@ def fit_damping(study, measured: MeasuredDamping, kind: str, relaxation_time=Non
             f"{study['eigen']['f_max']:g}] Hz")
     labels = list(measured.labels)
     freq = np.array([undamped[label][0] for label in labels])
-    radiation = np.array([undamped[label][1] for label in labels])
+    radiation = np.maximum([undamped[label][1] for label in labels], 0.0)   # dry: -0.0
     target = measured.damping_ratio - radiation
     used = target > 0
-    notes = []
     for label, zeta, rad in zip(labels, measured.damping_ratio, radiation):
         if zeta <= rad:
             notes.append(f"{label}: measured damping ratio {zeta:.4g} <= its FE radiation "

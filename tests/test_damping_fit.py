@@ -154,3 +154,31 @@ def test_prony_on_a_flat_membrane_is_not_identifiable(tmp_path):
         fit_damping(flat, measured, "prony")
     with pytest.raises(DampingFitError, match=r"\(9,9\) are not in the FE band"):
         fit_damping(flat, MeasuredDamping(["(9,9)"], np.array([0.01])), "rayleigh")
+
+
+def test_rayleigh_fit_from_a_spectrum_through_the_cli(tmp_path, capsys):
+    """The spectrum path: the reduced model's b/m (245 1/s for (0,1), 45 1/s for P1) give
+    zeta = (b/m) / (2 omega); the FE (dry, coarse) fits alpha, beta to both exactly; (0,2)
+    lies above the FE band and is left out with a note."""
+    from copdea_fem.cli import main
+    study = "tests/reduced/data/g1_z16_2kV.yaml"
+    coupled = ["--set", "reduced.coupled_freq_01=400 Hz", "--set", "reduced.coupled_freq_02=930 Hz"]
+    assert main(["spectrum", study, *coupled, "--out", str(tmp_path / "measured")]) == 0
+    coarse = ["--set", "mesh.engine=axisymmetric", "--set", "mesh.membrane_size=6 mm",
+              "--set", "mesh.order=2", "--set", "geometry.frame=baffle",
+              "--set", "air.enabled=false"]
+    capsys.readouterr()
+    code = main(["calibrate-damping", study, str(tmp_path / "measured" / "spectrum_average.csv"),
+                 *coupled, *coarse, "--fit", "rayleigh", "--out", str(tmp_path / "fit"),
+                 "--quiet"])
+    out = capsys.readouterr().out
+    assert code == 0, out
+    assert "(0,2) are not in the FE band" in out and "--set membrane.rayleigh_beta=" in out
+    rows = {row["label"]: row for row in csv.DictReader(open(tmp_path / "fit" / "damping_fit.csv"))}
+    assert set(rows) == {"P1", "(0,1)"}
+    # b/m of the calibration round trip (tests/reduced): 245 1/s at the reduced 400 Hz
+    assert float(rows["(0,1)"]["measured_damping_ratio"]) == pytest.approx(
+        245 / (2 * 2 * np.pi * 400), rel=0.02)
+    assert all(abs(float(row["residual"])) < 1e-3 for row in rows.values())
+    assert main(["calibrate-damping", study, *coarse, "--fit", "modal",
+                 "--out", str(tmp_path / "none")]) == 2
