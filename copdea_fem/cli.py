@@ -190,11 +190,21 @@ def cmd_calibrate_damping(args) -> int:
     inputs = [args.study, _existing(args.spectrum, "spectrum file"), modes_json,
               _existing(args.quality_factors, "--quality-factors")]
     relaxation_time = None
+    if args.relaxation_time is not None and args.fit != "prony":
+        raise StudyError(f"--relaxation-time is not allowed with --fit {args.fit}; allowed: "
+                         "with --fit prony")
     if args.relaxation_time is not None:
         from .study import convert_quantity
         relaxation_time = convert_quantity("--relaxation-time", args.relaxation_time, "s",
                                            minimum=1e-12, maximum=1e3)
+    if args.fit == "modal" and (args.spectrum is None or args.quality_factors):
+        raise StudyError("--fit modal (the reduced model's b/m) needs SPECTRUM.csv and no "
+                         "--quality-factors; allowed: a spectrum CSV, or --fit rayleigh|prony "
+                         "with --quality-factors Q.csv or a spectrum CSV")
     if args.fit != "modal":
+        if args.spectrum is None and args.quality_factors is None:
+            raise StudyError(f"--fit {args.fit} needs measured damping; allowed: "
+                             "--quality-factors Q.csv or a SPECTRUM.csv")
         _check_size(args, study)
     with _output(args, out_dir, "calibrate-damping", inputs):
         return _reduced_action(lambda: calibrate_damping_cli(

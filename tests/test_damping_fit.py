@@ -180,5 +180,9 @@ def test_rayleigh_fit_from_a_spectrum_through_the_cli(tmp_path, capsys):
     assert float(rows["(0,1)"]["measured_damping_ratio"]) == pytest.approx(
         245 / (2 * 2 * np.pi * 400), rel=0.02)
     assert all(abs(float(row["residual"])) < 1e-3 for row in rows.values())
-    assert main(["calibrate-damping", study, *coarse, "--fit", "modal",
-                 "--out", str(tmp_path / "none")]) == 2
+    quality = str(_write_quality(tmp_path / "q.csv", ["(0,1)"], [0.01]))
+    for bad in (["--fit", "modal"], ["--fit", "prony"], ["--quality-factors", quality],
+                ["--fit", "rayleigh", "--quality-factors", quality, "--relaxation-time", "1 ms"]):
+        assert main(["calibrate-damping", study, *bad, "--out", str(tmp_path / "none")]) == 2
+        assert "error: --" in capsys.readouterr().err     # refused before any FE work
+    assert not (tmp_path / "none").exists()
