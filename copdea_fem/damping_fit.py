@@ -389,15 +389,24 @@ def fit_damping(study, measured: MeasuredDamping, kind: str, relaxation_time=Non
                      f"{tau0:.4g} s) for the material strain-energy shares ...")
             probe = fe_modes(base.replace({"membrane.prony": [
                 {"modulus_ratio": ratio, "relaxation_time": tau0}]}), progress)
-            change = np.array([probe.get(label, (0, rad))[1] - rad
+            # a mode that left the probe's band (stiffened above eigen.f_max): nan
+            change = np.array([probe[label][1] - rad if label in probe else math.nan
                                for label, rad in zip(labels, radiation)])
             shares.append(change / prony_ratio(freq, 1.0, ratio, tau0))
-        strain = shares[0]
-        flat = strain < MIN_STRAIN_FRACTION
-        # s(kappa) = s / (1 + d kappa) through the second probe (kappa = g Re r(omega tau0))
+        lost = np.isnan(shares[0])
+        for label in np.array(labels)[lost & used]:
+            notes.append(f"{label}: left the band in the probe solve (left out)")
+        used &= ~lost
+        strain = np.nan_to_num(shares[0])
+        flat = ~lost & (strain < MIN_STRAIN_FRACTION)
+        # s(kappa) = s / (1 + d kappa) through the second probe (kappa = g Re r(omega tau0));
+        # d = 0 (first order) where the second probe lost the mode
         wt = TWO_PI * freq * tau0
         kappa = PROBE_RATIOS[1] * wt**2 / (1 + wt**2)
-        softening = np.where(flat, 0.0, (strain / np.where(flat, 1.0, shares[1]) - 1) / kappa)
+        second = shares[1]
+        valid = ~flat & ~lost & np.isfinite(second) & (second > 0)
+        softening = np.zeros(len(labels))
+        softening[valid] = (strain[valid] / second[valid] - 1) / kappa[valid]
         softening = np.clip(softening, -0.9 / kappa, None)
         for label in np.array(labels)[flat & used]:
             notes.append(f"{label}: not identifiable by a Prony term (material strain-energy "
