@@ -329,8 +329,11 @@ def fit_damping(study, measured: MeasuredDamping, kind: str, relaxation_time=Non
                 refinements: int = 2, progress=None) -> DampingFit:
     """Fit ``kind`` (``rayleigh`` or ``prony``) to ``measured`` with the study's FE.
 
-    FE solves: the undamped study (frequencies, radiation), for Prony a probe (strain
-    shares), then one per refinement with the fitted keys (module docstring).
+    FE solves (module docstring): the undamped study (frequencies, radiation); Rayleigh
+    with the air: one probe per term (its share in each mode); Prony: two probes (the
+    strain-energy shares and their change with the stiffening); then one with the fitted
+    keys per attempt (1 + ``refinements`` at most).  Modes the FE band does not hold are
+    left out with a note (an error when none is left).
     """
     if kind not in FITS:
         raise StudyError(f"--fit = {kind!r} is not allowed; allowed: modal, "
