@@ -206,7 +206,7 @@ def cmd_calibrate_damping(args) -> int:
             raise StudyError(f"--fit {args.fit} needs measured damping; allowed: "
                              "--quality-factors Q.csv or a SPECTRUM.csv")
         _check_size(args, study)
-    with _output(args, out_dir, "calibrate-damping", inputs):
+    with _output(args, out_dir, "calibrate-damping", inputs), _solving(study):
         return _reduced_action(lambda: calibrate_damping_cli(
             study, args.spectrum, out_dir, modes_json=args.modes_json, window=args.window,
             fit=args.fit, quality_csv=args.quality_factors, relaxation_time=relaxation_time,

@@ -289,11 +289,15 @@ def _undamped(study):
 
 
 def fe_modes(study, progress=None) -> dict:
-    """``{label: (freq_hz, damping_ratio)}`` of an FE solve of ``study`` (first of a label)."""
-    from .api import solve
-    solution = solve(study, allow_large=True, progress=progress)
+    """``{label: (freq_hz, damping_ratio)}`` of an FE solve of ``study`` (first of a label).
+
+    :func:`copdea_fem.solve.run_solve`, nothing written (not :mod:`copdea_fem.api`, which
+    imports this module's callers: the CLI wraps the fit in :func:`copdea_fem.api.solving`).
+    """
+    from .solve import run_solve
+    result = run_solve(study, out_dir=None, progress=progress or log.info)
     modes = {}
-    for mode in solution.result.modes:
+    for mode in result.modes:
         modes.setdefault(mode.label, (float(np.hypot(mode.freq_hz, mode.freq_im_hz)),
                                       float(mode.damping_ratio)))
     return modes
