@@ -187,10 +187,30 @@ def cmd_calibrate_damping(args) -> int:
     study = _study(args)
     out_dir = _out_dir(args, study)
     modes_json = _modes_json(args, study)
-    inputs = [args.study, _existing(args.spectrum, "spectrum file"), modes_json]
-    with _output(args, out_dir, "calibrate-damping", inputs):
+    inputs = [args.study, _existing(args.spectrum, "spectrum file"), modes_json,
+              _existing(args.quality_factors, "--quality-factors")]
+    relaxation_time = None
+    if args.relaxation_time is not None and args.fit != "prony":
+        raise StudyError(f"--relaxation-time is not allowed with --fit {args.fit}; allowed: "
+                         "with --fit prony")
+    if args.relaxation_time is not None:
+        from .study import convert_quantity
+        relaxation_time = convert_quantity("--relaxation-time", args.relaxation_time, "s",
+                                           minimum=1e-12, maximum=1e3)
+    if args.fit == "modal" and (args.spectrum is None or args.quality_factors):
+        raise StudyError("--fit modal (the reduced model's b/m) needs SPECTRUM.csv and no "
+                         "--quality-factors; allowed: a spectrum CSV, or --fit rayleigh|prony "
+                         "with --quality-factors Q.csv or a spectrum CSV")
+    if args.fit != "modal":
+        if args.spectrum is None and args.quality_factors is None:
+            raise StudyError(f"--fit {args.fit} needs measured damping; allowed: "
+                             "--quality-factors Q.csv or a SPECTRUM.csv")
+        _check_size(args, study)
+    with _output(args, out_dir, "calibrate-damping", inputs), _solving(study):
         return _reduced_action(lambda: calibrate_damping_cli(
-            study, args.spectrum, out_dir, modes_json=args.modes_json, window=args.window))
+            study, args.spectrum, out_dir, modes_json=args.modes_json, window=args.window,
+            fit=args.fit, quality_csv=args.quality_factors, relaxation_time=relaxation_time,
+            progress=_progress(args.quiet)))
 
 
 def _add_reduced_commands(commands, with_study) -> None:
@@ -212,8 +232,22 @@ def _add_reduced_commands(commands, with_study) -> None:
 
     calibrate = with_study("calibrate-damping", "modal damping b/m from the peak heights of a "
                            "measured average spectrum (Sect. 5.3)")
-    calibrate.add_argument("spectrum", help="CSV with columns freq_hz, v_axial, v_radial "
-                           "(Hz, m/s), measured with the study's excitation")
+    calibrate.add_argument("spectrum", nargs="?", help="CSV with columns freq_hz, v_axial, "
+                           "v_radial (Hz, m/s), measured with the study's excitation "
+                           "(optional with --quality-factors)")
+    calibrate.add_argument("--fit", choices=("modal", "rayleigh", "prony"), default="modal",
+                           help="modal: b/m of the reduced model (default); rayleigh: the FE's "
+                           "membrane.rayleigh_alpha/beta; prony: one membrane.prony term "
+                           "(docs/damping.md)")
+    calibrate.add_argument("--quality-factors", metavar="Q.csv",
+                           help="measured modes for --fit rayleigh|prony: CSV with columns "
+                           "label, quality_factor (or damping_ratio) [, freq_hz]")
+    calibrate.add_argument("--relaxation-time", metavar="TIME",
+                           help="--fit prony: fix tau (e.g. '1 ms') and fit the modulus ratio only")
+    calibrate.add_argument("--allow-large", action="store_true",
+                           help="--fit rayleigh|prony: do not refuse a FE mesh estimated above "
+                           "the size limit")
+    calibrate.add_argument("--quiet", action="store_true", help="no FE progress messages")
     calibrate.add_argument("--window", type=float, default=0.15,
                            help="relative half-width of the peak search around each mode")
     calibrate.add_argument("--modes-json", help=modes_help)

@@ -41,7 +41,7 @@ COPIED = ("copdea_fem", "tests", "studies", "meshes", "pyproject.toml", "README.
 FIRST = ("tests/test_materials.py", "tests/test_damping.py", "tests/test_coupled_references.py",
          "tests/test_axisymmetric.py",
          "tests/test_acoustics.py", "tests/test_coupled.py", "tests/test_symmetry.py",
-         "tests/test_dry_modes.py", "tests/test_prestress.py")
+         "tests/test_dry_modes.py", "tests/test_prestress.py", "tests/test_damping_fit.py")
 
 
 @dataclass(frozen=True)
@@ -216,6 +216,19 @@ MUTATIONS = (
              "= (1j * x[support] - r3[j]) / (1j + sigma * tau)",
              "= (1j * x[support] + r3[j]) / (1j + sigma * tau)",
              "damped shift-invert: the Prony internal variable's back-substitution sign"),
+    # --- calibrate-damping --fit rayleigh|prony (issue 23) -----------------------------------
+    Mutation("damping_fit_radiation_kept", "copdea_fem/damping_fit.py",
+             "target = measured.damping_ratio - radiation",
+             "target = measured.damping_ratio - 0 * radiation",
+             "damping fit: the FE's radiation damping not subtracted from the measured one"),
+    Mutation("damping_fit_rayleigh_beta_doubled", "copdea_fem/damping_fit.py",
+             "return alpha / (2 * omega) + beta * omega / 2",
+             "return alpha / (2 * omega) + beta * omega",
+             "damping fit: Rayleigh zeta = alpha / (2 omega) + beta omega (half missing)"),
+    Mutation("damping_fit_prony_loss_peak", "copdea_fem/damping_fit.py",
+             "return modulus_ratio * share * wt / (2 * (1 + wt**2))",
+             "return modulus_ratio * share * wt / (2 * (1 + wt))",
+             "damping fit: the Prony loss peak omega tau / (1 + omega tau) (a square missing)"),
     Mutation("axisymmetric_pair_missing", "copdea_fem/axisymmetric/modes.py",
              'if mode.m > 0 and mode.kind != AIR:',
              'if mode.m > 1 and mode.kind != AIR:',

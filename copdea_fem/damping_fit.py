@@ -1,0 +1,466 @@
+"""Fit the membrane's structural damping keys to measured modal damping (issue 23, item 4).
+
+``copdea-fem calibrate-damping STUDY.yaml [SPECTRUM.csv] --fit rayleigh|prony`` fits
+``membrane.rayleigh_alpha`` [1/s] and ``membrane.rayleigh_beta`` [s], or one Prony term
+(``modulus_ratio`` g [-], ``relaxation_time`` tau [s]), to the damping ratios of measured
+modes, with the FE of the study as the model of record:
+
+1. The measured damping ratio of mode k is ``zeta_k = 1 / (2 Q_k)`` (half-power width
+   ``f_k / Q_k = 2 |Im f_k|``, ``zeta = -Im f / |f|`` as in ``modes.csv``), read from a CSV
+   of quality factors, or ``zeta_k = (b/m)_k / (2 omega_k)`` from the reduced model's b/m
+   calibrated on a measured spectrum (eq. 19: ``m q'' + b q' + k q``).
+2. An FE solve of the study without damping keys gives each mode's frequency ``omega_k``
+   and its radiation damping ratio ``zeta_rad,k`` (0 for a dry study).  Radiation and
+   structural damping add at first order (``tests/test_damping.py``), so the structural
+   target is ``zeta_k - zeta_rad,k``.
+3. The fit (below), then an FE solve with the fitted keys: its damping ratios, not the
+   formula's, are the ``fitted`` column, and ``residual = zeta_FE / zeta_measured - 1``
+   says how well each mode is fitted.  Where the FE differs from the formula (the Prony
+   formula is first order; radiation and structural damping add only at first order),
+   the formula of each mode is rescaled by ``zeta_FE,struct / zeta_formula`` and the fit
+   repeated (at most ``refinements`` times).
+
+Rayleigh (``C = alpha M + beta K``, exact)
+------------------------------------------
+The undamped modes ``K x_k = omega_k^2 M x_k`` diagonalise ``C``, so each mode of
+``(K - i omega C - omega^2 M) x = 0`` solves ``omega^2 + i c_k omega - omega_k^2 = 0`` with
+``c_k = alpha + beta omega_k^2``: ``omega = (-i c_k +- sqrt(4 omega_k^2 - c_k^2)) / 2``.  For an
+underdamped mode ``|omega| = omega_k``, so
+
+    zeta_k = -Im omega / |omega| = c_k / (2 omega_k) = alpha / (2 omega_k) + beta omega_k / 2,
+
+exactly, linear in ``(alpha, beta)``.  The fit minimises the relative residuals
+``sum_k (zeta_k(alpha, beta) / zetahat_k - 1)^2`` with ``alpha, beta >= 0`` (the keys' range):
+a non-negative linear least-squares problem (``scipy.optimize.nnls`` on the rows
+``[1 / (2 omega_k zetahat_k), omega_k / (2 zetahat_k)]``, right-hand side 1, columns scaled
+to unit norm).  One mode cannot separate ``alpha`` from ``beta``: then ``beta`` alone is fitted.
+
+One Prony term (first order, modal strain energy)
+-------------------------------------------------
+``T(omega) = K - omega^2 M + g K_mat r(omega)``, ``r = -i omega tau / (1 - i omega tau)
+= (omega^2 tau^2 - i omega tau) / (1 + omega^2 tau^2)`` (``copdea_fem.eigen.damped``).
+With the undamped mode ``x_k`` the Rayleigh quotient gives, to first order in g,
+``omega^2 = omega_k^2 (1 + g s_k r(omega_k))``, ``s_k = x_k^T K_mat x_k / x_k^T K x_k`` the
+share of the mode's strain energy that is material (not initial stress, electrostatic or
+spring), hence
+
+    zeta_k = g s_k omega_k tau / (2 (1 + omega_k^2 tau^2))        (first order)
+
+(the modal strain-energy method: half the material loss factor ``g omega tau / (1 + omega^2
+tau^2)`` times ``s_k``).  ``s_k`` is measured on the FE of record by one probe solve with a
+small term ``(g_0, tau_0)``: ``s_k = 2 dzeta_k (1 + omega_k^2 tau_0^2) / (g_0 omega_k tau_0)``,
+``dzeta_k`` the change of the mode's damping ratio (dry or with the air, any engine).  For a
+fixed tau the fit is linear in g (closed form); tau is found by a scan of log tau and a
+bounded refinement.  **Not identifiable**: a mode with ``s_k ~ 0`` (every out-of-plane
+mode of a flat membrane, ``load.z = 0``: its first-order strain vanishes, docs/damping.md)
+carries no information on (g, tau) and is left out; with fewer than two modes, or a
+best tau at the end of the scan (all modes far on one side of ``omega tau = 1``, where
+only ``g tau`` or ``g / tau`` is determined), tau must be given (``--relaxation-time``).
+"""
+
+from __future__ import annotations
+
+import csv
+import logging
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import scipy.optimize
+
+from .inputs import read_text
+from .study import StudyError
+
+log = logging.getLogger(__name__)
+
+TWO_PI = 2 * math.pi
+FITS = ("rayleigh", "prony")
+QUALITY_COLUMNS = ("label", "quality_factor")
+#: A mode whose material strain-energy share is below this carries no Prony information.
+MIN_STRAIN_FRACTION = 1e-5
+#: Probe Prony terms: the strain-energy shares (small g: first order) and their change
+#: with the stiffening of the material tangent (g = 0.5).
+PROBE_RATIOS = (0.01, 0.5)
+#: The FE with the fitted keys agrees with the formula within this: no refinement.
+AGREEMENT = 1e-3
+
+
+class DampingFitError(ValueError):
+    """The measured damping cannot be fitted (not identifiable, nothing left to fit)."""
+
+
+@dataclass
+class MeasuredDamping:
+    """Measured modes: labels as in ``modes.csv`` and damping ratios zeta = 1/(2Q) [-]."""
+
+    labels: list
+    damping_ratio: np.ndarray
+    freq_hz: np.ndarray | None = None     # measured frequencies [Hz] (information only)
+    source: str = ""
+
+
+@dataclass
+class DampingFit:
+    """The fitted keys and, per mode, how well the FE with them matches the measurement."""
+
+    kind: str                                # "rayleigh" or "prony"
+    keys: dict                               # {"membrane.rayleigh_alpha": 1/s, ...}
+    labels: list
+    freq_hz: np.ndarray                      # FE frequency of each mode [Hz]
+    measured: np.ndarray                     # measured damping ratio [-]
+    radiation: np.ndarray                    # FE radiation damping ratio [-]
+    formula: np.ndarray                      # fitted damping ratio by the formula [-]
+    fitted: np.ndarray                       # FE damping ratio with the fitted keys [-]
+    used: np.ndarray                         # mode entered the fit
+    strain_fraction: np.ndarray | None = None
+    notes: list = field(default_factory=list)
+    verified: bool = True                    # ``fitted`` from an FE solve (else formula)
+
+    @property
+    def residual(self) -> np.ndarray:
+        """zeta_fitted / zeta_measured - 1 per mode [-]."""
+        return self.fitted / self.measured - 1
+
+    @property
+    def rms_residual(self) -> float:
+        """Root-mean-square relative residual of the modes used in the fit [-]."""
+        return float(np.sqrt(np.mean(self.residual[self.used] ** 2)))
+
+    def options(self) -> str:
+        """The fitted keys as ``--set`` options (6 significant digits)."""
+        parts = []
+        for key, value in self.keys.items():
+            if key == "membrane.prony":
+                term = value[0]
+                parts.append(f"--set 'membrane.prony=[{{modulus_ratio: "
+                             f"{term['modulus_ratio']:.6g}, relaxation_time: "
+                             f"{term['relaxation_time']:.6g}}}]'")
+            else:
+                parts.append(f"--set {key}={value:.6g}")
+        return " ".join(parts)
+
+
+# -- the closed forms ------------------------------------------------------------------------
+def rayleigh_ratio(freq_hz, alpha: float, beta: float) -> np.ndarray:
+    """zeta_k = alpha / (2 omega_k) + beta omega_k / 2 [-] (module docstring)."""
+    omega = TWO_PI * np.asarray(freq_hz, float)
+    return alpha / (2 * omega) + beta * omega / 2
+
+
+def prony_ratio(freq_hz, strain_fraction, modulus_ratio: float, relaxation_time: float,
+                softening=0.0) -> np.ndarray:
+    """zeta_k = g s_k(kappa_k) omega_k tau / (2 (1 + omega_k^2 tau^2)) [-] (module docstring),
+    ``s_k(kappa) = s_k / (1 + d_k kappa)``, ``kappa = g omega^2 tau^2 / (1 + omega^2 tau^2)``
+    the stiffening of the material tangent; ``softening`` d_k = 0: the first order."""
+    wt = TWO_PI * np.asarray(freq_hz, float) * relaxation_time
+    kappa = modulus_ratio * wt**2 / (1 + wt**2)
+    share = np.asarray(strain_fraction, float) / (1 + np.asarray(softening, float) * kappa)
+    return modulus_ratio * share * wt / (2 * (1 + wt**2))
+
+
+def fit_rayleigh(freq_hz, damping_ratio, scale=None, sensitivity=None) -> tuple[float, float]:
+    """(alpha [1/s], beta [s]) >= 0 minimising sum (zeta_k / zetahat_k - 1)^2 with
+    ``zeta_k = scale_k (a_k alpha / (2 omega_k) + b_k beta omega_k / 2)``.
+
+    ``sensitivity = (a, b)`` (default 1): the FE's share of each term in a mode (with the
+    air, ``alpha`` damps only the membrane's part of the kinetic energy); ``scale``
+    (default 1): the FE refinement.  One mode: beta alone (alpha = 0).
+    """
+    omega = TWO_PI * np.asarray(freq_hz, float)
+    target = np.asarray(damping_ratio, float)
+    scale = np.ones_like(omega) if scale is None else np.asarray(scale, float)
+    a, b = (1.0, 1.0) if sensitivity is None else sensitivity
+    if np.any(target <= 0):
+        raise DampingFitError("a measured damping ratio <= 0 cannot be fitted")
+    design = np.column_stack([scale * a / (2 * omega), scale * b * omega / 2]) / target[:, None]
+    if omega.size < 2 or np.ptp(omega) <= 1e-9 * omega.max():
+        beta = float(np.sum(design[:, 1]) / np.sum(design[:, 1] ** 2))
+        return 0.0, beta
+    norms = np.linalg.norm(design, axis=0)
+    solution, _ = scipy.optimize.nnls(design / norms, np.ones(omega.size))
+    alpha, beta = solution / norms
+    return float(alpha), float(beta)
+
+
+def _prony_gain(freq_hz, strain_fraction, target, tau, scale, softening):
+    """Best g in [1e-6, 1000] (the key's range) for a fixed tau and its residual norm."""
+    def cost(log_g):
+        zeta = scale * prony_ratio(freq_hz, strain_fraction, math.exp(log_g), tau, softening)
+        return float(np.sum((zeta / target - 1) ** 2))
+    a = scale * prony_ratio(freq_hz, strain_fraction, 1.0, tau) / target
+    first = math.log(min(max(float(np.sum(a) / np.sum(a * a)), 1e-6), 1e3))  # linear (d = 0)
+    if not np.any(softening):
+        return math.exp(first), cost(first)
+    result = scipy.optimize.minimize_scalar(cost, bounds=(math.log(1e-6), math.log(1e3)),
+                                            method="bounded", options={"xatol": 1e-10})
+    best = min((first, result.x), key=cost)
+    return math.exp(best), cost(best)
+
+
+def fit_prony(freq_hz, damping_ratio, strain_fraction, relaxation_time=None,
+              scale=None, softening=0.0) -> tuple[float, float, bool]:
+    """(g, tau [s], tau_identified) of one Prony term minimising the relative residuals
+    ``sum_k (scale_k zeta_k(g, tau) / zetahat_k - 1)^2`` (:func:`prony_ratio`).
+
+    ``relaxation_time`` given: only g.  Otherwise tau by a scan of 241 points over
+    ``[1e-3, 1e3] / omega`` of the band and a bounded refinement of log tau (g the best for
+    each tau); ``tau_identified`` is False when the best tau lies at the end of the scan
+    (only g tau or g / tau is determined by these modes) or fewer than two distinct
+    frequencies are given.
+    """
+    freq = np.asarray(freq_hz, float)
+    target = np.asarray(damping_ratio, float)
+    s = np.asarray(strain_fraction, float)
+    scale = np.ones_like(freq) if scale is None else np.asarray(scale, float)
+    softening = np.broadcast_to(np.asarray(softening, float), freq.shape)
+    if np.any(target <= 0):
+        raise DampingFitError("a measured damping ratio <= 0 cannot be fitted")
+
+    def gain(tau):
+        return _prony_gain(freq, s, target, tau, scale, softening)
+
+    if relaxation_time is not None:
+        return gain(relaxation_time)[0], relaxation_time, True
+    omega = TWO_PI * freq
+    low, high = math.log(1e-3 / omega.max()), math.log(1e3 / omega.min())
+    grid = np.linspace(low, high, 241)
+    cost = np.array([gain(math.exp(t))[1] for t in grid])
+    best = int(np.argmin(cost))
+    if best in (0, grid.size - 1) or freq.size < 2 or np.ptp(freq) <= 1e-9 * freq.max():
+        tau = math.exp(grid[best])
+        return gain(tau)[0], tau, False
+    result = scipy.optimize.minimize_scalar(lambda t: gain(math.exp(t))[1],
+                                            bounds=(grid[best - 1], grid[best + 1]),
+                                            method="bounded", options={"xatol": 1e-10})
+    tau = math.exp(result.x)
+    return gain(tau)[0], tau, True
+
+
+# -- measured damping ------------------------------------------------------------------------
+def read_quality_csv(path) -> MeasuredDamping:
+    """Measured modes: columns ``label`` (as in modes.csv, e.g. ``(0,1)``) and
+    ``quality_factor`` [-] (or ``damping_ratio`` [-]); optional ``freq_hz`` [Hz]."""
+    path = Path(path)
+    if not path.is_file():
+        raise StudyError(f"--quality-factors {str(path)!r} does not exist; allowed: a CSV with "
+                         "columns label, quality_factor [, freq_hz]")
+    lines = read_text(path, "--quality-factors", error=StudyError).splitlines()
+    rows = list(csv.reader(row for row in lines if row.strip() and not row.startswith("#")))
+    header = [name.strip() for name in rows[0]] if rows else []
+    value = "quality_factor" if "quality_factor" in header else "damping_ratio"
+    if "label" not in header or value not in header or len(rows) < 2:
+        raise StudyError(f"--quality-factors {str(path)!r} has columns {header} and "
+                         f"{max(len(rows) - 1, 0)} rows; allowed: columns label, quality_factor "
+                         "(or damping_ratio) [, freq_hz] and at least one row")
+    labels, values, freqs = [], [], []
+    for number, row in enumerate(rows[1:], start=2):
+        cells = dict(zip(header, (cell.strip() for cell in row)))
+        try:
+            number_value = float(cells[value])
+            freq = float(cells["freq_hz"]) if cells.get("freq_hz") else math.nan
+        except (KeyError, ValueError):
+            raise StudyError(f"--quality-factors {str(path)!r} line {number}: {value} = "
+                             f"{cells.get(value)!r} is not allowed; allowed: a number") from None
+        if not (number_value > 0 and math.isfinite(number_value)):
+            raise StudyError(f"--quality-factors {str(path)!r} line {number}: {value} = "
+                             f"{number_value:g} is not allowed; allowed: > 0")
+        if cells["label"] in labels:
+            raise StudyError(f"--quality-factors {str(path)!r} line {number}: label "
+                             f"{cells['label']!r} is not allowed twice")
+        labels.append(cells["label"])
+        values.append(number_value)
+        freqs.append(freq)
+    values = np.array(values)
+    ratio = 1 / (2 * values) if value == "quality_factor" else values
+    return MeasuredDamping(labels, ratio, np.array(freqs), source=str(path))
+
+
+def measured_from_spectrum(labels, damping_per_mass, freq_hz, source="") -> MeasuredDamping:
+    """zeta_k = (b/m)_k / (2 omega_k) from the reduced model's calibrated b/m [1/s] (eq. 19)."""
+    ratio = np.asarray(damping_per_mass, float) / (2 * TWO_PI * np.asarray(freq_hz, float))
+    return MeasuredDamping(list(labels), ratio, np.asarray(freq_hz, float), source=source)
+
+
+# -- the FE of record ------------------------------------------------------------------------
+def _undamped(study):
+    keys = {"membrane.rayleigh_alpha": 0.0, "membrane.rayleigh_beta": 0.0, "membrane.prony": []}
+    return study.replace(keys)
+
+
+def fe_modes(study, progress=None) -> dict:
+    """``{label: (freq_hz, damping_ratio)}`` of an FE solve of ``study`` (first of a label).
+
+    :func:`copdea_fem.solve.run_solve`, nothing written (not :mod:`copdea_fem.api`, which
+    imports this module's callers: the CLI wraps the fit in :func:`copdea_fem.api.solving`).
+    """
+    from .solve import run_solve
+    result = run_solve(study, out_dir=None, progress=progress or log.info)
+    modes = {}
+    for mode in result.modes:
+        modes.setdefault(mode.label, (float(np.hypot(mode.freq_hz, mode.freq_im_hz)),
+                                      float(mode.damping_ratio)))
+    return modes
+
+
+def _with_keys(study, keys: dict, lowest_hz: float):
+    """The study with the fitted keys; ``eigen.f_min`` raised where the Prony relaxation
+    spectrum would reach the band (None when that would cut a fitted mode)."""
+    try:
+        return study.replace(keys)
+    except StudyError as error:
+        prony = keys.get("membrane.prony")
+        if not prony or "eigen.f_min" not in str(error):
+            raise
+        term = prony[0]
+        lowest = 1 / (TWO_PI * term["relaxation_time"] * (1 + term["modulus_ratio"]))
+        f_min = 0.5 * lowest * 1.001
+        if f_min >= 0.9 * lowest_hz:
+            return None
+        return study.replace({**keys, "eigen.f_min": f_min})
+
+
+def _probe_time(study, freq_hz) -> float:
+    """tau_0 of the probe: near omega tau = 1 in the band, its relaxation spectrum
+    (|Im f| >= 1 / (2 pi tau_0 (1 + g_0))) kept above the band's height (study check)."""
+    eigen = study["eigen"]
+    height = eigen["max_damping_ratio"] * eigen["f_max"]
+    centre = math.exp(np.mean(np.log(freq_hz)))
+    return min(1 / (TWO_PI * centre), 1 / (TWO_PI * 2.2 * height * (1 + max(PROBE_RATIOS))))
+
+
+def fit_damping(study, measured: MeasuredDamping, kind: str, relaxation_time=None,
+                refinements: int = 2, progress=None) -> DampingFit:
+    """Fit ``kind`` (``rayleigh`` or ``prony``) to ``measured`` with the study's FE.
+
+    FE solves (module docstring): the undamped study (frequencies, radiation); Rayleigh
+    with the air: one probe per term (its share in each mode); Prony: two probes (the
+    strain-energy shares and their change with the stiffening); then one with the fitted
+    keys per attempt (1 + ``refinements`` at most).  Modes the FE band does not hold are
+    left out with a note (an error when none is left).
+    """
+    if kind not in FITS:
+        raise StudyError(f"--fit = {kind!r} is not allowed; allowed: modal, "
+                         + ", ".join(FITS))
+    if relaxation_time is not None and not relaxation_time > 0:
+        raise StudyError(f"--relaxation-time = {relaxation_time!r} is not allowed; allowed: "
+                         "a time > 0 s")
+    progress = progress or log.info
+    base = _undamped(study)
+    progress("calibrate-damping: FE solve without damping keys (frequencies, radiation) ...")
+    undamped = fe_modes(base, progress)
+    missing = [label for label in measured.labels if label not in undamped]
+    notes = []
+    if missing and len(missing) < len(measured.labels):
+        notes.append(f"measured mode(s) {', '.join(missing)} are not in the FE band "
+                     f"[eigen.f_min, eigen.f_max] = [{study['eigen']['f_min']:g}, "
+                     f"{study['eigen']['f_max']:g}] Hz: left out")
+        kept = [j for j, label in enumerate(measured.labels) if label in undamped]
+        measured = MeasuredDamping([measured.labels[j] for j in kept],
+                                   measured.damping_ratio[kept], None, measured.source)
+    elif missing:
+        raise DampingFitError(
+            f"measured mode(s) {', '.join(missing)} are not in the FE band of the study "
+            f"(its modes: {', '.join(undamped)}); allowed: labels of the FE modes in "
+            f"[eigen.f_min, eigen.f_max] = [{study['eigen']['f_min']:g}, "
+            f"{study['eigen']['f_max']:g}] Hz")
+    labels = list(measured.labels)
+    freq = np.array([undamped[label][0] for label in labels])
+    radiation = np.maximum([undamped[label][1] for label in labels], 0.0)   # dry: -0.0
+    target = measured.damping_ratio - radiation
+    used = target > 0
+    for label, zeta, rad in zip(labels, measured.damping_ratio, radiation):
+        if zeta <= rad:
+            notes.append(f"{label}: measured damping ratio {zeta:.4g} <= its FE radiation "
+                         f"damping {rad:.4g}: no structural damping to fit (left out)")
+    strain = softening = None
+    sensitivity = (np.ones(len(labels)), np.ones(len(labels)))
+    if kind == "rayleigh" and study["air"]["enabled"]:
+        # with the air the closed form holds for the membrane's share only: each term's
+        # share per mode from one probe solve each (zeta ~ 1e-3, first order)
+        centre = TWO_PI * math.exp(np.mean(np.log(freq)))
+        shares = []
+        for key, value, unit in (("membrane.rayleigh_alpha", 2e-3 * centre, (1, 0)),
+                                 ("membrane.rayleigh_beta", 2e-3 / centre, (0, 1))):
+            progress(f"calibrate-damping: FE probe solve ({key} = {value:.4g}) ...")
+            probe = fe_modes(base.replace({key: value}), progress)
+            change = np.array([probe.get(label, (0, rad))[1] - rad
+                               for label, rad in zip(labels, radiation)])
+            shares.append(change / rayleigh_ratio(freq, value * unit[0], value * unit[1]))
+        sensitivity = tuple(shares)
+    if kind == "prony":
+        tau0 = _probe_time(base, freq)
+        shares = []
+        for ratio in PROBE_RATIOS:
+            progress(f"calibrate-damping: FE probe solve (Prony g = {ratio:g}, tau = "
+                     f"{tau0:.4g} s) for the material strain-energy shares ...")
+            probe = fe_modes(base.replace({"membrane.prony": [
+                {"modulus_ratio": ratio, "relaxation_time": tau0}]}), progress)
+            # a mode that left the probe's band (stiffened above eigen.f_max): nan
+            change = np.array([probe[label][1] - rad if label in probe else math.nan
+                               for label, rad in zip(labels, radiation)])
+            shares.append(change / prony_ratio(freq, 1.0, ratio, tau0))
+        lost = np.isnan(shares[0])
+        for label in np.array(labels)[lost & used]:
+            notes.append(f"{label}: left the band in the probe solve (left out)")
+        used &= ~lost
+        strain = np.nan_to_num(shares[0])
+        flat = ~lost & (strain < MIN_STRAIN_FRACTION)
+        # s(kappa) = s / (1 + d kappa) through the second probe (kappa = g Re r(omega tau0));
+        # d = 0 (first order) where the second probe lost the mode
+        wt = TWO_PI * freq * tau0
+        kappa = PROBE_RATIOS[1] * wt**2 / (1 + wt**2)
+        second = shares[1]
+        valid = ~flat & ~lost & np.isfinite(second) & (second > 0)
+        softening = np.zeros(len(labels))
+        softening[valid] = (strain[valid] / second[valid] - 1) / kappa[valid]
+        softening = np.clip(softening, -0.9 / kappa, None)
+        for label in np.array(labels)[flat & used]:
+            notes.append(f"{label}: not identifiable by a Prony term (material strain-energy "
+                         f"share < {MIN_STRAIN_FRACTION:g}: an out-of-plane mode of a flat "
+                         "membrane is not strained at first order, docs/damping.md; left out)")
+        used &= ~flat
+    if not np.any(used):
+        raise DampingFitError(
+            f"no measured mode can be fitted by {kind} damping: "
+            + "; ".join(notes or ["no mode"]))
+    scale = np.ones(len(labels))
+    result = None
+    for attempt in range(refinements + 1):
+        if kind == "rayleigh":
+            if np.count_nonzero(used) < 2 and attempt == 0:
+                notes.append("one mode cannot separate alpha from beta: beta alone fitted")
+            alpha, beta = fit_rayleigh(freq[used], target[used], scale[used],
+                                       (sensitivity[0][used], sensitivity[1][used]))
+            keys = {"membrane.rayleigh_alpha": alpha, "membrane.rayleigh_beta": beta}
+            formula = radiation + scale * (rayleigh_ratio(freq, alpha * sensitivity[0], 0.0)
+                                           + rayleigh_ratio(freq, 0.0, beta * sensitivity[1]))
+        else:
+            g, tau, identified = fit_prony(freq[used], target[used], strain[used],
+                                           relaxation_time, scale[used], softening[used])
+            if not identified:
+                raise DampingFitError(
+                    "the relaxation time is not identifiable from these modes (fewer than two "
+                    "usable modes, or all of them far on one side of omega tau = 1, where only "
+                    "g tau or g / tau is determined); give it: --relaxation-time")
+            keys = {"membrane.prony": [{"modulus_ratio": g, "relaxation_time": tau}]}
+            formula = radiation + scale * prony_ratio(freq, np.maximum(strain, 0), g, tau,
+                                                      softening)
+        fitted_study = _with_keys(base, keys, float(freq[used].min()))
+        if fitted_study is None:
+            notes.append("the fitted relaxation spectrum reaches the band of the fitted modes: "
+                         "the fitted column is the formula's, not an FE solve's")
+            return DampingFit(kind, keys, labels, freq, measured.damping_ratio, radiation,
+                              formula, formula, used, strain, notes, verified=False)
+        progress(f"calibrate-damping: FE solve with the fitted keys ({attempt + 1}) ...")
+        solved = fe_modes(fitted_study, progress)
+        fe = np.array([solved.get(label, (math.nan, math.nan))[1] for label in labels])
+        result = DampingFit(kind, keys, labels, freq, measured.damping_ratio, radiation,
+                            formula, fe, used, strain, notes)
+        structural = fe - radiation
+        off = np.abs(structural[used] / (formula - radiation)[used] - 1)
+        if not np.all(np.isfinite(off)) or np.max(off) <= AGREEMENT:
+            break
+        scale = np.where(used, structural / np.maximum(formula - radiation, 1e-300) * scale,
+                         scale)
+    return result
