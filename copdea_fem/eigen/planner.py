@@ -84,8 +84,11 @@ class BandSolver:
                  max_modes: int, max_modes_per_shift: int, band_contains: Callable,
                  tol: float, progress=None, initial_shifts=None, start_modes=None,
                  factorize: Callable | None = None, krylov: str = "krylov-schur",
-                 block_size: int | None = None, excluded: Callable | None = None):
+                 block_size: int | None = None, excluded: Callable | None = None,
+                 count_growth: float | None = None):
         self.A, self.B = A, B
+        # d of the count law below (None: 1 for a Hermitian pencil, 3 for a general one)
+        self.count_growth = count_growth or (1.0 if hermitian else 3.0)
         self.n = A.shape[0]
         self.start_modes = int(start_modes) if start_modes else self.START_MODES
         self.initial_shifts = list(initial_shifts or [])
@@ -387,8 +390,7 @@ class BandSolver:
             # under-asking costs another run, which rebuilds a Krylov space (the
             # pairs found are kept, deflation).
             inside = max(self.count_within(nearest, radius), 1)
-            growth = 1.0 if self.hermitian else 3.0
-            expected = inside * ((distance / radius) ** growth - 1.0)
+            expected = inside * ((distance / radius) ** self.count_growth - 1.0)
             k = int(np.clip(math.ceil(1.25 * expected) + 4, 4, room))
             self.run(nearest, k)
             return
