@@ -44,8 +44,8 @@ def test_quiet_progress_hides_steps_not_warnings_and_follows_into_threads():
     assert lines == ["odd-even: shown", "odd-even: shown in a thread", "shown again"]
 
 
-def test_the_cli_prints_the_folder_messages_and_quiet_keeps_warnings(tmp_path, capsys,
-                                                                        monkeypatch):
+def test_the_cli_prints_the_folder_messages_and_removes_its_handler(tmp_path, capsys,
+                                                                   monkeypatch):
     """A leftover of an interrupted run is reported on stderr, also by a command without
     --quiet; the CLI's handler is gone after the command."""
     monkeypatch.chdir(tmp_path)
