@@ -15,9 +15,10 @@ have the same shape: a result object with its tables as :class:`pandas.DataFrame
 ``write(folder)`` that writes the command's files under the rules of
 :mod:`copdea_fem.folders`.  The command line (:mod:`copdea_fem.cli`) calls these.
 
-Progress messages go to the :mod:`logging` logger ``"copdea_fem"`` at level INFO, so
-they are off unless asked (``logging.basicConfig(level=logging.INFO)``), or to a callable
-passed as ``progress``.  Errors are the command line's: :class:`~copdea_fem.study.StudyError`
+Progress messages go to the :mod:`logging` loggers ``"copdea_fem.*"`` at level INFO, so
+nothing is printed unless asked (``logging.basicConfig(level=logging.INFO)``); a callable
+passed as ``progress`` receives each message (a handler forwards them to it while the call
+runs, and nothing is printed).  Errors are the command line's: :class:`~copdea_fem.study.StudyError`
 (bad input; the CLI's exit 2), :class:`~copdea_fem.folders.OutputFolderError` (a folder that
 may not be written; exit 2), :class:`SolveFailed` and
 :class:`~copdea_fem.prestress.PrestressError` (a solve that failed for a physical or
@@ -53,11 +54,13 @@ class SolveFailed(RuntimeError):
     change (the CLI's exit 3)."""
 
 
-def _progress(progress) -> Callable[[str], None]:
-    """A progress callable: ``progress`` itself, or the ``copdea_fem`` logger at INFO."""
+def _progress(progress):
+    """While inside, each progress message (INFO record of the ``copdea_fem`` loggers) goes
+    to ``progress(message)`` if it is a callable; otherwise the loggers alone."""
     if callable(progress):
-        return progress
-    return logger.info
+        from .pipeline import progress_to
+        return progress_to(progress, only_info=True)
+    return contextlib.nullcontext()
 
 
 def load_study(path: str | Path, overrides: dict[str, Any] | list[str] | None = None) -> Study:
@@ -163,7 +166,8 @@ def solve(study: Study | str | Path, *, allow_large: bool = False, mesh_cache=No
     mesh_cache : path, optional
         Mesh cache folder of the 3-D engine (default as the CLI's ``--mesh-cache``).
     progress : callable(str), optional
-        Progress messages (default: the ``copdea_fem`` logger at INFO).
+        Receives each progress message while the call runs (default: the ``copdea_fem``
+        logger at INFO only, nothing printed unless logging is configured).
 
     Returns
     -------
@@ -177,9 +181,8 @@ def solve(study: Study | str | Path, *, allow_large: bool = False, mesh_cache=No
 
     study = _as_study(study)
     check_size(study, allow_large)
-    with solving(study):
-        result = run_solve(study, out_dir=None, progress=_progress(progress),
-                           cache_dir=mesh_cache)
+    with solving(study), _progress(progress):
+        result = run_solve(study, out_dir=None, cache_dir=mesh_cache)
     return Solution(result)
 
 
@@ -281,8 +284,8 @@ class Solution:
 
         result = self.result
         with _claimed(folder, "solve", _inputs(result.study)) as target:
-            with result.timings.stage("output"), self.engine.threads():
-                _progress(progress)("writing results ...")
+            with result.timings.stage("output"), self.engine.threads(), _progress(progress):
+                logger.info("writing results ...")
                 output.write_results(result, Path(folder))
             result.out_dir = Path(folder)
         return target
@@ -292,15 +295,14 @@ class Solution:
 def response(study: Study | str | Path, *, allow_large: bool = False,
              progress: Callable[[str], None] | None = None) -> "ResponseSolution":
     """Forced response of the coupled FE under the study's chirp, with radiated sound
-    (``copdea-fem response``, nothing written)."""
+    (``copdea-fem response``, nothing written; ``progress``: as :func:`solve`'s)."""
     from .response.run import forced_response, prepare_order_zero
 
     study = _as_study(study)
     check_size(study, allow_large)
-    say = _progress(progress)
-    with solving(study):
-        problem = prepare_order_zero(study, say)
-        result = forced_response(problem, say)
+    with solving(study), _progress(progress):
+        problem = prepare_order_zero(study)
+        result = forced_response(problem)
     return ResponseSolution(result)
 
 
@@ -384,7 +386,8 @@ class ResponseSolution:
         result = self.result
         study = result.problem.study
         with _claimed(folder, "response", _inputs(study)) as target:
-            _progress(progress)("writing results ...")
+            with _progress(progress):
+                logger.info("writing results ...")
             start = time.perf_counter()
             write_response(result, Path(folder), reduced_spectrum(study, result))
             result.timings["output"] = time.perf_counter() - start
@@ -431,7 +434,8 @@ def force(study: Study | str | Path, voltages="0 kV, 3 kV", z_max=None, points: 
     """Static disc force F(z) at each voltage (Fig. 4b; ``copdea-fem force``).
 
     ``voltages``: ``"0 kV, 3 kV"`` or a list of quantities; ``z_max``: the largest z
-    (default max(load.z, 18 mm)); ``points``: z values including 0 (0 is not solved).
+    (default max(load.z, 18 mm)); ``points``: z values including 0 (0 is not solved);
+    ``progress``: as :func:`solve`'s.
     """
     study, z_values, voltage_list = prepare_force(_as_study(study), voltages, z_max, points,
                                                   allow_large)
@@ -444,8 +448,8 @@ def compute_force(study: Study, z_values, voltages, *, mesh_cache=None,
     """F(z) [N] at the checked inputs of :func:`prepare_force`."""
     from .solve import run_force
 
-    forces = run_force(study, z_values, voltages, out_dir=None, progress=_progress(progress),
-                       cache_dir=mesh_cache)
+    with _progress(progress):
+        forces = run_force(study, z_values, voltages, out_dir=None, cache_dir=mesh_cache)
     return ForceCurve(study, z_values, list(voltages), forces)
 
 
@@ -576,6 +580,7 @@ def sweep(sweep_file: str | Path, overrides: dict[str, Any] | list[str] | None =
 
     ``out``: the result folder (resumable: a second call continues); without it the sweep
     runs in a private temporary folder, kept while the result lives (``write`` copies it).
+    ``progress``: as :func:`solve`'s (one line per point and a few more).
     """
     from .study import parse_overrides
     from .sweep import load_sweep, run_sweep
@@ -587,13 +592,13 @@ def sweep(sweep_file: str | Path, overrides: dict[str, Any] | list[str] | None =
         for point in spec.points:
             check_size(point.study, allow_large)
     folder = _private("sweep", out)
-    if out is not None:
-        with _claimed(out, "sweep", [sweep_file]):
-            outcome = run_sweep(spec, out_dir=folder.path, executor=executor,
-                                workers=workers, progress=_progress(progress))
-    else:
-        outcome = run_sweep(spec, out_dir=folder.path, executor=executor, workers=workers,
-                            progress=_progress(progress))
+    with _progress(progress):
+        if out is not None:
+            with _claimed(out, "sweep", [sweep_file]):
+                outcome = run_sweep(spec, out_dir=folder.path, executor=executor,
+                                    workers=workers)
+        else:
+            outcome = run_sweep(spec, out_dir=folder.path, executor=executor, workers=workers)
     return SweepResult(spec, outcome, folder, Path(sweep_file))
 
 
@@ -624,7 +629,7 @@ class SweepResult:
 def diagnose(measured: str | Path, *, alpha: float = 0.05, model: str | None = None,
              fe_cache=None, progress: Callable[[str], None] | None = None) -> "Diagnosis":
     """Which catalogued effects the model lacks, from measured resonances and spectra
-    (``copdea-fem diagnose``, nothing written)."""
+    (``copdea-fem diagnose``, nothing written; ``progress``: as :func:`solve`'s)."""
     import dataclasses
 
     from .diagnose import load_measured
@@ -636,12 +641,12 @@ def diagnose(measured: str | Path, *, alpha: float = 0.05, model: str | None = N
     if model is not None:
         data = dataclasses.replace(data, model=model)
     engine = None
-    say = _progress(progress)
     if data.model == "fe":
         from .diagnose.anchored import AnchoredEngine
         from .diagnose.fe import FEModel
-        engine = AnchoredEngine(data, FEModel(cache_dir=fe_cache, progress=say))
-    result = Diagnoser(data, alpha=alpha, engine=engine, progress=say).run()
+        engine = AnchoredEngine(data, FEModel(cache_dir=fe_cache))
+    with _progress(progress):
+        result = Diagnoser(data, alpha=alpha, engine=engine).run()
     return Diagnosis(result, Path(measured))
 
 

@@ -30,10 +30,25 @@ class Terminated(KeyboardInterrupt):
     """SIGTERM, raised like Ctrl-C so that every cleanup on the way out runs."""
 
 
-def _progress(quiet: bool):
-    if quiet:
-        return lambda message: None
-    return lambda message: print(message, file=sys.stderr, flush=True)
+def _print_progress(message: str) -> None:
+    print(message, file=sys.stderr, flush=True)
+
+
+@contextlib.contextmanager
+def _progress(args):
+    """The messages of the ``copdea_fem`` loggers on stderr while a command runs: INFO and
+    above, WARNING and above with ``--quiet``; a command without ``--quiet`` shows only
+    the output folder's messages (:mod:`copdea_fem.folders`) and warnings."""
+    import logging
+
+    from .pipeline import progress_to
+
+    quiet = getattr(args, "quiet", None)
+    with progress_to(_print_progress, logging.WARNING if quiet else logging.INFO) as handler:
+        if quiet is None:
+            handler.addFilter(lambda record: record.levelno > logging.INFO
+                              or record.name == "copdea_fem.folders")
+        yield
 
 
 def _study(args):
@@ -53,8 +68,8 @@ def _output(args, out_dir, command: str, inputs):
     interrupt message.
     """
     inputs = [item for item in inputs if item]
-    with claim(out_dir, command, inputs=inputs, from_file=None if args.out else inputs[0],
-               progress=_progress(getattr(args, "quiet", False))) as record:
+    with claim(out_dir, command, inputs=inputs,
+               from_file=None if args.out else inputs[0]) as record:
         args.claim = record
         yield
 
@@ -87,10 +102,9 @@ def cmd_solve(args) -> int:
     study = _study(args)
     _check_size(args, study)
     out_dir = _out_dir(args, study)
-    progress = _progress(args.quiet)
     with _output(args, out_dir, "solve", [args.study]):
-        solution = api.solve(study, allow_large=True, progress=progress)
-        solution.write(out_dir, progress=progress)
+        solution = api.solve(study, allow_large=True)
+        solution.write(out_dir)
     result = solution.result
     print(frequency_table(result.rows))
     state = result.state
@@ -108,10 +122,9 @@ def cmd_response(args) -> int:
     study = _study(args)
     _check_size(args, study)
     out_dir = _out_dir(args, study)
-    progress = _progress(args.quiet)
     with _output(args, out_dir, "response", [args.study]):
-        solution = api.response(study, allow_large=True, progress=progress)
-        solution.write(out_dir, progress=progress)
+        solution = api.response(study, allow_large=True)
+        solution.write(out_dir)
     print("\n".join(summary_lines(solution.result)))
     return 0
 
@@ -124,7 +137,7 @@ def cmd_force(args) -> int:
                                                   args.points, args.allow_large)
     out_dir = _out_dir(args, study)
     with _output(args, out_dir, "force", [args.study]):
-        curve = api.compute_force(study, z_values, voltages, progress=_progress(args.quiet))
+        curve = api.compute_force(study, z_values, voltages)
         curve.write(out_dir)
     forces = curve.forces
     print(f"{'z [mm]':>8}" + "".join(f"{f'F @ {v / 1e3:g} kV [N]':>16}" for v in voltages))
@@ -269,8 +282,7 @@ def cmd_sweep(args) -> int:
         outcome = run_sweep(sweep, out_dir=out_dir, executor=args.executor,
                             workers=args.workers, scheduler=args.scheduler,
                             chain_length=args.chain_length,
-                            reuse=ReuseSettings(False, False, False) if args.no_reuse else None,
-                            progress=_progress(args.quiet))
+                            reuse=ReuseSettings(False, False, False) if args.no_reuse else None)
     print(format_summary(sweep, outcome))
     return 3 if len(outcome.failed) == len(sweep.points) else 0
 
@@ -311,7 +323,6 @@ def cmd_diagnose(args) -> int:
                                for path in condition.files.values())]
     with _output(args, out_dir, "diagnose", inputs):
         return _reduced_action(lambda: run_diagnose(args.measured, out_dir=out_dir,
-                                                    progress=_progress(args.quiet),
                                                     alpha=args.alpha, model=args.model,
                                                     fe_cache=args.fe_cache,
                                                     fe_workers=args.fe_workers))
@@ -492,7 +503,8 @@ def main(argv: list[str] | None = None) -> int:
     main_thread = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGTERM, _terminate) if main_thread else None
     try:
-        return _run(args)
+        with _progress(args):
+            return _run(args)
     finally:
         if main_thread:
             signal.signal(signal.SIGTERM, previous)

@@ -27,6 +27,7 @@ criterion of the membrane displacement; ``added_mass_ratio = (f_dry/f)^2 - 1``.
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 
 import ngsolve as ngs
@@ -38,6 +39,9 @@ from .ale import air_mesh_displacement
 from .eigen import Factorization, NativeShiftedInverse
 from .linearise import MembraneOperators, to_scipy
 from .membrane import displacement_space, energy_density, tangent_gradient
+
+
+logger = logging.getLogger(__name__)
 
 
 @dataclass
@@ -73,7 +77,7 @@ def _pressure_sign_fixed_normal():
     return ngs.IfPos(normal[2], 1.0, -1.0) * normal
 
 
-def assemble_coupled(study, mesh, state, progress=None) -> "CoupledAssembly":
+def assemble_coupled(study, mesh, state) -> "CoupledAssembly":
     """Assemble the coupled forms natively complex on the deformed air with the PML.
 
     The membrane terms (Hessian of the energy about u0, mass) are integrated on
@@ -85,12 +89,11 @@ def assemble_coupled(study, mesh, state, progress=None) -> "CoupledAssembly":
     mesh's disc face carries a quarter of them, :mod:`symmetry`).  One
     assembly serves every symmetry sector: :meth:`CoupledAssembly.restrict`.
     """
-    progress = progress or (lambda message: None)
     air, geometry = study["air"], study["geometry"]
     screens = acoustics.screen_faces(geometry["frame"])
     if geometry["inner_radius"] == 0:
         screens = "|".join(face for face in screens.split("|") if face != "disc")
-    progress("air mesh follows the membrane (ALE) ...")
+    logger.info("air mesh follows the membrane (ALE) ...")
     motion = air_mesh_displacement(state, mesh, air["domain_radius"])
     pressure_space = acoustics.pressure_space(mesh, study["mesh"]["pressure_order"], screens)
     membrane_space = displacement_space(mesh, study["mesh"]["order"], state.has_disc,
@@ -137,7 +140,7 @@ def assemble_coupled(study, mesh, state, progress=None) -> "CoupledAssembly":
         mass += (disc_mass / disc_area) * trial[3] * test[3] * ngs.ds("disc")
         mass += disc_acceleration
 
-    progress(f"assembling the coupled operators ({space.ndof} DOFs) ...")
+    logger.info(f"assembling the coupled operators ({space.ndof} DOFs) ...")
     zero = ngs.GridFunction(space)
     kinetic = ngs.BilinearForm(space)
     kinetic += _physical_air_energy(pressure, pressure_test, density, motion)

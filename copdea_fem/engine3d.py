@@ -11,6 +11,7 @@ dry matching in :mod:`modes`.
 from __future__ import annotations
 
 import ctypes
+import logging
 import os
 from concurrent.futures import ThreadPoolExecutor
 
@@ -20,8 +21,16 @@ from .bands import BandSolver, coupled_start_modes
 from .geometry import GeometrySpec, estimate_size, study_mesh
 from .linearise import linearised_operators, operator_damping
 from .modes import ModeSampler, classify_modes
-from .pipeline import CoupledSolution, Timings, quiet, single_threaded_blas
+from .pipeline import CoupledSolution, Timings, carried, single_threaded_blas, tagged, tagging
 from .prestress import solve_prestress
+
+
+logger = logging.getLogger(__name__)
+
+
+def _say(message: str) -> None:
+    """A progress line with the thread's prefix (:func:`copdea_fem.pipeline.tagging`)."""
+    logger.info(tagged(message))
 
 
 def task_manager():
@@ -78,9 +87,9 @@ class QuadrantEngine:
         return GeometrySpec.from_study(study, with_air=with_air).key(), \
             study["mesh"]["curve_order"]
 
-    def prepare_mesh(self, study, with_air=None, cache_dir=None, progress=quiet):
+    def prepare_mesh(self, study, with_air=None, cache_dir=None):
         """The (cached) 3-D mesh; ``cache_dir=None``: :func:`geometry.mesh_cache_dir`."""
-        return study_mesh(study, with_air=with_air, cache_dir=cache_dir, progress=progress)
+        return study_mesh(study, with_air=with_air, cache_dir=cache_dir)
 
     def estimate_size(self, study):
         """(elements, unknowns) of the 3-D mesh (:func:`geometry.estimate_size`)."""
@@ -88,10 +97,10 @@ class QuadrantEngine:
         return estimate_size(GeometrySpec.from_study(study), mesh["order"],
                              mesh["pressure_order"])
 
-    def forced_problem(self, study, progress=quiet):
+    def forced_problem(self, study):
         """The even-even symmetry sector, forced (:mod:`copdea_fem.response.quadrant`)."""
         from .response.quadrant import prepare_quadrant
-        return prepare_quadrant(study, progress)
+        return prepare_quadrant(study)
 
     def tracking_arrays(self, state, modes, needs_sampling: bool) -> dict:
         """Membrane vectors of the device and M times them (M the pipeline's own,
@@ -110,9 +119,9 @@ class QuadrantEngine:
             arrays["sampled"] = sampled_shapes(state, modes)
         return arrays
 
-    def prestress_solver(self, study, mesh, progress=None):
+    def prestress_solver(self, study, mesh):
         from .prestress import make_solver
-        return make_solver(study, mesh, progress)
+        return make_solver(study, mesh)
 
     def threads(self):
         """NGSolve's TaskManager for the output and force stages."""
@@ -124,29 +133,29 @@ class QuadrantEngine:
         from .output.quadrant import QuadrantOutput
         return QuadrantOutput(state, modes)
 
-    def dry_modes(self, study, mesh, progress=quiet, timings=None, solver=None,
+    def dry_modes(self, study, mesh, timings=None, solver=None,
                   initial_shifts=None, band: BandSolver | None = None):
         """Prestress and dry modes of the whole plane: (state, modes, eigen result)."""
         timings = timings or Timings()
         band = band or BandSolver.from_study(study)
         with task_manager():
             with timings.stage("prestress"):
-                progress("prestress (Newton, load steps in z then V_b) ...")
-                state = solve_prestress(study, mesh, progress=progress, solver=solver)
+                logger.info("prestress (Newton, load steps in z then V_b) ...")
+                state = solve_prestress(study, mesh, solver=solver)
             with timings.stage("assembly"):
                 operators = linearised_operators(state, study)
             with timings.stage("eigen"), single_threaded_blas():
-                progress(f"dry modes in [{band.f_min:g}, {band.f_max:g}] Hz "
-                         f"({operators.size} unknowns) ...")
+                logger.info(f"dry modes in [{band.f_min:g}, {band.f_max:g}] Hz "
+                            f"({operators.size} unknowns) ...")
                 # damping keys: the quadratic/rational step in omega (eigen.damped)
                 result = band.solve(operators.stiffness, operators.mass, band.f_min,
                                     band.f_max, damping=operator_damping(operators, study),
-                                    progress=progress, initial_shifts=initial_shifts)
+                                    initial_shifts=initial_shifts)
             with timings.stage("classify"):
                 modes = classify_modes(operators, result, ModeSampler(state))
         return state, modes, result
 
-    def coupled_modes(self, study, mesh, progress=quiet, timings=None, solver=None,
+    def coupled_modes(self, study, mesh, timings=None, solver=None,
                       initial_shifts=None, band: BandSolver | None = None) -> CoupledSolution:
         """Prestress, dry partners and coupled modes, per symmetry sector on a quadrant
         mesh (:func:`copdea_fem.solve.coupled_modes`)."""
@@ -160,11 +169,11 @@ class QuadrantEngine:
         initial_shifts = initial_shifts or {}
         with task_manager():
             with timings.stage("prestress"):
-                progress("prestress (Newton, load steps in z then V_b) ...")
-                state = solve_prestress(study, mesh, progress=progress, solver=solver)
+                logger.info("prestress (Newton, load steps in z then V_b) ...")
+                state = solve_prestress(study, mesh, solver=solver)
             with timings.stage("assembly"):
                 matrices = membrane_matrices(state)
-                coupled_forms = assemble_coupled(study, mesh, state, progress=progress)
+                coupled_forms = assemble_coupled(study, mesh, state)
             sectors = []
             with timings.stage("assembly"):
                 for sector in state.symmetry.sectors:
@@ -173,18 +182,20 @@ class QuadrantEngine:
                 coupled_forms.release()
                 return_freed_memory()
         # outside the TaskManager: its workers would compete with the sector threads
+        context = carried()
 
         def solve_sector(sector, operators, coupled):
             """Dry partner band and coupled band of one sector (runs in a worker thread)."""
             where = "" if sector is None else f"{sector.name}: "
+            with context(), tagging(where):
+                return _solve_sector_band(sector, operators, coupled)
 
-            def say(message):
-                progress(where + message)
-
+        def _solve_sector_band(sector, operators, coupled):
+            say = _say
             say(f"dry modes on the same mesh ({operators.size} unknowns) ...")
             damping = operator_damping(operators, study)    # None: undamped
             dry_result = band.solve(operators.stiffness, operators.mass, band.f_min,
-                                    band.dry_partner_top, damping=damping, progress=say)
+                                    band.dry_partner_top, damping=damping)
             # wet modes lie below their dry partners: the dry count is the first run's k
             expected = coupled_start_modes(dry_result.freq_hz, band.f_min, band.f_max)
             say(f"coupled modes in [{band.f_min:g}, {band.f_max:g}] Hz "
@@ -196,7 +207,7 @@ class QuadrantEngine:
                                 damping=None if damping is None else damping.embedded(
                                     coupled.membrane_index, coupled.stiffness.shape[0]),
                                 max_imag_hz=band.max_imag_hz, initial_shifts=plan,
-                                start_modes=expected, progress=say)
+                                start_modes=expected)
             return key, dry_result, result
 
         with timings.stage("eigen"), single_threaded_blas():

@@ -29,17 +29,17 @@ class Engine(Protocol):
     def mesh_key(self, study, with_air: bool):
         """A hashable key of what the mesh depends on (the sweeps' mesh reuse)."""
 
-    def prepare_mesh(self, study, with_air=None, cache_dir=None, progress=None):
+    def prepare_mesh(self, study, with_air=None, cache_dir=None):
         """The mesh of the study (``cache_dir``: the 3-D mesh cache)."""
 
-    def prestress_solver(self, study, mesh, progress=None):
+    def prestress_solver(self, study, mesh):
         """The Newton solver on ``mesh`` (:class:`copdea_fem.prestress.MembraneSolver`)."""
 
-    def dry_modes(self, study, mesh, progress=None, timings=None, solver=None,
+    def dry_modes(self, study, mesh, timings=None, solver=None,
                   initial_shifts=None, band=None):
         """Prestress and dry modes in the band: (state, modes, eigen result)."""
 
-    def coupled_modes(self, study, mesh, progress=None, timings=None, solver=None,
+    def coupled_modes(self, study, mesh, timings=None, solver=None,
                       initial_shifts=None, band=None):
         """Prestress, dry partners and coupled modes: a
         :class:`copdea_fem.pipeline.CoupledSolution`."""
@@ -51,7 +51,7 @@ class Engine(Protocol):
         """(elements, unknowns) the study's mesh will have, estimated before meshing (the
         resource guard, :func:`check_size`)."""
 
-    def forced_problem(self, study, progress=None):
+    def forced_problem(self, study):
         """Mesh, prestress and the forced-response operators of the part of the problem a
         uniform electrode drives: a :class:`copdea_fem.response.problem.OrderZero` whose
         ``sector`` (:class:`copdea_fem.response.problem.DrivenSector`) describes it."""

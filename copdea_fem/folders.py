@@ -223,7 +223,7 @@ def _check_replaceable(target: Path, command: str) -> None:
 
 
 @contextlib.contextmanager
-def claim(target, command: str, inputs=(), from_file=None, progress=None):
+def claim(target, command: str, inputs=(), from_file=None):
     """Check ``target`` (:func:`check_output`), lock it for the block and clean leftovers.
 
     Yields a :class:`Claim`.  Re-entrant within a process.
@@ -239,7 +239,7 @@ def claim(target, command: str, inputs=(), from_file=None, progress=None):
         raise OutputFolderError(f"output folder {target} cannot be written: "
                                 f"{error.strerror or error}") from None
     try:
-        _clean_leftovers(target, progress)
+        _clean_leftovers(target)
         check_output(target, command, inputs, from_file)   # again, now that it is ours
         record = Claim(target, command, had_result=read_manifest(target) is not None)
         _claims[target] = record
@@ -280,9 +280,9 @@ def _lock(target: Path) -> int | None:
         os.close(fd)
 
 
-def _clean_leftovers(target: Path, progress) -> None:
+def _clean_leftovers(target: Path) -> None:
     """Staging folders and old copies a killed run left beside ``target`` (module doc)."""
-    say = progress or (lambda message: None)
+    say = logger.info
 
     def ours(kind):
         """Folders named exactly as result_directory names them (8 hex digits); an old copy

@@ -34,6 +34,7 @@ from __future__ import annotations
 import gzip
 import hashlib
 import json
+import logging
 import math
 import os
 import uuid
@@ -48,6 +49,9 @@ SYMMETRIES = ("quarter", "none")
 
 GEOMETRY_VERSION = 2  # keys the mesh cache with the code fingerprint (GeometrySpec.key)
 CACHE_VARIABLE = "COPDEA_FEM_MESH_CACHE"
+
+
+logger = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -216,14 +220,13 @@ def _name_faces(shape, spec: GeometrySpec) -> None:
             edge.name = "far_edge"
 
 
-def generate_mesh(spec: GeometrySpec, progress=None):
+def generate_mesh(spec: GeometrySpec):
     """Netgen mesh of the spec (uncurved), and the OCC geometry it came from."""
     from netgen.occ import OCCGeometry
 
     shape = build_shape(spec)
     geometry = OCCGeometry(shape, dim=3)
-    if progress:
-        progress(f"meshing ({'air + PML' if spec.with_air else 'plane faces only'}) ...")
+    logger.info(f"meshing ({'air + PML' if spec.with_air else 'plane faces only'}) ...")
     maxh = spec.air_size if spec.with_air else 2 * spec.membrane_size
     ngmesh = geometry.GenerateMesh(maxh=maxh, grading=spec.grading)
     return ngmesh, geometry
@@ -246,8 +249,7 @@ def mesh_cache_dir() -> Path:
     return Path(platformdirs.user_cache_dir("copdea-fem")) / "meshes"
 
 
-def load_mesh(spec: GeometrySpec, curve_order: int, cache_dir: Path | None = None,
-              progress=None):
+def load_mesh(spec: GeometrySpec, curve_order: int, cache_dir: Path | None = None):
     """The NGSolve mesh of the spec, curved to ``curve_order``, from the cache if there.
 
     The cache file ``<cache_dir>/<hash>.vol.gz`` (default :func:`mesh_cache_dir`)
@@ -261,7 +263,7 @@ def load_mesh(spec: GeometrySpec, curve_order: int, cache_dir: Path | None = Non
     import ngsolve
     from netgen.occ import OCCGeometry
 
-    say = progress or (lambda message: None)
+    say = logger.info
     folder = Path(cache_dir) if cache_dir is not None else mesh_cache_dir()
     path = folder / f"{spec.key()}.vol.gz"
     problem = _cache_problem(path) if path.exists() else None
@@ -276,7 +278,7 @@ def load_mesh(spec: GeometrySpec, curve_order: int, cache_dir: Path | None = Non
         ngmesh.SetGeometry(geometry)
         say(f"mesh from cache {path.name}")
     else:
-        ngmesh, geometry = generate_mesh(spec, progress)
+        ngmesh, geometry = generate_mesh(spec)
         try:
             _store(ngmesh, spec, path)
         except OSError as error:
@@ -386,10 +388,10 @@ def refuse_size(study, elements: float, unknowns: float, limit: float = MAX_UNKN
             f"limit of {limit:.3g}; allowed: {coarser}, {lower}, or --allow-large")
 
 
-def study_mesh(study, with_air=None, cache_dir=None, progress=None):
+def study_mesh(study, with_air=None, cache_dir=None):
     """The (cached) 3-D mesh of the study; ``cache_dir=None``: :func:`mesh_cache_dir`."""
     spec = GeometrySpec.from_study(study, with_air=with_air)
-    return load_mesh(spec, study["mesh"]["curve_order"], cache_dir=cache_dir, progress=progress)
+    return load_mesh(spec, study["mesh"]["curve_order"], cache_dir=cache_dir)
 
 
 def membrane_area(spec: GeometrySpec) -> float:

@@ -7,6 +7,8 @@ Kept apart from :mod:`copdea_fem.solve` (which re-exports both) so that the engi
 from __future__ import annotations
 
 import contextlib
+import logging
+import threading
 import time
 from dataclasses import dataclass, field
 
@@ -41,6 +43,96 @@ class CoupledSolution:
 
 def quiet(message: str) -> None:
     """The progress callback that says nothing."""
+
+
+# -- progress through logging: the ``copdea_fem`` logger at INFO ----------------------------
+_THREAD = threading.local()
+
+
+@contextlib.contextmanager
+def tagging(prefix: str):
+    """Progress lines of this thread start with ``prefix`` while inside (``"m = 2: "``,
+    a sector's name): see :func:`tagged`."""
+    saved = getattr(_THREAD, "prefix", "")
+    _THREAD.prefix = saved + prefix
+    try:
+        yield
+    finally:
+        _THREAD.prefix = saved
+
+
+def tagged(message: str) -> str:
+    """``message`` with the prefix of the enclosing :func:`tagging` blocks of this thread."""
+    return getattr(_THREAD, "prefix", "") + message
+
+
+@contextlib.contextmanager
+def quiet_progress():
+    """The INFO records of this thread are not shown by the handlers of :func:`progress_to`
+    while inside (a sweep point, an FE solve of the diagnosis: their steps are not
+    reported, only their summary line); warnings still are."""
+    saved = getattr(_THREAD, "quiet", False)
+    _THREAD.quiet = True
+    try:
+        yield
+    finally:
+        _THREAD.quiet = saved
+
+
+def carried():
+    """The progress context of this thread (:func:`tagging`, :func:`quiet_progress`), as a
+    context manager that applies it in another thread (the sector threads)."""
+    prefix, quiet_now = getattr(_THREAD, "prefix", ""), getattr(_THREAD, "quiet", False)
+
+    @contextlib.contextmanager
+    def applied():
+        saved = getattr(_THREAD, "prefix", ""), getattr(_THREAD, "quiet", False)
+        _THREAD.prefix, _THREAD.quiet = prefix, quiet_now
+        try:
+            yield
+        finally:
+            _THREAD.prefix, _THREAD.quiet = saved
+    return applied
+
+
+class _Forward(logging.Handler):
+    """Each record's message to ``sink(message)``, except INFO records inside
+    :func:`quiet_progress`."""
+
+    def __init__(self, sink, level: int, only_info: bool):
+        super().__init__(level)
+        self.sink, self.only_info = sink, only_info
+
+    def filter(self, record) -> bool:
+        if record.levelno <= logging.INFO and getattr(_THREAD, "quiet", False):
+            return False
+        if self.only_info and record.levelno != logging.INFO:
+            return False
+        return super().filter(record)
+
+    def emit(self, record) -> None:
+        try:
+            self.sink(record.getMessage())
+        except Exception:  # noqa: BLE001 -- logging's rule: a handler never raises
+            self.handleError(record)
+
+
+@contextlib.contextmanager
+def progress_to(sink, level: int = logging.INFO, only_info: bool = False):
+    """While inside, the records of the ``copdea_fem`` loggers at ``level`` and above go
+    to ``sink(message)`` (with ``only_info``: the INFO ones, the progress lines); the
+    logger's level is lowered to INFO for the time if it was above."""
+    logger = logging.getLogger("copdea_fem")
+    handler = _Forward(sink, level, only_info)
+    saved = logger.level
+    if logger.getEffectiveLevel() > logging.INFO:
+        logger.setLevel(logging.INFO)
+    logger.addHandler(handler)
+    try:
+        yield handler
+    finally:
+        logger.removeHandler(handler)
+        logger.setLevel(saved)
 
 
 def single_threaded_blas():

@@ -18,6 +18,7 @@ with a :class:`PrestressError` that says which and at what load:
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass, field
 
@@ -28,6 +29,9 @@ from .materials import Membrane
 from .membrane import (displacement_space, energy_density, field_coefficients,
                        membrane_measure)
 from .symmetry import SECTORS, Symmetry, bitarray, membrane_mirror_dofs
+
+
+logger = logging.getLogger(__name__)
 
 
 class PrestressError(RuntimeError):
@@ -88,9 +92,8 @@ class MembraneSolver:
     """
 
     def __init__(self, mesh, material: Membrane, order: int, outer_radius: float,
-                 inner_radius: float, settings: dict, progress=None, curve_order: int = 1):
+                 inner_radius: float, settings: dict, curve_order: int = 1):
         self.mesh, self.material, self.settings = mesh, material, settings
-        self.progress = progress or (lambda message: None)
         self.has_disc = inner_radius > 0
         self.outer_radius, self.inner_radius = outer_radius, inner_radius
         self.voltage = ngs.Parameter(0.0)
@@ -232,14 +235,14 @@ class MembraneSolver:
                 if ds / 2 < min_ds * (1 - 1e-9):
                     raise self._diagnose(z_next, v_next, str(failure)) from None
                 ds /= 2
-                self.progress(f"  step cut: z = {z_next * 1e3:.3f} mm, V = {v_next:.0f} V "
-                              f"({failure})")
+                logger.info(f"  step cut: z = {z_next * 1e3:.3f} mm, V = {v_next:.0f} V "
+                            f"({failure})")
                 continue
             s += ds
             self.newton_iterations += iterations
             self.load_steps.append((z_next, v_next, iterations))
-            self.progress(f"  z = {z_next * 1e3:7.3f} mm  V = {v_next:7.1f} V  "
-                          f"Newton iterations: {iterations}")
+            logger.info(f"  z = {z_next * 1e3:7.3f} mm  V = {v_next:7.1f} V  "
+                        f"Newton iterations: {iterations}")
             self._check_tension(z_next, v_next)
             if iterations <= 4:
                 ds = min(2 * ds, ds_nominal)
@@ -298,20 +301,19 @@ def _membrane_points(mesh, r_o: float, r_i: float, n_radii: int = 24, n_angles: 
             "polar": list(zip(rr.ravel(), tt.ravel()))}
 
 
-def make_solver(study, mesh, progress=None) -> MembraneSolver:
+def make_solver(study, mesh) -> MembraneSolver:
     g = study["geometry"]
     return MembraneSolver(mesh, Membrane.with_effects(study), study["mesh"]["order"],
-                          g["outer_radius"], g["inner_radius"], study["prestress"], progress,
+                          g["outer_radius"], g["inner_radius"], study["prestress"],
                           curve_order=study["mesh"]["curve_order"])
 
 
-def solve_prestress(study, mesh, progress=None, solver: MembraneSolver | None = None
-                    ) -> PrestressedState:
+def solve_prestress(study, mesh, solver: MembraneSolver | None = None) -> PrestressedState:
     """Equilibrium at the study's (load.z, load.voltage): z first at V = 0, then V_b.
 
     Pass ``solver`` to continue from its current state (sweeps) instead.
     """
-    solver = solver or make_solver(study, mesh, progress)
+    solver = solver or make_solver(study, mesh)
     z, voltage = study["load"]["z"], study["load"]["voltage"]
     settings = study["prestress"]
     if z != solver.z:
@@ -322,8 +324,7 @@ def solve_prestress(study, mesh, progress=None, solver: MembraneSolver | None = 
     return solver.state()
 
 
-def force_displacement(study, mesh, z_values, voltages, progress=None,
-                       new_solver=None) -> np.ndarray:
+def force_displacement(study, mesh, z_values, voltages, new_solver=None) -> np.ndarray:
     """Static disc force F(z) [N] at each voltage (Fig. 4b): array (len(voltages), len(z)).
 
     Each curve continues in z from the flat state at its voltage.  ``new_solver``
@@ -333,7 +334,7 @@ def force_displacement(study, mesh, z_values, voltages, progress=None,
     settings = study["prestress"]
     new_solver = new_solver or make_solver
     for i, voltage in enumerate(voltages):
-        solver = new_solver(study, mesh, progress)
+        solver = new_solver(study, mesh)
         solver.go_to(0.0, voltage, settings["voltage_steps"])
         for j, z in enumerate(z_values):
             solver.go_to(z, voltage, settings["z_steps"] if j == 0 else 1)

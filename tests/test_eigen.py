@@ -29,6 +29,7 @@ import scipy.sparse as sp  # noqa: E402
 
 from copdea_fem import eigen  # noqa: E402
 from copdea_fem.eigen import planner  # noqa: E402
+from copdea_fem.pipeline import progress_to  # noqa: E402
 from copdea_fem.eigen import (  # noqa: E402
     BACKENDS,
     BackendUnavailableError,
@@ -128,11 +129,13 @@ def test_long_arpack_runs_report_their_solves(monkeypatch):
     stiffness, mass, exact = string_matrices(400)
     f_min, f_max, _ = band_between(frequencies(exact).real, 3, 24)
     quiet = []
-    solve_band(stiffness, mass, f_min, f_max, backend="superlu", progress=quiet.append)
+    with progress_to(quiet.append):
+        solve_band(stiffness, mass, f_min, f_max, backend="superlu")
     assert not any(message.endswith("s ...") for message in quiet)   # fast: no heartbeat
     monkeypatch.setattr(krylov, "PROGRESS_INTERVAL_S", 0.0)
     messages = []
-    solve_band(stiffness, mass, f_min, f_max, backend="superlu", progress=messages.append)
+    with progress_to(messages.append):
+        solve_band(stiffness, mass, f_min, f_max, backend="superlu")
     beats = [m for m in messages if re.fullmatch(
         r"shift 1 at .* Hz: \d+ solves, \d+ s \(band \d+ % certified\) \.\.\.", m)]
     counts = [int(re.search(r"(\d+) solves", m).group(1)) for m in beats]
@@ -158,8 +161,9 @@ def test_band_needing_several_shifts_is_complete_and_deduplicated():
     exact_f = frequencies(exact).real
     f_min, f_max, expected = band_between(exact_f, 4, 45)
     messages = []
-    result = solve_band(stiffness, mass, f_min, f_max, backend="superlu",
-                        max_modes_per_shift=8, progress=messages.append)
+    with progress_to(messages.append):
+        result = solve_band(stiffness, mass, f_min, f_max, backend="superlu",
+                            max_modes_per_shift=8)
     assert result.n_factorisations >= 3
     assert len(result.shifts) == result.n_factorisations
     assert len(result) == expected.size
@@ -194,8 +198,9 @@ def test_missed_degenerate_partner_is_recovered_by_the_confirmation_run(monkeypa
     exact_f = frequencies(exact).real
     f_min, f_max, expected = band_between(exact_f, 0, 15)
     messages = []
-    result = solve_band(stiffness, mass, f_min, f_max, backend="superlu",
-                        max_modes_per_shift=expected.size + 10, progress=messages.append)
+    with progress_to(messages.append):
+        result = solve_band(stiffness, mass, f_min, f_max, backend="superlu",
+                            max_modes_per_shift=expected.size + 10)
     assert len(calls) >= 2
     assert any("missed multiple eigenvalue" in message for message in messages)
     assert multiplicities(result.freq_hz) == multiplicities(expected)
@@ -230,8 +235,9 @@ def test_certification_finds_an_eigenvalue_a_crippled_run_missed(monkeypatch, kr
 
     monkeypatch.setattr(planner.BandSolver, "nearest_unknown", crippled)
     messages = []
-    result = solve_band((1 + 1j * loss_factor) * stiffness, mass, f_min, f_max,
-                        backend="superlu", krylov=krylov, progress=messages.append)
+    with progress_to(messages.append):
+        result = solve_band((1 + 1j * loss_factor) * stiffness, mass, f_min, f_max,
+                            backend="superlu", krylov=krylov)
     assert any("an unknown eigenvalue lies inside the trusted radius" in message
                for message in messages)
     assert len(result) == expected.size
@@ -262,9 +268,11 @@ def test_certification_resumes_the_runs_krylov_decomposition():
     exact_complex = np.sort_complex(frequencies((1 + 1j * loss_factor) * exact))
     f_min, f_max, _ = band_between(exact_complex.real, 3, 40)
     messages = {"krylov-schur": [], "arpack": []}
-    results = {method: solve_band((1 + 1j * loss_factor) * stiffness, mass, f_min, f_max,
-                                  backend="superlu", krylov=method,
-                                  progress=messages[method].append) for method in messages}
+    results = {}
+    for method in messages:
+        with progress_to(messages[method].append):
+            results[method] = solve_band((1 + 1j * loss_factor) * stiffness, mass, f_min,
+                                         f_max, backend="superlu", krylov=method)
     resumed, fresh = (certification_solves(messages[m]) for m in ("krylov-schur", "arpack"))
     assert resumed and fresh
     assert max(resumed) <= 10 < min(fresh)          # measured 6 against 43

@@ -15,6 +15,7 @@ import pytest
 import scipy.sparse as sp
 
 from copdea_fem.cli import main
+from copdea_fem.pipeline import progress_to
 from copdea_fem.eigen import EigenInputError, solve_band
 from copdea_fem.sweep import (SweepError, load_sweep, parse_sweep, read_table, run_sweep,
                               shift_plan)
@@ -239,9 +240,10 @@ def test_neighbour_shifts_give_the_same_band_in_fewer_runs():
     plan = shift_plan(neighbour)
     assert len(plan) == neighbour.n_factorisations and plan[0][1] >= len(neighbour)
     lines_plain, lines_planned = [], []
-    solve_band(stiffness, mass, *band, hermitian=True, progress=lines_plain.append)
-    planned = solve_band(stiffness, mass, *band, hermitian=True, initial_shifts=plan,
-                         progress=lines_planned.append)
+    with progress_to(lines_plain.append):
+        solve_band(stiffness, mass, *band, hermitian=True)
+    with progress_to(lines_planned.append):
+        planned = solve_band(stiffness, mass, *band, hermitian=True, initial_shifts=plan)
     np.testing.assert_allclose(planned.freq_hz, plain.freq_hz, rtol=1e-9)
     runs = [sum("new modes" in line for line in lines) for lines in (lines_plain, lines_planned)]
     assert runs[1] < runs[0]

@@ -17,6 +17,7 @@ n of a coupled out-of-plane mode is its dry partner's (best MAC).
 from __future__ import annotations
 
 import contextlib
+import logging
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
@@ -24,7 +25,7 @@ from scipy.optimize import linear_sum_assignment
 from ..bands import BandSolver, OrderStop, coupled_start_modes, lowest_frequency_hz
 from ..eigen import SectorBandResults
 from ..modes import AIR, OUT_OF_PLANE, mac, match_dry, membrane_energy_fractions
-from ..pipeline import CoupledSolution, Timings, quiet, single_threaded_blas
+from ..pipeline import CoupledSolution, Timings, single_threaded_blas, tagging
 from .air import meridian_motion
 from .meridian import MeridianSpec, meridian_mesh
 from .modes import (OrderSampler, classify_order, label_all, number_out_of_plane,
@@ -36,38 +37,37 @@ from .prestress import make_axisymmetric_solver
 MAX_ORDER = 400
 
 
-_quiet = quiet
+logger = logging.getLogger(__name__)
 
 
-def prepare_meridian(study, progress=_quiet):
+def prepare_meridian(study):
     """The meridian mesh of the study (not cached: Netgen meshes it in ~0.1 s)."""
-    return meridian_mesh(MeridianSpec.from_study(study), study["mesh"]["curve_order"], progress)
+    return meridian_mesh(MeridianSpec.from_study(study), study["mesh"]["curve_order"])
 
 
-def solve_axisymmetric_prestress(study, mesh, progress=_quiet, solver=None):
+def solve_axisymmetric_prestress(study, mesh, solver=None):
     from ..prestress import solve_prestress
-    solver = solver or make_axisymmetric_solver(study, mesh, progress)
-    return solve_prestress(study, mesh, progress=progress, solver=solver)
+    solver = solver or make_axisymmetric_solver(study, mesh)
+    return solve_prestress(study, mesh, solver=solver)
 
 
-def _prestressed(study, mesh, progress, timings, solver):
+def _prestressed(study, mesh, timings, solver):
     """The mesh and prestress stages (the mesh made unless given)."""
     if mesh is None:
         with timings.stage("mesh"):
-            mesh = prepare_meridian(study, progress)
+            mesh = prepare_meridian(study)
     with timings.stage("prestress"):
-        progress("prestress (axisymmetric Newton, load steps in z then V_b) ...")
-        return solve_axisymmetric_prestress(study, mesh, progress, solver)
+        logger.info("prestress (axisymmetric Newton, load steps in z then V_b) ...")
+        return solve_axisymmetric_prestress(study, mesh, solver)
 
 
-def _dry_order(band: BandSolver, forms, m, f_max, progress, initial_shifts=None):
+def _dry_order(band: BandSolver, forms, m, f_max, initial_shifts=None):
     """The dry pencil of order m and its modes from 0 Hz to ``f_max``, and the frequency
     of its lowest mode [Hz] (from the band, else one lowest-eigenvalue solve)."""
     operators = forms.operators(m)
     # damping keys: the quadratic/rational step in omega (eigen.damped), else linear
     result = band.solve(operators.stiffness, operators.mass, 0.0, f_max,
-                        damping=forms.damping(operators), progress=progress,
-                        initial_shifts=initial_shifts)
+                        damping=forms.damping(operators), initial_shifts=initial_shifts)
     lowest = float(np.min(result.freq_hz)) if len(result) else \
         lowest_frequency_hz(operators.stiffness, operators.mass)
     return operators, result, lowest
@@ -77,20 +77,19 @@ def _in_band(modes, f_min, f_max):
     return [mode for mode in modes if f_min <= mode.freq_hz <= f_max]
 
 
-def axisymmetric_dry_modes(study, mesh=None, progress=_quiet, timings=None, solver=None,
+def axisymmetric_dry_modes(study, mesh=None, timings=None, solver=None,
                            initial_shifts=None, band: BandSolver | None = None):
     """Prestress and dry modes in the band, order by order: (state, modes, results)."""
     timings = timings or Timings()
     band = band or BandSolver.from_study(study)
-    state = _prestressed(study, mesh, progress, timings, solver)
+    state = _prestressed(study, mesh, timings, solver)
     modes, results = [], {}
     initial_shifts = initial_shifts or {}
     forms = OrderForms(state, study)
     stop = OrderStop(band.f_max)
     for m in range(MAX_ORDER + 1):
-        with timings.stage("eigen"):
+        with timings.stage("eigen"), tagging(f"m = {m}: "):
             operators, result, lowest = _dry_order(band, forms, m, band.f_max,
-                                                   lambda text: progress(f"m = {m}: {text}"),
                                                    initial_shifts.get(f"m={m}"))
         stop.record(lowest)
         if stop.done():
@@ -132,7 +131,7 @@ def number_from_dry(modes, dry_modes, mass) -> None:
         wet[row].n = dry[column].n
 
 
-def axisymmetric_coupled_modes(study, mesh=None, progress=_quiet, timings=None, solver=None,
+def axisymmetric_coupled_modes(study, mesh=None, timings=None, solver=None,
                                initial_shifts=None, band: BandSolver | None = None):
     """Prestress, dry partners and fully-coupled membrane-air modes, order by order.
 
@@ -142,11 +141,11 @@ def axisymmetric_coupled_modes(study, mesh=None, progress=_quiet, timings=None, 
     timings = timings or Timings()
     band = band or BandSolver.from_study(study)
     air = study["air"]
-    state = _prestressed(study, mesh, progress, timings, solver)
+    state = _prestressed(study, mesh, timings, solver)
     with timings.stage("assembly"):
-        progress("air mesh follows the membrane (ALE) ...")
+        logger.info("air mesh follows the membrane (ALE) ...")
         motion = meridian_motion(state, state.mesh, air["domain_radius"])
-        progress("assembling the air of every order ...")
+        logger.info("assembling the air of every order ...")
         meridian_air = MeridianAir(state, study, motion)
     initial_shifts = initial_shifts or {}
     forms = OrderForms(state, study)
@@ -154,10 +153,10 @@ def axisymmetric_coupled_modes(study, mesh=None, progress=_quiet, timings=None, 
     stop = OrderStop(band.dry_partner_top)
     for m in range(MAX_ORDER + 1):
         def say(text, m=m):
-            progress(f"m = {m}: {text}")
-        with timings.stage("eigen"):
+            logger.info(f"m = {m}: {text}")
+        with timings.stage("eigen"), tagging(f"m = {m}: "):
             dry_operators, dry_result, lowest = _dry_order(band, forms, m,
-                                                           band.dry_partner_top, say)
+                                                           band.dry_partner_top)
         stop.record(lowest)
         if stop.done():
             break
@@ -166,7 +165,7 @@ def axisymmetric_coupled_modes(study, mesh=None, progress=_quiet, timings=None, 
         with timings.stage("assembly"):
             coupled = coupled_order_operators(state, study, dry_operators, meridian_air)
         expected = coupled_start_modes(dry_result.freq_hz, band.f_min, band.f_max)
-        with timings.stage("eigen"):
+        with timings.stage("eigen"), tagging(f"m = {m}: "):
             say(f"coupled modes ({coupled.stiffness.shape[0]} unknowns) ...")
             damping = forms.damping(dry_operators)
             result = band.solve(coupled.stiffness, coupled.mass, band.f_min, band.f_max,
@@ -174,7 +173,7 @@ def axisymmetric_coupled_modes(study, mesh=None, progress=_quiet, timings=None, 
                                 damping=None if damping is None else damping.embedded(
                                     coupled.membrane_index, coupled.stiffness.shape[0]),
                                 start_modes=expected, max_imag_hz=band.max_imag_hz,
-                                initial_shifts=initial_shifts.get(f"m={m}"), progress=say)
+                                initial_shifts=initial_shifts.get(f"m={m}"))
         with timings.stage("classify"):
             sampler = OrderSampler(state, dry_operators.space, dry_operators.axis_m1)
             order_dry = classify_order(dry_operators, dry_result.vectors, dry_result.freq_hz,
@@ -233,22 +232,22 @@ class AxisymmetricEngine:
         """What the meridian mesh depends on (it always holds the air)."""
         return MeridianSpec.from_study(study), study["mesh"]["curve_order"]
 
-    def prepare_mesh(self, study, with_air=None, cache_dir=None, progress=_quiet):
-        return prepare_meridian(study, progress)
+    def prepare_mesh(self, study, with_air=None, cache_dir=None):
+        return prepare_meridian(study)
 
-    def prestress_solver(self, study, mesh, progress=None):
-        return make_axisymmetric_solver(study, mesh, progress)
+    def prestress_solver(self, study, mesh):
+        return make_axisymmetric_solver(study, mesh)
 
-    def dry_modes(self, study, mesh, progress=_quiet, timings=None, solver=None,
+    def dry_modes(self, study, mesh, timings=None, solver=None,
                   initial_shifts=None, band=None):
         with single_threaded_blas():   # 2-D problems: NGSolve's TaskManager only costs here
-            return axisymmetric_dry_modes(study, mesh, progress, timings, solver,
+            return axisymmetric_dry_modes(study, mesh, timings, solver,
                                           initial_shifts, band)
 
-    def coupled_modes(self, study, mesh, progress=_quiet, timings=None, solver=None,
+    def coupled_modes(self, study, mesh, timings=None, solver=None,
                       initial_shifts=None, band=None):
         with single_threaded_blas():
-            return axisymmetric_coupled_modes(study, mesh, progress, timings, solver,
+            return axisymmetric_coupled_modes(study, mesh, timings, solver,
                                               initial_shifts, band)
 
     def threads(self):
@@ -262,7 +261,7 @@ class AxisymmetricEngine:
         return estimate_size(MeridianSpec.from_study(study), mesh["order"],
                              mesh["pressure_order"])
 
-    def forced_problem(self, study, progress=_quiet):
+    def forced_problem(self, study):
         """Meridian mesh, prestress and the forced order m = 0
         (:mod:`copdea_fem.response.meridian`)."""
         import time
@@ -270,11 +269,11 @@ class AxisymmetricEngine:
         from ..response.meridian import order_zero_problem
         timings = {}
         start = time.perf_counter()
-        mesh = prepare_meridian(study, progress)
-        progress("prestress (axisymmetric Newton, load steps in z then V_b) ...")
-        state = solve_axisymmetric_prestress(study, mesh, progress)
+        mesh = prepare_meridian(study)
+        logger.info("prestress (axisymmetric Newton, load steps in z then V_b) ...")
+        state = solve_axisymmetric_prestress(study, mesh)
         timings["prestress"] = time.perf_counter() - start
-        return order_zero_problem(study, mesh, state, timings, progress)
+        return order_zero_problem(study, mesh, state, timings)
 
     def tracking_arrays(self, state, modes, needs_sampling: bool) -> dict:
         """Orders have spaces of their own: the sweeps compare shapes on the polar grid

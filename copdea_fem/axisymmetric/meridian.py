@@ -25,6 +25,7 @@ in ~0.1 s, so meridian meshes are not cached.
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass
 
@@ -41,6 +42,9 @@ AXISYMMETRIC_FRAMES = ("none", "baffle", "circle")
 #: full air_size (0,1) is +0.15 % and its zeta -3.7 %, (1,1)'s zeta (1.4e-4) +99 %;
 #: with half of it +0.009 %, +0.07 % and -2 %, for 0.05 s more per order.
 MERIDIAN_AIR_REFINEMENT = 0.5
+
+
+logger = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -144,12 +148,11 @@ def build_geometry(spec: MeridianSpec):
     return geo
 
 
-def meridian_mesh(spec: MeridianSpec, curve_order: int, progress=None):
+def meridian_mesh(spec: MeridianSpec, curve_order: int):
     """The NGSolve mesh of the meridian, curved to ``curve_order``."""
     import ngsolve
 
-    if progress:
-        progress("meshing the meridian (r, z) half-plane ...")
+    logger.info("meshing the meridian (r, z) half-plane ...")
     geometry = build_geometry(spec)
     mesh = ngsolve.Mesh(geometry.GenerateMesh(maxh=MERIDIAN_AIR_REFINEMENT * spec.air_size,
                                                grading=spec.grading))

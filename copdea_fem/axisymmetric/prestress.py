@@ -117,9 +117,9 @@ class AxisymmetricMembraneSolver(MembraneSolver):
                                  self.inner_radius, self.measure, self.symmetry)
 
 
-def make_axisymmetric_solver(study, mesh, progress=None) -> AxisymmetricMembraneSolver:
+def make_axisymmetric_solver(study, mesh) -> AxisymmetricMembraneSolver:
     g = study["geometry"]
     return AxisymmetricMembraneSolver(mesh, Membrane.with_effects(study), study["mesh"]["order"],
                                       g["outer_radius"], g["inner_radius"],
-                                      study["prestress"], progress,
+                                      study["prestress"],
                                       curve_order=study["mesh"]["curve_order"])

@@ -45,7 +45,7 @@ def synth_out_dir(study, seed: int) -> Path:
     return Path("results") / f"synth_{study.name}_seed{seed}"
 
 
-def run_diagnose(measured_path, out_dir=None, progress=None, alpha: float = 0.05,
+def run_diagnose(measured_path, out_dir=None, alpha: float = 0.05,
                  model: str | None = None, fe_cache=None, fe_workers=None) -> dict:
     """Diagnose a measured data set and write the report.
 
@@ -89,11 +89,11 @@ def run_diagnose(measured_path, out_dir=None, progress=None, alpha: float = 0.05
         from copdea_fem.diagnose.anchored import AnchoredEngine
         from copdea_fem.diagnose.direct import DirectFEEngine, ring_can_represent
         from copdea_fem.diagnose.fe import FEModel
-        fe = FEModel(cache_dir=fe_cache, progress=progress, workers=fe_workers)
+        fe = FEModel(cache_dir=fe_cache, workers=fe_workers)
         engine = (AnchoredEngine(measured, fe) if ring_can_represent(measured.base_study)
                   else DirectFEEngine(measured, fe))     # no disc: the FE directly
     try:
-        result = Diagnoser(measured, alpha=alpha, engine=engine, progress=progress).run()
+        result = Diagnoser(measured, alpha=alpha, engine=engine).run()
     finally:
         if engine is not None:
             engine.fe.close()                            # the FE worker processes, if any

@@ -247,7 +247,6 @@ class FEModel:
         Folder of ``<key>.json`` files kept between runs (default
         :func:`fe_cache_dir`); ``False``: memory only.  A path that is an existing
         file is ignored with a warning (memory only): the cache only saves time.
-    progress : callable, optional
     lock_wait : float, optional
         Longest wait [s] for an entry another run is computing (default
         :data:`LOCK_WAIT_SECONDS`).
@@ -265,7 +264,7 @@ class FEModel:
     :mod:`logging` (the CLI prints them on stderr, also with ``--quiet``).
     """
 
-    def __init__(self, cache_dir=None, progress=None, lock_wait: float = LOCK_WAIT_SECONDS,
+    def __init__(self, cache_dir=None, lock_wait: float = LOCK_WAIT_SECONDS,
                  workers: int | None = None):
         if cache_dir is None:
             cache_dir = fe_cache_dir()
@@ -276,7 +275,7 @@ class FEModel:
                 logger.warning(f"FE cache {self.cache_dir} ignored ({problem}); FE solves "
                                "are kept in memory only")
                 self.cache_dir = None
-        self.progress = progress or (lambda message: None)
+        self.progress = logger.info      # progress lines, at INFO
         self.lock_wait = lock_wait
         self.workers = default_workers() if workers is None else check_workers(workers)
         self._memory: dict = {}
@@ -396,16 +395,18 @@ class FEModel:
     def _solve(self, run: Study, key: str) -> FEResult:
         from copdea_fem.solve import coupled_modes, dry_modes
         from copdea_fem.engines import engine_for
+        from copdea_fem.pipeline import quiet_progress
         engine = engine_for(run).name
         coupled = bool(run["air"]["enabled"])
         load = run["load"]
         self.progress(f"FE ({engine}, {'coupled' if coupled else 'in vacuo'}) at "
                       f"z = {1e3 * load['z']:g} mm, V_b = {1e-3 * load['voltage']:g} kV ...")
         start = time.perf_counter()
-        if coupled:
-            modes = coupled_modes(run).modes
-        else:
-            _, modes, _ = dry_modes(run)
+        with quiet_progress():             # one line per FE study, not its steps
+            if coupled:
+                modes = coupled_modes(run).modes
+            else:
+                _, modes, _ = dry_modes(run)
         seconds = time.perf_counter() - start
         self.solves += 1
         self.seconds += seconds
@@ -448,7 +449,7 @@ class FEModel:
         fd = None
         try:
             self.cache_dir.mkdir(parents=True, exist_ok=True)
-            fd = _acquire(path, self.lock_wait, self.progress)
+            fd = _acquire(path, self.lock_wait)
         except OSError as error:           # a read-only folder: solve without the lock
             logger.warning(f"FE cache {self.cache_dir} cannot be locked "
                            f"({error.strerror or error}); solving without coordination")
@@ -521,7 +522,7 @@ def _refuse_constant(name: str):
     raise ValueError(f"{name} is not a finite number")
 
 
-def _acquire(path: Path, wait: float, progress) -> int | None:
+def _acquire(path: Path, wait: float) -> int | None:
     """An exclusive ``flock`` of the lock file ``path``, waiting up to ``wait`` seconds
     for another holder; None after the wait (the caller solves anyway).  The holder
     removes the file when done, so only the file still in place counts as locked."""
@@ -540,8 +541,8 @@ def _acquire(path: Path, wait: float, progress) -> int | None:
                                "here too")
                 return None
             if not told:
-                progress(f"waiting for FE cache entry {path.stem}, being computed by another "
-                         f"run (process {holder}) ...")
+                logger.info(f"waiting for FE cache entry {path.stem}, being computed by another "
+                            f"run (process {holder}) ...")
                 told = True
             time.sleep(LOCK_POLL_SECONDS)
             continue

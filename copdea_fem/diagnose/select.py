@@ -73,6 +73,7 @@ the report (evidence, goodness of fit, verdict) are :mod:`copdea_fem.diagnose.ev
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass, field
 
@@ -98,6 +99,9 @@ ALPHA = 0.05
 ORDERINGS = 3          # cyclic orderings averaged in the prequential evidence (fixed in advance)
 MAX_RINGS = 48         # the largest ring count the convergence check suggests
 BOUND_MARGIN = 1e-3    # a fitted u this close to 0 or 1 is at a bound of the fit range
+
+
+logger = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -235,15 +239,14 @@ def condition_peaks(condition) -> list[MeasuredPeak]:
 class Diagnoser:
     """Runs the loop of the module notes on a :class:`MeasuredSet`."""
 
-    def __init__(self, measured, alpha: float = ALPHA, engine: Engine | None = None,
-                 progress=None):
+    def __init__(self, measured, alpha: float = ALPHA, engine: Engine | None = None):
         self.measured = measured
         self.alpha = alpha
-        self.progress = progress or (lambda message: None)
+        self.progress = logger.info      # progress lines, at INFO
         if engine is None and measured.model == "fe":
             from copdea_fem.diagnose.anchored import AnchoredEngine
             from copdea_fem.diagnose.fe import FEModel
-            fe = FEModel(progress=self.progress)
+            fe = FEModel()
             engine = (AnchoredEngine(measured, fe) if ring_can_represent(measured.base_study)
                       else DirectFEEngine(measured, fe))
         if engine is None and not ring_can_represent(measured.base_study):

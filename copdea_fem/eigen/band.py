@@ -6,6 +6,7 @@ docstring for the covering strategy and why it cannot silently miss a mode.
 
 from __future__ import annotations
 
+import logging
 import time
 from dataclasses import dataclass
 from typing import Callable
@@ -13,12 +14,16 @@ from typing import Callable
 import numpy as np
 import scipy.sparse as sp
 
+from ..pipeline import tagged
 from .errors import EigenInputError, EigenResidualError, TooManyModesError
 from .factorization import Factorization, check_backend_name, require_backend
 from .krylov import check_krylov
 from .planner import BandSolver
 from .region import BandRegion
 from .spectrum import frequency_from_eigenvalue, is_hermitian, relative_residuals
+
+
+logger = logging.getLogger(__name__)
 
 
 @dataclass(eq=False)
@@ -144,7 +149,6 @@ def solve_band(
     max_modes: int = 200,
     hermitian: bool | None = None,
     residual_tol: float = 1e-6,
-    progress: Callable[[str], None] | None = None,
     check: bool = True,
     max_imag_hz: float | None = None,
     normalization_matrix=None,
@@ -180,10 +184,11 @@ def solve_band(
         requires ``B`` Hermitian positive semi-definite.
     residual_tol : float
         Largest accepted relative residual ``||A x - lam B x|| / (||A|| ||x||)``.
-    progress : callable(str) or None
-        Receives one line per factorisation and per Krylov run, each saying the
-        share of the band certified so far, and a line every
-        ``krylov.PROGRESS_INTERVAL_S`` of a long run.
+
+    Progress: one line per factorisation and per Krylov run, each saying the share of
+    the band certified so far, and a line every ``krylov.PROGRESS_INTERVAL_S`` of a long
+    run, to the logger ``copdea_fem.eigen.planner`` at INFO (the summary line to
+    ``copdea_fem.eigen.band``).
     check : bool
         If ``True``, a pair above ``residual_tol`` raises
         :class:`EigenResidualError`; if ``False`` it is returned and flagged
@@ -307,8 +312,6 @@ def solve_band(
     if not (np.isfinite(max_imag_hz) and max_imag_hz >= 0):
         raise EigenInputError(f"max_imag_hz={max_imag_hz!r} Hz must be a finite number >= 0")
     check_krylov(krylov)
-    if progress is not None and not callable(progress):
-        raise EigenInputError("progress must be a callable taking one str, or None")
     require_backend(backend)
     if hermitian is None:
         hermitian = is_hermitian(A) and is_hermitian(B)
@@ -339,7 +342,7 @@ def solve_band(
     initial_shifts = _validate_initial_shifts(initial_shifts)
     solver = BandSolver(A, B, region, backend=backend, hermitian=hermitian,
                         max_modes=max_modes, max_modes_per_shift=int(max_modes_per_shift),
-                        band_contains=band_contains, tol=krylov_tol, progress=progress,
+                        band_contains=band_contains, tol=krylov_tol,
                         initial_shifts=initial_shifts, start_modes=start_modes,
                         factorize=factorize, krylov=krylov)
     solver.solve()
@@ -378,12 +381,11 @@ def solve_band(
         backend=backend,
         residual_tol=float(residual_tol),
     )
-    if progress is not None:
-        progress(
-            f"band {f_min:g}..{f_max:g} Hz: {len(result)} modes, {result.n_factorisations} "
-            f"factorisations ({result.factorisation_seconds:.3g} s), {result.n_solves} solves "
-            f"in {result.n_block_solves} blocks, Krylov {result.iteration_seconds:.3g} s"
-        )
+    logger.info(tagged(
+        f"band {f_min:g}..{f_max:g} Hz: {len(result)} modes, {result.n_factorisations} "
+        f"factorisations ({result.factorisation_seconds:.3g} s), {result.n_solves} solves "
+        f"in {result.n_block_solves} blocks, Krylov {result.iteration_seconds:.3g} s"
+    ))
     if check and np.any(~result.residual_ok):
         worst = int(np.argmax(result.residuals))
         raise EigenResidualError(

@@ -58,6 +58,7 @@ work unchanged with discs in omega (radii in rad/s).  :func:`solve_damped_band` 
 
 from __future__ import annotations
 
+import logging
 import math
 import time
 from dataclasses import dataclass, field
@@ -65,12 +66,16 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
+from ..pipeline import tagged
 from .band import BandResult, _normalise, _validate_band, solve_band
 from .errors import EigenInputError, EigenResidualError, TooManyModesError
 from .factorization import Factorization, check_backend_name, require_backend
 from .planner import BandSolver
 from .region import BandRegion
 from .spectrum import TWO_PI, matrix_norm_estimate
+
+
+logger = logging.getLogger(__name__)
 
 
 @dataclass
@@ -267,7 +272,7 @@ class ShiftedLinearisation:
 
 def solve_damped_band(stiffness, mass, f_min: float, f_max: float, terms: DampingTerms, *,
                       backend: str = "umfpack", max_modes: int = 200,
-                      residual_tol: float = 1e-6, progress=None, check: bool = True,
+                      residual_tol: float = 1e-6, check: bool = True,
                       max_imag_hz: float | None = None, normalization_matrix=None,
                       max_modes_per_shift: int = 80, initial_shifts=None,
                       start_modes: int | None = None, factorize_t=None,
@@ -348,7 +353,7 @@ def solve_damped_band(stiffness, mass, f_min: float, f_max: float, terms: Dampin
     krylov_tol = max(min(1e-10, 0.01 * residual_tol), 1e-14)
     solver = BandSolver(pencil.A, pencil.B, region, backend=backend, hermitian=False,
                         max_modes=max_modes, max_modes_per_shift=int(max_modes_per_shift),
-                        band_contains=band_contains, tol=krylov_tol, progress=progress,
+                        band_contains=band_contains, tol=krylov_tol,
                         initial_shifts=plan, start_modes=start_modes,
                         factorize=lambda sigma: ShiftedLinearisation(pencil, sigma, factorize_t),
                         krylov=krylov, excluded=excluded,
@@ -382,10 +387,9 @@ def solve_damped_band(stiffness, mass, f_min: float, f_max: float, terms: Dampin
         n_solves=sum(s.factorization.solve_count for s in solver.shifts),
         n_block_solves=sum(s.factorization.block_solve_count for s in solver.shifts),
         hermitian=False, backend=backend, residual_tol=float(residual_tol))
-    if progress is not None:
-        progress(f"damped band {f_min:g}..{f_max:g} Hz: {len(result)} modes, "
-                 f"{result.n_factorisations} factorisations of T(sigma) "
-                 f"({result.factorisation_seconds:.3g} s), {result.n_solves} solves")
+    logger.info(tagged(f"damped band {f_min:g}..{f_max:g} Hz: {len(result)} modes, "
+                       f"{result.n_factorisations} factorisations of T(sigma) "
+                       f"({result.factorisation_seconds:.3g} s), {result.n_solves} solves"))
     if check and np.any(~result.residual_ok):
         worst = int(np.argmax(result.residuals))
         raise EigenResidualError(

@@ -11,6 +11,7 @@ is certified so far.
 
 from __future__ import annotations
 
+import logging
 import math
 import time
 from dataclasses import dataclass
@@ -19,12 +20,21 @@ from typing import Callable
 import numpy as np
 import scipy.linalg
 
+from ..pipeline import tagged
 from .errors import EigenSolverError, TooManyModesError
 from .factorization import Factorization
 from . import krylov as krylov_module
 from .krylov import DeflatedOperator, basis_size, counting, nearest_unknown
 from .pairs import KnownPairs
 from .region import BandRegion
+
+
+logger = logging.getLogger(__name__)
+
+
+def _say(message: str) -> None:
+    """A progress line with the thread's prefix (:func:`copdea_fem.pipeline.tagging`)."""
+    logger.info(tagged(message))
 
 
 @dataclass(eq=False)
@@ -53,7 +63,6 @@ class BandSolver:
         ``band_contains(lam)``: boolean mask of the eigenvalues in the band.
     tol : float
         Krylov tolerance of a run (relative, on ``nu``).
-    progress : callable(str) or None
     initial_shifts : list of (float, int) or None
     start_modes : int or None
     factorize : callable or None
@@ -82,7 +91,7 @@ class BandSolver:
     DENSE_MAX_DOFS = 4000      # dense QZ beyond this costs minutes (n^3 ~ 1e11 flops)
     def __init__(self, A, B, region: BandRegion, *, backend: str, hermitian: bool,
                  max_modes: int, max_modes_per_shift: int, band_contains: Callable,
-                 tol: float, progress=None, initial_shifts=None, start_modes=None,
+                 tol: float, initial_shifts=None, start_modes=None,
                  factorize: Callable | None = None, krylov: str = "krylov-schur",
                  block_size: int | None = None, excluded: Callable | None = None,
                  count_growth: float | None = None):
@@ -104,7 +113,7 @@ class BandSolver:
         self.max_modes_per_shift = max_modes_per_shift
         self.band_contains = band_contains
         self.tol = tol
-        self.progress = progress or (lambda message: None)
+        self.progress = _say      # progress lines: this module's logger at INFO
         self.known = KnownPairs(A, B, hermitian, self.real_arithmetic, region.scale)
         self.shifts: list[Shift] = []
         self.factorisation_seconds = 0.0

@@ -9,20 +9,24 @@ the mesh and the prestress); :data:`MERIDIAN_SECTOR` says how :mod:`.run` and
 
 from __future__ import annotations
 
+import logging
 import time
 
 from .problem import DrivenSector, OrderZero
 from .radiation import MembraneObserver, SphereSampler
 
 
-def order_zero_problem(study, mesh, state, timings: dict, progress) -> OrderZero:
+logger = logging.getLogger(__name__)
+
+
+def order_zero_problem(study, mesh, state, timings: dict) -> OrderZero:
     """The ALE air and the forced m = 0 pencil on the prestressed meridian."""
     from ..axisymmetric.air import meridian_motion
     from ..axisymmetric.operators import MeridianAir, OrderForms, coupled_order_operators
     from .harmonic import ForcedOrder
 
     start = time.perf_counter()
-    progress("assembling the m = 0 membrane-air pencil and the voltage forcing ...")
+    logger.info("assembling the m = 0 membrane-air pencil and the voltage forcing ...")
     motion = meridian_motion(state, mesh, study["air"]["domain_radius"])
     air = MeridianAir(state, study, motion)
     forms = OrderForms(state, study)

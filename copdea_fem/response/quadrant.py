@@ -19,6 +19,7 @@ unfolded by the even-even parity ``p(x, y, z) = p(|x|, |y|, z)``.
 
 from __future__ import annotations
 
+import logging
 import time
 
 import ngsolve as ngs
@@ -30,6 +31,9 @@ from .radiation import AZIMUTH_POINTS, POLAR_POINTS
 
 #: Polar angles of the observation points in the quadrant [rad].
 OBSERVATION_ANGLES = np.radians([11.25, 33.75, 56.25, 78.75])
+
+
+logger = logging.getLogger(__name__)
 
 
 def _energy_form(state, voltage):
@@ -66,7 +70,7 @@ def quadrant_elastic(state, operators):
     return reduce_matrix_3d(to_scipy(form.mat), operators)
 
 
-def prepare_quadrant(study, progress=None):
+def prepare_quadrant(study):
     """Mesh, prestress, coupled assembly and the even-even sector, forced."""
     from ..coupled import assemble_coupled
     from ..geometry import study_mesh
@@ -74,16 +78,15 @@ def prepare_quadrant(study, progress=None):
     from ..prestress import solve_prestress
     from ..symmetry import SECTORS
 
-    progress = progress or (lambda message: None)
     timings = {}
     start = time.perf_counter()
-    mesh = study_mesh(study, with_air=True, progress=progress)
-    progress("prestress (Newton, load steps in z then V_b) ...")
-    state = solve_prestress(study, mesh, progress=progress)
+    mesh = study_mesh(study, with_air=True)
+    logger.info("prestress (Newton, load steps in z then V_b) ...")
+    state = solve_prestress(study, mesh)
     timings["prestress"] = time.perf_counter() - start
     start = time.perf_counter()
     matrices = membrane_matrices(state)
-    forms = assemble_coupled(study, mesh, state, progress=progress)
+    forms = assemble_coupled(study, mesh, state)
     sector = SECTORS[0] if state.symmetry.quarter else None
     operators = linearised_operators(state, study, sector, matrices)
     coupled = forms.restrict(operators)

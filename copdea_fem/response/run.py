@@ -35,6 +35,7 @@ Files (column names are a contract):
 
 from __future__ import annotations
 
+import logging
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -46,9 +47,7 @@ from .files import AVERAGE_COLUMNS, MODE_COLUMNS, POINT_COLUMNS  # noqa: F401
 from .problem import OrderZero
 
 
-
-def _quiet(message: str) -> None:
-    pass
+logger = logging.getLogger(__name__)
 
 
 def parse_microphones(study) -> list[tuple[str, np.ndarray]]:
@@ -62,7 +61,7 @@ def parse_microphones(study) -> list[tuple[str, np.ndarray]]:
         study["geometry"]["frame"])]
 
 
-def prepare_order_zero(study, progress=_quiet) -> OrderZero:
+def prepare_order_zero(study) -> OrderZero:
     """Mesh, prestress, ALE air and the forced pencil of the driven part of the problem (the
     order m = 0 or the even-even sector: the engine's
     :meth:`copdea_fem.engines.Engine.forced_problem`)."""
@@ -72,10 +71,10 @@ def prepare_order_zero(study, progress=_quiet) -> OrderZero:
         raise StudyError("load.voltage = 0 is not allowed for `response`; allowed: > 0 V (the "
                          "linear forcing V_b dC/du vanishes without a bias)")
     check_air_lift(study)
-    return engine_for(study).forced_problem(study, progress)
+    return engine_for(study).forced_problem(study)
 
 
-def modal_solution(problem: OrderZero, f_end: float, progress=_quiet):
+def modal_solution(problem: OrderZero, f_end: float):
     """(ModalBasis, modes) of the m = 0 band (module doc), labelled as ``solve`` labels them."""
     from ..eigen import solve_band
     from ..modes import AIR
@@ -84,12 +83,11 @@ def modal_solution(problem: OrderZero, f_end: float, progress=_quiet):
     study, coupled = problem.study, problem.coupled
     reach = study["response"]["modal_band"] * f_end
     eigen = study["eigen"]
-    progress(f"coupled modes of the {problem.sector.name}, Re f <= {reach:g} Hz, "
-             f"|Im f| <= {reach:g} Hz ...")
+    logger.info(f"coupled modes of the {problem.sector.name}, Re f <= {reach:g} Hz, "
+                f"|Im f| <= {reach:g} Hz ...")
     result = solve_band(coupled.stiffness, coupled.mass, 0.0, reach, factorize=coupled.factorize,
                         hermitian=False, max_imag_hz=reach, backend=eigen["backend"],
-                        max_modes=eigen["max_modes"], residual_tol=eigen["residual_tol"],
-                        progress=progress)
+                        max_modes=eigen["max_modes"], residual_tol=eigen["residual_tol"])
     modes = problem.sector.classify(problem, result)
     for mode in modes:
         # air/PML modes: little membrane energy, or damped beyond what `solve` looks for
@@ -139,7 +137,7 @@ def _far_field_method(study) -> str:
     return "Kirchhoff-Helmholtz over a sphere inside the air (free-space Green's function)"
 
 
-def forced_response(problem: OrderZero, progress=_quiet, frequency_hz=None,
+def forced_response(problem: OrderZero, frequency_hz=None,
                     voltage_lines=None) -> ResponseResult:
     """Spectra and SPL on the chirp's lines (or given lines and complex amplitudes [V])."""
     from ..reduced.response import QUARTER_POINTS, Chirp, scan_fractions
@@ -155,11 +153,11 @@ def forced_response(problem: OrderZero, progress=_quiet, frequency_hz=None,
     start = time.perf_counter()
     modes, basis = [], None
     if method == "modal":
-        basis, modes = modal_solution(problem, float(frequency_hz.max()), progress)
+        basis, modes = modal_solution(problem, float(frequency_hz.max()))
         vectors = basis.basis
         weights = basis.coefficients(frequency_hz, eta) * voltage_lines[:, None]
     else:
-        progress(f"direct solves on {frequency_hz.size} lines ...")
+        logger.info(f"direct solves on {frequency_hz.size} lines ...")
         vectors = forced.direct(frequency_hz, eta)
         weights = np.diag(voltage_lines)
     timings["solve"] = time.perf_counter() - start
@@ -225,13 +223,13 @@ def reduced_spectrum(study, result: ResponseResult):
     return setup, spectra_of(setup)
 
 
-def run_response(study, out_dir=None, progress=_quiet) -> ResponseResult:
+def run_response(study, out_dir=None) -> ResponseResult:
     """The whole ``copdea-fem response``: solve, then the result files (module doc)."""
-    problem = prepare_order_zero(study, progress)
-    result = forced_response(problem, progress)
+    problem = prepare_order_zero(study)
+    result = forced_response(problem)
     if out_dir is not None:
         from .files import write_response
-        progress("writing results ...")
+        logger.info("writing results ...")
         start = time.perf_counter()
         write_response(result, Path(out_dir), reduced_spectrum(study, result))
         result.timings["output"] = time.perf_counter() - start

@@ -93,9 +93,10 @@ def _once(argv: list[str]) -> int:
     sweep_path, directory, reuse_text, *sets = argv
     from ..study import parse_overrides
     sweep = load_sweep(sweep_path, overrides=parse_overrides(sets))
-    run_sweep(sweep, out_dir=directory, executor="local",
-              reuse=parse_reuse(json.loads(reuse_text)),
-              progress=lambda message: print(message, file=sys.stderr, flush=True))
+    from ..pipeline import progress_to
+    with progress_to(lambda message: print(message, file=sys.stderr, flush=True)):
+        run_sweep(sweep, out_dir=directory, executor="local",
+                  reuse=parse_reuse(json.loads(reuse_text)))
     # what symbolic-analysis reuse could buy: NGSolve's own UMFPACK timers [s]
     import ngsolve
     timers = {t["name"]: {"seconds": t["time"], "counts": t["counts"]} for t in ngsolve.Timers()

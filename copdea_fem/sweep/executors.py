@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import logging
 import os
 import signal
 import sys
@@ -19,6 +20,9 @@ from .models import ChainState, MODEL_CLASSES, PointResult, solve_point
 from .store import PointStore
 from .grid import content_hash
 from .gather import SweepOutcome, finish_sweep, write_summary
+
+
+logger = logging.getLogger(__name__)
 
 
 def _needs_sampling(sweep: Sweep) -> bool:
@@ -53,8 +57,7 @@ def _run_chain(sweep: Sweep, chain_ids: list[str], reuse: ReuseSettings, sink: C
     chain = chain or ChainState()
     needs_sampling = _needs_sampling(sweep)
     for point_id in chain_ids:
-        result = solve_point(sweep.model, sweep.point(point_id), chain, reuse, needs_sampling,
-                             progress=None)
+        result = solve_point(sweep.model, sweep.point(point_id), chain, reuse, needs_sampling)
         sink(result)
 
 
@@ -133,7 +136,7 @@ def _dask_point_task(sweep: Sweep, point_id: str, chain_key: str, previous_id: s
 
 def run_sweep(sweep: Sweep, out_dir: str | Path | None = None, executor: str | None = None,
               workers: int | None = None, scheduler=None, chain_length=None,
-              reuse: ReuseSettings | None = None, progress: Callable | None = None,
+              reuse: ReuseSettings | None = None,
               on_point_done: Callable | None = None) -> SweepOutcome:
     """Run (or resume) a sweep and write its table, plots and summary.
 
@@ -152,8 +155,6 @@ def run_sweep(sweep: Sweep, out_dir: str | Path | None = None, executor: str | N
         Points per continuation chain (default ``execution.chain_length``).
     reuse : ReuseSettings, optional
         Default ``execution.reuse``.
-    progress : callable(str), optional
-        One line per point (and a few more).
     on_point_done : callable(PointResult), optional
         Called in this process after each computed point is stored.
 
@@ -162,7 +163,7 @@ def run_sweep(sweep: Sweep, out_dir: str | Path | None = None, executor: str | N
     SweepOutcome
     """
     start = time.perf_counter()
-    progress = progress or (lambda message: None)
+    progress = logger.info     # one line per point (and a few more), at INFO
     executor = executor or sweep.execution.executor
     if executor not in EXECUTORS:
         raise sweep_error("--executor", executor, "one of " + ", ".join(EXECUTORS))
@@ -178,7 +179,7 @@ def run_sweep(sweep: Sweep, out_dir: str | Path | None = None, executor: str | N
     reuse = reuse or sweep.execution.reuse
     MODEL_CLASSES[sweep.model]().check_available(sweep)
     directory = Path(out_dir or sweep.output_directory)
-    with claim(directory, "sweep", progress=progress):
+    with claim(directory, "sweep"):
         directory.mkdir(parents=True, exist_ok=True)
         write_manifest(directory, "sweep", SWEEP_FILES)
         store = PointStore(directory)
@@ -211,8 +212,8 @@ def run_sweep(sweep: Sweep, out_dir: str | Path | None = None, executor: str | N
         elif executor == "pool":
             _run_pool(sweep, chains_for(workers), reuse, directory, workers, store, sink)
         elif todo:
-            _run_dask(sweep, chains_for, reuse, scheduler, sink, progress)
-        outcome = finish_sweep(sweep, directory, progress=progress)
+            _run_dask(sweep, chains_for, reuse, scheduler, sink)
+        outcome = finish_sweep(sweep, directory)
         outcome.computed, outcome.resumed = computed, resumed
         outcome.wall_seconds = time.perf_counter() - start
         write_summary(sweep, directory, outcome)
@@ -278,7 +279,7 @@ def _run_pool(sweep, chains, reuse, directory, workers, store, sink) -> None:
                 os.environ[name] = value
 
 
-def _run_dask(sweep, chains_for, reuse, scheduler, sink, progress) -> None:
+def _run_dask(sweep, chains_for, reuse, scheduler, sink) -> None:
     try:
         from distributed import Client, as_completed
     except ImportError:
@@ -289,8 +290,8 @@ def _run_dask(sweep, chains_for, reuse, scheduler, sink, progress) -> None:
     try:
         addresses = sorted(client.scheduler_info()["workers"])
         chains = chains_for(max(1, len(addresses)))
-        progress(f"dask: {len(chains)} chains on {len(addresses)} workers at "
-                 f"{client.scheduler.address}")
+        logger.info(f"dask: {len(chains)} chains on {len(addresses)} workers at "
+                    f"{client.scheduler.address}")
         needs_sampling = _needs_sampling(sweep)
         token = content_hash([sweep.name, sweep.path, time.time_ns()])
         shared_sweep = client.scatter(sweep, broadcast=True)   # shipped once, not per task

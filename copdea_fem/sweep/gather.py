@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+import logging
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,6 +22,9 @@ TABLE_COLUMNS = ("point", "status", "track", "track_label", "member", "pair", "l
                  "kind", "freq_hz", "freq_im_hz", "mac_previous", "error")
 
 
+logger = logging.getLogger(__name__)
+
+
 @dataclass
 class SweepOutcome:
     """What :func:`run_sweep` did."""
@@ -34,7 +38,7 @@ class SweepOutcome:
     tracks: dict
 
 
-def finish_sweep(sweep: Sweep, directory: str | Path, progress=None) -> SweepOutcome:
+def finish_sweep(sweep: Sweep, directory: str | Path) -> SweepOutcome:
     """Track the stored results along the path; write sweep.csv, sweep.png, resolved YAML."""
     directory = Path(directory)
     store = PointStore(directory)
@@ -89,9 +93,9 @@ def finish_sweep(sweep: Sweep, directory: str | Path, progress=None) -> SweepOut
         json.loads(json.dumps(sweep.resolved(), default=json_default)), sort_keys=False))
     if sweep.plots:
         plot_sweep(directory / "sweep.png", sweep, rows)
-    if failed and progress:
+    if failed:
         for point_id, error in failed.items():
-            progress(f"point {point_id} has no result: {error}")
+            logger.info(f"point {point_id} has no result: {error}")
     return SweepOutcome(directory=directory, table=rows, computed=[], resumed=[], failed=failed,
                         wall_seconds=0.0, tracks=dict(tracking.labels))
 

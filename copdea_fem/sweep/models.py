@@ -101,7 +101,7 @@ class _FEModel:
         for point in sweep.points:
             require_backend(point.study)
 
-    def solve(self, point: SweepPoint, chain: ChainState, reuse: ReuseSettings, progress,
+    def solve(self, point: SweepPoint, chain: ChainState, reuse: ReuseSettings,
               needs_sampling: bool) -> PointResult:
         from ..engines import engine_for
         from ..solve import Timings, make_prestress_solver
@@ -126,7 +126,7 @@ class _FEModel:
         plan = shift_plan(chain.last_eigen) if reuse.shifts and chain.last_eigen is not None \
             and chain.last_band == band else None
         try:
-            state, modes, eigen_result = self.modes(solve_study, mesh=mesh, progress=progress,
+            state, modes, eigen_result = self.modes(solve_study, mesh=mesh,
                                                     timings=timings, solver=solver,
                                                     initial_shifts=plan)
         except BaseException:
@@ -186,7 +186,7 @@ class _ReducedModel:
     def check_available(self, sweep) -> None:
         pass                       # pure NumPy/SciPy: nothing optional to check
 
-    def solve(self, point: SweepPoint, chain: ChainState, reuse: ReuseSettings, progress,
+    def solve(self, point: SweepPoint, chain: ChainState, reuse: ReuseSettings,
               needs_sampling: bool) -> PointResult:
         from ..reduced.model import operating_point, ring_model_of
         study = point.study
@@ -228,17 +228,20 @@ def _mode_record(mode) -> dict:
 
 
 def solve_point(model_name: str, point: SweepPoint, chain: ChainState, reuse: ReuseSettings,
-                needs_sampling: bool, progress=None) -> PointResult:
-    """Solve one point, never raising for a failed solve: the error goes in the record."""
+                needs_sampling: bool) -> PointResult:
+    """Solve one point, never raising for a failed solve: the error goes in the record.
+
+    Its steps are not reported (:func:`copdea_fem.pipeline.quiet_progress`): the sweep
+    reports one line per point."""
+    from ..pipeline import quiet_progress
     model = MODEL_CLASSES[model_name]()
-    progress = progress or (lambda message: None)
     base = {"point": point.point_id, "index": list(point.index),
             "parameters": point.overrides, "study_hash": point.study_hash, "model": model_name,
             "worker": f"{socket.gethostname()}:{os.getpid()}"}
     start = time.perf_counter()
     try:
-        with _NGSOLVE_LOCK:
-            result = model.solve(point, chain, reuse, progress, needs_sampling)
+        with _NGSOLVE_LOCK, quiet_progress():
+            result = model.solve(point, chain, reuse, needs_sampling)
     except Exception as error:   # a failed point is recorded, the sweep goes on
         record = {**base, "status": "failed", "error": f"{type(error).__name__}: {error}",
                   "error_kind": getattr(error, "kind", type(error).__name__),

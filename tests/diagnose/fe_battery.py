@@ -197,12 +197,14 @@ def fill_side_by_side(keys) -> None:
 
 def fill(keys) -> None:
     """Fill the FE cache of the named cases (truth and base at every condition)."""
-    model = FEModel(cache_dir=FE_CACHE, progress=print)
-    for key in keys:
-        truth_modes(CASES[key], model)
-        base = CASES[key].base
-        # the base's own FE (the model of record) at the same conditions
-        truth_modes(Case(base, base, CASES[key].conditions, ()), model)
+    from copdea_fem.pipeline import progress_to
+    model = FEModel(cache_dir=FE_CACHE)
+    with progress_to(print, only_info=True):          # the FE progress lines
+        for key in keys:
+            truth_modes(CASES[key], model)
+            base = CASES[key].base
+            # the base's own FE (the model of record) at the same conditions
+            truth_modes(Case(base, base, CASES[key].conditions, ()), model)
     print(f"{model.solves} FE solves, {model.seconds:.0f} s")
 
 

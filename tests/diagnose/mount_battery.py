@@ -159,9 +159,11 @@ def right(case: Case, result) -> bool:
 
 
 if __name__ == "__main__":       # fill the FE cache of every case (truth and base)
-    model = FEModel(cache_dir=FE_CACHE, progress=print)
-    for case in [*CASES.values(), *REVERSE_CASES.values(), REPRODUCTION]:
-        truth_modes(case, model)
-        truth_modes(Case(case.base, case.base, case.conditions, case.band, case.orders, ()),
-                    model)
+    from copdea_fem.pipeline import progress_to
+    model = FEModel(cache_dir=FE_CACHE)
+    with progress_to(print, only_info=True):          # the FE progress lines
+        for case in [*CASES.values(), *REVERSE_CASES.values(), REPRODUCTION]:
+            truth_modes(case, model)
+            truth_modes(Case(case.base, case.base, case.conditions, case.band, case.orders,
+                             ()), model)
     print(f"{model.solves} FE solves, {model.seconds:.0f} s")

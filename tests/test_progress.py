@@ -1,0 +1,59 @@
+"""Progress through :mod:`logging` (issue 21 item 6): the handlers of the CLI and the API
+(:func:`copdea_fem.pipeline.progress_to`), quiet sweep points, prefixed sector lines."""
+
+from __future__ import annotations
+
+import logging
+import threading
+
+from copdea_fem.cli import main
+from copdea_fem.pipeline import carried, progress_to, quiet_progress, tagged, tagging
+
+LOGGER = logging.getLogger("copdea_fem.some.module")
+
+
+def test_progress_to_forwards_the_package_records_and_leaves_logging_as_it_was():
+    root = logging.getLogger("copdea_fem")
+    level, handlers = root.level, list(root.handlers)
+    lines = []
+    with progress_to(lines.append, only_info=True):
+        LOGGER.info("step %d", 1)
+        LOGGER.warning("a warning")             # not a progress line
+        logging.getLogger("elsewhere").info("not ours")
+    LOGGER.info("after")
+    assert lines == ["step 1"]
+    assert root.level == level and root.handlers == handlers
+
+
+def test_quiet_progress_hides_steps_not_warnings_and_follows_into_threads():
+    lines = []
+    with progress_to(lines.append):
+        with quiet_progress(), tagging("odd-even: "):
+            LOGGER.info("hidden")
+            LOGGER.warning(tagged("shown"))
+            context = carried()
+
+            def worker():
+                with context():
+                    LOGGER.info("hidden in a thread")
+                    LOGGER.warning(tagged("shown in a thread"))
+            thread = threading.Thread(target=worker)
+            thread.start()
+            thread.join()
+        LOGGER.info(tagged("shown again"))
+    assert lines == ["odd-even: shown", "odd-even: shown in a thread", "shown again"]
+
+
+def test_the_cli_prints_the_folder_messages_and_removes_its_handler(tmp_path, capsys,
+                                                                   monkeypatch):
+    """A leftover of an interrupted run is reported on stderr, also by a command without
+    --quiet; the CLI's handler is gone after the command."""
+    monkeypatch.chdir(tmp_path)
+    study = tmp_path / "study.yaml"
+    study.write_text("name: s\n")
+    leftover = tmp_path / ".out.staging-0123abcd"
+    leftover.mkdir()
+    main(["spectrum", str(study), "--out", str(tmp_path / "out")])
+    assert f"removed {leftover.name}, an unfinished result an interrupted run left" in \
+        capsys.readouterr().err.splitlines()
+    assert logging.getLogger("copdea_fem").handlers == []
