@@ -222,8 +222,7 @@ def cmd_calibrate_damping(args) -> int:
     with _output(args, out_dir, "calibrate-damping", inputs), _solving(study):
         return _reduced_action(lambda: calibrate_damping_cli(
             study, args.spectrum, out_dir, modes_json=args.modes_json, window=args.window,
-            fit=args.fit, quality_csv=args.quality_factors, relaxation_time=relaxation_time,
-            progress=_progress(args.quiet)))
+            fit=args.fit, quality_csv=args.quality_factors, relaxation_time=relaxation_time))
 
 
 def _add_reduced_commands(commands, with_study) -> None:

@@ -288,14 +288,14 @@ def _undamped(study):
     return study.replace(keys)
 
 
-def fe_modes(study, progress=None) -> dict:
+def fe_modes(study) -> dict:
     """``{label: (freq_hz, damping_ratio)}`` of an FE solve of ``study`` (first of a label).
 
     :func:`copdea_fem.solve.run_solve`, nothing written (not :mod:`copdea_fem.api`, which
     imports this module's callers: the CLI wraps the fit in :func:`copdea_fem.api.solving`).
     """
     from .solve import run_solve
-    result = run_solve(study, out_dir=None, progress=progress or log.info)
+    result = run_solve(study, out_dir=None)
     modes = {}
     for mode in result.modes:
         modes.setdefault(mode.label, (float(np.hypot(mode.freq_hz, mode.freq_im_hz)),
@@ -330,7 +330,7 @@ def _probe_time(study, freq_hz) -> float:
 
 
 def fit_damping(study, measured: MeasuredDamping, kind: str, relaxation_time=None,
-                refinements: int = 2, progress=None) -> DampingFit:
+                refinements: int = 2) -> DampingFit:
     """Fit ``kind`` (``rayleigh`` or ``prony``) to ``measured`` with the study's FE.
 
     FE solves (module docstring): the undamped study (frequencies, radiation); Rayleigh
@@ -345,10 +345,9 @@ def fit_damping(study, measured: MeasuredDamping, kind: str, relaxation_time=Non
     if relaxation_time is not None and not relaxation_time > 0:
         raise StudyError(f"--relaxation-time = {relaxation_time!r} is not allowed; allowed: "
                          "a time > 0 s")
-    progress = progress or log.info
     base = _undamped(study)
-    progress("calibrate-damping: FE solve without damping keys (frequencies, radiation) ...")
-    undamped = fe_modes(base, progress)
+    log.info("calibrate-damping: FE solve without damping keys (frequencies, radiation) ...")
+    undamped = fe_modes(base)
     missing = [label for label in measured.labels if label not in undamped]
     notes = []
     if missing and len(missing) < len(measured.labels):
@@ -382,8 +381,8 @@ def fit_damping(study, measured: MeasuredDamping, kind: str, relaxation_time=Non
         shares = []
         for key, value, unit in (("membrane.rayleigh_alpha", 2e-3 * centre, (1, 0)),
                                  ("membrane.rayleigh_beta", 2e-3 / centre, (0, 1))):
-            progress(f"calibrate-damping: FE probe solve ({key} = {value:.4g}) ...")
-            probe = fe_modes(base.replace({key: value}), progress)
+            log.info(f"calibrate-damping: FE probe solve ({key} = {value:.4g}) ...")
+            probe = fe_modes(base.replace({key: value}))
             change = np.array([probe.get(label, (0, rad))[1] - rad
                                for label, rad in zip(labels, radiation)])
             shares.append(change / rayleigh_ratio(freq, value * unit[0], value * unit[1]))
@@ -392,10 +391,10 @@ def fit_damping(study, measured: MeasuredDamping, kind: str, relaxation_time=Non
         tau0 = _probe_time(base, freq)
         shares = []
         for ratio in PROBE_RATIOS:
-            progress(f"calibrate-damping: FE probe solve (Prony g = {ratio:g}, tau = "
+            log.info(f"calibrate-damping: FE probe solve (Prony g = {ratio:g}, tau = "
                      f"{tau0:.4g} s) for the material strain-energy shares ...")
             probe = fe_modes(base.replace({"membrane.prony": [
-                {"modulus_ratio": ratio, "relaxation_time": tau0}]}), progress)
+                {"modulus_ratio": ratio, "relaxation_time": tau0}]}))
             # a mode that left the probe's band (stiffened above eigen.f_max): nan
             change = np.array([probe[label][1] - rad if label in probe else math.nan
                                for label, rad in zip(labels, radiation)])
@@ -452,8 +451,8 @@ def fit_damping(study, measured: MeasuredDamping, kind: str, relaxation_time=Non
                          "the fitted column is the formula's, not an FE solve's")
             return DampingFit(kind, keys, labels, freq, measured.damping_ratio, radiation,
                               formula, formula, used, strain, notes, verified=False)
-        progress(f"calibrate-damping: FE solve with the fitted keys ({attempt + 1}) ...")
-        solved = fe_modes(fitted_study, progress)
+        log.info(f"calibrate-damping: FE solve with the fitted keys ({attempt + 1}) ...")
+        solved = fe_modes(fitted_study)
         fe = np.array([solved.get(label, (math.nan, math.nan))[1] for label in labels])
         result = DampingFit(kind, keys, labels, freq, measured.damping_ratio, radiation,
                             formula, fe, used, strain, notes)

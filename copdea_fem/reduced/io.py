@@ -398,7 +398,7 @@ def _plot_force_fit(path, study, model, fit, data, voltage):
 
 def calibrate_damping_cli(study, spectrum_csv, out_dir, modes_json=None,
                           window: float = 0.15, fit: str = "modal", quality_csv=None,
-                          relaxation_time=None, progress=None) -> dict:
+                          relaxation_time=None) -> dict:
     """Calibrate b/m of each kept mode on a measured average spectrum (Sect. 5.3).
 
     The CSV has the columns of ``spectrum_average.csv``; it must come from the
@@ -414,8 +414,7 @@ def calibrate_damping_cli(study, spectrum_csv, out_dir, modes_json=None,
     if fit != "modal":
         return calibrate_structural_damping(study, spectrum_csv, out_dir, fit, quality_csv,
                                             modes_json=modes_json, window=window,
-                                            relaxation_time=relaxation_time,
-                                            progress=progress)
+                                            relaxation_time=relaxation_time)
     if spectrum_csv is None:
         raise StudyError("SPECTRUM.csv is required by --fit modal (the b/m of the reduced "
                          "model); allowed: a spectrum CSV, or --fit rayleigh|prony with "
@@ -477,8 +476,8 @@ FIT_COLUMNS = ("label", "freq_hz", "measured_quality_factor", "measured_damping_
 
 
 def calibrate_structural_damping(study, spectrum_csv, out_dir, fit: str, quality_csv=None,
-                                 modes_json=None, window: float = 0.15, relaxation_time=None,
-                                 progress=None) -> dict:
+                                 modes_json=None, window: float = 0.15,
+                                 relaxation_time=None) -> dict:
     """Fit ``membrane.rayleigh_alpha/beta`` or one Prony term (:mod:`copdea_fem.damping_fit`).
 
     Measured damping: ``quality_csv`` (label, quality_factor [, freq_hz]), else the b/m
@@ -500,8 +499,7 @@ def calibrate_structural_damping(study, spectrum_csv, out_dir, fit: str, quality
         raise StudyError(f"--fit {fit} needs measured damping; allowed: --quality-factors "
                          "Q.csv or a SPECTRUM.csv")
     try:
-        result = fit_damping(study, measured, fit, relaxation_time=relaxation_time,
-                             progress=progress)
+        result = fit_damping(study, measured, fit, relaxation_time=relaxation_time)
     except DampingFitError as error:
         raise ReducedModelError(str(error)) from None
     strain = result.strain_fraction if result.strain_fraction is not None \
