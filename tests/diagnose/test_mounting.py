@@ -85,7 +85,7 @@ def test_reverse_mounting_battery_fast(tmp_path):
 
 
 @pytest.mark.slow
-def test_reverse_mounting_battery_ten_seeds(tmp_path, capsys):
+def test_reverse_mounting_battery_ten_seeds(tmp_path, figures):
     """Ten seeds of each reverse case: >= 95 % right, no false discovery on the null sets,
     no accepted step that raises the gap.  (An extra effect named beside the hidden mounting
     counts as wrong: measured 39/40, drum_open_hidden seed 10 adds uniform_stiffness.)"""
@@ -100,8 +100,7 @@ def test_reverse_mounting_battery_ten_seeds(tmp_path, capsys):
             if not case.missing and (result.missing_effects or result.ambiguous):
                 false.append((name, seed, result.missing_effects, result.ambiguous))
             assert gaps_never_rise(result), (name, seed)
-    with capsys.disabled():
-        print("\nreverse mounting battery, seeds 1-10 right:", tally)
+    figures(f"reverse mounting battery, seeds 1-10 right: {tally}")
     assert right >= 0.95 * runs, (right, runs)
     assert not false, false
 
@@ -129,7 +128,7 @@ def test_a_stated_mounting_is_replaced_not_stacked():
 
 
 @pytest.mark.slow
-def test_mounting_battery_ten_seeds(tmp_path, capsys):
+def test_mounting_battery_ten_seeds(tmp_path, figures):
     """Ten seeds of each case: >= 95 % right, no false discovery on the null sets."""
     right, runs, false, tally = 0, 0, [], {}
     for name, case in battery.CASES.items():
@@ -142,8 +141,7 @@ def test_mounting_battery_ten_seeds(tmp_path, capsys):
             if set(result.missing_effects) - set(case.missing):
                 false.append((name, seed, result.missing_effects))
             assert gaps_never_rise(result), (name, seed)
-    with capsys.disabled():
-        print("\nmounting battery, seeds 1-10 right:", tally)
+    figures(f"mounting battery, seeds 1-10 right: {tally}")
     assert right >= 0.95 * runs, (right, runs)
     assert not false, false
 
