@@ -39,24 +39,22 @@ def write_results(result, out_dir: Path) -> None:
              "timings_s": result.timings.seconds}
     with result_directory(out_dir, "solve") as staging:
         write_modes(staging, result.rows, study, extra)
-        if study["output"]["paraview"] or study["output"]["plots"]:
-            plotted = [k for k, mode in enumerate(structural)
-                       if mode.kind in (OUT_OF_PLANE, PUMPING)][:8]
-            kept = {k: None for k in plotted}
-            files = write_paraview(staging, result.state, structural, kept=kept,
-                                   fields=fields)
-            if result.coupled is not None and study["output"]["paraview"]:
+        plotted = [k for k, mode in enumerate(structural)
+                   if mode.kind in (OUT_OF_PLANE, PUMPING)][:8]
+        if study["output"]["paraview"]:
+            kept = {k: None for k in plotted}     # the plotted meshes, not read back
+            write_paraview(staging, result.state, structural, kept=kept, fields=fields)
+            shapes = [kept[k] for k in plotted]
+            if result.coupled is not None:
                 indices = [k for k, mode in enumerate(result.modes) if mode.kind != "air"]
                 air_files = _write_all(staging, fields.air_meshes(
                     result.coupled.operators, [result.modes[k] for k in indices],
                     [result.coupled.pressures[k] for k in indices]))
                 write_pvd(staging / "air.pvd", air_files, list(range(len(air_files))))
-            if study["output"]["plots"]:
-                plot_modes(staging / "modes.png", [kept[k] or files[k] for k in plotted],
-                           [structural[k] for k in plotted])
-            if not study["output"]["paraview"]:
-                for path in list(staging.glob("*.vtu")) + list(staging.glob("*.pvd")):
-                    path.unlink()
+        elif study["output"]["plots"]:                # only the plotted modes, no file
+            shapes = [mesh for _, mesh in fields.mode_meshes([structural[k] for k in plotted])]
+        if study["output"]["plots"]:
+            plot_modes(staging / "modes.png", shapes, [structural[k] for k in plotted])
 
 
 def _sector_summary(eigen_result) -> dict:
