@@ -79,31 +79,45 @@ def quiet_progress():
         _THREAD.quiet = saved
 
 
+def _context() -> tuple:
+    return (getattr(_THREAD, "prefix", ""), getattr(_THREAD, "quiet", False),
+            getattr(_THREAD, "owners", frozenset()))
+
+
+def _restore(context: tuple) -> None:
+    _THREAD.prefix, _THREAD.quiet, _THREAD.owners = context
+
+
 def carried():
-    """The progress context of this thread (:func:`tagging`, :func:`quiet_progress`), as a
-    context manager that applies it in another thread (the sector threads)."""
-    prefix, quiet_now = getattr(_THREAD, "prefix", ""), getattr(_THREAD, "quiet", False)
+    """The progress context of this thread (:func:`tagging`, :func:`quiet_progress`, the
+    :func:`progress_to` blocks it runs in), as a context manager that applies it in
+    another thread (the sector threads)."""
+    context = _context()
 
     @contextlib.contextmanager
     def applied():
-        saved = getattr(_THREAD, "prefix", ""), getattr(_THREAD, "quiet", False)
-        _THREAD.prefix, _THREAD.quiet = prefix, quiet_now
+        saved = _context()
+        _restore(context)
         try:
             yield
         finally:
-            _THREAD.prefix, _THREAD.quiet = saved
+            _restore(saved)
     return applied
 
 
 class _Forward(logging.Handler):
     """Each record's message to ``sink(message)``, except INFO records inside
-    :func:`quiet_progress`."""
+    :func:`quiet_progress` and records of threads outside this handler's
+    :func:`progress_to` block (another caller's run in the same process)."""
 
     def __init__(self, sink, level: int, only_info: bool):
         super().__init__(level)
         self.sink, self.only_info = sink, only_info
 
     def filter(self, record) -> bool:
+        # runs in the thread that logs: its owners say which progress_to blocks it is in
+        if self not in getattr(_THREAD, "owners", frozenset()):
+            return False
         if record.levelno <= logging.INFO and getattr(_THREAD, "quiet", False):
             return False
         if self.only_info and record.levelno != logging.INFO:
@@ -121,18 +135,34 @@ class _Forward(logging.Handler):
 def progress_to(sink, level: int = logging.INFO, only_info: bool = False):
     """While inside, the records of the ``copdea_fem`` loggers at ``level`` and above go
     to ``sink(message)`` (with ``only_info``: the INFO ones, the progress lines); the
-    logger's level is lowered to INFO for the time if it was above."""
+    logger's level is lowered to INFO for the time if it was above.  Only the records
+    of this thread, and of the threads it hands its context to (:func:`carried`), reach
+    ``sink``: two runs in two threads of one process (two API calls) each see their own."""
     logger = logging.getLogger("copdea_fem")
     handler = _Forward(sink, level, only_info)
-    saved = logger.level
-    if logger.getEffectiveLevel() > logging.INFO:
-        logger.setLevel(logging.INFO)
+    owners = getattr(_THREAD, "owners", frozenset())
+    _THREAD.owners = owners | {handler}
+    with _LEVEL_LOCK:
+        if _OPEN["blocks"] == 0:           # the first block in keeps the level it found
+            _OPEN["level"] = logger.level
+            if logger.getEffectiveLevel() > logging.INFO:
+                logger.setLevel(logging.INFO)
+        _OPEN["blocks"] += 1
     logger.addHandler(handler)
     try:
         yield handler
     finally:
         logger.removeHandler(handler)
-        logger.setLevel(saved)
+        _THREAD.owners = owners
+        with _LEVEL_LOCK:
+            _OPEN["blocks"] -= 1
+            if _OPEN["blocks"] == 0:       # the last block out restores the level found
+                logger.setLevel(_OPEN["level"])
+
+
+# the progress_to blocks open now (any thread) and the logger level the first one found
+_LEVEL_LOCK = threading.Lock()
+_OPEN = {"blocks": 0, "level": logging.NOTSET}
 
 
 def single_threaded_blas():

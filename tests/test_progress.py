@@ -44,6 +44,37 @@ def test_quiet_progress_hides_steps_not_warnings_and_follows_into_threads():
     assert lines == ["odd-even: shown", "odd-even: shown in a thread", "shown again"]
 
 
+def test_two_runs_in_two_threads_each_see_only_their_own_lines():
+    """Two API calls in one process (two threads, both blocks open at once, closed out
+    of order): each sink gets its own thread's lines only, and the logger's level is
+    the one found before the first block once both are closed."""
+    root = logging.getLogger("copdea_fem")
+    level = root.level
+    root.setLevel(logging.WARNING)
+    both_open, first_closed = threading.Barrier(2), threading.Event()
+    lines = {"a": [], "b": []}
+
+    def run(name):
+        with progress_to(lines[name].append):
+            both_open.wait(timeout=10)
+            LOGGER.info("step of %s", name)
+            if name == "b":
+                first_closed.wait(timeout=10)       # b closes after a
+                LOGGER.info("b alone")
+        if name == "a":
+            first_closed.set()
+    try:
+        threads = [threading.Thread(target=run, args=(name,)) for name in lines]
+        for thread in threads:
+            thread.start()
+        for thread in threads:
+            thread.join()
+        assert lines == {"a": ["step of a"], "b": ["step of b", "b alone"]}
+        assert root.level == logging.WARNING and root.handlers == []
+    finally:
+        root.setLevel(level)
+
+
 def test_the_cli_prints_the_folder_messages_and_removes_its_handler(tmp_path, capsys,
                                                                    monkeypatch):
     """A leftover of an interrupted run is reported on stderr, also by a command without
