@@ -99,7 +99,7 @@ class QuadrantEngine:
 
     def forced_problem(self, study):
         """The even-even symmetry sector, forced (:mod:`copdea_fem.response.quadrant`)."""
-        from .response.quadrant import prepare_quadrant
+        from .quadrant.forced import prepare_quadrant
         return prepare_quadrant(study)
 
     def tracking_arrays(self, state, modes, needs_sampling: bool) -> dict:
@@ -130,7 +130,7 @@ class QuadrantEngine:
     def output(self, state, modes=()):
         """The result fields of ``state`` for ParaView and the API
         (:class:`copdea_fem.output.quadrant.QuadrantOutput`)."""
-        from .output.quadrant import QuadrantOutput
+        from .quadrant.fields import QuadrantOutput
         return QuadrantOutput(state, modes)
 
     def dry_modes(self, study, mesh, timings=None, solver=None,

@@ -266,7 +266,7 @@ class AxisymmetricEngine:
         (:mod:`copdea_fem.response.meridian`)."""
         import time
 
-        from ..response.meridian import order_zero_problem
+        from .forced import order_zero_problem
         timings = {}
         start = time.perf_counter()
         mesh = prepare_meridian(study)
@@ -284,5 +284,5 @@ class AxisymmetricEngine:
         """The result fields of ``state`` revolved to 3-D for ParaView and the API
         (:class:`copdea_fem.output.revolved.RevolvedOutput`; ``modes``: those written
         together, their highest order sets the angles)."""
-        from ..output.revolved import RevolvedOutput
+        from .fields import RevolvedOutput
         return RevolvedOutput(state, modes)

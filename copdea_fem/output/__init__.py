@@ -14,20 +14,20 @@ The package's parts: :mod:`~copdea_fem.output.tables` (modes.csv/json, the force
 ``copdea_fem.output`` as before the split.
 """
 
-from .merge import PointMerge, _AirHalves, _jump_vertices, _quadrants, _unfold_cells, \
+from ..paraview.merge import PointMerge, _AirHalves, _jump_vertices, _quadrants, _unfold_cells, \
     _unfold_values
 from .plots import _headless_vtk, _read_vtu, plot_force_displacement, plot_modes
-from .quadrant import MembraneSampler, air_meshes, mode_meshes, write_air_vtus, \
+from ..quadrant.fields import MembraneSampler, air_meshes, mode_meshes, write_air_vtus, \
     write_mode_vtus
 from .results import _sector_summary, prestress_summary, write_force_results, \
     write_paraview, write_results
-from .revolved import RevolvedMembraneSampler, _harmonics, revolution_angles, \
+from ..axisymmetric.fields import RevolvedMembraneSampler, _harmonics, revolution_angles, \
     revolved_air_meshes, revolved_mode_meshes, revolved_sampler, write_revolved_air_vtus, \
     write_revolved_mode_vtus
 from .tables import MODE_COLUMNS, _json, frequency_table, mode_rows, write_force_csv, \
     write_json, write_modes
-from .vtu import VTU_COMPRESSION, CellBlock, VtuMesh, _VTK_CELLS, _VTK_ORDER, _VTK_TYPES, \
-    _safe, _write_all,     membrane_mesh, write_membrane_vtu, write_pvd, write_vtu
+from ..paraview.vtu import VTU_COMPRESSION, CellBlock, VtuMesh, _VTK_CELLS, _VTK_ORDER, \
+    _VTK_TYPES, _safe, _write_all, membrane_mesh, write_membrane_vtu, write_pvd, write_vtu
 
 __all__ = ["MODE_COLUMNS", "MembraneSampler", "PointMerge", "RevolvedMembraneSampler",
            "VTU_COMPRESSION", "VtuMesh", "air_meshes", "frequency_table", "membrane_mesh",

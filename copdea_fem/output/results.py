@@ -7,7 +7,7 @@ from pathlib import Path
 from ..study import Study, dump_resolved
 from .plots import plot_force_displacement, plot_modes
 from .tables import write_force_csv, write_modes
-from .vtu import _write_all, write_pvd, write_vtu
+from ..paraview.vtu import _write_all, write_pvd, write_vtu
 
 
 def prestress_summary(state) -> dict:

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .merge import PointMerge, _AirHalves, _jump_vertices, _unfold_cells, _unfold_values
-from .vtu import VtuMesh, _safe, _write_all, membrane_mesh
+from ..paraview.merge import PointMerge, _AirHalves, _jump_vertices, _unfold_cells, _unfold_values
+from ..paraview.vtu import VtuMesh, _safe, _write_all, membrane_mesh
 
 
 class MembraneSampler:

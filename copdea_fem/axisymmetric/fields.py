@@ -6,8 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .merge import PointMerge, _AirHalves, _jump_vertices
-from .vtu import VtuMesh, _safe, _write_all, membrane_mesh
+from ..paraview.merge import PointMerge, _AirHalves, _jump_vertices
+from ..paraview.vtu import VtuMesh, _safe, _write_all, membrane_mesh
 
 
 def revolution_angles(max_order: int, minimum: int = 72, per_wave: int = 8) -> np.ndarray:

@@ -25,9 +25,9 @@ import time
 import ngsolve as ngs
 import numpy as np
 
-from .harmonic import ForcedOrder, reduce_matrix_3d, reduce_vector_3d
-from .problem import DrivenSector, OrderZero
-from .radiation import AZIMUTH_POINTS, POLAR_POINTS
+from ..forced.harmonic import ForcedOrder, reduce_matrix_3d, reduce_vector_3d
+from ..forced.problem import DrivenSector, OrderZero
+from ..forced.radiation import AZIMUTH_POINTS, POLAR_POINTS
 
 #: Polar angles of the observation points in the quadrant [rad].
 OBSERVATION_ANGLES = np.radians([11.25, 33.75, 56.25, 78.75])
@@ -222,7 +222,7 @@ def _label(modes) -> None:
 
 
 def _write_shapes(staging, state, coupled, shapes, pressures):
-    from ..output.quadrant import MembraneSampler, write_air_vtus, write_mode_vtus
+    from .fields import MembraneSampler, write_air_vtus, write_mode_vtus
     return (write_mode_vtus(staging, state, shapes, MembraneSampler(state.mesh)),
             write_air_vtus(staging, [coupled], shapes, pressures))
 

@@ -12,8 +12,8 @@ from __future__ import annotations
 import logging
 import time
 
-from .problem import DrivenSector, OrderZero
-from .radiation import MembraneObserver, SphereSampler
+from ..forced.problem import DrivenSector, OrderZero
+from ..forced.radiation import MembraneObserver, SphereSampler
 
 
 logger = logging.getLogger(__name__)
@@ -21,9 +21,9 @@ logger = logging.getLogger(__name__)
 
 def order_zero_problem(study, mesh, state, timings: dict) -> OrderZero:
     """The ALE air and the forced m = 0 pencil on the prestressed meridian."""
-    from ..axisymmetric.air import meridian_motion
-    from ..axisymmetric.operators import MeridianAir, OrderForms, coupled_order_operators
-    from .harmonic import ForcedOrder
+    from .air import meridian_motion
+    from .operators import MeridianAir, OrderForms, coupled_order_operators
+    from ..forced.harmonic import ForcedOrder
 
     start = time.perf_counter()
     logger.info("assembling the m = 0 membrane-air pencil and the voltage forcing ...")
@@ -40,7 +40,7 @@ def order_zero_problem(study, mesh, state, timings: dict) -> OrderZero:
 
 def _classify(problem, result):
     """The modes of the forced m = 0 band, with their membrane-energy fractions."""
-    from ..axisymmetric.modes import OrderSampler, classify_order
+    from .modes import OrderSampler, classify_order
     from ..modes import membrane_energy_fractions
 
     coupled = problem.coupled
@@ -55,13 +55,13 @@ def _classify(problem, result):
 
 
 def _label(modes) -> None:
-    from ..axisymmetric.modes import label_all, number_out_of_plane
+    from .modes import label_all, number_out_of_plane
     number_out_of_plane(modes)
     label_all(modes)
 
 
 def _write_shapes(staging, state, coupled, shapes, pressures):
-    from ..output.revolved import write_revolved_air_vtus, write_revolved_mode_vtus
+    from .fields import write_revolved_air_vtus, write_revolved_mode_vtus
     return (write_revolved_mode_vtus(staging, state, shapes),
             write_revolved_air_vtus(staging, [coupled], shapes, pressures))
 
