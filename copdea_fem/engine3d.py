@@ -98,7 +98,7 @@ class QuadrantEngine:
                              mesh["pressure_order"])
 
     def forced_problem(self, study):
-        """The even-even symmetry sector, forced (:mod:`copdea_fem.response.quadrant`)."""
+        """The even-even symmetry sector, forced (:mod:`copdea_fem.quadrant.forced`)."""
         from .quadrant.forced import prepare_quadrant
         return prepare_quadrant(study)
 
@@ -129,7 +129,7 @@ class QuadrantEngine:
 
     def output(self, state, modes=()):
         """The result fields of ``state`` for ParaView and the API
-        (:class:`copdea_fem.output.quadrant.QuadrantOutput`)."""
+        (:class:`copdea_fem.quadrant.fields.QuadrantOutput`)."""
         from .quadrant.fields import QuadrantOutput
         return QuadrantOutput(state, modes)
 

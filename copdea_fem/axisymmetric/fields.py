@@ -250,7 +250,7 @@ class RevolvedOutput:
         return self._sampler
 
     def prestress_mesh(self):
-        """The :class:`~copdea_fem.output.vtu.VtuMesh` of prestress.vtu (the prestress
+        """The :class:`~copdea_fem.paraview.vtu.VtuMesh` of prestress.vtu (the prestress
         fields, deformed)."""
         sampler = self.prestress_sampler
         return membrane_mesh(sampler, sampler.prestress_fields(),

@@ -5,13 +5,13 @@ Every writer takes a target directory: the staging folder of
 everything is written, so a failed run leaves no half-finished results behind.
 
 The package's parts: :mod:`~copdea_fem.output.tables` (modes.csv/json, the force table),
-:mod:`~copdea_fem.output.results` (the result folder of ``solve`` and ``force``),
-:mod:`~copdea_fem.output.vtu` (the VTU writer, .pvd collections),
-:mod:`~copdea_fem.output.merge` (coincident points merged, quadrants unfolded),
-:mod:`~copdea_fem.output.quadrant` (the 3-D engine's fields),
-:mod:`~copdea_fem.output.revolved` (the axisymmetric engine's fields revolved) and
-:mod:`~copdea_fem.output.plots` (PNG figures).  Every name is importable from
-``copdea_fem.output`` as before the split.
+:mod:`~copdea_fem.output.results` (the result folder of ``solve`` and ``force``) and
+:mod:`~copdea_fem.output.plots` (PNG figures).  Below the engines (so that an engine
+samples its fields without importing up): :mod:`copdea_fem.paraview.vtu` (the VTU writer,
+.pvd collections), :mod:`copdea_fem.paraview.merge` (coincident points merged, quadrants
+unfolded), :mod:`copdea_fem.quadrant.fields` (the 3-D engine's fields) and
+:mod:`copdea_fem.axisymmetric.fields` (the axisymmetric engine's fields revolved).  Every
+name is importable from ``copdea_fem.output`` as before.
 """
 
 from ..paraview.merge import PointMerge, _AirHalves, _jump_vertices, _quadrants, _unfold_cells, \

@@ -71,7 +71,7 @@ def write_paraview(directory: Path, state, modes, kept: dict | None = None,
     """prestress.vtu + modes.pvd with one .vtu per mode (revolved to 3-D when axisymmetric).
 
     ``kept``: ``{position in modes: None}``; receives the
-    :class:`~copdea_fem.output.vtu.VtuMesh` of those modes' files (for the plot, without
+    :class:`~copdea_fem.paraview.vtu.VtuMesh` of those modes' files (for the plot, without
     reading them back).  ``fields``: the engine's result fields
     (:meth:`copdea_fem.engines.Engine.output`; default: those of the engine that computed
     ``state``, for ``modes``).

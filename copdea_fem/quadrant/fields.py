@@ -187,7 +187,7 @@ class QuadrantOutput:
         return self._sampler
 
     def prestress_mesh(self):
-        """The :class:`~copdea_fem.output.vtu.VtuMesh` of prestress.vtu (the prestress
+        """The :class:`~copdea_fem.paraview.vtu.VtuMesh` of prestress.vtu (the prestress
         fields, deformed)."""
         return membrane_mesh(self.sampler, self.state.fields(), self.state.displacement)
 
