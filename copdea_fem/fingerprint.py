@@ -20,10 +20,11 @@ PACKAGE = Path(__file__).resolve().parent
 MESH_SOURCES = ("geometry.py", "airbox.py")
 
 #: Modules of an engine's folder that compute no modes: the axisymmetric engine's forced
-#: problem and its ParaView fields (beside the engine, below it: issue 21).  Left out of
-#: :data:`FE_SOURCES`, so an edit of the forced response or of the output files keeps the
-#: FE cache; every other module of the folder is in, a new one too.
-NOT_FE_SOURCES = ("axisymmetric/forced.py", "axisymmetric/fields.py")
+#: problem, its voltage forcing and its ParaView fields (beside the engine, below it:
+#: issue 21).  Left out of :data:`FE_SOURCES`, so an edit of the forced response or of the
+#: output files keeps the FE cache; every other module of the folder is in, a new one too.
+NOT_FE_SOURCES = ("axisymmetric/forced.py", "axisymmetric/forcing.py",
+                  "axisymmetric/fields.py")
 
 
 def _modules_of(folder: str, left_out: tuple[str, ...]) -> tuple[str, ...]:

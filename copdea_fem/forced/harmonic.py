@@ -20,7 +20,7 @@ In the capacitance language of Sect. 3.2 the electrostatic energy is ``-V^2/2 C(
 ``V_b V~ dC/dq`` (the factor 1, not the 2 that eq. 14 prints; :mod:`copdea_fem.reduced`).
 The disc on the spring gets ``lift . f`` (its share of the rim reaction; the spring does not
 depend on V).  Only the order m = 0 is forced by a uniform electrode.  Each engine
-computes f and K_el (below) from its own energy: :mod:`copdea_fem.axisymmetric.forced`
+computes f and K_el (below) from its own energy: :mod:`copdea_fem.axisymmetric.forcing`
 (the order m = 0), :mod:`copdea_fem.quadrant.forced` (the even-even sector); this module
 holds what both share.
 
