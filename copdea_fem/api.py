@@ -146,7 +146,7 @@ def _frame(rows: list[dict], columns) -> "pandas.DataFrame":  # noqa: F821
 
 
 def _grid(mesh):
-    """A :class:`~copdea_fem.output.vtu.VtuMesh` (or meshio.Mesh) as a pyvista grid (the VTU
+    """A :class:`~copdea_fem.paraview.vtu.VtuMesh` (or meshio.Mesh) as a pyvista grid (the VTU
     file's points, cells and data)."""
     import pyvista as pv
     return pv.from_meshio(mesh.to_meshio() if hasattr(mesh, "to_meshio") else mesh)

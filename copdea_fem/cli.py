@@ -219,10 +219,19 @@ def cmd_calibrate_damping(args) -> int:
             raise StudyError(f"--fit {args.fit} needs measured damping; allowed: "
                              "--quality-factors Q.csv or a SPECTRUM.csv")
         _check_size(args, study)
+    if args.fit == "modal":
+        def action():
+            return calibrate_damping_cli(study, args.spectrum, out_dir,
+                                         modes_json=args.modes_json, window=args.window)
+    else:
+        from .damping_fit import calibrate_structural_damping
+
+        def action():
+            return calibrate_structural_damping(
+                study, args.spectrum, out_dir, args.fit, args.quality_factors,
+                modes_json=args.modes_json, window=args.window, relaxation_time=relaxation_time)
     with _output(args, out_dir, "calibrate-damping", inputs), _solving(study):
-        return _reduced_action(lambda: calibrate_damping_cli(
-            study, args.spectrum, out_dir, modes_json=args.modes_json, window=args.window,
-            fit=args.fit, quality_csv=args.quality_factors, relaxation_time=relaxation_time))
+        return _reduced_action(action)
 
 
 def _add_reduced_commands(commands, with_study) -> None:

@@ -98,8 +98,8 @@ class QuadrantEngine:
                              mesh["pressure_order"])
 
     def forced_problem(self, study):
-        """The even-even symmetry sector, forced (:mod:`copdea_fem.response.quadrant`)."""
-        from .response.quadrant import prepare_quadrant
+        """The even-even symmetry sector, forced (:mod:`copdea_fem.quadrant.forced`)."""
+        from .quadrant.forced import prepare_quadrant
         return prepare_quadrant(study)
 
     def tracking_arrays(self, state, modes, needs_sampling: bool) -> dict:
@@ -129,8 +129,8 @@ class QuadrantEngine:
 
     def output(self, state, modes=()):
         """The result fields of ``state`` for ParaView and the API
-        (:class:`copdea_fem.output.quadrant.QuadrantOutput`)."""
-        from .output.quadrant import QuadrantOutput
+        (:class:`copdea_fem.quadrant.fields.QuadrantOutput`)."""
+        from .quadrant.fields import QuadrantOutput
         return QuadrantOutput(state, modes)
 
     def dry_modes(self, study, mesh, timings=None, solver=None,

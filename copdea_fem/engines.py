@@ -53,8 +53,8 @@ class Engine(Protocol):
 
     def forced_problem(self, study):
         """Mesh, prestress and the forced-response operators of the part of the problem a
-        uniform electrode drives: a :class:`copdea_fem.response.problem.OrderZero` whose
-        ``sector`` (:class:`copdea_fem.response.problem.DrivenSector`) describes it."""
+        uniform electrode drives: a :class:`copdea_fem.forced.problem.OrderZero` whose
+        ``sector`` (:class:`copdea_fem.forced.problem.DrivenSector`) describes it."""
 
     def tracking_arrays(self, state, modes, needs_sampling: bool) -> dict:
         """What the sweeps track a point's modes by (:mod:`copdea_fem.tracking`)."""

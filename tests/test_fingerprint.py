@@ -83,3 +83,15 @@ def test_a_stale_committed_fe_cache_is_named_with_its_refill_command(tmp_path):
     message = fe_battery.stale_message(missing)
     assert "python tests/diagnose/fe_battery.py --refill" in message
     assert fe_battery.REFILL_VARIABLE in message
+
+
+def test_the_fe_fingerprint_holds_the_engines_modes_code_only():
+    """Issue 21 moved the axisymmetric engine's forced problem and ParaView fields beside
+    it: they compute no modes, so they stay out of the FE fingerprint; every other module
+    of the engine's folder (a new one too) is in it."""
+    folder = ROOT / "copdea_fem" / "axisymmetric"
+    modules = {f"axisymmetric/{path.name}" for path in folder.glob("*.py")}
+    assert set(fingerprint.NOT_FE_SOURCES) <= modules
+    assert modules - set(fingerprint.NOT_FE_SOURCES) <= set(fingerprint.FE_SOURCES)
+    assert not set(fingerprint.NOT_FE_SOURCES) & set(fingerprint.FE_SOURCES)
+    assert {"axisymmetric/engine.py", "axisymmetric/modes.py"} <= set(fingerprint.FE_SOURCES)

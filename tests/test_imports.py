@@ -136,3 +136,122 @@ def test_an_engine_name_branch_is_found(tmp_path):
     (package / "b.py").write_text("def g(s, m):\n    return engine_of(s), m.kind == '3d'\n")
     (package / "engines.py").write_text('def h(s):\n    return engine_of(s) == "3d"\n')
     assert engine_name_tests(package) == ["a.py:2", "b.py:2"]
+
+
+#: The package's layers, lowest first (issue 21): a module imports only modules of its own
+#: layer or of a lower one (function-local imports included), so no import runs back up.
+#: A name is a module or a package (all of its modules); the longest name that matches
+#: places a module.  Pure physics and file plumbing at the bottom, the band solver and the
+#: study above them, then prestress, linearisation, modes, the forced-response parts both
+#: engines share, each engine's own pieces (its forced problem, its field sampling), the
+#: engines, the interface that chooses one, and the orchestration on top: a solve's result
+#: folder, the ``solve`` and ``response`` pipelines, sweeps, diagnosis, the API, the CLI.
+LAYERS = (
+    ("units", "materials", "symmetry", "airbox", "fingerprint", "folders", "inputs",
+     "pipeline", "tracking", "acoustics"),
+    ("study", "membrane", "ale", "eigen", "paraview"),
+    ("prestress", "geometry", "bands"),
+    ("linearise", "reduced"),
+    ("modes", "coupled"),
+    ("forced",),
+    ("axisymmetric", "quadrant"),
+    ("engine3d",),
+    ("engines",),
+    ("output",),
+    ("solve", "response"),
+    ("damping_fit", "bench", "sweep"),
+    ("diagnose",),
+    ("api",),
+    ("cli", ""),
+)
+
+
+def layer_of(module: str, layers=LAYERS, package: str = PACKAGE.name) -> int | None:
+    """The index in ``layers`` of the longest name that matches ``module`` (``""``: the
+    package's own ``__init__``), or None where none does."""
+    relative = "" if module == package else module.removeprefix(package + ".")
+    best, found = -1, None
+    for index, names in enumerate(layers):
+        for name in names:
+            matches = relative == name if name == "" else \
+                relative == name or relative.startswith(name + ".")
+            if matches and len(name) > best:
+                best, found = len(name), index
+    return found
+
+
+def back_up_imports(graph: dict[str, set[str]], layers=LAYERS,
+                    package: str = PACKAGE.name) -> list[str]:
+    """``A -> B`` of every import from a lower layer to a higher one, and ``A: no layer``
+    of every module that no name of ``layers`` places."""
+    found = [f"{module}: no layer" for module in sorted(graph)
+             if layer_of(module, layers, package) is None]
+    for module in sorted(graph):
+        here = layer_of(module, layers, package)
+        for target in sorted(graph[module]):
+            there = layer_of(target, layers, package)
+            if here is not None and there is not None and there > here:
+                found.append(f"{module} -> {target}")
+    return found
+
+
+def rooms(graph: dict[str, set[str]], package: str = PACKAGE.name) -> dict[str, set[str]]:
+    """The import graph with each folder of the package as one node (a module of a folder
+    importing another folder's module is an edge between the two folders)."""
+    def room(module):
+        parts = module.split(".")
+        if len(parts) > 2 or module in graph and any(other.startswith(module + ".")
+                                                    for other in graph):
+            return ".".join(parts[:2])
+        return module
+
+    collapsed: dict[str, set[str]] = {}
+    for module, targets in graph.items():
+        collapsed.setdefault(room(module), set()).update(
+            room(target) for target in targets if room(target) != room(module))
+    return collapsed
+
+
+def test_no_import_runs_back_up_the_layers():
+    graph = import_graph()
+    assert "copdea_fem.axisymmetric.forced" in graph["copdea_fem.axisymmetric.engine"]
+    assert back_up_imports(graph) == []
+
+
+def test_no_circle_between_folders():
+    """A folder counts as one room: a module of ``axisymmetric/`` importing ``forced/``
+    while ``forced/`` imports ``axisymmetric/`` is a circle though no module is in one."""
+    collapsed = rooms(import_graph())
+    assert "copdea_fem.forced" in collapsed["copdea_fem.axisymmetric"]
+    assert circles(collapsed) == []
+
+
+def test_an_import_running_back_up_is_found(tmp_path):
+    package = tmp_path / "pkg"
+    (package / "low").mkdir(parents=True)
+    (package / "__init__.py").write_text("")
+    (package / "low" / "__init__.py").write_text("")
+    (package / "low" / "a.py").write_text("def f():\n    from .. import high\n")
+    (package / "low" / "b.py").write_text("from . import a\n")
+    (package / "high.py").write_text("from .low.a import f\n")
+    (package / "stray.py").write_text("")
+    graph = import_graph(package)
+    layers = (("low",), ("high", ""))
+    assert back_up_imports(graph, layers, "pkg") == ["pkg.stray: no layer",
+                                                     "pkg.low.a -> pkg.high"]
+    assert back_up_imports(graph, (("low", "high", "stray", ""),), "pkg") == []
+
+
+def test_a_circle_between_folders_is_found(tmp_path):
+    package = tmp_path / "pkg"
+    (package / "sub").mkdir(parents=True)
+    (package / "__init__.py").write_text("")
+    (package / "sub" / "__init__.py").write_text("")
+    (package / "a.py").write_text("from .sub.b import thing\n")
+    (package / "sub" / "b.py").write_text("thing = 1\n")
+    (package / "sub" / "c.py").write_text("def g():\n    from ..a import thing\n")
+    graph = import_graph(package)
+    assert circles(graph) == []
+    collapsed = rooms(graph, "pkg")
+    assert collapsed["pkg.a"] == {"pkg.sub"}
+    assert circles(collapsed) == [["pkg.a", "pkg.sub"]]

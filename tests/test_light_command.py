@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from copdea_fem.output.vtu import VtuMesh, write_vtu
+from copdea_fem.output import VtuMesh, write_vtu
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -19,8 +19,8 @@ from copdea_fem import acoustics
 from copdea_fem.axisymmetric.air import air_forms, screen_coupling
 from copdea_fem.axisymmetric.engine import prepare_meridian, solve_axisymmetric_prestress
 from copdea_fem.cli import main
-from copdea_fem.response.radiation import (KIRCHHOFF_FRACTION, SphereSampler,
-                                           kirchhoff_kernels, radiated_power, spl_db)
+from copdea_fem.forced.radiation import (KIRCHHOFF_FRACTION, SphereSampler,
+                                         kirchhoff_kernels, radiated_power, spl_db)
 from copdea_fem.response.run import (AVERAGE_COLUMNS, POINT_COLUMNS, forced_response,
                                      modal_solution, parse_microphones, prepare_order_zero,
                                      reduced_spectrum)
@@ -322,8 +322,8 @@ def test_quadrant_engine_matches_the_axisymmetric_response():
     velocity and the pressure at 1 m on the axis within 1 % (measured <= 0.34 %, 0.34 %,
     0.36 %; the engines' coupled frequencies differ by <= 0.075 %, README)."""
     from copdea_fem.reduced.response import scan_fractions
-    from copdea_fem.response.quadrant import QuadrantObserver, QuadrantSphere, prepare_quadrant
-    from copdea_fem.response.radiation import MembraneObserver
+    from copdea_fem.quadrant.forced import QuadrantObserver, QuadrantSphere, prepare_quadrant
+    from copdea_fem.forced.radiation import MembraneObserver
     quadrant = prepare_quadrant(study_of(mesh={"engine": "3d"}))
     meridian = prepare_order_zero(study_of())
     frequencies = [100.0, 383.0, 700.0]

@@ -263,10 +263,10 @@ class AxisymmetricEngine:
 
     def forced_problem(self, study):
         """Meridian mesh, prestress and the forced order m = 0
-        (:mod:`copdea_fem.response.meridian`)."""
+        (:mod:`copdea_fem.axisymmetric.forced`)."""
         import time
 
-        from ..response.meridian import order_zero_problem
+        from .forced import order_zero_problem
         timings = {}
         start = time.perf_counter()
         mesh = prepare_meridian(study)
@@ -282,7 +282,7 @@ class AxisymmetricEngine:
 
     def output(self, state, modes=()):
         """The result fields of ``state`` revolved to 3-D for ParaView and the API
-        (:class:`copdea_fem.output.revolved.RevolvedOutput`; ``modes``: those written
+        (:class:`copdea_fem.axisymmetric.fields.RevolvedOutput`; ``modes``: those written
         together, their highest order sets the angles)."""
-        from ..output.revolved import RevolvedOutput
+        from .fields import RevolvedOutput
         return RevolvedOutput(state, modes)

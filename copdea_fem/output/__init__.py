@@ -5,29 +5,29 @@ Every writer takes a target directory: the staging folder of
 everything is written, so a failed run leaves no half-finished results behind.
 
 The package's parts: :mod:`~copdea_fem.output.tables` (modes.csv/json, the force table),
-:mod:`~copdea_fem.output.results` (the result folder of ``solve`` and ``force``),
-:mod:`~copdea_fem.output.vtu` (the VTU writer, .pvd collections),
-:mod:`~copdea_fem.output.merge` (coincident points merged, quadrants unfolded),
-:mod:`~copdea_fem.output.quadrant` (the 3-D engine's fields),
-:mod:`~copdea_fem.output.revolved` (the axisymmetric engine's fields revolved) and
-:mod:`~copdea_fem.output.plots` (PNG figures).  Every name is importable from
-``copdea_fem.output`` as before the split.
+:mod:`~copdea_fem.output.results` (the result folder of ``solve`` and ``force``) and
+:mod:`~copdea_fem.output.plots` (PNG figures).  Below the engines (so that an engine
+samples its fields without importing up): :mod:`copdea_fem.paraview.vtu` (the VTU writer,
+.pvd collections), :mod:`copdea_fem.paraview.merge` (coincident points merged, quadrants
+unfolded), :mod:`copdea_fem.quadrant.fields` (the 3-D engine's fields) and
+:mod:`copdea_fem.axisymmetric.fields` (the axisymmetric engine's fields revolved).  Every
+name is importable from ``copdea_fem.output`` as before.
 """
 
-from .merge import PointMerge, _AirHalves, _jump_vertices, _quadrants, _unfold_cells, \
+from ..paraview.merge import PointMerge, _AirHalves, _jump_vertices, _quadrants, _unfold_cells, \
     _unfold_values
 from .plots import _headless_vtk, _read_vtu, plot_force_displacement, plot_modes
-from .quadrant import MembraneSampler, air_meshes, mode_meshes, write_air_vtus, \
+from ..quadrant.fields import MembraneSampler, air_meshes, mode_meshes, write_air_vtus, \
     write_mode_vtus
 from .results import _sector_summary, prestress_summary, write_force_results, \
     write_paraview, write_results
-from .revolved import RevolvedMembraneSampler, _harmonics, revolution_angles, \
+from ..axisymmetric.fields import RevolvedMembraneSampler, _harmonics, revolution_angles, \
     revolved_air_meshes, revolved_mode_meshes, revolved_sampler, write_revolved_air_vtus, \
     write_revolved_mode_vtus
 from .tables import MODE_COLUMNS, _json, frequency_table, mode_rows, write_force_csv, \
     write_json, write_modes
-from .vtu import VTU_COMPRESSION, CellBlock, VtuMesh, _VTK_CELLS, _VTK_ORDER, _VTK_TYPES, \
-    _safe, _write_all,     membrane_mesh, write_membrane_vtu, write_pvd, write_vtu
+from ..paraview.vtu import VTU_COMPRESSION, CellBlock, VtuMesh, _VTK_CELLS, _VTK_ORDER, \
+    _VTK_TYPES, _safe, _write_all, membrane_mesh, write_membrane_vtu, write_pvd, write_vtu
 
 __all__ = ["MODE_COLUMNS", "MembraneSampler", "PointMerge", "RevolvedMembraneSampler",
            "VTU_COMPRESSION", "VtuMesh", "air_meshes", "frequency_table", "membrane_mesh",

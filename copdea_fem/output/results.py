@@ -7,7 +7,7 @@ from pathlib import Path
 from ..study import Study, dump_resolved
 from .plots import plot_force_displacement, plot_modes
 from .tables import write_force_csv, write_modes
-from .vtu import _write_all, write_pvd, write_vtu
+from ..paraview.vtu import _write_all, write_pvd, write_vtu
 
 
 def prestress_summary(state) -> dict:
@@ -71,7 +71,7 @@ def write_paraview(directory: Path, state, modes, kept: dict | None = None,
     """prestress.vtu + modes.pvd with one .vtu per mode (revolved to 3-D when axisymmetric).
 
     ``kept``: ``{position in modes: None}``; receives the
-    :class:`~copdea_fem.output.vtu.VtuMesh` of those modes' files (for the plot, without
+    :class:`~copdea_fem.paraview.vtu.VtuMesh` of those modes' files (for the plot, without
     reading them back).  ``fields``: the engine's result fields
     (:meth:`copdea_fem.engines.Engine.output`; default: those of the engine that computed
     ``state``, for ``modes``).

@@ -7,6 +7,7 @@ returning a summary dict (``files`` written, ``lines`` to print):
 - :func:`run_spectrum` -- ``copdea-fem spectrum STUDY.yaml [--out DIR]``
 - :func:`fit_material_cli` -- ``copdea-fem fit-material STUDY.yaml DATA.csv``
 - :func:`calibrate_damping_cli` -- ``copdea-fem calibrate-damping STUDY.yaml SPECTRUM.csv``
+  (``--fit rayleigh|prony``: :func:`copdea_fem.damping_fit.calibrate_structural_damping`)
 
 Output files (column names are a contract):
 
@@ -406,15 +407,15 @@ def calibrate_damping_cli(study, spectrum_csv, out_dir, modes_json=None,
     ``damping_calibration.csv`` (label, freq_hz, measured_peak, model_peak,
     damping_per_mass [1/s]) and prints the ``--set`` options to reuse.
 
-    ``fit = "rayleigh"`` or ``"prony"`` fits the FE's ``membrane.rayleigh_alpha/beta`` or
-    one ``membrane.prony`` term instead (:func:`calibrate_structural_damping`), to the
-    quality factors of ``quality_csv`` or, without it, to the damping ratios of the b/m
-    calibrated on the spectrum.
+    ``fit = "rayleigh"`` or ``"prony"`` (the FE's ``membrane.rayleigh_alpha/beta`` or one
+    ``membrane.prony`` term, fitted by FE solves) is
+    :func:`copdea_fem.damping_fit.calibrate_structural_damping`, above the FE pipeline
+    (the reduced model sits below it and does not import it).
     """
     if fit != "modal":
-        return calibrate_structural_damping(study, spectrum_csv, out_dir, fit, quality_csv,
-                                            modes_json=modes_json, window=window,
-                                            relaxation_time=relaxation_time)
+        raise StudyError(f"fit = {fit!r} is not allowed in the reduced model's calibration; "
+                         "allowed: 'modal' (rayleigh, prony: "
+                         "copdea_fem.damping_fit.calibrate_structural_damping)")
     if spectrum_csv is None:
         raise StudyError("SPECTRUM.csv is required by --fit modal (the b/m of the reduced "
                          "model); allowed: a spectrum CSV, or --fit rayleigh|prony with "
@@ -422,7 +423,7 @@ def calibrate_damping_cli(study, spectrum_csv, out_dir, modes_json=None,
     if quality_csv is not None:
         raise StudyError("--quality-factors is not allowed with --fit modal; allowed: with "
                          "--fit rayleigh or --fit prony")
-    calibration, setup, measured = _calibrate_on_spectrum(study, spectrum_csv, modes_json,
+    calibration, setup, measured = calibrate_on_spectrum(study, spectrum_csv, modes_json,
                                                           window)
     out = Path(out_dir)
     with result_directory(out, "calibrate-damping") as staging:
@@ -458,7 +459,9 @@ def calibrate_damping_cli(study, spectrum_csv, out_dir, modes_json=None,
             "files": [str(f) for f in files], "lines": lines}
 
 
-def _calibrate_on_spectrum(study, spectrum_csv, modes_json, window):
+def calibrate_on_spectrum(study, spectrum_csv, modes_json, window):
+    """b/m of each kept mode calibrated on a measured average spectrum (Sect. 5.3):
+    (calibration, reduced setup, measured columns)."""
     if not 0 < window < 1:
         raise StudyError(f"--window = {window!r} is not allowed; allowed: (0, 1), a relative "
                          "half-width around each mode")
@@ -468,70 +471,6 @@ def _calibrate_on_spectrum(study, spectrum_csv, modes_json, window):
     calibration = calibrate_damping(setup.reduced, setup.chirp, measured["freq_hz"],
                                     measured["v_axial"], measured["v_radial"], window)
     return calibration, setup, measured
-
-
-FIT_COLUMNS = ("label", "freq_hz", "measured_quality_factor", "measured_damping_ratio",
-               "radiation_damping_ratio", "fitted_damping_ratio", "fitted_quality_factor",
-               "residual", "strain_energy_fraction", "used")
-
-
-def calibrate_structural_damping(study, spectrum_csv, out_dir, fit: str, quality_csv=None,
-                                 modes_json=None, window: float = 0.15,
-                                 relaxation_time=None) -> dict:
-    """Fit ``membrane.rayleigh_alpha/beta`` or one Prony term (:mod:`copdea_fem.damping_fit`).
-
-    Measured damping: ``quality_csv`` (label, quality_factor [, freq_hz]), else the b/m
-    calibrated on ``spectrum_csv`` (zeta = (b/m) / (2 omega)).  Writes ``damping_fit.csv``
-    (``FIT_COLUMNS``: FE frequency [Hz], measured and fitted damping ratio and quality
-    factor [-], the FE radiation damping ratio [-], residual = fitted / measured - 1 [-],
-    the material strain-energy share of a Prony fit [-], whether the mode was fitted)
-    and prints the table and the ``--set`` options.
-    """
-    from copdea_fem.damping_fit import (DampingFitError, fit_damping, measured_from_spectrum,
-                                        read_quality_csv)
-    if quality_csv is not None:
-        measured = read_quality_csv(quality_csv)
-    elif spectrum_csv is not None:
-        calibration, setup, _ = _calibrate_on_spectrum(study, spectrum_csv, modes_json, window)
-        measured = measured_from_spectrum(calibration.labels, calibration.damping_per_mass,
-                                          setup.reduced.frequency_hz, source=str(spectrum_csv))
-    else:
-        raise StudyError(f"--fit {fit} needs measured damping; allowed: --quality-factors "
-                         "Q.csv or a SPECTRUM.csv")
-    try:
-        result = fit_damping(study, measured, fit, relaxation_time=relaxation_time)
-    except DampingFitError as error:
-        raise ReducedModelError(str(error)) from None
-    strain = result.strain_fraction if result.strain_fraction is not None \
-        else np.full(len(result.labels), math.nan)
-    out = Path(out_dir)
-    with result_directory(out, "calibrate-damping") as staging:
-        files = [write_csv(staging / "damping_fit.csv", FIT_COLUMNS,
-                           (result.labels, result.freq_hz, 1 / (2 * result.measured),
-                            result.measured, result.radiation, result.fitted,
-                            1 / (2 * result.fitted), result.residual, strain,
-                            ["yes" if used else "no" for used in result.used]))]
-    files = [out / path.name for path in files]
-    source = "FE with the fitted keys" if result.verified else "formula (not FE-verified)"
-    lines = [f"{fit} fit to {len(result.labels)} measured mode(s) from {measured.source}; "
-             f"fitted = {source}",
-             f"{'mode':>8} {'FE Hz':>9} {'Q meas':>9} {'zeta meas':>10} {'zeta rad':>10} "
-             f"{'zeta fit':>10} {'residual':>9}  fitted"]
-    for j, label in enumerate(result.labels):
-        lines.append(f"{label:>8} {result.freq_hz[j]:9.2f} {1 / (2 * result.measured[j]):9.2f} "
-                     f"{result.measured[j]:10.4g} {result.radiation[j]:10.4g} "
-                     f"{result.fitted[j]:10.4g} {100 * result.residual[j]:8.2f}%  "
-                     f"{'yes' if result.used[j] else 'no'}")
-    lines.append(f"  rms residual of the fitted modes: {100 * result.rms_residual:.2f} %")
-    lines.extend(f"  note: {note}" for note in result.notes)
-    lines.append("  use: " + result.options())
-    lines.append(f"wrote {len(files)} files to {out}")
-    return {"fit": fit, "keys": result.keys, "labels": list(result.labels),
-            "measured_damping_ratio": result.measured.tolist(),
-            "fitted_damping_ratio": result.fitted.tolist(),
-            "residual": result.residual.tolist(), "used": result.used.tolist(),
-            "rms_residual": result.rms_residual, "notes": list(result.notes),
-            "files": [str(f) for f in files], "lines": lines}
 
 
 def bad_input(exc: Exception) -> bool:

@@ -1,10 +1,15 @@
 """Forced harmonic response of the coupled FE model and the sound it radiates (issue 15).
 
-- :mod:`.harmonic`: the voltage forcing, the hysteretic loss, modal superposition over the
-  coupled complex modes with a residual correction, and the direct solve (one order of the
-  axisymmetric engine: m = 0, the only order a uniform electrode excites).
-- :mod:`.radiation`: observation of the membrane velocity, radiated and input power,
-  Kirchhoff-Helmholtz / Rayleigh far field and SPL.
-- :mod:`.quadrant`: the same on the 3-D quadrant engine (the even-even symmetry sector).
 - :mod:`.run`: the ``copdea-fem response`` pipeline; :mod:`.files`: its result files.
+
+The pipeline asks the study's engine for its forced problem
+(:meth:`copdea_fem.engines.Engine.forced_problem`) and drives it with the parts below
+the engines: :mod:`copdea_fem.forced.harmonic` (the voltage forcing, the hysteretic loss,
+modal superposition over the coupled complex modes with a residual correction, and the
+direct solve), :mod:`copdea_fem.forced.radiation` (observation of the membrane velocity,
+radiated and input power, Kirchhoff-Helmholtz / Rayleigh far field and SPL) and
+:mod:`copdea_fem.forced.problem`.  Each engine builds its forced problem below it:
+:mod:`copdea_fem.axisymmetric.forced` (the order m = 0, the only order a uniform
+electrode excites) and :mod:`copdea_fem.quadrant.forced` (the even-even symmetry sector
+of the 3-D quadrant).
 """

@@ -44,7 +44,7 @@ import numpy as np
 
 from ..study import StudyError, check_air_lift
 from .files import AVERAGE_COLUMNS, MODE_COLUMNS, POINT_COLUMNS  # noqa: F401
-from .problem import OrderZero
+from ..forced.problem import OrderZero
 
 
 logger = logging.getLogger(__name__)
@@ -78,7 +78,7 @@ def modal_solution(problem: OrderZero, f_end: float):
     """(ModalBasis, modes) of the m = 0 band (module doc), labelled as ``solve`` labels them."""
     from ..eigen import solve_band
     from ..modes import AIR
-    from .harmonic import ModalBasis, modal_damping
+    from ..forced.harmonic import ModalBasis, modal_damping
 
     study, coupled = problem.study, problem.coupled
     reach = study["response"]["modal_band"] * f_end
@@ -141,7 +141,7 @@ def forced_response(problem: OrderZero, frequency_hz=None,
                     voltage_lines=None) -> ResponseResult:
     """Spectra and SPL on the chirp's lines (or given lines and complex amplitudes [V])."""
     from ..reduced.response import QUARTER_POINTS, Chirp, scan_fractions
-    from .radiation import KIRCHHOFF_FRACTION, spl_db
+    from ..forced.radiation import KIRCHHOFF_FRACTION, spl_db
 
     study, forced, coupled = problem.study, problem.forced, problem.coupled
     timings = dict(problem.timings)

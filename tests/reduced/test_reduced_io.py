@@ -118,6 +118,15 @@ def test_calibrate_damping_cli_round_trip(tmp_path):
                               tmp_path / "cal", window=1.5)
 
 
+def test_calibrate_damping_cli_names_where_the_fe_fits_are(tmp_path):
+    """The reduced model sits below the FE pipeline (issue 21): ``--fit rayleigh|prony``
+    runs FE solves, from :func:`copdea_fem.damping_fit.calibrate_structural_damping`."""
+    with pytest.raises(StudyError, match=r"fit = 'rayleigh' is not allowed.*allowed: 'modal'"
+                                         r".*damping_fit\.calibrate_structural_damping"):
+        calibrate_damping_cli(paper_study(), None, tmp_path / "cal", fit="rayleigh")
+    assert not (tmp_path / "cal").exists()
+
+
 # -- study keys of the reduced model --------------------------------------------------------------
 def test_reduced_and_excitation_defaults_are_the_papers():
     study = parse_study({})

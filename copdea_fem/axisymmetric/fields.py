@@ -6,8 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .merge import PointMerge, _AirHalves, _jump_vertices
-from .vtu import VtuMesh, _safe, _write_all, membrane_mesh
+from ..paraview.merge import PointMerge, _AirHalves, _jump_vertices
+from ..paraview.vtu import VtuMesh, _safe, _write_all, membrane_mesh
 
 
 def revolution_angles(max_order: int, minimum: int = 72, per_wave: int = 8) -> np.ndarray:
@@ -250,7 +250,7 @@ class RevolvedOutput:
         return self._sampler
 
     def prestress_mesh(self):
-        """The :class:`~copdea_fem.output.vtu.VtuMesh` of prestress.vtu (the prestress
+        """The :class:`~copdea_fem.paraview.vtu.VtuMesh` of prestress.vtu (the prestress
         fields, deformed)."""
         sampler = self.prestress_sampler
         return membrane_mesh(sampler, sampler.prestress_fields(),

@@ -1,10 +1,13 @@
 """The forced response on the axisymmetric engine: the order m = 0 that a uniform electrode
-drives, on the meridian (the 3-D counterpart: :mod:`.quadrant`).
+drives, on the meridian (the 3-D counterpart: :mod:`copdea_fem.quadrant.forced`).
 
 :func:`order_zero_problem` builds the forced m = 0 pencil on a prestressed meridian (the
 engine, :meth:`copdea_fem.axisymmetric.engine.AxisymmetricEngine.forced_problem`, makes
-the mesh and the prestress); :data:`MERIDIAN_SECTOR` says how :mod:`.run` and
-:mod:`.files` read its modes, velocities, far field and ParaView shapes.
+the mesh and the prestress), with the voltage forcing and the elastic stiffness of
+:mod:`.forcing`.
+:data:`MERIDIAN_SECTOR` says how the ``copdea-fem response`` pipeline
+(:mod:`copdea_fem.response.run`, :mod:`copdea_fem.response.files`) reads its modes,
+velocities, far field and ParaView shapes (:mod:`.fields`).
 """
 
 from __future__ import annotations
@@ -12,8 +15,8 @@ from __future__ import annotations
 import logging
 import time
 
-from .problem import DrivenSector, OrderZero
-from .radiation import MembraneObserver, SphereSampler
+from ..forced.problem import DrivenSector, OrderZero
+from ..forced.radiation import MembraneObserver, SphereSampler
 
 
 logger = logging.getLogger(__name__)
@@ -21,9 +24,9 @@ logger = logging.getLogger(__name__)
 
 def order_zero_problem(study, mesh, state, timings: dict) -> OrderZero:
     """The ALE air and the forced m = 0 pencil on the prestressed meridian."""
-    from ..axisymmetric.air import meridian_motion
-    from ..axisymmetric.operators import MeridianAir, OrderForms, coupled_order_operators
-    from .harmonic import ForcedOrder
+    from .air import meridian_motion
+    from .forcing import forced_order
+    from .operators import MeridianAir, OrderForms, coupled_order_operators
 
     start = time.perf_counter()
     logger.info("assembling the m = 0 membrane-air pencil and the voltage forcing ...")
@@ -32,7 +35,7 @@ def order_zero_problem(study, mesh, state, timings: dict) -> OrderZero:
     forms = OrderForms(state, study)
     dry = forms.operators(0)
     coupled = coupled_order_operators(state, study, dry, air)
-    forced = ForcedOrder.build(state, coupled, study["eigen"]["backend"]).with_damping(
+    forced = forced_order(state, coupled, study["eigen"]["backend"]).with_damping(
         forms.damping(dry))
     timings["assembly"] = time.perf_counter() - start
     return OrderZero(study, state, coupled, forced, timings, MERIDIAN_SECTOR)
@@ -40,7 +43,7 @@ def order_zero_problem(study, mesh, state, timings: dict) -> OrderZero:
 
 def _classify(problem, result):
     """The modes of the forced m = 0 band, with their membrane-energy fractions."""
-    from ..axisymmetric.modes import OrderSampler, classify_order
+    from .modes import OrderSampler, classify_order
     from ..modes import membrane_energy_fractions
 
     coupled = problem.coupled
@@ -55,13 +58,13 @@ def _classify(problem, result):
 
 
 def _label(modes) -> None:
-    from ..axisymmetric.modes import label_all, number_out_of_plane
+    from .modes import label_all, number_out_of_plane
     number_out_of_plane(modes)
     label_all(modes)
 
 
 def _write_shapes(staging, state, coupled, shapes, pressures):
-    from ..output.revolved import write_revolved_air_vtus, write_revolved_mode_vtus
+    from .fields import write_revolved_air_vtus, write_revolved_mode_vtus
     return (write_revolved_mode_vtus(staging, state, shapes),
             write_revolved_air_vtus(staging, [coupled], shapes, pressures))
 

@@ -19,7 +19,10 @@ In the capacitance language of Sect. 3.2 the electrostatic energy is ``-V^2/2 C(
 ``C = int eps det_c / h0^2 dV0``, so ``f = V_b dC/du``: the reduced model's
 ``V_b V~ dC/dq`` (the factor 1, not the 2 that eq. 14 prints; :mod:`copdea_fem.reduced`).
 The disc on the spring gets ``lift . f`` (its share of the rim reaction; the spring does not
-depend on V).  Only the order m = 0 is forced by a uniform electrode.
+depend on V).  Only the order m = 0 is forced by a uniform electrode.  Each engine
+computes f and K_el (below) from its own energy: :mod:`copdea_fem.axisymmetric.forcing`
+(the order m = 0), :mod:`copdea_fem.quadrant.forced` (the even-even sector); this module
+holds what both share.
 
 Hysteretic loss (direct path)
 -----------------------------
@@ -86,27 +89,12 @@ structural damping the modal path then reproduces the direct one (tests).
 
 from __future__ import annotations
 
-import types
 from dataclasses import dataclass
 
-import ngsolve as ngs
 import numpy as np
 import scipy.sparse as sp
 
-from ..linearise import to_scipy
 from ..modes import AIR
-
-
-def _energy_form(state, space, voltage, axis_m1=False):
-    """Variation form of the order-0 membrane energy E(u0 + u; V) of the whole device."""
-    from ..axisymmetric.operators import membrane_forms
-    at_voltage = types.SimpleNamespace(material=state.material, displacement=state.displacement,
-                                       voltage=voltage, measure=state.measure)
-    trial, test = space.TnT()
-    energy, _ = membrane_forms(at_voltage, 0, trial, test, axis_m1)
-    form = ngs.BilinearForm(space, symmetric=False)
-    form += ngs.Variation(energy)
-    return form
 
 
 def reduce_vector(full: np.ndarray, free_dofs, lift=None) -> np.ndarray:
@@ -130,10 +118,6 @@ def reduce_matrix(full: sp.spmatrix, free_dofs, lift=None) -> sp.csr_matrix:
                     [sp.csr_matrix(column[free][None, :]), sp.csr_matrix([[corner]])]]).tocsr()
 
 
-def _order_lift(dry):
-    return dry.lift.vec.FV().NumPy().copy() if dry.disc_dof else None
-
-
 def reduce_vector_3d(full, operators):
     """:func:`reduce_vector` for :class:`copdea_fem.linearise.MembraneOperators`."""
     lift = operators.state.disc_lift.vec.FV().NumPy().copy() if operators.disc_dof else None
@@ -144,39 +128,6 @@ def reduce_matrix_3d(full, operators):
     """:func:`reduce_matrix` for :class:`copdea_fem.linearise.MembraneOperators`."""
     lift = operators.state.disc_lift.vec.FV().NumPy().copy() if operators.disc_dof else None
     return reduce_matrix(full, operators.free_dofs, lift)
-
-
-def voltage_forcing(state, dry) -> tuple[np.ndarray, float]:
-    """f = -dR/dV at (u0, V_b) on the order-0 unknowns [N/V] (module doc), and the relative
-    residual |R(u0; V_b)| / |R(u0; 0)| on the free DOFs (the prestress equilibrium check)."""
-    if dry.m != 0:
-        raise ValueError(f"order m = {dry.m} is not allowed for the voltage forcing; allowed: 0 "
-                         "(a uniform electrode excites only the axisymmetric order)")
-    voltage_b = float(state.voltage)
-    if voltage_b == 0:
-        raise ValueError("load.voltage = 0 is not allowed for a forced response; allowed: > 0 V "
-                         "(the linear forcing V_b dC/du vanishes; the response is quadratic in V~)")
-    voltage = ngs.Parameter(voltage_b)
-    form = _energy_form(state, dry.space, voltage, dry.axis_m1)
-    zero = ngs.GridFunction(dry.space).vec
-    residuals = []
-    for value in (voltage_b, 0.0):
-        voltage.Set(value)
-        out = zero.CreateVector()
-        form.Apply(zero, out)
-        residuals.append(np.array(out.FV().NumPy()) * 1.0)
-    at_bias, at_zero = residuals
-    force = -2.0 * (at_bias - at_zero) / voltage_b
-    free = dry.free_dofs
-    balance = np.linalg.norm(at_bias[free]) / max(np.linalg.norm(at_zero[free]), 1e-300)
-    return reduce_vector(force, dry.free_dofs, _order_lift(dry)), float(balance)
-
-
-def elastic_stiffness(state, dry) -> sp.csr_matrix:
-    """K_el [N/m]: Hessian of the order-0 energy at (u0, V = 0) on the unknowns (module doc)."""
-    form = _energy_form(state, dry.space, ngs.Parameter(0.0), dry.axis_m1)
-    form.AssembleLinearization(ngs.GridFunction(dry.space).vec)      # E(u0 + u) at u = 0
-    return reduce_matrix(to_scipy(form.mat), dry.free_dofs, _order_lift(dry))
 
 
 def damping_matrix(terms, omega: float) -> sp.csr_matrix:
@@ -206,13 +157,6 @@ class ForcedOrder:
     equilibrium_residual: float
     backend: str = "superlu"
     damping: object = None          # eigen.damped.DampingTerms on the scaled unknowns, or None
-
-    @classmethod
-    def build(cls, state, coupled, backend="superlu") -> "ForcedOrder":
-        """The m = 0 order of the axisymmetric engine."""
-        dry = coupled.membrane
-        force, balance = voltage_forcing(state, dry)
-        return cls.from_parts(coupled, force, elastic_stiffness(state, dry), balance, backend)
 
     @classmethod
     def from_parts(cls, coupled, force, k_el, balance, backend="superlu") -> "ForcedOrder":

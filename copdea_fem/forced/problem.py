@@ -1,7 +1,8 @@
 """The prestressed problem that ``copdea-fem response`` drives (either engine).
 
-Kept apart from :mod:`.run` so that the engines' builders (:mod:`.quadrant`,
-:mod:`.meridian`) and the pipeline (:mod:`.run`) share it without importing each other.
+Below the engines, so that the engines' builders (:mod:`copdea_fem.quadrant.forced`,
+:mod:`copdea_fem.axisymmetric.forced`) and the pipeline above them
+(:mod:`copdea_fem.response.run`) share it without an import running back up.
 """
 
 from __future__ import annotations
@@ -13,10 +14,11 @@ from typing import Callable
 @dataclass(frozen=True)
 class DrivenSector:
     """What the response needs to know of the part of the problem that the voltage drives:
-    the order m = 0 (axisymmetric engine, :mod:`.meridian`) or the even-even symmetry
-    sector (3-D engine, :mod:`.quadrant`).  Built by the engine with its forced problem
-    (:meth:`copdea_fem.engines.Engine.forced_problem`), so that :mod:`.run` and
-    :mod:`.files` never test the engine's name."""
+    the order m = 0 (axisymmetric engine, :mod:`copdea_fem.axisymmetric.forced`) or the
+    even-even symmetry sector (3-D engine, :mod:`copdea_fem.quadrant.forced`).  Built by the
+    engine with its forced problem (:meth:`copdea_fem.engines.Engine.forced_problem`), so
+    that :mod:`copdea_fem.response.run` and :mod:`copdea_fem.response.files` never test the
+    engine's name."""
 
     name: str                       # progress: "coupled modes of the <name>"
     excited: str                    # response.json "excited"

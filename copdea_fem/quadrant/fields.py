@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .merge import PointMerge, _AirHalves, _jump_vertices, _unfold_cells, _unfold_values
-from .vtu import VtuMesh, _safe, _write_all, membrane_mesh
+from ..paraview.merge import PointMerge, _AirHalves, _jump_vertices, _unfold_cells, _unfold_values
+from ..paraview.vtu import VtuMesh, _safe, _write_all, membrane_mesh
 
 
 class MembraneSampler:
@@ -187,7 +187,7 @@ class QuadrantOutput:
         return self._sampler
 
     def prestress_mesh(self):
-        """The :class:`~copdea_fem.output.vtu.VtuMesh` of prestress.vtu (the prestress
+        """The :class:`~copdea_fem.paraview.vtu.VtuMesh` of prestress.vtu (the prestress
         fields, deformed)."""
         return membrane_mesh(self.sampler, self.state.fields(), self.state.displacement)
 

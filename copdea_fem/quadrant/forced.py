@@ -3,7 +3,7 @@ r"""The forced response on the 3-D quadrant engine (any frame, the square one in
 A uniform electrode drives a field that is even about x = 0 and y = 0, so only the
 even-even sector of the quadrant (:mod:`copdea_fem.symmetry`) responds; its pencil is
 :meth:`copdea_fem.coupled.CoupledAssembly.restrict` of that sector.  Forcing and loss are
-those of :mod:`.harmonic` (the derivation there), from the 3-D energy of
+those of :mod:`copdea_fem.forced.harmonic` (the derivation there), from the 3-D energy of
 :func:`copdea_fem.membrane.energy_density` on the quadrant's membrane:
 ``f = -2 (R(u0; V_b) - R(u0; 0)) / V_b`` reduced to the sector's free DOFs (and
 ``lift . f`` for the disc on the spring), ``K_el`` the Hessian at ``(u0, V = 0)``.
@@ -12,7 +12,7 @@ Observation: the vibrometer's points at projected radius ``r`` and polar angles
 ``OBSERVATION_ANGLES`` in the quadrant (the square frame makes the response depend slightly
 on the angle; the average spectrum averages |v| over radii and angles); the reference point
 of ``(r cos phi, r sin phi)`` is found on the prestressed profile along that ray.  Sound:
-Kirchhoff-Helmholtz over the sphere 0.85 R as in :mod:`.radiation`, here with 3-D surface
+Kirchhoff-Helmholtz over the sphere 0.85 R as in :mod:`copdea_fem.forced.radiation`, here with 3-D surface
 quadrature (Gauss in the polar angle, trapezoidal in the azimuth), the quadrant's field
 unfolded by the even-even parity ``p(x, y, z) = p(|x|, |y|, z)``.
 """
@@ -25,9 +25,9 @@ import time
 import ngsolve as ngs
 import numpy as np
 
-from .harmonic import ForcedOrder, reduce_matrix_3d, reduce_vector_3d
-from .problem import DrivenSector, OrderZero
-from .radiation import AZIMUTH_POINTS, POLAR_POINTS
+from ..forced.harmonic import ForcedOrder, reduce_matrix_3d, reduce_vector_3d
+from ..forced.problem import DrivenSector, OrderZero
+from ..forced.radiation import AZIMUTH_POINTS, POLAR_POINTS
 
 #: Polar angles of the observation points in the quadrant [rad].
 OBSERVATION_ANGLES = np.radians([11.25, 33.75, 56.25, 78.75])
@@ -222,7 +222,7 @@ def _label(modes) -> None:
 
 
 def _write_shapes(staging, state, coupled, shapes, pressures):
-    from ..output.quadrant import MembraneSampler, write_air_vtus, write_mode_vtus
+    from .fields import MembraneSampler, write_air_vtus, write_mode_vtus
     return (write_mode_vtus(staging, state, shapes, MembraneSampler(state.mesh)),
             write_air_vtus(staging, [coupled], shapes, pressures))
 
