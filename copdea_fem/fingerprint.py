@@ -25,7 +25,7 @@ MESH_SOURCES = ("geometry.py", "airbox.py")
 #: the resolved study, which every key already hashes.
 FE_SOURCES = ("materials.py", "membrane.py", "prestress.py", "linearise.py", "coupled.py",
               "acoustics.py", "ale.py", "airbox.py", "geometry.py", "symmetry.py", "modes.py",
-              "bands.py", "engine3d.py", "eigen", "axisymmetric")
+              "bands.py", "engine3d.py", "eigen", "axisymmetric", "assignment.py")
 
 #: The reduced (ring) model of the sweeps and the diagnosis.
 REDUCED_SOURCES = ("materials.py", "reduced")
