@@ -10,9 +10,6 @@ stays light (NGSolve, pyvista and pandas load on first use)::
     sol = cf.solve(cf.load_study("studies/g1_z16_v2_quick.yaml"))
 """
 
-import sys as _sys
-import types as _types
-
 __version__ = "0.1.0"
 
 #: Names of :mod:`copdea_fem.api` exported here, imported on first access.
@@ -24,37 +21,15 @@ __all__ = list(_API)
 
 #: API functions named like a submodule: ``copdea_fem.solve`` is the module
 #: :mod:`copdea_fem.solve` (so ``copdea_fem.solve.run_solve`` and ``import
-#: copdea_fem.solve`` keep working) and, called, the function :func:`copdea_fem.api.solve`.
+#: copdea_fem.solve`` keep working) and, called, the function :func:`copdea_fem.api.solve`
+#: (each of these modules makes itself callable: :mod:`copdea_fem.command_module`).
 _COMMAND_MODULES = ("solve", "response", "sweep", "diagnose")
-
-
-class _CommandModule(_types.ModuleType):
-    """A submodule that is also the API function of its name (:data:`_COMMAND_MODULES`)."""
-
-    def __call__(self, *args, **kwargs):
-        from . import api
-        return getattr(api, self.__name__.rpartition(".")[2])(*args, **kwargs)
-
-
-class _Package(_types.ModuleType):
-    """The package: its command submodules become callable when they are looked up."""
-
-    def __getattribute__(self, name):
-        value = super().__getattribute__(name)
-        if name in _COMMAND_MODULES and type(value) is _types.ModuleType:
-            value.__class__ = _CommandModule
-        return value
-
-
-_sys.modules[__name__].__class__ = _Package
 
 
 def __getattr__(name):
     if name in _COMMAND_MODULES:
         import importlib
-        module = importlib.import_module(f"{__name__}.{name}")
-        module.__class__ = _CommandModule
-        return module
+        return importlib.import_module(f"{__name__}.{name}")
     if name in _API:
         from . import api
         return getattr(api, name)

@@ -171,6 +171,19 @@ def test_command_names_are_callable_and_still_modules():
     assert copdea_fem.solve is cf.solve
 
 
+def test_command_modules_are_callable_however_imported():
+    """Each command module makes itself callable (copdea_fem.command_module): imported
+    directly, from a sibling, or through the package; the package is a plain module."""
+    code = ("import types, copdea_fem.response.run, copdea_fem.sweep.store\n"
+            "from copdea_fem.solve import run_solve\n"
+            "import copdea_fem as cf\n"
+            "print(type(cf) is types.ModuleType, [type(getattr(cf, name)).__name__ for name "
+            "in ('solve', 'response', 'sweep', 'diagnose')])\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, cwd=ROOT).stdout.strip()
+    assert out == "True ['CommandModule', 'CommandModule', 'CommandModule', 'CommandModule']"
+
+
 def test_import_stays_light():
     code = ("import sys, copdea_fem as cf; cf.load_study; "
             "print(sorted(m for m in ('ngsolve', 'pyvista', 'pandas', 'matplotlib', 'scipy') "
