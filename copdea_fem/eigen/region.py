@@ -10,6 +10,7 @@ region's cells inside certified discs is the progress of a band solve
 from __future__ import annotations
 
 import math
+import threading
 
 import numpy as np
 
@@ -17,6 +18,7 @@ from .spectrum import TWO_PI, format_hz, format_radius
 
 #: :meth:`BandRegion.first_shift` of the last regions asked (cells -> shift)
 _FIRST_SHIFTS: dict = {}
+_FIRST_SHIFTS_LOCK = threading.Lock()
 
 
 class BandRegion:
@@ -95,14 +97,17 @@ class BandRegion:
         """Real shift nearest the farthest point of the region (Chebyshev centre on the axis).
 
         The ternary search takes ~6 ms; the orders of the axisymmetric engine ask it of
-        the same band 2 x 17 times in one solve, so the answer is kept per region
+        two regions 33 times in one solve, so the answer is kept per region
         (:data:`_FIRST_SHIFTS`, keyed by the cells it reads: the same number)."""
         key = (self.centres.tobytes(), self.slack.tobytes(), self.real_extent, self.scale)
-        if key not in _FIRST_SHIFTS:
-            if len(_FIRST_SHIFTS) >= 16:
-                _FIRST_SHIFTS.pop(next(iter(_FIRST_SHIFTS)))
-            _FIRST_SHIFTS[key] = self._first_shift()
-        return _FIRST_SHIFTS[key]
+        shift = _FIRST_SHIFTS.get(key)
+        if shift is None:
+            shift = self._first_shift()
+            with _FIRST_SHIFTS_LOCK:          # sectors may run in threads
+                if len(_FIRST_SHIFTS) >= 16:
+                    _FIRST_SHIFTS.clear()
+                _FIRST_SHIFTS[key] = shift
+        return shift
 
     def _first_shift(self) -> float:
         lo, hi = self.real_extent
