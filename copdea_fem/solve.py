@@ -149,9 +149,3 @@ def run_force(study: Study, z_values, voltages, out_dir: str | Path | None = Non
     if out_dir is not None:
         output.write_force_results(study, Path(out_dir), z_values, voltages, forces)
     return forces
-
-
-# ``copdea_fem.solve(...)`` calls the API function of that name (copdea_fem.command_module)
-from .command_module import make_callable  # noqa: E402
-
-make_callable(__name__)

@@ -169,9 +169,3 @@ def run_synth(study, effects_text, conditions_text=None, parameters=None, option
 __all__ = ["CATALOGUE", "EFFECT_IDS", "Effect", "Parameter", "catalogue_table",
            "MeasuredDataError", "MeasuredSet", "load_measured", "Diagnoser", "DiagnosisResult",
            "run_diagnose", "run_synth", "diagnose_out_dir", "synth_out_dir"]
-
-
-# ``copdea_fem.diagnose(...)`` calls the API function of that name (copdea_fem.command_module)
-from ..command_module import make_callable  # noqa: E402
-
-make_callable(__name__)

@@ -8,9 +8,3 @@
 - :mod:`.quadrant`: the same on the 3-D quadrant engine (the even-even symmetry sector).
 - :mod:`.run`: the ``copdea-fem response`` pipeline; :mod:`.files`: its result files.
 """
-
-
-# ``copdea_fem.response(...)`` calls the API function of that name (copdea_fem.command_module)
-from ..command_module import make_callable  # noqa: E402
-
-make_callable(__name__)

@@ -104,9 +104,3 @@ __all__ = ["Axis", "ExecutionSettings", "MODEL_CLASSES", "PointResult", "PointSt
            "ReuseSettings", "Sweep", "SweepError", "SweepOutcome", "SweepPoint",
            "check_chain_length", "finish_sweep", "format_summary", "load_sweep", "parse_reuse",
            "parse_sweep", "plot_sweep", "read_table", "run_sweep", "shift_plan", "solve_point"]
-
-
-# ``copdea_fem.sweep(...)`` calls the API function of that name (copdea_fem.command_module)
-from ..command_module import make_callable  # noqa: E402
-
-make_callable(__name__)
