@@ -37,13 +37,19 @@ class _CommandModule(_types.ModuleType):
 
 
 class _Package(_types.ModuleType):
-    """The package: its command submodules become callable when they are looked up."""
+    """The package: a command submodule becomes callable when it is bound to the package.
 
-    def __getattribute__(self, name):
-        value = super().__getattribute__(name)
+    The import system binds every imported submodule to its parent with ``setattr`` (once,
+    however it was imported: ``import copdea_fem.solve``, a sibling's ``from .solve import
+    ...``, or :func:`__getattr__` below), so the class is set there, once; attribute reads
+    of the package are not intercepted.  The knowledge stays here, at the top: a command
+    module that made itself callable would reference the API from below (an import circle,
+    ``tests/test_imports.py``)."""
+
+    def __setattr__(self, name, value):
         if name in _COMMAND_MODULES and type(value) is _types.ModuleType:
             value.__class__ = _CommandModule
-        return value
+        super().__setattr__(name, value)
 
 
 _sys.modules[__name__].__class__ = _Package
@@ -52,9 +58,7 @@ _sys.modules[__name__].__class__ = _Package
 def __getattr__(name):
     if name in _COMMAND_MODULES:
         import importlib
-        module = importlib.import_module(f"{__name__}.{name}")
-        module.__class__ = _CommandModule
-        return module
+        return importlib.import_module(f"{__name__}.{name}")
     if name in _API:
         from . import api
         return getattr(api, name)

@@ -38,6 +38,10 @@ studies/g1_z16_v2.yaml --set geometry.frame=baffle --out DIR``, each repetition 
 without them (``bare``: ``--set output.paraview=false --set output.plots=false``), one after
 the other; wall and CPU seconds (user + system of the child) per run, medians, against the
 targets (``files`` <= 2 s, ``bare`` <= the FreeFEM peer's whole process, 1.07 s).
+``command-peer``: the same two variants on the FreeFEM peer's own case (flat G1 in a baffle,
+``studies/g1_z00_v2.yaml`` at 0 V, every coupled mode below 400 Hz: (0,1) at 350.02 Hz,
+zeta 2.00e-2; the peer solves the (0,1) alone in 1.07 s as a whole process) -- a smaller
+problem than ``command`` (6 orders against 17, 3 modes against 48).
 ``--baseline PATH`` runs another checkout (e.g. ``/work/main``, by ``PYTHONPATH``) interleaved
 with this one and reports the ratios this / baseline (median of the pairwise ratios): on a
 shared machine the CPU ratios carry the comparison.
@@ -59,6 +63,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 G1_Z16 = ROOT / "studies" / "g1_z16_v2.yaml"
+G1_Z00 = ROOT / "studies" / "g1_z00_v2.yaml"
 DRUM = ROOT / "studies" / "drum_mylar_650mm.yaml"
 #: one Prony term of the damped benchmarks (issue 23)
 PRONY = "membrane.prony=[{modulus_ratio: 0.5, relaxation_time: 1 ms}]"
@@ -191,17 +196,23 @@ def _once_response(study) -> dict:
 PEER_PROCESS_S = 1.07
 COMMAND_TARGETS_S = {"files": 2.0, "bare": PEER_PROCESS_S}
 COMMAND_VARIANTS = {"files": [], "bare": ["output.paraview=false", "output.plots=false"]}
+#: the command cases: study file and overrides (issue 25)
+COMMAND_CASES = {"command": (G1_Z16, ["geometry.frame=baffle"]),
+                 "command-peer": (G1_Z00, ["geometry.frame=baffle", "load.voltage=0 V",
+                                           "eigen.f_max=400 Hz"])}
 
 
-def _command_once(variant: str, overrides: list[str], checkout: Path) -> dict:
-    """One fresh ``python -m copdea_fem.cli solve`` of the baffled G1 command from ``checkout``:
-    wall and CPU (user + system) seconds of the child process."""
+def _command_once(variant: str, overrides: list[str], checkout: Path,
+                  case: str = "command") -> dict:
+    """One fresh ``python -m copdea_fem.cli solve`` of the baffled G1 command (``case``: a
+    key of :data:`COMMAND_CASES`) from ``checkout``: wall and CPU (user + system) seconds
+    of the child process."""
     import os
     import tempfile
 
-    command = [sys.executable, "-m", "copdea_fem.cli", "solve", str(G1_Z16),
-               "--set", "geometry.frame=baffle"]
-    for item in COMMAND_VARIANTS[variant] + overrides:
+    study, fixed = COMMAND_CASES[case]
+    command = [sys.executable, "-m", "copdea_fem.cli", "solve", str(study)]
+    for item in fixed + COMMAND_VARIANTS[variant] + overrides:
         command += ["--set", item]
     environment = dict(os.environ, PYTHONPATH=str(checkout))
     with tempfile.TemporaryDirectory() as directory:
@@ -215,8 +226,10 @@ def _command_once(variant: str, overrides: list[str], checkout: Path) -> dict:
     return {"wall_s": wall, "cpu_s": cpu}
 
 
-def run_command(repeat: int, overrides: list[str], baseline: str | None) -> dict:
-    """The ``command`` benchmark: both variants, this checkout (and ``baseline``) interleaved."""
+def run_command(repeat: int, overrides: list[str], baseline: str | None,
+                case: str = "command") -> dict:
+    """The ``command`` benchmark (or ``command-peer``): both variants, this checkout (and
+    ``baseline``) interleaved."""
     checkouts = {"this": ROOT}
     if baseline:
         checkouts["baseline"] = Path(baseline).resolve()
@@ -224,11 +237,11 @@ def run_command(repeat: int, overrides: list[str], baseline: str | None) -> dict
     for k in range(repeat):
         for variant in COMMAND_VARIANTS:
             for name, checkout in checkouts.items():
-                runs[name, variant].append(_command_once(variant, overrides, checkout))
+                runs[name, variant].append(_command_once(variant, overrides, checkout, case))
                 print(f"run {k + 1}/{repeat} {name} {variant}: "
                       f"{runs[name, variant][-1]['wall_s']:.2f} s wall, "
                       f"{runs[name, variant][-1]['cpu_s']:.2f} s CPU", file=sys.stderr)
-    report = {"peer_process_s": PEER_PROCESS_S, "targets_s": COMMAND_TARGETS_S,
+    report = {"case": case, "peer_process_s": PEER_PROCESS_S, "targets_s": COMMAND_TARGETS_S,
               "repeat": repeat}
     for (name, variant), values in runs.items():
         report.setdefault(name, {})[variant] = {
@@ -294,18 +307,19 @@ def _summary(runs: list[dict], repeat: int) -> dict:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m copdea_fem.bench")
-    parser.add_argument("case", choices=sorted(CASES) + sorted(PAIRS) + ["command"])
+    parser.add_argument("case", choices=sorted(CASES) + sorted(PAIRS) + sorted(COMMAND_CASES))
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE")
     parser.add_argument("--baseline", metavar="PATH",
-                        help="command: another checkout run interleaved (ratios to it)")
+                        help="command, command-peer: another checkout run interleaved "
+                        "(ratios to it)")
     parser.add_argument("--once", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.once:
         print(json.dumps(_once(args.case, args.set)))
         return 0
-    if args.case == "command":
-        report = run_command(args.repeat, args.set, args.baseline)
+    if args.case in COMMAND_CASES:
+        report = run_command(args.repeat, args.set, args.baseline, args.case)
     else:
         report = (run_pair if args.case in PAIRS else run)(args.case, args.repeat, args.set)
     print(json.dumps(report, indent=1))

@@ -41,7 +41,8 @@ def _modules_of(folder: str, left_out: tuple[str, ...]) -> tuple[str, ...]:
 #: study, which every key already hashes.
 FE_SOURCES = ("materials.py", "membrane.py", "prestress.py", "linearise.py", "coupled.py",
               "acoustics.py", "ale.py", "airbox.py", "geometry.py", "symmetry.py", "modes.py",
-              "bands.py", "engine3d.py", "eigen") + _modules_of("axisymmetric", NOT_FE_SOURCES)
+              "bands.py", "engine3d.py", "eigen", "assignment.py") \
+    + _modules_of("axisymmetric", NOT_FE_SOURCES)
 
 #: The reduced (ring) model of the sweeps and the diagnosis.
 REDUCED_SOURCES = ("materials.py", "reduced")

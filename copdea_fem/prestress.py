@@ -91,6 +91,10 @@ class MembraneSolver:
     previous equilibrium.
     """
 
+    #: NGSolve's factorisation of the Newton tangent: a sparse Cholesky (the tangent is
+    #: SPD at a stable state; an indefinite one is caught by the descent test)
+    inverse_kind = "sparsecholesky"
+
     def __init__(self, mesh, material: Membrane, order: int, outer_radius: float,
                  inner_radius: float, settings: dict, curve_order: int = 1):
         self.mesh, self.material, self.settings = mesh, material, settings
@@ -173,7 +177,7 @@ class MembraneSolver:
     def _newton(self) -> int:
         """Newton with an energy line search; returns iterations or raises _StepFailed."""
         settings = self.settings
-        inverse_kind = "sparsecholesky"  # the tangent is SPD at a stable state
+        inverse_kind = self.inverse_kind
         for iteration in range(1, settings["max_newton_iter"] + 1):
             free_norm, reaction_norm = self._assemble_residual()
             if not math.isfinite(free_norm):

@@ -639,15 +639,25 @@ def dump_resolved(study: Study, path: str | Path) -> None:
 
 
 def package_versions() -> dict[str, str]:
-    from importlib import metadata
-    import platform
-    versions = {"python": platform.python_version()}
-    for package in ("copdea-fem", "ngsolve", "numpy", "scipy", "meshio", "pyvista", "pint"):
-        try:
-            versions[package] = metadata.version(package)
-        except metadata.PackageNotFoundError:
-            versions[package] = "not installed"
-    return versions
+    """Python's and the packages' versions (a new dict each call; looked up once per
+    process: the installed metadata are searched on ``sys.path``, ~35 ms a time, and both
+    ``study.resolved.yaml`` and ``modes.json`` carry them)."""
+    global _VERSIONS
+    if _VERSIONS is None:
+        from importlib import metadata
+        import platform
+        versions = {"python": platform.python_version()}
+        for package in ("copdea-fem", "ngsolve", "numpy", "scipy", "meshio", "pyvista",
+                        "pint"):
+            try:
+                versions[package] = metadata.version(package)
+            except metadata.PackageNotFoundError:
+                versions[package] = "not installed"
+        _VERSIONS = versions
+    return dict(_VERSIONS)
+
+
+_VERSIONS: dict[str, str] | None = None
 
 
 def reference_table() -> str:

@@ -171,6 +171,23 @@ def test_command_names_are_callable_and_still_modules():
     assert copdea_fem.solve is cf.solve
 
 
+def test_command_modules_are_callable_however_imported():
+    """The command modules are callable however they were imported (directly, from a
+    sibling, or through the package), and the package does not intercept its attribute
+    reads (the class is set once, when the import system binds the submodule)."""
+    code = ("import sys, types, copdea_fem.response.run, copdea_fem.sweep.store\n"
+            "from copdea_fem.solve import run_solve\n"
+            "print(all(callable(sys.modules[f'copdea_fem.{name}']) for name in "
+            "('solve', 'response', 'sweep')))\n"
+            "import copdea_fem as cf\n"
+            "print(type(cf).__getattribute__ is types.ModuleType.__getattribute__, "
+            "[callable(getattr(cf, name)) for name in "
+            "('solve', 'response', 'sweep', 'diagnose')])\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, cwd=ROOT).stdout.strip()
+    assert out.splitlines() == ["True", "True [True, True, True, True]"]
+
+
 def test_import_stays_light():
     code = ("import sys, copdea_fem as cf; cf.load_study; "
             "print(sorted(m for m in ('ngsolve', 'pyvista', 'pandas', 'matplotlib', 'scipy') "

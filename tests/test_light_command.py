@@ -47,3 +47,29 @@ def test_vtumesh_writes_the_bytes_of_the_meshio_mesh(tmp_path):
     back = ours.to_meshio()
     np.testing.assert_array_equal(back.cells[0].data, cells)
     np.testing.assert_array_equal(back.point_data["p"], point_data["p"])
+
+
+def test_first_shift_is_computed_once_per_region(monkeypatch):
+    """BandRegion.first_shift is kept per region (the 33 band solves of the G1 command ask
+    it of two regions): the same number as the search, and the search runs once."""
+    from copdea_fem.eigen import region as region_module
+
+    monkeypatch.setattr(region_module, "_FIRST_SHIFTS", {})
+    calls = []
+    search = region_module.BandRegion._first_shift
+    monkeypatch.setattr(region_module.BandRegion, "_first_shift",
+                        lambda self: calls.append(1) or search(self))
+    first = region_module.BandRegion(0.0, 1000.0, 50.0, 10.0, hermitian=False)
+    again = region_module.BandRegion(0.0, 1000.0, 50.0, 10.0, hermitian=False)
+    other = region_module.BandRegion(0.0, 1500.0, 0.0, 10.0, hermitian=True)
+    assert first.first_shift() == again.first_shift() == search(first)
+    assert other.first_shift() == search(other) != first.first_shift()
+    assert len(calls) == 2
+
+
+def test_package_versions_are_a_new_dict_each_call():
+    from copdea_fem.study import package_versions
+
+    versions = package_versions()
+    versions["numpy"] = "changed"
+    assert package_versions()["numpy"] == np.__version__

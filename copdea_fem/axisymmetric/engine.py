@@ -20,8 +20,8 @@ import contextlib
 import logging
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
+from ..assignment import max_weight_assignment
 from ..bands import BandSolver, OrderStop, coupled_start_modes, lowest_frequency_hz
 from ..eigen import SectorBandResults
 from ..modes import AIR, OUT_OF_PLANE, mac, match_dry, membrane_energy_fractions
@@ -126,7 +126,7 @@ def number_from_dry(modes, dry_modes, mass) -> None:
     if not wet or not dry:
         return
     macs = np.array([[mac(w.vector, d.vector, mass) for d in dry] for w in wet])
-    rows, columns = linear_sum_assignment(-macs)
+    rows, columns = max_weight_assignment(macs)
     for row, column in zip(rows, columns):
         wet[row].n = dry[column].n
 

@@ -81,7 +81,14 @@ class OrderSampler:
 
 
 def normal_mass_matrix(operators) -> object:
-    """M_n of the order (SciPy, on the order space's DOFs) [kg]."""
+    """M_n of the order (SciPy, on the order space's DOFs) [kg]; assembled once per
+    ``operators`` (the dry and the coupled modes of an order are classified on the same)."""
+    if operators.normal_mass is None:
+        operators.normal_mass = _normal_mass_matrix(operators)
+    return operators.normal_mass
+
+
+def _normal_mass_matrix(operators) -> object:
     state, m = operators.state, operators.m
     trial, test = operators.space.TnT()
     normal = axisymmetric_fields(state.displacement, state.material, state.voltage)["normal"]

@@ -32,7 +32,7 @@ axis r = 0 the pressure of an order m >= 1 vanishes.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import ngsolve as ngs
 import numpy as np
@@ -62,6 +62,8 @@ class OrderOperators:
     state: object
     mass_full: sp.csr_matrix = None       # M_s on all DOFs of ``space`` (for MAC) [kg]
     disc_mass: float = 0.0                # lumped M_d + M_s/3 of the disc unknown [kg]
+    #: M_n on all DOFs of ``space`` [kg], set by :func:`.modes.normal_mass_matrix` on first use
+    normal_mass: sp.csr_matrix = field(default=None, repr=False, compare=False)
 
     @property
     def size(self) -> int:

@@ -79,6 +79,12 @@ def axisymmetric_fields(u, material: Membrane, voltage: float) -> dict:
 class AxisymmetricMembraneSolver(MembraneSolver):
     """:class:`MembraneSolver` on the membrane line of a meridian mesh."""
 
+    #: the line's tangent has tens of unknowns (38 for G1 at order 3): NGSolve's sparse
+    #: Cholesky costs ~20 ms of CPU per factorisation whatever the size (its set-up), UMFPACK
+    #: ~0.1 ms -- 16 Newton iterations of the baffled G1 command, 0.35 s of CPU (issue 25).
+    #: On the 3-D membrane (thousands of unknowns) the Cholesky is the faster one.
+    inverse_kind = "umfpack"
+
     def _discretise(self, order: int, curve_order: int):
         """(u_r, u_z) on the membrane line; energy 2 pi int W(G0) R dR (.membrane)."""
         space = _membrane_line_space(self.mesh, order, self.has_disc)
