@@ -129,7 +129,11 @@ class ReducedBasis:
             matrices = sum(np.array([c(w) for w in omega], complex)[:, None, None]
                            * block[None] for block, c in self.projected)
             rhs = np.broadcast_to(self.forcing[:, None], (omega.size, self.size, 1))
-            out[chunk:chunk + 64] = np.linalg.solve(matrices, rhs)[..., 0]
+            try:
+                out[chunk:chunk + 64] = np.linalg.solve(matrices, rhs)[..., 0]
+            except np.linalg.LinAlgError:      # a reduced pole on a line: least squares
+                out[chunk:chunk + 64] = [np.linalg.lstsq(m, self.forcing, rcond=None)[0]
+                                         for m in matrices]
         return out
 
     def summary(self) -> dict:
