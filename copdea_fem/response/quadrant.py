@@ -234,4 +234,5 @@ QUADRANT_SECTOR = DrivenSector(
     name="even-even sector", excited="even-even symmetry sector",
     summary="3-D, even-even sector", classify=_classify, label=_label,
     observer=QuadrantObserver, angles=len(OBSERVATION_ANGLES), sphere=QuadrantSphere,
-    shape_sector=lambda operators: operators.sector, write_shapes=_write_shapes)
+    shape_sector=lambda operators: operators.sector, write_shapes=_write_shapes,
+    default_method="reduced")      # its modal band costs minutes (issue 23)

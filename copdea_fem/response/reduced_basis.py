@@ -70,7 +70,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg
-import scipy.sparse as sp
 
 from ..eigen.damped import DampingTerms, LinearisedPencil, ShiftedLinearisation
 

@@ -113,11 +113,11 @@ def modal_solution(problem: OrderZero, f_end: float):
 
 
 def resolved_method(problem: OrderZero) -> str:
-    """``response.method``, with ``auto`` resolved: ``reduced`` on the 3-D engine (its modal
-    band costs minutes), ``modal`` on the axisymmetric one."""
+    """``response.method``, with ``auto`` resolved by the driven sector: ``reduced`` on the
+    3-D engine (its modal band costs minutes), ``modal`` on the axisymmetric one."""
     method = problem.study["response"]["method"]
     if method == "auto":
-        return "reduced" if problem.engine == "3d" else "modal"
+        return problem.sector.default_method if problem.sector is not None else "modal"
     return method
 
 
