@@ -21,6 +21,12 @@ disc on the spring, baffle (``studies/g1_z16_v2_response.yaml``), 800 chirp line
 m = 0 pencil, the modal solve, then the 800-line velocity spectra + SPL (``after_modal``), and
 the direct path per frequency (``direct_per_line``, mean of 10 lines across the band);
 ``response-3d`` the same on the 3-D quadrant (its even-even sector).
+``response-reduced`` (issue 23): ``copdea-fem response studies/g1_z16_v2.yaml`` (square frame,
+3-D quadrant, 800 lines; ``response.method: auto`` = the reduced basis there) as a user runs it,
+a fresh ``python -m copdea_fem.cli`` process with its files (``command_wall``, target 30 s),
+then in process the reduced path's spectra against the direct path at its peaks and 8 lines
+spread over the band: largest relative error of the average and point velocity spectra and
+of the complex pressure at the microphones (target 0.5 %), and the largest SPL difference.
 ``drum``: the 0.65 m Mylar drum head of ``studies/drum_mylar_650mm.yaml`` (50-450 Hz,
 baffle, in air) on the axisymmetric engine; ``drum-3d`` the same on the 3-D quadrant
 (``mesh.engine: 3d``, issue 14's benchmark): its four sectors of ~47k unknowns hold many
@@ -83,6 +89,8 @@ CASES = {
                                     PRONY]),
     "response": (ROOT / "studies" / "g1_z16_v2_response.yaml", []),
     "response-3d": (ROOT / "studies" / "g1_z16_v2_response.yaml", ["mesh.engine=3d"]),
+    # issue 23: the square-frame command on the 3-D quadrant, reduced basis against direct
+    "response-reduced": (G1_Z16, []),
 }
 #: benchmarks that run two cases interleaved and report the ratio of their medians
 PAIRS = {"engines": ("axisymmetric", "axisymmetric-3d"),
@@ -97,6 +105,8 @@ def _once(case: str, overrides: list[str]) -> dict:
 
     path, fixed = CASES[case]
     study = load_study(path, overrides=parse_overrides(fixed + overrides))
+    if case == "response-reduced":
+        return _once_response_reduced(study, fixed + overrides)
     if case.startswith("response"):
         return _once_response(study)
     if not case.startswith("dry"):
@@ -189,6 +199,70 @@ def _once_response(study) -> dict:
     return {"seconds": seconds, "engine": problem.engine, "unknowns": int(problem.forced.size),
             "lines": int(result.frequency_hz.size), "modes_used": len(result.modes),
             "peaks_hz": result.peaks_hz,
+            "peak_memory_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
+
+
+def _once_response_reduced(study, overrides) -> dict:
+    """The ``response-reduced`` case (module doc)."""
+    import dataclasses
+    import os
+    import tempfile
+
+    import numpy as np
+
+    from .pipeline import single_threaded_blas
+    from .response.run import forced_response, prepare_order_zero, resolved_method
+
+    command = [sys.executable, "-m", "copdea_fem.cli", "response", str(CASES[
+        "response-reduced"][0])]
+    for item in overrides:
+        command += ["--set", item]
+    with tempfile.TemporaryDirectory() as directory:
+        started = time.perf_counter()
+        subprocess.run(command + ["--out", str(Path(directory) / "out")], cwd=directory,
+                       env=dict(os.environ, PYTHONPATH=str(ROOT)), check=True,
+                       capture_output=True)
+        command_wall = time.perf_counter() - started
+        document = json.loads((Path(directory) / "out" / "response.json").read_text())
+    start = time.perf_counter()
+    problem = prepare_order_zero(study)
+    prepared = time.perf_counter()
+    result = forced_response(problem)
+    done = time.perf_counter()
+    picks = sorted({int(np.argmin(abs(result.frequency_hz - f))) for f in result.peaks_hz}
+                   | set(np.linspace(0, result.frequency_hz.size - 1, 8).astype(int).tolist()))
+    picks = np.array(picks)
+    direct_problem = dataclasses.replace(problem, study=study.replace(
+        {"response.method": "direct"}))
+    from .reduced.response import Chirp
+    _, volts = Chirp.from_study(study).lines()
+    direct_start = time.perf_counter()
+    with single_threaded_blas():
+        direct = forced_response(direct_problem, result.frequency_hz[picks], volts[picks])
+    per_line = (time.perf_counter() - direct_start) / picks.size
+
+    def worst(a, b):
+        return float(np.max(np.abs(np.asarray(a) - np.asarray(b)) / np.abs(np.asarray(b))))
+    errors = {"average_axial": worst(result.average_axial[picks], direct.average_axial),
+              "average_radial": worst(result.average_radial[picks], direct.average_radial),
+              "point_axial": worst(result.point_axial[picks], direct.point_axial),
+              "point_radial": worst(result.point_radial[picks], direct.point_radial),
+              "pressure": worst(result.pressure[picks], direct.pressure)}
+    seconds = {"command_wall": command_wall, "prepare": prepared - start,
+               "reduced_solve": result.timings["solve"],
+               "after_solve": result.timings["velocity"] + result.timings["sound"],
+               "response_total": done - prepared, "direct_per_line": per_line,
+               "total": done - start}
+    basis = result.basis.summary() if result.basis is not None else {}
+    return {"seconds": seconds, "engine": problem.engine, "method": resolved_method(problem),
+            "command_timings_s": document["timings_s"], "unknowns": int(problem.forced.size),
+            "lines": int(result.frequency_hz.size), "checked_hz": result.frequency_hz[
+                picks].tolist(), "max_relative_error": errors,
+            "max_relative_error_all": max(errors.values()),
+            "max_spl_difference_db": float(np.max(np.abs(result.spl_db[picks]
+                                                         - direct.spl_db))),
+            "reduced_basis": basis, "peaks_hz": result.peaks_hz,
+            "targets": {"command_wall_s": 30.0, "max_relative_error": 0.005},
             "peak_memory_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
 
 

@@ -278,10 +278,16 @@ SCHEMA["excitation"] = {
 
 # Forced harmonic response of the coupled FE and its sound (issue 15, copdea_fem.response).
 SCHEMA["response"] = {
-    "method": Key(None, "modal", "modal = superposition of the coupled m = 0 modes with the "
+    "method": Key(None, "auto", "auto = reduced on the 3-D engine, modal on the axisymmetric "
+                  "one; modal = superposition of the coupled m = 0 modes with the "
                   "paper's modal damping reduced.damping_* and a residual correction; direct = "
-                  "one sparse solve per line with membrane.loss_factor (no modal b/m)", kind=str,
-                  choices=("modal", "direct")),
+                  "one sparse solve per line with membrane.loss_factor (no modal b/m); reduced = "
+                  "the direct path's model (loss factor, Rayleigh, Prony; no modal b/m) projected "
+                  "on a rational Krylov basis from a few shifts in the band (docs/response.md)",
+                  kind=str, choices=("auto", "modal", "direct", "reduced")),
+    "reduced_tol": Key(None, 1e-7, "reduced path: largest relative residual "
+                       "|T(omega) x_r - F| / |F| accepted on every line; shifts are added where "
+                       "it is largest", minimum=1e-14, maximum=1e-2),
     "modal_band": Key(None, 2.0, "modal path: modes with Re f and |Im f| up to this times the "
                       "last line (G1: 2 keeps the modal path within 0.4 % of the direct one up "
                       "to 1 kHz)", minimum=1, maximum=20),

@@ -41,7 +41,8 @@ COPIED = ("copdea_fem", "tests", "studies", "meshes", "pyproject.toml", "README.
 FIRST = ("tests/test_materials.py", "tests/test_damping.py", "tests/test_coupled_references.py",
          "tests/test_axisymmetric.py",
          "tests/test_acoustics.py", "tests/test_coupled.py", "tests/test_symmetry.py",
-         "tests/test_dry_modes.py", "tests/test_prestress.py", "tests/test_damping_fit.py")
+         "tests/test_dry_modes.py", "tests/test_prestress.py", "tests/test_damping_fit.py",
+         "tests/test_response_reduced.py")
 
 
 @dataclass(frozen=True)
@@ -233,6 +234,23 @@ MUTATIONS = (
              'if mode.m > 0 and mode.kind != AIR:',
              'if mode.m > 1 and mode.kind != AIR:',
              "axisymmetric modes: the m = 1 modes reported without their sin twin"),
+    # --- issue 23: the reduced-basis forced response ---------------------------------------
+    Mutation("reduced_shift_dropped", "copdea_fem/response/reduced_basis.py",
+             "            krylov, count = builder.krylov(2 * math.pi * f, steps, scale)",
+             "            krylov, count = builder.krylov(2 * math.pi * f, steps, scale)\n"
+             "            if f == plan[-1] and len(plan) > 1:\n                continue",
+             "reduced basis: the last shift of a plan left out"),
+    Mutation("reduced_rayleigh_sign", "copdea_fem/response/reduced_basis.py",
+             'pieces.append((terms.damping, lambda w: -1j * w, "C"))',
+             'pieces.append((terms.damping, lambda w: 1j * w, "C"))',
+             "reduced basis: the sign of the Rayleigh term -i omega C"),
+    Mutation("reduced_prony_ignored", "copdea_fem/response/reduced_basis.py",
+             "lambda w, tau=tau: -1j * w * tau / (1 - 1j * w * tau)",
+             "lambda w, tau=tau: 0.0 * w",
+             "reduced basis: the Prony branches left out of the projection"),
+    Mutation("reduced_forcing_row", "copdea_fem/response/reduced_basis.py",
+             "rhs[n:2 * n] = self.force", "rhs[:n] = self.force",
+             "reduced basis: the forcing in the wrong row of the linearisation"),
 )
 
 

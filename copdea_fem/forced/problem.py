@@ -30,6 +30,7 @@ class DrivenSector:
     sphere: type                    # the Kirchhoff sphere's pressure sampler
     shape_sector: Callable          # (membrane operators) -> the ShapeAt sector (or None)
     write_shapes: Callable          # (staging, state, coupled, shapes, pressures) -> (files, air)
+    default_method: str = "modal"   # what ``response.method: auto`` means here (issue 23)
 
 
 @dataclass

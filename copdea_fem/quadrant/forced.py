@@ -170,6 +170,8 @@ class QuadrantSphere:
         self._upper = ngs.CF((p, ngs.grad(p)))
         self._lower = ngs.CF((p + q, ngs.grad(p) + ngs.grad(q)))
         self.is_upper = self.xyz[:, 2] > 0
+        self._upper_points = self.points[self.is_upper]
+        self._lower_points = self.points[~self.is_upper]
         self.normal = self.xyz / radius
 
     def sample(self, pressure_vectors):
@@ -182,8 +184,9 @@ class QuadrantSphere:
                 vector = self.gf.vec.FV().NumPy()
                 vector[:] = 0.0
                 vector[self.coupled.pressure_free] = part
-                values = np.where(self.is_upper[:, None], np.asarray(self._upper(self.points)),
-                                  np.asarray(self._lower(self.points)))
+                values = np.empty((len(self.xyz), 4), complex)     # each half at its points
+                values[self.is_upper] = np.asarray(self._upper(self._upper_points))
+                values[~self.is_upper] = np.asarray(self._lower(self._lower_points))
                 gradient = values[:, 1:].copy()
                 gradient[:, :2] *= self.sign          # even parity: d/dx flips with x
                 p_values[:, k] += factor * values[:, 0]
@@ -231,4 +234,5 @@ QUADRANT_SECTOR = DrivenSector(
     name="even-even sector", excited="even-even symmetry sector",
     summary="3-D, even-even sector", classify=_classify, label=_label,
     observer=QuadrantObserver, angles=len(OBSERVATION_ANGLES), sphere=QuadrantSphere,
-    shape_sector=lambda operators: operators.sector, write_shapes=_write_shapes)
+    shape_sector=lambda operators: operators.sector, write_shapes=_write_shapes,
+    default_method="reduced")      # its modal band costs minutes (issue 23)

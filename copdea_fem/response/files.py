@@ -153,6 +153,8 @@ def write_response(result, out_dir: Path, reduced=(None, None)) -> None:
             "unknowns": int(result.problem.forced.size),
             "equilibrium_residual": result.problem.forced.equilibrium_residual,
             "timings_s": result.timings}
+        if result.method == "reduced":
+            document["reduced_basis"] = result.basis.summary()
         output.write_json(staging / "response.json", document)
         if study["output"]["plots"]:
             _plots(staging, result, reduced)

@@ -6,11 +6,16 @@ electrode drives -- the order m = 0 on the axisymmetric engine
 sector on the 3-D quadrant (:mod:`.quadrant`, any frame, the square one included) -- the
 voltage forcing (:mod:`.harmonic`), then either
 
-- ``response.method: modal`` (default): the coupled modes with ``Re f <= modal_band f_end``
+- ``response.method: auto`` (default): ``reduced`` on the 3-D engine, ``modal`` on the
+  axisymmetric one (:func:`resolved_method`);
+- ``response.method: modal``: the coupled modes with ``Re f <= modal_band f_end``
   and ``|Im f| <= modal_band f_end``, the paper's modal damping ``reduced.damping_*`` and
   ``membrane.loss_factor`` projected per mode, residual correction (:mod:`.harmonic`);
 - ``response.method: direct``: one sparse solve per line with ``membrane.loss_factor``
-  (the modal b/m has no meaning there and is not applied).
+  (the modal b/m has no meaning there and is not applied);
+- ``response.method: reduced``: the direct path's model (loss factor, Rayleigh, Prony)
+  projected on a rational Krylov basis built from a few shifts in the band
+  (:mod:`.reduced_basis`), a small dense solve per line.
 
 Lines: the chirp's (``excitation.*``, :class:`copdea_fem.reduced.response.Chirp`), each
 response line ``H(omega_k) V~_k`` with the chirp's line values (|FFT|/N), so the spectra
@@ -96,10 +101,24 @@ def modal_solution(problem: OrderZero, f_end: float):
                 or mode.damping_ratio > eigen["max_damping_ratio"]):
             mode.kind = AIR
     problem.sector.label(modes)
+    if study["membrane"].get("prony"):
+        logger.warning("response.method: modal with membrane.prony: the modal path is a few % "
+                       "off the exact response (its static correction uses the relaxed "
+                       "stiffness; docs/response.md); response.method: reduced (or direct) is "
+                       "exact for any damping")
     damping = modal_damping([m.label for m in modes], [m.kind for m in modes], study)
     basis = ModalBasis.build(problem.forced, result.eigenvalues, result.vectors,
                              [m.label for m in modes], damping)
     return basis, modes
+
+
+def resolved_method(problem: OrderZero) -> str:
+    """``response.method``, with ``auto`` resolved by the driven sector: ``reduced`` on the
+    3-D engine (its modal band costs minutes), ``modal`` on the axisymmetric one."""
+    method = problem.study["response"]["method"]
+    if method == "auto":
+        return problem.sector.default_method if problem.sector is not None else "modal"
+    return method
 
 
 @dataclass
@@ -117,7 +136,7 @@ class ResponseResult:
     method: str
     far_field: str
     modes: list
-    basis: object                     # ModalBasis (modal) or None
+    basis: object                     # ModalBasis (modal), ReducedBasis (reduced) or None
     vectors: np.ndarray               # (n, K) basis vectors
     weights: np.ndarray               # (lines, K): x(line) = vectors @ weights[line]
     problem: OrderZero
@@ -149,13 +168,22 @@ def forced_response(problem: OrderZero, frequency_hz=None,
         frequency_hz, voltage_lines = Chirp.from_study(study).lines()
     frequency_hz = np.asarray(frequency_hz, float)
     voltage_lines = np.asarray(voltage_lines, complex)
-    method, eta = study["response"]["method"], study["membrane"]["loss_factor"]
+    method, eta = resolved_method(problem), study["membrane"]["loss_factor"]
     start = time.perf_counter()
     modes, basis = [], None
     if method == "modal":
         basis, modes = modal_solution(problem, float(frequency_hz.max()))
         vectors = basis.basis
         weights = basis.coefficients(frequency_hz, eta) * voltage_lines[:, None]
+    elif method == "reduced":
+        from .reduced_basis import build_reduced_basis
+        logger.info(f"reduced basis (rational Krylov) on {frequency_hz.size} lines; the "
+                    "direct path's damping (membrane.loss_factor, rayleigh_*, prony and the "
+                    "radiation), not the modal path's b/m (reduced.damping_*) ...")
+        basis = build_reduced_basis(forced, frequency_hz, eta,
+                                    tol=study["response"]["reduced_tol"])
+        vectors = basis.vectors
+        weights = basis.line_coefficients * voltage_lines[:, None]
     else:
         logger.info(f"direct solves on {frequency_hz.size} lines ...")
         vectors = forced.direct(frequency_hz, eta)
