@@ -11,6 +11,7 @@ import math
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -37,6 +38,15 @@ def diagnose(case, seed, folder):
     return Diagnoser(measured, engine=engine).run()
 
 
+def quality_errors(result) -> list:
+    """|ln(Q_meas / Q_model)| over the final model's pairs with a measured Q (inf: the
+    model has no damping there)."""
+    return [abs(math.log(p.peak.quality_factor / p.model.quality_factor))
+            if math.isfinite(p.model.quality_factor) else math.inf
+            for m in result.matches_after.values() for p in m.pairs
+            if math.isfinite(p.peak.quality_factor)]
+
+
 def check_hidden(seed, folder):
     result = diagnose("viscoelastic_hidden", seed, folder)
     assert battery.right("viscoelastic_hidden", result), result.verdict
@@ -46,6 +56,8 @@ def check_hidden(seed, folder):
     assert 1.0 < fitted["ratio"] < 4.0 and 0.1e-3 < fitted["time"] < 0.6e-3   # truth 2, 0.3 ms
     assert result.status["modal_damping"] == ("on in the base model: replaced by "
                                               "viscoelastic_membrane")
+    errors = quality_errors(result)          # the FE's Q at the fit: within 3 sigma_Q
+    assert len(errors) >= 10 and np.median(errors) < 3 * battery.Q_SCATTER, errors
     return result
 
 
@@ -53,6 +65,8 @@ def check_null(seed, folder):
     result = diagnose("damping_known", seed, folder)
     assert battery.right("damping_known", result), result.verdict
     assert "viscoelastic_membrane" in {s.effects[-1] for s in result.steps[0].candidates}
+    errors = quality_errors(result)          # the base's FE explains the widths
+    assert len(errors) >= 10 and np.median(errors) < 2 * battery.Q_SCATTER, errors
     return result
 
 
