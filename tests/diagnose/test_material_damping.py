@@ -28,6 +28,7 @@ from copdea_fem.study import parse_study  # noqa: E402
 
 FAST_SEEDS = (1,)
 SLOW_SEEDS = (2, 3, 4, 5)
+VISCO = {"modulus_ratio": 2.0, "relaxation_time": "0.3 ms"}
 G1 = {"disc": {"motion": "held"}, "load": {"z": 0.016, "voltage": 2000.0},
       "output": {"plots": False}}
 
@@ -171,3 +172,16 @@ def test_one_material_damping_cause_at_a_time():
         assert "viscoelastic_membrane" in skipped(other, (), visco_base)
     stiff_base = base.replace({"effects.viscoelastic_strength": 0.3})
     assert "viscoelastic_stiffening" in skipped("viscoelastic_membrane", (), stiff_base)
+
+
+def test_a_condition_may_not_set_the_prony_series(tmp_path):
+    """membrane.prony is the effect's key: a condition setting it is refused by name."""
+    import yaml
+    from copdea_fem.diagnose.measured import MeasuredDataError
+    path = battery.write_measured("damping_known", 1, tmp_path)
+    manifest = yaml.safe_load(path.read_text())
+    manifest["conditions"][0]["set"]["membrane.prony"] = [VISCO]
+    path.write_text(yaml.safe_dump(manifest, sort_keys=False))
+    with pytest.raises(MeasuredDataError, match=r"set\.membrane\.prony .*switched by effect "
+                                                r"viscoelastic_membrane"):
+        load_measured(path)
