@@ -53,8 +53,9 @@ def check_hidden(seed, folder):
     assert battery.right("viscoelastic_hidden", result), result.verdict
     assert result.gap_after < result.gap_before
     assert all(step.gap_after < step.gap_before for step in result.steps if step.effects)
-    fitted = result.steps[0].values["viscoelastic_membrane"]
-    assert 1.0 < fitted["ratio"] < 4.0 and 0.1e-3 < fitted["time"] < 0.6e-3   # truth 2, 0.3 ms
+    # g and tau themselves are not asserted: with one octave of modes (500-1000 Hz) and
+    # 10 % Q scatter the two sides of the loss peak can fit alike (seeds 3, 4: g ~ 7,
+    # tau ~ 0.04 ms; truth 2, 0.3 ms); what the data fix -- the FE's Q -- is checked below
     assert result.status["modal_damping"] == ("on in the base model: replaced by "
                                               "viscoelastic_membrane")
     errors = quality_errors(result)          # the FE's Q at the fit: within 3 sigma_Q
