@@ -31,7 +31,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from copdea_fem.diagnose.anchored import FEFailure
+from copdea_fem.diagnose.anchored import FEFailure, quality_factor
 from copdea_fem.diagnose.engine import Engine, ModelMode
 from copdea_fem.diagnose.fe import BAND_MARGIN, FEModel
 from copdea_fem.reduced.rings import ReducedModelError
@@ -117,7 +117,8 @@ class DirectFEEngine(Engine):
             raise FEFailure(f"the FE cannot be solved at {condition.name} with "
                             f"{[e for e, _ in state] or 'the base model'}: {error}") from error
         self.engines.setdefault(tuple(e for e, _ in state), set()).add(result.engine)
-        modes = tuple(ModelMode(m.label, m.kind, m.frequency_hz, math.inf, math.nan,
+        modes = tuple(ModelMode(m.label, m.kind, m.frequency_hz,
+                                quality_factor(m.damping_ratio), math.nan,
                                 expected=m.kind != "pumping" or study["load"]["z"] > 0,
                                 optional=m.kind == "non-axisymmetric")
                       for m in result.modes)

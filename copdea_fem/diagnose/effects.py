@@ -12,17 +12,20 @@ default; ``log = True`` means they are fitted in log space (scale factors,
 masses, times).  ``kind`` is ``"physics"`` (a mechanism the model lacks) or
 ``"parameter"`` (the model has the mechanism but a parameter of the study is
 off, e.g. ``uniform_stiffness``).  ``engine`` is ``"reduced"`` when the
-ring surrogate can move it and ``"coupled_fe"`` when only the fully-coupled
-FE can (tested only with the FE as the model of record and air in the model).
+ring surrogate can move it, ``"coupled_fe"`` when only the fully-coupled
+FE can (tested only with the FE as the model of record and air in the model)
+and ``"fe"`` when the FE is its model of record in vacuo or with air (tested only
+with ``model: fe``; issue 23's ``viscoelastic_membrane``).
 
 Identifiers are a contract (``diagnosis.json``): ``air_loading,
 electrostatic_softening, spring_mass, disc_pumping, modal_damping,
-frame_reflection, viscoelastic_stiffening, uniform_stiffness`` and (issue 24) ``baffle``,
-``open_air``.
+frame_reflection, viscoelastic_stiffening, uniform_stiffness``, (issue 24) ``baffle``,
+``open_air`` and (issue 23) ``viscoelastic_membrane``.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -360,6 +363,77 @@ _register(Effect(
     off_overrides=lambda s: {"effects.viscoelastic_strength": 0.0},
     detect=lambda s: s["effects"]["viscoelastic_strength"] > 0))
 
+# One material-damping cause at a time (issue 23): the membrane's Prony term (FE) both
+# stiffens and damps, so it stands for the ring model's storage factor
+# (viscoelastic_stiffening) and the paper's hand-calibrated modal b/m (modal_damping)
+# together; :meth:`copdea_fem.diagnose.select.Diagnoser.candidates` never tests it beside
+# either, nor either beside it.
+MATERIAL_DAMPING = ("viscoelastic_membrane", "viscoelastic_stiffening", "modal_damping")
+
+
+def prony_overrides(study, values) -> dict:
+    """Overrides of :data:`viscoelastic_membrane <CATALOGUE>`: one Prony term
+    ``{modulus_ratio: g, relaxation_time: tau [s]}`` in place of the study's series, the
+    modal b/m of Sect. 5.3 off (the material's loss replaces the hand calibration), and
+    ``eigen.f_min`` raised to half the lowest relaxation frequency
+    ``1 / (2 pi tau (1 + g))`` where that spectrum would reach the FE's band (the study's
+    check, :mod:`copdea_fem.study`: only for tau (1 + g) >~ 1.3 ms with the default band)."""
+    ratio, time = float(values[0]), float(values[1])
+    terms = [{"modulus_ratio": ratio, "relaxation_time": time}]
+    out = {"membrane.prony": terms, **{key: 0.0 for key in PAPER_DAMPING}}
+    floor = prony_band_floor(terms, study["eigen"])
+    if floor is not None:
+        out["eigen.f_min"] = floor
+    return out
+
+
+def prony_band_floor(terms, eigen: dict, f_max: float | None = None) -> float | None:
+    """The ``eigen.f_min`` [Hz] that keeps the Prony ``terms``' relaxation spectrum
+    (Re f = 0, |Im f| >= 1 / (2 pi tau_max (1 + sum g))) out of the FE's band, where the
+    study's check (:func:`copdea_fem.study.parse_study`) would refuse ``eigen`` (with
+    ``f_max`` [Hz] in place of its own, the diagnosis's FE band); None: no change."""
+    if not terms:
+        return None
+    lowest = 1.0 / (2 * math.pi * max(t["relaxation_time"] for t in terms)
+                    * (1 + sum(t["modulus_ratio"] for t in terms)))
+    top = eigen["f_max"] if f_max is None else f_max
+    if eigen["f_min"] < 0.5 * lowest and lowest <= 2 * eigen["max_damping_ratio"] * top:
+        return 0.5 * lowest
+    return None
+
+
+_register(Effect(
+    id="viscoelastic_membrane", title="viscoelastic membrane (Prony term, evaluated by the FE)",
+    description="The film is a generalised Maxwell material (issue 23; docs/damping.md): one "
+                "Prony term membrane.prony = [{modulus_ratio: g, relaxation_time: tau}] on the "
+                "material tangent, K_mat (1 + g (-i w tau) / (1 - i w tau)), the hyperelastic "
+                "law of eq. (20) its relaxed modulus.  It stiffens the membrane by the storage "
+                "factor 1 + g (w tau)^2 / (1 + (w tau)^2) and damps it by the loss factor "
+                "g w tau / (1 + (w tau)^2), both on the material share of each mode's strain "
+                "energy; the FE's damped eigen step gives the complex frequencies, Q = "
+                "1 / (2 zeta).  Replaces the paper's modal b/m (modal_damping's keys set to "
+                "0) and is never named beside modal_damping or viscoelastic_stiffening.  An "
+                "out-of-plane mode of the flat membrane (z = 0) has no material strain at "
+                "first order, so no material damping nor stiffening (docs/damping.md): data "
+                "at z > 0 carry the evidence.  Needs model: fe and measured quality factors.",
+    kind="physics", engine="fe",
+    parameters=(Parameter("ratio", "membrane.prony[0].modulus_ratio", None, 0.5, 0.05, 10.0,
+                          True, "g: the branch's modulus over the relaxed (long-term) one"),
+                Parameter("time", "membrane.prony[0].relaxation_time", "s", 2e-4, 1e-5, 2e-3,
+                          True, "relaxation time tau (the loss peaks at w tau = 1)")),
+    signature="finite quality factors that follow a Maxwell term: each mode's damping ratio "
+              "zeta = g s w tau / (2 (1 + (w tau)^2)) (s its material share of strain energy) "
+              "peaks near w tau = 1, and frequencies raised a little, more at higher w tau; "
+              "the (m,1) family damped less as m grows (less in-plane strain); nothing at "
+              "z = 0 (G1 in vacuo, 2 kV, z = 16 mm, g = 2, tau = 0.3 ms: Q = 43, 47, 60 for "
+              "(0,1), (1,1), (2,1) at 513-539 Hz and 46 for (0,2) at 1015 Hz; frequencies "
+              "+1.2 %, +1.1 %, +1.1 %, +0.8 %; the flat 0.65 m drum head with g = 2, tau = 3 ms: "
+              "zeta < 2e-16 and its frequencies unchanged)",
+    on_overrides=prony_overrides,
+    off_overrides=lambda s: {"membrane.prony": []},
+    detect=lambda s: bool(s["membrane"]["prony"]),
+    needs="quality_factors"))
+
 _register(Effect(
     id="uniform_stiffness", title="uniform membrane stiffening/softening (a parameter effect)",
     description="The membrane is uniformly stiffer or softer than c10, c20, c01 say: electrode "
@@ -406,7 +480,7 @@ def catalogue_table() -> str:
     for e in CATALOGUE.values():
         params = "; ".join(f"{p.name} `{p.key}` {p.shown(p.default)} [{p.shown(p.lower)}, "
                            f"{p.shown(p.upper)}]" for p in e.parameters) or "none"
-        engine = e.engine + (" (FE solves; needs model: fe and air)"
-                             if e.engine == "coupled_fe" else "")
+        engine = e.engine + {"coupled_fe": " (FE solves; needs model: fe and air)",
+                             "fe": " (FE solves; needs model: fe)"}.get(e.engine, "")
         rows.append(f"| `{e.id}` | {e.kind} | {engine} | {params} | {e.signature} |")
     return "\n".join(rows)

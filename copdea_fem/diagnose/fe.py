@@ -96,11 +96,17 @@ def fe_study(study: Study, f_max: float | None = None) -> Study:
     In vacuo the frame plays no part (it is a reflector in the air), so dry modes run
     on the axisymmetric engine with ``frame: none``; coupled ones keep the frame and
     let ``mesh.engine: auto`` choose.  ``f_max`` [Hz] (default: the study's) is the
-    top of the FE band; no result files are written.
+    top of the FE band (``eigen.f_min`` raised where a ``membrane.prony`` relaxation
+    spectrum would reach that band: :func:`~copdea_fem.diagnose.effects.prony_band_floor`);
+    no result files are written.
     """
     overrides = {"output.plots": False, "output.paraview": False}
     if f_max is not None:
         overrides["eigen.f_max"] = float(f_max)
+        from copdea_fem.diagnose.effects import prony_band_floor
+        floor = prony_band_floor(study["membrane"]["prony"], study["eigen"], float(f_max))
+        if floor is not None:        # a Prony relaxation spectrum the wider band would reach
+            overrides["eigen.f_min"] = floor
     if not study["air"]["enabled"]:
         overrides.update({"geometry.frame": "none", "mesh.engine": "axisymmetric"})
     return study.replace(overrides)

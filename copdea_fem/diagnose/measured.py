@@ -71,7 +71,8 @@ EFFECT_KEYS = {"effects.": "the effects", "disc.motion": "disc_pumping",
                "spring.mass": "spring_mass", "reduced.damping_": "modal_damping",
                "reduced.modes_json": "air_loading", "reduced.coupled_freq_0": "air_loading",
                "air.enabled": "air_loading", "geometry.frame": "frame_reflection",
-               "reduced.pumping_added_mass": "spring_mass"}
+               "reduced.pumping_added_mass": "spring_mass",
+               "membrane.prony": "viscoelastic_membrane"}
 
 
 @dataclass(frozen=True)

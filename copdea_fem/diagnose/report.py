@@ -285,7 +285,10 @@ def model_of_record_lines(result) -> list:
                   f"false, coupled with the air and its frame where true), solved "
                   f"{result.fe_solves} time(s) in {result.fe_seconds:.0f} s (others from the "
                   "FE cache); the ring model is its surrogate for the fits, anchored to it "
-                  "mode by mode at every accepted step (copdea_fem.diagnose.anchored).", ""]
+                  "mode by mode at every accepted step (copdea_fem.diagnose.anchored).  "
+                  "Model quality factors: the FE's damping ratios (radiation, and the "
+                  "membrane's Rayleigh or Prony damping) plus the ring model's modal b/m, "
+                  "Q = 1/(2 zeta).", ""]
     else:
         lines += ["The ring model alone (`model: reduced` in measured.yaml): the FE takes no "
                   "part; right for data the ring model made (`copdea-fem synth`).", ""]

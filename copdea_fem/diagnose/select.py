@@ -85,7 +85,7 @@ from copdea_fem.diagnose.compare import (ConditionMatch, DevianceTerms, Measured
                                          match_condition)
 from copdea_fem.diagnose.direct import (DIRECT_EFFECTS, DIRECT_GRID, PINNED_KEYS,
                                         DirectFEEngine, ring_can_represent)
-from copdea_fem.diagnose.effects import CATALOGUE, MOUNTINGS, base_mounting
+from copdea_fem.diagnose.effects import CATALOGUE, MATERIAL_DAMPING, MOUNTINGS, base_mounting
 from copdea_fem.diagnose.engine import Engine, safe_predict
 from copdea_fem.diagnose.fe import BAND_MARGIN
 from copdea_fem.diagnose.evidence import (describe_evidence, goodness_of_fit, remaining_off,
@@ -308,7 +308,17 @@ class Diagnoser:
                 skipped[effect_id] = ("needs the fully-coupled air/PML FE as the model of "
                                       "record (measured.yaml model: fe)")
                 continue
+            if entry.engine == "fe" and not self.uses_fe:
+                skipped[effect_id] = ("needs the FE as the model of record (measured.yaml "
+                                      "model: fe): the FE's damped eigen step evaluates it")
+                continue
             if effect_id in on:
+                continue
+            if self.direct and effect_id == "viscoelastic_membrane":
+                skipped[effect_id] = ("needs the ring surrogate to fit its two parameters "
+                                      "(the direct FE engine would tabulate them on a grid "
+                                      "of damped FE solves per condition), which cannot "
+                                      "represent this membrane (no central disc)")
                 continue
             if self.direct and effect_id not in DIRECT_EFFECTS:
                 skipped[effect_id] = ("needs the ring surrogate, which cannot represent this "
@@ -320,6 +330,11 @@ class Diagnoser:
                 continue
             if effect_id in MOUNTINGS:
                 why = self._mounting_skipped(effect_id, state, base_study)
+                if why:
+                    skipped[effect_id] = why
+                    continue
+            if effect_id in MATERIAL_DAMPING:
+                why = self._material_skipped(effect_id, state, base_study)
                 if why:
                     skipped[effect_id] = why
                     continue
@@ -364,6 +379,38 @@ class Diagnoser:
         if stated not in (None, "open_air") and not base_study["air"]["enabled"]:
             return (f"another mounting ({stated}) is in the model: one mounting at a time "
                     "(the base study states it without air, air.enabled: false)")
+        return None
+
+    @staticmethod
+    def _material_skipped(effect_id, state, base_study) -> str | None:
+        """Why the material-damping effect ``effect_id`` is not a candidate at ``state``
+        (None: it is).
+
+        One material cause at a time (:data:`~copdea_fem.diagnose.effects.MATERIAL_DAMPING`):
+        the FE's Prony term (``viscoelastic_membrane``) stiffens AND damps, so it is the
+        cause that the ring model's storage factor (``viscoelastic_stiffening``) and the
+        paper's modal b/m (``modal_damping``) each describe a part of.  It is never tested
+        beside either: not once one of them is in the model (added, or
+        ``viscoelastic_stiffening`` on in the base), nor either once it is.  The base
+        study's modal b/m (on by default, Sect. 5.3) is no obstacle: the Prony term replaces
+        it (its overrides set ``reduced.damping_*`` to 0), as a mounting replaces another.
+        At one step all three may be tested; the best is named (or the group reported as
+        ambiguous) by the search's usual rule.
+        """
+        added = {e for e, _ in state}
+        if effect_id == "viscoelastic_membrane":
+            other = next((e for e in ("viscoelastic_stiffening", "modal_damping")
+                          if e in added), None)
+            if other is None and CATALOGUE["viscoelastic_stiffening"].is_on(base_study):
+                other = "viscoelastic_stiffening"
+            if other:
+                return (f"one material-damping cause at a time: {other} is in the model "
+                        "(the Prony term would explain the same stiffening or widths)")
+            return None
+        if "viscoelastic_membrane" in added or CATALOGUE["viscoelastic_membrane"].is_on(
+                base_study):
+            return ("one material-damping cause at a time: viscoelastic_membrane (the FE's "
+                    "Prony term, which stiffens and damps) is in the model")
         return None
 
     def _prefetch_switches(self, state, groups) -> None:
@@ -560,6 +607,9 @@ class Diagnoser:
                 status[effect_id] = "not tested: " + not_tested[effect_id]
             elif effect_id in base_on and effect_id in MOUNTINGS and replaced_by:
                 status[effect_id] = f"on in the base model: replaced by {replaced_by}"
+            elif (effect_id == "modal_damping" and effect_id in base_on
+                  and "viscoelastic_membrane" in added):
+                status[effect_id] = "on in the base model: replaced by viscoelastic_membrane"
             elif effect_id in base_on:
                 status[effect_id] = "on in the base model"
             elif effect_id not in self.measured.candidates:
@@ -602,7 +652,10 @@ class Diagnoser:
         return {"predictions": "ring surrogate anchored to the FE (A1)",
                 "fe_switches": "air_loading, baffle, frame_reflection, open_air: FE solves "
                                "(axisymmetric engine for frames none/baffle/circle, 3-D for "
-                               "the square frame)"}
+                               "the square frame)",
+                "fe_damping": "viscoelastic_membrane: fitted on the ring surrogate's Prony "
+                              "term, then the FE's damped eigen step at the accepted values "
+                              "(frequencies and quality factors Q = 1/(2 zeta))"}
 
     # -- acceptance --------------------------------------------------------------------------
     def _anchor(self, state):

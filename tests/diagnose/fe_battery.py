@@ -62,12 +62,16 @@ AIR_FRAMELESS = _with(DRY, air={"enabled": True}, geometry={"frame": "none"})
 
 @dataclass(frozen=True)
 class Case:
-    """Base model, the FE study that makes the data, conditions, the right verdict."""
+    """Base model, the FE study that makes the data, conditions, the right verdict; with
+    ``quality``, each peak also carries the FE's quality factor Q = 1/(2 zeta) with
+    log-normal scatter :data:`Q_SCATTER`; ``candidates``: measured.yaml's (None: all)."""
 
     base: dict
     truth: dict
     conditions: list
     missing: tuple
+    quality: bool = False
+    candidates: tuple | None = None
 
 
 CASES = {
@@ -78,6 +82,31 @@ CASES = {
     "frame_hidden": Case(AIR_FRAMELESS, AIR_SQUARE, AIR5, ("frame_reflection",)),
     "air_base": Case(AIR_SQUARE, AIR_SQUARE, AIR5, ()),
 }
+
+
+# Issue 23: material damping, evaluated by the FE's damped eigen step.  A strongly
+# viscoelastic film (acrylic VHB-like: the glassy modulus 3x the relaxed one, tau = 0.3 ms,
+# its loss peak at 530 Hz, mid-band): G1 in vacuo at 2 kV, z = 16 mm gets Q = 43 on (0,1)
+# and +1.2 % in frequency.  Its null: a film damped by something else the base states
+# (mass-proportional Rayleigh damping, alpha = 64 1/s: Q = 50 on (0,1) at z = 16 mm) and
+# no modal b/m, with data made by that same FE.
+Q_SCATTER = 0.10                 # 1-sigma of ln Q (a half-power width read to 10 %)
+VISCO_TERM = {"modulus_ratio": 2.0, "relaxation_time": "0.3 ms"}
+DRY_VISCO = _with(DRY, membrane={"prony": [VISCO_TERM]})
+NO_MODAL_DAMPING = {"damping_p1": 0.0, "damping_01": 0.0, "damping_02": 0.0,
+                    "damping_higher": 0.0}
+DRY_RAYLEIGH = _with(DRY, membrane={"rayleigh_alpha": "64 1/s"}, reduced=NO_MODAL_DAMPING)
+# no air candidates in the null: their coupled FE solves with damping would cost minutes
+MATERIAL_CANDIDATES = ("viscoelastic_membrane", "viscoelastic_stiffening", "modal_damping",
+                       "uniform_stiffness", "electrostatic_softening")
+
+DAMPING_CASES = {
+    "viscoelastic_hidden": Case(DRY, DRY_VISCO, AIR5, ("viscoelastic_membrane",),
+                                quality=True),
+    "damping_known": Case(DRY_RAYLEIGH, DRY_RAYLEIGH, AIR5, (), quality=True,
+                          candidates=MATERIAL_CANDIDATES),
+}
+ALL_CASES = {**CASES, **DAMPING_CASES}
 
 
 def condition_name(overrides: dict) -> str:
@@ -101,7 +130,7 @@ def _order(label: str) -> int:
 
 def write_measured(case_name: str, seed: int, folder: Path, fe: FEModel | None = None) -> Path:
     """The case's measured set with noise of ``seed`` in ``folder``; its measured.yaml."""
-    case = CASES[case_name]
+    case = ALL_CASES[case_name]
     rng = np.random.default_rng(seed)
     folder.mkdir(parents=True, exist_ok=True)
     base = dict(case.base)
@@ -116,12 +145,21 @@ def write_measured(case_name: str, seed: int, folder: Path, fe: FEModel | None =
             frequency = mode.frequency_hz * math.exp(rng.normal(0.0, SCATTER))
             if not BAND[0] <= frequency <= BAND[1]:
                 continue
-            rows.append((frequency, mode.label if rng.random() < 0.5 else ""))
+            label = mode.label if rng.random() < 0.5 else ""
+            quality = ""
+            if case.quality and mode.damping_ratio > 0:      # drawn after the label: the
+                quality = f"{0.5 / mode.damping_ratio * math.exp(rng.normal(0.0, Q_SCATTER)):.4g}"
+            rows.append((frequency, label, quality))        # other cases' draws unchanged
         for _ in range(rng.poisson(SPURIOUS)):
-            rows.append((math.exp(rng.uniform(*log_band)), ""))
+            rows.append((math.exp(rng.uniform(*log_band)), "", ""))
         rows.sort()
         path = folder / f"{name}_resonances.csv"
-        path.write_text("freq_hz,label\n" + "".join(f"{f:.3f},{label}\n" for f, label in rows))
+        if case.quality:
+            path.write_text("freq_hz,label,quality_factor\n" + "".join(
+                f"{f:.3f},{label},{q}\n" for f, label, q in rows))
+        else:
+            path.write_text("freq_hz,label\n" + "".join(f"{f:.3f},{label}\n"
+                                                         for f, label, _ in rows))
         overrides = next(o for o in case.conditions if condition_name(o) == name)
         conditions.append({"name": name, "set": dict(overrides), "resonances": path.name,
                            "band": [f"{BAND[0]:g} Hz", f"{BAND[1]:g} Hz"]})
@@ -129,8 +167,11 @@ def write_measured(case_name: str, seed: int, folder: Path, fe: FEModel | None =
                 "description": f"FE-made data ({case_name}), seed {seed}",
                 "base_study": "base_study.yaml",
                 "noise": {"frequency_relative": SCATTER, "missing_probability": P_MISS,
-                          "spurious_per_condition": SPURIOUS},
+                          "spurious_per_condition": SPURIOUS,
+                          **({"quality_relative": Q_SCATTER} if case.quality else {})},
                 "conditions": conditions}
+    if case.candidates is not None:
+        manifest["candidates"] = list(case.candidates)
     path = folder / "measured.yaml"
     path.write_text(yaml.safe_dump(manifest, sort_keys=False))
     return path
@@ -143,12 +184,26 @@ REFILL_VARIABLE = "COPDEA_FEM_FE_REFILL"
 def battery_keys() -> set:
     """The cache keys of every FE study the battery fills (truth and base of every case)."""
     keys = set()
-    for case in CASES.values():
+    for case in ALL_CASES.values():
         for raw in (case.truth, case.base):
             study = parse_study(raw, name="fe")
             keys |= {fe_key(fe_study(study.replace(o), BAND_MARGIN * BAND[1]))
                      for o in case.conditions}
+    for case in DAMPING_CASES.values():        # the Prony probes of the material shares
+        study = parse_study(case.base, name="fe")
+        for o in case.conditions:
+            for probe in prony_probes(study.replace(o)):
+                keys.add(fe_key(fe_study(probe, BAND_MARGIN * BAND[1])))
     return keys
+
+
+def prony_probes(study) -> list:
+    """The FE studies of the material shares of ``study`` (the anchored engine's probes:
+    :meth:`copdea_fem.diagnose.anchored.AnchoredEngine.shares`)."""
+    from copdea_fem.diagnose.anchored import STRONG_PROBE, probe_study
+    probe = probe_study(study)
+    return [probe, probe.replace({"membrane.prony": [STRONG_PROBE]}),
+            probe.replace({"membrane.prony": []})]
 
 
 def missing_entries(cache: Path = FE_CACHE) -> list:
@@ -173,7 +228,7 @@ def refill() -> None:
     start = time.perf_counter()
     for entry in FE_CACHE.glob("*.json"):
         entry.unlink()
-    fill_side_by_side(list(CASES))
+    fill_side_by_side(list(ALL_CASES))
     root = Path(__file__).resolve().parent.parent.parent
     # the slow tests too (the ten-seed batteries ask for studies of their own), one
     # process per core (pytest-xdist); concurrent writers share entries by their locks
@@ -201,16 +256,21 @@ def fill(keys) -> None:
     model = FEModel(cache_dir=FE_CACHE)
     with progress_to(print, only_info=True):          # the FE progress lines
         for key in keys:
-            truth_modes(CASES[key], model)
-            base = CASES[key].base
+            truth_modes(ALL_CASES[key], model)
+            base = ALL_CASES[key].base
             # the base's own FE (the model of record) at the same conditions
-            truth_modes(Case(base, base, CASES[key].conditions, ()), model)
+            truth_modes(Case(base, base, ALL_CASES[key].conditions, ()), model)
+            if key in DAMPING_CASES:           # the Prony probes of the material shares
+                study = parse_study(base, name="fe")
+                for o in ALL_CASES[key].conditions:
+                    for probe in prony_probes(study.replace(o)):
+                        model.modes(probe, f_max=BAND_MARGIN * BAND[1])
     print(f"{model.solves} FE solves, {model.seconds:.0f} s")
 
 
 def right(case_name: str, result) -> bool:
     """The case's right verdict: exactly its missing effects, nothing ambiguous."""
-    case = CASES[case_name]
+    case = ALL_CASES[case_name]
     return tuple(result.missing_effects) == case.missing and not result.ambiguous
 
 
@@ -218,4 +278,4 @@ if __name__ == "__main__":       # fill the FE cache of every case (or the named
     if sys.argv[1:] == ["--refill"]:
         refill()
     else:
-        fill(sys.argv[1:] or list(CASES))
+        fill(sys.argv[1:] or list(ALL_CASES))

@@ -14,7 +14,8 @@ from copdea_fem.study import StudyError, parse_study
 
 CONTRACT = ("air_loading", "electrostatic_softening", "spring_mass", "disc_pumping",
             "modal_damping", "frame_reflection", "viscoelastic_stiffening", "uniform_stiffness",
-            "baffle", "open_air")                                # issue 24: added
+            "baffle", "open_air",                                # issue 24: added
+            "viscoelastic_membrane")                             # issue 23: added
 G1 = {"disc": {"motion": "spring"}, "load": {"z": 0.016, "voltage": 2000.0},
       "output": {"plots": False}}
 
@@ -24,7 +25,7 @@ def test_catalogue_has_the_contract_identifiers_with_bounded_parameters():
     for effect_id, effect in CATALOGUE.items():
         assert effect.id == effect_id and effect.signature and effect.description
         assert effect.kind in ("physics", "parameter") and len(effect.parameters) <= 2
-        assert effect.engine in ("reduced", "coupled_fe")
+        assert effect.engine in ("reduced", "coupled_fe", "fe")          # issue 23: fe
         for p in effect.parameters:
             assert p.lower <= p.default <= p.upper
     assert CATALOGUE["uniform_stiffness"].kind == "parameter"
