@@ -278,8 +278,9 @@ SCHEMA["excitation"] = {
 
 # Forced harmonic response of the coupled FE and its sound (issue 15, copdea_fem.response).
 SCHEMA["response"] = {
-    "method": Key(None, "auto", "auto = reduced on the 3-D engine, modal on the axisymmetric "
-                  "one; modal = superposition of the coupled m = 0 modes with the "
+    "method": Key(None, "auto", "auto = reduced on the 3-D engine when the membrane states "
+                  "its own loss (loss_factor, Rayleigh or Prony), else modal; modal = "
+                  "superposition of the coupled m = 0 modes with the "
                   "paper's modal damping reduced.damping_* and a residual correction; direct = "
                   "one sparse solve per line with membrane.loss_factor (no modal b/m); reduced = "
                   "the direct path's model (loss factor, Rayleigh, Prony; no modal b/m) projected "

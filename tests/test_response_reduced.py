@@ -10,6 +10,7 @@ coefficient of every term of T(omega) and the shift set.
 from __future__ import annotations
 
 import json
+import types
 import logging
 
 import numpy as np
@@ -17,7 +18,8 @@ import pytest
 
 from copdea_fem.cli import main
 from copdea_fem.response.reduced_basis import build_reduced_basis
-from copdea_fem.response.run import forced_response, modal_solution, prepare_order_zero
+from copdea_fem.response.run import forced_response, modal_solution, prepare_order_zero, \
+    resolved_method
 from copdea_fem.study import parse_study
 
 DAMPED = {"rayleigh_alpha": 20.0, "rayleigh_beta": 2e-6, "loss_factor": 0.01,
@@ -133,6 +135,18 @@ def test_auto_method_is_reduced_on_3d_and_modal_on_the_meridian(quadrant, meridi
         np.testing.assert_allclose(getattr(reduced, name), getattr(direct, name), rtol=1e-6)
     np.testing.assert_allclose(reduced.pressure, direct.pressure, rtol=1e-6)
     assert forced_response(meridian, lines, volts).method == "modal"
+
+
+def test_auto_method_keeps_the_modal_path_where_the_damping_is_the_papers_modal_bm(quadrant):
+    """Without a loss of its own (no loss factor, Rayleigh or Prony) the study's damping is
+    the modal b/m that only the modal path carries: ``auto`` stays modal on 3-D too."""
+    undamped = coarse("3d")
+    assert resolved_method(types.SimpleNamespace(study=undamped,
+                                                 sector=quadrant.sector)) == "modal"
+    assert resolved_method(types.SimpleNamespace(study=quadrant.study,
+                                                 sector=quadrant.sector)) == "reduced"
+    forced = undamped.replace({"response.method": "reduced"})
+    assert resolved_method(types.SimpleNamespace(study=forced, sector=None)) == "reduced"
 
 
 def test_cli_reduced_response_writes_its_basis(tmp_path):

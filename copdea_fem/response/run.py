@@ -112,13 +112,26 @@ def modal_solution(problem: OrderZero, f_end: float):
     return basis, modes
 
 
+def states_material_damping(study) -> bool:
+    """Whether the membrane carries its own loss (``membrane.loss_factor``, Rayleigh or a
+    Prony series): the model the direct and reduced paths solve, with no modal b/m."""
+    membrane = study["membrane"]
+    return bool(membrane["loss_factor"] > 0 or membrane["rayleigh_alpha"] > 0
+                or membrane["rayleigh_beta"] > 0 or membrane["prony"])
+
+
 def resolved_method(problem: OrderZero) -> str:
-    """``response.method``, with ``auto`` resolved by the driven sector: ``reduced`` on the
-    3-D engine (its modal band costs minutes), ``modal`` on the axisymmetric one."""
+    """``response.method``, with ``auto`` resolved: ``modal`` where the study's damping is
+    the paper's modal b/m (``reduced.damping_*``, which only the modal path carries: the
+    reduced path would leave the peaks damped by radiation alone), else what the driven
+    sector prefers -- ``reduced`` on the 3-D engine (its modal band costs minutes),
+    ``modal`` on the axisymmetric one."""
     method = problem.study["response"]["method"]
-    if method == "auto":
-        return problem.sector.default_method if problem.sector is not None else "modal"
-    return method
+    if method != "auto":
+        return method
+    if problem.sector is None or not states_material_damping(problem.study):
+        return "modal"
+    return problem.sector.default_method
 
 
 @dataclass
