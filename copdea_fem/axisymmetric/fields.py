@@ -7,7 +7,8 @@ from pathlib import Path
 import numpy as np
 
 from ..paraview.merge import PointMerge, _AirHalves, _jump_vertices
-from ..paraview.vtu import VtuMesh, _safe, _write_all, membrane_mesh
+from ..paraview.vtu import VtuMesh, _safe, _write_all, membrane_mesh, \
+    pressure_point_data
 
 
 def revolution_angles(max_order: int, minimum: int = 72, per_wave: int = 8) -> np.ndarray:
@@ -210,9 +211,7 @@ def revolved_air_meshes(operators, modes, pressures, max_order: int | None = Non
         nodal[copy.ravel()] = values.ravel()
         main, _ = _harmonics(mode.m, mode.family, angles)
         field = merge.reduce((nodal[used][:, None] * main[None, :]).ravel())
-        data = {"pressure_real": field.real.astype(np.float32),
-                "pressure_imag": field.imag.astype(np.float32),
-                "pressure_abs": np.abs(field).astype(np.float32)}
+        data = pressure_point_data(field)
         yield (f"air_{number:03d}_{_safe(mode.label)}",
                VtuMesh(xyz, [("wedge", cells)], point_data=data, cell_data=cell_data))
 

@@ -81,19 +81,23 @@ class MembraneObserver:
         return axial, radial
 
 
+def polar_quadrature(hemispheres=("upper", "lower")) -> tuple[np.ndarray, np.ndarray]:
+    """Polar angles theta [rad] and weights [rad] of :data:`POLAR_POINTS` Gauss-Legendre
+    points per hemisphere (upper: theta in (0, pi/2), lower: (pi/2, pi)), for both
+    engines' Kirchhoff spheres."""
+    nodes, weights = np.polynomial.legendre.leggauss(POLAR_POINTS)
+    starts = [0.0 if half == "upper" else 0.5 * np.pi for half in hemispheres]
+    return (np.concatenate([start + 0.25 * np.pi * (nodes + 1) for start in starts]),
+            np.tile(0.25 * np.pi * weights, len(starts)))
+
+
 class SphereSampler:
     """p and dp/drho of order-0 pressure vectors on the Kirchhoff sphere (module doc)."""
 
     def __init__(self, coupled, radius: float, hemispheres=("upper", "lower")):
         mesh = coupled.pressure_space.mesh
         self.coupled, self.radius = coupled, radius
-        nodes, weights = np.polynomial.legendre.leggauss(POLAR_POINTS)
-        polar, weight = [], []
-        for half in hemispheres:            # upper: theta in (0, pi/2), lower: (pi/2, pi)
-            start = 0.0 if half == "upper" else 0.5 * np.pi
-            polar.append(start + 0.25 * np.pi * (nodes + 1))
-            weight.append(0.25 * np.pi * weights)
-        self.polar, self.weight = np.concatenate(polar), np.concatenate(weight)
+        self.polar, self.weight = polar_quadrature(hemispheres)
         self.r, self.z = radius * np.sin(self.polar), radius * np.cos(self.polar)
         self.points = mesh(self.r, self.z)
         self.gf = ngs.GridFunction(coupled.pressure_space)

@@ -155,3 +155,11 @@ def _write_all(directory: Path, meshes, kept: dict | None = None) -> list[Path]:
 
 def _safe(label: str) -> str:
     return "".join(ch if ch.isalnum() else "_" for ch in label).strip("_")
+
+
+def pressure_point_data(field) -> dict:
+    """The air files' point arrays of a complex pressure field [Pa]: real, imaginary part
+    and modulus (float32), named as ParaView users know them."""
+    return {"pressure_real": field.real.astype(np.float32),
+            "pressure_imag": field.imag.astype(np.float32),
+            "pressure_abs": np.abs(field).astype(np.float32)}

@@ -8,7 +8,8 @@ from pathlib import Path
 import numpy as np
 
 from ..paraview.merge import PointMerge, _AirHalves, _jump_vertices, _unfold_cells, _unfold_values
-from ..paraview.vtu import VtuMesh, _safe, _write_all, membrane_mesh
+from ..paraview.vtu import VtuMesh, _safe, _write_all, membrane_mesh, \
+    pressure_point_data
 
 
 class MembraneSampler:
@@ -155,9 +156,7 @@ def air_meshes(operators, modes, pressures):
         nodal = np.zeros(2 * count, dtype=complex)
         nodal[copy.ravel()] = values.ravel()
         nodal = merge.reduce(_unfold_values(nodal[used], symmetry, mode.sector))
-        data = {"pressure_real": nodal.real.astype(np.float32),
-                "pressure_imag": nodal.imag.astype(np.float32),
-                "pressure_abs": np.abs(nodal).astype(np.float32)}
+        data = pressure_point_data(nodal)
         yield (f"air_{number:03d}_{_safe(mode.label)}",
                VtuMesh(moved, [("tetra", cells)], point_data=data, cell_data=cell_data))
 

@@ -27,7 +27,7 @@ import numpy as np
 
 from ..forced.harmonic import ForcedOrder, reduce_matrix_3d, reduce_vector_3d
 from ..forced.problem import DrivenSector, OrderZero
-from ..forced.radiation import AZIMUTH_POINTS, POLAR_POINTS
+from ..forced.radiation import AZIMUTH_POINTS, polar_quadrature
 
 #: Polar angles of the observation points in the quadrant [rad].
 OBSERVATION_ANGLES = np.radians([11.25, 33.75, 56.25, 78.75])
@@ -146,13 +146,7 @@ class QuadrantSphere:
     def __init__(self, coupled, radius: float, hemispheres=("upper", "lower")):
         mesh = coupled.pressure_space.mesh
         self.coupled, self.radius = coupled, radius
-        nodes, weights = np.polynomial.legendre.leggauss(POLAR_POINTS)
-        polar, weight = [], []
-        for half in hemispheres:
-            start = 0.0 if half == "upper" else 0.5 * np.pi
-            polar.append(start + 0.25 * np.pi * (nodes + 1))
-            weight.append(0.25 * np.pi * weights)
-        polar, weight = np.concatenate(polar), np.concatenate(weight)
+        polar, weight = polar_quadrature(hemispheres)
         phi = 2 * np.pi * (np.arange(AZIMUTH_POINTS) + 0.5) / AZIMUTH_POINTS
         theta, azimuth = np.meshgrid(polar, phi, indexing="ij")
         self.xyz = radius * np.stack([np.sin(theta) * np.cos(azimuth),
