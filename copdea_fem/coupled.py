@@ -242,16 +242,36 @@ def _physical_air_energy(pressure, pressure_test, density, motion):
 def scaled_pencil(a_full, b_full, is_air):
     """Scale the air unknowns and rows (module doc): ``p = beta p^``, air rows times alpha,
     with beta = |K_s| / |C| and alpha = |K_s| / (beta |K_a|) (max-norms), so every block
-    has the size of ``K_s``; returns (A scaled, B scaled, beta, row scale, column scale)."""
-    k_s = a_full[~is_air][:, ~is_air]
-    coupling = b_full[is_air][:, ~is_air]
-    beta = _norm(k_s) / _norm(coupling)
-    alpha = _norm(k_s) / (beta * _norm(a_full[is_air][:, is_air]))
+    has the size of ``K_s``; returns (A scaled, B scaled, beta, row scale, column scale).
+
+    The norms and the scaling work on the CSR entries (each entry knows its row and
+    column), without slicing the blocks out or multiplying by diagonal matrices."""
+    a_full, b_full = a_full.tocsr(), b_full.tocsr()
+    a_rows, b_rows = _entry_rows(a_full), _entry_rows(b_full)
+    membrane_block = ~is_air[a_rows] & ~is_air[a_full.indices]
+    k_s = _block_norm(a_full, membrane_block)
+    beta = k_s / _block_norm(b_full, is_air[b_rows] & ~is_air[b_full.indices])
+    alpha = k_s / (beta * _block_norm(a_full, is_air[a_rows] & is_air[a_full.indices]))
     row_scale, column_scale = np.where(is_air, alpha, 1.0), np.where(is_air, beta, 1.0)
-    scale_rows, scale_columns = sp.diags(row_scale), sp.diags(column_scale)
-    return ((scale_rows @ a_full @ scale_columns).tocsr(),
-            (scale_rows @ b_full @ scale_columns).tocsr(), beta, row_scale, column_scale)
+    return (_scaled(a_full, a_rows, row_scale, column_scale),
+            _scaled(b_full, b_rows, row_scale, column_scale), beta, row_scale, column_scale)
 
 
-def _norm(matrix) -> float:
-    return float(abs(matrix).max()) if matrix.nnz else 1.0
+def _entry_rows(matrix) -> np.ndarray:
+    """The row of every stored entry of a CSR matrix."""
+    return np.repeat(np.arange(matrix.shape[0]), np.diff(matrix.indptr))
+
+
+def _block_norm(matrix, entries) -> float:
+    """Max-norm of the stored entries selected by ``entries`` (1 for an empty block)."""
+    values = matrix.data[entries]
+    return float(np.abs(values).max()) if values.size else 1.0
+
+
+def _scaled(matrix, rows, row_scale, column_scale):
+    """``diag(row_scale) matrix diag(column_scale)`` (CSR; stored zeros dropped, as the
+    product by diagonal matrices does)."""
+    scaled = matrix.copy()
+    scaled.data = matrix.data * (row_scale[rows] * column_scale[matrix.indices])
+    scaled.eliminate_zeros()
+    return scaled

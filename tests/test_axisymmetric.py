@@ -115,6 +115,45 @@ def test_bessel_error_converges_at_rate_2p():
         assert 3.5 < slope < 5.0, (label, slope, values)
 
 
+@pytest.mark.parametrize("inner_radius, z", [("17 mm", "16 mm"), ("0 mm", "0 mm")],
+                         ids=["disc-cone", "full-flat"])
+def test_order_stiffness_interpolated_in_m_equals_its_assembly(inner_radius, z):
+    """OrderForms assembles three orders per space and interpolates beyond them (degree 2 in
+    m, class doc): the order-m stiffness and material tangent equal a fresh assembly of the
+    same form at that order (NGSolve, the Parameter set to m) to round-off."""
+    import ngsolve as ngs
+
+    from copdea_fem.axisymmetric.operators import OrderForms, membrane_forms, order_space
+    from copdea_fem.axisymmetric.meridian import theta_integral
+    from copdea_fem.linearise import to_scipy
+
+    study = axisymmetric_study(geometry={"inner_radius": inner_radius, "frame": "none"},
+                               load={"z": z, "voltage": "2 kV"},
+                               mesh={"membrane_size": "3 mm"})
+    mesh = prepare_meridian(study)
+    state = solve_axisymmetric_prestress(study, mesh)
+    forms = OrderForms(state, study)
+    for m in range(0, 13):
+        operators = forms.operators(m)
+        tangent = forms.material_tangent(operators)
+        if m < 5:
+            continue                                   # the assembled orders
+        space = order_space(state.mesh, study["mesh"]["order"], m, state.has_disc)
+        trial, test = space.TnT()
+        free = operators.free_dofs
+        for material_only, interpolated in ((False, operators.stiffness), (True, tangent)):
+            energy, _ = membrane_forms(state, m, trial, test, False, theta=1.0,
+                                       material_only=material_only)
+            hessian = ngs.BilinearForm(space, symmetric=False)
+            hessian += ngs.Variation(energy)
+            hessian.AssembleLinearization(ngs.GridFunction(space).vec)
+            direct = theta_integral(m) * to_scipy(hessian.mat)[free][:, free]
+            if operators.disc_dof:
+                interpolated = interpolated[:-1, :-1]      # m >= 1: no disc unknown anyway
+            difference = abs(interpolated - direct).max()
+            assert difference <= 1e-12 * abs(direct).max(), (m, material_only, difference)
+
+
 # ------------------------------------------------------------------ rung 3: disc stiffness
 def test_small_z_disc_stiffness_matches_closed_form():
     """F/z -> 2 pi T / ln(r_o/r_i) for small z (T the flat tension), within 1e-4 at z = 1 um."""

@@ -73,6 +73,15 @@ def _dry_order(band: BandSolver, forms, m, f_max, initial_shifts=None):
     return operators, result, lowest
 
 
+def order_sampler(samplers: dict, state, operators) -> OrderSampler:
+    """The :class:`.modes.OrderSampler` of ``operators``' space, made once per space in
+    ``samplers`` (the orders m >= 1 share a space, :class:`.operators.OrderForms`)."""
+    space = operators.space
+    if id(space) not in samplers:       # the sampler holds the space: its id stays unique
+        samplers[id(space)] = OrderSampler(state, space, operators.axis_m1)
+    return samplers[id(space)]
+
+
 def _in_band(modes, f_min, f_max):
     return [mode for mode in modes if f_min <= mode.freq_hz <= f_max]
 
@@ -86,6 +95,7 @@ def axisymmetric_dry_modes(study, mesh=None, timings=None, solver=None,
     modes, results = [], {}
     initial_shifts = initial_shifts or {}
     forms = OrderForms(state, study)
+    samplers = {}                  # one per order space (the orders m >= 1 share theirs)
     stop = OrderStop(band.f_max)
     for m in range(MAX_ORDER + 1):
         with timings.stage("eigen"), tagging(f"m = {m}: "):
@@ -99,7 +109,8 @@ def axisymmetric_dry_modes(study, mesh=None, timings=None, solver=None,
         results[f"m={m}"] = result
         with timings.stage("classify"):
             order_modes = classify_order(operators, result.vectors, result.freq_hz,
-                                         result.freq_im_hz, result.residuals)
+                                         result.freq_im_hz, result.residuals,
+                                         order_sampler(samplers, state, operators))
             number_out_of_plane(order_modes)
             modes += with_pairs(_in_band(order_modes, band.f_min, band.f_max))
     modes.sort(key=lambda mode: (mode.freq_hz, mode.m, mode.family))
@@ -150,6 +161,7 @@ def axisymmetric_coupled_modes(study, mesh=None, timings=None, solver=None,
     initial_shifts = initial_shifts or {}
     forms = OrderForms(state, study)
     modes, pressures, dry, partners, results, operators = [], [], [], {}, {}, []
+    samplers = {}                  # one per order space (the orders m >= 1 share theirs)
     stop = OrderStop(band.dry_partner_top)
     for m in range(MAX_ORDER + 1):
         def say(text, m=m):
@@ -175,7 +187,7 @@ def axisymmetric_coupled_modes(study, mesh=None, timings=None, solver=None,
                                 start_modes=expected, max_imag_hz=band.max_imag_hz,
                                 initial_shifts=initial_shifts.get(f"m={m}"))
         with timings.stage("classify"):
-            sampler = OrderSampler(state, dry_operators.space, dry_operators.axis_m1)
+            sampler = order_sampler(samplers, state, dry_operators)
             order_dry = classify_order(dry_operators, dry_result.vectors, dry_result.freq_hz,
                                        dry_result.freq_im_hz, dry_result.residuals, sampler)
             number_out_of_plane(order_dry)

@@ -25,7 +25,7 @@ from ..modes import (AIR, IN_PLANE, OUT_OF_PLANE, OUT_OF_PLANE_FRACTION, PUMPING
                      PUMPING_DISC_FRACTION, Mode, assign_labels, radial_order)
 from ..symmetry import Sector
 from .meridian import theta_integral
-from .prestress import axisymmetric_fields
+from .operators import normal_mass_form
 
 
 @dataclass
@@ -51,7 +51,7 @@ class OrderSampler:
         self.gf = ngs.GridFunction(space)
         a, second, c = self.gf.components
         b = second - a if axis_m1 else second
-        normal = axisymmetric_fields(state.displacement, state.material, state.voltage)["normal"]
+        normal = state.fields()["normal"]
         self._fields = ngs.CF((a * normal[0] + c * normal[1], a, b, c))
         self.radii = self.line.radii.ravel()
         order = np.argsort(self.radii, kind="stable")
@@ -81,25 +81,13 @@ class OrderSampler:
 
 
 def normal_mass_matrix(operators) -> object:
-    """M_n of the order (SciPy, on the order space's DOFs) [kg]; assembled once per
-    ``operators`` (the dry and the coupled modes of an order are classified on the same)."""
+    """M_n of the order (SciPy, on the order space's DOFs) [kg]: set by
+    :meth:`.operators.OrderForms.operators`, else assembled here on first use."""
     if operators.normal_mass is None:
-        operators.normal_mass = _normal_mass_matrix(operators)
+        trial, test = operators.space.TnT()
+        form = normal_mass_form(operators.state, trial, test, theta_integral(operators.m))
+        operators.normal_mass = to_scipy(ngs.BilinearForm(form).Assemble().mat)
     return operators.normal_mass
-
-
-def _normal_mass_matrix(operators) -> object:
-    state, m = operators.state, operators.m
-    trial, test = operators.space.TnT()
-    normal = axisymmetric_fields(state.displacement, state.material, state.voltage)["normal"]
-
-    def normal_part(function):
-        a, second, c = function
-        return a * normal[0] + c * normal[1]
-
-    form = ngs.BilinearForm(theta_integral(m) * state.material.areal_density * ngs.x
-                            * normal_part(trial) * normal_part(test) * state.measure)
-    return to_scipy(form.Assemble().mat)
 
 
 def classify_order(operators, vectors, freq_hz, freq_im_hz, residuals,

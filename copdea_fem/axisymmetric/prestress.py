@@ -34,7 +34,13 @@ class AxisymmetricState(PrestressedState):
     engine = "axisymmetric"
 
     def fields(self) -> dict:
-        return axisymmetric_fields(self.displacement, self.material, self.voltage)
+        """:func:`axisymmetric_fields` of this state (CoefficientFunctions of its displacement
+        GridFunction), built once per displacement, material and voltage."""
+        key = (id(self.displacement), id(self.material), self.voltage)
+        if getattr(self, "_fields", (None,))[0] != key:
+            self._fields = (key, axisymmetric_fields(self.displacement, self.material,
+                                                     self.voltage))
+        return self._fields[1]
 
     def line(self) -> LineSampler:
         """The membrane line's sampler (:class:`.meridian.LineSampler`), made once per state."""
