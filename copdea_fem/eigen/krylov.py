@@ -190,7 +190,12 @@ def _orthogonalise(V, W):
             coefficients = _project(V, W)
             W = W - V @ coefficients
             C += coefficients
-    Q, R = np.linalg.qr(W)
+    if W.shape[1] == 1:              # one vector (the default block): QR is its norm
+        length = float(np.linalg.norm(W))
+        R = np.array([[length]], dtype=W.dtype)
+        Q = W / length if length > 0 else W.copy()
+    else:
+        Q, R = np.linalg.qr(W)
     lost = np.abs(np.diag(R)) <= 1e-12 * max(float(norms.max(initial=0.0)), 1e-300)
     if np.any(lost):
         rng = np.random.default_rng(W.shape[0] + V.shape[1])
