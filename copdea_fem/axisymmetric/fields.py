@@ -33,9 +33,10 @@ class RevolvedMembraneSampler:
     sin family's turned copy) on every ring of points.
     """
 
-    def __init__(self, state, max_order: int = 0):
+    def __init__(self, state, max_order: int = 0, prestress_profiles: dict | None = None):
         self.state = state
         self.line = state.line()
+        self._prestress_profiles = prestress_profiles
         radii = self.line.radii.ravel()
         self.radii, self._unique = np.unique(np.round(radii, 12), return_index=True)
         self.angles = revolution_angles(max_order)
@@ -86,15 +87,39 @@ class RevolvedMembraneSampler:
         return self.merge.reduce(np.column_stack([u_r * self._cos - u_t * self._sin,
                                                   u_r * self._sin + u_t * self._cos, u_z]))
 
+    def prestress_profiles(self) -> dict:
+        """The prestress fields (``state.fields()``: displacement, stretches, stresses,
+        thickness, e_field, normal; SI) at the sample radii: name -> (n_r,) or (n_r, d).
+
+        One evaluation of all of them, compiled (:meth:`ngsolve.CoefficientFunction.Compile`:
+        the subexpressions they share, the material's energy partials, evaluated once):
+        equal to the bit to one evaluation per field, 0.4 against 23 ms for G1.  Found once
+        per sampler; a sampler made from another one (:func:`revolved_sampler`) takes them.
+        """
+        import ngsolve as ngs
+
+        if self._prestress_profiles is None:
+            fields = self.state.fields()
+            values = self.profile(ngs.CF(tuple(fields.values())).Compile())
+            values = values.reshape(len(values), -1)
+            self._prestress_profiles, start = {}, 0
+            for name, value in fields.items():
+                size = value.dim
+                self._prestress_profiles[name] = values[:, start] if size == 1 else \
+                    values[:, start:start + size]
+                start += size
+        return self._prestress_profiles
+
     def prestress_displacement(self) -> np.ndarray:
-        u = self.profile(self.state.displacement)
+        """The prestress displacement at the written points, Cartesian (n, 3) [m]."""
+        u = self.prestress_profiles()["displacement"]
         return self.vector(u[:, 0], np.zeros(len(u)), u[:, 1])
 
     def prestress_fields(self) -> dict:
-        fields = self.state.fields()
+        """The prestress fields at the written points (prestress.vtu's point data, SI):
+        vectors Cartesian (n, 3), scalars (n,)."""
         data = {}
-        for name, value in fields.items():
-            values = self.profile(value)
+        for name, values in self.prestress_profiles().items():
             if name in ("displacement", "normal"):
                 data[name] = self.vector(values[:, 0], np.zeros(len(values)), values[:, 1])
             else:
@@ -111,7 +136,9 @@ def revolved_sampler(state, modes, sampler=None) -> RevolvedMembraneSampler:
     """``sampler`` if its angles resolve the highest order of ``modes``, else a finer one."""
     highest = max([mode.m for mode in modes], default=0)
     if sampler is None or len(sampler.angles) < len(revolution_angles(highest)):
-        sampler = RevolvedMembraneSampler(state, highest)
+        sampler = RevolvedMembraneSampler(
+            state, highest, sampler.prestress_profiles() if sampler is not None
+            and sampler.state is state else None)
     return sampler
 
 
@@ -123,7 +150,7 @@ def revolved_mode_meshes(state, modes, sampler=None):
     arrays, so that a :class:`~copdea_fem.paraview.vtu.VtuWriter` encodes them once."""
     sampler = revolved_sampler(state, modes, sampler)
     deformed = sampler.coordinates + sampler.prestress_displacement()
-    normal_profile = sampler.profile(state.fields()["normal"])
+    normal_profile = sampler.prestress_profiles()["normal"]
     for number, (mode, amplitude) in enumerate(zip(modes, amplitude_profiles(sampler, modes))):
         shape = [sampler.vector(amplitude[:, 0].real, amplitude[:, 1].real,
                                 amplitude[:, 2].real, mode.m, mode.family),
