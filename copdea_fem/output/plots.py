@@ -106,6 +106,10 @@ def rasterise(points: np.ndarray, triangles: np.ndarray, values: np.ndarray,
     return Raster(points, triangles, size).image(values)
 
 
+#: pixel tests per vectorised block of :class:`Raster`
+_RASTER_BLOCK = 32768
+
+
 class Raster:
     """Which triangle covers each pixel centre and its barycentric weights there: the modes
     of one result share their mesh, so modes.png finds them once for all its panels."""
@@ -129,28 +133,34 @@ class Raster:
         keys = bucket[:, 0] * (4 * size) + bucket[:, 1]
         pixels, owners, weights = [], [], []
         for key in np.unique(keys):
-            chosen = np.flatnonzero(keys == key)
-            bx, by = bucket[chosen[0]]
+            group = np.flatnonzero(keys == key)
+            bx, by = bucket[group[0]]
             ox, oy = np.meshgrid(np.arange(bx), np.arange(by), indexing="ij")
-            px = first[chosen, 0][:, None] + ox.ravel()[None, :]          # (t, bx by)
-            py = first[chosen, 1][:, None] + oy.ravel()[None, :]
-            a, b, c = (corners[chosen, k] for k in range(3))
-            denominator = ((b[:, 1] - c[:, 1]) * (a[:, 0] - c[:, 0])
-                           + (c[:, 0] - b[:, 0]) * (a[:, 1] - c[:, 1]))
-            usable = np.abs(denominator) > 1e-12
-            denominator = np.where(usable, denominator, 1.0)[:, None]
-            x, y = px + 0.5 - c[:, 0, None], py + 0.5 - c[:, 1, None]
-            w0 = ((b[:, 1] - c[:, 1])[:, None] * x
-                  + (c[:, 0] - b[:, 0])[:, None] * y) / denominator
-            w1 = ((c[:, 1] - a[:, 1])[:, None] * x
-                  + (a[:, 0] - c[:, 0])[:, None] * y) / denominator
-            w2 = 1.0 - w0 - w1
-            inside = ((w0 >= -1e-9) & (w1 >= -1e-9) & (w2 >= -1e-9) & usable[:, None]
-                      & (px < size) & (py < size))
-            rows, _ = np.nonzero(inside)
-            pixels.append((py * size + px)[inside])
-            owners.append(chosen[rows])
-            weights.append(np.column_stack([w0[inside], w1[inside], w2[inside]]))
+            ox, oy = ox.ravel()[None, :], oy.ravel()[None, :]
+            # in blocks of ~32k pixel tests: temporaries that stay in the cache (a fresh
+            # process pays a page fault per new page of a large one), the same order
+            step = max(1, _RASTER_BLOCK // (bx * by))
+            for start in range(0, len(group), step):
+                chosen = group[start:start + step]
+                px = first[chosen, 0][:, None] + ox                           # (t, bx by)
+                py = first[chosen, 1][:, None] + oy
+                a, b, c = (corners[chosen, k] for k in range(3))
+                denominator = ((b[:, 1] - c[:, 1]) * (a[:, 0] - c[:, 0])
+                               + (c[:, 0] - b[:, 0]) * (a[:, 1] - c[:, 1]))
+                usable = np.abs(denominator) > 1e-12
+                denominator = np.where(usable, denominator, 1.0)[:, None]
+                x, y = px + 0.5 - c[:, 0, None], py + 0.5 - c[:, 1, None]
+                w0 = ((b[:, 1] - c[:, 1])[:, None] * x
+                      + (c[:, 0] - b[:, 0])[:, None] * y) / denominator
+                w1 = ((c[:, 1] - a[:, 1])[:, None] * x
+                      + (a[:, 0] - c[:, 0])[:, None] * y) / denominator
+                w2 = 1.0 - w0 - w1
+                inside = ((w0 >= -1e-9) & (w1 >= -1e-9) & (w2 >= -1e-9) & usable[:, None]
+                          & (px < size) & (py < size))
+                rows, _ = np.nonzero(inside)
+                pixels.append((py * size + px)[inside])
+                owners.append(chosen[rows])
+                weights.append(np.column_stack([w0[inside], w1[inside], w2[inside]]))
         self.pixels = np.concatenate(pixels) if pixels else np.zeros(0, dtype=int)
         self.owners = np.concatenate(owners) if owners else np.zeros(0, dtype=int)
         self.weights = np.concatenate(weights) if weights else np.zeros((0, 3))
