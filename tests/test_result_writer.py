@@ -231,3 +231,22 @@ def test_panels_are_coloured_as_their_image_and_the_png_reads_back(tmp_path):
     with Image.open(tmp_path / "picture.png") as image:
         assert image.mode == "RGB"
         np.testing.assert_array_equal(np.asarray(image), picture)
+
+
+def test_a_short_gathering_write_is_completed(tmp_path, monkeypatch):
+    """Where os.writev writes less than asked (it may), the rest is written: the file is
+    whole, byte for byte write_vtu's."""
+    import os
+
+    from copdea_fem.paraview import vtu
+
+    generator = np.random.default_rng(4)
+    mesh = VtuMesh(generator.random((20, 3)), [("triangle", generator.integers(0, 20, (9, 3)))],
+                   point_data={"p": generator.random(20)})
+    write_vtu(tmp_path / "whole.vtu", mesh)
+    for short in (0, 5, 300):                  # in the header, in an array, past the first
+        monkeypatch.setattr(vtu.os, "writev", lambda fd, views, short=short: os.write(
+            fd, b"".join(bytes(view) for view in views)[:short]))
+        write_vtu(tmp_path / f"short_{short}.vtu", mesh)
+        assert (tmp_path / f"short_{short}.vtu").read_bytes() == \
+            (tmp_path / "whole.vtu").read_bytes()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import NamedTuple
 
@@ -153,11 +154,28 @@ class VtuWriter:
                 f'<Piece NumberOfPoints="{n_points}" NumberOfCells="{n_cells}">\n'
                 + "\n".join(header) + '\n</Piece>\n</UnstructuredGrid>\n'
                 '<AppendedData encoding="raw">\n_')
-        with open(path, "wb") as handle:
-            handle.write(text.encode())
-            for data in blocks:
+        _write_buffers(path, [text.encode(), *blocks, b"\n</AppendedData>\n</VTKFile>\n"])
+
+
+def _write_buffers(path: Path, buffers: list) -> None:
+    """The file ``path`` holding ``buffers`` (bytes-like) one after another, written by one
+    gathering system call where the system has one (``os.writev``; the rest, if it wrote
+    less, by plain writes): a VTU file's ~20 arrays cost one call, not ~20."""
+    with open(path, "wb", buffering=0) as handle:
+        if not hasattr(os, "writev"):
+            for data in buffers:
                 handle.write(data)
-            handle.write(b"\n</AppendedData>\n</VTKFile>\n")
+            return
+        views = [memoryview(data).cast("B") for data in buffers]
+        written = os.writev(handle.fileno(), views)
+        for view in views:
+            if written >= view.nbytes:
+                written -= view.nbytes
+                continue
+            rest = view[written:]
+            while rest.nbytes:
+                rest = rest[handle.write(rest):]
+            written = 0
 
 
 #: numpy dtype (without byte order) -> VTK's DataArray type; VTK cell type numbers.
