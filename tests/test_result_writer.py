@@ -200,12 +200,29 @@ def test_a_series_writer_writes_each_file_as_write_vtu_alone(tmp_path):
                     [("wedge", generator.integers(0, 30, (12, 6)))],
                     point_data={"p": generator.random(30).astype(np.float32)},
                     cell_data={"pml": [generator.integers(0, 2, 12).astype(np.int8)]})
+    series = [*meshes, other, meshes[0]]
     writer = VtuWriter()
-    for number, mesh in enumerate([*meshes, other, meshes[0]]):
+    for number, mesh in enumerate(series):
         writer.write(tmp_path / f"series_{number}.vtu", mesh)
         write_vtu(tmp_path / f"alone_{number}.vtu", mesh)
         assert (tmp_path / f"series_{number}.vtu").read_bytes() == \
             (tmp_path / f"alone_{number}.vtu").read_bytes()
+    with VtuWriter() as writer:                 # written by a background thread
+        for number, mesh in enumerate(series):
+            writer.write(tmp_path / f"background_{number}.vtu", mesh)
+    for number in range(len(series)):
+        assert (tmp_path / f"background_{number}.vtu").read_bytes() == \
+            (tmp_path / f"alone_{number}.vtu").read_bytes()
+
+
+def test_a_background_write_that_fails_raises_when_the_series_ends(tmp_path):
+    mesh = VtuMesh(np.zeros((3, 3)), [("triangle", np.array([[0, 1, 2]]))])
+    with pytest.raises(FileNotFoundError):
+        with VtuWriter() as writer:
+            writer.write(tmp_path / "fine.vtu", mesh)
+            writer.write(tmp_path / "no such folder" / "lost.vtu", mesh)
+            writer.write(tmp_path / "after.vtu", mesh)
+    assert (tmp_path / "fine.vtu").exists() and (tmp_path / "after.vtu").exists()
 
 
 def test_panels_are_coloured_as_their_image_and_the_png_reads_back(tmp_path):
