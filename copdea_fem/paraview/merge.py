@@ -181,9 +181,9 @@ class CornerPressure:
         ranges = [space.Range(k) for k in range(2)]
         reads = []
         for start, stop in ((r.start, r.stop) for r in ranges):
-            probe = np.zeros(self.size + 1)
+            probe = np.zeros(self.size)
             probe[start:stop] = np.arange(1, stop - start + 1)
-            values = self._evaluate(probe[:-1])
+            values = self._evaluate(probe)
             read = np.rint(values.real).astype(np.int64)
             if not (np.array_equal(values, read) and np.all((read >= 0) & (read <= stop - start))):
                 return                                   # not one DOF per corner

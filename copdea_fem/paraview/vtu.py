@@ -72,7 +72,8 @@ class VtuWriter:
 
     Only the arrays of the last mesh written are remembered (each with a reference, so
     that an identity match is that array): the arrays must not change in place until
-    their file is written.  The per-mode arrays go to the file as they lie in memory, without a copy.
+    their file is written.  The per-mode arrays go to the file as they lie in memory,
+    without a copy.
 
     Used as a context manager (``with VtuWriter() as writer``), the files are written by
     one background thread while the caller builds the next mesh (the system call copying
