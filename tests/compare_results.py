@@ -6,9 +6,9 @@ the result files of a small solve made cheap to write): every ``.vtu`` read with
 and with pyvista (VTK, what ParaView uses) -- points, cells, every point and cell array,
 the same names, shapes, types and values; the ``.pvd`` collections, ``modes.csv`` and
 ``study.resolved.yaml`` byte for byte; ``modes.json`` but its timings, the folder's
-manifest but its time stamp; the PNG pictures
-pixel for pixel (Pillow).  Values must be equal to the bit, or within ``--rtol`` of the
-array's largest modulus where asked (a vectorised computation that reorders a sum).
+manifest but its time stamp; the PNG pictures pixel for pixel (Pillow).  Values must be
+equal to the bit, or within ``--rtol`` of the array's largest modulus where asked (a
+vectorised computation that reorders a sum).
 
 Run from the repository root::
 
