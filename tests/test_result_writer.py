@@ -14,8 +14,8 @@ import pytest
 from scipy.spatial import cKDTree
 
 import copdea_fem as cf
-from copdea_fem.output import VtuMesh, write_vtu
 from copdea_fem.modes import IN_PLANE, OUT_OF_PLANE, PUMPING
+from copdea_fem.output import VtuMesh, write_vtu
 from copdea_fem.paraview.vtu import VtuWriter
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -66,9 +66,10 @@ def _corner_pressures(result, number):
 
 def test_air_files_share_one_geometry_and_hold_each_modes_own_pressure(written):
     """Two modes of different order written together: the same points, wedges and cell
-    data, and at every written point (off the axis, where the two sides of a screen are
-    not one point) the pressure of that mode: p(r, z) cos m theta (sin for the sin family)
-    with p evaluated by NGSolve at each element corner there."""
+    data, and at every written point the pressure of that mode: p(r, z) cos m theta (sin
+    for the sin family) with p evaluated by NGSolve at each element corner there.  Left
+    out: the axis (one merged point) and the screens' two sides (two points at one place,
+    each with its half's pressure: not told apart by position)."""
     import meshio
 
     solution, folder = written
