@@ -93,11 +93,12 @@ class VtuWriter:
         self._pool = ThreadPoolExecutor(1, thread_name_prefix="vtu-writer")
         return self
 
-    def __exit__(self, *error) -> None:
+    def __exit__(self, kind, error, traceback) -> None:
         pool, pending, self._pool, self._pending = self._pool, self._pending, None, []
         pool.shutdown(wait=True)
-        for job in pending:
-            job.result()                # the first write that failed raises here
+        if kind is None:                # else the caller's own error goes on
+            for job in pending:
+                job.result()            # the first write that failed raises here
 
     def _encode(self, values, remembered: dict):
         """``(VTK type, components, data)`` of an array, little endian and C-contiguous
