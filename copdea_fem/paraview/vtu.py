@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import NamedTuple
 
@@ -58,58 +59,149 @@ def write_vtu(path: Path, mesh) -> None:
     with its arrays appended as raw binary: the XML header, then every array's bytes as
     they lie in memory.  ParaView, VTK (pyvista) and meshio read it; meshio's own writer
     took ~20 ms a file (base64 and per-array XML), this one ~7 ms, mostly the disk
-    (97 files of the baffled G1 command: 1.9 s and 0.64 s on a loaded machine)."""
-    blocks, header = [], []
-    offset = 0
+    (97 files of the baffled G1 command: 1.9 s and 0.64 s on a loaded machine).
+    (:class:`VtuWriter` for many files that share their geometry.)"""
+    VtuWriter().write(path, mesh)
 
-    def array(values, name=None, components=None) -> str:
-        nonlocal offset
-        values = np.ascontiguousarray(values)
-        values = values.astype(values.dtype.newbyteorder("<"), copy=False)
-        kind = _VTK_TYPES[values.dtype.str.lstrip("<=|")]
-        data = values.tobytes()
-        blocks.append(np.uint64(len(data)).tobytes())
-        blocks.append(data)
-        named = f' Name="{name}"' if name is not None else ""
-        count = components if components is not None else (
-            values.shape[1] if values.ndim == 2 else None)
-        counted = f' NumberOfComponents="{count}"' if count is not None else ""
-        tag = (f'<DataArray type="{kind}"{named}{counted} format="appended" '
-               f'offset="{offset}"/>')
-        offset += 8 + len(data)
-        return tag
 
-    (kind, cells), = [(block.type, block.data) for block in mesh.cells]
-    cells = np.asarray(cells)
-    if kind in _VTK_ORDER:          # meshio's node order -> VTK's (as meshio.write does)
-        cells = cells[:, _VTK_ORDER[kind]]
-    # 32-bit connectivity where it fits: the air's wedges are most of a file's bytes
-    cells = cells.astype(np.int32 if cells.size < 2**31 - 1 and len(mesh.points) < 2**31 - 1
-                         else np.int64, copy=False)
-    points = np.asarray(mesh.points)
-    n_points, (n_cells, corners) = len(points), cells.shape
-    header.append(f'<Points>{array(points, components=3)}</Points>')
-    header.append('<Cells>'
-                  + array(cells.ravel(), "connectivity")
-                  + array(np.arange(1, n_cells + 1, dtype=cells.dtype) * corners, "offsets")
-                  + array(np.full(n_cells, _VTK_CELLS[kind], dtype=np.uint8), "types")
-                  + '</Cells>')
-    header.append("<PointData>" + "".join(array(values, name)
-                                           for name, values in mesh.point_data.items())
-                  + "</PointData>")
-    header.append("<CellData>" + "".join(array(values[0], name)
-                                          for name, values in mesh.cell_data.items())
-                  + "</CellData>")
-    text = ('<?xml version="1.0"?>\n<VTKFile type="UnstructuredGrid" version="1.0" '
-            'byte_order="LittleEndian" header_type="UInt64">\n<UnstructuredGrid>\n'
-            f'<Piece NumberOfPoints="{n_points}" NumberOfCells="{n_cells}">\n'
-            + "\n".join(header) + '\n</Piece>\n</UnstructuredGrid>\n'
-            '<AppendedData encoding="raw">\n_')
-    with open(path, "wb") as handle:
-        handle.write(text.encode())
-        for block in blocks:
-            handle.write(block)
-        handle.write(b"\n</AppendedData>\n</VTKFile>\n")
+class VtuWriter:
+    """:func:`write_vtu` for a series of files: an array that the next mesh holds again
+    (the same ndarray object: the points, cells and cell data of every mode of one domain,
+    which the field samplers build once per series) is converted to its written bytes
+    once, and the files stay byte for byte those of :func:`write_vtu`.
+
+    Only the arrays of the last mesh written are remembered (each with a reference, so
+    that an identity match is that array): the arrays must not change in place until
+    their file is written.  The per-mode arrays go to the file as they lie in memory,
+    without a copy.
+
+    Used as a context manager (``with VtuWriter() as writer``), the files are written by
+    one background thread while the caller builds the next mesh (the system call copying
+    the bytes releases the GIL): every file is complete when the block ends, and the first
+    error of a write is raised there.  The baffled G1 command's 97 files: ~30 ms less
+    wall time of ~0.2 s, the same CPU time.
+    """
+
+    def __init__(self):
+        self._encoded: dict = {}        # id(array) -> (array, (VTK type, components), data)
+        self._pool = None
+        self._pending: list = []
+
+    def __enter__(self) -> "VtuWriter":
+        from concurrent.futures import ThreadPoolExecutor
+
+        self._pool = ThreadPoolExecutor(1, thread_name_prefix="vtu-writer")
+        return self
+
+    def __exit__(self, kind, error, traceback) -> None:
+        pool, pending, self._pool, self._pending = self._pool, self._pending, None, []
+        pool.shutdown(wait=True)
+        if kind is None:                # else the caller's own error goes on
+            for job in pending:
+                job.result()            # the first write that failed raises here
+
+    def _encode(self, values, remembered: dict):
+        """``(VTK type, components, data)`` of an array, little endian and C-contiguous
+        (``data``: the array itself or a converted copy, written through the buffer
+        protocol); remembered for the next file."""
+        hit = self._encoded.get(id(values))
+        if hit is not None and hit[0] is values:
+            remembered[id(values)] = hit
+            return hit[1]
+        data = np.ascontiguousarray(values)
+        data = data.astype(data.dtype.newbyteorder("<"), copy=False)
+        count = data.shape[1] if data.ndim == 2 else None
+        encoded = (_VTK_TYPES[data.dtype.str.lstrip("<=|")], count,
+                   data.reshape(-1).view(np.uint8))
+        remembered[id(values)] = (values, encoded)
+        return encoded
+
+    def _cells(self, block, n_points: int, remembered: dict):
+        """``(number of cells, encoded connectivity, offsets, types)`` of one cell block:
+        VTK's node order, 32-bit numbers where they fit (the air's wedges are most of a
+        file's bytes)."""
+        key = ("cells", id(block.data), n_points)
+        hit = self._encoded.get(key)
+        if hit is not None and hit[0] is block.data:
+            remembered[key] = hit
+            return hit[1]
+        kind, cells = block.type, np.asarray(block.data)
+        if kind in _VTK_ORDER:      # meshio's node order -> VTK's (as meshio.write does)
+            cells = cells[:, _VTK_ORDER[kind]]
+        cells = cells.astype(np.int32 if cells.size < 2**31 - 1 and n_points < 2**31 - 1
+                             else np.int64, copy=False)
+        n_cells, corners = cells.shape
+        arrays = (cells.ravel(), np.arange(1, n_cells + 1, dtype=cells.dtype) * corners,
+                  np.full(n_cells, _VTK_CELLS[kind], dtype=np.uint8))
+        encoded = (n_cells, [self._encode(values, {}) for values in arrays])
+        remembered[key] = (block.data, encoded)
+        return encoded
+
+    def write(self, path: Path, mesh) -> None:
+        """``mesh`` (:class:`VtuMesh` or :class:`meshio.Mesh`: points, one cell block,
+        point and cell data) as the VTU file ``path``, as :func:`write_vtu` writes it."""
+        remembered: dict = {}
+        header, blocks = [], []
+        offset = 0
+
+        def array(encoded, name=None, components=None) -> str:
+            nonlocal offset
+            kind, count, data = encoded
+            count = components if components is not None else count
+            blocks.append(np.uint64(data.nbytes).tobytes())
+            blocks.append(data)
+            named = f' Name="{name}"' if name is not None else ""
+            counted = f' NumberOfComponents="{count}"' if count is not None else ""
+            tag = (f'<DataArray type="{kind}"{named}{counted} format="appended" '
+                   f'offset="{offset}"/>')
+            offset += 8 + data.nbytes
+            return tag
+
+        block, = mesh.cells
+        n_points = len(mesh.points)
+        n_cells, (connectivity, offsets, types) = self._cells(block, n_points, remembered)
+        header.append(f'<Points>{array(self._encode(mesh.points, remembered), components=3)}'
+                      '</Points>')
+        header.append('<Cells>' + array(connectivity, "connectivity")
+                      + array(offsets, "offsets") + array(types, "types") + '</Cells>')
+        header.append("<PointData>" + "".join(array(self._encode(values, remembered), name)
+                                               for name, values in mesh.point_data.items())
+                      + "</PointData>")
+        header.append("<CellData>" + "".join(array(self._encode(values[0], remembered), name)
+                                              for name, values in mesh.cell_data.items())
+                      + "</CellData>")
+        self._encoded = remembered
+        text = ('<?xml version="1.0"?>\n<VTKFile type="UnstructuredGrid" version="1.0" '
+                'byte_order="LittleEndian" header_type="UInt64">\n<UnstructuredGrid>\n'
+                f'<Piece NumberOfPoints="{n_points}" NumberOfCells="{n_cells}">\n'
+                + "\n".join(header) + '\n</Piece>\n</UnstructuredGrid>\n'
+                '<AppendedData encoding="raw">\n_')
+        buffers = [text.encode(), *blocks, b"\n</AppendedData>\n</VTKFile>\n"]
+        if self._pool is None:
+            _write_buffers(path, buffers)
+        else:
+            self._pending.append(self._pool.submit(_write_buffers, path, buffers))
+
+
+def _write_buffers(path: Path, buffers: list) -> None:
+    """The file ``path`` holding ``buffers`` (bytes-like) one after another, written by one
+    gathering system call where the system has one (``os.writev``; the rest, if it wrote
+    less, by plain writes): a VTU file's ~20 arrays cost one call, not ~20."""
+    with open(path, "wb", buffering=0) as handle:
+        if not hasattr(os, "writev"):
+            for data in buffers:
+                handle.write(data)
+            return
+        views = [memoryview(data).cast("B") for data in buffers]
+        written = os.writev(handle.fileno(), views)
+        for view in views:
+            if written >= view.nbytes:
+                written -= view.nbytes
+                continue
+            rest = view[written:]
+            while rest.nbytes:
+                rest = rest[handle.write(rest):]
+            written = 0
 
 
 #: numpy dtype (without byte order) -> VTK's DataArray type; VTK cell type numbers.
@@ -144,12 +236,13 @@ def _write_all(directory: Path, meshes, kept: dict | None = None) -> list[Path]:
     """``(name, VtuMesh)`` pairs as ``directory/name.vtu``; the paths in order
     (``kept``: ``{position: None}``, receives the meshes at those positions)."""
     files = []
-    for number, (name, mesh) in enumerate(meshes):
-        path = directory / f"{name}.vtu"
-        write_vtu(path, mesh)
-        files.append(path)
-        if kept is not None and number in kept:
-            kept[number] = mesh
+    with VtuWriter() as writer:             # written in the background, complete on return
+        for number, (name, mesh) in enumerate(meshes):
+            path = directory / f"{name}.vtu"
+            writer.write(path, mesh)
+            files.append(path)
+            if kept is not None and number in kept:
+                kept[number] = mesh
     return files
 
 

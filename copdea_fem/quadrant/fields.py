@@ -7,7 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..paraview.merge import PointMerge, _AirHalves, _jump_vertices, _unfold_cells, _unfold_values
+from ..paraview.merge import CornerPressure, PointMerge, _AirHalves, _jump_vertices, \
+    _unfold_cells, _unfold_values
 from ..paraview.vtu import VtuMesh, _safe, _write_all, membrane_mesh, \
     pressure_point_data
 
@@ -79,13 +80,16 @@ def write_mode_vtus(directory: Path, state, modes, sampler: MembraneSampler) -> 
 
 
 def mode_meshes(state, modes, sampler: MembraneSampler):
-    """``(file stem, VtuMesh)`` of each mode of :func:`write_mode_vtus`, one at a time."""
+    """``(file stem, VtuMesh)`` of each mode of :func:`write_mode_vtus`, one at a time;
+    every mesh holds the same points (the deformed membrane, sampled once) and triangles,
+    which a :class:`~copdea_fem.paraview.vtu.VtuWriter` encodes once."""
     import ngsolve as ngs
 
     from ..membrane import deformed_normal
 
     mode_field = ngs.GridFunction(state.space)
     normal = sampler.evaluate(deformed_normal(state.displacement))
+    deformed = sampler.coordinates + sampler.evaluate(state.displacement)
     for number, mode in enumerate(modes):
         parts = []
         for part in (np.real(mode.vector), np.imag(mode.vector)):
@@ -100,7 +104,7 @@ def mode_meshes(state, modes, sampler: MembraneSampler):
                   "normal_displacement_imag": normal_shape.imag,
                   "normal_velocity_abs": omega * np.abs(normal_shape)}
         yield (f"mode_{number:03d}_{_safe(mode.label)}",
-               membrane_mesh(sampler, fields, displacement=state.displacement))
+               VtuMesh(deformed, [("triangle", sampler.cells)], point_data=fields))
 
 
 def write_air_vtus(directory: Path, operators, modes, pressures) -> list[Path]:
@@ -123,7 +127,6 @@ def air_meshes(operators, modes, pressures):
     """
     import ngsolve as ngs
 
-    from ..acoustics import pressure_field
     from ..symmetry import Symmetry
 
     by_sector = {coupled.membrane.sector: coupled for coupled in operators}
@@ -131,8 +134,6 @@ def air_meshes(operators, modes, pressures):
     space = first.pressure_space
     mesh = space.mesh
     symmetry = Symmetry.of_mesh(mesh)
-    gf = ngs.GridFunction(space)
-    field = pressure_field(gf.components[0], gf.components[1], mesh)
     corners = ngs.IntegrationRule([(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)], [0.0] * 4)
     points = mesh.MapToAllElements(corners, ngs.VOL)
     halves = _AirHalves(mesh, points, first.mesh_motion,
@@ -149,10 +150,11 @@ def air_meshes(operators, modes, pressures):
     moved = merge.reduce(moved).astype(np.float32)
     cell_data = {"pml": [np.tile(in_pml.astype(np.int8), symmetry.copies)],
                  "lower_half": [np.tile(lower.astype(np.int8), symmetry.copies)]}
+    reader = CornerPressure(space, points)      # the corners' DOFs, found once
     for number, (mode, pressure) in enumerate(zip(modes, pressures)):
-        gf.vec.FV().NumPy()[:] = 0
-        gf.vec.FV().NumPy()[by_sector[mode.sector].pressure_free] = pressure
-        values = np.asarray(field(points))
+        vector = np.zeros(space.ndof, dtype=complex)
+        vector[by_sector[mode.sector].pressure_free] = pressure
+        values = reader(vector)
         nodal = np.zeros(2 * count, dtype=complex)
         nodal[copy.ravel()] = values.ravel()
         nodal = merge.reduce(_unfold_values(nodal[used], symmetry, mode.sector))
