@@ -301,10 +301,12 @@ def _command_once(variant: str, overrides: list[str], checkout: Path,
 
     study, fixed = COMMAND_CASES[case]
     environment = dict(os.environ, PYTHONPATH=str(checkout))
-    if variant == "warm":
-        completed = subprocess.run([sys.executable, "-c", WARM_SCRIPT, str(study)] + fixed
-                                   + COMMAND_VARIANTS[variant] + overrides, env=environment,
-                                   check=True, capture_output=True, text=True)
+    if variant == "warm":        # cwd elsewhere: ``-c`` puts the cwd before PYTHONPATH
+        with tempfile.TemporaryDirectory() as directory:
+            completed = subprocess.run([sys.executable, "-c", WARM_SCRIPT, str(study)] + fixed
+                                       + COMMAND_VARIANTS[variant] + overrides,
+                                       env=environment, cwd=directory, check=True,
+                                       capture_output=True, text=True)
         return json.loads(completed.stdout.strip().splitlines()[-1])
     command = [sys.executable, "-m", "copdea_fem.cli", "solve", str(study)]
     for item in fixed + COMMAND_VARIANTS[variant] + overrides:

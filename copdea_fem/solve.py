@@ -22,9 +22,6 @@ import numpy as np
 from . import output
 
 from .bands import BandSolver
-from .engine3d import return_freed_memory as _return_freed_memory  # noqa: F401
-from .engine3d import sector_workers as _workers  # noqa: F401
-from .engine3d import task_manager as _task_manager  # noqa: F401
 from .engines import engine_for
 from .pipeline import CoupledSolution, Timings, quiet as _quiet  # noqa: F401
 from .pipeline import single_threaded_blas as _single_threaded_blas  # noqa: F401

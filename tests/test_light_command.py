@@ -73,3 +73,38 @@ def test_package_versions_are_a_new_dict_each_call():
     versions = package_versions()
     versions["numpy"] = "changed"
     assert package_versions()["numpy"] == np.__version__
+
+
+def test_bare_solve_imports_neither_the_plots_nor_the_3d_engine(tmp_path):
+    """Without plots the axisymmetric solve imports neither the plots (nor Pillow) nor the
+    3-D engine (``copdea_fem.output`` resolves its names on first use), and still writes
+    its tables."""
+    heavy = ("copdea_fem.output.plots", "copdea_fem.engine3d", "copdea_fem.quadrant.fields",
+             "PIL")
+    code = (
+        "import sys\n"
+        "from copdea_fem.cli import main\n"
+        f"code = main(['solve', {str(ROOT / 'studies' / 'g1_z16_v2_quick.yaml')!r}, "
+        "'--set', 'geometry.frame=baffle', '--set', 'output.paraview=false', "
+        f"'--set', 'output.plots=false', '--out', {str(tmp_path / 'out')!r}])\n"
+        f"print(code, sorted(m for m in {heavy!r} if m in sys.modules))\n")
+    completed = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                               cwd=ROOT)
+    assert completed.returncode == 0, completed.stderr[-2000:]
+    assert completed.stdout.strip().splitlines()[-1] == "0 []"
+    assert {"modes.csv", "modes.json"} <= {path.name for path in (tmp_path / "out").iterdir()}
+
+
+def test_the_command_process_collects_rarely_and_freezes_what_is_left():
+    """``copdea-fem`` (``console_main``): the collector's gen-0 threshold is raised for the
+    command and the objects alive at its end are frozen (no final walk over them)."""
+    code = ("import gc, sys\n"
+            "from copdea_fem import cli\n"
+            "sys.argv = ['copdea-fem', 'schema']\n"
+            "code = cli.console_main()\n"
+            "print(code, gc.get_threshold()[0], gc.get_freeze_count() > 1000)\n")
+    completed = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                               cwd=ROOT)
+    assert completed.returncode == 0, completed.stderr[-2000:]
+    from copdea_fem.cli import COMMAND_GC_THRESHOLD
+    assert completed.stdout.strip().splitlines()[-1] == f"0 {COMMAND_GC_THRESHOLD} True"

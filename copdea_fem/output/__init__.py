@@ -14,20 +14,57 @@ unfolded), :mod:`copdea_fem.quadrant.fields` (the 3-D engine's fields) and
 name is importable from ``copdea_fem.output`` as before.
 """
 
-from ..paraview.merge import PointMerge, _AirHalves, _jump_vertices, _quadrants, _unfold_cells, \
-    _unfold_values
-from .plots import _headless_vtk, _read_vtu, plot_force_displacement, plot_modes
-from ..quadrant.fields import MembraneSampler, air_meshes, mode_meshes, write_air_vtus, \
-    write_mode_vtus
-from .results import _sector_summary, prestress_summary, write_force_results, \
-    write_paraview, write_results
-from ..axisymmetric.fields import RevolvedMembraneSampler, _harmonics, revolution_angles, \
-    revolved_air_meshes, revolved_mode_meshes, revolved_sampler, write_revolved_air_vtus, \
-    write_revolved_mode_vtus
-from .tables import MODE_COLUMNS, _json, frequency_table, mode_rows, write_force_csv, \
-    write_json, write_modes
-from ..paraview.vtu import VTU_COMPRESSION, CellBlock, VtuMesh, _VTK_CELLS, _VTK_ORDER, \
-    _VTK_TYPES, _safe, _write_all, membrane_mesh, write_membrane_vtu, write_pvd, write_vtu
+#: where each name of the package lives (imported on first use, PEP 562: a bare solve
+#: needs the tables only, not the ParaView writers, the plots or the 3-D engine's fields)
+_HOMES = {
+    "CellBlock": "..paraview.vtu",
+    "MODE_COLUMNS": ".tables",
+    "MembraneSampler": "..quadrant.fields",
+    "PointMerge": "..paraview.merge",
+    "RevolvedMembraneSampler": "..axisymmetric.fields",
+    "VTU_COMPRESSION": "..paraview.vtu",
+    "VtuMesh": "..paraview.vtu",
+    "_AirHalves": "..paraview.merge",
+    "_VTK_CELLS": "..paraview.vtu",
+    "_VTK_ORDER": "..paraview.vtu",
+    "_VTK_TYPES": "..paraview.vtu",
+    "_harmonics": "..axisymmetric.fields",
+    "_headless_vtk": ".plots",
+    "_json": ".tables",
+    "_jump_vertices": "..paraview.merge",
+    "_quadrants": "..paraview.merge",
+    "_read_vtu": ".plots",
+    "_safe": "..paraview.vtu",
+    "_sector_summary": ".results",
+    "_unfold_cells": "..paraview.merge",
+    "_unfold_values": "..paraview.merge",
+    "_write_all": "..paraview.vtu",
+    "air_meshes": "..quadrant.fields",
+    "frequency_table": ".tables",
+    "membrane_mesh": "..paraview.vtu",
+    "mode_meshes": "..quadrant.fields",
+    "mode_rows": ".tables",
+    "plot_force_displacement": ".plots",
+    "plot_modes": ".plots",
+    "prestress_summary": ".results",
+    "revolution_angles": "..axisymmetric.fields",
+    "revolved_air_meshes": "..axisymmetric.fields",
+    "revolved_mode_meshes": "..axisymmetric.fields",
+    "revolved_sampler": "..axisymmetric.fields",
+    "write_air_vtus": "..quadrant.fields",
+    "write_force_csv": ".tables",
+    "write_force_results": ".results",
+    "write_json": ".tables",
+    "write_membrane_vtu": "..paraview.vtu",
+    "write_mode_vtus": "..quadrant.fields",
+    "write_modes": ".tables",
+    "write_paraview": ".results",
+    "write_pvd": "..paraview.vtu",
+    "write_results": ".results",
+    "write_revolved_air_vtus": "..axisymmetric.fields",
+    "write_revolved_mode_vtus": "..axisymmetric.fields",
+    "write_vtu": "..paraview.vtu",
+}
 
 __all__ = ["MODE_COLUMNS", "MembraneSampler", "PointMerge", "RevolvedMembraneSampler",
            "VTU_COMPRESSION", "VtuMesh", "air_meshes", "frequency_table", "membrane_mesh",
@@ -37,3 +74,17 @@ __all__ = ["MODE_COLUMNS", "MembraneSampler", "PointMerge", "RevolvedMembraneSam
            "write_force_results", "write_json", "write_membrane_vtu", "write_mode_vtus",
            "write_modes", "write_paraview", "write_pvd", "write_results",
            "write_revolved_air_vtus", "write_revolved_mode_vtus", "write_vtu"]
+
+
+def __getattr__(name: str):
+    """A name of :data:`_HOMES` from its module, imported on first use."""
+    if name not in _HOMES:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    import importlib
+    value = getattr(importlib.import_module(_HOMES[name], __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_HOMES))

@@ -5,7 +5,6 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..study import Study, dump_resolved
-from .plots import plot_force_displacement, plot_modes
 from .tables import write_force_csv, write_modes
 from ..paraview.vtu import _write_all, write_pvd, write_vtu
 
@@ -54,6 +53,7 @@ def write_results(result, out_dir: Path) -> None:
         elif study["output"]["plots"]:                # only the plotted modes, no file
             shapes = [mesh for _, mesh in fields.mode_meshes([structural[k] for k in plotted])]
         if study["output"]["plots"]:
+            from .plots import plot_modes       # a bare solve does without the plots
             plot_modes(staging / "modes.png", shapes, [structural[k] for k in plotted])
 
 
@@ -92,6 +92,7 @@ def write_force_results(study: Study, out_dir: Path, z_values, voltages, forces)
     with result_directory(out_dir, "force") as staging:
         write_force_csv(staging / "force_displacement.csv", z_values, voltages, forces)
         if study["output"]["plots"]:
+            from .plots import plot_force_displacement
             plot_force_displacement(staging / "force_displacement.png", z_values, voltages,
                                     forces)
         dump_resolved(study, staging / "study.resolved.yaml")
