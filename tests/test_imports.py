@@ -82,14 +82,20 @@ def test_the_package_has_no_import_circle():
     assert circles(graph) == []
 
 
-def test_a_circle_is_found(tmp_path):
+def planted_package(tmp_path, files: dict) -> Path:
+    """A package ``pkg`` under ``tmp_path`` holding ``files`` (relative path -> source)."""
     package = tmp_path / "pkg"
-    (package / "sub").mkdir(parents=True)
-    (package / "__init__.py").write_text("")
-    (package / "sub" / "__init__.py").write_text("")
-    (package / "a.py").write_text("from .sub.b import thing\n")
-    (package / "sub" / "b.py").write_text("def thing():\n    from ..a import other\n")
-    (package / "c.py").write_text("from . import a\n")
+    for name, source in files.items():
+        path = package / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(source)
+    return package
+
+
+def test_a_circle_is_found(tmp_path):
+    package = planted_package(tmp_path, {
+        "__init__.py": "", "sub/__init__.py": "", "a.py": "from .sub.b import thing\n",
+        "sub/b.py": "def thing():\n    from ..a import other\n", "c.py": "from . import a\n"})
     graph = import_graph(package)
     assert graph["pkg.c"] == {"pkg.a"}
     assert circles(graph) == [["pkg.a", "pkg.sub.b"]]
@@ -130,11 +136,10 @@ def test_no_engine_name_branch_outside_the_engine_interface():
 
 
 def test_an_engine_name_branch_is_found(tmp_path):
-    package = tmp_path / "pkg"
-    package.mkdir()
-    (package / "a.py").write_text('def f(p):\n    return 1 if p.engine == "axisymmetric" else 2\n')
-    (package / "b.py").write_text("def g(s, m):\n    return engine_of(s), m.kind == '3d'\n")
-    (package / "engines.py").write_text('def h(s):\n    return engine_of(s) == "3d"\n')
+    package = planted_package(tmp_path, {
+        "a.py": 'def f(p):\n    return 1 if p.engine == "axisymmetric" else 2\n',
+        "b.py": "def g(s, m):\n    return engine_of(s), m.kind == '3d'\n",
+        "engines.py": 'def h(s):\n    return engine_of(s) == "3d"\n'})
     assert engine_name_tests(package) == ["a.py:2", "b.py:2"]
 
 
@@ -227,14 +232,9 @@ def test_no_circle_between_folders():
 
 
 def test_an_import_running_back_up_is_found(tmp_path):
-    package = tmp_path / "pkg"
-    (package / "low").mkdir(parents=True)
-    (package / "__init__.py").write_text("")
-    (package / "low" / "__init__.py").write_text("")
-    (package / "low" / "a.py").write_text("def f():\n    from .. import high\n")
-    (package / "low" / "b.py").write_text("from . import a\n")
-    (package / "high.py").write_text("from .low.a import f\n")
-    (package / "stray.py").write_text("")
+    package = planted_package(tmp_path, {
+        "__init__.py": "", "low/__init__.py": "",
+        "low/a.py": "def f():\n    from .. import high\n", "low/b.py": "from . import a\n", "high.py": "from .low.a import f\n", "stray.py": ""})
     graph = import_graph(package)
     layers = (("low",), ("high", ""))
     assert back_up_imports(graph, layers, "pkg") == ["pkg.stray: no layer",
@@ -243,13 +243,9 @@ def test_an_import_running_back_up_is_found(tmp_path):
 
 
 def test_a_circle_between_folders_is_found(tmp_path):
-    package = tmp_path / "pkg"
-    (package / "sub").mkdir(parents=True)
-    (package / "__init__.py").write_text("")
-    (package / "sub" / "__init__.py").write_text("")
-    (package / "a.py").write_text("from .sub.b import thing\n")
-    (package / "sub" / "b.py").write_text("thing = 1\n")
-    (package / "sub" / "c.py").write_text("def g():\n    from ..a import thing\n")
+    package = planted_package(tmp_path, {
+        "__init__.py": "", "sub/__init__.py": "", "a.py": "from .sub.b import thing\n",
+        "sub/b.py": "thing = 1\n", "sub/c.py": "def g():\n    from ..a import thing\n"})
     graph = import_graph(package)
     assert circles(graph) == []
     collapsed = rooms(graph, "pkg")

@@ -115,16 +115,25 @@ class SphereSampler:
         """(p, dp/drho) (points, columns) of free-pressure vectors [Pa] (n_p, columns)."""
         pressure_vectors = np.atleast_2d(np.asarray(pressure_vectors).T).T
         values = np.zeros((self.polar.size, 2, pressure_vectors.shape[1]), complex)
-        for k in range(pressure_vectors.shape[1]):
-            for part, factor in ((pressure_vectors[:, k].real, 1.0),
-                                 (pressure_vectors[:, k].imag, 1j)):
-                vector = self.gf.vec.FV().NumPy()
-                vector[:] = 0.0
-                vector[self.coupled.pressure_free] = part
-                upper = np.asarray(self._upper(self.points))
-                lower = np.asarray(self._lower(self.points))
-                values[:, :, k] += factor * np.where(self.is_upper[:, None], upper, lower)
+        for k, factor in pressure_parts(self.gf, self.coupled.pressure_free, pressure_vectors):
+            upper = np.asarray(self._upper(self.points))
+            lower = np.asarray(self._lower(self.points))
+            values[:, :, k] += factor * np.where(self.is_upper[:, None], upper, lower)
         return values[:, 0], values[:, 1]
+
+
+def pressure_parts(gf, free, pressure_vectors):
+    """Set ``gf`` (a real GridFunction of the pressure space) to the real, then the imaginary
+    part of each column of ``pressure_vectors`` (free DOFs ``free``, the rest 0) and yield
+    ``(column, factor)`` with ``factor`` 1 or 1j: what is sampled of ``gf`` then, times
+    ``factor``, summed over both parts, is the column's complex field."""
+    for k in range(pressure_vectors.shape[1]):
+        for part, factor in ((pressure_vectors[:, k].real, 1.0),
+                             (pressure_vectors[:, k].imag, 1j)):
+            vector = gf.vec.FV().NumPy()
+            vector[:] = 0.0
+            vector[free] = part
+            yield k, factor
 
 
 def kirchhoff_kernels(sampler: SphereSampler, microphone, wavenumber: float, baffle: bool):

@@ -27,7 +27,7 @@ import numpy as np
 
 from ..forced.harmonic import ForcedOrder, reduce_matrix_3d, reduce_vector_3d
 from ..forced.problem import DrivenSector, OrderZero
-from ..forced.radiation import AZIMUTH_POINTS, polar_quadrature
+from ..forced.radiation import AZIMUTH_POINTS, polar_quadrature, pressure_parts
 
 #: Polar angles of the observation points in the quadrant [rad].
 OBSERVATION_ANGLES = np.radians([11.25, 33.75, 56.25, 78.75])
@@ -172,19 +172,14 @@ class QuadrantSphere:
         pressure_vectors = np.atleast_2d(np.asarray(pressure_vectors).T).T
         p_values = np.zeros((len(self.xyz), pressure_vectors.shape[1]), complex)
         dp_values = np.zeros_like(p_values)
-        for k in range(pressure_vectors.shape[1]):
-            for part, factor in ((pressure_vectors[:, k].real, 1.0),
-                                 (pressure_vectors[:, k].imag, 1j)):
-                vector = self.gf.vec.FV().NumPy()
-                vector[:] = 0.0
-                vector[self.coupled.pressure_free] = part
-                values = np.empty((len(self.xyz), 4), complex)     # each half at its points
-                values[self.is_upper] = np.asarray(self._upper(self._upper_points))
-                values[~self.is_upper] = np.asarray(self._lower(self._lower_points))
-                gradient = values[:, 1:].copy()
-                gradient[:, :2] *= self.sign          # even parity: d/dx flips with x
-                p_values[:, k] += factor * values[:, 0]
-                dp_values[:, k] += factor * np.einsum("ij,ij->i", gradient, self.normal)
+        for k, factor in pressure_parts(self.gf, self.coupled.pressure_free, pressure_vectors):
+            values = np.empty((len(self.xyz), 4), complex)     # each half at its points
+            values[self.is_upper] = np.asarray(self._upper(self._upper_points))
+            values[~self.is_upper] = np.asarray(self._lower(self._lower_points))
+            gradient = values[:, 1:].copy()
+            gradient[:, :2] *= self.sign          # even parity: d/dx flips with x
+            p_values[:, k] += factor * values[:, 0]
+            dp_values[:, k] += factor * np.einsum("ij,ij->i", gradient, self.normal)
         return p_values, dp_values
 
     def kernels(self, microphone, wavenumber: float, baffle: bool):
