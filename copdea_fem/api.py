@@ -21,7 +21,7 @@ passed as ``progress`` receives each message (a handler forwards them to it whil
 runs, and nothing is printed).  Errors are the command line's: :class:`~copdea_fem.study.StudyError`
 (bad input; the CLI's exit 2), :class:`~copdea_fem.folders.OutputFolderError` (a folder that
 may not be written; exit 2), :class:`SolveFailed` and
-:class:`~copdea_fem.prestress.PrestressError` (a solve that failed for a physical or
+:class:`~copdea_fem.fe.prestress.PrestressError` (a solve that failed for a physical or
 numerical reason; exit 3), with the same messages.
 """
 
@@ -34,10 +34,15 @@ import tempfile
 import weakref
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
-from .folders import OutputFolderError
-from .study import Study, StudyError
+from copdea_fem.folders import Claim, OutputFolderError
+from copdea_fem.study import Study, StudyError
+
+if TYPE_CHECKING:
+    from copdea_fem.fe.engines import Engine
+    from copdea_fem.fe.pipeline import SolveResult
+    from copdea_fem.vtu import VtuMesh
 
 __all__ = ["load_study", "solve", "response", "force", "spectrum", "sweep", "diagnose",
            "Solution", "ResponseSolution", "ForceCurve", "Spectrum", "SweepResult",
@@ -58,7 +63,7 @@ def _progress(progress):
     """While inside, each progress message (INFO record of the ``copdea_fem`` loggers) goes
     to ``progress(message)`` if it is a callable; otherwise the loggers alone."""
     if callable(progress):
-        from .pipeline import progress_to
+        from copdea_fem.progress import progress_to
         return progress_to(progress, only_info=True)
     return contextlib.nullcontext()
 
@@ -79,7 +84,8 @@ def load_study(path: str | Path, overrides: dict[str, Any] | list[str] | None = 
     StudyError
         A missing file, an unknown key, a value out of range or in a wrong unit.
     """
-    from .study import load_study as _load, parse_overrides
+    from copdea_fem.study import load_study as _load
+    from copdea_fem.study import parse_overrides
 
     if isinstance(overrides, (list, tuple)):
         overrides = parse_overrides(list(overrides))
@@ -105,8 +111,8 @@ def _load_text(study) -> str:
 @contextlib.contextmanager
 def solving(study):
     """Solver failures -> :class:`SolveFailed`: what failed, at which load, which key to change."""
-    from .ale import MeshMotionError
-    from .eigen import EigenResidualError, EigenSolverError, TooManyModesError
+    from copdea_fem.fe.ale import MeshMotionError
+    from copdea_fem.fe.eigen import EigenResidualError, EigenSolverError, TooManyModesError
     eigen = study["eigen"]
     advice = {
         MeshMotionError: ("the air mesh motion", "air.domain_radius, mesh.membrane_size or "
@@ -126,17 +132,18 @@ def solving(study):
             from None
 
 
-def check_size(study: Study, allow_large: bool = False) -> None:
-    """The resource guard (:func:`copdea_fem.engines.check_size`) unless ``allow_large``."""
+def check_size(study: Study, allow_large: bool = False, engine: Engine | None = None) -> None:
+    """The resource guard (:func:`copdea_fem.fe.engines.check_size`) unless ``allow_large``."""
     if not allow_large:
-        from .engines import check_size as guard
-        guard(study)
+        from copdea_fem.fe.engines import check_size as guard
+        guard(study, engine=engine)
 
 
 @contextlib.contextmanager
-def _claimed(folder, command: str, inputs) -> Path:
-    from .folders import claim
-    with claim(folder, command, inputs=inputs) as record:
+def _claimed(folder: str | Path | Claim, command: str, inputs) -> Path:
+    """The target of ``folder``, claimed for ``command`` (a held :class:`Claim`: as it is)."""
+    from copdea_fem.folders import held
+    with held(folder, command, inputs=inputs) as record:
         yield record.target
 
 
@@ -145,11 +152,10 @@ def _frame(rows: list[dict], columns) -> "pandas.DataFrame":  # noqa: F821
     return pd.DataFrame(rows, columns=list(columns))
 
 
-def _grid(mesh):
-    """A :class:`~copdea_fem.paraview.vtu.VtuMesh` (or meshio.Mesh) as a pyvista grid (the VTU
-    file's points, cells and data)."""
-    import pyvista as pv
-    return pv.from_meshio(mesh.to_meshio() if hasattr(mesh, "to_meshio") else mesh)
+def _grid(mesh: VtuMesh):
+    """A :class:`~copdea_fem.vtu.VtuMesh` as a pyvista grid (the VTU file's points, cells
+    and data)."""
+    return mesh.to_pyvista()
 
 
 # -- solve ---------------------------------------------------------------------------------
@@ -177,25 +183,28 @@ def solve(study: Study | str | Path, *, allow_large: bool = False, mesh_cache=No
     ------
     StudyError, SolveFailed, PrestressError
     """
-    from .solve import run_solve
+    from copdea_fem.fe.engines import engine_for
+    from copdea_fem.fe.pipeline import run_solve
 
     study = _as_study(study)
-    check_size(study, allow_large)
+    engine = engine_for(study)
+    check_size(study, allow_large, engine)
     with solving(study), _progress(progress):
-        result = run_solve(study, out_dir=None, cache_dir=mesh_cache)
+        result = run_solve(study, cache_dir=mesh_cache, engine=engine)
     return Solution(result)
 
 
 class Solution:
     """The result of :func:`solve`: the mode table, mode fields as grids, ``write``.
 
-    ``result`` is the :class:`copdea_fem.solve.SolveResult` (prestress state, modes with
-    their vectors, eigen summary, timings).
+    ``result`` is the :class:`copdea_fem.fe.pipeline.SolveResult` (engine, prestress state,
+    modes with their vectors, eigen summary, timings).
     """
 
-    def __init__(self, result):
+    def __init__(self, result: SolveResult):
         self.result = result
         self._fields = None
+        self._rows = None
 
     @property
     def study(self) -> Study:
@@ -204,13 +213,23 @@ class Solution:
     @property
     def modes(self):
         """:class:`pandas.DataFrame` of the modes: the columns of modes.csv (SI: Hz, kg)."""
-        from .output import MODE_COLUMNS
-        return _frame(self.result.rows, MODE_COLUMNS)
+        from copdea_fem.output.tables import MODE_COLUMNS
+        return _frame(self.rows, MODE_COLUMNS)
+
+    @property
+    def rows(self) -> list[dict]:
+        """The rows of modes.csv (:func:`copdea_fem.output.tables.mode_rows`)."""
+        if self._rows is None:
+            from copdea_fem.output.tables import mode_rows
+            coupled = self.result.coupled
+            self._rows = mode_rows(self.result.modes,
+                                   None if coupled is None else coupled.dry_partner_hz)
+        return self._rows
 
     @property
     def prestress(self) -> dict:
         """The prestress block of modes.json: z [m], voltage [V], disc force [N], steps."""
-        from .output import prestress_summary
+        from copdea_fem.output.results import prestress_summary
         return prestress_summary(self.result.state)
 
     @property
@@ -224,10 +243,9 @@ class Solution:
         return [mode.label for mode in self._structural()]
 
     @property
-    def engine(self):
-        """The engine that solved it (:class:`copdea_fem.engines.Engine`)."""
-        from .engines import engine_of_state
-        return engine_of_state(self.result.state)
+    def engine(self) -> Engine:
+        """The engine that solved it (:class:`copdea_fem.fe.engines.Engine`)."""
+        return self.result.engine
 
     @property
     def axisymmetric(self) -> bool:
@@ -240,7 +258,7 @@ class Solution:
         return self._fields
 
     def _structural(self) -> list:
-        from .modes import IN_PLANE, OUT_OF_PLANE, PUMPING
+        from copdea_fem.fe.modes import IN_PLANE, OUT_OF_PLANE, PUMPING
         return [mode for mode in self.result.modes
                 if mode.kind in (OUT_OF_PLANE, PUMPING, IN_PLANE)]
 
@@ -275,19 +293,39 @@ class Solution:
             _, mesh = next(self._output().air_meshes(coupled.operators, [mode], [pressure]))
         return _grid(mesh)
 
-    def write(self, folder: str | Path, progress: Callable[[str], None] | None = None) -> Path:
-        """Every file of ``copdea-fem solve --out folder`` (modes.csv/json, resolved study,
-        ParaView files and plots as ``output.*`` asks); the folder rules of
-        :mod:`copdea_fem.folders` (checked first; an earlier result of ``solve`` replaced
-        only when complete).  Returns the folder."""
-        from . import output
+    def write(self, folder: str | Path | Claim,
+              progress: Callable[[str], None] | None = None) -> Path:
+        """Write every file of ``copdea-fem solve --out folder``.
+
+        Parameters
+        ----------
+        folder : str, Path or Claim
+            The result folder (modes.csv/json, resolved study, ParaView files and plots as
+            ``output.*`` asks), checked first under the rules of :mod:`copdea_fem.folders`
+            (an earlier result of ``solve`` is replaced only when the new one is complete);
+            or the :class:`~copdea_fem.folders.Claim` of a folder the caller holds.
+        progress : callable(str), optional
+            As :func:`solve`'s.
+
+        Returns
+        -------
+        Path
+            The folder written.
+
+        Raises
+        ------
+        OutputFolderError
+            A folder that may not be written.
+        """
+        from copdea_fem.folders import result_directory
+        from copdea_fem.output.results import write_solve_files
 
         result = self.result
         with _claimed(folder, "solve", _inputs(result.study)) as target:
-            with result.timings.stage("output"), self.engine.threads(), _progress(progress):
+            with result.timings.stage("output"), result.engine.threads(), _progress(progress):
                 logger.info("writing results ...")
-                output.write_results(result, Path(folder))
-            result.out_dir = Path(folder)
+                with result_directory(target, "solve") as staging:
+                    write_solve_files(staging, result, self.rows)
         return target
 
 
@@ -296,10 +334,11 @@ def response(study: Study | str | Path, *, allow_large: bool = False,
              progress: Callable[[str], None] | None = None) -> "ResponseSolution":
     """Forced response of the coupled FE under the study's chirp, with radiated sound
     (``copdea-fem response``, nothing written; ``progress``: as :func:`solve`'s)."""
-    from .response.run import forced_response, prepare_order_zero
+    from copdea_fem.fe.engines import engine_for
+    from copdea_fem.forced_response.run import forced_response, prepare_order_zero
 
     study = _as_study(study)
-    check_size(study, allow_large)
+    check_size(study, allow_large, engine_for(study))
     with solving(study), _progress(progress):
         problem = prepare_order_zero(study)
         result = forced_response(problem)
@@ -311,7 +350,7 @@ def _average_table(result):
     (the columns of ``*_average.csv``: ``freq_hz, v_axial, v_radial`` [Hz, m/s])."""
     import pandas as pd
 
-    from .response.run import AVERAGE_COLUMNS
+    from copdea_fem.forced_response.run import AVERAGE_COLUMNS
     return pd.DataFrame(dict(zip(AVERAGE_COLUMNS, (result.frequency_hz, result.average_axial,
                                                    result.average_radial))))
 
@@ -320,7 +359,7 @@ def _points_table(result):
     """The point velocity spectra at Q1-Q3 as a DataFrame (``*_points.csv``) [m/s]."""
     import pandas as pd
 
-    from .response.run import POINT_COLUMNS
+    from copdea_fem.forced_response.run import POINT_COLUMNS
     columns = (result.frequency_hz,) + tuple(values[:, i] for i in range(3)
                                              for values in (result.point_axial,
                                                             result.point_radial))
@@ -330,7 +369,7 @@ def _points_table(result):
 class ResponseSolution:
     """The result of :func:`response`: spectra and SPL as DataFrames, ``write``.
 
-    ``result`` is the :class:`copdea_fem.response.run.ResponseResult`.
+    ``result`` is the :class:`copdea_fem.forced_response.run.ResponseResult`.
     """
 
     def __init__(self, result):
@@ -362,7 +401,7 @@ class ResponseSolution:
         membrane energy fraction); empty for a direct solve."""
         import pandas as pd
 
-        from .response.run import MODE_COLUMNS
+        from copdea_fem.forced_response.run import MODE_COLUMNS
         r = self.result
         if not r.modes:
             return pd.DataFrame(columns=list(MODE_COLUMNS))
@@ -380,8 +419,8 @@ class ResponseSolution:
         """Every file of ``copdea-fem response --out folder``; returns the folder."""
         import time
 
-        from .response.files import write_response
-        from .response.run import reduced_spectrum
+        from copdea_fem.forced_response.files import write_response
+        from copdea_fem.forced_response.run import reduced_spectrum
 
         result = self.result
         study = result.problem.study
@@ -389,15 +428,14 @@ class ResponseSolution:
             with _progress(progress):
                 logger.info("writing results ...")
             start = time.perf_counter()
-            write_response(result, Path(folder), reduced_spectrum(study, result))
+            write_response(result, target, reduced_spectrum(study, result))
             result.timings["output"] = time.perf_counter() - start
-            result.out_dir = Path(folder)
         return target
 
 
 # -- force ---------------------------------------------------------------------------------
 def _quantity_list(values, key: str, unit: str) -> list[float]:
-    from .study import Key, _convert
+    from copdea_fem.study import Key, _convert
     spec = Key(unit, 0.0, key, minimum=0)
     items = values.split(",") if isinstance(values, str) else list(values)
     return [_convert(key, spec, item.strip() if isinstance(item, str) else item)
@@ -446,10 +484,10 @@ def force(study: Study | str | Path, voltages="0 kV, 3 kV", z_max=None, points: 
 def compute_force(study: Study, z_values, voltages, *, mesh_cache=None,
                   progress: Callable[[str], None] | None = None) -> "ForceCurve":
     """F(z) [N] at the checked inputs of :func:`prepare_force`."""
-    from .solve import run_force
+    from copdea_fem.fe.pipeline import run_force
 
     with _progress(progress):
-        forces = run_force(study, z_values, voltages, out_dir=None, cache_dir=mesh_cache)
+        forces = run_force(study, z_values, voltages, cache_dir=mesh_cache)
     return ForceCurve(study, z_values, list(voltages), forces)
 
 
@@ -471,12 +509,15 @@ class ForceCurve:
                 for j, z in enumerate(self.z_values)]
         return pd.DataFrame(rows, columns=["voltage_v", "z_m", "force_n"])
 
-    def write(self, folder: str | Path) -> Path:
-        """Every file of ``copdea-fem force --out folder``; returns the folder."""
-        from .output import write_force_results
+    def write(self, folder: str | Path | Claim) -> Path:
+        """Every file of ``copdea-fem force --out folder`` (or into a held
+        :class:`~copdea_fem.folders.Claim`); returns the folder."""
+        from copdea_fem.folders import result_directory
+        from copdea_fem.output.results import write_force_files
         with _claimed(folder, "force", _inputs(self.study)) as target:
-            write_force_results(self.study, Path(folder), self.z_values, self.voltages,
-                                self.forces)
+            with result_directory(target, "force") as staging:
+                write_force_files(staging, self.study, self.z_values, self.voltages,
+                                  self.forces)
         return target
 
 
@@ -488,9 +529,9 @@ def spectrum(study: Study | str | Path, modes_json=None) -> "Spectrum":
 
     Raises :class:`~copdea_fem.reduced.rings.ReducedModelError` where the model fails
     (the CLI's exit 3)."""
-    from .inputs import read_text
-    from .reduced.io import _fe_frequencies
-    from .reduced.model import build_reduced, spectra_of
+    from copdea_fem.inputs import read_text
+    from copdea_fem.reduced.io import _fe_frequencies
+    from copdea_fem.reduced.model import build_reduced, spectra_of
 
     study = _as_study(study)
     if modes_json is not None:
@@ -532,11 +573,11 @@ class Spectrum:
 
     def write(self, folder: str | Path) -> Path:
         """Every file of ``copdea-fem spectrum --out folder``; returns the folder."""
-        from .folders import result_directory
-        from .reduced.io import _write_spectrum_files
+        from copdea_fem.folders import result_directory
+        from copdea_fem.reduced.io import _write_spectrum_files
         inputs = _inputs(self.study) + ([self.modes_json] if self.modes_json else [])
         with _claimed(folder, "spectrum", inputs) as target:
-            with result_directory(Path(folder), "spectrum") as staging:
+            with result_directory(target, "spectrum") as staging:
                 _write_spectrum_files(staging, self.study, self.setup, self.result)
         return target
 
@@ -550,11 +591,11 @@ class _Folder:
     temporary: Any = None
 
     def copy_to(self, folder, command: str, inputs) -> Path:
-        from .folders import result_directory
+        from copdea_fem.folders import result_directory
         with _claimed(folder, command, inputs) as target:
-            if Path(folder).resolve() == self.path.resolve():
+            if target.resolve() == self.path.resolve():
                 return target
-            with result_directory(Path(folder), command) as staging:
+            with result_directory(target, command) as staging:
                 for item in self.path.iterdir():
                     if item.name.startswith(".copdea-fem"):
                         continue
@@ -582,8 +623,8 @@ def sweep(sweep_file: str | Path, overrides: dict[str, Any] | list[str] | None =
     runs in a private temporary folder, kept while the result lives (``write`` copies it).
     ``progress``: as :func:`solve`'s (one line per point and a few more).
     """
-    from .study import parse_overrides
-    from .sweep import load_sweep, run_sweep
+    from copdea_fem.study import parse_overrides
+    from copdea_fem.sweeps import load_sweep, run_sweep
 
     if isinstance(overrides, (list, tuple)):
         overrides = parse_overrides(list(overrides))
@@ -594,9 +635,9 @@ def sweep(sweep_file: str | Path, overrides: dict[str, Any] | list[str] | None =
     folder = _private("sweep", out)
     with _progress(progress):
         if out is not None:
-            with _claimed(out, "sweep", [sweep_file]):
-                outcome = run_sweep(spec, out_dir=folder.path, executor=executor,
-                                    workers=workers)
+            from copdea_fem.folders import held
+            with held(out, "sweep", [sweep_file]) as record:
+                outcome = run_sweep(spec, out_dir=record, executor=executor, workers=workers)
         else:
             outcome = run_sweep(spec, out_dir=folder.path, executor=executor, workers=workers)
     return SweepResult(spec, outcome, folder, Path(sweep_file))
@@ -604,7 +645,7 @@ def sweep(sweep_file: str | Path, overrides: dict[str, Any] | list[str] | None =
 
 @dataclass
 class SweepResult:
-    """The result of :func:`sweep`: ``outcome`` (:class:`copdea_fem.sweep.gather.SweepOutcome`)."""
+    """The result of :func:`sweep`: ``outcome`` (:class:`copdea_fem.sweeps.gather.SweepOutcome`)."""
 
     spec: Any
     outcome: Any
@@ -632,8 +673,8 @@ def diagnose(measured: str | Path, *, alpha: float = 0.05, model: str | None = N
     (``copdea-fem diagnose``, nothing written; ``progress``: as :func:`solve`'s)."""
     import dataclasses
 
-    from .diagnose import load_measured
-    from .diagnose.select import Diagnoser
+    from copdea_fem.diagnosis import load_measured
+    from copdea_fem.diagnosis.select import Diagnoser
 
     if not 0 < alpha < 1:
         raise StudyError(f"--alpha = {alpha!r} is not allowed; allowed: (0, 1)")
@@ -642,8 +683,8 @@ def diagnose(measured: str | Path, *, alpha: float = 0.05, model: str | None = N
         data = dataclasses.replace(data, model=model)
     engine = None
     if data.model == "fe":
-        from .diagnose.anchored import AnchoredEngine
-        from .diagnose.fe import FEModel
+        from copdea_fem.diagnosis.anchored import AnchoredEngine
+        from copdea_fem.diagnosis.fe import FEModel
         engine = AnchoredEngine(data, FEModel(cache_dir=fe_cache))
     with _progress(progress):
         result = Diagnoser(data, alpha=alpha, engine=engine).run()
@@ -668,16 +709,16 @@ class Diagnosis:
 
     @property
     def document(self) -> dict:
-        from .diagnose.report import diagnosis_document
+        from copdea_fem.diagnosis.report import diagnosis_document
         return diagnosis_document(self.result)
 
     def write(self, folder: str | Path) -> Path:
         """report.md, diagnosis.json, figures and final_study.yaml in ``folder``."""
-        from .diagnose.report import write_report
-        from .folders import result_directory
+        from copdea_fem.diagnosis.report import write_report
+        from copdea_fem.folders import result_directory
         inputs = [self.source] + [path for condition in self.result.measured.conditions
                                   for path in condition.files.values()]
         with _claimed(folder, "diagnose", inputs) as target:
-            with result_directory(Path(folder), "diagnose") as staging:
+            with result_directory(target, "diagnose") as staging:
                 write_report(self.result, staging)
         return target

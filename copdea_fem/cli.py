@@ -22,9 +22,10 @@ import sys
 import threading
 from pathlib import Path
 
-from .api import SolveFailed, solving as _solving  # noqa: F401 (kept for callers)
-from .folders import OutputFolderError, claim
-from .study import StudyError, load_study, parse_overrides
+from copdea_fem.api import SolveFailed  # noqa: F401 (kept for callers)
+from copdea_fem.api import solving as _solving
+from copdea_fem.folders import OutputFolderError, claim
+from copdea_fem.study import StudyError, load_study, parse_overrides
 
 
 class Terminated(KeyboardInterrupt):
@@ -42,7 +43,7 @@ def _progress(args):
     the output folder's messages (:mod:`copdea_fem.folders`) and warnings."""
     import logging
 
-    from .pipeline import progress_to
+    from copdea_fem.progress import progress_to
 
     quiet = getattr(args, "quiet", None)
     with progress_to(_print_progress, logging.WARNING if quiet else logging.INFO) as handler:
@@ -72,15 +73,14 @@ def _output(args, out_dir, command: str, inputs):
     with claim(out_dir, command, inputs=inputs,
                from_file=None if args.out else inputs[0]) as record:
         args.claim = record
-        yield
+        yield record
 
 
 def _check_size(args, *studies) -> None:
-    """The resource guard (:func:`copdea_fem.engines.check_size`) unless --allow-large."""
-    from .engines import check_size
-    if not args.allow_large:
-        for study in studies:
-            check_size(study)
+    """The resource guard (:func:`copdea_fem.fe.engines.check_size`) unless --allow-large."""
+    from copdea_fem.api import check_size
+    for study in studies:
+        check_size(study, args.allow_large)
 
 
 def cmd_check(args) -> int:
@@ -91,23 +91,23 @@ def cmd_check(args) -> int:
 
 
 def cmd_schema(args) -> int:
-    from .study import reference_table
+    from copdea_fem.study import reference_table
     print(reference_table())
     return 0
 
 
 def cmd_solve(args) -> int:
-    from . import api
-    from .output import frequency_table
+    from copdea_fem import api
+    from copdea_fem.output.tables import frequency_table
 
     study = _study(args)
     _check_size(args, study)
     out_dir = _out_dir(args, study)
-    with _output(args, out_dir, "solve", [args.study]):
+    with _output(args, out_dir, "solve", [args.study]) as folder:
         solution = api.solve(study, allow_large=True)
-        solution.write(out_dir)
+        solution.write(folder)
     result = solution.result
-    print(frequency_table(result.rows))
+    print(frequency_table(solution.rows))
     state = result.state
     print(f"prestress: z = {state.z * 1e3:g} mm, V_b = {state.voltage:g} V, disc force "
           f"{state.disc_force:.4g} N, {state.newton_iterations} Newton iterations")
@@ -116,30 +116,30 @@ def cmd_solve(args) -> int:
 
 
 def cmd_response(args) -> int:
-    """Forced response of the coupled FE under the chirp, with radiated sound (issue 15)."""
-    from . import api
-    from .response.run import summary_lines
+    """Forced response of the coupled FE under the chirp, with radiated sound."""
+    from copdea_fem import api
+    from copdea_fem.forced_response.run import summary_lines
 
     study = _study(args)
     _check_size(args, study)
     out_dir = _out_dir(args, study)
-    with _output(args, out_dir, "response", [args.study]):
+    with _output(args, out_dir, "response", [args.study]) as folder:
         solution = api.response(study, allow_large=True)
-        solution.write(out_dir)
+        solution.write(folder)
     print("\n".join(summary_lines(solution.result)))
     return 0
 
 
 def cmd_force(args) -> int:
-    from . import api
+    from copdea_fem import api
 
     study = _study(args)
     study, z_values, voltages = api.prepare_force(study, args.voltages, args.z_max or None,
                                                   args.points, args.allow_large)
     out_dir = _out_dir(args, study)
-    with _output(args, out_dir, "force", [args.study]):
+    with _output(args, out_dir, "force", [args.study]) as folder:
         curve = api.compute_force(study, z_values, voltages)
-        curve.write(out_dir)
+        curve.write(folder)
     forces = curve.forces
     print(f"{'z [mm]':>8}" + "".join(f"{f'F @ {v / 1e3:g} kV [N]':>16}" for v in voltages))
     for j, z in enumerate(z_values):
@@ -155,7 +155,7 @@ def _reduced_action(action) -> int:
     Its physical/numerical failures (ReducedModelError) exit with 3 like a
     failed solve; study and input errors (StudyError) reach :func:`main` (2).
     """
-    from .reduced.rings import ReducedModelError
+    from copdea_fem.reduced.rings import ReducedModelError
     try:
         summary = action()
     except ReducedModelError as error:
@@ -167,7 +167,7 @@ def _reduced_action(action) -> int:
 
 def _existing(path, what: str):
     """An input file named on the command line, checked before the output folder."""
-    from .inputs import read_text
+    from copdea_fem.inputs import read_text
     if path is not None:
         read_text(path, what, error=StudyError)
     return path
@@ -180,7 +180,7 @@ def _modes_json(args, study):
 
 
 def cmd_spectrum(args) -> int:
-    from .reduced.io import run_spectrum
+    from copdea_fem.reduced.io import run_spectrum
     study = _study(args)
     out_dir = _out_dir(args, study)
     modes_json = _modes_json(args, study)
@@ -189,7 +189,7 @@ def cmd_spectrum(args) -> int:
 
 
 def cmd_fit_material(args) -> int:
-    from .reduced.io import fit_material_cli
+    from copdea_fem.reduced.io import fit_material_cli
     study = _study(args)
     out_dir = _out_dir(args, study)
     with _output(args, out_dir, "fit-material", [args.study, _existing(args.data, "data file")]):
@@ -197,7 +197,7 @@ def cmd_fit_material(args) -> int:
 
 
 def cmd_calibrate_damping(args) -> int:
-    from .reduced.io import calibrate_damping_cli
+    from copdea_fem.reduced.io import calibrate_damping_cli
     study = _study(args)
     out_dir = _out_dir(args, study)
     modes_json = _modes_json(args, study)
@@ -208,7 +208,7 @@ def cmd_calibrate_damping(args) -> int:
         raise StudyError(f"--relaxation-time is not allowed with --fit {args.fit}; allowed: "
                          "with --fit prony")
     if args.relaxation_time is not None:
-        from .study import convert_quantity
+        from copdea_fem.study import convert_quantity
         relaxation_time = convert_quantity("--relaxation-time", args.relaxation_time, "s",
                                            minimum=1e-12, maximum=1e3)
     if args.fit == "modal" and (args.spectrum is None or args.quality_factors):
@@ -225,7 +225,7 @@ def cmd_calibrate_damping(args) -> int:
             return calibrate_damping_cli(study, args.spectrum, out_dir,
                                          modes_json=args.modes_json, window=args.window)
     else:
-        from .damping_fit import calibrate_structural_damping
+        from copdea_fem.damping_fit import calibrate_structural_damping
 
         def action():
             return calibrate_structural_damping(
@@ -280,15 +280,15 @@ def _add_reduced_commands(commands, with_study) -> None:
 # -- parameter sweeps (issue 6): sweep SWEEP.yaml ------------------------------------------------
 def cmd_sweep(args) -> int:
     """Run or resume a sweep; exit 3 if no point produced a result."""
-    from .study import parse_overrides
-    from .sweep import ReuseSettings, format_summary, load_sweep, run_sweep
+    from copdea_fem.study import parse_overrides
+    from copdea_fem.sweeps import ReuseSettings, format_summary, load_sweep, run_sweep
 
     sweep = load_sweep(args.sweep, overrides=parse_overrides(args.set))
     if sweep.model != "reduced":
         _check_size(args, *(point.study for point in sweep.points))
     out_dir = Path(args.out or sweep.output_directory)
-    with _output(args, out_dir, "sweep", [args.sweep]):
-        outcome = run_sweep(sweep, out_dir=out_dir, executor=args.executor,
+    with _output(args, out_dir, "sweep", [args.sweep]) as folder:
+        outcome = run_sweep(sweep, out_dir=folder, executor=args.executor,
                             workers=args.workers, scheduler=args.scheduler,
                             chain_length=args.chain_length,
                             reuse=ReuseSettings(False, False, False) if args.no_reuse else None)
@@ -319,12 +319,12 @@ def _add_sweep_command(commands) -> None:
 # -- diagnosis (issue 5): diagnose MEASURED.yaml, synth STUDY.yaml, effects --------------------
 def cmd_diagnose(args) -> int:
     """Which catalogued effect the model lacks; report.md, diagnosis.json, PNGs."""
-    from .diagnose import diagnose_out_dir, load_measured, run_diagnose
+    from copdea_fem.diagnosis import diagnose_out_dir, load_measured, run_diagnose
     if args.fe_cache:
-        from .diagnose.fe import check_cache_dir
+        from copdea_fem.diagnosis.fe import check_cache_dir
         check_cache_dir(args.fe_cache, "--fe-cache")    # a file: exit 2 before any work
     if args.fe_workers is not None:
-        from .diagnose.fe import check_workers
+        from copdea_fem.diagnosis.fe import check_workers
         check_workers(args.fe_workers, "--fe-workers")
     measured = load_measured(args.measured)
     out_dir = Path(args.out) if args.out else diagnose_out_dir(measured)
@@ -339,8 +339,8 @@ def cmd_diagnose(args) -> int:
 
 def cmd_synth(args) -> int:
     """Synthetic measured.yaml set from the model with chosen effects on."""
-    from .diagnose import run_synth, synth_out_dir
-    from .diagnose.synth import SynthOptions
+    from copdea_fem.diagnosis import run_synth, synth_out_dir
+    from copdea_fem.diagnosis.synth import SynthOptions
     study = _study(args)
     out_dir = Path(args.out) if args.out else synth_out_dir(study, args.seed)
     options = SynthOptions(frequency_noise=args.frequency_noise, quality_noise=args.quality_noise,
@@ -354,7 +354,7 @@ def cmd_synth(args) -> int:
 
 
 def cmd_effects(args) -> int:
-    from .diagnose import catalogue_table
+    from copdea_fem.diagnosis import catalogue_table
     print(catalogue_table())
     return 0
 
@@ -412,7 +412,8 @@ def _add_diagnose_commands(commands, with_study) -> None:
 
 
 def _add_mesh_options(command) -> None:
-    from .geometry import CACHE_VARIABLE, MAX_UNKNOWNS
+    from copdea_fem.fe.engines import MAX_UNKNOWNS
+    from copdea_fem.fe.quadrant.geometry import CACHE_VARIABLE
     command.add_argument("--mesh-cache", metavar="DIR",
                          help=f"mesh cache folder (default: ${CACHE_VARIABLE}, else the source "
                          "checkout's meshes/, else the user cache folder)")
@@ -503,7 +504,7 @@ def _interrupted(args) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from .geometry import CACHE_VARIABLE
+    from copdea_fem.fe.quadrant.geometry import CACHE_VARIABLE
 
     args = build_parser().parse_args(argv)
     saved_cache = os.environ.get(CACHE_VARIABLE)
@@ -524,7 +525,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _run(args) -> int:
-    from .prestress import PrestressError
+    from copdea_fem.fe.prestress import PrestressError
 
     try:
         return args.handler(args)

@@ -38,7 +38,7 @@ to unit norm).  One mode cannot separate ``alpha`` from ``beta``: then ``beta`` 
 One Prony term (first order, modal strain energy)
 -------------------------------------------------
 ``T(omega) = K - omega^2 M + g K_mat r(omega)``, ``r = -i omega tau / (1 - i omega tau)
-= (omega^2 tau^2 - i omega tau) / (1 + omega^2 tau^2)`` (``copdea_fem.eigen.damped``).
+= (omega^2 tau^2 - i omega tau) / (1 + omega^2 tau^2)`` (``copdea_fem.fe.eigen.damped``).
 With the undamped mode ``x_k`` the Rayleigh quotient gives, to first order in g,
 ``omega^2 = omega_k^2 (1 + g s_k r(omega_k))``, ``s_k = x_k^T K_mat x_k / x_k^T K x_k`` the
 share of the mode's strain energy that is material (not initial stress, electrostatic or
@@ -69,8 +69,8 @@ from pathlib import Path
 import numpy as np
 import scipy.optimize
 
-from .inputs import read_text
-from .study import StudyError
+from copdea_fem.inputs import read_text
+from copdea_fem.study import StudyError
 
 log = logging.getLogger(__name__)
 
@@ -291,10 +291,10 @@ def _undamped(study):
 def fe_modes(study) -> dict:
     """``{label: (freq_hz, damping_ratio)}`` of an FE solve of ``study`` (first of a label).
 
-    :func:`copdea_fem.solve.run_solve`, nothing written (not :mod:`copdea_fem.api`, which
+    :func:`copdea_fem.fe.pipeline.run_solve`, nothing written (not :mod:`copdea_fem.api`, which
     imports this module's callers: the CLI wraps the fit in :func:`copdea_fem.api.solving`).
     """
-    from .solve import run_solve
+    from copdea_fem.fe.pipeline import run_solve
     result = run_solve(study, out_dir=None)
     modes = {}
     for mode in result.modes:
@@ -483,9 +483,9 @@ def calibrate_structural_damping(study, spectrum_csv, out_dir, fit: str, quality
     the material strain-energy share of a Prony fit [-], whether the mode was fitted)
     and prints the table and the ``--set`` options.
     """
-    from .folders import result_directory
-    from .reduced.io import calibrate_on_spectrum, write_csv
-    from .reduced.rings import ReducedModelError
+    from copdea_fem.folders import result_directory
+    from copdea_fem.reduced.io import calibrate_on_spectrum, write_csv
+    from copdea_fem.reduced.rings import ReducedModelError
     if quality_csv is not None:
         measured = read_quality_csv(quality_csv)
     elif spectrum_csv is not None:

@@ -4,54 +4,65 @@ A cache entry (a mesh, an FE result of the diagnosis, a finished sweep point) is
 by what made it: the inputs *and* the sources of the code that computed it, hashed
 here once per process.  A change to those sources gives new keys, so an old entry is
 never reused after a physics change (no hand-bumped version to forget).  Each cache
-hashes only the sources that compute its numbers, so unrelated edits (the CLI, the
-output files, the docs) keep it warm.
+hashes only the code that computes its numbers, so unrelated edits (the CLI, the
+output files, the docs, docstrings and comments) keep it warm.
 """
 
 from __future__ import annotations
 
+import ast
 import functools
 import hashlib
 from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parent
 
-#: The 3-D mesh: the shapes and the meshing (:mod:`copdea_fem.geometry`).
-MESH_SOURCES = ("geometry.py", "airbox.py")
+#: The 3-D mesh: the shapes and the meshing.
+MESH_SOURCES = ("fe/quadrant/geometry.py", "fe/airbox.py")
 
-#: Modules of an engine's folder that compute no modes: the axisymmetric engine's forced
-#: problem, its voltage forcing and its ParaView fields (beside the engine, below it:
-#: issue 21).  Left out of :data:`FE_SOURCES`, so an edit of the forced response or of the
-#: output files keeps the FE cache; every other module of the folder is in, a new one too.
-NOT_FE_SOURCES = ("axisymmetric/forced.py", "axisymmetric/forcing.py",
-                  "axisymmetric/fields.py")
+#: What in the FE core computes no modes: the orchestration, the forced response and the
+#: ParaView fields.  Left out of :data:`FE_SOURCES`, so an edit there keeps the FE cache.
+NOT_FE_SOURCES = ("fe/pipeline.py", "fe/engines.py", "fe/fields.py", "fe/forced",
+                  "fe/axisymmetric/forced.py", "fe/axisymmetric/forcing.py",
+                  "fe/axisymmetric/fields.py", "fe/quadrant/forced.py",
+                  "fe/quadrant/fields.py")
 
 
 def _modules_of(folder: str, left_out: tuple[str, ...]) -> tuple[str, ...]:
-    """The ``*.py`` below ``folder`` (paths from the package) but those ``left_out``; the
-    fingerprint of the tuple equals the folder's without them (same names, same order)."""
+    """The ``*.py`` below ``folder`` (paths from the package) but those ``left_out`` (files,
+    or folders and all below them)."""
     names = (path.relative_to(PACKAGE).as_posix() for path in (PACKAGE / folder).rglob("*.py"))
-    return tuple(sorted(name for name in names if name not in left_out))
+    return tuple(sorted(name for name in names
+                        if not any(name == out or name.startswith(out + "/")
+                                   for out in left_out)))
 
 
-#: FE modes (frequencies, damping, kinds, labels): the physics, the assembly, the band
-#: solves, the classification and labels of both engines.  Not the orchestration
-#: (solve.py, engines.py, pipeline.py), the forced response and the output
-#: (:data:`NOT_FE_SOURCES`), nor the study schema: a changed default changes the resolved
-#: study, which every key already hashes.
-FE_SOURCES = ("materials.py", "membrane.py", "prestress.py", "linearise.py", "coupled.py",
-              "acoustics.py", "ale.py", "airbox.py", "geometry.py", "symmetry.py", "modes.py",
-              "bands.py", "engine3d.py", "eigen", "assignment.py") \
-    + _modules_of("axisymmetric", NOT_FE_SOURCES)
+#: FE modes (frequencies, damping, kinds, labels): every module of :mod:`copdea_fem.fe` but
+#: :data:`NOT_FE_SOURCES` (a new file is in without editing a list); not the study schema:
+#: a changed default changes the resolved study, which every key already hashes.
+FE_SOURCES = _modules_of("fe", NOT_FE_SOURCES)
 
 #: The reduced (ring) model of the sweeps and the diagnosis.
-REDUCED_SOURCES = ("materials.py", "reduced")
+REDUCED_SOURCES = ("fe/materials.py", "reduced")
+
+
+def _code(source: bytes) -> bytes:
+    """The code of a module without its docstrings and comments: the dump of its syntax
+    tree (a docstring or comment edit keeps the caches; any change of code does not)."""
+    tree = ast.parse(source)
+    for node in ast.walk(tree):
+        body = getattr(node, "body", None)
+        if (isinstance(body, list) and body and isinstance(body[0], ast.Expr)
+                and isinstance(body[0].value, ast.Constant)
+                and isinstance(body[0].value.value, str)):
+            body[0] = ast.Pass()
+    return ast.dump(tree, annotate_fields=False).encode()
 
 
 @functools.lru_cache(maxsize=None)
 def code_fingerprint(sources: tuple[str, ...]) -> str:
     """SHA-256 (first 16 hex digits) of the named package files and folders (every
-    ``*.py`` below a folder): their paths and contents, line endings normalised."""
+    ``*.py`` below a folder): their paths and their code (:func:`_code`)."""
     digest = hashlib.sha256()
     for name in sorted(sources):
         path = PACKAGE / name
@@ -61,7 +72,7 @@ def code_fingerprint(sources: tuple[str, ...]) -> str:
         for file in files:
             digest.update(file.relative_to(PACKAGE).as_posix().encode())
             digest.update(b"\0")
-            digest.update(file.read_bytes().replace(b"\r\n", b"\n"))
+            digest.update(_code(file.read_bytes()))
             digest.update(b"\0")
     return digest.hexdigest()[:16]
 

@@ -37,8 +37,8 @@ result is in place is removed.
 Concurrent runs into one folder: :func:`claim` takes an exclusive lock
 (``.NAME.copdea-fem-lock`` beside the folder, ``flock``, released by the
 kernel when a process dies) for the whole run; a second run is refused at once,
-naming the holder's process id.  A process may claim a folder it holds again
-(the library's writers do so inside the CLI's claim).
+naming the holder's process id.  The CLI claims once, before any work, and hands
+the :class:`Claim` to the writer (:func:`held`).
 """
 
 from __future__ import annotations
@@ -51,6 +51,7 @@ import os
 import re
 import shutil
 import signal
+import threading
 import time
 import uuid
 from dataclasses import dataclass
@@ -87,6 +88,10 @@ class OutputFolderError(ValueError):
     """An output folder this run may not write; the message says which and what to do."""
 
 
+#: The claims each thread holds (:func:`claim`).
+_THREAD = threading.local()
+
+
 class ResultWriteError(RuntimeError):
     """Writing or swapping a result failed (a full disk, a rename refused); the message
     says where the complete result is (exit 1 in the CLI)."""
@@ -117,9 +122,6 @@ class Claim:
         if self.had_result:
             return f"previous result kept in {self.target}"
         return "no result written"
-
-
-_claims: dict[Path, Claim] = {}
 
 
 def read_manifest(folder: Path) -> dict | None:
@@ -226,11 +228,15 @@ def _check_replaceable(target: Path, command: str) -> None:
 def claim(target, command: str, inputs=(), from_file=None):
     """Check ``target`` (:func:`check_output`), lock it for the block and clean leftovers.
 
-    Yields a :class:`Claim`.  Re-entrant within a process.
+    Yields a :class:`Claim`.  Re-entrant within one thread only (a writer below the
+    command's claim, :func:`result_directory`): a claim of a held folder from another
+    thread or process is refused.  Writers take the held :class:`Claim` itself where they
+    can (:func:`held`).
     """
     target = check_output(target, command, inputs, from_file)
-    if target in _claims:
-        yield _claims[target]
+    held_here = _THREAD.__dict__.setdefault("claims", {})
+    if target in held_here:
+        yield held_here[target]
         return
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
@@ -242,14 +248,27 @@ def claim(target, command: str, inputs=(), from_file=None):
         _clean_leftovers(target)
         check_output(target, command, inputs, from_file)   # again, now that it is ours
         record = Claim(target, command, had_result=read_manifest(target) is not None)
-        _claims[target] = record
+        held_here[target] = record
         yield record
     finally:
-        _claims.pop(target, None)
+        held_here.pop(target, None)
         if fd is not None:
             with contextlib.suppress(OSError):
                 os.unlink(_lock_path(target))
             os.close(fd)
+
+
+@contextlib.contextmanager
+def held(folder, command: str, inputs=()):
+    """The :class:`Claim` of ``folder`` for a writer: ``folder`` itself when it is a claim
+    already held (the CLI claims once, before any work), else a new :func:`claim` of it."""
+    if isinstance(folder, Claim):
+        if folder.command != command:
+            raise ValueError(f"a claim for {folder.command} cannot hold a {command} result")
+        yield folder
+        return
+    with claim(folder, command, inputs=inputs) as record:
+        yield record
 
 
 def _lock_path(target: Path) -> Path:
@@ -385,13 +404,13 @@ def _swap(staging: Path, target: Path, record: Claim) -> None:
 def result_directory(target, command: str):
     """Yield an empty staging folder; on success it replaces ``target`` atomically.
 
-    ``target`` is checked and locked (:func:`claim`); on any exception,
+    ``target``: a path, checked and locked (:func:`claim`), or a held :class:`Claim`; on any exception,
     KeyboardInterrupt included, the staging folder is removed and ``target``
     holds the previous result (or nothing, or the new result when the exception
     came after the swap; :meth:`Claim.whereabouts` says which).  An OSError while
     writing or swapping becomes :class:`ResultWriteError`, saying where the result is.
     """
-    with claim(target, command) as record:
+    with held(target, command) as record:
         target = record.target
         staging = target.parent / f".{target.name}.staging-{uuid.uuid4().hex[:8]}"
         staging.mkdir()

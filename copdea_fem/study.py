@@ -19,8 +19,8 @@ from typing import Any
 
 import yaml
 
-from .inputs import parse_yaml, preview, read_yaml
-from .units import fast_to_si
+from copdea_fem.inputs import parse_yaml, preview, read_yaml
+from copdea_fem.units import fast_to_si
 
 
 class StudyError(ValueError):
@@ -276,7 +276,7 @@ SCHEMA["excitation"] = {
                        maximum=1.0, open_min=True),
 }
 
-# Forced harmonic response of the coupled FE and its sound (issue 15, copdea_fem.response).
+# Forced harmonic response of the coupled FE and its sound (issue 15, copdea_fem.forced_response).
 SCHEMA["response"] = {
     "method": Key(None, "auto", "auto = reduced on the 3-D engine when the membrane states "
                   "its own loss (loss_factor, Rayleigh or Prony), else modal; modal = "
@@ -302,7 +302,7 @@ SCHEMA["response"] = {
                  kind=int, minimum=0, maximum=50),
 }
 
-# Physical effects the reduced model can switch on or scale (issue 5, copdea_fem.diagnose):
+# Physical effects the reduced model can switch on or scale (issue 5, copdea_fem.diagnosis):
 # each default reproduces the model without the key.
 SCHEMA["effects"] = {
     "stiffness_scale": Key(None, 1.0, "uniform factor on c10, c20, c01 of eq. (20) in the reduced "
@@ -595,7 +595,7 @@ def _check_across_keys(v: dict[str, dict[str, Any]]) -> None:
     prony = v["membrane"]["prony"]
     if prony:
         # the rational eigen problem's relaxation spectrum lies on Re f = 0 from
-        # |Im f| = 1/(2 pi tau_max (1 + sum g)) (copdea_fem.eigen.damped): keep it out of the band
+        # |Im f| = 1/(2 pi tau_max (1 + sum g)) (copdea_fem.fe.eigen.damped): keep it out of the band
         lowest = 1.0 / (2 * math.pi * max(t["relaxation_time"] for t in prony)
                         * (1 + sum(t["modulus_ratio"] for t in prony)))
         height = e["max_damping_ratio"] * e["f_max"]
@@ -621,23 +621,6 @@ def engine_of(study) -> str:
     return engine
 
 
-def check_air_lift(study: Study) -> None:
-    """Refuse a ``load.z`` the moving air mesh cannot follow (:mod:`copdea_fem.ale`).
-
-    The coupled step moves the air over the height L of
-    :func:`copdea_fem.geometry.ale_decay_length`; beyond 0.45 L it would fold.
-    Called before any meshing by the coupled solve and by coupled sweeps (the
-    dry and reduced models do not move the air).
-    """
-    from .airbox import ale_decay_length
-    limit = 0.45 * ale_decay_length(study["air"]["domain_radius"],
-                                    study["geometry"]["outer_radius"])
-    if study["load"]["z"] >= limit:
-        raise _fail("load.z", study["load"]["z"], f"< {limit:g} m = 0.45 L for the coupled "
-                    "step, L = the height over which the air mesh follows the membrane "
-                    "(copdea_fem.ale)", "raise air.domain_radius")
-
-
 def dump_resolved(study: Study, path: str | Path) -> None:
     """Write the resolved study (SI, defaults filled in) plus package versions."""
     data = study.as_dict()
@@ -651,8 +634,8 @@ def package_versions() -> dict[str, str]:
     ``study.resolved.yaml`` and ``modes.json`` carry them)."""
     global _VERSIONS
     if _VERSIONS is None:
-        from importlib import metadata
         import platform
+        from importlib import metadata
         versions = {"python": platform.python_version()}
         for package in ("copdea-fem", "ngsolve", "numpy", "scipy", "meshio", "pyvista",
                         "pint"):

@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 from scipy.special import j1, struve
 
-from copdea_fem import acoustics
-from copdea_fem.geometry import GeometrySpec, load_mesh
+from copdea_fem.fe import acoustics
+from copdea_fem.fe.quadrant.geometry import GeometrySpec, load_mesh
+from copdea_fem.fe.symmetry import Symmetry
 from copdea_fem.study import parse_study
-from copdea_fem.symmetry import Symmetry
 
 ngsolve = pytest.importorskip("ngsolve")
 

@@ -1,4 +1,4 @@
-"""ALE air-mesh motion (copdea_fem.ale): boundary data, no inversion, clear failures."""
+"""ALE air-mesh motion (copdea_fem.fe.ale): boundary data, no inversion, clear failures."""
 
 from pathlib import Path
 
@@ -6,9 +6,9 @@ import ngsolve as ngs
 import numpy as np
 import pytest
 
-from copdea_fem.ale import MIN_JACOBIAN, MeshMotionError, air_mesh_displacement, check_jacobian
-from copdea_fem.prestress import solve_prestress
-from copdea_fem.solve import prepare_mesh
+from copdea_fem.fe.ale import MIN_JACOBIAN, MeshMotionError, air_mesh_displacement, check_jacobian
+from copdea_fem.fe.pipeline import prepare_mesh
+from copdea_fem.fe.prestress import solve_prestress
 from copdea_fem.study import StudyError, parse_study
 
 R_O, R_I, Z = 0.0355, 0.017, 0.016
@@ -65,7 +65,7 @@ def test_inverting_motion_stops_with_what_to_change(moved):
 
 def test_lift_beyond_the_decay_height_is_rejected_before_meshing(tmp_path, capsys):
     from copdea_fem.cli import main
-    from copdea_fem.solve import coupled_modes
+    from copdea_fem.fe.pipeline import coupled_modes
     study = parse_study({"air": {"enabled": True}, "load": {"z": "30 mm"}})
     with pytest.raises(StudyError, match=r"load.z = 0.03 is not allowed \(raise air.domain_radius"):
         coupled_modes(study, mesh=object())     # never reaches the mesh

@@ -163,20 +163,20 @@ def test_force_table_is_the_csv(tmp_path):
 
 
 def test_command_names_are_callable_and_still_modules():
-    import copdea_fem.solve
-    from copdea_fem.solve import run_solve
+    import copdea_fem.fe.pipeline
+    from copdea_fem.fe.pipeline import run_solve
     assert cf.solve.run_solve is run_solve and callable(cf.solve)
     assert callable(cf.sweep) and callable(cf.diagnose) and callable(cf.response)
     assert cf.sweep.run_sweep is not None and cf.diagnose.load_measured is not None
-    assert copdea_fem.solve is cf.solve
+    assert copdea_fem.fe.pipeline is cf.solve
 
 
 def test_command_modules_are_callable_however_imported():
     """The command modules are callable however they were imported (directly, from a
     sibling, or through the package), and the package does not intercept its attribute
     reads (the class is set once, when the import system binds the submodule)."""
-    code = ("import sys, types, copdea_fem.response.run, copdea_fem.sweep.store\n"
-            "from copdea_fem.solve import run_solve\n"
+    code = ("import sys, types, copdea_fem.forced_response.run, copdea_fem.sweeps.store\n"
+            "from copdea_fem.fe.pipeline import run_solve\n"
             "print(all(callable(sys.modules[f'copdea_fem.{name}']) for name in "
             "('solve', 'response', 'sweep')))\n"
             "import copdea_fem as cf\n"

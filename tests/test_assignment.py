@@ -1,4 +1,4 @@
-"""copdea_fem.assignment: the largest-total one-to-one assignment equals SciPy's."""
+"""copdea_fem.fe.assignment: the largest-total one-to-one assignment equals SciPy's."""
 
 import math
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.optimize import linear_sum_assignment
 
-from copdea_fem.assignment import MAX_ENUMERATED, max_weight_assignment
+from copdea_fem.fe.assignment import MAX_ENUMERATED, max_weight_assignment
 
 
 @pytest.mark.parametrize("shape", [(1, 1), (1, 4), (4, 1), (3, 3), (3, 5), (5, 3), (6, 6),
@@ -43,7 +43,7 @@ def test_solve_path_does_not_import_scipy_optimize():
     scipy.optimize (~0.4 s of CPU per process, issue 25)."""
     import subprocess
     import sys
-    code = ("import sys, copdea_fem.axisymmetric.engine, copdea_fem.solve, copdea_fem.api; "
+    code = ("import sys, copdea_fem.fe.axisymmetric.engine, copdea_fem.fe.pipeline, copdea_fem.api; "
             "print('scipy.optimize' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout.strip()

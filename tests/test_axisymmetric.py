@@ -16,15 +16,14 @@ import math
 import numpy as np
 import pytest
 from scipy.special import j1, struve
-
-from copdea_fem import acoustics
-from copdea_fem.axisymmetric.air import air_forms, screen_coupling
-from copdea_fem.axisymmetric.engine import prepare_meridian, solve_axisymmetric_prestress
-from copdea_fem.materials import Membrane
-from copdea_fem.solve import coupled_modes, dry_modes, run_solve
-from copdea_fem.study import StudyError, engine_of, parse_study
-
 from test_dry_modes import bessel_frequency
+
+from copdea_fem.fe import acoustics
+from copdea_fem.fe.axisymmetric.air import air_forms, screen_coupling
+from copdea_fem.fe.axisymmetric.engine import prepare_meridian, solve_axisymmetric_prestress
+from copdea_fem.fe.materials import Membrane
+from copdea_fem.fe.pipeline import coupled_modes, dry_modes, run_solve
+from copdea_fem.study import StudyError, engine_of, parse_study
 
 ngsolve = pytest.importorskip("ngsolve")
 
@@ -123,9 +122,9 @@ def test_order_stiffness_interpolated_in_m_equals_its_assembly(inner_radius, z):
     same form at that order (NGSolve, the Parameter set to m) to round-off."""
     import ngsolve as ngs
 
-    from copdea_fem.axisymmetric.operators import OrderForms, membrane_forms, order_space
-    from copdea_fem.axisymmetric.meridian import theta_integral
-    from copdea_fem.linearise import to_scipy
+    from copdea_fem.fe.axisymmetric.meridian import theta_integral
+    from copdea_fem.fe.axisymmetric.operators import OrderForms, membrane_forms, order_space
+    from copdea_fem.fe.linearise import to_scipy
 
     study = axisymmetric_study(geometry={"inner_radius": inner_radius, "frame": "none"},
                                load={"z": z, "voltage": "2 kV"},
@@ -338,7 +337,7 @@ def test_coupled_modes_match_the_3d_quadrant(frame, z):
     at z = 16 mm); weakly radiating modes (zeta < 1e-3) differ up to 25 %, where the
     3-D air mesh is the less resolved (a meridian convergence run moves them < 2 %).
     """
-    from copdea_fem.output import mode_rows
+    from copdea_fem.output.tables import mode_rows
 
     axisymmetric, three_d = _compare(frame, z)
     rows = {row["label"]: row for row in mode_rows(axisymmetric.modes,
@@ -396,7 +395,7 @@ def test_fig11b_sweep_on_the_axisymmetric_engine(tmp_path):
     from pathlib import Path
 
     from copdea_fem.cli import main
-    from copdea_fem.sweep import read_table
+    from copdea_fem.sweeps import read_table
 
     path = Path(__file__).resolve().parent.parent / "studies" / "sweeps" / \
         "fig11b_g1_z_axisymmetric.yaml"

@@ -11,13 +11,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
-from copdea_fem.bands import OrderStop, coupled_start_modes, lowest_frequency_hz
-from copdea_fem.modes import IN_PLANE, OUT_OF_PLANE, PUMPING, Mode, assign_labels
-from copdea_fem.solve import coupled_modes, dry_modes
-from copdea_fem.study import parse_study
-
 from test_coupled import COARSE_AIR
+
+from copdea_fem.fe.bands import OrderStop, coupled_start_modes, lowest_frequency_hz
+from copdea_fem.fe.modes import IN_PLANE, OUT_OF_PLANE, PUMPING, Mode, assign_labels
+from copdea_fem.fe.pipeline import coupled_modes, dry_modes
+from copdea_fem.study import parse_study
 
 pytest.importorskip("ngsolve")
 

@@ -44,9 +44,10 @@ def test_solve_writes_the_contracted_files(tmp_path, capsys):
 def test_vtu_round_trip_matches_what_was_written(tmp_path):
     import ngsolve as ngs
 
-    from copdea_fem.output import MembraneSampler, write_membrane_vtu
-    from copdea_fem.solve import prepare_mesh
+    from copdea_fem.fe.pipeline import prepare_mesh
+    from copdea_fem.fe.quadrant.fields import MembraneSampler
     from copdea_fem.study import parse_study
+    from copdea_fem.vtu import write_membrane_vtu
 
     study = parse_study({"mesh": {"membrane_size": "6 mm"}})
     mesh = prepare_mesh(study, with_air=False)

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from copdea_fem.cli import main
-from copdea_fem.pipeline import progress_to
-from copdea_fem.solve import coupled_modes
+from copdea_fem.fe.pipeline import coupled_modes
+from copdea_fem.progress import progress_to
 from copdea_fem.study import parse_study
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -59,8 +59,8 @@ def test_radiation_damping_is_small_and_positive(flat):
 @pytest.mark.parametrize("backend", ["umfpack", "pardiso"])
 def test_factorisation_backend_is_a_setting_of_the_coupled_solve(flat, backend, monkeypatch):
     """eigen.backend reaches the coupled shift-invert: same modes with every back-end."""
-    from copdea_fem import coupled
-    from copdea_fem.eigen import backend_available
+    from copdea_fem.fe import coupled
+    from copdea_fem.fe.eigen import backend_available
     if not backend_available(backend):
         pytest.skip(f"{backend} is not installed here (pardiso needs pip install mkl)")
     used = []
@@ -82,7 +82,7 @@ def test_factorisation_backend_is_a_setting_of_the_coupled_solve(flat, backend, 
 
 
 def test_unavailable_backend_is_rejected_before_meshing(tmp_path, capsys, monkeypatch):
-    from copdea_fem import eigen
+    from copdea_fem.fe import eigen
     monkeypatch.setattr(eigen, "backend_available", lambda name: name != "pardiso")
     out = tmp_path / "run"
     code = main(["solve", str(ROOT / "studies/g1_z16_v2_quick.yaml"), "--out", str(out),
@@ -213,11 +213,11 @@ def test_crowded_air_sphere_krylov_schur_finds_every_mode_with_fewer_solves():
     modes ARPACK's default basis finds (the method before it), with fewer solves
     (measured 127 against 391 since the certification resumes the run's decomposition,
     245 before: the ratio 0.45 leaves room for round-off in the restarts)."""
-    from copdea_fem.coupled import assemble_coupled
-    from copdea_fem.eigen import solve_band
-    from copdea_fem.linearise import linearised_operators, membrane_matrices
-    from copdea_fem.prestress import solve_prestress
-    from copdea_fem.solve import prepare_mesh
+    from copdea_fem.fe.coupled import assemble_coupled
+    from copdea_fem.fe.eigen import solve_band
+    from copdea_fem.fe.linearise import linearised_operators, membrane_matrices
+    from copdea_fem.fe.pipeline import prepare_mesh
+    from copdea_fem.fe.prestress import solve_prestress
 
     study = coupled_study(air={"enabled": True, "domain_radius": "0.5 m"},
                           mesh={"air_size": "50 mm"}, eigen={"f_max": "1000 Hz"})

@@ -5,7 +5,7 @@ In a baffle (``geometry.frame: baffle``) the air has textbook closed forms
 impedance (added mass, radiation resistance), and for z = 16 mm the ring model's modes
 (``copdea_fem.reduced``, its own discretisation) as the flat source of equal volume
 flux (:mod:`copdea_fem.reduced.airmass`).  The rows compared are those ``modes.csv``
-gets (:func:`copdea_fem.output.mode_rows`).  G1 at V_b = 2 kV on a 4 mm, order-2 mesh
+gets (:func:`copdea_fem.output.tables.mode_rows`).  G1 at V_b = 2 kV on a 4 mm, order-2 mesh
 with pressure order 2: the coarsest on which (0,2) carries its added mass (at 6 mm
 order 2 it is 9 % low, at 9 mm / pressure order 1 half of it; the Galerkin air
 under-estimates C^T K_a^-1 C).  Every tolerance is about twice the agreement measured
@@ -19,16 +19,16 @@ quadrant against whole mesh.
 import math
 from pathlib import Path
 
-import pytest
-
 import baffled
-from copdea_fem.reduced.airmass import ring_sources
-from copdea_fem.materials import Membrane
-from copdea_fem.output import mode_rows
-from copdea_fem.reduced.model import operating_point, ring_model_of
-from copdea_fem.solve import coupled_modes
-from copdea_fem.study import load_study
+import pytest
 from test_coupled import COARSE_AIR, coupled_study
+
+from copdea_fem.fe.materials import Membrane
+from copdea_fem.fe.pipeline import coupled_modes
+from copdea_fem.output.tables import mode_rows
+from copdea_fem.reduced.airmass import ring_sources
+from copdea_fem.reduced.model import operating_point, ring_model_of
+from copdea_fem.study import load_study
 
 MESH = {"membrane_size": "4 mm", "order": 2, "pressure_order": 2}
 RINGS = 96                         # ring-model error ~ n^-2: 1e-4 on (0,1) at n = 96

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from copdea_fem.prestress import solve_prestress
+from copdea_fem.fe.pipeline import dry_modes, prepare_mesh
+from copdea_fem.fe.prestress import solve_prestress
 from copdea_fem.reduced import RingModel, dry_frequencies
-from copdea_fem.solve import dry_modes, prepare_mesh
 
 
 def test_ring_model_converges_to_fe_modes_and_force(make_study):

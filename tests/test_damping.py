@@ -10,9 +10,13 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from copdea_fem.eigen import TWO_PI, solve_band
-from copdea_fem.eigen.damped import (DampingTerms, LinearisedPencil, solve_damped_band,
-                                     solve_structural_band)
+from copdea_fem.fe.eigen import TWO_PI, solve_band
+from copdea_fem.fe.eigen.damped import (
+    DampingTerms,
+    LinearisedPencil,
+    solve_damped_band,
+    solve_structural_band,
+)
 from copdea_fem.study import StudyError, parse_study
 
 
@@ -49,8 +53,8 @@ def check_closed_form(undamped_hz, damped, alpha, beta):
 
 def prepared_order0(**mesh):
     """Prestressed G1 cone on the meridian, its m = 0 forms and undamped dry modes."""
-    from copdea_fem.axisymmetric.operators import OrderForms
-    from copdea_fem.solve import dry_modes
+    from copdea_fem.fe.axisymmetric.operators import OrderForms
+    from copdea_fem.fe.pipeline import dry_modes
     study = coarse_study(**{**AXISYMMETRIC, "mesh": {"engine": "axisymmetric", **mesh}})
     state, modes, result = dry_modes(study)
     forms = OrderForms(state, study)
@@ -69,7 +73,7 @@ def fine_order0():
 
 
 def test_rayleigh_matches_closed_form_axisymmetric(axisymmetric_order0):
-    from copdea_fem.solve import dry_modes
+    from copdea_fem.fe.pipeline import dry_modes
     study, _, _, _, undamped = axisymmetric_order0
     alpha, beta = 40.0, 4e-6
     damped_study = coarse_study(**AXISYMMETRIC,
@@ -81,8 +85,8 @@ def test_rayleigh_matches_closed_form_axisymmetric(axisymmetric_order0):
 
 
 def test_rayleigh_matches_closed_form_3d():
-    from copdea_fem.linearise import linearised_operators, operator_damping
-    from copdea_fem.solve import dry_modes
+    from copdea_fem.fe.linearise import linearised_operators, operator_damping
+    from copdea_fem.fe.pipeline import dry_modes
     raw = dict(mesh={"engine": "3d"}, geometry={"frame": "baffle"}, eigen={"f_max": 500})
     study = coarse_study(**raw)
     state, _, undamped = dry_modes(study)
@@ -131,7 +135,7 @@ def test_band_solver_matches_dense_linearised_pencil(fine_order0):
 
 @pytest.mark.parametrize("tau, limit", [(1e-9, "relaxed"), (1e3, "glassy")])
 def test_prony_limits(axisymmetric_order0, tau, limit):
-    from copdea_fem.axisymmetric.operators import OrderForms
+    from copdea_fem.fe.axisymmetric.operators import OrderForms
     _, state, forms, operators, _ = axisymmetric_order0
     material = forms.material_tangent(operators)
     ratios = (0.3, 0.2)
@@ -156,8 +160,8 @@ def test_prony_limits(axisymmetric_order0, tau, limit):
 def test_flat_membrane_material_tangent_misses_out_of_plane():
     """A flat membrane: dC = 0 for out-of-plane u, so K_mat has no out-of-plane rows and a
     Prony term leaves the (0,1) mode undamped at first order (docs/damping.md)."""
-    from copdea_fem.axisymmetric.operators import OrderForms
-    from copdea_fem.solve import dry_modes
+    from copdea_fem.fe.axisymmetric.operators import OrderForms
+    from copdea_fem.fe.pipeline import dry_modes
     flat = dict(AXISYMMETRIC, load={"z": 0.0, "voltage": "2 kV"})
     study = coarse_study(**flat)
     state, _, _ = dry_modes(study)
@@ -173,7 +177,7 @@ def test_flat_membrane_material_tangent_misses_out_of_plane():
 def test_coupled_beta_changes_im_f_by_minus_pi_beta_f2():
     """Baffled G1 with air: beta adds -pi beta f^2 to Im f of (0,1) (to first order, f the
     wet frequency: Im omega = -beta omega^2 / 2), radiation and structural damping add."""
-    from copdea_fem.solve import coupled_modes
+    from copdea_fem.fe.pipeline import coupled_modes
     raw = dict(AXISYMMETRIC, air={"enabled": True}, eigen={"f_max": 600})
 
     def mode_01(**membrane):
@@ -208,7 +212,7 @@ def test_prony_and_rayleigh_keys_are_validated():
 
 def test_without_damping_keys_the_linear_path_runs():
     """The one branch point: no terms -> solve_band itself (Hermitian, Lanczos)."""
-    from copdea_fem.linearise import damping_terms
+    from copdea_fem.fe.linearise import damping_terms
     keys = {"rayleigh_alpha": 0.0, "rayleigh_beta": 0.0, "prony": []}
     assert damping_terms(None, None, keys) is None
     import scipy.sparse as sp
@@ -221,8 +225,8 @@ def test_without_damping_keys_the_linear_path_runs():
 def test_response_half_power_width_is_twice_im_f():
     """Direct forced response with Rayleigh + Prony damping: the half-power width of the
     (0,1) peak equals 2 |Im f| of the same mode from `solve` (within 15 %)."""
-    from copdea_fem.response.run import prepare_order_zero
-    from copdea_fem.solve import coupled_modes
+    from copdea_fem.fe.pipeline import coupled_modes
+    from copdea_fem.forced_response.run import prepare_order_zero
     membrane = {"rayleigh_beta": 1e-5,
                 "prony": [{"modulus_ratio": 0.5, "relaxation_time": "0.3 ms"}]}
     study = coarse_study(**dict(AXISYMMETRIC, air={"enabled": True}, eigen={"f_max": 500}),
@@ -251,7 +255,7 @@ def test_response_half_power_width_is_twice_im_f():
 def _modal_errors(**membrane):
     """Relative membrane error of the modal path against the direct solve (exact) at 150 Hz,
     the (0,1) peak and 450 Hz: coarse G1 cone with air, b/m = 0 (radiation + the keys)."""
-    from copdea_fem.response.run import modal_solution, prepare_order_zero
+    from copdea_fem.forced_response.run import modal_solution, prepare_order_zero
     raw = dict(AXISYMMETRIC, air={"enabled": True}, eigen={"f_max": 500})
     problem = prepare_order_zero(coarse_study(**raw, membrane=membrane))
     basis, modes = modal_solution(problem, 500.0)

@@ -11,9 +11,17 @@ import csv
 import numpy as np
 import pytest
 
-from copdea_fem.damping_fit import (DampingFitError, MeasuredDamping, fe_modes, fit_damping,
-                                    fit_prony, fit_rayleigh, prony_ratio, rayleigh_ratio,
-                                    read_quality_csv)
+from copdea_fem.damping_fit import (
+    DampingFitError,
+    MeasuredDamping,
+    fe_modes,
+    fit_damping,
+    fit_prony,
+    fit_rayleigh,
+    prony_ratio,
+    rayleigh_ratio,
+    read_quality_csv,
+)
 from copdea_fem.study import StudyError, parse_study
 
 FREQ = np.geomspace(150.0, 1500.0, 6)           # Hz

@@ -8,11 +8,10 @@ import pytest
 from scipy.optimize import brentq
 from scipy.special import jn_zeros, jv, yv
 
-from copdea_fem.materials import Membrane
-from copdea_fem.prestress import solve_prestress
-from copdea_fem.solve import dry_modes, prepare_mesh
+from copdea_fem.fe.materials import Membrane
+from copdea_fem.fe.pipeline import dry_modes, prepare_mesh
+from copdea_fem.fe.prestress import solve_prestress
 from copdea_fem.study import parse_study
-
 
 
 def annulus_roots(m: int, a: float, b: float, k_max: float) -> list[float]:

@@ -1,4 +1,4 @@
-"""Tests of the shift-invert band eigensolver (copdea_fem.eigen).
+"""Tests of the shift-invert band eigensolver (copdea_fem.fe.eigen).
 
 Reference problems have closed-form *discrete* spectra, so the comparison is
 exact up to the solver's tolerance, independent of mesh size:
@@ -27,10 +27,8 @@ import pytest  # noqa: E402
 import scipy.linalg  # noqa: E402
 import scipy.sparse as sp  # noqa: E402
 
-from copdea_fem import eigen  # noqa: E402
-from copdea_fem.eigen import planner  # noqa: E402
-from copdea_fem.pipeline import progress_to  # noqa: E402
-from copdea_fem.eigen import (  # noqa: E402
+from copdea_fem.fe import eigen  # noqa: E402
+from copdea_fem.fe.eigen import (
     BACKENDS,
     BackendUnavailableError,
     EigenInputError,
@@ -39,8 +37,10 @@ from copdea_fem.eigen import (  # noqa: E402
     TooManyModesError,
     backend_available,
     frequency_from_eigenvalue,
+    planner,  # noqa: E402
     solve_band,
 )
+from copdea_fem.progress import progress_to  # noqa: E402
 
 WAVE_SPEED = 100.0   # m/s
 LENGTH = 1.0         # m
@@ -125,7 +125,7 @@ def test_string_band_matches_closed_form():
 def test_long_arpack_runs_report_their_solves(monkeypatch):
     import re
 
-    from copdea_fem.eigen import krylov
+    from copdea_fem.fe.eigen import krylov
     stiffness, mass, exact = string_matrices(400)
     f_min, f_max, _ = band_between(frequencies(exact).real, 3, 24)
     quiet = []
@@ -283,7 +283,7 @@ def test_certification_resumes_the_runs_krylov_decomposition():
 def test_known_pairs_tell_a_degenerate_partner_from_a_copy():
     """KnownPairs.contains: the same eigenvalue with a direction in the known span is known,
     the partner of a double eigenvalue (same value, independent direction) is not."""
-    from copdea_fem.eigen.pairs import KnownPairs
+    from copdea_fem.fe.eigen.pairs import KnownPairs
     stiffness, mass, exact = square_matrices(12)
     values, vectors = scipy.linalg.eigh(stiffness.toarray(), mass.toarray())
     double = int(np.flatnonzero(np.abs(np.diff(values)) <= 1e-9 * values[1:])[0])

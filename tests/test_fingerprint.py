@@ -51,9 +51,9 @@ def test_every_named_source_exists(fresh_fingerprints):
 
 
 def test_mesh_fe_and_sweep_keys_change_with_the_code(monkeypatch):
-    from copdea_fem import geometry
-    from copdea_fem.diagnose import fe
-    from copdea_fem.sweep import grid, parse_sweep
+    from copdea_fem.diagnosis import fe
+    from copdea_fem.fe.quadrant import geometry
+    from copdea_fem.sweeps import grid, parse_sweep
 
     study = parse_study({"geometry": {"frame": "baffle"}}, name="keys")
     spec = geometry.GeometrySpec.from_study(study)

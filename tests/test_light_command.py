@@ -2,7 +2,7 @@
 
 pint (~1 s with its registry), matplotlib (~1.5 s with savefig) and meshio (~0.4 s) were
 most of the command's time beside the solve; the command now writes the same files
-without them.  Speed itself is measured by ``python -m copdea_fem.bench command``."""
+without them.  Speed itself is measured by ``python -m benchmarks.command command``."""
 
 import subprocess
 import sys
@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from copdea_fem.output import VtuMesh, write_vtu
+from copdea_fem.vtu import VtuMesh, write_vtu
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -52,7 +52,7 @@ def test_vtumesh_writes_the_bytes_of_the_meshio_mesh(tmp_path):
 def test_first_shift_is_computed_once_per_region(monkeypatch):
     """BandRegion.first_shift is kept per region (the 33 band solves of the G1 command ask
     it of two regions): the same number as the search, and the search runs once."""
-    from copdea_fem.eigen import region as region_module
+    from copdea_fem.fe.eigen import region as region_module
 
     monkeypatch.setattr(region_module, "_FIRST_SHIFTS", {})
     calls = []
@@ -79,7 +79,7 @@ def test_bare_solve_imports_neither_the_plots_nor_the_3d_engine(tmp_path):
     """Without plots the axisymmetric solve imports neither the plots (nor Pillow) nor the
     3-D engine (``copdea_fem.output`` resolves its names on first use), and still writes
     its tables."""
-    heavy = ("copdea_fem.output.plots", "copdea_fem.engine3d", "copdea_fem.quadrant.fields",
+    heavy = ("copdea_fem.output.plots", "copdea_fem.fe.quadrant.engine", "copdea_fem.fe.quadrant.fields",
              "PIL")
     code = (
         "import sys\n"

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from copdea_fem.materials import VACUUM_PERMITTIVITY, Membrane
+from copdea_fem.fe.materials import VACUUM_PERMITTIVITY, Membrane
 
 TABLE1 = Membrane(c10=228.5e3, c20=8.4e3, c01=-28.6e3, permittivity=2.8 * VACUUM_PERMITTIVITY,
                   thickness=100e-6, density=1490.0, prestretch=1.2)

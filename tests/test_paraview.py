@@ -1,7 +1,7 @@
 """ParaView files of a 3-D quadrant result: one point per place, slices on the mirror planes.
 
-The quadrant's fields are unfolded to the whole device (copdea_fem.symmetry); the copies of
-the points on the mirror planes x = 0 and y = 0 are merged (copdea_fem.output.PointMerge),
+The quadrant's fields are unfolded to the whole device (copdea_fem.fe.symmetry); the copies of
+the points on the mirror planes x = 0 and y = 0 are merged (copdea_fem.fe.fields.PointMerge),
 so a slice exactly on a plane neither counts its faces twice nor leaves holes.  The only
 points written twice are the two sides of a screen, where the pressure jumps.
 """
@@ -75,11 +75,11 @@ def test_slice_on_a_mirror_plane_has_the_area_of_a_slice_beside_it(quadrant_resu
 
 @pytest.mark.parametrize("kind, corners", [("triangle", 3), ("tetra", 4), ("wedge", 6)])
 def test_vtu_writer_reads_back_as_meshio_writes(tmp_path, kind, corners):
-    """copdea_fem.output.write_vtu (raw appended arrays) against meshio's own writer: the
+    """copdea_fem.vtu.write_vtu (raw appended arrays) against meshio's own writer: the
     same grid for VTK (pyvista) and for meshio, wedges in VTK's corner order."""
     import meshio
 
-    from copdea_fem.output import write_vtu
+    from copdea_fem.vtu import write_vtu
 
     generator = np.random.default_rng(1)
     mesh = meshio.Mesh(generator.random((40, 3)), [(kind, generator.integers(0, 40, (25, corners)))],

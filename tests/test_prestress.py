@@ -3,13 +3,12 @@
 import math
 
 import ngsolve as ngs
-
 import numpy as np
 import pytest
 
-from copdea_fem.materials import Membrane
-from copdea_fem.prestress import PrestressError, force_displacement, solve_prestress
-from copdea_fem.solve import prepare_mesh
+from copdea_fem.fe.materials import Membrane
+from copdea_fem.fe.pipeline import prepare_mesh
+from copdea_fem.fe.prestress import PrestressError, force_displacement, solve_prestress
 from copdea_fem.study import parse_study
 
 

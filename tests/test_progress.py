@@ -1,5 +1,5 @@
 """Progress through :mod:`logging` (issue 21 item 6): the handlers of the CLI and the API
-(:func:`copdea_fem.pipeline.progress_to`), quiet sweep points, prefixed sector lines."""
+(:func:`copdea_fem.progress.progress_to`), quiet sweep points, prefixed sector lines."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import logging
 import threading
 
 from copdea_fem.cli import main
-from copdea_fem.pipeline import carried, progress_to, quiet_progress, tagged, tagging
+from copdea_fem.progress import carried, progress_to, quiet_progress, tagged, tagging
 
 LOGGER = logging.getLogger("copdea_fem.some.module")
 

@@ -17,8 +17,10 @@ from pathlib import Path
 
 import pytest
 
-from copdea_fem import engines, folders, geometry
+from copdea_fem import folders
 from copdea_fem.cli import main
+from copdea_fem.fe import engines
+from copdea_fem.fe.quadrant import geometry
 
 ROOT = Path(__file__).resolve().parent.parent
 REDUCED_STUDY = ROOT / "tests" / "reduced" / "data" / "g1_z16_2kV.yaml"   # ring model: ms
@@ -36,13 +38,13 @@ def work(tmp_path, monkeypatch):
     def forbidden(*args, **kwargs):
         raise AssertionError("the run did work before refusing")
 
-    monkeypatch.setattr("copdea_fem.solve.prepare_mesh", forbidden)
-    monkeypatch.setattr("copdea_fem.geometry.generate_mesh", forbidden)
-    monkeypatch.setattr("copdea_fem.axisymmetric.engine.meridian_mesh", forbidden)
-    monkeypatch.setattr("copdea_fem.bands.BandSolver.solve", forbidden)
+    monkeypatch.setattr("copdea_fem.fe.pipeline.prepare_mesh", forbidden)
+    monkeypatch.setattr("copdea_fem.fe.quadrant.geometry.generate_mesh", forbidden)
+    monkeypatch.setattr("copdea_fem.fe.axisymmetric.engine.meridian_mesh", forbidden)
+    monkeypatch.setattr("copdea_fem.fe.bands.BandSolver.solve", forbidden)
     monkeypatch.setattr("copdea_fem.reduced.io.build_reduced", forbidden)
-    monkeypatch.setattr("copdea_fem.diagnose.select.Diagnoser.run", forbidden)
-    monkeypatch.setattr("copdea_fem.sweep.executors.solve_point", forbidden)
+    monkeypatch.setattr("copdea_fem.diagnosis.select.Diagnoser.run", forbidden)
+    monkeypatch.setattr("copdea_fem.sweeps.executors.solve_point", forbidden)
     return tmp_path
 
 
@@ -553,13 +555,13 @@ def failing_solve(error):
 ], ids=["air mesh inversion", "residual tolerance", "too many modes"])
 def test_solver_failures_exit_3_with_the_load_and_the_key(work, capsys, monkeypatch, error,
                                                           start, advice):
-    from copdea_fem.ale import MeshMotionError
-    from copdea_fem.eigen import EigenResidualError, TooManyModesError
+    from copdea_fem.fe.ale import MeshMotionError
+    from copdea_fem.fe.eigen import EigenResidualError, TooManyModesError
     exception = {"ale": MeshMotionError("the air mesh following the membrane is inverted"),
                  "residual": EigenResidualError("2 eigenpair(s) above residual_tol=1e-06"),
                  "modes": TooManyModesError("the band holds 300 eigenpairs, more than "
                                             "max_modes=200")}[error]
-    monkeypatch.setattr("copdea_fem.solve.run_solve", failing_solve(exception))
+    monkeypatch.setattr("copdea_fem.fe.pipeline.run_solve", failing_solve(exception))
     line = refused(["solve", ROOT / "studies" / "g1_z16_v2_quick.yaml", "--out", work / "r"],
                    work, capsys, code=3)
     assert line.startswith(start) and line.endswith(advice), line
@@ -595,7 +597,7 @@ def test_leftover_cleaning_spares_look_alike_folders(tmp_path):
 def fake_fe(monkeypatch, seconds=0.0):
     """FEModel._solve replaced by a counted stand-in taking ``seconds``: returns the list
     of keys solved (one item per solve, from any thread)."""
-    from copdea_fem.diagnose import fe
+    from copdea_fem.diagnosis import fe
 
     solved = []
 
@@ -612,7 +614,7 @@ def fake_fe(monkeypatch, seconds=0.0):
 
 def fe_entry(cache: Path, monkeypatch) -> tuple:
     """A good cache entry of :data:`DRY_STUDY` written by a (fake) solve: (study, path)."""
-    from copdea_fem.diagnose import fe
+    from copdea_fem.diagnosis import fe
     from copdea_fem.study import load_study
     study = load_study(DRY_STUDY)
     fake_fe(monkeypatch)
@@ -639,7 +641,8 @@ def fe_entry(cache: Path, monkeypatch) -> tuple:
 def test_a_damaged_fe_cache_entry_is_solved_again_and_replaced(tmp_path, monkeypatch, caplog,
                                                                damage, problem):
     import json
-    from copdea_fem.diagnose import fe
+
+    from copdea_fem.diagnosis import fe
     study, path = fe_entry(tmp_path / "cache", monkeypatch)
     good = json.loads(path.read_text())
     document = json.loads(path.read_text())
@@ -647,7 +650,7 @@ def test_a_damaged_fe_cache_entry_is_solved_again_and_replaced(tmp_path, monkeyp
     path.write_text(json.dumps(document))
     solved = fake_fe(monkeypatch)
     model = fe.FEModel(cache_dir=tmp_path / "cache")
-    with caplog.at_level("WARNING", logger="copdea_fem.diagnose.fe"):
+    with caplog.at_level("WARNING", logger="copdea_fem.diagnosis.fe"):
         result = model.modes(study)
     assert len(solved) == 1                                  # solved again ...
     assert all(isinstance(m.frequency_hz, float) for m in result.modes)
@@ -673,13 +676,13 @@ def test_fe_cache_option_naming_a_file_is_refused_before_work(work, capsys):
 
 def test_fe_cache_variable_naming_a_file_is_ignored_with_a_warning(tmp_path, monkeypatch,
                                                                    caplog):
-    from copdea_fem.diagnose import fe
+    from copdea_fem.diagnosis import fe
     from copdea_fem.study import load_study
     notes = tmp_path / "notes.txt"
     notes.write_text("my notes\n")
     monkeypatch.setenv(fe.CACHE_VARIABLE, str(notes))
     solved = fake_fe(monkeypatch)
-    with caplog.at_level("WARNING", logger="copdea_fem.diagnose.fe"):
+    with caplog.at_level("WARNING", logger="copdea_fem.diagnosis.fe"):
         model = fe.FEModel()
         model.modes(load_study(DRY_STUDY))
     assert [r.getMessage() for r in caplog.records] == [
@@ -691,13 +694,13 @@ def test_fe_cache_variable_naming_a_file_is_ignored_with_a_warning(tmp_path, mon
 
 def test_an_unwritable_fe_cache_never_fails_a_diagnosis(tmp_path, monkeypatch, caplog):
     """The folder turns into a file after the model was made (or cannot be written)."""
-    from copdea_fem.diagnose import fe
+    from copdea_fem.diagnosis import fe
     from copdea_fem.study import load_study
     cache = tmp_path / "cache"
     model = fe.FEModel(cache_dir=cache)
     cache.write_text("now a file\n")
     solved = fake_fe(monkeypatch)
-    with caplog.at_level("WARNING", logger="copdea_fem.diagnose.fe"):
+    with caplog.at_level("WARNING", logger="copdea_fem.diagnosis.fe"):
         result = model.modes(load_study(DRY_STUDY))
     assert len(solved) == 1 and result.modes and cache.read_text() == "now a file\n"
     assert all(str(cache) in r.getMessage() for r in caplog.records) and caplog.records
@@ -707,7 +710,8 @@ def test_two_diagnoses_sharing_an_fe_cache_solve_an_entry_once(tmp_path, monkeyp
     """Two runs (threads here; the lock is per open file, as between processes) need the
     same entry at once: the second waits for the first's <key>.lock and reads its entry."""
     import threading
-    from copdea_fem.diagnose import fe
+
+    from copdea_fem.diagnosis import fe
     from copdea_fem.study import load_study
     study = load_study(DRY_STUDY)
     solved = fake_fe(monkeypatch, seconds=1.0)
@@ -727,7 +731,8 @@ def test_two_diagnoses_sharing_an_fe_cache_solve_an_entry_once(tmp_path, monkeyp
 
 def test_an_fe_cache_entry_locked_too_long_is_solved_here(tmp_path, monkeypatch, caplog):
     import fcntl
-    from copdea_fem.diagnose import fe
+
+    from copdea_fem.diagnosis import fe
     from copdea_fem.study import load_study
     study = load_study(DRY_STUDY)
     solved = fake_fe(monkeypatch)
@@ -738,7 +743,7 @@ def test_an_fe_cache_entry_locked_too_long_is_solved_here(tmp_path, monkeypatch,
     os.write(holder, b"4242\n")
     try:
         start = time.perf_counter()
-        with caplog.at_level("WARNING", logger="copdea_fem.diagnose.fe"):
+        with caplog.at_level("WARNING", logger="copdea_fem.diagnosis.fe"):
             fe.FEModel(cache_dir=tmp_path / "cache", lock_wait=0.5).modes(study)
         assert time.perf_counter() - start >= 0.5     # waited lock_wait, then went on
     finally:
@@ -766,6 +771,7 @@ def test_a_missing_data_file_is_named_whole_in_the_refusal(work, capsys):
 
 def test_the_path_preview_keeps_the_name_and_the_limit():
     from pathlib import PurePosixPath
+
     from copdea_fem.inputs import preview
     short = PurePosixPath("/data/z16.csv")
     assert preview(short) == "'/data/z16.csv'"
@@ -800,7 +806,7 @@ def test_bad_microphones_are_refused_before_any_work(work, capsys, monkeypatch, 
                                                      microphones, extra, fragment):
     def forbidden(*args, **kwargs):
         raise AssertionError("the run did work before refusing")
-    monkeypatch.setattr("copdea_fem.response.run.prepare_order_zero", forbidden)
+    monkeypatch.setattr("copdea_fem.forced_response.run.prepare_order_zero", forbidden)
     sets = ["--set", f"response.microphones={microphones}"] + (["--set", extra] if extra else [])
     out = ["--out", work / "r"] if command == "response" else []
     line = refused([command, ROOT / "studies" / "g1_z16_v2_quick.yaml", *sets, *out], work,
@@ -931,7 +937,7 @@ SLOW_SWEEP = """\
 import sys
 import time
 
-import copdea_fem.sweep.executors as executors
+import copdea_fem.sweeps.executors as executors
 
 _solve_point = executors.solve_point
 

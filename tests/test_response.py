@@ -15,15 +15,26 @@ import numpy as np
 import pytest
 from scipy.special import j1
 
-from copdea_fem import acoustics
-from copdea_fem.axisymmetric.air import air_forms, screen_coupling
-from copdea_fem.axisymmetric.engine import prepare_meridian, solve_axisymmetric_prestress
 from copdea_fem.cli import main
-from copdea_fem.forced.radiation import (KIRCHHOFF_FRACTION, SphereSampler,
-                                         kirchhoff_kernels, radiated_power, spl_db)
-from copdea_fem.response.run import (AVERAGE_COLUMNS, POINT_COLUMNS, forced_response,
-                                     modal_solution, parse_microphones, prepare_order_zero,
-                                     reduced_spectrum)
+from copdea_fem.fe import acoustics
+from copdea_fem.fe.axisymmetric.air import air_forms, screen_coupling
+from copdea_fem.fe.axisymmetric.engine import prepare_meridian, solve_axisymmetric_prestress
+from copdea_fem.fe.forced.radiation import (
+    KIRCHHOFF_FRACTION,
+    SphereSampler,
+    kirchhoff_kernels,
+    radiated_power,
+    spl_db,
+)
+from copdea_fem.forced_response.run import (
+    AVERAGE_COLUMNS,
+    POINT_COLUMNS,
+    forced_response,
+    modal_solution,
+    parse_microphones,
+    prepare_order_zero,
+    reduced_spectrum,
+)
 from copdea_fem.study import StudyError, parse_study
 
 G1_Z16 = {"geometry": {"inner_radius": "17 mm", "frame": "baffle"},
@@ -77,7 +88,7 @@ def test_static_response_is_the_prestress_derivative_in_voltage():
     full = dry.to_full(u_static[:, None])[:, 0]
     gf = ngsolve.GridFunction(dry.space)
     gf.vec.FV().NumPy()[:] = full
-    from copdea_fem.axisymmetric.meridian import LineSampler
+    from copdea_fem.fe.axisymmetric.meridian import LineSampler
     line = LineSampler(problem.state.mesh)
     a, _, c = dry.amplitudes(gf)
     fe = np.column_stack([line.at(a, observer_radii), line.at(c, observer_radii)])
@@ -321,9 +332,9 @@ def test_quadrant_engine_matches_the_axisymmetric_response():
     quadrant's even-even sector against the meridian's m = 0 -- average axial and radial
     velocity and the pressure at 1 m on the axis within 1 % (measured <= 0.34 %, 0.34 %,
     0.36 %; the engines' coupled frequencies differ by <= 0.075 %, README)."""
+    from copdea_fem.fe.forced.radiation import MembraneObserver
+    from copdea_fem.fe.quadrant.forced import QuadrantObserver, QuadrantSphere, prepare_quadrant
     from copdea_fem.reduced.response import scan_fractions
-    from copdea_fem.quadrant.forced import QuadrantObserver, QuadrantSphere, prepare_quadrant
-    from copdea_fem.forced.radiation import MembraneObserver
     quadrant = prepare_quadrant(study_of(mesh={"engine": "3d"}))
     meridian = prepare_order_zero(study_of())
     frequencies = [100.0, 383.0, 700.0]
@@ -348,8 +359,8 @@ def test_quadrant_engine_matches_the_axisymmetric_response():
 
 def test_cli_response_writes_the_contract_files(tmp_path):
     """Coarse, direct path on a short chirp: the files, their columns and grid."""
-    from pathlib import Path
     import csv
+    from pathlib import Path
     root = Path(__file__).resolve().parent.parent
     out = tmp_path / "r"
     code = main(["response", str(root / "studies/g1_z16_v2_response.yaml"), "--out", str(out),

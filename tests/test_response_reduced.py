@@ -3,23 +3,27 @@
 Against the direct path (one sparse solve per line, the exact model) on coarse meshes of
 both engines, with a loss factor, Rayleigh damping and one Prony term: the reduced path
 must be as exact as its residual says; at its shifts it must be exact by construction (the
-projection argument of :mod:`copdea_fem.response.reduced_basis`), which pins the
+projection argument of :mod:`copdea_fem.forced_response.reduced_basis`), which pins the
 coefficient of every term of T(omega) and the shift set.
 """
 
 from __future__ import annotations
 
 import json
-import types
 import logging
+import types
 
 import numpy as np
 import pytest
 
 from copdea_fem.cli import main
-from copdea_fem.response.reduced_basis import build_reduced_basis
-from copdea_fem.response.run import forced_response, modal_solution, prepare_order_zero, \
-    resolved_method
+from copdea_fem.forced_response.reduced_basis import build_reduced_basis
+from copdea_fem.forced_response.run import (
+    forced_response,
+    modal_solution,
+    prepare_order_zero,
+    resolved_method,
+)
 from copdea_fem.study import parse_study
 
 DAMPED = {"rayleigh_alpha": 20.0, "rayleigh_beta": 2e-6, "loss_factor": 0.01,

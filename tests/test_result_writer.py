@@ -3,8 +3,8 @@ and reused for every mode -- the air's geometry, the encoded geometry bytes, the
 element corner reads, the membrane's amplitude and prestress profiles, the picture's
 raster -- gives every mode's file the values a direct evaluation gives.
 
-The writers' speed lives in ``python -m copdea_fem.bench command`` (docs/benchmarks.md);
-``tests/compare_results.py`` compares whole result folders of two checkouts."""
+The writers' speed lives in ``python -m benchmarks.command command`` (docs/benchmarks.md);
+``tools/compare_results.py`` compares whole result folders of two checkouts."""
 
 from pathlib import Path
 from types import SimpleNamespace
@@ -14,9 +14,8 @@ import pytest
 from scipy.spatial import cKDTree
 
 import copdea_fem as cf
-from copdea_fem.modes import IN_PLANE, OUT_OF_PLANE, PUMPING
-from copdea_fem.output import VtuMesh, write_vtu
-from copdea_fem.paraview.vtu import VtuWriter
+from copdea_fem.fe.modes import IN_PLANE, OUT_OF_PLANE, PUMPING
+from copdea_fem.vtu import VtuMesh, VtuWriter, write_vtu
 
 ROOT = Path(__file__).resolve().parent.parent
 QUICK = ROOT / "studies/g1_z16_v2_quick.yaml"
@@ -50,7 +49,7 @@ def _corner_pressures(result, number):
     NGSolve at every element corner of the meridian, and the corners' moved (r, z) [m]."""
     import ngsolve as ngs
 
-    from copdea_fem.acoustics import pressure_field
+    from copdea_fem.fe.acoustics import pressure_field
 
     mode, pressure = result.modes[number], result.coupled.pressures[number]
     operators = next(item for item in result.coupled.operators if item.m == mode.m)
@@ -134,8 +133,8 @@ def test_corner_pressure_reads_what_the_field_evaluates(written):
     at the corners for any vector, to the bit."""
     import ngsolve as ngs
 
-    from copdea_fem.acoustics import pressure_field
-    from copdea_fem.paraview.merge import CornerPressure
+    from copdea_fem.fe.acoustics import pressure_field
+    from copdea_fem.fe.fields import CornerPressure
 
     solution, _ = written
     space = solution.result.coupled.operators[0].pressure_space
@@ -158,7 +157,7 @@ def test_membrane_profiles_equal_one_evaluation_per_function(written):
     compiled prestress fields equal each function sampled on its own, to the bit."""
     import ngsolve as ngs
 
-    from copdea_fem.axisymmetric.fields import amplitude_profiles
+    from copdea_fem.fe.axisymmetric.fields import amplitude_profiles
 
     solution, _ = written
     result = solution.result
@@ -256,7 +255,7 @@ def test_a_short_gathering_write_is_completed(tmp_path, monkeypatch):
     whole, byte for byte write_vtu's."""
     import os
 
-    from copdea_fem.paraview import vtu
+    from copdea_fem import vtu
 
     generator = np.random.default_rng(4)
     mesh = VtuMesh(generator.random((20, 3)), [("triangle", generator.integers(0, 20, (9, 3)))],

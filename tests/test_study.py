@@ -5,8 +5,14 @@ from pathlib import Path
 import pytest
 import yaml
 
-from copdea_fem.study import (SCHEMA, StudyError, load_study, parse_overrides, parse_study,
-                              reference_table)
+from copdea_fem.study import (
+    SCHEMA,
+    StudyError,
+    load_study,
+    parse_overrides,
+    parse_study,
+    reference_table,
+)
 
 ROOT = Path(__file__).resolve().parent.parent
 

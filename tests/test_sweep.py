@@ -1,4 +1,4 @@
-"""Parameter sweeps (copdea_fem.sweep): schema, grid, resume, executors, Fig. 11 trends.
+"""Parameter sweeps (copdea_fem.sweeps): schema, grid, resume, executors, Fig. 11 trends.
 
 The dry-FE sweeps run on the coarse variants of the Fig. 11 sweep files
 (6 mm order-2 mesh, band to 600 Hz); the resume and failure tests use the
@@ -15,10 +15,9 @@ import pytest
 import scipy.sparse as sp
 
 from copdea_fem.cli import main
-from copdea_fem.pipeline import progress_to
-from copdea_fem.eigen import EigenInputError, solve_band
-from copdea_fem.sweep import (SweepError, load_sweep, parse_sweep, read_table, run_sweep,
-                              shift_plan)
+from copdea_fem.fe.eigen import EigenInputError, solve_band
+from copdea_fem.progress import progress_to
+from copdea_fem.sweeps import SweepError, load_sweep, parse_sweep, read_table, run_sweep, shift_plan
 
 ROOT = Path(__file__).resolve().parent.parent
 SWEEPS = ROOT / "studies" / "sweeps"
@@ -150,7 +149,7 @@ def test_coupled_sweep_reuses_mesh_prestress_and_shifts_and_stays_below_dry(tmp_
 
 
 def test_unavailable_backend_stops_the_sweep_before_any_point(tmp_path, monkeypatch):
-    from copdea_fem import eigen
+    from copdea_fem.fe import eigen
     from copdea_fem.study import StudyError
     monkeypatch.setattr(eigen, "backend_available", lambda name: name != "pardiso")
     sweep = parse_sweep(_raw(model="dry", set={"load.z": "12 mm", "air.enabled": False,

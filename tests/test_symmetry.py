@@ -1,4 +1,4 @@
-"""Quarter-symmetry decomposition of the coupled solve (copdea_fem.symmetry).
+"""Quarter-symmetry decomposition of the coupled solve (copdea_fem.fe.symmetry).
 
 The quadrant mesh with the four parity sectors must give the modes of the
 whole mesh: same frequencies, damping, added mass, labels; modes sit in the
@@ -12,12 +12,12 @@ import json
 import meshio
 import numpy as np
 import pytest
-
-from copdea_fem.geometry import GeometrySpec
-from copdea_fem.prestress import solve_prestress
-from copdea_fem.solve import coupled_modes, prepare_mesh, run_solve
-from copdea_fem.symmetry import QUADRANTS, SECTORS, Symmetry
 from test_coupled import coupled_study
+
+from copdea_fem.fe.pipeline import coupled_modes, prepare_mesh, run_solve
+from copdea_fem.fe.prestress import solve_prestress
+from copdea_fem.fe.quadrant.geometry import GeometrySpec
+from copdea_fem.fe.symmetry import QUADRANTS, SECTORS, Symmetry
 
 
 def test_sectors_are_the_four_characters_of_the_two_mirrors():
@@ -98,7 +98,7 @@ def test_samples_on_the_mirror_lines_see_the_membrane(pair):
     """The polar grid has points on x = 0 and y = 0; there a point search finds the mirror
     face, so they are nudged into the quadrant: the axisymmetric (0,1) is the same at every
     angle (a sample on the mirror face would read 0)."""
-    from copdea_fem.modes import ModeSampler
+    from copdea_fem.fe.modes import ModeSampler
     quarter, _ = pair
     _, mode = _structural(quarter)["(0,1)"]
     sampler = ModeSampler(quarter.state)
@@ -173,9 +173,9 @@ def test_written_fields_are_unfolded_with_the_sector_parity(tmp_path):
 
 def test_mirror_conditions_fix_the_right_components():
     """Even about x = 0: u_x = 0 on the x = 0 edge; odd: u_y = u_z = 0; pressures on odd planes."""
-    from copdea_fem.acoustics import pressure_space, screen_faces
-    from copdea_fem.membrane import displacement_space
-    from copdea_fem.symmetry import membrane_mirror_dofs, pressure_mirror_dofs
+    from copdea_fem.fe.acoustics import pressure_space, screen_faces
+    from copdea_fem.fe.membrane import displacement_space
+    from copdea_fem.fe.symmetry import membrane_mirror_dofs, pressure_mirror_dofs
     mesh = prepare_mesh(coupled_study(), with_air=True)
     space = displacement_space(mesh, 2, True)
     counts = {sector.name: membrane_mirror_dofs(space, mesh, 2, sector).size for sector in SECTORS}

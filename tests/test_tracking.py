@@ -1,4 +1,4 @@
-"""Mode tracking (copdea_fem.tracking) on constructed families with known answers.
+"""Mode tracking (copdea_fem.sweeps.tracking) on constructed families with known answers.
 
 Each family is a small pencil ``K(s) x = lam M x`` with a non-identity mass
 ``M`` (so the mass-weighted MAC is exercised): ``K(s) = M^1/2 A(s) M^1/2``
@@ -20,8 +20,16 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from copdea_fem.tracking import (ModeSet, TrackingInputError, TrackingSettings, base_label,
-                                 group_degenerate, mac_matrix, subspace_mac, track_modes)
+from copdea_fem.sweeps.tracking import (
+    ModeSet,
+    TrackingInputError,
+    TrackingSettings,
+    base_label,
+    group_degenerate,
+    mac_matrix,
+    subspace_mac,
+    track_modes,
+)
 
 MASS = np.diag([1.0, 2.0, 1.5, 0.7])
 FREQ_SCALE_HZ = 100.0   # f = 100 Hz * sqrt(lam of A)

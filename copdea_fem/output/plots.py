@@ -8,7 +8,6 @@ from pathlib import Path
 
 import numpy as np
 
-
 #: matplotlib's "coolwarm" (K. Moreland, "Diverging color maps for scientific
 #: visualization", 2009): its 33 control points, RGB in [0, 1], interpolated linearly
 COOLWARM = np.array([
@@ -37,7 +36,7 @@ def plot_modes(path: Path, vtu_files: list, modes, columns: int = 4) -> None:
     """PNG of the lowest structural modes seen from above, coloured by the normal
     displacement (red up, blue down, each mode on its own symmetric scale).
 
-    ``vtu_files``: the modes' VTU files, or their :class:`~copdea_fem.paraview.vtu.VtuMesh`
+    ``vtu_files``: the modes' VTU files, or their :class:`~copdea_fem.vtu.VtuMesh`
     objects (as written, not read back).  Nodal diameters and circles show as the pale
     lines.  Drawn with numpy (:class:`Raster`: values interpolated linearly inside each
     triangle, as matplotlib's gouraud ``tripcolor``) and Pillow: matplotlib's import and

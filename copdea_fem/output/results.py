@@ -1,12 +1,22 @@
-"""The result folder of ``solve`` and ``force``: which files, staged and moved into place."""
+"""The files of ``solve`` and ``force``, written into a staging folder.
+
+The caller (:meth:`copdea_fem.api.Solution.write`, :meth:`copdea_fem.api.ForceCurve.write`)
+claims the result folder and stages it (:mod:`copdea_fem.folders`); these functions only
+fill the staging folder."""
 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from ..study import Study, dump_resolved
-from .tables import write_force_csv, write_modes
-from ..paraview.vtu import _write_all, write_pvd, write_vtu
+from copdea_fem.output.tables import write_force_csv, write_modes
+from copdea_fem.study import Study, dump_resolved
+from copdea_fem.vtu import write_all, write_pvd, write_vtu
+
+if TYPE_CHECKING:
+    from copdea_fem.fe.modes import Mode
+    from copdea_fem.fe.pipeline import SolveResult
+    from copdea_fem.fe.prestress import PrestressedState
 
 
 def prestress_summary(state) -> dict:
@@ -17,44 +27,40 @@ def prestress_summary(state) -> dict:
                            for z, v, it in state.load_steps]}
 
 
-def write_results(result, out_dir: Path) -> None:
-    """Every file of ``solve`` for a :class:`copdea_fem.solve.SolveResult` (either engine),
-    staged and moved into place (:func:`copdea_fem.folders.result_directory`)."""
-    from ..engines import engine_of_state
-    from ..folders import result_directory
-    from ..modes import IN_PLANE, OUT_OF_PLANE, PUMPING
+def write_solve_files(staging: Path, result: SolveResult, rows: list[dict]) -> None:
+    """Every file of ``solve`` for a :class:`copdea_fem.fe.pipeline.SolveResult` (either
+    engine) into ``staging``: modes.csv/json with ``rows`` (:func:`mode_rows`), the
+    resolved study, ParaView files and plots as ``output.*`` asks."""
+    from copdea_fem.fe.modes import IN_PLANE, OUT_OF_PLANE, PUMPING
 
     study = result.study
     structural = [mode for mode in result.modes if mode.kind in (OUT_OF_PLANE, PUMPING, IN_PLANE)]
-    engine = engine_of_state(result.state)
-    fields = engine.output(result.state, structural)
+    fields = result.engine.output(result.state, structural)
     extra = {"prestress": prestress_summary(result.state),
-             "eigen": {"engine": engine.name,
+             "eigen": {"engine": result.engine.name,
                        "shifts_hz": [float(f) for f in result.eigen.shift_freq_hz],
                        "unknowns": int(result.eigen.unknowns),
                        "factorisations": int(result.eigen.n_factorisations),
                        "symmetry": fields.symmetry,
                        **_sector_summary(result.eigen)},
              "timings_s": result.timings.seconds}
-    with result_directory(out_dir, "solve") as staging:
-        write_modes(staging, result.rows, study, extra)
-        plotted = [k for k, mode in enumerate(structural)
-                   if mode.kind in (OUT_OF_PLANE, PUMPING)][:8]
-        if study["output"]["paraview"]:
-            kept = {k: None for k in plotted}     # the plotted meshes, not read back
-            write_paraview(staging, result.state, structural, kept=kept, fields=fields)
-            shapes = [kept[k] for k in plotted]
-            if result.coupled is not None:
-                indices = [k for k, mode in enumerate(result.modes) if mode.kind != "air"]
-                air_files = _write_all(staging, fields.air_meshes(
-                    result.coupled.operators, [result.modes[k] for k in indices],
-                    [result.coupled.pressures[k] for k in indices]))
-                write_pvd(staging / "air.pvd", air_files, list(range(len(air_files))))
-        elif study["output"]["plots"]:                # only the plotted modes, no file
-            shapes = [mesh for _, mesh in fields.mode_meshes([structural[k] for k in plotted])]
-        if study["output"]["plots"]:
-            from .plots import plot_modes       # a bare solve does without the plots
-            plot_modes(staging / "modes.png", shapes, [structural[k] for k in plotted])
+    write_modes(staging, rows, study, extra)
+    plotted = [k for k, mode in enumerate(structural) if mode.kind in (OUT_OF_PLANE, PUMPING)][:8]
+    if study["output"]["paraview"]:
+        kept = {k: None for k in plotted}     # the plotted meshes, not read back
+        write_paraview(staging, result.state, structural, fields, kept=kept)
+        shapes = [kept[k] for k in plotted]
+        if result.coupled is not None:
+            indices = [k for k, mode in enumerate(result.modes) if mode.kind != "air"]
+            air_files = write_all(staging, fields.air_meshes(
+                result.coupled.operators, [result.modes[k] for k in indices],
+                [result.coupled.pressures[k] for k in indices]))
+            write_pvd(staging / "air.pvd", air_files, list(range(len(air_files))))
+    elif study["output"]["plots"]:                # only the plotted modes, no file
+        shapes = [mesh for _, mesh in fields.mode_meshes([structural[k] for k in plotted])]
+    if study["output"]["plots"]:
+        from copdea_fem.output.plots import plot_modes  # a bare solve does without the plots
+        plot_modes(staging / "modes.png", shapes, [structural[k] for k in plotted])
 
 
 def _sector_summary(eigen_result) -> dict:
@@ -66,33 +72,25 @@ def _sector_summary(eigen_result) -> dict:
                         for name, part in eigen_result.by_sector.items()}}
 
 
-def write_paraview(directory: Path, state, modes, kept: dict | None = None,
-                   fields=None) -> list[Path]:
+def write_paraview(directory: Path, state: PrestressedState, modes: list[Mode], fields,
+                   kept: dict | None = None) -> list[Path]:
     """prestress.vtu + modes.pvd with one .vtu per mode (revolved to 3-D when axisymmetric).
 
+    ``fields``: the engine's result fields (:meth:`copdea_fem.fe.engines.Engine.output`).
     ``kept``: ``{position in modes: None}``; receives the
-    :class:`~copdea_fem.paraview.vtu.VtuMesh` of those modes' files (for the plot, without
-    reading them back).  ``fields``: the engine's result fields
-    (:meth:`copdea_fem.engines.Engine.output`; default: those of the engine that computed
-    ``state``, for ``modes``).
+    :class:`~copdea_fem.vtu.VtuMesh` of those modes' files (for the plot, without
+    reading them back).
     """
-    if fields is None:
-        from ..engines import engine_of_state
-        fields = engine_of_state(state).output(state, modes)
     write_vtu(directory / "prestress.vtu", fields.prestress_mesh())
-    files = _write_all(directory, fields.mode_meshes(modes), kept)
+    files = write_all(directory, fields.mode_meshes(modes), kept)
     write_pvd(directory / "modes.pvd", files, list(range(len(files))))
     return files
 
 
-def write_force_results(study: Study, out_dir: Path, z_values, voltages, forces) -> None:
-    """force_displacement.csv (+ PNG) and study.resolved.yaml of ``force``."""
-    from ..folders import result_directory
-
-    with result_directory(out_dir, "force") as staging:
-        write_force_csv(staging / "force_displacement.csv", z_values, voltages, forces)
-        if study["output"]["plots"]:
-            from .plots import plot_force_displacement
-            plot_force_displacement(staging / "force_displacement.png", z_values, voltages,
-                                    forces)
-        dump_resolved(study, staging / "study.resolved.yaml")
+def write_force_files(staging: Path, study: Study, z_values, voltages, forces) -> None:
+    """force_displacement.csv (+ PNG) and study.resolved.yaml of ``force`` into ``staging``."""
+    write_force_csv(staging / "force_displacement.csv", z_values, voltages, forces)
+    if study["output"]["plots"]:
+        from copdea_fem.output.plots import plot_force_displacement
+        plot_force_displacement(staging / "force_displacement.png", z_values, voltages, forces)
+    dump_resolved(study, staging / "study.resolved.yaml")

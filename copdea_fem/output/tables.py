@@ -9,8 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..study import Study, dump_resolved, package_versions
-
+from copdea_fem.study import Study, dump_resolved, package_versions
 
 MODE_COLUMNS = ("label", "m", "n", "kind", "freq_hz", "freq_im_hz", "damping_ratio",
                 "membrane_energy_fraction", "modal_mass", "dry_freq_hz", "added_mass_ratio",
@@ -37,7 +36,7 @@ def mode_rows(modes, dry_frequencies: dict | None = None) -> list[dict]:
             "added_mass_ratio": (dry / mode.freq_hz) ** 2 - 1 if mode.freq_hz > 0 else 0.0,
             "normal_fraction": mode.normal_fraction, "disc_fraction": mode.disc_fraction,
             "residual": mode.residual,
-            # parity about x = 0 and y = 0 on a quadrant mesh (copdea_fem.symmetry), else ""
+            # parity about x = 0 and y = 0 on a quadrant mesh (copdea_fem.fe.symmetry), else ""
             "symmetry": mode.sector.name if mode.sector is not None else ""})
     return rows
 

@@ -9,20 +9,32 @@ Pipeline (each step a pure module; file glue in :mod:`copdea_fem.reduced.io`):
 ``response`` eq. (19) in air, chirp spectra (Sects 4.2, 5.3), damping calibration
 ``fit``     c10, c20, c01 from force-displacement data (Sect. 5.1)
 ``model``   everything above for a study: :func:`build_reduced`
-``bench``   ``python -m copdea_fem.reduced.bench``
+``bench``   ``python -m benchmarks.reduced``
 """
 
 from copdea_fem.reduced.fit import MaterialFit, fit_material
 from copdea_fem.reduced.modal import ModalBasis, Mode, modal_decomposition, mode_profile
 from copdea_fem.reduced.model import ReducedSetup, build_reduced, dry_frequencies, spectra_of
-from copdea_fem.reduced.response import (QUARTER_POINTS, Chirp, DampingCalibration, ReducedModel,
-                                         SpectrumResult, added_mass_ratio_from_frequency,
-                                         assemble_reduced_model, calibrate_damping,
-                                         observation_matrix, vibrometer_spectrum)
+from copdea_fem.reduced.response import (
+    QUARTER_POINTS,
+    Chirp,
+    DampingCalibration,
+    ReducedModel,
+    SpectrumResult,
+    added_mass_ratio_from_frequency,
+    assemble_reduced_model,
+    calibrate_damping,
+    observation_matrix,
+    vibrometer_spectrum,
+)
 from copdea_fem.reduced.rings import Equilibrium, Linearisation, ReducedModelError, RingModel
-from copdea_fem.reduced.spring import (pumping_added_mass, pumping_frequencies,
-                                       pumping_mode_shape, pumping_roots,
-                                       spring_dynamic_stiffness)
+from copdea_fem.reduced.spring import (
+    pumping_added_mass,
+    pumping_frequencies,
+    pumping_mode_shape,
+    pumping_roots,
+    spring_dynamic_stiffness,
+)
 
 __all__ = [
     "RingModel", "Equilibrium", "Linearisation", "ReducedModelError",

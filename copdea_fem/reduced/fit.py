@@ -30,7 +30,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.optimize
 
-from copdea_fem.materials import Membrane
+from copdea_fem.fe.materials import Membrane
 from copdea_fem.reduced.rings import ReducedModelError, RingModel
 
 PARAMETERS = ("c10", "c20", "c01")

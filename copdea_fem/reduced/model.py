@@ -17,7 +17,7 @@ Added mass per kept mode (eq. 19), first rule that applies:
 - ``(0,n)``, n >= 3: the FE frequency; else the estimate as above; else 0.
 - every ``(0,n)``: times ``effects.air_mass_scale``.
 
-Effect keys (section ``effects``, used by :mod:`copdea_fem.diagnose`):
+Effect keys (section ``effects``, used by :mod:`copdea_fem.diagnosis`):
 ``stiffness_scale`` multiplies c10, c20, c01; ``maxwell_scale`` multiplies
 the electrostatic term of the static equilibrium and of K_s (eq. 14) -- the
 equilibrium is solved at V_eff = sqrt(maxwell_scale) V_b, and the forcing
@@ -36,8 +36,12 @@ from typing import Mapping
 import numpy as np
 
 from copdea_fem.reduced.modal import ModalBasis, modal_decomposition
-from copdea_fem.reduced.response import (Chirp, ReducedModel, added_mass_ratio_from_frequency,
-                                         assemble_reduced_model)
+from copdea_fem.reduced.response import (
+    Chirp,
+    ReducedModel,
+    added_mass_ratio_from_frequency,
+    assemble_reduced_model,
+)
 from copdea_fem.reduced.rings import Linearisation, RingModel
 from copdea_fem.reduced.spring import pumping_added_mass, pumping_frequencies
 

@@ -23,7 +23,7 @@ film (flat pre-stretched lengths divided by ``lambda_p``):
 Elastic energy (eq. 13).  Energy density times the ring's unstretched volume
 ``Omega_k = pi (R_{k-1}^2 - R_k^2) h0 / lambda_p^2`` (incompressible: the
 flat pre-stretched volume; ``t0 = h0``), with the strain-energy function of
-:class:`copdea_fem.materials.Membrane` (eq. 20) evaluated at
+:class:`copdea_fem.fe.materials.Membrane` (eq. 20) evaluated at
 ``tr_c = lambda_1^2 + lambda_2^2``, ``det_c = lambda_1^2 lambda_2^2``.  The
 paper's ``k_b (l_b - z)^2 / 2`` is the biasing spring.
 
@@ -72,7 +72,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from copdea_fem.materials import Membrane
+from copdea_fem.fe.materials import Membrane
 
 
 class ReducedModelError(ValueError):

@@ -5,7 +5,7 @@ a change to the FE code it holds no entry for the new keys, and a test reading i
 solve for many minutes.  Such tests (their source reads the battery or the committed
 cache) fail at once instead, naming ``python tests/diagnose/fe_battery.py --refill``;
 with ``COPDEA_FEM_FE_REFILL=1`` they solve and write what they miss; with
-``COPDEA_FEM_FE_STALE=skip`` they are skipped (``tests/mutation_check.py``: a mutated FE
+``COPDEA_FEM_FE_STALE=skip`` they are skipped (``tools/mutation_check.py``: a mutated FE
 has a fingerprint of its own, and the committed cache cannot judge it).
 """
 

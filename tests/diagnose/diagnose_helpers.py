@@ -12,9 +12,9 @@ from __future__ import annotations
 import copy
 from dataclasses import dataclass
 
-from copdea_fem.diagnose.measured import load_measured
-from copdea_fem.diagnose.select import Diagnoser
-from copdea_fem.diagnose.synth import SynthOptions, synthesise, write_synthetic
+from copdea_fem.diagnosis.measured import load_measured
+from copdea_fem.diagnosis.select import Diagnoser
+from copdea_fem.diagnosis.synth import SynthOptions, synthesise, write_synthetic
 from copdea_fem.study import parse_study
 
 FULL = {"disc": {"motion": "spring"}, "effects": {"air_added_mass": "incompressible"},

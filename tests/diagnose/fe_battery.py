@@ -10,7 +10,7 @@ the axisymmetric modes and, through imperfections, the low non-axisymmetric
 ones: orders m <= :data:`SEEN_ORDERS` are kept.
 
 FE solves are cached in ``tests/data/fe_cache`` (keyed by the FE study's hash and
-the FE code's fingerprint, :func:`copdea_fem.diagnose.fe.fe_key`): the tests read it
+the FE code's fingerprint, :func:`copdea_fem.diagnosis.fe.fe_key`): the tests read it
 and the diagnosis reads it too (the FE model of record of the same studies).  A change
 to the FE code (:data:`copdea_fem.fingerprint.FE_SOURCES`) leaves no entry with the new
 keys: the tests that read the cache then fail at once naming the refill command
@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from copdea_fem.diagnose.fe import BAND_MARGIN, FEModel, fe_key, fe_study
+from copdea_fem.diagnosis.fe import BAND_MARGIN, FEModel, fe_key, fe_study
 from copdea_fem.study import parse_study
 
 FE_CACHE = Path(__file__).resolve().parent.parent / "data" / "fe_cache"
@@ -199,8 +199,8 @@ def battery_keys() -> set:
 
 def prony_probes(study) -> list:
     """The FE studies of the material shares of ``study`` (the anchored engine's probes:
-    :meth:`copdea_fem.diagnose.anchored.AnchoredEngine.shares`)."""
-    from copdea_fem.diagnose.anchored import STRONG_PROBE, probe_study
+    :meth:`copdea_fem.diagnosis.anchored.AnchoredEngine.shares`)."""
+    from copdea_fem.diagnosis.anchored import STRONG_PROBE, probe_study
     probe = probe_study(study)
     return [probe, probe.replace({"membrane.prony": [STRONG_PROBE]}),
             probe.replace({"membrane.prony": []})]
@@ -252,7 +252,7 @@ def fill_side_by_side(keys) -> None:
 
 def fill(keys) -> None:
     """Fill the FE cache of the named cases (truth and base at every condition)."""
-    from copdea_fem.pipeline import progress_to
+    from copdea_fem.progress import progress_to
     model = FEModel(cache_dir=FE_CACHE)
     with progress_to(print, only_info=True):          # the FE progress lines
         for key in keys:

@@ -29,8 +29,9 @@ import yaml
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import fe_battery  # noqa: E402
-from copdea_fem.diagnose.effects import MOUNTINGS  # noqa: E402
-from copdea_fem.diagnose.fe import BAND_MARGIN, FEModel  # noqa: E402
+
+from copdea_fem.diagnosis.effects import MOUNTINGS  # noqa: E402
+from copdea_fem.diagnosis.fe import BAND_MARGIN, FEModel  # noqa: E402
 from copdea_fem.study import parse_study  # noqa: E402
 
 FE_CACHE = fe_battery.FE_CACHE
@@ -159,7 +160,7 @@ def right(case: Case, result) -> bool:
 
 
 if __name__ == "__main__":       # fill the FE cache of every case (truth and base)
-    from copdea_fem.pipeline import progress_to
+    from copdea_fem.progress import progress_to
     model = FEModel(cache_dir=FE_CACHE)
     with progress_to(print, only_info=True):          # the FE progress lines
         for case in [*CASES.values(), *REVERSE_CASES.values(), REPRODUCTION]:

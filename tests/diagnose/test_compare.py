@@ -1,15 +1,14 @@
-"""Matching, deviance and gap (copdea_fem.diagnose.compare), and spectrum peaks."""
+"""Matching, deviance and gap (copdea_fem.diagnosis.compare), and spectrum peaks."""
 
 import math
 
 import numpy as np
 import pytest
 
-from copdea_fem.diagnose.compare import (GATE, DevianceTerms, MeasuredPeak, gap,
-                                         match_condition)
-from copdea_fem.diagnose.engine import ModelMode
-from copdea_fem.diagnose.measured import NoiseModel
-from copdea_fem.diagnose.peaks import find_spectrum_peaks
+from copdea_fem.diagnosis.compare import GATE, DevianceTerms, MeasuredPeak, gap, match_condition
+from copdea_fem.diagnosis.engine import ModelMode
+from copdea_fem.diagnosis.measured import NoiseModel
+from copdea_fem.diagnosis.peaks import find_spectrum_peaks
 
 BAND = (1.25, 1000.0)
 NOISE = NoiseModel(frequency_relative=0.015, missing_probability=0.1,

@@ -9,7 +9,7 @@ import pytest
 import yaml
 
 from copdea_fem.cli import main
-from copdea_fem.diagnose.measured import load_measured
+from copdea_fem.diagnosis.measured import load_measured
 from copdea_fem.study import load_study
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -74,7 +74,7 @@ def test_synth_writes_a_ready_measured_set_and_is_reproducible(tmp_path, capsys)
 
 def test_synth_scatter_has_the_requested_size(tmp_path):
     """Frequency noise: ln(f_meas/f_true) over many modes has the requested sigma."""
-    from copdea_fem.diagnose.synth import SynthOptions, synthesise
+    from copdea_fem.diagnosis.synth import SynthOptions, synthesise
     from copdea_fem.study import parse_study
     study = parse_study({"disc": {"motion": "spring"}})
     conditions = [{"load.z": f"{z} mm", "load.voltage": f"{v} kV"} for z in (8, 11, 14, 16, 18)

@@ -5,10 +5,9 @@ import math
 import numpy as np
 import pytest
 
-from copdea_fem.diagnose.effects import (CATALOGUE, EFFECT_IDS, catalogue_table,
-                                         parse_effect_list)
-from copdea_fem.diagnose.engine import Engine
-from copdea_fem.diagnose.measured import Condition, MeasuredSet, NoiseModel
+from copdea_fem.diagnosis.effects import CATALOGUE, EFFECT_IDS, catalogue_table, parse_effect_list
+from copdea_fem.diagnosis.engine import Engine
+from copdea_fem.diagnosis.measured import Condition, MeasuredSet, NoiseModel
 from copdea_fem.reduced import build_reduced, dry_frequencies
 from copdea_fem.study import StudyError, parse_study
 
@@ -164,8 +163,8 @@ def test_engine_quality_factor_is_the_half_power_width_of_its_spectrum():
 def test_interpolated_modes_are_far_more_accurate_than_the_measurement(tmp_path):
     """The fits work on modes interpolated over a coarse parameter grid; at the grid's
     midpoints the error in ln f is < 1e-3, a fifteenth of sigma_f = 1.5 %."""
-    from copdea_fem.diagnose.select import Diagnoser
-    from copdea_fem.diagnose.tabulation import Tabulation
+    from copdea_fem.diagnosis.select import Diagnoser
+    from copdea_fem.diagnosis.tabulation import Tabulation
     study = parse_study(G1).replace({"effects.maxwell_scale": 0.0,
                                      "effects.air_added_mass": "incompressible"})
     conditions = tuple(Condition(name, overrides, None, None, (1.25, 1000.0)) for name, overrides

@@ -19,12 +19,13 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import fe_battery as battery  # noqa: E402
-from copdea_fem.diagnose.anchored import AnchoredEngine  # noqa: E402
-from copdea_fem.diagnose.compare import MeasuredPeak, gap, match_condition  # noqa: E402
-from copdea_fem.diagnose.engine import Engine, ModelMode  # noqa: E402
-from copdea_fem.diagnose.fe import FEModel, fe_key, fe_study  # noqa: E402
-from copdea_fem.diagnose.measured import NoiseModel, load_measured  # noqa: E402
-from copdea_fem.diagnose.select import Diagnoser  # noqa: E402
+
+from copdea_fem.diagnosis.anchored import AnchoredEngine  # noqa: E402
+from copdea_fem.diagnosis.compare import MeasuredPeak, gap, match_condition  # noqa: E402
+from copdea_fem.diagnosis.engine import Engine, ModelMode  # noqa: E402
+from copdea_fem.diagnosis.fe import FEModel, fe_key, fe_study  # noqa: E402
+from copdea_fem.diagnosis.measured import NoiseModel, load_measured  # noqa: E402
+from copdea_fem.diagnosis.select import Diagnoser  # noqa: E402
 from copdea_fem.study import parse_study  # noqa: E402
 
 FAST_SEEDS = (1, 2)
@@ -126,7 +127,7 @@ def test_frame_reflection_is_tested_with_fe_solves_and_named(tmp_path):
 
 
 def test_report_names_the_model_and_warns_that_six_rings_are_not_converged(tmp_path):
-    from copdea_fem.diagnose.report import write_report
+    from copdea_fem.diagnosis.report import write_report
     result = diagnose("air_hidden", 1, tmp_path / "data")
     convergence = result.ring_convergence
     assert not convergence["converged"] and convergence["rings"] == 6
@@ -167,7 +168,7 @@ def test_a_fit_at_a_bound_is_reported_and_not_accepted(tmp_path):
 def test_mode_lists_that_change_with_a_parameter_keep_scores_finite(tmp_path):
     """A mode that comes and goes across the fit range (a cut-off crossing) must not make a
     held-out deviance infinite (the issue's electrostatic misses)."""
-    from copdea_fem.diagnose.tabulation import Tabulation
+    from copdea_fem.diagnosis.tabulation import Tabulation
     measured = load_measured(battery.write_measured("electrostatic_hidden", 1, tmp_path))
 
     class CutOff(Engine):
@@ -180,7 +181,7 @@ def test_mode_lists_that_change_with_a_parameter_keep_scores_finite(tmp_path):
             return prediction
 
     diagnoser = Diagnoser(measured, engine=CutOff(measured))
-    from copdea_fem.diagnose.effects import CATALOGUE
+    from copdea_fem.diagnosis.effects import CATALOGUE
     table = Tabulation(diagnoser, (), ("electrostatic_softening",),
                        list(CATALOGUE["electrostatic_softening"].parameters))
     names = [c.name for c in measured.conditions]
@@ -266,7 +267,7 @@ def test_a_batch_of_fe_solves_runs_side_by_side_sharing_the_cache(tmp_path):
 
 
 def test_fe_worker_counts_are_checked_before_any_work(monkeypatch, capsys):
-    from copdea_fem.diagnose.fe import WORKERS_VARIABLE, default_workers
+    from copdea_fem.diagnosis.fe import WORKERS_VARIABLE, default_workers
     from copdea_fem.study import StudyError
     for bad in (0, -1, "two", 1.5, True):
         with pytest.raises(StudyError, match="is not allowed; allowed: an integer >= 1"):
@@ -286,7 +287,7 @@ def test_fe_worker_counts_are_checked_before_any_work(monkeypatch, capsys):
 def test_ring_only_physics_of_the_base_acts_through_the_ring_ratio(tmp_path):
     """A base with the spring's mass on (ring-only physics: the FE's spring is massless):
     the anchored P1 is the FE's P1 times ring(with mass)/ring(without), not the FE's P1."""
-    from copdea_fem.diagnose.measured import parse_measured
+    from copdea_fem.diagnosis.measured import parse_measured
     (tmp_path / "r.csv").write_text("freq_hz,label\n40,P1\n380,(0,1)\n")
     base = dict(battery.DRY, disc={"mass": "3.0 g", "motion": "spring"},
                 spring={"stiffness": "52 N/m", "mass": "1.8 g", "length": "30 mm"})

@@ -17,13 +17,21 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import fe_battery as battery  # noqa: E402
-from copdea_fem.diagnose.anchored import (PROBE, STRONG_PROBE, Anchor, AnchoredEngine,  # noqa: E402
-                                          Share, material_share, prony_mode)
-from copdea_fem.diagnose.effects import CATALOGUE, catalogue_table  # noqa: E402
-from copdea_fem.diagnose.engine import ModelMode  # noqa: E402
-from copdea_fem.diagnose.fe import FEMode, FEModel, FEResult, fe_study  # noqa: E402
-from copdea_fem.diagnose.measured import load_measured  # noqa: E402
-from copdea_fem.diagnose.select import Diagnoser  # noqa: E402
+
+from copdea_fem.diagnosis.anchored import (
+    PROBE,
+    STRONG_PROBE,
+    Anchor,
+    AnchoredEngine,
+    Share,
+    material_share,
+    prony_mode,
+)
+from copdea_fem.diagnosis.effects import CATALOGUE, catalogue_table  # noqa: E402
+from copdea_fem.diagnosis.engine import ModelMode  # noqa: E402
+from copdea_fem.diagnosis.fe import FEMode, FEModel, FEResult, fe_study  # noqa: E402
+from copdea_fem.diagnosis.measured import load_measured  # noqa: E402
+from copdea_fem.diagnosis.select import Diagnoser  # noqa: E402
 from copdea_fem.study import parse_study  # noqa: E402
 
 FAST_SEEDS = (1,)
@@ -178,7 +186,8 @@ def test_one_material_damping_cause_at_a_time():
 def test_a_condition_may_not_set_the_prony_series(tmp_path):
     """membrane.prony is the effect's key: a condition setting it is refused by name."""
     import yaml
-    from copdea_fem.diagnose.measured import MeasuredDataError
+
+    from copdea_fem.diagnosis.measured import MeasuredDataError
     path = battery.write_measured("damping_known", 1, tmp_path)
     manifest = yaml.safe_load(path.read_text())
     manifest["conditions"][0]["set"]["membrane.prony"] = [VISCO]

@@ -17,13 +17,14 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import mount_battery as battery  # noqa: E402
-from copdea_fem.diagnose.anchored import AnchoredEngine  # noqa: E402
-from copdea_fem.diagnose.direct import DirectFEEngine, ring_can_represent  # noqa: E402
-from copdea_fem.diagnose.effects import CATALOGUE  # noqa: E402
-from copdea_fem.diagnose.fe import FEModel  # noqa: E402
-from copdea_fem.diagnose.measured import load_measured  # noqa: E402
-from copdea_fem.diagnose.report import write_report  # noqa: E402
-from copdea_fem.diagnose.select import Diagnoser  # noqa: E402
+
+from copdea_fem.diagnosis.anchored import AnchoredEngine  # noqa: E402
+from copdea_fem.diagnosis.direct import DirectFEEngine, ring_can_represent  # noqa: E402
+from copdea_fem.diagnosis.effects import CATALOGUE  # noqa: E402
+from copdea_fem.diagnosis.fe import FEModel  # noqa: E402
+from copdea_fem.diagnosis.measured import load_measured  # noqa: E402
+from copdea_fem.diagnosis.report import write_report  # noqa: E402
+from copdea_fem.diagnosis.select import Diagnoser  # noqa: E402
 from copdea_fem.study import parse_study  # noqa: E402
 
 FAST_SEEDS = (1, 2)

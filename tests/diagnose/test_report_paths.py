@@ -17,11 +17,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-
 from diagnose_helpers import make_data
-from copdea_fem.diagnose.measured import load_measured
-from copdea_fem.diagnose.report import write_report
-from copdea_fem.diagnose.select import Diagnoser
+
+from copdea_fem.diagnosis.measured import load_measured
+from copdea_fem.diagnosis.report import write_report
+from copdea_fem.diagnosis.select import Diagnoser
 
 
 def _diagnose(name, seed, folder, diagnoser=Diagnoser, **manifest):
@@ -133,9 +133,9 @@ def test_numpy_values_anywhere_in_the_result_are_written_as_plain_json(tmp_path,
 def test_the_acceptance_boundary_a_gap_rising_by_one_percent_is_refused():
     """Pinned: a step that raises the gap by 1 % (relative) is refused, one that lowers it
     by 1 % with a lower deviance is accepted (the old test tried only a 20-fold rise)."""
-    from copdea_fem.diagnose.compare import MeasuredPeak, match_condition
-    from copdea_fem.diagnose.engine import ModelMode
-    from copdea_fem.diagnose.measured import NoiseModel
+    from copdea_fem.diagnosis.compare import MeasuredPeak, match_condition
+    from copdea_fem.diagnosis.engine import ModelMode
+    from copdea_fem.diagnosis.measured import NoiseModel
     peaks = [MeasuredPeak(400.0, "(0,1)"), MeasuredPeak(900.0, "(0,2)")]
     noise, band = NoiseModel(frequency_relative=0.01), (20.0, 1000.0)
 
@@ -146,7 +146,7 @@ def test_the_acceptance_boundary_a_gap_rising_by_one_percent_is_refused():
                            True)]
         return {"c": match_condition("c", modes, peaks, band, noise)}
 
-    from copdea_fem.diagnose.compare import gap
+    from copdea_fem.diagnosis.compare import gap
     base = matches(0.02)
     worse, better = matches(0.02 * 1.01), matches(0.02 / 1.01)
     assert gap(worse.values()) == pytest.approx(1.01 * gap(base.values()), rel=1e-3)
@@ -159,8 +159,8 @@ def test_the_acceptance_boundary_a_gap_rising_by_one_percent_is_refused():
 def test_an_ambiguity_between_a_mounting_and_a_material_effect_names_what_separates_them():
     """The separating measurement of two explanations: the mode where the FE-evaluated
     models differ most, and in vacuo where one acts through the air only."""
-    from copdea_fem.diagnose.report import _separation_text
-    from copdea_fem.diagnose.select import CandidateScore, _in_vacuo_separates
+    from copdea_fem.diagnosis.report import _separation_text
+    from copdea_fem.diagnosis.select import CandidateScore, _in_vacuo_separates
 
     def score(effect):
         return CandidateScore((effect,), (), 0.0, 0.0, {}, 0.0, 0.0, 0.0, False, {})

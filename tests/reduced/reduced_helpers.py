@@ -5,7 +5,7 @@ A plain module with a unique name (not conftest.py), imported by the tests.
 
 from pathlib import Path
 
-from copdea_fem.materials import Membrane
+from copdea_fem.fe.materials import Membrane
 from copdea_fem.reduced.rings import RingModel
 from copdea_fem.study import parse_study
 

@@ -7,8 +7,8 @@ import pytest
 import scipy.integrate
 import scipy.special
 
-from copdea_fem.reduced.airmass import face_added_mass, hankel_transform, ring_sources
 from copdea_fem.reduced import build_reduced
+from copdea_fem.reduced.airmass import face_added_mass, hankel_transform, ring_sources
 from copdea_fem.study import parse_study
 
 RHO = 1.204

@@ -7,8 +7,13 @@ import numpy as np
 import pytest
 from reduced_helpers import DATA, paper_study
 
-from copdea_fem.reduced.io import (calibrate_damping_cli, fit_material_cli, read_modes_json,
-                                   run_spectrum, write_csv)
+from copdea_fem.reduced.io import (
+    calibrate_damping_cli,
+    fit_material_cli,
+    read_modes_json,
+    run_spectrum,
+    write_csv,
+)
 from copdea_fem.reduced.model import build_reduced
 from copdea_fem.study import StudyError, load_study, parse_study, reduced_mode_labels
 

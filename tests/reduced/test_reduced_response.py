@@ -7,9 +7,14 @@ import pytest
 from reduced_helpers import paper_study
 
 from copdea_fem.reduced.model import build_reduced, spectra_of
-from copdea_fem.reduced.response import (QUARTER_POINTS, Chirp, added_mass_ratio_from_frequency,
-                                         calibrate_damping, observation_matrix,
-                                         vibrometer_spectrum)
+from copdea_fem.reduced.response import (
+    QUARTER_POINTS,
+    Chirp,
+    added_mass_ratio_from_frequency,
+    calibrate_damping,
+    observation_matrix,
+    vibrometer_spectrum,
+)
 from copdea_fem.reduced.rings import ReducedModelError
 
 

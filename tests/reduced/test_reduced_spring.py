@@ -9,9 +9,13 @@ from reduced_helpers import paper_study
 
 from copdea_fem.reduced.model import build_reduced
 from copdea_fem.reduced.rings import ReducedModelError
-from copdea_fem.reduced.spring import (pumping_added_mass, pumping_frequencies,
-                                       pumping_mode_shape, pumping_roots,
-                                       spring_dynamic_stiffness)
+from copdea_fem.reduced.spring import (
+    pumping_added_mass,
+    pumping_frequencies,
+    pumping_mode_shape,
+    pumping_roots,
+    spring_dynamic_stiffness,
+)
 
 K_DE, K_D, M_D, M_S, L_S = 424.0, 52.0, 3.0e-3, 1.8e-3, 0.030   # N/m, N/m, kg, kg, m (Table 1)
 

@@ -1,0 +1,115 @@
+"""The sweep benchmark: ``python -m copdea_fem.sweeps benchmark SWEEP.yaml``."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+from copdea_fem.sweeps.executors import run_sweep
+from copdea_fem.sweeps.spec import load_sweep, parse_reuse, sweep_error
+
+
+def _benchmark(argv: list[str]) -> int:
+    """``python -m copdea_fem.sweeps benchmark SWEEP.yaml [--repeat N] [--set K=V]``.
+
+    Runs the sweep in fresh processes with every reuse switched off, then on
+    one by one (mesh; + prestress continuation; + eigen start shifts),
+    interleaved (one run of each variant per repetition, so a change of the
+    machine's load hits all variants alike), and reports per variant the
+    median wall time, the median CPU time of the process (user + system, all
+    threads: less sensitive to other jobs on a shared machine) and the
+    per-point stage medians, as JSON on stdout.
+    """
+    import argparse
+    import resource
+    import statistics
+    import subprocess
+    import tempfile
+
+    parser = argparse.ArgumentParser(prog="python -m copdea_fem.sweeps benchmark")
+    parser.add_argument("sweep")
+    parser.add_argument("--repeat", type=int, default=1)
+    parser.add_argument("--set", action="append", default=[])
+    parser.add_argument("--variants", default="independent,mesh,prestress,all")
+    args = parser.parse_args(argv)
+    variants = {"independent": {"mesh": False, "prestress": False, "shifts": False},
+                "mesh": {"mesh": True, "prestress": False, "shifts": False},
+                "prestress": {"mesh": True, "prestress": True, "shifts": False},
+                "all": {"mesh": True, "prestress": True, "shifts": True}}
+    names = args.variants.split(",")
+    for name in names:
+        if name not in variants:
+            raise sweep_error("--variants", name, "a comma-separated list of " + ", ".join(variants))
+    runs: dict[str, list] = {name: [] for name in names}
+    for repetition in range(args.repeat):
+        for name in names:
+            with tempfile.TemporaryDirectory() as tmp:
+                command = [sys.executable, "-m", "copdea_fem.sweeps", "_once", args.sweep,
+                           tmp, json.dumps(variants[name])] + args.set
+                before = resource.getrusage(resource.RUSAGE_CHILDREN)
+                subprocess.run(command, check=True)
+                after = resource.getrusage(resource.RUSAGE_CHILDREN)
+                run = json.loads((Path(tmp) / "sweep.json").read_text())
+                run["cpu_s"] = (after.ru_utime - before.ru_utime) + \
+                    (after.ru_stime - before.ru_stime)
+                timers = Path(tmp) / "factorisation_timers.json"
+                run["factorisation_timers"] = json.loads(timers.read_text()) \
+                    if timers.is_file() else {}
+                runs[name].append(run)
+            print(f"{name} {repetition + 1}/{args.repeat}: wall {run['wall_s']:.1f} s, "
+                  f"process CPU {run['cpu_s']:.1f} s", file=sys.stderr)
+    report = {}
+    for name in names:
+        variant_runs = runs[name]
+        stages = sorted({s for run in variant_runs for p in run["points"]
+                         for s in (p["timings_s"] or {})})
+        per_point = {}
+        for position, point in enumerate(variant_runs[0]["points"]):
+            per_point[point["point"]] = {
+                stage: statistics.median((run["points"][position]["timings_s"] or {}).get(
+                    stage, 0.0) for run in variant_runs) for stage in stages}
+        report[name] = {
+            "wall_s_median": statistics.median(run["wall_s"] for run in variant_runs),
+            "wall_s_all": [run["wall_s"] for run in variant_runs],
+            "cpu_s_median": statistics.median(run["cpu_s"] for run in variant_runs),
+            "cpu_s_all": [run["cpu_s"] for run in variant_runs],
+            "stage_sum_s": {stage: statistics.median(
+                sum((p["timings_s"] or {}).get(stage, 0.0) for p in run["points"])
+                for run in variant_runs) for stage in stages},
+            "per_point_s": per_point,
+            "newton_iterations": [(p["prestress"] or {}).get("newton_iterations")
+                                  for p in variant_runs[0]["points"]],
+            "eigen_factorisations": [(p["eigen"] or {}).get("factorisations")
+                                     for p in variant_runs[0]["points"]],
+            "failed": variant_runs[0]["failed"],
+            "factorisation_timers_s": variant_runs[-1].get("factorisation_timers", {})}
+    print(json.dumps(report, indent=1))
+    return 0
+
+
+def _once(argv: list[str]) -> int:
+    sweep_path, directory, reuse_text, *sets = argv
+    from copdea_fem.study import parse_overrides
+    sweep = load_sweep(sweep_path, overrides=parse_overrides(sets))
+    from copdea_fem.progress import progress_to
+    with progress_to(lambda message: print(message, file=sys.stderr, flush=True)):
+        run_sweep(sweep, out_dir=directory, executor="local",
+                  reuse=parse_reuse(json.loads(reuse_text)))
+    # what symbolic-analysis reuse could buy: NGSolve's own UMFPACK timers [s]
+    import ngsolve
+    timers = {t["name"]: {"seconds": t["time"], "counts": t["counts"]} for t in ngsolve.Timers()
+              if "Umfpack Inverse" in t["name"] or "SparseCholesky" in t["name"]}
+    (Path(directory) / "factorisation_timers.json").write_text(json.dumps(timers, indent=1))
+    return 0
+
+
+def main(argv: list[str]) -> int:
+    """``python -m copdea_fem.sweeps benchmark SWEEP.yaml [...]``."""
+    command, *rest = argv or ["help"]
+    if command == "benchmark":
+        return _benchmark(rest)
+    if command == "_once":
+        return _once(rest)
+    print(_benchmark.__doc__)
+    return 2

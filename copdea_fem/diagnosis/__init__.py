@@ -1,0 +1,176 @@
+"""Diagnose model-measurement disagreement: which physical effect is missing (issue 5).
+
+Pipeline (data flows one way; each module pure except ``report`` and the
+two actions below):
+
+``measured``  ``measured.yaml`` + resonance/spectrum CSVs -> :class:`MeasuredSet` (checked)
+``effects``   the catalogue: 8 effects, parameters, signatures, study overrides
+``engine``    ring-model modes and spectra of a condition under an effect state
+``fe``        the FE model of record: study -> structural modes, cached
+``anchored``  the ring model anchored to the FE: the surrogate the fits run on
+``peaks``     resonance peaks of measured spectra
+``compare``   one-to-one matching, deviance (-2 ln L), the headline gap
+``tabulation`` a candidate's modes over its parameters, interpolated
+``select``    fit, cross-validate, test, accept, rank; ambiguity; the loop
+``evidence``  the sentences: evidence of a step, goodness of fit, verdict
+``report``    report.md, diagnosis.json, PNG figures, final_study.yaml
+``synth``     synthetic measurements from the ring model with chosen effects on
+``bench``     ``python -m benchmarks.diagnose``: wall time of an FE diagnosis
+
+Actions (used by ``copdea-fem diagnose`` and ``copdea-fem synth``; each
+returns a summary dict with ``files`` and ``lines`` to print; outputs are
+staged and moved into place only when complete):
+
+- :func:`run_diagnose` (MEASURED.yaml -> report directory)
+- :func:`run_synth` (STUDY + effects + conditions -> measured data set)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+from copdea_fem.diagnosis.effects import CATALOGUE, EFFECT_IDS, Effect, Parameter, catalogue_table
+from copdea_fem.diagnosis.measured import MeasuredDataError, MeasuredSet, load_measured
+from copdea_fem.diagnosis.select import Diagnoser, DiagnosisResult
+
+
+def diagnose_out_dir(measured: MeasuredSet) -> Path:
+    """Default report folder of :func:`run_diagnose`: ``results/diagnose_<name>``."""
+    return Path("results") / f"diagnose_{measured.name}"
+
+
+def synth_out_dir(study, seed: int) -> Path:
+    """Default folder of :func:`run_synth`: ``results/synth_<study name>_seed<N>``."""
+    return Path("results") / f"synth_{study.name}_seed{seed}"
+
+
+def run_diagnose(measured_path, out_dir=None, alpha: float = 0.05,
+                 model: str | None = None, fe_cache=None, fe_workers=None) -> dict:
+    """Diagnose a measured data set and write the report.
+
+    Parameters
+    ----------
+    measured_path : path
+        ``measured.yaml`` (:mod:`copdea_fem.diagnosis.measured`).
+    out_dir : path, optional
+        Default ``results/diagnose_<name>``.
+    alpha : float
+        False-alarm probability per step (:mod:`copdea_fem.diagnosis.select`).
+    model : str, optional
+        ``"fe"`` or ``"reduced"``: overrides the manifest's ``model``.
+    fe_cache : path, optional
+        Folder of cached FE solves (:class:`copdea_fem.diagnosis.fe.FEModel`).
+    fe_workers : int, optional
+        Processes solving FE studies side by side (default
+        :func:`copdea_fem.diagnosis.fe.default_workers`).
+
+    Returns
+    -------
+    dict with ``result`` (DiagnosisResult), ``files``, ``out`` and ``lines``.
+    """
+    from copdea_fem.diagnosis.report import write_report
+    from copdea_fem.folders import result_directory
+    from copdea_fem.study import StudyError
+    if not 0 < alpha < 1:
+        raise StudyError(f"--alpha = {alpha!r} is not allowed; allowed: (0, 1)")
+    if fe_cache:
+        from copdea_fem.diagnosis.fe import check_cache_dir
+        check_cache_dir(fe_cache, "fe_cache")
+    if fe_workers is not None:
+        from copdea_fem.diagnosis.fe import check_workers
+        fe_workers = check_workers(fe_workers, "fe_workers")
+    measured = load_measured(measured_path)
+    if model is not None:
+        measured = dataclasses.replace(measured, model=model)
+    out = Path(out_dir) if out_dir else diagnose_out_dir(measured)
+    engine = None
+    if measured.model == "fe":
+        from copdea_fem.diagnosis.anchored import AnchoredEngine
+        from copdea_fem.diagnosis.direct import DirectFEEngine, ring_can_represent
+        from copdea_fem.diagnosis.fe import FEModel
+        fe = FEModel(cache_dir=fe_cache, workers=fe_workers)
+        engine = (AnchoredEngine(measured, fe) if ring_can_represent(measured.base_study)
+                  else DirectFEEngine(measured, fe))     # no disc: the FE directly
+    try:
+        result = Diagnoser(measured, alpha=alpha, engine=engine).run()
+    finally:
+        if engine is not None:
+            engine.fe.close()                            # the FE worker processes, if any
+    with result_directory(out, "diagnose") as staging:
+        files = write_report(result, staging)
+    files = [out / f.name for f in files]
+    fe = (f"; model of record: FE ({result.fe_solves} solves, {result.fe_seconds:.0f} s)"
+          if result.model == "fe" else "; model of record: ring model")
+    lines = [result.verdict + fe,
+             f"gap {100 * result.gap_before:.2f} % -> {100 * result.gap_after:.2f} %; "
+             f"missing: {', '.join(result.missing_effects) or 'none'}; ambiguous: "
+             f"{'; '.join('/'.join(g) for g in result.ambiguous) or 'none'}",
+             f"wrote {len(files)} files to {out} (report.md, diagnosis.json)"]
+    return {"result": result, "files": [str(f) for f in files], "out": str(out),
+            "lines": lines}
+
+
+def run_synth(study, effects_text, conditions_text=None, parameters=None, options=None,
+              out_dir=None) -> dict:
+    """Synthetic measurement set (``copdea-fem synth``), see :mod:`copdea_fem.diagnosis.synth`.
+
+    Parameters
+    ----------
+    study : Study
+        The base study (written as the set's ``base_study.yaml``).
+    effects_text : str
+        Comma-separated effect identifiers switched on in the truth ("" for none).
+    conditions_text : str, optional
+        ``"load.z=11 mm, load.voltage=2 kV; load.z=16 mm"`` (default: five of the paper's
+        operating points of G1).
+    parameters : list of str, optional
+        ``["air_loading.scale=1.2", ...]``.
+    options : SynthOptions, optional
+    out_dir : path, optional
+        Default ``results/synth_<study name>_seed<N>``.
+    """
+    from copdea_fem.diagnosis.effects import parse_effect_list
+    from copdea_fem.diagnosis.synth import (
+        SynthOptions,
+        parse_conditions,
+        parse_parameters,
+        synthesise,
+        write_synthetic,
+    )
+    from copdea_fem.folders import result_directory
+    from copdea_fem.study import StudyError
+    options = options or SynthOptions()
+    options.check()
+    names = parse_effect_list(effects_text or "")
+    given = parse_parameters(parameters)
+    for effect_id in given:
+        if effect_id not in names:
+            raise StudyError(f"--param {effect_id}.* is not allowed; allowed: parameters of "
+                             f"the effects in --effects ({', '.join(names) or 'none'})")
+    effects = {}
+    for effect_id in names:
+        entry = CATALOGUE[effect_id]
+        values = given.get(effect_id, {})
+        effects[effect_id] = tuple(values.get(p.name, p.default) for p in entry.parameters)
+    conditions = parse_conditions(conditions_text)
+    items = synthesise(study, effects, conditions, options)
+    out = Path(out_dir) if out_dir else synth_out_dir(study, options.seed)
+    with result_directory(out, "synth") as staging:
+        files = write_synthetic(study, effects, items, options, staging)
+    files = [out / f.name for f in files]
+    truth = ", ".join(f"{e} ({CATALOGUE[e].describe_values(v)})" if v else e
+                      for e, v in effects.items()) or "no effect added"
+    lines = [f"{len(items)} conditions: " + ", ".join(
+        f"{i.name} ({len(i.resonances)} peaks{', spectrum' if i.spectrum is not None else ''})"
+        for i in items),
+        f"truth: {truth}; seed {options.seed}",
+        f"wrote {len(files)} files to {out}; diagnose with: copdea-fem diagnose "
+        f"{out / 'measured.yaml'}"]
+    return {"files": [str(f) for f in files], "out": str(out), "lines": lines,
+            "conditions": [i.name for i in items]}
+
+
+__all__ = ["CATALOGUE", "EFFECT_IDS", "Effect", "Parameter", "catalogue_table",
+           "MeasuredDataError", "MeasuredSet", "load_measured", "Diagnoser", "DiagnosisResult",
+           "run_diagnose", "run_synth", "diagnose_out_dir", "synth_out_dir"]

@@ -1,0 +1,129 @@
+"""The FE evaluated directly, for devices the ring surrogate cannot represent (issue 24).
+
+The ring model of Sect. 3.2.1 needs the central disc (the membrane is an annulus
+between r_i > 0 and r_o).  A membrane without one -- a drum head, a loudspeaker
+membrane (``geometry.inner_radius: 0``) -- is still an ordinary FE study, and the
+FE is the diagnosis's model of record anyway (:mod:`copdea_fem.diagnosis.fe`).  So
+for such a base the prediction of an effect state is the FE's, solved at that
+state (no anchor, no ratio (A1)): 0.5-2 s a solve on the axisymmetric engine (dry
+modes, frames none/baffle/circle), tens of seconds to minutes on the 3-D quadrant
+(square frame).
+
+What it can evaluate: the effects the FE represents (:data:`DIRECT_EFFECTS`) --
+the switches ``air_loading``, ``baffle``, ``frame_reflection``, ``open_air`` (geometry and
+air keys) and the parameters ``effects.stiffness_scale`` (uniform_stiffness: the
+membrane's tension) and ``effects.maxwell_scale`` (electrostatic_softening), and
+``disc_pumping`` where there is a disc.  The parameters the FE does not read
+(``effects.air_mass_scale`` of air_loading: the FE has the real coupled air) are
+held at their defaults (:data:`PINNED_KEYS`), not fitted.  The effects only the
+ring model has (visco-elasticity, the spring's mass, modal damping) are not
+tested, and the report says why.
+
+Cost.  A parameter is tabulated on :data:`DIRECT_GRID` FE solves per condition
+(5 instead of the ring surrogate's 9: ln f is smooth in ln s, f ~ sqrt(s) for a
+membrane under tension), then interpolated as with the ring surrogate
+(:mod:`copdea_fem.diagnosis.tabulation`); every number reported of a fitted model
+is an FE solve at the fitted values.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from copdea_fem.diagnosis.anchored import FEFailure, quality_factor
+from copdea_fem.diagnosis.engine import Engine, ModelMode
+from copdea_fem.diagnosis.fe import BAND_MARGIN, FEModel
+from copdea_fem.reduced.rings import ReducedModelError
+
+# The effects the FE evaluates by itself (its study keys: fe.FE_EFFECT_KEYS, geometry, air).
+DIRECT_EFFECTS = ("air_loading", "baffle", "frame_reflection", "open_air",
+                  "uniform_stiffness", "electrostatic_softening", "disc_pumping")
+# Parameters the FE does not read: held at the catalogue's default, not fitted.
+PINNED_KEYS = ("effects.air_mass_scale",)
+DIRECT_GRID = 5            # FE solves per condition tabulating one parameter
+
+
+def ring_can_represent(study) -> bool:
+    """Whether the ring surrogate (Sect. 3.2.1) can model the base study's device."""
+    return study["geometry"]["inner_radius"] > 0
+
+
+@dataclass(frozen=True)
+class DirectPrediction:
+    """Modes of one condition under one effect state, straight from an FE solve."""
+
+    modes: tuple
+    study: object
+    engine: str                   # the FE engine that solved it: "axisymmetric" or "3d"
+
+    def mode(self, label):
+        return next((m for m in self.modes if m.label == label), None)
+
+    def spectra(self, frequency_hz=None, voltage_lines=None):
+        """No spectrum: the FE's eigen step gives modes (None: the report leaves it out)."""
+        return None
+
+
+class DirectFEEngine(Engine):
+    """:class:`Engine` whose every prediction is an FE solve (module notes).
+
+    Parameters
+    ----------
+    measured : MeasuredSet
+    fe : FEModel, optional
+    """
+
+    direct = True
+
+    def __init__(self, measured, fe: FEModel | None = None, cache_size: int = 4096):
+        super().__init__(measured, cache_size)
+        self.fe = fe or FEModel()
+        self.anchored: dict = {}
+        self.engines: dict = {}      # effect state (ids) -> FE engines used, for the report
+
+    def set_anchor(self, state) -> None:
+        """Nothing to anchor: every prediction is the FE's (kept for the search's calls)."""
+        self.anchored = {e: tuple(v) for e, v in state}
+
+    def anchor(self, condition, state=()):   # marks an FE model of record (Diagnoser.uses_fe)
+        return None
+
+    def prefetch(self, pairs) -> None:
+        """The FE solves of ``(condition, state)`` pairs, side by side
+        (:meth:`FEModel.solve_many`); :meth:`predict` then finds them."""
+        requests = []
+        for condition, state in pairs:
+            if any(e not in DIRECT_EFFECTS for e, _ in state):
+                continue
+            try:
+                study = self.study(condition, state)
+            except (ReducedModelError, ValueError):     # predict() reports it (safe_predict)
+                continue
+            requests.append((study, BAND_MARGIN * condition.band[1]))
+        self.fe.solve_many(requests)
+
+    def predict(self, condition, state=(), perturbation=None) -> DirectPrediction:
+        if perturbation:
+            raise FEFailure("perturbations (synthetic data) need the ring model")
+        outside = [e for e, _ in state if e not in DIRECT_EFFECTS]
+        if outside:
+            raise FEFailure(f"{', '.join(outside)} cannot be evaluated without the ring "
+                            "surrogate (the FE does not model it)")
+        study = self.study(condition, state)
+        try:
+            result = self.fe.modes(study, f_max=BAND_MARGIN * condition.band[1])
+        except (RuntimeError, ValueError) as error:
+            raise FEFailure(f"the FE cannot be solved at {condition.name} with "
+                            f"{[e for e, _ in state] or 'the base model'}: {error}") from error
+        self.engines.setdefault(tuple(e for e, _ in state), set()).add(result.engine)
+        modes = tuple(ModelMode(m.label, m.kind, m.frequency_hz,
+                                quality_factor(m.damping_ratio), math.nan,
+                                expected=m.kind != "pumping" or study["load"]["z"] > 0,
+                                optional=m.kind == "non-axisymmetric")
+                      for m in result.modes)
+        return DirectPrediction(modes, study, result.engine)
+
+    def ring_predict(self, condition, state=(), perturbation=None):
+        """The direct engine has no ring model: the FE (the separation probes use it)."""
+        return self.predict(condition, state, perturbation)

@@ -1,0 +1,486 @@
+"""Catalogue of the physical effects the model can switch on or off (issue 5).
+
+Every effect is a transformation of the study: :meth:`Effect.on` returns the
+``{"section.key": value}`` overrides that switch it on with given parameter
+values, :meth:`Effect.off` those that switch it off, and :meth:`Effect.is_on`
+reads whether a study already has it.  The reduced model
+(:func:`copdea_fem.reduced.build_reduced`) honours every key involved, so a
+diagnosed model is an ordinary study file.
+
+Parameters (0 to 2 per effect) carry SI units, fit bounds and a physical
+default; ``log = True`` means they are fitted in log space (scale factors,
+masses, times).  ``kind`` is ``"physics"`` (a mechanism the model lacks) or
+``"parameter"`` (the model has the mechanism but a parameter of the study is
+off, e.g. ``uniform_stiffness``).  ``engine`` is ``"reduced"`` when the
+ring surrogate can move it, ``"coupled_fe"`` when only the fully-coupled
+FE can (tested only with the FE as the model of record and air in the model)
+and ``"fe"`` when the FE is its model of record in vacuo or with air (tested only
+with ``model: fe``; issue 23's ``viscoelastic_membrane``).
+
+Identifiers are a contract (``diagnosis.json``): ``air_loading,
+electrostatic_softening, spring_mass, disc_pumping, modal_damping,
+frame_reflection, viscoelastic_stiffening, uniform_stiffness``, (issue 24) ``baffle``,
+``open_air`` and (issue 23) ``viscoelastic_membrane``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable
+
+from copdea_fem.study import StudyError
+
+# Modal damping b/m of Sect. 5.3 [1/s]: the physical default of effect modal_damping.
+PAPER_DAMPING = {"reduced.damping_p1": 45.0, "reduced.damping_01": 245.0,
+                 "reduced.damping_02": 57.0, "reduced.damping_higher": 57.0}
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One fitted parameter of an effect.
+
+    Attributes
+    ----------
+    name : str
+        Short identifier (``"scale"``, ``"mass"``).
+    key : str
+        Study key it sets (``"effects.air_mass_scale"``).
+    unit : str or None
+        SI unit of the value (None: a pure number).
+    default : float
+        Physical default, the start of every fit [unit].
+    lower, upper : float
+        Fit bounds [unit].
+    log : bool
+        Fit in log space (positive scale factors, masses, times).
+    description : str
+    """
+
+    name: str
+    key: str
+    unit: str | None
+    default: float
+    lower: float
+    upper: float
+    log: bool
+    description: str
+
+    def __post_init__(self):
+        if not self.lower <= self.default <= self.upper or (self.log and self.lower <= 0):
+            raise ValueError(f"parameter {self.name}: default {self.default!r} is not allowed; "
+                             f"allowed: [{self.lower!r}, {self.upper!r}] (> 0 when log)")
+
+    def shown(self, value: float) -> str:
+        """``value`` with its unit, in the unit a reader expects (g, ms)."""
+        if self.unit == "kg":
+            return f"{value * 1e3:.4g} g"
+        if self.unit == "s":
+            return f"{value * 1e3:.4g} ms"
+        return f"{value:.4g}" + (f" {self.unit}" if self.unit else "")
+
+
+@dataclass(frozen=True)
+class Effect:
+    """One physical effect: what it is, its parameters, its signature, how to apply it.
+
+    Attributes
+    ----------
+    id : str
+        Stable snake_case identifier (a contract).
+    title : str
+    description : str
+        What the effect is physically, with the paper's section.
+    kind : str
+        ``"physics"`` or ``"parameter"``.
+    engine : str
+        ``"reduced"`` or ``"coupled_fe"``.
+    parameters : tuple of Parameter
+    signature : str
+        The residual pattern it explains (what a reader should see in the data).
+    requires : tuple of str
+        Effects that must be on for this one to act (spring_mass needs disc_pumping).
+    needs : str
+        What the data must contain to test it: ``"frequencies"`` or
+        ``"quality_factors"`` (peak widths from resonances or spectra).
+    on_overrides, off_overrides, detect : callables
+        ``(study, values) -> overrides``, ``(study) -> overrides``, ``(study) -> bool``.
+    """
+
+    id: str
+    title: str
+    description: str
+    kind: str
+    engine: str
+    parameters: tuple
+    signature: str
+    on_overrides: Callable = field(repr=False)
+    off_overrides: Callable = field(repr=False)
+    detect: Callable = field(repr=False)
+    requires: tuple = ()
+    needs: str = "frequencies"
+
+    @property
+    def defaults(self) -> tuple:
+        return tuple(p.default for p in self.parameters)
+
+    def on(self, study, values=None) -> dict:
+        """Overrides that switch the effect on with ``values`` (default: the physical defaults)."""
+        values = self.defaults if values is None else tuple(float(v) for v in values)
+        if len(values) != len(self.parameters):
+            raise StudyError(f"{self.id} parameters = {values!r} is not allowed; allowed: "
+                             f"{len(self.parameters)} values ({self.parameter_names or 'none'})")
+        return self.on_overrides(study, values)
+
+    def off(self, study) -> dict:
+        """Overrides that switch the effect off."""
+        return self.off_overrides(study)
+
+    def is_on(self, study) -> bool:
+        return bool(self.detect(study))
+
+    @property
+    def parameter_names(self) -> str:
+        return ", ".join(p.name for p in self.parameters)
+
+    def describe_values(self, values) -> str:
+        return ", ".join(f"{p.name} = {p.shown(v)}" for p, v in zip(self.parameters, values))
+
+
+def _air_on(study, values):
+    return {"effects.air_added_mass": "incompressible", "effects.air_mass_scale": values[0],
+            "air.enabled": True}
+
+
+def _air_off(study):
+    return {"effects.air_added_mass": "none", "effects.air_mass_scale": 1.0,
+            "reduced.modes_json": None, "reduced.coupled_freq_01": None,
+            "reduced.coupled_freq_02": None, "air.enabled": False}
+
+
+def _air_detect(study):
+    r = study["reduced"]
+    return (study["effects"]["air_added_mass"] != "none" or bool(r["modes_json"])
+            or r["coupled_freq_01"] is not None or r["coupled_freq_02"] is not None
+            or study["air"]["enabled"])
+
+
+CATALOGUE: dict[str, Effect] = {}
+
+
+def _register(effect: Effect) -> None:
+    CATALOGUE[effect.id] = effect
+
+
+_register(Effect(
+    id="air_loading", title="acoustic loading (air added mass)",
+    description="The air on both faces adds inertia to the membrane (Sect. 3.1.2, eq. 8): the "
+                "fully-coupled FE lowers the dry frequencies by up to 30 % (Fig. 10).  Reduced "
+                "engine: coupled frequencies from the condition's modes.json when given, else "
+                "the incompressible-air added mass of a baffled membrane on both faces "
+                "(copdea_fem.reduced.airmass), times a scale factor.",
+    kind="physics", engine="reduced",
+    parameters=(Parameter("scale", "effects.air_mass_scale", None, 1.0, 0.25, 4.0, True,
+                          "factor on the added masses (1 = the baffled incompressible "
+                          "estimate or the FE's coupled frequencies)"),),
+    signature="every axisymmetric membrane mode measured below the dry model, (0,1) most "
+              "(added mass 45-80 % of its modal mass in Sect. 5.1) and (0,2) less (25-30 %), "
+              "the pumping modes hardly at all; the added mass grows with z",
+    on_overrides=_air_on, off_overrides=_air_off, detect=_air_detect))
+
+_register(Effect(
+    id="electrostatic_softening", title="electrostatic (Maxwell) softening",
+    description="The co-energy of eq. (7) lowers the membrane stress and the stiffness K_s "
+                "(eq. 14) in proportion to V_b^2: structural frequencies fall as the bias "
+                "rises (Figs 8a, 11a).  Parameter: a factor on the electrostatic term (an "
+                "effective permittivity relative to membrane.relative_permittivity).",
+    kind="physics", engine="reduced",
+    parameters=(Parameter("scale", "effects.maxwell_scale", None, 1.0, 0.25, 2.5, True,
+                          "factor on the electrostatic term (1 = eq. 7 with the nominal "
+                          "permittivity)"),),
+    signature="model frequencies too high by an error that grows with V_b^2, the same sign "
+              "for every membrane mode; P1 (k_DE) shifts a little too",
+    on_overrides=lambda s, v: {"effects.maxwell_scale": v[0]},
+    off_overrides=lambda s: {"effects.maxwell_scale": 0.0},
+    detect=lambda s: s["effects"]["maxwell_scale"] > 0))
+
+_register(Effect(
+    id="spring_mass", title="biasing-spring distributed mass (pumping modes P2, P3, ...)",
+    description="The biasing spring's own mass M_s carries longitudinal waves (Annex I, eqs "
+                "21-23): P1 drops below sqrt((k_DE + k_d)/M_d) and further pistonic peaks P2, "
+                "P3, ... appear at low frequency.",
+    kind="physics", engine="reduced",
+    parameters=(Parameter("mass", "spring.mass", "kg", 1.8e-3, 0.2e-3, 10e-3, True,
+                          "spring mass M_s (Table 1: 1.8 g)"),),
+    signature="extra low-frequency pistonic peaks (P2, P3: the disc and membrane move together) "
+              "that the model lacks, and P1 below the massless-spring value",
+    on_overrides=lambda s, v: {"spring.mass": v[0], "reduced.pumping_added_mass": "spring"},
+    off_overrides=lambda s: {"spring.mass": 0.0},
+    detect=lambda s: s["spring"]["mass"] > 0,
+    requires=("disc_pumping",)))
+
+_register(Effect(
+    id="disc_pumping", title="disc pumping mode P1 (disc on the spring)",
+    description="The disc rides on the biasing spring instead of being held: the pumping mode "
+                "P1 appears (Sect. 4.3, Fig. 7a), where membrane and disc move pistonically.  "
+                "The voltage excites it only when z > 0 (at z = 0, dC/dz = 0).",
+    kind="physics", engine="reduced", parameters=(),
+    signature="a low-frequency pistonic peak (disc moving) below the membrane modes, absent "
+              "from a model with the disc held",
+    on_overrides=lambda s, v: {"disc.motion": "spring"},
+    off_overrides=lambda s: {"disc.motion": "held"},
+    detect=lambda s: s["disc"]["motion"] == "spring"))
+
+_register(Effect(
+    id="modal_damping", title="modal damping",
+    description="Diagonal modal damping b/m of eq. (19), calibrated in Sect. 5.3 (45, 245, 57 "
+                "1/s for P1, (0,1), (0,2)); parameter: a common factor on those values.",
+    kind="physics", engine="reduced",
+    parameters=(Parameter("scale", "reduced.damping_*", None, 1.0, 0.05, 20.0, True,
+                          "factor on the b/m of Sect. 5.3"),),
+    signature="finite peak widths (quality factors) and peak heights; an undamped model has "
+              "infinitely sharp peaks while the frequencies barely move",
+    on_overrides=lambda s, v: {key: v[0] * value for key, value in PAPER_DAMPING.items()},
+    off_overrides=lambda s: {key: 0.0 for key in PAPER_DAMPING},
+    detect=lambda s: any(s.get(key) > 0 for key in PAPER_DAMPING),
+    needs="quality_factors"))
+
+# G1's frame over its membrane diameter (Sect. 5.1: an 80 mm square around r_o = 35.5 mm):
+# the size of a frame the base study does not state validly for its membrane.
+FRAME_OVER_DIAMETER = 0.080 / 0.071
+# Mutually exclusive: one mounting at a time.  The base study's own mounting is the starting
+# point; the others are candidates that replace it (select.Diagnoser.candidates).
+MOUNTINGS = ("baffle", "frame_reflection", "open_air")
+
+
+def base_mounting(study) -> str | None:
+    """The mounting effect a study states (:data:`MOUNTINGS`): ``open_air`` for
+    ``geometry.frame: none``, ``baffle``, ``frame_reflection`` for a square or circle."""
+    return next((m for m in MOUNTINGS if CATALOGUE[m].is_on(study)), None)
+
+
+def frame_overrides(study, shape=None) -> dict:
+    """Overrides that put the membrane in a reflecting frame (module notes of issue 24).
+
+    Shape: the base study's ``geometry.frame`` when it is square or circle, else square
+    (Sect. 5.1).  Size: the study's ``geometry.frame_side`` / ``frame_radius`` (stated)
+    when it fits the membrane and the air sphere, else G1's proportion
+    (:data:`FRAME_OVER_DIAMETER` x 2 r_o) -- so any membrane size has a frame; the air
+    sphere grows to keep a square frame's corners inside it (R >= 1.1 x side / sqrt 2).
+    """
+    g, air = study["geometry"], study["air"]
+    shape = shape or (g["frame"] if g["frame"] in ("square", "circle") else "square")
+    r_o, radius = g["outer_radius"], air["domain_radius"]
+    out = {"geometry.frame": shape}
+    if shape == "square":
+        side = g["frame_side"]
+        if side <= 2 * r_o:
+            side = out["geometry.frame_side"] = FRAME_OVER_DIAMETER * 2 * r_o
+            out["geometry.frame_radius"] = 0.5 * side       # its derived default, kept in step
+        if side / 2 ** 0.5 >= radius:
+            out["air.domain_radius"] = 1.1 * side / 2 ** 0.5
+    else:
+        frame_radius = g["frame_radius"]
+        if not r_o < frame_radius < radius:
+            frame_radius = out["geometry.frame_radius"] = FRAME_OVER_DIAMETER * r_o
+        if frame_radius >= radius:
+            out["air.domain_radius"] = 1.1 * frame_radius
+    return out
+
+
+_register(Effect(
+    id="frame_reflection", title="reflecting frame",
+    description="A rigid frame in the membrane plane around it reflects the membrane's sound "
+                "(Sect. 5.1: the square 80 mm frame); the paper blames its remaining <= 8 % "
+                "error on reflecting parts near the device (Sect. 5.2).  Only the coupled "
+                "air/PML FE can represent it: the base study's frame shape and size when it "
+                "states a square or circle frame that fits the membrane, else a square of G1's "
+                "proportion (side 1.13 x the membrane diameter; 80 mm for G1); the circle on "
+                "the axisymmetric engine, the square on the 3-D quadrant.  The ring model has "
+                "no frame.",
+    kind="physics", engine="coupled_fe", parameters=(),
+    signature="mode-dependent shifts of a few per cent, largest on (0,1) (Sect. 5.2): a "
+              "weaker baffle -- the (0,n) modes lowered most, the (m,1) less, falling with m "
+              "(0.65 m drum head in a square of side 0.73 m, coupled FE: (0,1) -3.7 %, (1,1) "
+              "-2.2 %, (2,1) -1.4 %, (0,2) -2.1 %); split (m,n) pairs (square frame only: "
+              "a/b of m = 2 shifted differently)",
+    on_overrides=lambda s, v: frame_overrides(s),
+    off_overrides=lambda s: {"geometry.frame": "none"},
+    detect=lambda s: s["geometry"]["frame"] in ("square", "circle")))
+
+_register(Effect(
+    id="baffle", title="membrane in an infinite baffle (mounting)",
+    description="The membrane's rim sits in an infinite rigid plane (a drum head in a wall, a "
+                "loudspeaker in a box front; issue 24): the air cannot flow round the rim from "
+                "one face to the other.  Evaluated with the coupled air/PML FE on the "
+                "axisymmetric engine (geometry.frame: baffle); the ring model has no baffle.",
+    kind="physics", engine="coupled_fe", parameters=(),
+    signature="every membrane mode lower than open in air, (0,1) most (a monopole: the baffle "
+              "blocks the short circuit round the rim), (0,2) and the (m,1) modes less, "
+              "falling with m (0.65 m drum head, coupled FE: (0,1) -12 %, (1,1) -4.4 %, (2,1) "
+              "-2.2 %, (3,1) -1.3 %, (0,2) -3.1 %; G1 at z = 11 mm, 2 kV: (0,1) -9 %, (1,1) -3 %); "
+              "no split pairs (axisymmetric)",
+    on_overrides=lambda s, v: {"geometry.frame": "baffle"},
+    off_overrides=lambda s: {"geometry.frame": "none"},
+    detect=lambda s: s["geometry"]["frame"] == "baffle"))
+
+_register(Effect(
+    id="open_air", title="membrane open in air (the base's mounting removed)",
+    description="The reverse of baffle and frame_reflection (issue 24): the membrane hangs "
+                "open in air, nothing in its plane around it, so the air flows round the rim "
+                "from one face to the other.  A candidate only for a base that states a "
+                "mounting (geometry.frame: baffle, square or circle, with air): it replaces "
+                "that mounting by geometry.frame: none.  Evaluated with the coupled air/PML "
+                "FE on the axisymmetric engine; the ring model has no mounting.",
+    kind="physics", engine="coupled_fe", parameters=(),
+    signature="every membrane mode higher than the baffled model predicts, (0,1) most (the "
+              "air short-circuits round the rim: a monopole loses much of its added mass), "
+              "(0,2) and the (m,1) less, the less the higher m (coupled FE, open over "
+              "baffled: 0.65 m drum head at pre-stretch 1.05, (0,1) +14.1 %, (1,1) +4.6 %, "
+              "(2,1) +2.2 %, (3,1) +1.4 %, (0,2) +3.2 %; G1 at z = 11 mm, 2 kV, (0,1) "
+              "+10.2 %, (1,1) +2.8 %, (2,1) +1.2 %, (0,2) +0.4 %); against a frame, the "
+              "same pattern by a few per cent; the split (m,n) pairs of a square frame merge",
+    on_overrides=lambda s, v: {"geometry.frame": "none"},
+    off_overrides=lambda s: {"geometry.frame": "baffle"},
+    detect=lambda s: s["geometry"]["frame"] == "none"))
+
+_register(Effect(
+    id="viscoelastic_stiffening", title="visco-elastic stiffening",
+    description="A standard linear solid (quasi-linear visco-elasticity, Sect. 3.1.1 eq. 5's "
+                "S_v): the membrane's elastic stiffness grows with frequency by the storage "
+                "factor 1 + Delta (w tau)^2 / (1 + (w tau)^2).  Defaults: Delta = 0.3, tau = "
+                "0.2 ms (a silicone film's storage modulus rising by tens of per cent over the "
+                "0-1 kHz band).",
+    kind="physics", engine="reduced",
+    parameters=(Parameter("strength", "effects.viscoelastic_strength", None, 0.3, 0.02, 3.0, True,
+                          "Delta: glassy over relaxed modulus minus 1"),
+                Parameter("time", "effects.viscoelastic_time", "s", 2e-4, 1e-5, 1e-2, True,
+                          "relaxation time tau")),
+    signature="a model error that grows with frequency: (0,2) under-predicted more than (0,1), "
+              "the pumping modes (tens of Hz) untouched, the same at every z and V_b",
+    on_overrides=lambda s, v: {"effects.viscoelastic_strength": v[0],
+                               "effects.viscoelastic_time": v[1]},
+    off_overrides=lambda s: {"effects.viscoelastic_strength": 0.0},
+    detect=lambda s: s["effects"]["viscoelastic_strength"] > 0))
+
+# One material-damping cause at a time (issue 23): the membrane's Prony term (FE) both
+# stiffens and damps, so it stands for the ring model's storage factor
+# (viscoelastic_stiffening) and the paper's hand-calibrated modal b/m (modal_damping)
+# together; :meth:`copdea_fem.diagnosis.select.Diagnoser.candidates` never tests it beside
+# either, nor either beside it.
+MATERIAL_DAMPING = ("viscoelastic_membrane", "viscoelastic_stiffening", "modal_damping")
+
+
+def prony_overrides(study, values) -> dict:
+    """Overrides of :data:`viscoelastic_membrane <CATALOGUE>`: one Prony term
+    ``{modulus_ratio: g, relaxation_time: tau [s]}`` in place of the study's series, the
+    modal b/m of Sect. 5.3 off (the material's loss replaces the hand calibration), and
+    ``eigen.f_min`` raised to half the lowest relaxation frequency
+    ``1 / (2 pi tau (1 + g))`` where that spectrum would reach the FE's band (the study's
+    check, :mod:`copdea_fem.study`: only for tau (1 + g) >~ 1.3 ms with the default band)."""
+    ratio, time = float(values[0]), float(values[1])
+    terms = [{"modulus_ratio": ratio, "relaxation_time": time}]
+    out = {"membrane.prony": terms, **{key: 0.0 for key in PAPER_DAMPING}}
+    floor = prony_band_floor(terms, study["eigen"])
+    if floor is not None:
+        out["eigen.f_min"] = floor
+    return out
+
+
+def prony_band_floor(terms, eigen: dict, f_max: float | None = None) -> float | None:
+    """The ``eigen.f_min`` [Hz] that keeps the Prony ``terms``' relaxation spectrum
+    (Re f = 0, |Im f| >= 1 / (2 pi tau_max (1 + sum g))) out of the FE's band, where the
+    study's check (:func:`copdea_fem.study.parse_study`) would refuse ``eigen`` (with
+    ``f_max`` [Hz] in place of its own, the diagnosis's FE band); None: no change."""
+    if not terms:
+        return None
+    lowest = 1.0 / (2 * math.pi * max(t["relaxation_time"] for t in terms)
+                    * (1 + sum(t["modulus_ratio"] for t in terms)))
+    top = eigen["f_max"] if f_max is None else f_max
+    if eigen["f_min"] < 0.5 * lowest and lowest <= 2 * eigen["max_damping_ratio"] * top:
+        return 0.5 * lowest
+    return None
+
+
+_register(Effect(
+    id="viscoelastic_membrane", title="viscoelastic membrane (Prony term, evaluated by the FE)",
+    description="The film is a generalised Maxwell material (issue 23; docs/damping.md): one "
+                "Prony term membrane.prony = [{modulus_ratio: g, relaxation_time: tau}] on the "
+                "material tangent, K_mat (1 + g (-i w tau) / (1 - i w tau)), the hyperelastic "
+                "law of eq. (20) its relaxed modulus.  It stiffens the membrane by the storage "
+                "factor 1 + g (w tau)^2 / (1 + (w tau)^2) and damps it by the loss factor "
+                "g w tau / (1 + (w tau)^2), both on the material share of each mode's strain "
+                "energy; the FE's damped eigen step gives the complex frequencies, Q = "
+                "1 / (2 zeta).  Replaces the paper's modal b/m (modal_damping's keys set to "
+                "0) and is never named beside modal_damping or viscoelastic_stiffening.  An "
+                "out-of-plane mode of the flat membrane (z = 0) has no material strain at "
+                "first order, so no material damping nor stiffening (docs/damping.md): data "
+                "at z > 0 carry the evidence.  Needs model: fe and measured quality factors.",
+    kind="physics", engine="fe",
+    parameters=(Parameter("ratio", "membrane.prony[0].modulus_ratio", None, 0.5, 0.05, 10.0,
+                          True, "g: the branch's modulus over the relaxed (long-term) one"),
+                Parameter("time", "membrane.prony[0].relaxation_time", "s", 2e-4, 1e-5, 2e-3,
+                          True, "relaxation time tau (the loss peaks at w tau = 1)")),
+    signature="finite quality factors that follow a Maxwell term: each mode's damping ratio "
+              "zeta = g s w tau / (2 (1 + (w tau)^2)) (s its material share of strain energy) "
+              "peaks near w tau = 1, and frequencies raised a little, more at higher w tau; "
+              "the (m,1) family damped less as m grows (less in-plane strain); nothing at "
+              "z = 0 (G1 in vacuo, 2 kV, z = 16 mm, g = 2, tau = 0.3 ms: Q = 43, 47, 60 for "
+              "(0,1), (1,1), (2,1) at 513-539 Hz and 46 for (0,2) at 1015 Hz; frequencies "
+              "+1.2 %, +1.1 %, +1.1 %, +0.8 %; the flat 0.65 m drum head with g = 2, tau = 3 ms: "
+              "zeta < 2e-16 and its frequencies unchanged)",
+    on_overrides=prony_overrides,
+    off_overrides=lambda s: {"membrane.prony": []},
+    detect=lambda s: bool(s["membrane"]["prony"]),
+    needs="quality_factors"))
+
+_register(Effect(
+    id="uniform_stiffness", title="uniform membrane stiffening/softening (a parameter effect)",
+    description="The membrane is uniformly stiffer or softer than c10, c20, c01 say: electrode "
+                "stiffness, pre-stretch loss, a material fit at another rate.  Not missing "
+                "physics: a parameter of the study is off.",
+    kind="parameter", engine="reduced",
+    parameters=(Parameter("scale", "effects.stiffness_scale", None, 1.0, 0.5, 2.0, True,
+                          "factor on c10, c20, c01"),),
+    signature="every membrane-governed frequency off by about the same factor sqrt(s), at "
+              "every z, V_b and mode; P1 less (the spring k_d is not scaled)",
+    on_overrides=lambda s, v: {"effects.stiffness_scale": v[0]},
+    off_overrides=lambda s: {"effects.stiffness_scale": 1.0},
+    detect=lambda s: s["effects"]["stiffness_scale"] != 1.0))
+
+EFFECT_IDS = tuple(CATALOGUE)
+
+
+def effect(effect_id: str) -> Effect:
+    """The catalogue entry of an identifier; :class:`StudyError` names the allowed ones."""
+    try:
+        return CATALOGUE[effect_id]
+    except KeyError:
+        raise StudyError(f"effect = {effect_id!r} is not allowed (unknown effect); allowed: "
+                         + ", ".join(EFFECT_IDS)) from None
+
+
+def parse_effect_list(text, key: str = "--effects") -> tuple:
+    """``"air_loading, spring_mass"`` (or a list) -> validated identifiers, in order."""
+    items = text if isinstance(text, (list, tuple)) else str(text).split(",")
+    names = [str(item).strip() for item in items if str(item).strip()]
+    for name in names:
+        if name not in CATALOGUE:
+            raise StudyError(f"{key} = {name!r} is not allowed (unknown effect); allowed: "
+                             + ", ".join(EFFECT_IDS))
+    if len(set(names)) != len(names):
+        raise StudyError(f"{key} = {text!r} is not allowed; allowed: each effect once")
+    return tuple(names)
+
+
+def catalogue_table() -> str:
+    """Markdown table of the catalogue (README, ``copdea-fem effects``)."""
+    rows = ["| id | kind | engine | parameters (default, fit bounds) | signature |",
+            "|---|---|---|---|---|"]
+    for e in CATALOGUE.values():
+        params = "; ".join(f"{p.name} `{p.key}` {p.shown(p.default)} [{p.shown(p.lower)}, "
+                           f"{p.shown(p.upper)}]" for p in e.parameters) or "none"
+        engine = e.engine + {"coupled_fe": " (FE solves; needs model: fe and air)",
+                             "fe": " (FE solves; needs model: fe)"}.get(e.engine, "")
+        rows.append(f"| `{e.id}` | {e.kind} | {engine} | {params} | {e.signature} |")
+    return "\n".join(rows)

@@ -1,0 +1,561 @@
+"""The FE model of record of the diagnosis (issue 13): study -> structural modes, cached.
+
+The diagnosis compares the measurement with the finite-element model as the
+base study is written: in vacuo where ``air.enabled`` is false, fully coupled
+with the air (and its frame) where it is true.  :func:`fe_study` maps a
+diagnosis study to the study the FE runs; :class:`FEModel` solves it with the
+engine the geometry allows (the axisymmetric-harmonic engine for dry modes and
+for frames none/baffle/circle, ~1-2 s; the 3-D quadrant for the square frame)
+and keeps the structural modes (out-of-plane and pumping) in memory and,
+optionally, on disk, keyed by a hash of the FE study.
+
+What the FE honours (:data:`FE_EFFECT_KEYS`): everything of the geometry,
+material and load, ``air.enabled``, ``geometry.frame``, ``disc.motion`` and
+the spring's stiffness, and the two effect keys ``effects.stiffness_scale``
+and ``effects.maxwell_scale`` (:meth:`copdea_fem.fe.materials.Membrane.with_effects`).
+What it does not: the ring model's own keys (``reduced.*``), the air-mass
+estimate and its scale, visco-elasticity, the spring's mass, modal damping --
+those act through the anchored ring surrogate (:mod:`copdea_fem.diagnosis.anchored`).
+
+Side by side (issue 24).  A cold diagnosis needs tens of independent FE solves (every
+condition at every switch state, the grid of a fitted parameter on the direct engine):
+the search hands each batch to :meth:`FEModel.solve_many` first, which solves what the
+cache lacks in spawned worker processes (``workers``, ``--fe-workers``), each writing
+its entry under the per-entry lock, so runs and workers share one cache folder safely.
+
+Modes.  Frequencies are the real parts of the (coupled) eigenfrequencies [Hz].
+A split pair ``(m,n)a``/``(m,n)b`` that a vibrometer cannot resolve (relative
+split below :data:`PAIR_MERGE`) is one mode ``(m,n)`` at the mean frequency;
+in-plane modes (hardly seen by an out-of-plane vibrometer) and air modes are
+left out.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import logging
+import math
+import os
+import time
+import uuid
+from dataclasses import dataclass
+from pathlib import Path
+
+from copdea_fem.fingerprint import fe_fingerprint
+from copdea_fem.study import Study, StudyError
+
+try:
+    import fcntl
+except ImportError:          # Windows: no advisory locks; concurrent runs may solve twice
+    fcntl = None
+
+logger = logging.getLogger(__name__)
+
+FE_CACHE_VERSION = 1           # bump when structural_modes changes (the FE code: fe_fingerprint)
+PAIR_MERGE = 2e-3              # split pairs closer than this (relative) are one peak: a
+                               # fifth of a 1 % identification scatter, not resolvable
+
+FE_EFFECT_KEYS = ("effects.stiffness_scale", "effects.maxwell_scale")
+# The FE's band reaches past the data's, so a mode just above the band edge is still
+# paired: 25 % is past the 4 sigma_f strict gate of unknown-kind peaks and near the 50 %
+# gate of known ones (copdea_fem.diagnosis.compare), at the cost of more FE modes.
+BAND_MARGIN = 1.25
+
+
+@dataclass(frozen=True)
+class FEMode:
+    """One structural mode of the FE: label ``P1``, ``(0,n)``, ``(m,n)`` (or ``(m,n)a/b``),
+    kind ``pumping``/``axisymmetric``/``non-axisymmetric``, frequency [Hz], damping ratio
+    Im f / |f| [-] (0 in vacuo)."""
+
+    label: str
+    kind: str
+    frequency_hz: float
+    damping_ratio: float = 0.0
+
+
+@dataclass(frozen=True)
+class FEResult:
+    """The structural modes of one FE study, and how they were obtained."""
+
+    modes: tuple
+    engine: str                  # "axisymmetric" or "3d"
+    coupled: bool
+    seconds: float
+    key: str
+
+    def frequencies(self) -> dict:
+        return {m.label: m.frequency_hz for m in self.modes}
+
+
+def fe_study(study: Study, f_max: float | None = None) -> Study:
+    """The study the FE solves for a diagnosis study.
+
+    In vacuo the frame plays no part (it is a reflector in the air), so dry modes run
+    on the axisymmetric engine with ``frame: none``; coupled ones keep the frame and
+    let ``mesh.engine: auto`` choose.  ``f_max`` [Hz] (default: the study's) is the
+    top of the FE band (``eigen.f_min`` raised where a ``membrane.prony`` relaxation
+    spectrum would reach that band: :func:`~copdea_fem.diagnosis.effects.prony_band_floor`);
+    no result files are written.
+    """
+    overrides = {"output.plots": False, "output.paraview": False}
+    if f_max is not None:
+        overrides["eigen.f_max"] = float(f_max)
+        from copdea_fem.diagnosis.effects import prony_band_floor
+        floor = prony_band_floor(study["membrane"]["prony"], study["eigen"], float(f_max))
+        if floor is not None:        # a Prony relaxation spectrum the wider band would reach
+            overrides["eigen.f_min"] = floor
+    if not study["air"]["enabled"]:
+        overrides.update({"geometry.frame": "none", "mesh.engine": "axisymmetric"})
+    return study.replace(overrides)
+
+
+def fe_key(study: Study) -> str:
+    """Hash of what the FE reads from a study (:func:`fe_study` applied), of the FE code
+    (:func:`copdea_fem.fingerprint.fe_fingerprint`: a physics change gives new keys) and
+    :data:`FE_CACHE_VERSION` (this module's own post-processing): the cache key of
+    :class:`FEModel`.  Sections of the
+    physics and the mesh, whole; of the others only the keys that change the modes."""
+    whole = ("geometry", "membrane", "disc", "load", "air", "mesh")
+    picked = ("spring.stiffness", "eigen.f_min", "eigen.f_max", "eigen.max_damping_ratio",
+              "air.min_membrane_energy") + FE_EFFECT_KEYS
+    items = {f"{s}.{k}": v for s in whole for k, v in study[s].items()}
+    items.update({key: study.get(key) for key in picked})
+    text = json.dumps({"version": FE_CACHE_VERSION, "code": fe_fingerprint(), "study": items},
+                      sort_keys=True, default=repr)
+    return hashlib.sha256(text.encode()).hexdigest()[:24]
+
+
+def structural_modes(modes) -> tuple:
+    """:class:`FEMode` list from the pipeline's modes (module notes: pairs merged)."""
+    kept = []
+    for mode in modes:
+        if mode.kind not in ("out-of-plane", "pumping") or not mode.label:
+            continue
+        magnitude = math.hypot(mode.freq_hz, getattr(mode, "freq_im_hz", 0.0))
+        zeta = abs(getattr(mode, "freq_im_hz", 0.0)) / magnitude if magnitude else 0.0
+        kind = ("pumping" if mode.kind == "pumping" else
+                "axisymmetric" if mode.m == 0 else "non-axisymmetric")
+        kept.append(FEMode(mode.label, kind, float(mode.freq_hz), float(zeta)))
+    by_label = {m.label: m for m in kept}
+    out = []
+    for mode in kept:
+        if mode.label.endswith("b") and mode.label[:-1] + "a" in by_label:
+            continue
+        if mode.label.endswith("a") and mode.label[:-1] + "b" in by_label:
+            other = by_label[mode.label[:-1] + "b"]
+            if abs(other.frequency_hz / mode.frequency_hz - 1) < PAIR_MERGE:
+                out.append(FEMode(mode.label[:-1], mode.kind,
+                                  0.5 * (mode.frequency_hz + other.frequency_hz),
+                                  0.5 * (mode.damping_ratio + other.damping_ratio)))
+                continue
+            out.append(other)
+        out.append(mode)
+    return tuple(sorted(out, key=lambda m: m.frequency_hz))
+
+
+CACHE_VARIABLE = "COPDEA_FEM_FE_CACHE"
+#: Longest wait [s] for an entry another run is computing (its lock file held) before this
+#: run solves it itself: past the longest single FE solve of a diagnosis (~10 s for the 3-D
+#: square frame coupled, minutes on a fine mesh), so only a hung run is overtaken.
+LOCK_WAIT_SECONDS = 600.0
+LOCK_POLL_SECONDS = 0.2
+
+ENTRY_ENGINES = ("axisymmetric", "3d")
+ENTRY_KINDS = ("pumping", "axisymmetric", "non-axisymmetric")
+
+
+def fe_cache_dir() -> Path:
+    """``$COPDEA_FEM_FE_CACHE`` when set, else the user cache folder (``platformdirs``:
+    ``~/.cache/copdea-fem/fe-modes`` on Linux)."""
+    if os.environ.get(CACHE_VARIABLE):
+        return Path(os.environ[CACHE_VARIABLE]).expanduser()
+    import platformdirs
+    return Path(platformdirs.user_cache_dir("copdea-fem")) / "fe-modes"
+
+
+def cache_dir_problem(path) -> str | None:
+    """Why ``path`` cannot be an FE cache folder (it, or a folder above it, is an existing
+    file), or None: a folder, or a path that can be created."""
+    path = Path(path).expanduser()
+    for item in (path, *path.parents):
+        if item.exists() or item.is_symlink():
+            if item.is_dir():
+                return None
+            return ("an existing file, not a folder" if item == path else
+                    f"{item} is an existing file")
+    return None
+
+
+def check_cache_dir(path, option: str = "--fe-cache") -> Path:
+    """``path`` as an FE cache folder, or :class:`StudyError` naming ``option`` and the path
+    (called before any work: the CLI's ``--fe-cache`` exits 2 on a file)."""
+    problem = cache_dir_problem(path)
+    if problem:
+        from copdea_fem.inputs import PATH_CHARACTERS, preview
+        shown = preview(Path(path), PATH_CHARACTERS)
+        raise StudyError(f"{option} = {shown} is not allowed ({problem}); allowed: a folder "
+                         "(created when missing)")
+    return Path(path).expanduser()
+
+
+def entry_problem(document) -> str | None:
+    """Why a decoded cache entry does not follow the schema of :meth:`FEModel._write`, or None.
+
+    Schema: ``{"modes": [{"label": non-empty str, "kind": one of ENTRY_KINDS,
+    "frequency_hz": finite number > 0, "damping_ratio": finite number in [0, 1]}, ...],
+    "engine": one of ENTRY_ENGINES, "coupled": bool, "seconds": finite number >= 0}``
+    (numbers: int or float, not bool; every key present).
+    """
+    def number(value, low, high=math.inf, open_low=False):
+        return (isinstance(value, (int, float)) and not isinstance(value, bool)
+                and math.isfinite(value) and (value > low if open_low else value >= low)
+                and value <= high)
+
+    if not isinstance(document, dict):
+        return f"a JSON {type(document).__name__}, not an object"
+    missing = [key for key in ("modes", "engine", "coupled", "seconds") if key not in document]
+    if missing:
+        return "no " + ", ".join(repr(key) for key in missing)
+    if document["engine"] not in ENTRY_ENGINES:
+        return f"engine = {document['engine']!r}, not one of {', '.join(ENTRY_ENGINES)}"
+    if not isinstance(document["coupled"], bool):
+        return f"coupled = {document['coupled']!r}, not true or false"
+    if not number(document["seconds"], 0.0):
+        return f"seconds = {document['seconds']!r}, not a finite number >= 0"
+    if not isinstance(document["modes"], list):
+        return "modes is not a list"
+    fields = {"label", "kind", "frequency_hz", "damping_ratio"}
+    for index, mode in enumerate(document["modes"]):
+        where = f"modes[{index}]"
+        if not isinstance(mode, dict) or set(mode) != fields:
+            return f"{where} is not an object with keys {', '.join(sorted(fields))}"
+        if not isinstance(mode["label"], str) or not mode["label"]:
+            return f"{where}.label = {mode['label']!r}, not a label"
+        if mode["kind"] not in ENTRY_KINDS:
+            return f"{where}.kind = {mode['kind']!r}, not one of {', '.join(ENTRY_KINDS)}"
+        if not number(mode["frequency_hz"], 0.0, open_low=True):
+            return f"{where}.frequency_hz = {mode['frequency_hz']!r}, not a finite number > 0"
+        if not number(mode["damping_ratio"], 0.0, 1.0):
+            return f"{where}.damping_ratio = {mode['damping_ratio']!r}, not a finite number " \
+                   "in [0, 1]"
+    return None
+
+
+class FEModel:
+    """FE structural modes of diagnosis studies, solved once per FE study.
+
+    Parameters
+    ----------
+    cache_dir : path, optional
+        Folder of ``<key>.json`` files kept between runs (default
+        :func:`fe_cache_dir`); ``False``: memory only.  A path that is an existing
+        file is ignored with a warning (memory only): the cache only saves time.
+    lock_wait : float, optional
+        Longest wait [s] for an entry another run is computing (default
+        :data:`LOCK_WAIT_SECONDS`).
+    workers : int, optional
+        Processes that solve a batch of FE studies side by side (:meth:`solve_many`);
+        default :func:`default_workers`; 1: every solve in this process, one at a time.
+
+    The cache never fails a diagnosis.  An entry is read only when it follows the
+    schema of :func:`entry_problem`; a damaged one (not JSON, a wrong type, a
+    non-finite number, a missing key) is solved again and replaced, with a one-line
+    warning naming the file.  Runs sharing the folder coordinate per entry: the
+    one that solves holds ``<key>.lock`` (``flock``, released by the system if
+    the process dies); another that needs the entry waits for it and reads it,
+    at most ``lock_wait`` seconds, then solves it itself.  Warnings go through
+    :mod:`logging` (the CLI prints them on stderr, also with ``--quiet``).
+    """
+
+    def __init__(self, cache_dir=None, lock_wait: float = LOCK_WAIT_SECONDS,
+                 workers: int | None = None):
+        if cache_dir is None:
+            cache_dir = fe_cache_dir()
+        self.cache_dir = Path(cache_dir).expanduser() if cache_dir else None
+        if self.cache_dir is not None:
+            problem = cache_dir_problem(self.cache_dir)
+            if problem:
+                logger.warning(f"FE cache {self.cache_dir} ignored ({problem}); FE solves "
+                               "are kept in memory only")
+                self.cache_dir = None
+        self.progress = logger.info      # progress lines, at INFO
+        self.lock_wait = lock_wait
+        self.workers = default_workers() if workers is None else check_workers(workers)
+        self._memory: dict = {}
+        self._pool = None
+        self.solves = 0
+        self.seconds = 0.0
+
+    def modes(self, study: Study, f_max: float | None = None) -> FEResult:
+        """Structural modes of ``study`` (a diagnosis study: :func:`fe_study` applied)."""
+        run = fe_study(study, f_max)
+        key = fe_key(run)
+        hit = self._memory.get(key) or self._read(key, quiet=True)
+        if hit is None:
+            with self._entry_lock(key):
+                hit = self._read(key)          # written by another run while we waited?
+                if hit is None:
+                    hit = self._solve(run, key)
+                    self._write(hit)
+        self._memory[key] = hit
+        return hit
+
+    def solve_many(self, requests) -> int:
+        """Solve the FE studies of ``requests`` (``(study, f_max)`` pairs, as :meth:`modes`
+        takes them) that neither memory nor the cache folder holds, side by side in
+        :attr:`workers` spawned processes (NGSolve's threads do not survive a fork; one
+        BLAS thread each: the axisymmetric solves are single-threaded anyway); the
+        results land in memory, and in the cache folder as :meth:`modes` writes them.
+
+        Safe with the cache shared: each worker is an :class:`FEModel` on the same
+        folder, so an entry is solved under its ``<key>.lock`` (class notes) -- two
+        workers, or two runs, never solve the same entry at once, and a worker that
+        finds an entry another run wrote reads it.  A study a worker cannot solve is
+        left out (the caller's :meth:`modes` solves it again and raises its error).
+        Returns the number of studies solved here (0 with one worker or < 2 to solve).
+        """
+        if self.workers < 2:
+            return 0
+        todo = {}
+        for study, f_max in requests:
+            run = fe_study(study, f_max)
+            key = fe_key(run)
+            if key in self._memory or key in todo:
+                continue
+            hit = self._read(key, quiet=True)
+            if hit is not None:
+                self._memory[key] = hit
+                continue
+            todo[key] = (study, f_max)
+        if len(todo) < 2:
+            return 0
+        import concurrent.futures
+        self.progress(f"FE: {len(todo)} solves on {self.workers} processes side by side ...")
+        folder = str(self.cache_dir) if self.cache_dir is not None else None
+        saved = {name: os.environ.get(name) for name in THREAD_VARIABLES}
+        for name in saved:                   # read by the workers as they start
+            os.environ[name] = "1"
+        solved, broken = 0, None
+        start = time.perf_counter()
+        try:
+            pool = self._worker_pool()
+            futures = {pool.submit(_solve_in_worker, study, f_max, folder,
+                                   self.lock_wait): key
+                       for key, (study, f_max) in todo.items()}
+            for future in concurrent.futures.as_completed(futures):
+                try:
+                    result, solves = future.result()
+                except (RuntimeError, ValueError) as error:   # the FE's own error:
+                    if isinstance(error, concurrent.futures.process.BrokenProcessPool):
+                        broken = broken or error
+                    logger.debug(f"FE worker failed on {futures[future]}: {error!r}")
+                    continue                                  # modes() raises it here
+                except Exception as error:  # noqa: BLE001 -- the workers, not the FE
+                    broken = broken or error
+                    continue
+                self._memory[futures[future]] = result
+                if solves:
+                    solved += 1
+                    self.solves += 1
+                    self.seconds += result.seconds
+        finally:
+            for name, value in saved.items():
+                if value is None:
+                    os.environ.pop(name, None)
+                else:
+                    os.environ[name] = value
+        if broken is not None:             # do not try again: one at a time from now on
+            self.close()
+            self.workers = 1
+            logger.warning(f"FE worker processes failed ({broken!r}); the remaining FE "
+                           "studies are solved here, one at a time")
+        self.progress(f"FE: {solved} solves in {time.perf_counter() - start:.1f} s "
+                      f"(side by side)")
+        return solved
+
+    def _worker_pool(self):
+        """The spawned worker processes of :meth:`solve_many`, started at its first batch
+        and kept for the next ones (a worker's start -- Python, NGSolve -- costs seconds);
+        ended by :meth:`close`, or when this model is collected or the process exits."""
+        if self._pool is None:
+            import concurrent.futures
+            import multiprocessing
+            import weakref
+
+            from copdea_fem.sweeps.executors import tie_to_parent
+            self._pool = concurrent.futures.ProcessPoolExecutor(
+                max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"),
+                initializer=tie_to_parent, initargs=(os.getpid(),))
+            self._finalizer = weakref.finalize(self, self._pool.shutdown, wait=True,
+                                               cancel_futures=True)
+        return self._pool
+
+    def close(self) -> None:
+        """End the worker processes of :meth:`solve_many` (if any were started)."""
+        if self._pool is not None:
+            self._finalizer()
+            self._pool = None
+
+    def _solve(self, run: Study, key: str) -> FEResult:
+        from copdea_fem.fe.engines import engine_for
+        from copdea_fem.fe.pipeline import coupled_modes, dry_modes
+        from copdea_fem.progress import quiet_progress
+        engine = engine_for(run).name
+        coupled = bool(run["air"]["enabled"])
+        load = run["load"]
+        self.progress(f"FE ({engine}, {'coupled' if coupled else 'in vacuo'}) at "
+                      f"z = {1e3 * load['z']:g} mm, V_b = {1e-3 * load['voltage']:g} kV ...")
+        start = time.perf_counter()
+        with quiet_progress():             # one line per FE study, not its steps
+            if coupled:
+                modes = coupled_modes(run).modes
+            else:
+                _, modes, _ = dry_modes(run)
+        seconds = time.perf_counter() - start
+        self.solves += 1
+        self.seconds += seconds
+        return FEResult(structural_modes(modes), engine, coupled, seconds, key)
+
+    # -- disk cache ------------------------------------------------------------------------
+    def _path(self, key: str):
+        return self.cache_dir / f"{key}.json" if self.cache_dir else None
+
+    def _read(self, key: str, quiet: bool = False):
+        """The entry of ``key``, or None: absent, or damaged (then, unless ``quiet``, a
+        warning naming the file; the caller solves it again and replaces it)."""
+        path = self._path(key)
+        if path is None or not path.is_file():
+            return None
+        try:
+            document = json.loads(path.read_text(), parse_constant=_refuse_constant)
+        except (OSError, ValueError) as error:
+            problem = f"not readable JSON: {error}"[:200]
+        else:
+            problem = entry_problem(document)
+        if problem:
+            if not quiet:
+                logger.warning(f"FE cache entry {path} is damaged ({problem}); solving it "
+                               "again and replacing it")
+            return None
+        modes = tuple(FEMode(m["label"], m["kind"], float(m["frequency_hz"]),
+                             float(m["damping_ratio"])) for m in document["modes"])
+        return FEResult(modes, document["engine"], document["coupled"],
+                        float(document["seconds"]), key)
+
+    @contextlib.contextmanager
+    def _entry_lock(self, key: str):
+        """Hold ``<key>.lock`` in the cache folder while solving ``key`` (class notes);
+        without a cache folder, or where it cannot be locked, no lock."""
+        if self.cache_dir is None or fcntl is None:
+            yield
+            return
+        path = self.cache_dir / f"{key}.lock"
+        fd = None
+        try:
+            self.cache_dir.mkdir(parents=True, exist_ok=True)
+            fd = _acquire(path, self.lock_wait)
+        except OSError as error:           # a read-only folder: solve without the lock
+            logger.warning(f"FE cache {self.cache_dir} cannot be locked "
+                           f"({error.strerror or error}); solving without coordination")
+        try:
+            yield
+        finally:
+            if fd is not None:
+                with contextlib.suppress(OSError):
+                    if os.stat(path).st_ino == os.fstat(fd).st_ino:
+                        os.unlink(path)
+                os.close(fd)
+
+    def _write(self, result: FEResult) -> None:
+        path = self._path(result.key)
+        if path is None:
+            return
+        document = {"modes": [m.__dict__ for m in result.modes], "engine": result.engine,
+                    "coupled": result.coupled, "seconds": result.seconds}
+        staging = path.with_suffix(f".tmp{os.getpid()}-{uuid.uuid4().hex[:8]}")
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            staging.write_text(json.dumps(document, indent=1, allow_nan=False))
+            os.replace(staging, path)          # only <key>.json: the names this class makes
+        except (OSError, ValueError) as error:  # the cache only saves time: never fail on it
+            logger.warning(f"FE cache {self.cache_dir} not written "
+                           f"({getattr(error, 'strerror', None) or error})")
+            with contextlib.suppress(OSError):
+                staging.unlink(missing_ok=True)
+
+
+#: Thread counts of the BLAS and OpenMP libraries, set to 1 in the worker processes of
+#: :meth:`FEModel.solve_many` (one solve per core, no oversubscription).
+THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+WORKERS_VARIABLE = "COPDEA_FEM_FE_WORKERS"
+MAX_DEFAULT_WORKERS = 4
+
+
+def check_workers(value, option: str = "--fe-workers") -> int:
+    """``value`` as a worker count (an integer >= 1), or :class:`StudyError` naming
+    ``option`` (called before any work)."""
+    try:
+        count = int(value)
+    except (TypeError, ValueError):
+        count = None
+    if count is None or isinstance(value, bool) or count < 1 or str(count) != str(value).strip():
+        raise StudyError(f"{option} = {value!r} is not allowed; allowed: an integer >= 1 "
+                         "(processes solving FE studies side by side)")
+    return count
+
+
+def default_workers() -> int:
+    """``$COPDEA_FEM_FE_WORKERS`` when set, else the machine's cores up to
+    :data:`MAX_DEFAULT_WORKERS` (a cold diagnosis has tens of independent solves)."""
+    if os.environ.get(WORKERS_VARIABLE):
+        return check_workers(os.environ[WORKERS_VARIABLE], WORKERS_VARIABLE)
+    return max(1, min(MAX_DEFAULT_WORKERS, os.cpu_count() or 1))
+
+
+def _solve_in_worker(study, f_max, folder, lock_wait):
+    """Worker process of :meth:`FEModel.solve_many`: one study through an :class:`FEModel`
+    on the shared folder (its per-entry lock); the result and whether it was solved here."""
+    model = FEModel(cache_dir=folder if folder is not None else False, lock_wait=lock_wait,
+                    workers=1)
+    result = model.modes(study, f_max)
+    return result, model.solves
+
+
+def _refuse_constant(name: str):
+    """``json.loads`` hook: NaN and Infinity are not numbers of an entry."""
+    raise ValueError(f"{name} is not a finite number")
+
+
+def _acquire(path: Path, wait: float) -> int | None:
+    """An exclusive ``flock`` of the lock file ``path``, waiting up to ``wait`` seconds
+    for another holder; None after the wait (the caller solves anyway).  The holder
+    removes the file when done, so only the file still in place counts as locked."""
+    deadline = time.monotonic() + wait
+    told = False
+    while True:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.read(fd, 32).decode(errors="replace").strip() or "unknown"
+            os.close(fd)
+            if time.monotonic() >= deadline:
+                logger.warning(f"FE cache entry {path.with_suffix('.json')} is still being "
+                               f"computed by process {holder} after {wait:g} s; solving it "
+                               "here too")
+                return None
+            if not told:
+                logger.info(f"waiting for FE cache entry {path.stem}, being computed by another "
+                            f"run (process {holder}) ...")
+                told = True
+            time.sleep(LOCK_POLL_SECONDS)
+            continue
+        with contextlib.suppress(FileNotFoundError):
+            if os.stat(path).st_ino == os.fstat(fd).st_ino:
+                os.ftruncate(fd, 0)
+                os.write(fd, f"{os.getpid()}\n".encode())
+                return fd
+        os.close(fd)

@@ -1,0 +1,307 @@
+"""The axisymmetric engine's stages: meridian mesh -> prestress -> orders m -> modes.
+
+Orders are solved m = 0, 1, 2, ... from 0 Hz up (:mod:`copdea_fem.fe.bands`): each
+order's dry band is solved from 0 Hz, so the radial order n of an out-of-plane
+mode is its rank among all the out-of-plane modes of its order, whatever the
+band asked (the modes below ``f_min`` are dropped after numbering).  The loop
+stops by :class:`copdea_fem.fe.bands.OrderStop`: at the first order whose lowest
+mode lies above the top of the band and above the lowest mode of the order
+before (the lowest frequency of an order rises with m, checked; the higher
+modes of an order do not, so an order with nothing in the band does not stop
+it).  Coupled: the dry partner band reaches 1.5 f_max, an order whose lowest
+dry mode lies above it holds no structural mode in the band (an added mass
+above 125 % of a modal mass would be needed) and is not solved coupled; the
+n of a coupled out-of-plane mode is its dry partner's (best MAC).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+
+import numpy as np
+
+from copdea_fem.fe.assignment import max_weight_assignment
+from copdea_fem.fe.axisymmetric.air import meridian_motion
+from copdea_fem.fe.axisymmetric.meridian import MeridianSpec, meridian_mesh
+from copdea_fem.fe.axisymmetric.modes import (
+    OrderSampler,
+    classify_order,
+    label_all,
+    number_out_of_plane,
+    sampled_shapes,
+    with_pairs,
+)
+from copdea_fem.fe.axisymmetric.operators import MeridianAir, OrderForms, coupled_order_operators
+from copdea_fem.fe.axisymmetric.prestress import make_axisymmetric_solver
+from copdea_fem.fe.bands import BandSolver, OrderStop, coupled_start_modes, lowest_frequency_hz
+from copdea_fem.fe.eigen import SectorBandResults
+from copdea_fem.fe.modes import AIR, OUT_OF_PLANE, mac, match_dry, membrane_energy_fractions
+from copdea_fem.fe.pipeline import CoupledSolution, Timings
+from copdea_fem.progress import single_threaded_blas, tagging
+
+#: Highest order tried before giving up (a band this rich is a mistake in the study).
+MAX_ORDER = 400
+
+
+logger = logging.getLogger(__name__)
+
+
+def prepare_meridian(study):
+    """The meridian mesh of the study (not cached: Netgen meshes it in ~0.1 s)."""
+    return meridian_mesh(MeridianSpec.from_study(study), study["mesh"]["curve_order"])
+
+
+def solve_axisymmetric_prestress(study, mesh, solver=None):
+    from copdea_fem.fe.prestress import solve_prestress
+    solver = solver or make_axisymmetric_solver(study, mesh)
+    return solve_prestress(study, mesh, solver=solver)
+
+
+def _prestressed(study, mesh, timings, solver):
+    """The mesh and prestress stages (the mesh made unless given)."""
+    if mesh is None:
+        with timings.stage("mesh"):
+            mesh = prepare_meridian(study)
+    with timings.stage("prestress"):
+        logger.info("prestress (axisymmetric Newton, load steps in z then V_b) ...")
+        return solve_axisymmetric_prestress(study, mesh, solver)
+
+
+def _dry_order(band: BandSolver, forms, m, f_max, initial_shifts=None):
+    """The dry pencil of order m and its modes from 0 Hz to ``f_max``, and the frequency
+    of its lowest mode [Hz] (from the band, else one lowest-eigenvalue solve)."""
+    operators = forms.operators(m)
+    # damping keys: the quadratic/rational step in omega (eigen.damped), else linear
+    result = band.solve(operators.stiffness, operators.mass, 0.0, f_max,
+                        damping=forms.damping(operators), initial_shifts=initial_shifts)
+    lowest = float(np.min(result.freq_hz)) if len(result) else \
+        lowest_frequency_hz(operators.stiffness, operators.mass)
+    return operators, result, lowest
+
+
+def order_sampler(samplers: dict, state, operators) -> OrderSampler:
+    """The :class:`.modes.OrderSampler` of ``operators``' space, made once per space in
+    ``samplers`` (the orders m >= 1 share a space, :class:`.operators.OrderForms`)."""
+    space = operators.space
+    if id(space) not in samplers:       # the sampler holds the space: its id stays unique
+        samplers[id(space)] = OrderSampler(state, space, operators.axis_m1)
+    return samplers[id(space)]
+
+
+def _in_band(modes, f_min, f_max):
+    return [mode for mode in modes if f_min <= mode.freq_hz <= f_max]
+
+
+def axisymmetric_dry_modes(study, mesh=None, timings=None, solver=None,
+                           initial_shifts=None, band: BandSolver | None = None):
+    """Prestress and dry modes in the band, order by order: (state, modes, results)."""
+    timings = timings or Timings()
+    band = band or BandSolver.from_study(study)
+    state = _prestressed(study, mesh, timings, solver)
+    modes, results = [], {}
+    initial_shifts = initial_shifts or {}
+    forms = OrderForms(state, study)
+    samplers = {}                  # one per order space (the orders m >= 1 share theirs)
+    stop = OrderStop(band.f_max)
+    for m in range(MAX_ORDER + 1):
+        with timings.stage("eigen"), tagging(f"m = {m}: "):
+            operators, result, lowest = _dry_order(band, forms, m, band.f_max,
+                                                   initial_shifts.get(f"m={m}"))
+        stop.record(lowest)
+        if stop.done():
+            break
+        if len(result) == 0:
+            continue
+        results[f"m={m}"] = result
+        with timings.stage("classify"):
+            order_modes = classify_order(operators, result.vectors, result.freq_hz,
+                                         result.freq_im_hz, result.residuals,
+                                         order_sampler(samplers, state, operators))
+            number_out_of_plane(order_modes)
+            modes += with_pairs(_in_band(order_modes, band.f_min, band.f_max))
+    modes.sort(key=lambda mode: (mode.freq_hz, mode.m, mode.family))
+    for index, mode in enumerate(modes):
+        mode.index = index
+    label_all(modes)
+    return state, modes, SectorBandResults(results)
+
+
+def same_order_family(mode, dry) -> bool:
+    """Pairing rule within one order: same kind and (out-of-plane) the same n."""
+    return dry.kind == mode.kind and (mode.kind == "in-plane" or dry.n == mode.n)
+
+
+def number_from_dry(modes, dry_modes, mass) -> None:
+    """n of the coupled out-of-plane modes of one order: their dry partner's (the one-to-one
+    assignment of largest total MAC between the order's out-of-plane modes), so that n
+    counts from 0 Hz up (the dry band starts there) whatever band the coupled solve had.
+    Without dry out-of-plane modes (none below 1.5 f_max) the rank among the coupled
+    ones stands."""
+    wet = [mode for mode in modes if mode.kind == OUT_OF_PLANE]
+    dry = [mode for mode in dry_modes if mode.kind == OUT_OF_PLANE]
+    number_out_of_plane(modes)
+    if not wet or not dry:
+        return
+    macs = np.array([[mac(w.vector, d.vector, mass) for d in dry] for w in wet])
+    rows, columns = max_weight_assignment(macs)
+    for row, column in zip(rows, columns):
+        wet[row].n = dry[column].n
+
+
+def axisymmetric_coupled_modes(study, mesh=None, timings=None, solver=None,
+                               initial_shifts=None, band: BandSolver | None = None):
+    """Prestress, dry partners and fully-coupled membrane-air modes, order by order.
+
+    Returns a :class:`copdea_fem.fe.pipeline.CoupledSolution` (``operators``: the
+    coupled pencil of each order, in order).
+    """
+    timings = timings or Timings()
+    band = band or BandSolver.from_study(study)
+    air = study["air"]
+    state = _prestressed(study, mesh, timings, solver)
+    with timings.stage("assembly"):
+        logger.info("air mesh follows the membrane (ALE) ...")
+        motion = meridian_motion(state, state.mesh, air["domain_radius"])
+        logger.info("assembling the air of every order ...")
+        meridian_air = MeridianAir(state, study, motion)
+    initial_shifts = initial_shifts or {}
+    forms = OrderForms(state, study)
+    modes, pressures, dry, partners, results, operators = [], [], [], {}, {}, []
+    samplers = {}                  # one per order space (the orders m >= 1 share theirs)
+    stop = OrderStop(band.dry_partner_top)
+    for m in range(MAX_ORDER + 1):
+        def say(text, m=m):
+            logger.info(f"m = {m}: {text}")
+        with timings.stage("eigen"), tagging(f"m = {m}: "):
+            dry_operators, dry_result, lowest = _dry_order(band, forms, m,
+                                                           band.dry_partner_top)
+        stop.record(lowest)
+        if stop.done():
+            break
+        if stop.above():      # no dry partner below 1.5 f_max: no structural mode in the band
+            continue
+        with timings.stage("assembly"):
+            coupled = coupled_order_operators(state, study, dry_operators, meridian_air)
+        expected = coupled_start_modes(dry_result.freq_hz, band.f_min, band.f_max)
+        with timings.stage("eigen"), tagging(f"m = {m}: "):
+            say(f"coupled modes ({coupled.stiffness.shape[0]} unknowns) ...")
+            damping = forms.damping(dry_operators)
+            result = band.solve(coupled.stiffness, coupled.mass, band.f_min, band.f_max,
+                                hermitian=False, factorize=coupled.factorize,
+                                damping=None if damping is None else damping.embedded(
+                                    coupled.membrane_index, coupled.stiffness.shape[0]),
+                                start_modes=expected, max_imag_hz=band.max_imag_hz,
+                                initial_shifts=initial_shifts.get(f"m={m}"))
+        with timings.stage("classify"):
+            sampler = order_sampler(samplers, state, dry_operators)
+            order_dry = classify_order(dry_operators, dry_result.vectors, dry_result.freq_hz,
+                                       dry_result.freq_im_hz, dry_result.residuals, sampler)
+            number_out_of_plane(order_dry)
+            membrane = result.vectors[coupled.membrane_index]
+            order_modes = classify_order(dry_operators, membrane, result.freq_hz,
+                                         result.freq_im_hz, result.residuals, sampler)
+            full = dry_operators.to_full(membrane)
+            order_pressures = []
+            for k, (mode, fraction) in enumerate(zip(order_modes, membrane_energy_fractions(
+                    coupled, result))):
+                mode.membrane_energy_fraction = fraction
+                if fraction < air["min_membrane_energy"]:
+                    mode.kind = AIR
+                scale = np.linalg.norm(mode.vector) / max(np.linalg.norm(full[:, k]), 1e-300)
+                order_pressures.append(result.vectors[coupled.pressure_index, k]
+                                       * coupled.pressure_scale * scale)
+            number_from_dry(order_modes, order_dry, dry_operators.mass_full)
+            order_partners = match_dry(order_modes, order_dry, dry_operators.mass_full,
+                                       same_order_family)
+        results[f"m={m}"] = result
+        operators.append(coupled)
+        for k, mode in enumerate(order_modes):
+            twins = with_pairs([mode])
+            for twin in twins:
+                if k in order_partners:
+                    partners[id(twin)] = order_partners[k]
+                modes.append(twin)
+                pressures.append(order_pressures[k])
+        dry += with_pairs(order_dry)
+    order = sorted(range(len(modes)), key=lambda k: (modes[k].freq_hz, modes[k].m,
+                                                     modes[k].family))
+    modes, pressures = [modes[k] for k in order], [pressures[k] for k in order]
+    for index, mode in enumerate(modes):
+        mode.index = index
+    label_all(modes)
+    dry.sort(key=lambda mode: (mode.freq_hz, mode.m, mode.family))
+    label_all(dry)
+    # the dry partner band as the 3-D engine's: f_min .. 1.5 f_max (below f_min it only
+    # numbered the modes); a wet mode's partner lies above it, so none is dropped
+    dry = [mode for mode in dry if mode.freq_hz >= band.f_min]
+    partner_hz = {index: partners[id(mode)].freq_hz for index, mode in enumerate(modes)
+                  if id(mode) in partners}
+    return CoupledSolution(state, modes, pressures, dry, partner_hz, SectorBandResults(results),
+                           operators)
+
+
+class AxisymmetricEngine:
+    """The axisymmetric engine (``mesh.engine: axisymmetric``) behind
+    :class:`copdea_fem.fe.engines.Engine`: a meridian (r, z) mesh, one 2-D problem per order m."""
+
+    name = "axisymmetric"
+
+    def mesh_key(self, study, with_air: bool):
+        """What the meridian mesh depends on (it always holds the air)."""
+        return MeridianSpec.from_study(study), study["mesh"]["curve_order"]
+
+    def prepare_mesh(self, study, with_air=None, cache_dir=None):
+        return prepare_meridian(study)
+
+    def prestress_solver(self, study, mesh):
+        return make_axisymmetric_solver(study, mesh)
+
+    def dry_modes(self, study, mesh, timings=None, solver=None,
+                  initial_shifts=None, band=None):
+        with single_threaded_blas():   # 2-D problems: NGSolve's TaskManager only costs here
+            return axisymmetric_dry_modes(study, mesh, timings, solver,
+                                          initial_shifts, band)
+
+    def coupled_modes(self, study, mesh, timings=None, solver=None,
+                      initial_shifts=None, band=None):
+        with single_threaded_blas():
+            return axisymmetric_coupled_modes(study, mesh, timings, solver,
+                                              initial_shifts, band)
+
+    def threads(self):
+        """The threading context of the output and force stages: none (2-D problems)."""
+        return contextlib.nullcontext()
+
+    def estimate_size(self, study):
+        """(elements, unknowns) of the meridian mesh (:func:`.meridian.estimate_size`)."""
+        from copdea_fem.fe.axisymmetric.meridian import estimate_size
+        mesh = study["mesh"]
+        return estimate_size(MeridianSpec.from_study(study), mesh["order"],
+                             mesh["pressure_order"])
+
+    def forced_problem(self, study):
+        """Meridian mesh, prestress and the forced order m = 0
+        (:mod:`copdea_fem.fe.axisymmetric.forced`)."""
+        import time
+
+        from copdea_fem.fe.axisymmetric.forced import order_zero_problem
+        timings = {}
+        start = time.perf_counter()
+        mesh = prepare_meridian(study)
+        logger.info("prestress (axisymmetric Newton, load steps in z then V_b) ...")
+        state = solve_axisymmetric_prestress(study, mesh)
+        timings["prestress"] = time.perf_counter() - start
+        return order_zero_problem(study, mesh, state, timings)
+
+    def tracking_arrays(self, state, modes, needs_sampling: bool) -> dict:
+        """Orders have spaces of their own: the sweeps compare shapes on the polar grid
+        (:func:`.modes.sampled_shapes`)."""
+        return {"sampled": sampled_shapes(state, modes)}
+
+    def output(self, state, modes=()):
+        """The result fields of ``state`` revolved to 3-D for ParaView and the API
+        (:class:`copdea_fem.fe.axisymmetric.fields.RevolvedOutput`; ``modes``: those written
+        together, their highest order sets the angles)."""
+        from copdea_fem.fe.axisymmetric.fields import RevolvedOutput
+        return RevolvedOutput(state, modes)

@@ -1,0 +1,195 @@
+"""Modes of one circumferential order: classification, labels (m, n), the cos/sin pair.
+
+Within an order m every quantity is an exact 1-D integral of the amplitudes (a, b, c)
+(:mod:`.operators`): kinetic energies with ``M_s``, the normal part with ``M_n = Theta_m
+rho_s int (a n_r + c n_z)^2 R dR`` (n the prestressed normal), the disc's share ``(M_d +
+M_s/3) |w_d|^2 / x^H M x`` with its lumped mass. Kinds are decided as in the 3-D engine
+(:mod:`copdea_fem.fe.modes`: the same thresholds); labels come by construction: m is the
+order, n of an out-of-plane mode is its rank among the out-of-plane modes of the order
+(n - 1 interior nodal circles), in-plane modes ``ip(m,n)`` take n from the nodal count
+of their dominant in-plane component and pumping modes are ``P1, P2, ...`` as there.
+Each m >= 1 mode is the pair (m,n)a (cos m theta) / (m,n)b (sin m theta, the same shape
+turned by pi/(2m)) with one frequency; their ``sector`` is their parity about x = 0 and
+y = 0 (:mod:`copdea_fem.fe.symmetry`), so modes.csv reads as the 3-D engine's.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import ngsolve as ngs
+import numpy as np
+
+from copdea_fem.fe.axisymmetric.meridian import theta_integral
+from copdea_fem.fe.axisymmetric.operators import normal_mass_form
+from copdea_fem.fe.linearise import to_scipy
+from copdea_fem.fe.modes import (
+    AIR,
+    IN_PLANE,
+    OUT_OF_PLANE,
+    OUT_OF_PLANE_FRACTION,
+    PUMPING,
+    PUMPING_DISC_FRACTION,
+    Mode,
+    assign_labels,
+    radial_order,
+)
+from copdea_fem.fe.symmetry import Sector
+
+
+@dataclass
+class OrderMode(Mode):
+    """A :class:`copdea_fem.fe.modes.Mode` of order ``m``: ``vector`` holds the coefficients of
+    the order's (a, b, c) space; ``family`` is ``"cos"`` or ``"sin"``."""
+
+    family: str = "cos"
+    operators: object = None        # the OrderOperators the vector belongs to
+
+
+def family_sector(m: int, family: str) -> Sector:
+    """Parity about x = 0 and y = 0 of a cos / sin m theta normal displacement."""
+    sign = 1 if m % 2 == 0 else -1
+    return Sector(sign, 1) if family == "cos" else Sector(-sign, -1)
+
+
+class OrderSampler:
+    """(a, b, c) and the normal displacement of an order's vectors on the membrane line."""
+
+    def __init__(self, state, space, axis_m1: bool):
+        self.line = state.line()
+        self.gf = ngs.GridFunction(space)
+        a, second, c = self.gf.components
+        b = second - a if axis_m1 else second
+        normal = state.fields()["normal"]
+        self._fields = ngs.CF((a * normal[0] + c * normal[1], a, b, c))
+        self.radii = self.line.radii.ravel()
+        order = np.argsort(self.radii, kind="stable")
+        self._order, self.radii = order, self.radii[order]
+        inner = max(state.inner_radius, 0.02 * state.outer_radius)
+        self._uniform = inner + (state.outer_radius - inner) * (np.arange(40) + 0.5) / 40
+
+    def radial_dominant(self, a: np.ndarray, b: np.ndarray) -> bool:
+        """Whether the radial amplitude ``a`` carries at least the hoop one's ``b`` share,
+        summed on the 3-D engine's uniform sample radii (:class:`copdea_fem.fe.modes.ModeSampler`:
+        the same decision there)."""
+        uniform = self._uniform
+
+        def energy(part):
+            return float(np.sum(np.abs(np.interp(uniform, self.radii, part.real)) ** 2
+                                + np.abs(np.interp(uniform, self.radii, part.imag)) ** 2))
+
+        return energy(a) >= energy(b)
+
+    def components(self, vector) -> np.ndarray:
+        """(normal, a, b, c) on the sorted sample radii: array (4, n_points)."""
+        parts = []
+        for part in (np.real(vector), np.imag(vector)) if np.iscomplexobj(vector) else (vector,):
+            self.gf.vec.FV().NumPy()[:] = part
+            parts.append(self.line.values(self._fields).reshape(-1, 4)[self._order].T)
+        return parts[0] + 1j * parts[1] if len(parts) == 2 else parts[0]
+
+
+def normal_mass_matrix(operators) -> object:
+    """M_n of the order (SciPy, on the order space's DOFs) [kg]: set by
+    :meth:`.operators.OrderForms.operators`, else assembled here on first use."""
+    if operators.normal_mass is None:
+        trial, test = operators.space.TnT()
+        form = normal_mass_form(operators.state, trial, test, theta_integral(operators.m))
+        operators.normal_mass = to_scipy(ngs.BilinearForm(form).Assemble().mat)
+    return operators.normal_mass
+
+
+def classify_order(operators, vectors, freq_hz, freq_im_hz, residuals,
+                   sampler: OrderSampler | None = None) -> list[OrderMode]:
+    """Eigenpairs of one order -> normalised, classified modes (cos family only)."""
+    m = operators.m
+    sampler = sampler or OrderSampler(operators.state, operators.space, operators.axis_m1)
+    full = operators.to_full(vectors)
+    normal_mass = normal_mass_matrix(operators)
+    modes = []
+    for k in range(full.shape[1]):
+        reduced, vector = vectors[:, k], full[:, k]
+        total = float(np.real(np.vdot(reduced, operators.mass @ reduced)))
+        disc = complex(reduced[-1]) if operators.disc_dof else 0.0
+        # the rigid disc's own (lumped) mass only, as copdea_fem.fe.modes: mass[-1, -1] also
+        # holds the membrane mass the rim lift carries
+        disc_energy = operators.disc_mass * abs(disc) ** 2
+        normal_energy = float(np.real(np.vdot(vector, normal_mass @ vector)))
+        normal_fraction = normal_energy / max(total - disc_energy, 1e-300)
+        disc_fraction = disc_energy / max(total, 1e-300)
+        normal, a, b, c = sampler.components(vector)
+        if disc_fraction > PUMPING_DISC_FRACTION:
+            kind, reference = PUMPING, abs(disc)
+        elif normal_fraction >= OUT_OF_PLANE_FRACTION:
+            kind, reference = OUT_OF_PLANE, float(np.abs(normal).max())
+        else:
+            kind, reference = IN_PLANE, float(np.abs([a, b]).max())
+        radial_dominant = sampler.radial_dominant(a, b)
+        in_plane = a if radial_dominant else b
+        n = radial_order(in_plane) if kind == IN_PLANE else 0
+        component = "" if kind != IN_PLANE else ("radial" if radial_dominant else "hoop")
+        scale = 1.0 / reference if reference > 0 else 1.0
+        peak = float(np.abs(np.stack([a, b, c])).max()) * scale
+        modes.append(OrderMode(
+            index=k, freq_hz=float(freq_hz[k]), freq_im_hz=float(freq_im_hz[k]),
+            residual=float(residuals[k]), kind=kind, m=m, n=n, label="",
+            normal_fraction=normal_fraction, disc_fraction=disc_fraction,
+            modal_mass=total * scale**2, vector=vector * scale / max(peak, 1e-300),
+            disc_displacement=disc * scale / max(peak, 1e-300),
+            sector=family_sector(m, "cos"), family="cos", in_plane_component=component,
+            operators=operators))
+    return modes
+
+
+def number_out_of_plane(modes: list[OrderMode]) -> None:
+    """n of the out-of-plane modes of one order: their rank by frequency."""
+    rank = 0
+    for mode in sorted(modes, key=lambda mode: mode.freq_hz):
+        if mode.kind == OUT_OF_PLANE:
+            rank += 1
+            mode.n = rank
+
+
+def with_pairs(modes: list[OrderMode]) -> list[OrderMode]:
+    """Every m >= 1 mode followed by its sin-family twin (same frequency, turned shape)."""
+    paired = []
+    for mode in modes:
+        paired.append(mode)
+        if mode.m > 0 and mode.kind != AIR:
+            paired.append(replace(mode, family="sin", sector=family_sector(mode.m, "sin")))
+    return paired
+
+
+def label_all(modes: list[OrderMode]) -> None:
+    """Labels over all orders, as the 3-D engine's (:func:`copdea_fem.fe.modes.assign_labels`)."""
+    assign_labels([mode for mode in modes if mode.kind != AIR])
+    for mode in modes:
+        if mode.kind == AIR:
+            mode.label, mode.n = "air", 0
+
+
+def sampled_shapes(state, modes, n_radii: int = 40, n_angles: int = 64) -> np.ndarray:
+    """(normal, radial, hoop) of each mode on the normalised polar grid of
+    :class:`copdea_fem.fe.modes.ModeSampler`, weighted by sqrt(r / r_o) (as the sweep's
+    ``_sampled_shapes``): rows comparable across meshes and orders by MAC."""
+    r_o, r_i = state.outer_radius, state.inner_radius
+    inner = max(r_i, 0.02 * r_o)
+    radii = inner + (r_o - inner) * (np.arange(n_radii) + 0.5) / n_radii
+    angles = 2 * np.pi * np.arange(n_angles) / n_angles
+    weights = np.sqrt(radii / r_o)[:, None]
+    rows, samplers = [], {}
+    for mode in modes:
+        operators = mode.operators
+        key = id(operators)
+        if key not in samplers:
+            samplers[key] = OrderSampler(state, operators.space, operators.axis_m1)
+        sampler = samplers[key]
+        normal, a, b, c = sampler.components(mode.vector)
+        profiles = [np.interp(radii, sampler.radii, part.real) + 1j * np.interp(
+            radii, sampler.radii, part.imag) for part in (normal, a, b)]
+        main = np.cos(mode.m * angles) if mode.family == "cos" else np.sin(mode.m * angles)
+        cross = np.sin(mode.m * angles) if mode.family == "cos" else -np.cos(mode.m * angles)
+        field_ = np.stack([profiles[0][:, None] * main, profiles[1][:, None] * main,
+                           profiles[2][:, None] * cross]) * weights[None]
+        rows.append(field_.ravel())
+    return np.array(rows) if rows else np.zeros((0, 3 * n_radii * n_angles))

@@ -1,0 +1,110 @@
+"""The FE engines behind one interface, resolved once per solve from ``mesh.engine``.
+
+:class:`Engine` is what the pipeline (:mod:`copdea_fem.fe.pipeline`), the forced response,
+the sweeps, the output and the resource guard ask of an engine; :func:`engine_for` picks the
+implementation of a study (:func:`copdea_fem.study.engine_of`): the 3-D quadrant
+(:class:`copdea_fem.fe.quadrant.engine.QuadrantEngine`) or the axisymmetric one
+(:class:`copdea_fem.fe.axisymmetric.engine.AxisymmetricEngine`).  The caller resolves it once
+and passes it down (a :class:`copdea_fem.fe.pipeline.SolveResult` carries it).  The band
+solves of a study are configured once (:class:`copdea_fem.fe.bands.BandSolver`) and handed to
+the engine; the rules both engines share (dry partner band, coupled start count, order stop
+rule) live in :mod:`copdea_fem.fe.bands`, the labels in :mod:`copdea_fem.fe.modes`.  No module
+but this one and the study's schema tests the engine's name.
+"""
+
+from __future__ import annotations
+
+from contextlib import AbstractContextManager
+from typing import TYPE_CHECKING, Any, Protocol
+
+from copdea_fem.study import Study, StudyError, engine_of
+
+if TYPE_CHECKING:
+    from copdea_fem.fe.bands import BandSolver
+    from copdea_fem.fe.forced.problem import OrderZero
+    from copdea_fem.fe.modes import Mode
+    from copdea_fem.fe.pipeline import CoupledSolution, Timings
+    from copdea_fem.fe.prestress import MembraneSolver, PrestressedState
+
+
+class Engine(Protocol):
+    """One FE engine: mesh, prestress solver, dry and coupled modes, threading."""
+
+    name: str
+
+    def mesh_key(self, study: Study, with_air: bool) -> tuple:
+        """A hashable key of what the mesh depends on (the sweeps' mesh reuse)."""
+
+    def prepare_mesh(self, study: Study, with_air: bool | None = None, cache_dir=None) -> Any:
+        """The mesh of the study (``cache_dir``: the 3-D mesh cache)."""
+
+    def prestress_solver(self, study: Study, mesh) -> MembraneSolver:
+        """The Newton solver on ``mesh``."""
+
+    def dry_modes(self, study: Study, mesh, timings: Timings | None = None,
+                  solver: MembraneSolver | None = None, initial_shifts=None,
+                  band: BandSolver | None = None) -> tuple[PrestressedState, list[Mode], Any]:
+        """Prestress and dry modes in the band: (state, modes, eigen result)."""
+
+    def coupled_modes(self, study: Study, mesh, timings: Timings | None = None,
+                      solver: MembraneSolver | None = None, initial_shifts=None,
+                      band: BandSolver | None = None) -> CoupledSolution:
+        """Prestress, dry partners and coupled modes."""
+
+    def threads(self) -> AbstractContextManager:
+        """Context manager for the output and force stages (NGSolve's TaskManager or none)."""
+
+    def estimate_size(self, study: Study) -> tuple[float, float]:
+        """(elements, unknowns) the study's mesh will have, estimated before meshing (the
+        resource guard, :func:`check_size`)."""
+
+    def forced_problem(self, study: Study) -> OrderZero:
+        """Mesh, prestress and the forced-response operators of the part of the problem a
+        uniform electrode drives; its ``sector``
+        (:class:`copdea_fem.fe.forced.problem.DrivenSector`) describes it."""
+
+    def tracking_arrays(self, state: PrestressedState, modes: list[Mode],
+                        needs_sampling: bool) -> dict:
+        """What the sweeps track a point's modes by (:mod:`copdea_fem.sweeps.tracking`)."""
+
+    def output(self, state: PrestressedState, modes: list[Mode] = ()) -> Any:
+        """The result fields of a prestress ``state`` for ParaView and the API: an object with
+        ``symmetry`` (modes.json), ``prestress_mesh()``, ``mode_meshes(modes)`` and
+        ``air_meshes(operators, modes, pressures)`` (:class:`copdea_fem.vtu.VtuMesh` meshes);
+        ``modes``: the structural modes written together."""
+
+
+def engine_for(study: Study) -> Engine:
+    """The engine of the study (``mesh.engine``, ``auto`` resolved by the frame)."""
+    if engine_of(study) == "axisymmetric":
+        from copdea_fem.fe.axisymmetric.engine import AxisymmetricEngine
+        return AxisymmetricEngine()
+    from copdea_fem.fe.quadrant.engine import QuadrantEngine
+    return QuadrantEngine()
+
+
+#: Largest problem the CLI starts without --allow-large: estimated unknowns of the
+#: membrane plus, with air, the pressure (the default coupled G1 study: ~16 000 per sector).
+MAX_UNKNOWNS = 2_000_000
+
+
+def check_size(study: Study, limit: float | None = None,
+               engine: Engine | None = None) -> None:
+    """The resource guard: refuse (StudyError) a study whose engine estimates more unknowns
+    than ``limit`` (default :data:`MAX_UNKNOWNS`), before meshing."""
+    elements, unknowns = (engine or engine_for(study)).estimate_size(study)
+    refuse_size(study, elements, unknowns, MAX_UNKNOWNS if limit is None else limit)
+
+
+def refuse_size(study, elements: float, unknowns: float, limit: float = MAX_UNKNOWNS) -> None:
+    """Refuse (StudyError) a study whose estimated unknowns (the engine's estimate:
+    :func:`copdea_fem.fe.engines.check_size`) exceed ``limit``, before meshing."""
+    with_air = study["air"]["enabled"]
+    mesh = study["mesh"]
+    if unknowns > limit:
+        coarser = "a larger mesh.membrane_size" + (" or mesh.air_size" if with_air else "")
+        lower = "a lower mesh.order" + (" or mesh.pressure_order" if with_air else "")
+        raise StudyError(
+            f"mesh.membrane_size = {mesh['membrane_size']:g} m (mesh.order = {mesh['order']}) "
+            f"gives about {elements:.3g} elements and {unknowns:.3g} unknowns, more than the "
+            f"limit of {limit:.3g}; allowed: {coarser}, {lower}, or --allow-large")

@@ -1,0 +1,316 @@
+r"""Harmonic response of the coupled membrane-air model to the AC voltage (issue 15).
+
+Forcing (the FE counterpart of eq. 14)
+--------------------------------------
+The voltage is ``V(t) = V_b + Re{V~ e^{-i omega t}}`` (NGSolve's time convention, as
+:mod:`copdea_fem.fe.acoustics`).  With ``E(u; V)`` the membrane energy of
+:mod:`copdea_fem.fe.membrane` (eq. 20 plus the co-energy of eq. 7) and ``R = dE/du`` its
+residual, the structure obeys ``M u'' + R(u; V) + (air traction) = 0``.  Linearised about
+the prestress ``u0`` (``R(u0; V_b) = 0`` on the free DOFs)::
+
+    (K_s - omega^2 M_s) u~ + C^T p = f V~,     f = -dR/dV (u0, V_b)     [N/V]
+
+The co-energy ``-eps/2 (V/h0)^2 det_c`` is quadratic in V and the rest of the energy does
+not depend on it, so ``R(u0; V) = R_m + V^2 R_e`` and, exactly,
+
+    dR/dV (u0, V_b) = 2 V_b R_e = 2 (R(u0; V_b) - R(u0; 0)) / V_b.
+
+In the capacitance language of Sect. 3.2 the electrostatic energy is ``-V^2/2 C(u)`` with
+``C = int eps det_c / h0^2 dV0``, so ``f = V_b dC/du``: the reduced model's
+``V_b V~ dC/dq`` (the factor 1, not the 2 that eq. 14 prints; :mod:`copdea_fem.reduced`).
+The disc on the spring gets ``lift . f`` (its share of the rim reaction; the spring does not
+depend on V).  Only the order m = 0 is forced by a uniform electrode.  Each engine
+computes f and K_el (below) from its own energy: :mod:`copdea_fem.fe.axisymmetric.forcing`
+(the order m = 0), :mod:`copdea_fem.fe.quadrant.forced` (the even-even sector); this module
+holds what both share.
+
+Hysteretic loss (direct path)
+-----------------------------
+``membrane.loss_factor`` eta multiplies the *elastic* part of the stiffness: ``K_el``,
+the Hessian at ``(u0, V = 0)`` of the membrane energy (the Mooney-Rivlin material term
+and its initial-stress term, at the prestressed state); the electrostatic (Maxwell) part
+``K_s - K_el``, the spring and the air stay lossless.  In the ``e^{-i omega t}`` convention a
+lossy stiffness is ``(1 - i eta) K_el`` (it is ``(1 + i eta) K_el`` for ``e^{+i omega t}``),
+so the dissipated power is ``P_d = omega/2 eta u^H K_el u`` > 0.
+
+Direct path::
+
+    (A - i eta K_el^ - omega^2 B) x = F V~,      F = (f, 0)
+
+on the scaled pencil of :func:`copdea_fem.fe.axisymmetric.operators.coupled_order_operators`
+(membrane rows are not scaled, ``p = beta p^``).
+
+Rayleigh and Prony damping (issue 23)
+-------------------------------------
+With ``membrane.rayleigh_alpha/beta`` or ``membrane.prony`` the membrane block of the
+pencil gets the same terms as the damped eigen step (:mod:`copdea_fem.fe.eigen.damped`,
+:func:`copdea_fem.fe.linearise.damping_terms`).  The direct path solves, exactly,
+
+    (A - i eta K_el^ - i omega C - omega^2 B + sum_j r_j(omega) G_j) x = F V~,
+    r_j(omega) = -i omega tau_j / (1 - i omega tau_j);
+
+the modal path adds their modal (diagonal) projections ``-i omega lambda_j u_j^T C u_j``
+and ``r_j(omega) lambda_j u_j^T G_j u_j`` to each mode's denominator (like the hysteretic
+term below): exact for one isolated mode, an approximation where the damping couples modes.
+
+Modal superposition
+-------------------
+Unscaled, ``A = [[K_s, C^T], [0, K_a]]``, ``B = [[M_s, 0], [-C, M_a]]`` (eq. A3 of
+:mod:`copdea_fem.fe.acoustics`) with ``K_a, M_a`` complex symmetric; for ``A x = lambda B x``,
+``x = (u, p)``, the left eigenvector is ``y = (lambda u, p)`` (``A^T y = lambda B^T y``),
+and ``y_j^T B x_k = 0`` for ``lambda_j != lambda_k``.  For the scaled pencil
+``A^ = R A S``, ``B^ = R B S`` (rows ``R = diag(1, alpha)``, columns ``S = diag(1, beta)``)
+the right vector is ``x^ = S^-1 x`` and the left one ``y^ = R^-1 y = (lambda u, beta p^/alpha)``;
+``y^T B^ x^ = y^T B x``.  Expanding ``x = sum_j c_j x_j`` and projecting with ``y_j``::
+
+    c_j (n_j (lambda_j - omega^2) - i eta lambda_j k_j - i omega lambda_j (b/m)_j m_j) = y_j^T F V~
+
+with ``n_j = y_j^T B x_j``, ``m_j = u_j^T M_s u_j``, ``k_j = u_j^T K_el u_j`` (no conjugates).
+The damping terms are the modal (diagonal) projections of a structural damping
+``D = (b/m)_j M_s`` and of the hysteretic loss: the paper's modal damping b/m (Sect. 5.3,
+eq. 19: ``b_j = (b/m)_j m_j`` with m_j the *structural* modal mass) per mode label
+(``reduced.damping_*``; air/PML modes get none).  For a structural mode
+``lambda_j m_j / n_j`` is its membrane share of the kinetic energy, so the damping term per
+total (structure + air) mass is ``(b/m)_j m/(m + m_ad)``, as in eq. (19).
+
+Modes of the band: every computed eigenpair with ``Re f <= f_max`` (structural and air).
+The rest enter through the residual (static) correction: with
+``(A - omega^2 B)^-1 = sum_all x y^T / (n (lambda - omega^2))`` and
+``1/(lambda - omega^2) = 1/lambda + omega^2/lambda^2 + O(omega^4/lambda^3)``::
+
+    r0 = A^-1 F - sum_band x_j y_j^T F / (n_j lambda_j)
+    r1 = A^-1 B A^-1 F - sum_band x_j y_j^T F / (n_j lambda_j^2)
+    x(omega) ~ sum_band c_j(omega) x_j + (r0 + omega^2 r1) V~
+
+(``sum_all x y^T/(n lambda) = A^-1``, ``sum_all x y^T/(n lambda^2) = A^-1 B A^-1``): exact
+at omega = 0, and the omitted modes' error is ``O(omega^4 / |lambda|^2)``.  Without
+structural damping the modal path then reproduces the direct one (tests).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from copdea_fem.fe.modes import AIR
+
+
+def reduce_vector(full: np.ndarray, free_dofs, lift=None) -> np.ndarray:
+    """A load on a membrane space's DOFs -> on the unknowns (free DOFs, then ``lift . load``
+    when the disc rides on the spring; ``lift`` the rim-lift coefficients)."""
+    reduced = full[free_dofs]
+    if lift is not None:
+        reduced = np.append(reduced, lift @ full)
+    return reduced
+
+
+def reduce_matrix(full: sp.spmatrix, free_dofs, lift=None) -> sp.csr_matrix:
+    """A matrix on a membrane space's DOFs -> on the unknowns (``u = u_free + w_d lift``)."""
+    free = free_dofs
+    block = full[free][:, free]
+    if lift is None:
+        return block.tocsr()
+    column = full @ lift
+    corner = float(lift @ column)
+    return sp.bmat([[block, sp.csr_matrix(column[free][:, None])],
+                    [sp.csr_matrix(column[free][None, :]), sp.csr_matrix([[corner]])]]).tocsr()
+
+
+def reduce_vector_3d(full, operators):
+    """:func:`reduce_vector` for :class:`copdea_fem.fe.linearise.MembraneOperators`."""
+    lift = operators.state.disc_lift.vec.FV().NumPy().copy() if operators.disc_dof else None
+    return reduce_vector(full, operators.free_dofs, lift)
+
+
+def reduce_matrix_3d(full, operators):
+    """:func:`reduce_matrix` for :class:`copdea_fem.fe.linearise.MembraneOperators`."""
+    lift = operators.state.disc_lift.vec.FV().NumPy().copy() if operators.disc_dof else None
+    return reduce_matrix(full, operators.free_dofs, lift)
+
+
+def damping_matrix(terms, omega: float) -> sp.csr_matrix:
+    """``-i omega C + sum_j r_j(omega) G_j`` (module doc) at the angular frequency ``omega``
+    [rad/s]."""
+    size = (terms.damping if terms.damping is not None else terms.relaxation[0][0]).shape[0]
+    matrix = sp.csr_matrix((size, size), dtype=complex)
+    if terms.damping is not None:
+        matrix = matrix - 1j * omega * terms.damping
+    for tangent, tau in terms.relaxation:
+        matrix = matrix + (-1j * omega * tau / (1 - 1j * omega * tau)) * tangent
+    return matrix.tocsr()
+
+
+@dataclass
+class ForcedOrder:
+    """The m = 0 coupled pencil with its forcing: everything both paths need.
+
+    ``forcing`` F [N/V] and ``elastic`` K_el^ [N/m] live on the scaled unknowns (zero air rows);
+    ``alpha`` is the air row scale of the scaled pencil (module doc).
+    """
+
+    coupled: object                 # axisymmetric CoupledOrderOperators (m = 0)
+    forcing: np.ndarray
+    elastic: sp.csr_matrix
+    alpha: float
+    equilibrium_residual: float
+    backend: str = "superlu"
+    damping: object = None          # eigen.damped.DampingTerms on the scaled unknowns, or None
+
+    @classmethod
+    def from_parts(cls, coupled, force, k_el, balance, backend="superlu") -> "ForcedOrder":
+        """From f and K_el on the membrane unknowns (either engine's coupled operators)."""
+        n = coupled.stiffness.shape[0]
+        index = np.asarray(coupled.membrane_index)
+        forcing = np.zeros(n, dtype=complex)
+        forcing[index] = force
+        k_el = sp.coo_matrix(k_el)
+        elastic = sp.csr_matrix((k_el.data.astype(complex), (index[k_el.row], index[k_el.col])),
+                                shape=(n, n))
+        # alpha from the coupling blocks: B^[p, u] = -alpha C, A^[u, p] = beta C^T
+        pressure = coupled.pressure_index
+        b_pu = coupled.mass[pressure][:, index]
+        a_up = coupled.stiffness[index][:, pressure]
+        alpha = float(coupled.pressure_scale * abs(b_pu).max() / abs(a_up).max())
+        return cls(coupled, forcing, elastic, alpha, balance, backend)
+
+    @property
+    def size(self) -> int:
+        return self.coupled.stiffness.shape[0]
+
+    def operator(self, omega: float, loss_factor: float = 0.0):
+        """A^ - i eta K_el^ - omega^2 B^ (scaled, CSC)."""
+        matrix = self.coupled.stiffness - complex(omega) ** 2 * self.coupled.mass
+        if loss_factor:
+            matrix = matrix - 1j * loss_factor * self.elastic
+        if self.damping is not None:
+            matrix = matrix + damping_matrix(self.damping, omega)
+        return matrix.tocsc()
+
+    def with_damping(self, terms) -> "ForcedOrder":
+        """The same, with the membrane's damping terms (on its unknowns) in the pencil."""
+        if terms is not None and not terms.empty:
+            self.damping = terms.embedded(np.asarray(self.coupled.membrane_index), self.size)
+        return self
+
+    def direct(self, frequency_hz, loss_factor: float = 0.0) -> np.ndarray:
+        """Scaled solutions x^ per volt at each frequency [m/V; Pa/(beta V)]: (n, lines)."""
+        from copdea_fem.fe.eigen import Factorization
+        frequency_hz = np.atleast_1d(np.asarray(frequency_hz, float))
+        out = np.empty((self.size, frequency_hz.size), dtype=complex)
+        for k, f in enumerate(frequency_hz):
+            solver = Factorization(self.operator(2 * np.pi * float(f), loss_factor),
+                                   self.backend)
+            out[:, k] = solver.solve(self.forcing)
+        return out
+
+    def membrane(self, vectors: np.ndarray) -> np.ndarray:
+        """Membrane unknowns (free DOFs + disc) of scaled vectors [m]."""
+        return vectors[self.coupled.membrane_index]
+
+    def pressure(self, vectors: np.ndarray) -> np.ndarray:
+        """Free pressure DOFs [Pa] of scaled vectors."""
+        return vectors[self.coupled.pressure_index] * self.coupled.pressure_scale
+
+
+@dataclass
+class ModalBasis:
+    """Coupled modes of the band with their left vectors, and the residual correction.
+
+    ``vectors`` (n, J) scaled right eigenvectors; ``eigenvalues`` lambda_j [rad^2/s^2];
+    ``norms`` n_j = y^T B x; ``participation`` y_j^T F; ``structural_mass`` m_j = u^T M_s u;
+    ``elastic_modal`` k_j = u^T K_el u; ``residual0``/``residual1`` r0, r1 (module doc);
+    ``damping_per_mass`` (b/m)_j [1/s]; ``labels``.
+    """
+
+    eigenvalues: np.ndarray
+    vectors: np.ndarray
+    norms: np.ndarray
+    participation: np.ndarray
+    structural_mass: np.ndarray
+    elastic_modal: np.ndarray
+    residual0: np.ndarray
+    residual1: np.ndarray
+    labels: tuple
+    damping_per_mass: np.ndarray
+    left_residuals: np.ndarray
+    viscous_modal: np.ndarray = None      # u_j^T C u_j [N s/m] (Rayleigh), or None
+    relaxation_modal: tuple = ()          # (u_j^T G_j u_j [N/m], tau_j [s]) per Prony term
+
+    @classmethod
+    def build(cls, forced: ForcedOrder, eigenvalues, vectors, labels, damping_per_mass):
+        from copdea_fem.fe.eigen import Factorization
+        coupled = forced.coupled
+        a, b = coupled.stiffness, coupled.mass
+        eigenvalues = np.asarray(eigenvalues, complex)
+        vectors = np.asarray(vectors, complex)
+        u_index, p_index = coupled.membrane_index, coupled.pressure_index
+        left = vectors.copy()
+        left[u_index] *= eigenvalues[None, :]
+        left[p_index] *= coupled.pressure_scale / forced.alpha
+        a_t, b_t = a.T.tocsr(), b.T.tocsr()
+        left_residuals = np.array([
+            np.linalg.norm(a_t @ left[:, j] - eigenvalues[j] * (b_t @ left[:, j]))
+            / max(np.linalg.norm(a_t @ left[:, j]), 1e-300) for j in range(len(eigenvalues))])
+        norms = np.einsum("ij,ij->j", left, b @ vectors)
+        participation = left.T @ forced.forcing
+        membrane = vectors[u_index]
+        mass = coupled.membrane.mass
+        k_el = forced.elastic[u_index][:, u_index]
+        structural = np.einsum("ij,ij->j", membrane, mass @ membrane)
+        elastic = np.einsum("ij,ij->j", membrane, k_el @ membrane)
+        static = Factorization(a.tocsc(), forced.backend)
+        first = static.solve(forced.forcing)
+        second = static.solve(b @ first)
+        weights = participation / norms
+        residual0 = first - vectors @ (weights / eigenvalues)
+        residual1 = second - vectors @ (weights / eigenvalues ** 2)
+        viscous, relaxation = None, ()
+        if forced.damping is not None:
+            terms = forced.damping
+            if terms.damping is not None:
+                viscous = np.einsum("ij,ij->j", vectors, terms.damping @ vectors)
+            relaxation = tuple((np.einsum("ij,ij->j", vectors, tangent @ vectors), tau)
+                               for tangent, tau in terms.relaxation)
+        return cls(eigenvalues, vectors, norms, participation, structural, elastic, residual0,
+                   residual1, tuple(labels), np.asarray(damping_per_mass, float),
+                   left_residuals, viscous, relaxation)
+
+    def coefficients(self, frequency_hz, loss_factor: float = 0.0) -> np.ndarray:
+        """Weights (lines, J + 2) of [x_1 .. x_J, r0, r1] per volt (module doc)."""
+        omega = 2 * np.pi * np.asarray(frequency_hz, float)[:, None]
+        lam = self.eigenvalues[None, :]
+        denominator = (self.norms * (lam - omega ** 2)
+                       - 1j * loss_factor * lam * self.elastic_modal
+                       - 1j * omega * lam * self.damping_per_mass * self.structural_mass)
+        if self.viscous_modal is not None:      # Rayleigh, diagonal projection (module doc)
+            denominator = denominator - 1j * omega * lam * self.viscous_modal
+        for modal_tangent, tau in self.relaxation_modal:
+            denominator = denominator + (-1j * omega * tau / (1 - 1j * omega * tau)) \
+                * lam * modal_tangent
+        modal = self.participation / denominator
+        return np.hstack([modal, np.ones_like(omega), omega ** 2])
+
+    @property
+    def basis(self) -> np.ndarray:
+        """[x_1 .. x_J, r0, r1] (n, J + 2), scaled unknowns."""
+        return np.hstack([self.vectors, self.residual0[:, None], self.residual1[:, None]])
+
+    def response(self, frequency_hz, loss_factor: float = 0.0) -> np.ndarray:
+        """Scaled solutions per volt (n, lines) (use observations of :attr:`basis` for many
+        lines: every observable is linear)."""
+        return self.basis @ self.coefficients(frequency_hz, loss_factor).T
+
+
+def modal_damping(labels, kinds, study) -> np.ndarray:
+    """(b/m)_j [1/s] per mode: ``reduced.damping_*`` by label, 0 for air/PML modes."""
+    from copdea_fem.reduced.model import damping_key
+    values = []
+    for label, kind in zip(labels, kinds):
+        if kind == AIR:
+            values.append(0.0)
+            continue
+        section, key = damping_key(label).split(".")
+        values.append(float(study[section][key]))
+    return np.array(values)

@@ -1,0 +1,141 @@
+"""Membrane kinematics and energy on the flat pre-stretched reference (Sect. 3.1).
+
+Pure functions that return NGSolve spaces, CoefficientFunctions and forms;
+nothing here assembles or solves.
+
+Reference configuration: the flat pre-stretched membrane in the plane z = 0
+(radii r_i, r_o).  A material point is displaced by ``u`` (3 components, m)
+from there.  The in-plane deformation from the *unstretched* film is
+``F = lambda_p (P + Grad_s u)`` on the tangent plane, ``P = I - e_z e_z``, and
+with ``C2 = F^T F`` restricted to the tangent plane
+
+    tr_c  = lambda_p^2 (tr(Ct) - 1),     det_c = lambda_p^4 det(Ct),
+    Ct    = (P + Grad_s u)^T (P + Grad_s u) + e_z e_z^T     (3x3, det Ct = det C2).
+
+Energy (eq. 2 in variational form, eq. 7 + 20):
+``E(u) = h0 / lambda_p^2 * integral over S of Psi_em(tr_c, det_c; V) dS``
+(the integral is over the pre-stretched area; ``dS0 = dS / lambda_p^2``).
+Its first variation is the internal-force part of eq. (2); its Hessian is the
+exact tangent: material + initial-stress + electrostatic terms in one.
+"""
+
+from __future__ import annotations
+
+import ngsolve as ngs
+
+from copdea_fem.fe.materials import Membrane
+
+NORMAL_REF = (0.0, 0.0, 1.0)  # unit normal N of the flat reference, +z side
+
+
+def displacement_space(mesh, order: int, has_disc: bool, complex_: bool = False):
+    """Vector H1 field on the ``membrane`` faces, zero on the rims (Dirichlet, eq. 3).
+
+    The rims are Dirichlet edges; the disc motion enters through their values
+    (prestress) or through a rigid-body lift (disc on the spring).
+    """
+    rims = "outer_rim|inner_rim" if has_disc else "outer_rim"
+    space = ngs.VectorH1(mesh, order=order, definedon=mesh.Boundaries("membrane"),
+                         dirichlet_bbnd=rims, complex=complex_)
+    return ngs.Compress(space)
+
+
+def membrane_measure(mesh, order: int, curve_order: int):
+    """ds on the membrane faces, with enough quadrature for curved elements.
+
+    The default rule (2 * order) integrates the gradients of a degree-``order``
+    field exactly only on straight elements; on elements curved to degree
+    ``curve_order`` > ``order`` the flat, uniformly stretched state is then not
+    an exact discrete equilibrium (residual ~5e-4 of the rim reactions for
+    order 2 on a curve-3 mesh).  Raising the rule by 2 (curve_order - order)
+    restores it to round-off (checked in the tests).
+    """
+    return ngs.ds(definedon=mesh.Boundaries("membrane"),
+                  bonus_intorder=2 * max(0, curve_order - order))
+
+
+def tangent_gradient(u):
+    """Surface gradient Grad_s u (3x3) on the flat reference."""
+    return ngs.Grad(u).Trace()
+
+
+def invariants(u, prestretch: float, gradient=None):
+    """(tr_c, det_c) of the in-plane Cauchy-Green tensor from the unstretched film.
+
+    ``gradient`` (Grad_s u) may be given instead of ``u``, for sums of fields
+    (``u0 + u`` in the coupled step) whose gradient NGSolve cannot take.
+    """
+    projector = ngs.CF((1, 0, 0, 0, 1, 0, 0, 0, 0), dims=(3, 3))
+    normal_dyad = ngs.CF((0, 0, 0, 0, 0, 0, 0, 0, 1), dims=(3, 3))
+    deformation = projector + (tangent_gradient(u) if gradient is None else gradient)
+    ct = deformation.trans * deformation + normal_dyad
+    return prestretch**2 * (ngs.Trace(ct) - 1), prestretch**4 * ngs.Det(ct)
+
+
+def energy_density(u, material: Membrane, voltage, gradient=None):
+    """Membrane energy per pre-stretched area h0/lambda_p^2 Psi_em [J/m^2] (eq. 7, 20).
+
+    ``voltage`` may be a number or an NGSolve Parameter [V]; ``gradient`` as
+    in :func:`invariants`.
+    """
+    tr_c, det_c = invariants(u, material.prestretch, gradient)
+    return material.thickness / material.prestretch**2 * material.free_energy(
+        tr_c, det_c, voltage)
+
+
+def material_energy_density(base_gradient, increment_gradient, material: Membrane):
+    """Strain energy per pre-stretched area whose Hessian at a zero increment is the
+    MATERIAL part of the tangent only [J/m^2] (for the Prony branches, :mod:`linearise`).
+
+    The whole tangent is ``d2/du2 Psi(C(u0 + u))`` = ``Psi'' : dC : dC`` (material) +
+    ``Psi' : d2C`` (initial stress) + the electrostatic terms.  With ``Ct`` replaced by
+    its linearisation about the prestress, ``Ct0 + D0^T g + g^T D0`` (``D0 = P +
+    Grad_s u0``, ``g = Grad_s u``, affine in ``u``: ``d2C = 0``), the Hessian of the strain
+    energy alone (eq. 20, no co-energy) is exactly ``Psi'' : dC : dC``.  A flat membrane
+    (``Grad_s u0`` in-plane) has ``dC = 0`` for an out-of-plane ``u``: its out-of-plane
+    rows vanish (docs/damping.md).
+    """
+    projector = ngs.CF((1, 0, 0, 0, 1, 0, 0, 0, 0), dims=(3, 3))
+    normal_dyad = ngs.CF((0, 0, 0, 0, 0, 0, 0, 0, 1), dims=(3, 3))
+    base = projector + base_gradient
+    ct = (base.trans * base + base.trans * increment_gradient + increment_gradient.trans * base
+          + normal_dyad)
+    stretch = material.prestretch
+    tr_c, det_c = stretch**2 * (ngs.Trace(ct) - 1), stretch**4 * ngs.Det(ct)
+    return material.thickness / stretch**2 * material.strain_energy(tr_c, det_c)
+
+
+def deformed_normal(u):
+    """Unit normal of the deformed surface, n = (F e_x x F e_y)/|.| (points to +z at z = 0)."""
+    deformation = ngs.CF((1, 0, 0, 0, 1, 0, 0, 0, 0), dims=(3, 3)) + tangent_gradient(u)
+    t1 = deformation * ngs.CF((1, 0, 0))
+    t2 = deformation * ngs.CF((0, 1, 0))
+    normal = ngs.Cross(t1, t2)
+    return normal / ngs.Norm(normal)
+
+
+def principal_stretches(u, prestretch: float):
+    """In-plane principal stretches (larger, smaller) from the unstretched film [-]."""
+    tr_c, det_c = invariants(u, prestretch)
+    disc = ngs.sqrt(ngs.IfPos(tr_c**2 - 4 * det_c, tr_c**2 - 4 * det_c, 0))
+    return ngs.sqrt((tr_c + disc) / 2), ngs.sqrt((tr_c - disc) / 2)
+
+
+def field_coefficients(u, material: Membrane, voltage: float) -> dict:
+    """Post-processing fields of the prestressed state (SI units) as CFs."""
+    lam1, lam2 = principal_stretches(u, material.prestretch)
+    _, det_c = invariants(u, material.prestretch)
+    d_tr, d_det, *_ = material.free_energy_partials(lam1**2 + lam2**2, lam1**2 * lam2**2,
+                                                    voltage)
+    sigma1 = 2 * lam1**2 * (d_tr + lam2**2 * d_det)    # materials.principal_stresses
+    sigma2 = 2 * lam2**2 * (d_tr + lam1**2 * d_det)
+    return {
+        "displacement": u,
+        "stretch_1": lam1,
+        "stretch_2": lam2,
+        "stress_1": sigma1,
+        "stress_2": sigma2,
+        "thickness": material.thickness_at(det_c),
+        "e_field": material.electric_field(det_c, voltage),
+        "normal": deformed_normal(u),
+    }

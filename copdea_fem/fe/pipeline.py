@@ -1,0 +1,177 @@
+"""The FE pipeline of a study: mesh -> prestress -> (dry | coupled) modes.
+
+The engine of the study (``mesh.engine``) is resolved once, by the caller or here
+(:func:`copdea_fem.fe.engines.engine_for`), and passed down: the 3-D quadrant
+(:mod:`copdea_fem.fe.quadrant.engine`) or the axisymmetric engine
+(:mod:`copdea_fem.fe.axisymmetric.engine`).  Its band solves are configured once from
+``study["eigen"]`` (:class:`copdea_fem.fe.bands.BandSolver`).  Nothing here writes a file:
+the result objects of :mod:`copdea_fem.api` do (:meth:`copdea_fem.api.Solution.write`).
+
+Entry points used by the API, the sweeps, the diagnosis, the benchmarks and the tests:
+:func:`prepare_mesh`, :func:`make_prestress_solver`, :func:`dry_modes`,
+:func:`coupled_modes`, :func:`run_solve`, :func:`run_force`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import time
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from copdea_fem.fe.airbox import check_air_lift
+from copdea_fem.fe.bands import BandSolver
+from copdea_fem.fe.engines import Engine, engine_for
+from copdea_fem.study import Study, StudyError
+
+if TYPE_CHECKING:
+    from copdea_fem.fe.eigen import BandResult, SectorBandResults
+    from copdea_fem.fe.modes import Mode
+    from copdea_fem.fe.prestress import PrestressedState
+
+__all__ = ["CoupledSolution", "SolveResult", "Timings", "coupled_modes", "dry_modes",
+           "make_prestress_solver", "prepare_mesh", "require_backend", "run_force",
+           "run_solve"]
+
+
+@dataclass
+class Timings:
+    """Wall time per pipeline stage [s]."""
+
+    seconds: dict[str, float] = field(default_factory=dict)
+
+    @contextlib.contextmanager
+    def stage(self, name: str):
+        start = time.perf_counter()
+        try:
+            yield
+        finally:
+            self.seconds[name] = self.seconds.get(name, 0.0) + time.perf_counter() - start
+
+
+@dataclass
+class CoupledSolution:
+    """What :func:`coupled_modes` returns: coupled and dry modes on one mesh."""
+
+    state: PrestressedState
+    modes: list[Mode]                   # coupled modes (structural and air), sorted by Re f
+    pressures: list[np.ndarray]         # pressure vector [Pa, free DOFs] of each coupled mode
+    dry_modes: list[Mode]
+    dry_partner_hz: dict[int, float]    # index in modes -> dry partner frequency [Hz]
+    eigen: SectorBandResults            # the band result of each sector (or order)
+    operators: list                     # the engine's coupled operators of each sector
+                                        # (or order), in solve order
+
+
+@dataclass
+class SolveResult:
+    """What :func:`run_solve` returns: the engine, the prestress and the modes."""
+
+    study: Study
+    engine: Engine
+    state: PrestressedState
+    modes: list[Mode]
+    timings: Timings
+    eigen: BandResult | SectorBandResults
+    coupled: CoupledSolution | None = None     # with air.enabled
+
+
+def require_backend(study: Study) -> None:
+    """Reject an ``eigen.backend`` this machine cannot run, before any meshing."""
+    from copdea_fem.fe.eigen import available_backends, backend_available
+    backend = study["eigen"]["backend"]
+    if not backend_available(backend):
+        raise StudyError(f"eigen.backend = {backend!r} is not available on this machine "
+                         f"(pardiso needs Intel MKL: pip install mkl); allowed here: "
+                         f"{', '.join(available_backends())}")
+
+
+def prepare_mesh(study: Study, with_air: bool | None = None, cache_dir=None,
+                 engine: Engine | None = None):
+    """The mesh of the study's engine: the meridian (r, z) mesh of the axisymmetric engine
+    (it always holds the air; not cached), else the (cached) 3-D mesh; ``cache_dir=None``:
+    :func:`copdea_fem.fe.quadrant.geometry.mesh_cache_dir`."""
+    engine = engine or engine_for(study)
+    return engine.prepare_mesh(study, with_air=with_air, cache_dir=cache_dir)
+
+
+def make_prestress_solver(study: Study, mesh, engine: Engine | None = None):
+    """The Newton solver of the study's engine on ``mesh`` (:func:`prepare_mesh`)."""
+    return (engine or engine_for(study)).prestress_solver(study, mesh)
+
+
+def _meshed(study, mesh, with_air, timings, cache_dir, engine):
+    """``mesh``, or the study's mesh made now (timed as the "mesh" stage)."""
+    if mesh is None:
+        with timings.stage("mesh"):
+            mesh = engine.prepare_mesh(study, with_air=with_air, cache_dir=cache_dir)
+    return mesh
+
+
+def dry_modes(study: Study, mesh=None, timings: Timings | None = None, cache_dir=None,
+              solver=None, initial_shifts=None, engine: Engine | None = None):
+    """Prestress and dry (in-vacuo) modes in the study's band: (state, modes, eigen result).
+
+    Sweeps pass ``solver`` (a :class:`copdea_fem.fe.prestress.MembraneSolver` on
+    ``mesh``: the prestress continues from its current equilibrium) and
+    ``initial_shifts`` (``[(sigma [rad^2/s^2], k), ...]``, see
+    :func:`copdea_fem.fe.eigen.solve_band`); the defaults solve from scratch.
+    """
+    timings = timings or Timings()
+    require_backend(study)
+    engine = engine or engine_for(study)
+    mesh = _meshed(study, mesh, study["air"]["enabled"], timings, cache_dir, engine)
+    return engine.dry_modes(study, mesh, timings, solver, initial_shifts,
+                            BandSolver.from_study(study))
+
+
+def coupled_modes(study: Study, mesh=None, timings: Timings | None = None, cache_dir=None,
+                  solver=None, initial_shifts=None,
+                  engine: Engine | None = None) -> CoupledSolution:
+    """Prestress, dry modes and fully-coupled membrane-air modes (Sect. 3.1.3).
+
+    On a quadrant mesh (``mesh.symmetry: quarter``, :mod:`copdea_fem.fe.symmetry`)
+    the dry and coupled bands are solved per mirror-symmetry sector and merged.
+    ``solver`` and ``initial_shifts`` are the sweep's reuse hooks, as in
+    :func:`dry_modes`: the prestress continues from ``solver``'s equilibrium,
+    and the coupled band solves start at ``initial_shifts`` (a neighbouring
+    point's coupled shifts and mode counts, per sector: ``{sector name or
+    "all": shifts}``); the dry partner solves start afresh.
+    """
+    timings = timings or Timings()
+    require_backend(study)
+    check_air_lift(study)
+    engine = engine or engine_for(study)
+    mesh = _meshed(study, mesh, True, timings, cache_dir, engine)
+    return engine.coupled_modes(study, mesh, timings, solver, initial_shifts,
+                                BandSolver.from_study(study))
+
+
+def run_solve(study: Study, cache_dir=None, engine: Engine | None = None) -> SolveResult:
+    """Prestress and modes of ``copdea-fem solve`` (coupled when ``air.enabled``)."""
+    timings = Timings()
+    engine = engine or engine_for(study)
+    coupled = None
+    if study["air"]["enabled"]:
+        coupled = coupled_modes(study, timings=timings, cache_dir=cache_dir, engine=engine)
+        state, modes, eigen_result = coupled.state, coupled.modes, coupled.eigen
+    else:
+        state, modes, eigen_result = dry_modes(study, timings=timings, cache_dir=cache_dir,
+                                               engine=engine)
+    return SolveResult(study, engine, state, modes, timings, eigen_result, coupled)
+
+
+def run_force(study: Study, z_values, voltages, cache_dir=None,
+              engine: Engine | None = None) -> np.ndarray:
+    """Static disc force F(z) [N] at each voltage [V] and z [m] (Fig. 4b):
+    ``forces[i, j]`` at ``voltages[i]``, ``z_values[j]``."""
+    from copdea_fem.fe.prestress import force_displacement
+
+    engine = engine or engine_for(study)
+    with engine.threads():
+        mesh = engine.prepare_mesh(study, with_air=False, cache_dir=cache_dir)
+        return force_displacement(study, mesh, z_values, voltages,
+                                  new_solver=lambda study, mesh: engine.prestress_solver(
+                                      study, mesh))

@@ -1,0 +1,227 @@
+r"""The forced response on the 3-D quadrant engine (any frame, the square one included).
+
+A uniform electrode drives a field that is even about x = 0 and y = 0, so only the
+even-even sector of the quadrant (:mod:`copdea_fem.fe.symmetry`) responds; its pencil is
+:meth:`copdea_fem.fe.coupled.CoupledAssembly.restrict` of that sector.  Forcing and loss are
+those of :mod:`copdea_fem.fe.forced.harmonic` (the derivation there), from the 3-D energy of
+:func:`copdea_fem.fe.membrane.energy_density` on the quadrant's membrane:
+``f = -2 (R(u0; V_b) - R(u0; 0)) / V_b`` reduced to the sector's free DOFs (and
+``lift . f`` for the disc on the spring), ``K_el`` the Hessian at ``(u0, V = 0)``.
+
+Observation: the vibrometer's points at projected radius ``r`` and polar angles
+``OBSERVATION_ANGLES`` in the quadrant (the square frame makes the response depend slightly
+on the angle; the average spectrum averages |v| over radii and angles); the reference point
+of ``(r cos phi, r sin phi)`` is found on the prestressed profile along that ray.  Sound:
+Kirchhoff-Helmholtz over the sphere 0.85 R as in :mod:`copdea_fem.fe.forced.radiation`, here with 3-D surface
+quadrature (Gauss in the polar angle, trapezoidal in the azimuth), the quadrant's field
+unfolded by the even-even parity ``p(x, y, z) = p(|x|, |y|, z)``.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+
+import ngsolve as ngs
+import numpy as np
+
+from copdea_fem.fe.forced.harmonic import ForcedOrder, reduce_matrix_3d, reduce_vector_3d
+from copdea_fem.fe.forced.problem import DrivenSector, OrderZero
+from copdea_fem.fe.forced.radiation import AZIMUTH_POINTS, polar_quadrature, pressure_parts
+
+#: Polar angles of the observation points in the quadrant [rad].
+OBSERVATION_ANGLES = np.radians([11.25, 33.75, 56.25, 78.75])
+
+
+logger = logging.getLogger(__name__)
+
+
+def _energy_form(state, voltage):
+    from copdea_fem.fe.membrane import energy_density
+    u = state.space.TrialFunction()
+    form = ngs.BilinearForm(state.space, symmetric=False)
+    form += ngs.Variation(energy_density(u, state.material, voltage) * state.measure)
+    return form
+
+
+def quadrant_forcing(state, operators):
+    """f [N/V] on the sector's unknowns and the equilibrium residual (:mod:`.harmonic`)."""
+    voltage_b = float(state.voltage)
+    voltage = ngs.Parameter(voltage_b)
+    form = _energy_form(state, voltage)
+    residuals = []
+    for value in (voltage_b, 0.0):
+        voltage.Set(value)
+        out = state.displacement.vec.CreateVector()
+        form.Apply(state.displacement.vec, out)
+        residuals.append(np.array(out.FV().NumPy()) * 1.0)
+    at_bias, at_zero = residuals
+    force = -2.0 * (at_bias - at_zero) / voltage_b
+    free = operators.free_dofs
+    balance = np.linalg.norm(at_bias[free]) / max(np.linalg.norm(at_zero[free]), 1e-300)
+    return reduce_vector_3d(force, operators), float(balance)
+
+
+def quadrant_elastic(state, operators):
+    """K_el [N/m] on the sector's unknowns: the Hessian at (u0, V = 0)."""
+    from copdea_fem.fe.linearise import to_scipy
+    form = _energy_form(state, ngs.Parameter(0.0))
+    form.AssembleLinearization(state.displacement.vec)
+    return reduce_matrix_3d(to_scipy(form.mat), operators)
+
+
+def prepare_quadrant(study):
+    """Mesh, prestress, coupled assembly and the even-even sector, forced."""
+    from copdea_fem.fe.coupled import assemble_coupled
+    from copdea_fem.fe.linearise import linearised_operators, membrane_matrices, operator_damping
+    from copdea_fem.fe.prestress import solve_prestress
+    from copdea_fem.fe.quadrant.geometry import study_mesh
+    from copdea_fem.fe.symmetry import SECTORS
+
+    timings = {}
+    start = time.perf_counter()
+    mesh = study_mesh(study, with_air=True)
+    logger.info("prestress (Newton, load steps in z then V_b) ...")
+    state = solve_prestress(study, mesh)
+    timings["prestress"] = time.perf_counter() - start
+    start = time.perf_counter()
+    matrices = membrane_matrices(state)
+    forms = assemble_coupled(study, mesh, state)
+    sector = SECTORS[0] if state.symmetry.quarter else None
+    operators = linearised_operators(state, study, sector, matrices)
+    coupled = forms.restrict(operators)
+    force, balance = quadrant_forcing(state, operators)
+    elastic = quadrant_elastic(state, operators)
+    forced = ForcedOrder.from_parts(coupled, force, elastic, balance, study["eigen"]["backend"])
+    forced.with_damping(operator_damping(operators, study))
+    timings["assembly"] = time.perf_counter() - start
+    return OrderZero(study, state, coupled, forced, timings, QUADRANT_SECTOR)
+
+
+class QuadrantObserver:
+    """u_z and u_r = u . e_r at projected radii and OBSERVATION_ANGLES (module doc)."""
+
+    def __init__(self, state, operators, fractions):
+        self.state, self.operators = state, operators
+        mesh = state.mesh
+        r_i, r_o = state.inner_radius, state.outer_radius
+        grid = np.linspace(r_i, r_o, 401)
+        self.projected = r_i + np.asarray(fractions, float) * (r_o - r_i)
+        points, directions = [], []
+        for phi in OBSERVATION_ANGLES:
+            e = np.array([np.cos(phi), np.sin(phi)])
+            ray = mesh(grid * e[0], grid * e[1], np.zeros_like(grid), ngs.BND)
+            u0 = np.asarray(state.displacement(ray))
+            deformed = grid + u0[:, :2] @ e
+            reference = np.interp(self.projected, deformed, grid)
+            points.append(reference[:, None] * e[None, :])
+            directions.append(np.broadcast_to(e, (reference.size, 2)))
+        self.points = np.concatenate(points)
+        self.directions = np.concatenate(directions)
+        self.mesh_points = mesh(self.points[:, 0], self.points[:, 1],
+                                np.zeros(len(self.points)), ngs.BND)
+        self.gf = ngs.GridFunction(state.space)
+
+    def observe(self, membrane_vectors):
+        """(axial, radial) (points, columns); points = radii x angles, radius fastest."""
+        full = self.operators.to_full(np.asarray(membrane_vectors))
+        axial = np.zeros((len(self.points), full.shape[1]), complex)
+        radial = np.zeros_like(axial)
+        for k in range(full.shape[1]):
+            for part, factor in ((full[:, k].real, 1.0), (full[:, k].imag, 1j)):
+                self.gf.vec.FV().NumPy()[:] = part
+                values = np.asarray(self.gf(self.mesh_points))
+                axial[:, k] += factor * values[:, 2]
+                radial[:, k] += factor * np.einsum("ij,ij->i", values[:, :2], self.directions)
+        return axial, radial
+
+    def average(self, values):
+        """Mean over angles of (points, ...) -> (radii, ...)."""
+        return values.reshape(len(OBSERVATION_ANGLES), -1, *values.shape[1:])
+
+
+class QuadrantSphere:
+    """p, dp/drho of sector pressure vectors on the Kirchhoff sphere (3-D quadrature)."""
+
+    def __init__(self, coupled, radius: float, hemispheres=("upper", "lower")):
+        mesh = coupled.pressure_space.mesh
+        self.coupled, self.radius = coupled, radius
+        polar, weight = polar_quadrature(hemispheres)
+        phi = 2 * np.pi * (np.arange(AZIMUTH_POINTS) + 0.5) / AZIMUTH_POINTS
+        theta, azimuth = np.meshgrid(polar, phi, indexing="ij")
+        self.xyz = radius * np.stack([np.sin(theta) * np.cos(azimuth),
+                                      np.sin(theta) * np.sin(azimuth), np.cos(theta)],
+                                     axis=-1).reshape(-1, 3)
+        self.area = (np.repeat(weight * np.sin(polar), AZIMUTH_POINTS) * radius ** 2
+                     * 2 * np.pi / AZIMUTH_POINTS)
+        folded = np.abs(self.xyz[:, :2]) if coupled.membrane.sector is not None else \
+            self.xyz[:, :2]
+        self.points = mesh(folded[:, 0], folded[:, 1], self.xyz[:, 2])
+        self.sign = np.where(self.xyz[:, :2] < 0, -1.0, 1.0) if coupled.membrane.sector \
+            is not None else np.ones((len(self.xyz), 2))
+        self.gf = ngs.GridFunction(coupled.pressure_space)
+        p, q = self.gf.components
+        self._upper = ngs.CF((p, ngs.grad(p)))
+        self._lower = ngs.CF((p + q, ngs.grad(p) + ngs.grad(q)))
+        self.is_upper = self.xyz[:, 2] > 0
+        self._upper_points = self.points[self.is_upper]
+        self._lower_points = self.points[~self.is_upper]
+        self.normal = self.xyz / radius
+
+    def sample(self, pressure_vectors):
+        pressure_vectors = np.atleast_2d(np.asarray(pressure_vectors).T).T
+        p_values = np.zeros((len(self.xyz), pressure_vectors.shape[1]), complex)
+        dp_values = np.zeros_like(p_values)
+        for k, factor in pressure_parts(self.gf, self.coupled.pressure_free, pressure_vectors):
+            values = np.empty((len(self.xyz), 4), complex)     # each half at its points
+            values[self.is_upper] = np.asarray(self._upper(self._upper_points))
+            values[~self.is_upper] = np.asarray(self._lower(self._lower_points))
+            gradient = values[:, 1:].copy()
+            gradient[:, :2] *= self.sign          # even parity: d/dx flips with x
+            p_values[:, k] += factor * values[:, 0]
+            dp_values[:, k] += factor * np.einsum("ij,ij->i", gradient, self.normal)
+        return p_values, dp_values
+
+    def kernels(self, microphone, wavenumber: float, baffle: bool):
+        x = np.asarray(microphone, float)
+        kp = np.zeros(len(self.xyz), complex)
+        kg = np.zeros_like(kp)
+        for source in ([x, x * np.array([1, 1, -1])] if baffle else [x]):
+            d_vec = self.xyz - source
+            d = np.linalg.norm(d_vec, axis=1)
+            green = np.exp(1j * wavenumber * d) / (4 * np.pi * d)
+            kp += (1j * wavenumber - 1 / d) * green * np.einsum("ij,ij->i", d_vec,
+                                                                 self.normal) / d
+            kg += green
+        return kp * self.area, kg * self.area
+
+
+def _classify(problem, result):
+    """The modes of the forced even-even band, with their membrane-energy fractions."""
+    from copdea_fem.fe.modes import ModeSampler, coupled_mode_list
+    modes, _ = coupled_mode_list(problem.coupled, result,
+                                 problem.study["air"]["min_membrane_energy"],
+                                 ModeSampler(problem.state))
+    return modes
+
+
+def _label(modes) -> None:
+    from copdea_fem.fe.modes import AIR, assign_labels
+    for mode in modes:
+        if mode.kind == AIR:
+            mode.label, mode.m, mode.n = "air", 0, 0
+    assign_labels([mode for mode in modes if mode.kind != AIR])
+
+
+def _write_shapes(staging, state, coupled, shapes, pressures):
+    from copdea_fem.fe.quadrant.fields import MembraneSampler, write_air_vtus, write_mode_vtus
+    return (write_mode_vtus(staging, state, shapes, MembraneSampler(state.mesh)),
+            write_air_vtus(staging, [coupled], shapes, pressures))
+
+
+QUADRANT_SECTOR = DrivenSector(
+    name="even-even sector", excited="even-even symmetry sector",
+    summary="3-D, even-even sector", classify=_classify, label=_label,
+    observer=QuadrantObserver, angles=len(OBSERVATION_ANGLES), sphere=QuadrantSphere,
+    shape_sector=lambda operators: operators.sector, write_shapes=_write_shapes,
+    default_method="reduced")      # its modal band costs minutes (issue 23)

@@ -1,0 +1,379 @@
+"""Flat pre-stretched reference geometry and its Netgen mesh (Sect. 2, 5.1).
+
+Everything lives in the plane z = 0 of the flat pre-stretched configuration:
+the membrane annulus r_i < r < r_o, the rigid disc r < r_i, and the rigid
+frame (a square of side ``frame_side`` around the membrane, an infinite
+baffle, or nothing).  With air, the plane splits a sphere of radius R (air)
+and a spherical shell R < r < R + t (PML) into upper and lower halves; the
+plane faces are glued in as internal faces so that the pressure may jump
+across them.
+
+Named regions (the rest of the package refers to them only by these names):
+
+volumes   ``air_upper``, ``air_lower``, ``pml_upper``, ``pml_lower``
+faces     ``membrane``, ``disc``, ``frame`` (screens, z = 0),
+          ``aperture`` (open part of the plane inside the air sphere),
+          ``pml_plane`` (the plane inside the PML), ``interface`` (air|PML
+          sphere), ``outer`` (outside of the PML), ``ale_guide`` (internal
+          cylinders r = r_i, r_o, |z| < L: no physics, they make the mesh
+          conform to the kinks of the air-mesh motion, see :mod:`ale`)
+edges     ``outer_rim`` (r = r_o), ``inner_rim`` (r = r_i), ``frame_edge``
+
+With ``symmetry = "quarter"`` (air meshes only) the shape is cut to the
+quadrant x >= 0, y >= 0: circle, square frame and sphere are symmetric about
+both planes, so every mode is even or odd about each (:mod:`symmetry`).  The
+cut faces are ``mirror_x`` (x = 0) and ``mirror_y`` (y = 0); the cut edges
+``mirror_x_edge`` and ``mirror_y_edge``.
+
+Without air only the plane faces are meshed (a surface mesh in 3-D space):
+the membrane field and its forms are the same in both cases.
+"""
+
+from __future__ import annotations
+
+import gzip
+import hashlib
+import json
+import logging
+import math
+import os
+import uuid
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+from copdea_fem.fe.airbox import ale_decay_length
+from copdea_fem.fingerprint import mesh_fingerprint
+
+SCREENS = "membrane|disc|frame"
+SYMMETRIES = ("quarter", "none")
+
+GEOMETRY_VERSION = 2  # keys the mesh cache with the code fingerprint (GeometrySpec.key)
+CACHE_VARIABLE = "COPDEA_FEM_MESH_CACHE"
+
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class GeometrySpec:
+    """All that determines the mesh [m]; its hash keys the mesh cache."""
+
+    outer_radius: float
+    inner_radius: float
+    frame: str
+    frame_side: float
+    with_air: bool
+    domain_radius: float
+    pml_thickness: float
+    membrane_size: float
+    air_size: float
+    grading: float
+    symmetry: str = "none"
+
+    @classmethod
+    def from_study(cls, study, with_air: bool | None = None) -> "GeometrySpec":
+        g, a, m = study["geometry"], study["air"], study["mesh"]
+        return cls(outer_radius=g["outer_radius"], inner_radius=g["inner_radius"],
+                   frame=g["frame"], frame_side=g["frame_side"],
+                   with_air=a["enabled"] if with_air is None else with_air,
+                   domain_radius=a["domain_radius"], pml_thickness=a["pml_thickness"],
+                   membrane_size=m["membrane_size"], air_size=m["air_size"],
+                   grading=m["grading"],
+                   symmetry=m["symmetry"] if (a["enabled"] if with_air is None else with_air)
+                   else "none")
+
+    def key(self) -> str:
+        data = asdict(self)
+        if not self.with_air:  # the air keys do not change a plane-only mesh
+            for name in ("domain_radius", "pml_thickness", "air_size"):
+                data.pop(name)
+        if self.symmetry == "none":    # full meshes keep the keys they had before the key
+            data.pop("symmetry")
+        data["version"] = GEOMETRY_VERSION
+        # the code that builds and meshes the shapes (copdea_fem.fingerprint): a change
+        # there gives new keys, never a stale mesh
+        data["code"] = mesh_fingerprint()
+        text = json.dumps(data, sort_keys=True)
+        return hashlib.sha1(text.encode()).hexdigest()[:12]
+
+
+def _extent(shape) -> float:
+    """Largest |x| or |y| of a shape's bounding box [m] (OCC pads it by ~1e-7)."""
+    lo, hi = shape.bounding_box
+    return max(abs(lo[0]), abs(hi[0]), abs(lo[1]), abs(hi[1]))
+
+
+def build_shape(spec: GeometrySpec):
+    """OCC shape with every region, face and rim edge named (see module doc)."""
+    from netgen.occ import Box, Cylinder, Glue, Pnt, Sphere, WorkPlane, Z
+
+    r_o, r_i = spec.outer_radius, spec.inner_radius
+    disc_hole = WorkPlane().Circle(r_i).Face() if r_i > 0 else None
+    outer_disc = WorkPlane().Circle(r_o).Face()
+    plane = [outer_disc - disc_hole if disc_hole else outer_disc]
+    if disc_hole:
+        plane.append(disc_hole)
+    R, t = spec.domain_radius, spec.pml_thickness
+    if spec.frame == "square":
+        square = WorkPlane().RectangleC(spec.frame_side, spec.frame_side).Face()
+        plane.append(square - outer_disc)
+        inner_of_aperture = square
+    elif spec.frame == "baffle":
+        plane.append(WorkPlane().Circle(R).Face() - outer_disc if spec.with_air else None)
+        inner_of_aperture = None
+    else:
+        inner_of_aperture = outer_disc
+    plane = [face for face in plane if face is not None]
+    parts = list(plane)
+    if spec.with_air:
+        if inner_of_aperture is not None:
+            parts.append(WorkPlane().Circle(R).Face() - inner_of_aperture)
+        parts.append(WorkPlane().Circle(R + t).Face() - WorkPlane().Circle(R).Face())
+        ball = Sphere(Pnt(0, 0, 0), R)
+        shell = Sphere(Pnt(0, 0, 0), R + t) - ball
+        big = 2 * (R + t)
+        upper = Box(Pnt(-big, -big, 0), Pnt(big, big, big))
+        lower = Box(Pnt(-big, -big, -big), Pnt(big, big, 0))
+        for solid, name in ((ball * upper, "air_upper"), (ball * lower, "air_lower"),
+                            (shell * upper, "pml_upper"), (shell * lower, "pml_lower")):
+            solid.mat(name)
+            parts.insert(0, solid)
+        half_height = ale_decay_length(R, r_o)
+        for radius in (r_i, r_o) if r_i > 0 else (r_o,):
+            cylinder = Cylinder(Pnt(0, 0, -half_height), Z, radius, 2 * half_height)
+            parts += [face for face in cylinder.faces if _height(face) > half_height]
+    shape = Glue(parts)
+    if spec.symmetry == "quarter":
+        if not spec.with_air:
+            raise ValueError("symmetry = 'quarter' is for meshes with air; allowed: none")
+        big = 2 * (R + t)
+        shape = shape * Box(Pnt(0, 0, -big), Pnt(big, big, big))
+    elif spec.symmetry != "none":
+        raise ValueError(f"symmetry = {spec.symmetry!r} is not allowed; allowed: "
+                         f"{', '.join(SYMMETRIES)}")
+    _name_faces(shape, spec)
+    return shape
+
+
+def _height(shape) -> float:
+    lo, hi = shape.bounding_box
+    return hi[2] - lo[2]
+
+
+def _name_faces(shape, spec: GeometrySpec) -> None:
+    r_o, r_i, R, t = spec.outer_radius, spec.inner_radius, spec.domain_radius, spec.pml_thickness
+    tol = 1e-5 * (R + t)     # OCC pads bounding boxes by ~1e-7 m, more after a cut
+
+    def near(value, target):
+        return abs(value - target) < tol + 1e-9
+
+    def mirror(lo, hi):
+        """``"mirror_x"`` / ``"mirror_y"`` for a shape in the plane x = 0 / y = 0."""
+        if spec.symmetry == "none":
+            return None
+        if abs(lo[0]) < tol and abs(hi[0]) < tol:
+            return "mirror_x"
+        if abs(lo[1]) < tol and abs(hi[1]) < tol:
+            return "mirror_y"
+        return None
+
+    for face in shape.faces:
+        lo, hi = face.bounding_box
+        extent = _extent(face)
+        if mirror(lo, hi):
+            face.name = mirror(lo, hi)
+        elif abs(lo[2]) < tol and abs(hi[2]) < tol:         # in the plane z = 0
+            if near(extent, r_o):
+                name = "membrane"
+            elif r_i > 0 and near(extent, r_i):
+                name = "disc"
+            elif spec.frame == "square" and near(extent, spec.frame_side / 2):
+                name = "frame"
+            elif near(extent, R):
+                name = "frame" if spec.frame == "baffle" else "aperture"
+            elif near(extent, R + t):
+                name = "pml_plane"
+            else:
+                raise RuntimeError(f"unclassified plane face of extent {extent:g} m")
+            face.name = name
+            if name == "membrane":
+                face.maxh = spec.membrane_size
+            elif name in ("disc", "frame"):
+                face.maxh = 2 * spec.membrane_size
+        elif _height(face) < 2 * ale_decay_length(R, r_o) + tol and extent < R - tol:
+            face.name = "ale_guide"
+        else:
+            face.name = "interface" if near(extent, R) else "outer"
+    for edge in shape.edges:
+        lo, hi = edge.bounding_box
+        extent = _extent(edge)
+        in_plane = abs(lo[2]) < tol and abs(hi[2]) < tol
+        if mirror(lo, hi):
+            edge.name = mirror(lo, hi) + "_edge"
+        elif in_plane and near(extent, r_o):
+            edge.name = "outer_rim"
+        elif in_plane and r_i > 0 and near(extent, r_i):
+            edge.name = "inner_rim"
+        elif in_plane and spec.frame == "square" and near(extent, spec.frame_side / 2):
+            edge.name = "frame_edge"
+        else:
+            edge.name = "far_edge"
+
+
+def generate_mesh(spec: GeometrySpec):
+    """Netgen mesh of the spec (uncurved), and the OCC geometry it came from."""
+    from netgen.occ import OCCGeometry
+
+    shape = build_shape(spec)
+    geometry = OCCGeometry(shape, dim=3)
+    logger.info(f"meshing ({'air + PML' if spec.with_air else 'plane faces only'}) ...")
+    maxh = spec.air_size if spec.with_air else 2 * spec.membrane_size
+    ngmesh = geometry.GenerateMesh(maxh=maxh, grading=spec.grading)
+    return ngmesh, geometry
+
+
+def mesh_cache_dir() -> Path:
+    """Folder of the mesh cache.
+
+    ``$COPDEA_FEM_MESH_CACHE`` when set (``--mesh-cache`` of the CLI sets it);
+    else ``meshes/`` of the source checkout this package is imported from (an
+    editable install); else the user cache folder (``platformdirs``:
+    ``~/.cache/copdea-fem/meshes`` on Linux).
+    """
+    if os.environ.get(CACHE_VARIABLE):
+        return Path(os.environ[CACHE_VARIABLE]).expanduser()
+    checkout = Path(__file__).resolve().parent.parent
+    if (checkout / "pyproject.toml").is_file() and (checkout / "meshes").is_dir():
+        return checkout / "meshes"
+    import platformdirs
+    return Path(platformdirs.user_cache_dir("copdea-fem")) / "meshes"
+
+
+def load_mesh(spec: GeometrySpec, curve_order: int, cache_dir: Path | None = None):
+    """The NGSolve mesh of the spec, curved to ``curve_order``, from the cache if there.
+
+    The cache file ``<cache_dir>/<hash>.vol.gz`` (default :func:`mesh_cache_dir`)
+    is keyed by :meth:`GeometrySpec.key`, so a sweep over z and V_b reuses one
+    mesh.  Its sidecar ``<hash>.json`` holds the spec and the file's size and
+    SHA-256, checked before Netgen reads the file (Netgen crashes on a truncated
+    one); a damaged entry is reported, discarded and meshed again.  The
+    geometry is rebuilt (cheap) to curve the loaded mesh.
+    """
+    import netgen.meshing
+    import ngsolve
+    from netgen.occ import OCCGeometry
+
+    say = logger.info
+    folder = Path(cache_dir) if cache_dir is not None else mesh_cache_dir()
+    path = folder / f"{spec.key()}.vol.gz"
+    problem = _cache_problem(path) if path.exists() else None
+    if problem:
+        say(f"mesh cache entry {path} is damaged ({problem}); discarded, meshing again")
+        for damaged in (path, _sidecar(path)):
+            damaged.unlink(missing_ok=True)
+    if path.is_file():
+        geometry = OCCGeometry(build_shape(spec), dim=3)
+        ngmesh = netgen.meshing.Mesh(dim=3)
+        ngmesh.Load(str(path))
+        ngmesh.SetGeometry(geometry)
+        say(f"mesh from cache {path.name}")
+    else:
+        ngmesh, geometry = generate_mesh(spec)
+        try:
+            _store(ngmesh, spec, path)
+        except OSError as error:
+            say(f"mesh cache {folder} cannot be written ({error.strerror or error}); "
+                "continuing without it")
+    mesh = ngsolve.Mesh(ngmesh)
+    mesh.Curve(curve_order)
+    return mesh
+
+
+def _sidecar(path: Path) -> Path:
+    return path.with_name(path.name.removesuffix(".vol.gz") + ".json")
+
+
+def _cache_problem(path: Path) -> str | None:
+    """Why a cache entry cannot be trusted, or None when its size and SHA-256 match."""
+    try:
+        record = json.loads(_sidecar(path).read_text())
+        expected_size, expected_hash = record["file_bytes"], record["file_sha256"]
+        data = path.read_bytes()
+    except (OSError, ValueError, KeyError, TypeError):
+        return "no valid sidecar with its size and SHA-256"
+    if len(data) != expected_size:
+        return f"{len(data)} bytes, the sidecar says {expected_size}"
+    if hashlib.sha256(data).hexdigest() != expected_hash:
+        return "SHA-256 differs from the sidecar"
+    return None
+
+
+def _store(ngmesh, spec: GeometrySpec, path: Path) -> None:
+    """Write a cache entry atomically: temporary files, checked, then renamed into place."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    unique = f"{os.getpid()}-{uuid.uuid4().hex[:8]}"
+    mesh_tmp = path.with_name(f".{path.name.removesuffix('.vol.gz')}.{unique}.vol.gz")
+    sidecar_tmp = path.with_name(f".{_sidecar(path).name}.{unique}")
+    try:
+        ngmesh.Save(str(mesh_tmp))
+        data = mesh_tmp.read_bytes()
+        gzip.decompress(data)            # a complete gzip stream, or BadGzipFile/EOFError
+        sidecar_tmp.write_text(json.dumps({**asdict(spec), "file_bytes": len(data),
+                                           "file_sha256": hashlib.sha256(data).hexdigest()},
+                                          indent=1))
+        mesh_tmp.replace(path)
+        sidecar_tmp.replace(_sidecar(path))
+    except (EOFError, gzip.BadGzipFile) as error:
+        raise OSError(f"Netgen wrote an incomplete file: {error}") from None
+    finally:
+        for leftover in (mesh_tmp, sidecar_tmp):
+            leftover.unlink(missing_ok=True)
+
+
+def estimate_size(spec: GeometrySpec, order: int, pressure_order: int) -> tuple[float, float]:
+    """Rough element count and unknowns [-] of the mesh of ``spec``, before meshing it.
+
+    Triangles of size h on the membrane, 2h on disc and frame (their ``maxh``);
+    with air, tetrahedra graded away from those faces at Netgen's ``grading`` g
+    up to ``air_size`` H (size h + g d at distance d: A (1 - h^2/H^2) / (0.236 g
+    h^2) regular tetrahedra per side of a face of area A, times 3 as counted on
+    the project's quadrant meshes), plus 0.3 of the air ball filled at size H.  Unknowns:
+    3 p^2 / 2 per membrane triangle (order p, three components), q^3 / 6 per
+    tetrahedron (pressure order q).  Within a factor ~2 of the real counts on
+    the project's meshes; meant to catch sizes that are far out, not to budget.
+    """
+    r_o, r_i, h = spec.outer_radius, spec.inner_radius, spec.membrane_size
+    fraction = 0.25 if spec.symmetry == "quarter" else 1.0
+    membrane = math.pi * (r_o**2 - r_i**2) * fraction
+    rest = math.pi * r_i**2
+    if spec.frame == "square":
+        rest += spec.frame_side**2 - math.pi * r_o**2
+    elif spec.frame == "baffle" and spec.with_air:
+        rest += math.pi * (spec.domain_radius**2 - r_o**2)
+    rest *= fraction
+    triangle = math.sqrt(3) / 4
+    membrane_triangles = membrane / (triangle * h**2)
+    elements = membrane_triangles + rest / (triangle * (2 * h)**2)
+    unknowns = 1.5 * order**2 * membrane_triangles
+    if spec.with_air:
+        coarse = spec.air_size
+        tetrahedra = 0.0
+        for area, size in ((membrane, h), (rest, 2 * h)):
+            size = min(size, coarse)
+            tetrahedra += 3 * area / (0.118 * spec.grading * size**2) * (1 - (size / coarse)**2)
+        radius = spec.domain_radius + spec.pml_thickness
+        tetrahedra += 0.3 * 4 / 3 * math.pi * radius**3 * fraction / (0.118 * coarse**3)
+        elements += tetrahedra
+        unknowns += tetrahedra * pressure_order**3 / 6
+    return elements, unknowns
+
+
+def study_mesh(study, with_air=None, cache_dir=None):
+    """The (cached) 3-D mesh of the study; ``cache_dir=None``: :func:`mesh_cache_dir`."""
+    spec = GeometrySpec.from_study(study, with_air=with_air)
+    return load_mesh(spec, study["mesh"]["curve_order"], cache_dir=cache_dir)
+
+
+def membrane_area(spec: GeometrySpec) -> float:
+    """Exact flat membrane area pi (r_o^2 - r_i^2) [m^2]."""
+    return math.pi * (spec.outer_radius**2 - spec.inner_radius**2)

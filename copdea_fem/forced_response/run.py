@@ -1,0 +1,305 @@
+"""``copdea-fem response``: study -> prestress -> m = 0 pencil -> forced response -> files.
+
+Pipeline: mesh, prestress (as ``solve``), the ALE air and the one coupled pencil a uniform
+electrode drives -- the order m = 0 on the axisymmetric engine
+(:func:`copdea_fem.fe.axisymmetric.operators.coupled_order_operators`), the even-even symmetry
+sector on the 3-D quadrant (:mod:`.quadrant`, any frame, the square one included) -- the
+voltage forcing (:mod:`.harmonic`), then either
+
+- ``response.method: auto`` (default): ``reduced`` on the 3-D engine, ``modal`` on the
+  axisymmetric one (:func:`resolved_method`);
+- ``response.method: modal``: the coupled modes with ``Re f <= modal_band f_end``
+  and ``|Im f| <= modal_band f_end``, the paper's modal damping ``reduced.damping_*`` and
+  ``membrane.loss_factor`` projected per mode, residual correction (:mod:`.harmonic`);
+- ``response.method: direct``: one sparse solve per line with ``membrane.loss_factor``
+  (the modal b/m has no meaning there and is not applied);
+- ``response.method: reduced``: the direct path's model (loss factor, Rayleigh, Prony)
+  projected on a rational Krylov basis built from a few shifts in the band
+  (:mod:`.reduced_basis`), a small dense solve per line.
+
+Lines: the chirp's (``excitation.*``, :class:`copdea_fem.reduced.response.Chirp`), each
+response line ``H(omega_k) V~_k`` with the chirp's line values (|FFT|/N), so the spectra
+compare with ``spectrum``'s line for line.
+
+Files (column names are a contract):
+
+- ``response_average.csv``: ``freq_hz, v_axial, v_radial`` [Hz, m/s, m/s] -- the mean of
+  |v| over ``reduced.scan_radii`` projected radii, as ``spectrum_average.csv`` (3-D: also
+  over the four angles of :data:`.quadrant.OBSERVATION_ANGLES`)
+- ``response_points.csv``: ``freq_hz, v_axial_q1, v_radial_q1, ..., v_radial_q3`` (3-D: |v|
+  averaged over those angles)
+- ``spl.csv``: ``freq_hz, spl_<microphone>...`` [Hz, dB re 20 uPa]
+- ``response_modes.csv``: ``label, kind, freq_hz, freq_im_hz, damping_per_mass,
+  membrane_energy_fraction`` of the modes used (modal path)
+- ``response.json``: method, far-field method, microphones [m], peaks, powers, timings
+- PNGs (``output.plots``): ``response_average.png`` (Fig. 12 style, the reduced model's
+  spectrum dashed), ``response_points.png``, ``spl.png``
+- ParaView (``output.paraview``): ``ods.pvd`` / ``air_ods.pvd`` -- operating-deflection shapes
+  (membrane displacement per volt of the line and velocity; air pressure) at the peaks
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from copdea_fem.fe.airbox import check_air_lift
+from copdea_fem.fe.forced.problem import OrderZero
+from copdea_fem.forced_response.files import AVERAGE_COLUMNS, MODE_COLUMNS, POINT_COLUMNS  # noqa: F401
+from copdea_fem.study import StudyError
+
+logger = logging.getLogger(__name__)
+
+
+def parse_microphones(study) -> list[tuple[str, np.ndarray]]:
+    """Named microphone positions (x, y, z) [m]: ``axis`` at ``response.microphone_distance``
+    on the +z axis, then those of ``response.microphones`` ("name = x, y, z; ...", units
+    allowed, e.g. ``side = 0.5 m, 0 m, 0.5 m``); parsed and checked with the study
+    (:func:`copdea_fem.study.response_microphones`), so a bad one never reaches a solve."""
+    from copdea_fem.study import response_microphones
+    return [(name, np.array(position)) for name, position in response_microphones(
+        study["response"]["microphones"], study["response"]["microphone_distance"],
+        study["geometry"]["frame"])]
+
+
+def prepare_order_zero(study) -> OrderZero:
+    """Mesh, prestress, ALE air and the forced pencil of the driven part of the problem (the
+    order m = 0 or the even-even sector: the engine's
+    :meth:`copdea_fem.fe.engines.Engine.forced_problem`)."""
+    from copdea_fem.fe.engines import engine_for
+
+    if study["load"]["voltage"] <= 0:
+        raise StudyError("load.voltage = 0 is not allowed for `response`; allowed: > 0 V (the "
+                         "linear forcing V_b dC/du vanishes without a bias)")
+    check_air_lift(study)
+    return engine_for(study).forced_problem(study)
+
+
+def modal_solution(problem: OrderZero, f_end: float):
+    """(ModalBasis, modes) of the m = 0 band (module doc), labelled as ``solve`` labels them."""
+    from copdea_fem.fe.eigen import solve_band
+    from copdea_fem.fe.forced.harmonic import ModalBasis, modal_damping
+    from copdea_fem.fe.modes import AIR
+
+    study, coupled = problem.study, problem.coupled
+    reach = study["response"]["modal_band"] * f_end
+    eigen = study["eigen"]
+    logger.info(f"coupled modes of the {problem.sector.name}, Re f <= {reach:g} Hz, "
+                f"|Im f| <= {reach:g} Hz ...")
+    result = solve_band(coupled.stiffness, coupled.mass, 0.0, reach, factorize=coupled.factorize,
+                        hermitian=False, max_imag_hz=reach, backend=eigen["backend"],
+                        max_modes=eigen["max_modes"], residual_tol=eigen["residual_tol"])
+    modes = problem.sector.classify(problem, result)
+    for mode in modes:
+        # air/PML modes: little membrane energy, or damped beyond what `solve` looks for
+        # (its band holds |Im f| <= eigen.max_damping_ratio f_max; PML modes reach zeta ~ 1)
+        if (mode.membrane_energy_fraction < study["air"]["min_membrane_energy"]
+                or mode.damping_ratio > eigen["max_damping_ratio"]):
+            mode.kind = AIR
+    problem.sector.label(modes)
+    if study["membrane"].get("prony"):
+        logger.warning("response.method: modal with membrane.prony: the modal path is a few % "
+                       "off the exact response (its static correction uses the relaxed "
+                       "stiffness; docs/response.md); response.method: reduced (or direct) is "
+                       "exact for any damping")
+    damping = modal_damping([m.label for m in modes], [m.kind for m in modes], study)
+    basis = ModalBasis.build(problem.forced, result.eigenvalues, result.vectors,
+                             [m.label for m in modes], damping)
+    return basis, modes
+
+
+def states_material_damping(study) -> bool:
+    """Whether the membrane carries its own loss (``membrane.loss_factor``, Rayleigh or a
+    Prony series): the model the direct and reduced paths solve, with no modal b/m."""
+    membrane = study["membrane"]
+    return bool(membrane["loss_factor"] > 0 or membrane["rayleigh_alpha"] > 0
+                or membrane["rayleigh_beta"] > 0 or membrane["prony"])
+
+
+def resolved_method(problem: OrderZero) -> str:
+    """``response.method``, with ``auto`` resolved: ``modal`` where the study's damping is
+    the paper's modal b/m (``reduced.damping_*``, which only the modal path carries: the
+    reduced path would leave the peaks damped by radiation alone), else what the driven
+    sector prefers -- ``reduced`` on the 3-D engine (its modal band costs minutes),
+    ``modal`` on the axisymmetric one."""
+    method = problem.study["response"]["method"]
+    if method != "auto":
+        return method
+    if problem.sector is None or not states_material_damping(problem.study):
+        return "modal"
+    return problem.sector.default_method
+
+
+@dataclass
+class ResponseResult:
+    """Spectra (per line, chirp amplitudes applied) and what produced them."""
+
+    frequency_hz: np.ndarray
+    average_axial: np.ndarray         # m/s
+    average_radial: np.ndarray
+    point_axial: np.ndarray           # (lines, 3) m/s
+    point_radial: np.ndarray
+    microphones: list                 # [(name, position [m])]
+    pressure: np.ndarray              # (lines, microphones) complex amplitude [Pa]
+    spl_db: np.ndarray                # (lines, microphones)
+    method: str
+    far_field: str
+    modes: list
+    basis: object                     # ModalBasis (modal), ReducedBasis (reduced) or None
+    vectors: np.ndarray               # (n, K) basis vectors
+    weights: np.ndarray               # (lines, K): x(line) = vectors @ weights[line]
+    problem: OrderZero
+    timings: dict
+    peaks_hz: list = field(default_factory=list)
+    out_dir: Path | None = None
+
+    def solution(self, line: int) -> np.ndarray:
+        """Scaled solution vector of one line (chirp amplitude applied)."""
+        return self.vectors @ self.weights[line]
+
+
+def _far_field_method(study) -> str:
+    if study["geometry"]["frame"] == "baffle":
+        return ("Rayleigh (baffle): Kirchhoff-Helmholtz with the half-space Green's function over "
+                "the hemisphere on the microphone's side")
+    return "Kirchhoff-Helmholtz over a sphere inside the air (free-space Green's function)"
+
+
+def forced_response(problem: OrderZero, frequency_hz=None,
+                    voltage_lines=None) -> ResponseResult:
+    """Spectra and SPL on the chirp's lines (or given lines and complex amplitudes [V])."""
+    from copdea_fem.fe.forced.radiation import KIRCHHOFF_FRACTION, spl_db
+    from copdea_fem.reduced.response import QUARTER_POINTS, Chirp, scan_fractions
+
+    study, forced, coupled = problem.study, problem.forced, problem.coupled
+    timings = dict(problem.timings)
+    if frequency_hz is None:
+        frequency_hz, voltage_lines = Chirp.from_study(study).lines()
+    frequency_hz = np.asarray(frequency_hz, float)
+    voltage_lines = np.asarray(voltage_lines, complex)
+    method, eta = resolved_method(problem), study["membrane"]["loss_factor"]
+    start = time.perf_counter()
+    modes, basis = [], None
+    if method == "modal":
+        basis, modes = modal_solution(problem, float(frequency_hz.max()))
+        vectors = basis.basis
+        weights = basis.coefficients(frequency_hz, eta) * voltage_lines[:, None]
+    elif method == "reduced":
+        from copdea_fem.forced_response.reduced_basis import build_reduced_basis
+        logger.info(f"reduced basis (rational Krylov) on {frequency_hz.size} lines; the "
+                    "direct path's damping (membrane.loss_factor, rayleigh_*, prony and the "
+                    "radiation), not the modal path's b/m (reduced.damping_*) ...")
+        basis = build_reduced_basis(forced, frequency_hz, eta,
+                                    tol=study["response"]["reduced_tol"])
+        vectors = basis.vectors
+        weights = basis.line_coefficients * voltage_lines[:, None]
+    else:
+        logger.info(f"direct solves on {frequency_hz.size} lines ...")
+        vectors = forced.direct(frequency_hz, eta)
+        weights = np.diag(voltage_lines)
+    timings["solve"] = time.perf_counter() - start
+    start = time.perf_counter()
+    omega = 2 * np.pi * frequency_hz
+    observer_type, angles = problem.sector.observer, problem.sector.angles
+    membrane = forced.membrane(vectors)
+    spectra = []
+    for fractions in (scan_fractions(study["reduced"]["scan_radii"]), QUARTER_POINTS):
+        obs = observer_type(problem.state, coupled.membrane, fractions)
+        axial, radial = obs.observe(membrane)
+        # |v| per point, then the mean over the angles of each radius (3-D: the square frame)
+        spectra.append(tuple(np.abs(omega[:, None] * (weights @ part.T)).reshape(
+            frequency_hz.size, angles, -1).mean(axis=1) for part in (axial, radial)))
+    (scan_axial, scan_radial), (point_axial, point_radial) = spectra
+    timings["velocity"] = time.perf_counter() - start
+    start = time.perf_counter()
+    microphones = parse_microphones(study)
+    radius = KIRCHHOFF_FRACTION * study["air"]["domain_radius"]
+    baffle = study["geometry"]["frame"] == "baffle"
+    sphere = problem.sector.sphere
+    samplers = ({"upper": sphere(coupled, radius, ("upper",)),
+                 "lower": sphere(coupled, radius, ("lower",))} if baffle else
+                {"all": sphere(coupled, radius)})
+    pressure_vectors = forced.pressure(vectors)
+    sampled = {name: sampler.sample(pressure_vectors) for name, sampler in samplers.items()}
+    pressure = np.zeros((frequency_hz.size, len(microphones)), complex)
+    for j, (_, position) in enumerate(microphones):      # z != 0 in a baffle: study.py
+        side = ("upper" if position[2] > 0 else "lower") if baffle else "all"
+        sampler, (p_values, dp_values) = samplers[side], sampled[side]
+        field_p, field_dp = weights @ p_values.T, weights @ dp_values.T     # (lines, points)
+        for line, w in enumerate(omega):
+            kp, kg = sampler.kernels(position, w / study["air"]["sound_speed"], baffle)
+            pressure[line, j] = kp @ field_p[line] - kg @ field_dp[line]
+    timings["sound"] = time.perf_counter() - start
+    result = ResponseResult(frequency_hz, scan_axial.mean(axis=1), scan_radial.mean(axis=1),
+                            point_axial, point_radial, microphones, pressure, spl_db(pressure),
+                            method, _far_field_method(study), modes, basis, vectors, weights,
+                            problem, timings)
+    result.peaks_hz = spectrum_peaks(result, study["response"]["peaks"])
+    return result
+
+
+def spectrum_peaks(result: ResponseResult, count: int) -> list[float]:
+    """The ``count`` highest local maxima of the average axial + radial spectrum [Hz]."""
+    from scipy.signal import find_peaks
+    total = result.average_axial + result.average_radial
+    index, _ = find_peaks(total)
+    best = index[np.argsort(total[index])[::-1][:count]]
+    return sorted(float(result.frequency_hz[k]) for k in best)
+
+
+def reduced_spectrum(study, result: ResponseResult):
+    """The reduced model's spectra on the same lines, added masses from the FE coupled
+    frequencies of this response (``None`` when the reduced model cannot be built)."""
+    from copdea_fem.reduced.model import build_reduced, spectra_of
+    from copdea_fem.reduced.rings import ReducedModelError
+    fe = {mode.label: mode.freq_hz for mode in result.modes if mode.kind != "air"}
+    try:
+        setup = build_reduced(study, fe)
+    except (ReducedModelError, StudyError):
+        return None, None
+    return setup, spectra_of(setup)
+
+
+def run_response(study, out_dir=None) -> ResponseResult:
+    """The whole ``copdea-fem response``: solve, then the result files (module doc)."""
+    problem = prepare_order_zero(study)
+    result = forced_response(problem)
+    if out_dir is not None:
+        from copdea_fem.forced_response.files import write_response
+        logger.info("writing results ...")
+        start = time.perf_counter()
+        write_response(result, Path(out_dir), reduced_spectrum(study, result))
+        result.timings["output"] = time.perf_counter() - start
+        result.out_dir = Path(out_dir)
+    return result
+
+
+def summary_lines(result: ResponseResult) -> list[str]:
+    study = result.problem.study
+    g, load = study["geometry"], study["load"]
+    where = result.problem.sector.summary
+    lines = [f"{study.name}: forced response ({where}, {result.method}), r_i = "
+             f"{1e3 * g['inner_radius']:g} mm, z = {1e3 * load['z']:g} mm, V_b = "
+             f"{load['voltage'] / 1e3:g} kV, frame {g['frame']}, {result.frequency_hz.size} lines",
+             f"far field: {result.far_field}"]
+    if result.modes:
+        lines.append(f"{'mode':>8} {'Re f Hz':>9} {'Im f Hz':>9} {'b/m 1/s':>8} "
+                     f"{'membrane KE':>11}")
+        for mode, damping in zip(result.modes, result.basis.damping_per_mass):
+            if mode.kind != "air" and mode.freq_hz <= result.frequency_hz.max():
+                lines.append(f"{mode.label:>8} {mode.freq_hz:9.2f} {mode.freq_im_hz:9.2f} "
+                             f"{damping:8.1f} {mode.membrane_energy_fraction:11.3f}")
+    for f in result.peaks_hz:
+        k = int(np.argmin(abs(result.frequency_hz - f)))
+        lines.append(f"peak {f:8.2f} Hz: v_axial {1e3 * result.average_axial[k]:.4g} mm/s, "
+                     f"v_radial {1e3 * result.average_radial[k]:.4g} mm/s, SPL "
+                     + ", ".join(f"{name} {result.spl_db[k, j]:.1f} dB"
+                                 for j, (name, _) in enumerate(result.microphones)))
+    lines.append("timings: " + ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items()))
+    if result.out_dir is not None:
+        lines.append(f"results in {result.out_dir}")
+    return lines
