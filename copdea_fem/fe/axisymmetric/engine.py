@@ -21,7 +21,6 @@ import logging
 
 import numpy as np
 
-from copdea_fem.fe.assignment import max_weight_assignment
 from copdea_fem.fe.axisymmetric.air import meridian_motion
 from copdea_fem.fe.axisymmetric.meridian import MeridianSpec, meridian_mesh
 from copdea_fem.fe.axisymmetric.modes import (
@@ -143,8 +142,9 @@ def number_from_dry(modes, dry_modes, mass) -> None:
     number_out_of_plane(modes)
     if not wet or not dry:
         return
+    from scipy.optimize import linear_sum_assignment
     macs = np.array([[mac(w.vector, d.vector, mass) for d in dry] for w in wet])
-    rows, columns = max_weight_assignment(macs)
+    rows, columns = linear_sum_assignment(macs, maximize=True)
     for row, column in zip(rows, columns):
         wet[row].n = dry[column].n
 
