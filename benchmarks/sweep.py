@@ -1,4 +1,4 @@
-"""The sweep benchmark: ``python -m copdea_fem.sweeps benchmark SWEEP.yaml``."""
+"""The sweep benchmark: ``python -m benchmarks.sweep benchmark SWEEP.yaml``."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from copdea_fem.sweeps.spec import load_sweep, parse_reuse, sweep_error
 
 
 def _benchmark(argv: list[str]) -> int:
-    """``python -m copdea_fem.sweeps benchmark SWEEP.yaml [--repeat N] [--set K=V]``.
+    """``python -m benchmarks.sweep benchmark SWEEP.yaml [--repeat N] [--set K=V]``.
 
     Runs the sweep in fresh processes with every reuse switched off, then on
     one by one (mesh; + prestress continuation; + eigen start shifts),
@@ -27,7 +27,7 @@ def _benchmark(argv: list[str]) -> int:
     import subprocess
     import tempfile
 
-    parser = argparse.ArgumentParser(prog="python -m copdea_fem.sweeps benchmark")
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.sweep benchmark")
     parser.add_argument("sweep")
     parser.add_argument("--repeat", type=int, default=1)
     parser.add_argument("--set", action="append", default=[])
@@ -45,7 +45,7 @@ def _benchmark(argv: list[str]) -> int:
     for repetition in range(args.repeat):
         for name in names:
             with tempfile.TemporaryDirectory() as tmp:
-                command = [sys.executable, "-m", "copdea_fem.sweeps", "_once", args.sweep,
+                command = [sys.executable, "-m", "benchmarks.sweep", "_once", args.sweep,
                            tmp, json.dumps(variants[name])] + args.set
                 before = resource.getrusage(resource.RUSAGE_CHILDREN)
                 subprocess.run(command, check=True)
@@ -105,7 +105,7 @@ def _once(argv: list[str]) -> int:
 
 
 def main(argv: list[str]) -> int:
-    """``python -m copdea_fem.sweeps benchmark SWEEP.yaml [...]``."""
+    """``python -m benchmarks.sweep benchmark SWEEP.yaml [...]``."""
     command, *rest = argv or ["help"]
     if command == "benchmark":
         return _benchmark(rest)
@@ -113,3 +113,7 @@ def main(argv: list[str]) -> int:
         return _once(rest)
     print(_benchmark.__doc__)
     return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

@@ -15,8 +15,8 @@ import math
 
 import numpy as np
 import pytest
+from helpers import bessel_frequency
 from scipy.special import j1, struve
-from test_dry_modes import bessel_frequency
 
 from copdea_fem.fe import acoustics
 from copdea_fem.fe.axisymmetric.air import air_forms, screen_coupling

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_coupled import COARSE_AIR
+from helpers import COARSE_AIR
 
 from copdea_fem.fe.bands import OrderStop, coupled_start_modes, lowest_frequency_hz
 from copdea_fem.fe.modes import IN_PLANE, OUT_OF_PLANE, PUMPING, Mode, assign_labels

@@ -6,25 +6,13 @@ from pathlib import Path
 import meshio
 import numpy as np
 import pytest
+from helpers import COARSE_AIR, coupled_study
 
 from copdea_fem.cli import main
 from copdea_fem.fe.pipeline import coupled_modes
 from copdea_fem.progress import progress_to
-from copdea_fem.study import parse_study
 
 ROOT = Path(__file__).resolve().parent.parent
-# coarsest sensible: 9 mm membrane mesh (two elements across G1's 18.5 mm width),
-# pressure order 1 (order 2 in the PML), air elements up to r_o
-COARSE_AIR = {"membrane_size": "9 mm", "order": 2, "pressure_order": 1, "air_size": "35.5 mm"}
-
-
-def coupled_study(**sections):
-    raw = {"air": {"enabled": True}, "mesh": dict(COARSE_AIR), "load": {"voltage": "2 kV"}}
-    for section, values in sections.items():
-        raw.setdefault(section, {}).update(values)
-    return parse_study(raw, name="coupled-test")
-
-
 @pytest.fixture(scope="module")
 def flat():
     return coupled_modes(coupled_study(eigen={"f_max": "450 Hz"}))

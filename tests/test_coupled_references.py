@@ -21,7 +21,7 @@ from pathlib import Path
 
 import baffled
 import pytest
-from test_coupled import COARSE_AIR, coupled_study
+from helpers import COARSE_AIR, coupled_study
 
 from copdea_fem.fe.materials import Membrane
 from copdea_fem.fe.pipeline import coupled_modes

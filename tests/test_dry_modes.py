@@ -5,33 +5,11 @@ import math
 import ngsolve as ngs
 import numpy as np
 import pytest
-from scipy.optimize import brentq
-from scipy.special import jn_zeros, jv, yv
+from helpers import bessel_frequency
 
-from copdea_fem.fe.materials import Membrane
 from copdea_fem.fe.pipeline import dry_modes, prepare_mesh
 from copdea_fem.fe.prestress import solve_prestress
 from copdea_fem.study import parse_study
-
-
-def annulus_roots(m: int, a: float, b: float, k_max: float) -> list[float]:
-    """Wavenumbers k [1/m] with J_m(ka) Y_m(kb) - J_m(kb) Y_m(ka) = 0 (fixed rims)."""
-    if a == 0:
-        return list(jn_zeros(m, 40)[jn_zeros(m, 40) < k_max * b] / b)
-    cross = lambda k: jv(m, k * a) * yv(m, k * b) - jv(m, k * b) * yv(m, k * a)
-    grid = np.linspace(1e-3 / b, k_max, 40000)
-    values = cross(grid)
-    return [brentq(cross, grid[i], grid[i + 1])
-            for i in np.flatnonzero(np.sign(values[:-1]) != np.sign(values[1:]))]
-
-
-def bessel_frequency(study, m, n) -> float:
-    material = Membrane.from_study(study)
-    speed = math.sqrt(material.equibiaxial_tension(study["load"]["voltage"])
-                      / material.areal_density)       # m/s, c = sqrt(T / (rho h))
-    a, b = study["geometry"]["inner_radius"], study["geometry"]["outer_radius"]
-    k_max = 2 * math.pi * 1.5 * study["eigen"]["f_max"] / speed
-    return annulus_roots(m, a, b, k_max)[n - 1] * speed / (2 * math.pi)
 
 
 @pytest.mark.parametrize("inner_radius", ["17 mm", "12 mm"], ids=["G1", "G2"])

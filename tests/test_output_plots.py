@@ -5,7 +5,6 @@ import sys
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 from copdea_fem.output.plots import COOLWARM, PANEL_PX, TITLE_PX, colour, rasterise
 

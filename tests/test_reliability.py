@@ -419,7 +419,7 @@ def test_bad_study_files(work, capsys, text, fragment):
     path = work / "study.yaml"
     path.write_bytes(text.encode("latin-1"))
     line = refused(["solve", path], work, capsys)
-    assert line.startswith(f"error: study file") and fragment in line, line
+    assert line.startswith("error: study file") and fragment in line, line
 
 
 @pytest.mark.parametrize("make, fragment", [

@@ -12,7 +12,7 @@ import json
 import meshio
 import numpy as np
 import pytest
-from test_coupled import coupled_study
+from helpers import coupled_study
 
 from copdea_fem.fe.pipeline import coupled_modes, prepare_mesh, run_solve
 from copdea_fem.fe.prestress import solve_prestress
