@@ -12,6 +12,23 @@ from __future__ import annotations
 import contextlib
 import logging
 import threading
+import time
+from dataclasses import dataclass, field
+
+
+@dataclass
+class Timings:
+    """Wall time per stage of a solve [s] (mesh, prestress, eigen, ...)."""
+
+    seconds: dict[str, float] = field(default_factory=dict)
+
+    @contextlib.contextmanager
+    def stage(self, name: str):
+        start = time.perf_counter()
+        try:
+            yield
+        finally:
+            self.seconds[name] = self.seconds.get(name, 0.0) + time.perf_counter() - start
 
 
 def quiet(message: str) -> None:

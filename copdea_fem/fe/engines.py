@@ -23,8 +23,9 @@ if TYPE_CHECKING:
     from copdea_fem.fe.bands import BandSolver
     from copdea_fem.fe.forced.problem import OrderZero
     from copdea_fem.fe.modes import Mode
-    from copdea_fem.fe.pipeline import CoupledSolution, Timings
     from copdea_fem.fe.prestress import MembraneSolver, PrestressedState
+    from copdea_fem.fe.solution import CoupledSolution
+    from copdea_fem.progress import Timings
 
 
 class Engine(Protocol):

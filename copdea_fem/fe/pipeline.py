@@ -14,9 +14,7 @@ Entry points used by the API, the sweeps, the diagnosis, the benchmarks and the 
 
 from __future__ import annotations
 
-import contextlib
-import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -24,6 +22,8 @@ import numpy as np
 from copdea_fem.fe.airbox import check_air_lift
 from copdea_fem.fe.bands import BandSolver
 from copdea_fem.fe.engines import Engine, engine_for
+from copdea_fem.fe.solution import CoupledSolution
+from copdea_fem.progress import Timings
 from copdea_fem.study import Study, StudyError
 
 if TYPE_CHECKING:
@@ -34,35 +34,6 @@ if TYPE_CHECKING:
 __all__ = ["CoupledSolution", "SolveResult", "Timings", "coupled_modes", "dry_modes",
            "make_prestress_solver", "prepare_mesh", "require_backend", "run_force",
            "run_solve"]
-
-
-@dataclass
-class Timings:
-    """Wall time per pipeline stage [s]."""
-
-    seconds: dict[str, float] = field(default_factory=dict)
-
-    @contextlib.contextmanager
-    def stage(self, name: str):
-        start = time.perf_counter()
-        try:
-            yield
-        finally:
-            self.seconds[name] = self.seconds.get(name, 0.0) + time.perf_counter() - start
-
-
-@dataclass
-class CoupledSolution:
-    """What :func:`coupled_modes` returns: coupled and dry modes on one mesh."""
-
-    state: PrestressedState
-    modes: list[Mode]                   # coupled modes (structural and air), sorted by Re f
-    pressures: list[np.ndarray]         # pressure vector [Pa, free DOFs] of each coupled mode
-    dry_modes: list[Mode]
-    dry_partner_hz: dict[int, float]    # index in modes -> dry partner frequency [Hz]
-    eigen: SectorBandResults            # the band result of each sector (or order)
-    operators: list                     # the engine's coupled operators of each sector
-                                        # (or order), in solve order
 
 
 @dataclass

@@ -82,7 +82,7 @@ def prepare_order_zero(study) -> OrderZero:
 def modal_solution(problem: OrderZero, f_end: float):
     """(ModalBasis, modes) of the m = 0 band (module doc), labelled as ``solve`` labels them."""
     from copdea_fem.fe.eigen import solve_band
-    from copdea_fem.fe.forced.harmonic import ModalBasis, modal_damping
+    from copdea_fem.fe.forced.harmonic import ModalBasis
     from copdea_fem.fe.modes import AIR
 
     study, coupled = problem.study, problem.coupled
@@ -110,6 +110,21 @@ def modal_solution(problem: OrderZero, f_end: float):
     basis = ModalBasis.build(problem.forced, result.eigenvalues, result.vectors,
                              [m.label for m in modes], damping)
     return basis, modes
+
+
+def modal_damping(labels, kinds, study) -> np.ndarray:
+    """(b/m)_j [1/s] per mode: ``reduced.damping_*`` by label (the reduced model's key of
+    the label, :func:`copdea_fem.reduced.model.damping_key`), 0 for air/PML modes."""
+    from copdea_fem.fe.modes import AIR
+    from copdea_fem.reduced.model import damping_key
+    values = []
+    for label, kind in zip(labels, kinds):
+        if kind == AIR:
+            values.append(0.0)
+            continue
+        section, key = damping_key(label).split(".")
+        values.append(float(study[section][key]))
+    return np.array(values)
 
 
 def states_material_damping(study) -> bool:

@@ -36,8 +36,8 @@ from copdea_fem.fe.axisymmetric.prestress import make_axisymmetric_solver
 from copdea_fem.fe.bands import BandSolver, OrderStop, coupled_start_modes, lowest_frequency_hz
 from copdea_fem.fe.eigen import SectorBandResults
 from copdea_fem.fe.modes import AIR, OUT_OF_PLANE, mac, match_dry, membrane_energy_fractions
-from copdea_fem.fe.pipeline import CoupledSolution, Timings
-from copdea_fem.progress import single_threaded_blas, tagging
+from copdea_fem.fe.solution import CoupledSolution
+from copdea_fem.progress import Timings, single_threaded_blas, tagging
 
 #: Highest order tried before giving up (a band this rich is a mistake in the study).
 MAX_ORDER = 400
@@ -153,7 +153,7 @@ def axisymmetric_coupled_modes(study, mesh=None, timings=None, solver=None,
                                initial_shifts=None, band: BandSolver | None = None):
     """Prestress, dry partners and fully-coupled membrane-air modes, order by order.
 
-    Returns a :class:`copdea_fem.fe.pipeline.CoupledSolution` (``operators``: the
+    Returns a :class:`copdea_fem.fe.solution.CoupledSolution` (``operators``: the
     coupled pencil of each order, in order).
     """
     timings = timings or Timings()

@@ -94,8 +94,6 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from copdea_fem.fe.modes import AIR
-
 
 def reduce_vector(full: np.ndarray, free_dofs, lift=None) -> np.ndarray:
     """A load on a membrane space's DOFs -> on the unknowns (free DOFs, then ``lift . load``
@@ -301,16 +299,3 @@ class ModalBasis:
         """Scaled solutions per volt (n, lines) (use observations of :attr:`basis` for many
         lines: every observable is linear)."""
         return self.basis @ self.coefficients(frequency_hz, loss_factor).T
-
-
-def modal_damping(labels, kinds, study) -> np.ndarray:
-    """(b/m)_j [1/s] per mode: ``reduced.damping_*`` by label, 0 for air/PML modes."""
-    from copdea_fem.reduced.model import damping_key
-    values = []
-    for label, kind in zip(labels, kinds):
-        if kind == AIR:
-            values.append(0.0)
-            continue
-        section, key = damping_key(label).split(".")
-        values.append(float(study[section][key]))
-    return np.array(values)

@@ -20,10 +20,10 @@ import numpy as np
 from copdea_fem.fe.bands import BandSolver, coupled_start_modes
 from copdea_fem.fe.linearise import linearised_operators, operator_damping
 from copdea_fem.fe.modes import ModeSampler, classify_modes
-from copdea_fem.fe.pipeline import CoupledSolution, Timings
 from copdea_fem.fe.prestress import solve_prestress
 from copdea_fem.fe.quadrant.geometry import GeometrySpec, estimate_size, study_mesh
-from copdea_fem.progress import carried, single_threaded_blas, tagged, tagging
+from copdea_fem.fe.solution import CoupledSolution
+from copdea_fem.progress import Timings, carried, single_threaded_blas, tagged, tagging
 
 logger = logging.getLogger(__name__)
 
