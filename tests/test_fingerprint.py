@@ -85,13 +85,44 @@ def test_a_stale_committed_fe_cache_is_named_with_its_refill_command(tmp_path):
     assert fe_battery.REFILL_VARIABLE in message
 
 
-def test_the_fe_fingerprint_holds_the_engines_modes_code_only():
-    """Issue 21 moved the axisymmetric engine's forced problem and ParaView fields beside
-    it: they compute no modes, so they stay out of the FE fingerprint; every other module
-    of the engine's folder (a new one too) is in it."""
-    folder = ROOT / "copdea_fem" / "axisymmetric"
-    modules = {f"axisymmetric/{path.name}" for path in folder.glob("*.py")}
-    assert set(fingerprint.NOT_FE_SOURCES) <= modules
-    assert modules - set(fingerprint.NOT_FE_SOURCES) <= set(fingerprint.FE_SOURCES)
-    assert not set(fingerprint.NOT_FE_SOURCES) & set(fingerprint.FE_SOURCES)
-    assert {"axisymmetric/engine.py", "axisymmetric/modes.py"} <= set(fingerprint.FE_SOURCES)
+def test_the_fe_fingerprint_holds_every_fe_module_that_computes_modes(tmp_path, monkeypatch,
+                                                                      fresh_fingerprints):
+    """FE_SOURCES is the folder copdea_fem/fe less what computes no modes (the orchestration,
+    the forced response, the ParaView fields): a new FE file is in without editing a list."""
+    package = ROOT / "copdea_fem"
+    modules = {path.relative_to(package).as_posix() for path in (package / "fe").rglob("*.py")}
+    fe_sources = set(fingerprint.FE_SOURCES)
+    assert fe_sources <= modules
+    left_out = modules - fe_sources
+    assert all(any(name == out or name.startswith(out + "/")
+                   for out in fingerprint.NOT_FE_SOURCES) for name in left_out)
+    assert {"fe/axisymmetric/engine.py", "fe/quadrant/engine.py", "fe/eigen/band.py",
+            "fe/prestress.py", "fe/modes.py"} <= fe_sources
+    assert {"fe/pipeline.py", "fe/forced/harmonic.py", "fe/quadrant/fields.py",
+            "fe/axisymmetric/forced.py"} <= left_out
+    # a new module of the FE core is covered at once
+    copy = tmp_path / "copdea_fem"
+    (copy / "fe" / "new").mkdir(parents=True)
+    (copy / "fe" / "new" / "physics.py").write_text("K = 1.0\n")
+    monkeypatch.setattr(fingerprint, "PACKAGE", copy)
+    assert "fe/new/physics.py" in fingerprint._modules_of("fe", fingerprint.NOT_FE_SOURCES)
+
+
+def test_docstrings_and_comments_keep_the_fingerprint(tmp_path, monkeypatch, fresh_fingerprints):
+    """The fingerprint hashes the code, not its prose: a docstring or a comment edit keeps
+    the caches warm, any code edit (a constant, an annotation) does not."""
+    (tmp_path / "physics.py").write_text('"""Doc."""\nK = 1.0  # N/m\n\n\ndef f(x):\n'
+                                         '    """Doc."""\n    return K * x\n')
+    monkeypatch.setattr(fingerprint, "PACKAGE", tmp_path)
+
+    def current():
+        fingerprint.code_fingerprint.cache_clear()
+        return fingerprint.code_fingerprint(("physics.py",))
+
+    first = current()
+    (tmp_path / "physics.py").write_text('"""Other words."""\nK = 1.0  # another comment\n\n\n'
+                                         'def f(x):\n    """More."""\n    return K * x\n')
+    assert current() == first
+    (tmp_path / "physics.py").write_text('"""Doc."""\nK = 2.0\n\n\ndef f(x):\n'
+                                         '    return K * x\n')
+    assert current() != first

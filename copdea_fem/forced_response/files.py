@@ -94,7 +94,7 @@ def _plots(staging: Path, result, reduced) -> list[str]:
 
 
 def _paraview(staging: Path, result) -> None:
-    from copdea_fem import output
+    from copdea_fem.vtu import write_pvd
     coupled, forced = result.problem.coupled, result.problem.forced
     dry, state = coupled.membrane, result.problem.state
     driven = result.problem.sector
@@ -113,13 +113,13 @@ def _paraview(staging: Path, result) -> None:
             target = path.with_name(path.name.replace(old, new, 1))
             path.rename(target)
             renamed.append(target)
-        output.write_pvd(staging / pvd, renamed, list(result.peaks_hz))
+        write_pvd(staging / pvd, renamed, list(result.peaks_hz))
 
 
 def write_response(result, out_dir: Path, reduced=(None, None)) -> None:
     """Every file of the response into ``out_dir`` (staged, moved into place when complete)."""
-    from copdea_fem import output
     from copdea_fem.folders import result_directory
+    from copdea_fem.output.tables import write_json
     from copdea_fem.reduced.io import write_csv
     from copdea_fem.study import dump_resolved
 
@@ -155,7 +155,7 @@ def write_response(result, out_dir: Path, reduced=(None, None)) -> None:
             "timings_s": result.timings}
         if result.method == "reduced":
             document["reduced_basis"] = result.basis.summary()
-        output.write_json(staging / "response.json", document)
+        write_json(staging / "response.json", document)
         if study["output"]["plots"]:
             _plots(staging, result, reduced)
         if study["output"]["paraview"] and result.peaks_hz:
