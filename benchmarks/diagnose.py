@@ -25,12 +25,13 @@ EXAMPLE = ROOT / "studies" / "measured_fe_example" / "measured.yaml"
 
 
 def _once(measured: str, cache: str) -> dict:
-    from copdea_fem.diagnosis import run_diagnose
+    import copdea_fem as cf
     with tempfile.TemporaryDirectory() as out:
         start = time.perf_counter()
-        summary = run_diagnose(measured, out_dir=Path(out) / "report", fe_cache=cache)
+        diagnosis = cf.diagnose(measured, fe_cache=cache)
+        diagnosis.write(Path(out) / "report")
         seconds = time.perf_counter() - start
-    result = summary["result"]
+    result = diagnosis.result
     return {"seconds": seconds, "fe_solves": result.fe_solves, "fe_seconds": result.fe_seconds,
             "missing": result.missing_effects, "gap_before": result.gap_before,
             "gap_after": result.gap_after}

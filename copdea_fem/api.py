@@ -42,6 +42,8 @@ from copdea_fem.study import Study, StudyError
 if TYPE_CHECKING:
     from copdea_fem.fe.engines import Engine
     from copdea_fem.fe.pipeline import SolveResult
+    from copdea_fem.reduced.model import ReducedSetup
+    from copdea_fem.reduced.response import SpectrumResult
     from copdea_fem.vtu import VtuMesh
 
 __all__ = ["load_study", "solve", "response", "force", "spectrum", "sweep", "diagnose",
@@ -530,7 +532,7 @@ def spectrum(study: Study | str | Path, modes_json=None) -> "Spectrum":
     Raises :class:`~copdea_fem.reduced.rings.ReducedModelError` where the model fails
     (the CLI's exit 3)."""
     from copdea_fem.inputs import read_text
-    from copdea_fem.reduced.io import _fe_frequencies
+    from copdea_fem.reduced.io import fe_frequencies
     from copdea_fem.reduced.model import build_reduced, spectra_of
 
     study = _as_study(study)
@@ -538,9 +540,9 @@ def spectrum(study: Study | str | Path, modes_json=None) -> "Spectrum":
         read_text(modes_json, "--modes-json", error=StudyError)
     elif study["reduced"]["modes_json"]:
         read_text(study["reduced"]["modes_json"], "reduced.modes_json", error=StudyError)
-    fe, _ = _fe_frequencies(study, modes_json)
+    fe, fe_path = fe_frequencies(study, modes_json)
     setup = build_reduced(study, fe)
-    return Spectrum(study, setup, spectra_of(setup), modes_json)
+    return Spectrum(study, setup, spectra_of(setup), modes_json, fe_path)
 
 
 @dataclass
@@ -548,9 +550,17 @@ class Spectrum:
     """The result of :func:`spectrum`: the reduced model (``setup``) and its spectra."""
 
     study: Study
-    setup: Any
-    result: Any
-    modes_json: Any = None
+    setup: ReducedSetup
+    result: SpectrumResult
+    modes_json: str | Path | None = None   # as given to :func:`spectrum`
+    fe_path: str | Path | None = None      # the modes.json read (that or reduced.modes_json)
+
+    @property
+    def summary(self) -> dict:
+        """What ``copdea-fem spectrum`` prints (``lines``), the rows of reduced_modes.csv with
+        the source of each added mass (``modes``) and Annex I's P1-P3 (``pumping_hz``)."""
+        from copdea_fem.reduced.io import spectrum_summary
+        return spectrum_summary(self.study, self.setup, self.fe_path)
 
     @property
     def average(self):
@@ -571,14 +581,15 @@ class Spectrum:
                              "modal_mass": reduced.modal_mass,
                              "added_mass": reduced.added_mass, "damping": reduced.damping})
 
-    def write(self, folder: str | Path) -> Path:
-        """Every file of ``copdea-fem spectrum --out folder``; returns the folder."""
+    def write(self, folder: str | Path | Claim) -> Path:
+        """Every file of ``copdea-fem spectrum --out folder`` (or into a held
+        :class:`~copdea_fem.folders.Claim`); returns the folder."""
         from copdea_fem.folders import result_directory
-        from copdea_fem.reduced.io import _write_spectrum_files
+        from copdea_fem.reduced.io import write_spectrum_files
         inputs = _inputs(self.study) + ([self.modes_json] if self.modes_json else [])
         with _claimed(folder, "spectrum", inputs) as target:
             with result_directory(target, "spectrum") as staging:
-                _write_spectrum_files(staging, self.study, self.setup, self.result)
+                write_spectrum_files(staging, self.study, self.setup, self.result)
         return target
 
 
@@ -668,26 +679,16 @@ class SweepResult:
 
 
 def diagnose(measured: str | Path, *, alpha: float = 0.05, model: str | None = None,
-             fe_cache=None, progress: Callable[[str], None] | None = None) -> "Diagnosis":
+             fe_cache=None, fe_workers: int | None = None,
+             progress: Callable[[str], None] | None = None) -> "Diagnosis":
     """Which catalogued effects the model lacks, from measured resonances and spectra
-    (``copdea-fem diagnose``, nothing written; ``progress``: as :func:`solve`'s)."""
-    import dataclasses
+    (``copdea-fem diagnose``, nothing written; ``progress``: as :func:`solve`'s;
+    ``fe_workers``: as ``--fe-workers``)."""
+    from copdea_fem.diagnosis import diagnose_measured
 
-    from copdea_fem.diagnosis import load_measured
-    from copdea_fem.diagnosis.select import Diagnoser
-
-    if not 0 < alpha < 1:
-        raise StudyError(f"--alpha = {alpha!r} is not allowed; allowed: (0, 1)")
-    data = load_measured(measured)
-    if model is not None:
-        data = dataclasses.replace(data, model=model)
-    engine = None
-    if data.model == "fe":
-        from copdea_fem.diagnosis.anchored import AnchoredEngine
-        from copdea_fem.diagnosis.fe import FEModel
-        engine = AnchoredEngine(data, FEModel(cache_dir=fe_cache))
     with _progress(progress):
-        result = Diagnoser(data, alpha=alpha, engine=engine).run()
+        result = diagnose_measured(measured, alpha=alpha, model=model, fe_cache=fe_cache,
+                                   fe_workers=fe_workers)
     return Diagnosis(result, Path(measured))
 
 
@@ -712,8 +713,9 @@ class Diagnosis:
         from copdea_fem.diagnosis.report import diagnosis_document
         return diagnosis_document(self.result)
 
-    def write(self, folder: str | Path) -> Path:
-        """report.md, diagnosis.json, figures and final_study.yaml in ``folder``."""
+    def write(self, folder: str | Path | Claim) -> Path:
+        """report.md, diagnosis.json, figures and final_study.yaml in ``folder`` (or into a
+        held :class:`~copdea_fem.folders.Claim`); returns the folder."""
         from copdea_fem.diagnosis.report import write_report
         from copdea_fem.folders import result_directory
         inputs = [self.source] + [path for condition in self.result.measured.conditions

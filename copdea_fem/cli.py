@@ -180,12 +180,16 @@ def _modes_json(args, study):
 
 
 def cmd_spectrum(args) -> int:
-    from copdea_fem.reduced.io import run_spectrum
+    from copdea_fem import api
     study = _study(args)
     out_dir = _out_dir(args, study)
     modes_json = _modes_json(args, study)
-    with _output(args, out_dir, "spectrum", [args.study, modes_json]):
-        return _reduced_action(lambda: run_spectrum(study, out_dir, modes_json=args.modes_json))
+    with _output(args, out_dir, "spectrum", [args.study, modes_json]) as folder:
+        def action():
+            spectrum = api.spectrum(study, modes_json=args.modes_json)
+            spectrum.write(folder)
+            return {"lines": spectrum.summary["lines"] + [f"results in {out_dir}"]}
+        return _reduced_action(action)
 
 
 def cmd_fit_material(args) -> int:
@@ -319,7 +323,8 @@ def _add_sweep_command(commands) -> None:
 # -- diagnosis (issue 5): diagnose MEASURED.yaml, synth STUDY.yaml, effects --------------------
 def cmd_diagnose(args) -> int:
     """Which catalogued effect the model lacks; report.md, diagnosis.json, PNGs."""
-    from copdea_fem.diagnosis import diagnose_out_dir, load_measured, run_diagnose
+    from copdea_fem import api
+    from copdea_fem.diagnosis import diagnose_out_dir, load_measured, summary_lines
     if args.fe_cache:
         from copdea_fem.diagnosis.fe import check_cache_dir
         check_cache_dir(args.fe_cache, "--fe-cache")    # a file: exit 2 before any work
@@ -330,11 +335,13 @@ def cmd_diagnose(args) -> int:
     out_dir = Path(args.out) if args.out else diagnose_out_dir(measured)
     inputs = [args.measured, *(path for condition in measured.conditions
                                for path in condition.files.values())]
-    with _output(args, out_dir, "diagnose", inputs):
-        return _reduced_action(lambda: run_diagnose(args.measured, out_dir=out_dir,
-                                                    alpha=args.alpha, model=args.model,
-                                                    fe_cache=args.fe_cache,
-                                                    fe_workers=args.fe_workers))
+    with _output(args, out_dir, "diagnose", inputs) as folder:
+        def action():
+            diagnosis = api.diagnose(args.measured, alpha=args.alpha, model=args.model,
+                                     fe_cache=args.fe_cache, fe_workers=args.fe_workers)
+            diagnosis.write(folder)
+            return {"lines": summary_lines(diagnosis.result, out_dir)}
+        return _reduced_action(action)
 
 
 def cmd_synth(args) -> int:

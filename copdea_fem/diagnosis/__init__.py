@@ -17,12 +17,13 @@ two actions below):
 ``synth``     synthetic measurements from the ring model with chosen effects on
 ``bench``     ``python -m benchmarks.diagnose``: wall time of an FE diagnosis
 
-Actions (used by ``copdea-fem diagnose`` and ``copdea-fem synth``; each
-returns a summary dict with ``files`` and ``lines`` to print; outputs are
-staged and moved into place only when complete):
+Entry points of ``copdea-fem diagnose`` and ``copdea-fem synth`` (outputs are staged and
+moved into place only when complete):
 
-- :func:`run_diagnose` (MEASURED.yaml -> report directory)
-- :func:`run_synth` (STUDY + effects + conditions -> measured data set)
+- :func:`diagnose_measured` (MEASURED.yaml -> DiagnosisResult; the report is written by
+  :meth:`copdea_fem.api.Diagnosis.write`)
+- :func:`run_synth` (STUDY + effects + conditions -> measured data set; a summary dict
+  with ``files`` and ``lines`` to print)
 """
 
 from __future__ import annotations
@@ -36,7 +37,7 @@ from copdea_fem.diagnosis.select import Diagnoser, DiagnosisResult
 
 
 def diagnose_out_dir(measured: MeasuredSet) -> Path:
-    """Default report folder of :func:`run_diagnose`: ``results/diagnose_<name>``."""
+    """Default report folder of ``copdea-fem diagnose``: ``results/diagnose_<name>``."""
     return Path("results") / f"diagnose_{measured.name}"
 
 
@@ -45,18 +46,17 @@ def synth_out_dir(study, seed: int) -> Path:
     return Path("results") / f"synth_{study.name}_seed{seed}"
 
 
-def run_diagnose(measured_path, out_dir=None, alpha: float = 0.05,
-                 model: str | None = None, fe_cache=None, fe_workers=None) -> dict:
-    """Diagnose a measured data set and write the report.
+def diagnose_measured(measured_path, alpha: float = 0.05, model: str | None = None,
+                      fe_cache=None, fe_workers=None) -> DiagnosisResult:
+    """Diagnose a measured data set (nothing written: :func:`copdea_fem.api.diagnose` and its
+    :meth:`~copdea_fem.api.Diagnosis.write`).
 
     Parameters
     ----------
     measured_path : path
         ``measured.yaml`` (:mod:`copdea_fem.diagnosis.measured`).
-    out_dir : path, optional
-        Default ``results/diagnose_<name>``.
     alpha : float
-        False-alarm probability per step (:mod:`copdea_fem.diagnosis.select`).
+        False-alarm probability per step (:mod:`copdea_fem.diagnosis.select`), in (0, 1).
     model : str, optional
         ``"fe"`` or ``"reduced"``: overrides the manifest's ``model``.
     fe_cache : path, optional
@@ -67,23 +67,27 @@ def run_diagnose(measured_path, out_dir=None, alpha: float = 0.05,
 
     Returns
     -------
-    dict with ``result`` (DiagnosisResult), ``files``, ``out`` and ``lines``.
+    DiagnosisResult
+
+    Raises
+    ------
+    StudyError
+        A bad option or input file (checked before any solve).
+    ReducedModelError
+        The ring model failed at a condition.
     """
-    from copdea_fem.diagnosis.report import write_report
-    from copdea_fem.folders import result_directory
     from copdea_fem.study import StudyError
     if not 0 < alpha < 1:
         raise StudyError(f"--alpha = {alpha!r} is not allowed; allowed: (0, 1)")
     if fe_cache:
         from copdea_fem.diagnosis.fe import check_cache_dir
-        check_cache_dir(fe_cache, "fe_cache")
+        check_cache_dir(fe_cache, "--fe-cache")
     if fe_workers is not None:
         from copdea_fem.diagnosis.fe import check_workers
-        fe_workers = check_workers(fe_workers, "fe_workers")
+        fe_workers = check_workers(fe_workers, "--fe-workers")
     measured = load_measured(measured_path)
     if model is not None:
         measured = dataclasses.replace(measured, model=model)
-    out = Path(out_dir) if out_dir else diagnose_out_dir(measured)
     engine = None
     if measured.model == "fe":
         from copdea_fem.diagnosis.anchored import AnchoredEngine
@@ -93,22 +97,21 @@ def run_diagnose(measured_path, out_dir=None, alpha: float = 0.05,
         engine = (AnchoredEngine(measured, fe) if ring_can_represent(measured.base_study)
                   else DirectFEEngine(measured, fe))     # no disc: the FE directly
     try:
-        result = Diagnoser(measured, alpha=alpha, engine=engine).run()
+        return Diagnoser(measured, alpha=alpha, engine=engine).run()
     finally:
         if engine is not None:
             engine.fe.close()                            # the FE worker processes, if any
-    with result_directory(out, "diagnose") as staging:
-        files = write_report(result, staging)
-    files = [out / f.name for f in files]
+
+
+def summary_lines(result: DiagnosisResult, out: Path) -> list[str]:
+    """What ``copdea-fem diagnose`` prints: the verdict, the gap, the files written."""
     fe = (f"; model of record: FE ({result.fe_solves} solves, {result.fe_seconds:.0f} s)"
           if result.model == "fe" else "; model of record: ring model")
-    lines = [result.verdict + fe,
-             f"gap {100 * result.gap_before:.2f} % -> {100 * result.gap_after:.2f} %; "
-             f"missing: {', '.join(result.missing_effects) or 'none'}; ambiguous: "
-             f"{'; '.join('/'.join(g) for g in result.ambiguous) or 'none'}",
-             f"wrote {len(files)} files to {out} (report.md, diagnosis.json)"]
-    return {"result": result, "files": [str(f) for f in files], "out": str(out),
-            "lines": lines}
+    return [result.verdict + fe,
+            f"gap {100 * result.gap_before:.2f} % -> {100 * result.gap_after:.2f} %; "
+            f"missing: {', '.join(result.missing_effects) or 'none'}; ambiguous: "
+            f"{'; '.join('/'.join(g) for g in result.ambiguous) or 'none'}",
+            f"wrote the report to {out} (report.md, diagnosis.json)"]
 
 
 def run_synth(study, effects_text, conditions_text=None, parameters=None, options=None,
@@ -173,4 +176,4 @@ def run_synth(study, effects_text, conditions_text=None, parameters=None, option
 
 __all__ = ["CATALOGUE", "EFFECT_IDS", "Effect", "Parameter", "catalogue_table",
            "MeasuredDataError", "MeasuredSet", "load_measured", "Diagnoser", "DiagnosisResult",
-           "run_diagnose", "run_synth", "diagnose_out_dir", "synth_out_dir"]
+           "diagnose_measured", "run_synth", "summary_lines", "diagnose_out_dir", "synth_out_dir"]

@@ -329,7 +329,7 @@ def report_markdown(result, document: dict, figures: list) -> str:
               f"- gap: {100 * result.gap_before:.2f} % (base model) -> "
               f"{100 * result.gap_after:.2f} % (final model)",
               f"- explained: {explained(result)}"
-              + (f"; modes still off beyond the noise: "
+              + ("; modes still off beyond the noise: "
                  + ", ".join(i["label"] for i in result.remaining_off)
                  if result.remaining_off else ""), ""]
     lines += ["## Data", "",

@@ -1,10 +1,11 @@
 """File glue of the reduced model: modes.json, CSV in and out, PNG plots, CLI actions.
 
 The physics lives in the other modules of :mod:`copdea_fem.reduced`; this
-module only reads and writes.  The three CLI actions are plain functions
-returning a summary dict (``files`` written, ``lines`` to print):
+module only reads and writes: the files of ``copdea-fem spectrum``
+(:func:`write_spectrum_files`, written by :meth:`copdea_fem.api.Spectrum.write`) and its
+summary (:func:`spectrum_summary`), and two CLI actions, plain functions returning a
+summary dict (``files`` written, ``lines`` to print):
 
-- :func:`run_spectrum` -- ``copdea-fem spectrum STUDY.yaml [--out DIR]``
 - :func:`fit_material_cli` -- ``copdea-fem fit-material STUDY.yaml DATA.csv``
 - :func:`calibrate_damping_cli` -- ``copdea-fem calibrate-damping STUDY.yaml SPECTRUM.csv``
   (``--fit rayleigh|prony``: :func:`copdea_fem.damping_fit.calibrate_structural_damping`)
@@ -222,7 +223,7 @@ def plot_mode_shapes(path, setup):
 
 
 # -- CLI actions --------------------------------------------------------------------------------
-def _fe_frequencies(study, modes_json):
+def fe_frequencies(study, modes_json):
     path = modes_json or study["reduced"]["modes_json"]
     return (read_modes_json(path, study) if path else {}), path
 
@@ -233,7 +234,7 @@ def _title(study):
             f"V_b = {load['voltage'] / 1e3:g} kV, {study['reduced']['rings']} rings")
 
 
-def _write_spectrum_files(out, study, setup, result) -> list:
+def write_spectrum_files(out, study, setup, result) -> list:
     """The files of ``spectrum`` in ``out`` (a staging folder); their paths."""
     reduced = setup.reduced
     files = [
@@ -268,31 +269,17 @@ def _write_spectrum_files(out, study, setup, result) -> list:
     return files
 
 
-def run_spectrum(study, out_dir, modes_json=None) -> dict:
-    """Reduced-model spectra of a study under its chirp; writes the contract files.
-
-    Parameters
-    ----------
-    study : Study
-    out_dir : path
-        Created if missing.
-    modes_json : path, optional
-        Overrides ``reduced.modes_json``.
+def spectrum_summary(study, setup, fe_path) -> dict:
+    """What ``copdea-fem spectrum`` prints of a reduced model ``setup``
+    (:func:`copdea_fem.reduced.model.build_reduced`) whose added masses came from the
+    modes.json ``fe_path`` (None: none).
 
     Returns
     -------
-    dict with ``files`` (paths written), ``modes`` (rows of reduced_modes.csv
-    plus the added-mass source), ``pumping_hz`` (Annex I P1-P3) and ``lines``
-    (a text summary to print).
+    dict with ``modes`` (rows of reduced_modes.csv plus the added-mass source),
+    ``pumping_hz`` (Annex I P1-P3) and ``lines`` (a text summary to print).
     """
-    fe, fe_path = _fe_frequencies(study, modes_json)
-    setup = build_reduced(study, fe)
-    result = spectra_of(setup)
     reduced = setup.reduced
-    out = Path(out_dir)
-    with result_directory(out, "spectrum") as staging:
-        files = _write_spectrum_files(staging, study, setup, result)
-    files = [out / path.name for path in files]
     lin = setup.linearisation
     lines = [_title(study),
              f"static: disc force {lin.equilibrium.disc_force:.4g} N, k_DE "
@@ -326,9 +313,7 @@ def run_spectrum(study, out_dir, modes_json=None) -> dict:
         if modes_json_air_enabled(fe_path) is False:
             lines.append("note: that modes.json is a dry solve (air.enabled = false): its "
                          "frequencies only correct the ring discretisation, no air added mass")
-    lines.append(f"wrote {len(files)} files to {out}")
-    return {"files": [str(f) for f in files], "modes": rows,
-            "pumping_hz": [float(f) for f in setup.pumping_frequency_hz], "lines": lines}
+    return {"modes": rows, "pumping_hz": [float(f) for f in setup.pumping_frequency_hz], "lines": lines}
 
 
 def fit_material_cli(study, data_csv, out_dir) -> dict:
@@ -466,7 +451,7 @@ def calibrate_on_spectrum(study, spectrum_csv, modes_json, window):
         raise StudyError(f"--window = {window!r} is not allowed; allowed: (0, 1), a relative "
                          "half-width around each mode")
     measured = read_spectrum_csv(spectrum_csv)
-    fe, _ = _fe_frequencies(study, modes_json)
+    fe, _ = fe_frequencies(study, modes_json)
     setup = build_reduced(study, fe)
     calibration = calibrate_damping(setup.reduced, setup.chirp, measured["freq_hz"],
                                     measured["v_axial"], measured["v_radial"], window)

@@ -14,7 +14,6 @@ import numpy as np
 from copdea_fem.inputs import read_yaml
 from copdea_fem.study import SCHEMA, Study, StudyError, _convert, load_study, package_versions
 from copdea_fem.sweeps.axes import (
-    LOAD_LIKE_SECTIONS,
     MAX_POINTS,
     Axis,
     SweepError,

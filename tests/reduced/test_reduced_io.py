@@ -7,15 +7,22 @@ import numpy as np
 import pytest
 from reduced_helpers import DATA, paper_study
 
+import copdea_fem as cf
 from copdea_fem.reduced.io import (
     calibrate_damping_cli,
     fit_material_cli,
     read_modes_json,
-    run_spectrum,
     write_csv,
 )
 from copdea_fem.reduced.model import build_reduced
 from copdea_fem.study import StudyError, load_study, parse_study, reduced_mode_labels
+
+
+def run_spectrum(study, folder):
+    """``copdea-fem spectrum --out folder`` through the API: its summary."""
+    spectrum = cf.spectrum(study)
+    spectrum.write(folder)
+    return spectrum.summary
 
 
 def read_rows(path):
