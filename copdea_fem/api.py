@@ -340,9 +340,10 @@ def response(study: Study | str | Path, *, allow_large: bool = False,
     from copdea_fem.forced_response.run import forced_response, prepare_order_zero
 
     study = _as_study(study)
-    check_size(study, allow_large, engine_for(study))
+    engine = engine_for(study)
+    check_size(study, allow_large, engine)
     with solving(study), _progress(progress):
-        problem = prepare_order_zero(study)
+        problem = prepare_order_zero(study, engine)
         result = forced_response(problem)
     return ResponseSolution(result)
 

@@ -403,21 +403,21 @@ class FEModel:
         from copdea_fem.fe.engines import engine_for
         from copdea_fem.fe.pipeline import coupled_modes, dry_modes
         from copdea_fem.progress import quiet_progress
-        engine = engine_for(run).name
+        engine = engine_for(run)
         coupled = bool(run["air"]["enabled"])
         load = run["load"]
-        self.progress(f"FE ({engine}, {'coupled' if coupled else 'in vacuo'}) at "
+        self.progress(f"FE ({engine.name}, {'coupled' if coupled else 'in vacuo'}) at "
                       f"z = {1e3 * load['z']:g} mm, V_b = {1e-3 * load['voltage']:g} kV ...")
         start = time.perf_counter()
         with quiet_progress():             # one line per FE study, not its steps
             if coupled:
-                modes = coupled_modes(run).modes
+                modes = coupled_modes(run, engine=engine).modes
             else:
-                _, modes, _ = dry_modes(run)
+                _, modes, _ = dry_modes(run, engine=engine)
         seconds = time.perf_counter() - start
         self.solves += 1
         self.seconds += seconds
-        return FEResult(structural_modes(modes), engine, coupled, seconds, key)
+        return FEResult(structural_modes(modes), engine.name, coupled, seconds, key)
 
     # -- disk cache ------------------------------------------------------------------------
     def _path(self, key: str):

@@ -44,6 +44,7 @@ import logging
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -51,6 +52,9 @@ from copdea_fem.fe.airbox import check_air_lift
 from copdea_fem.fe.forced.problem import OrderZero
 from copdea_fem.forced_response.files import AVERAGE_COLUMNS, MODE_COLUMNS, POINT_COLUMNS  # noqa: F401
 from copdea_fem.study import StudyError
+
+if TYPE_CHECKING:
+    from copdea_fem.fe.engines import Engine
 
 logger = logging.getLogger(__name__)
 
@@ -66,17 +70,18 @@ def parse_microphones(study) -> list[tuple[str, np.ndarray]]:
         study["geometry"]["frame"])]
 
 
-def prepare_order_zero(study) -> OrderZero:
+def prepare_order_zero(study, engine: Engine | None = None) -> OrderZero:
     """Mesh, prestress, ALE air and the forced pencil of the driven part of the problem (the
     order m = 0 or the even-even sector: the engine's
-    :meth:`copdea_fem.fe.engines.Engine.forced_problem`)."""
+    :meth:`copdea_fem.fe.engines.Engine.forced_problem`; ``engine``: the study's, resolved
+    by the caller or here)."""
     from copdea_fem.fe.engines import engine_for
 
     if study["load"]["voltage"] <= 0:
         raise StudyError("load.voltage = 0 is not allowed for `response`; allowed: > 0 V (the "
                          "linear forcing V_b dC/du vanishes without a bias)")
     check_air_lift(study)
-    return engine_for(study).forced_problem(study)
+    return (engine or engine_for(study)).forced_problem(study)
 
 
 def modal_solution(problem: OrderZero, f_end: float):

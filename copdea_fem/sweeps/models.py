@@ -9,11 +9,15 @@ import socket
 import threading
 import time
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from copdea_fem.study import Study
 from copdea_fem.sweeps.spec import ReuseSettings, SweepPoint
+
+if TYPE_CHECKING:
+    from copdea_fem.fe.engines import Engine
 
 
 @dataclass
@@ -42,14 +46,12 @@ _MESH_CACHE_SIZE = 4
 _NGSOLVE_LOCK = threading.Lock()    # NGSolve solves in one thread at a time per process
 
 
-def _mesh_for(study: Study, with_air: bool, reuse: bool, timings):
-    from copdea_fem.fe.engines import engine_for
-    from copdea_fem.fe.pipeline import prepare_mesh
-    key = engine_for(study).mesh_key(study, with_air)
+def _mesh_for(study: Study, engine: Engine, with_air: bool, reuse: bool, timings):
+    key = engine.mesh_key(study, with_air)
     if reuse and key in _MESHES:
         return _MESHES[key], True
     with timings.stage("mesh"):
-        mesh = prepare_mesh(study, with_air=with_air)
+        mesh = engine.prepare_mesh(study, with_air=with_air)
     if reuse:
         while len(_MESHES) >= _MESH_CACHE_SIZE:
             _MESHES.pop(next(iter(_MESHES)))
@@ -104,11 +106,12 @@ class _FEModel:
     def solve(self, point: SweepPoint, chain: ChainState, reuse: ReuseSettings,
               needs_sampling: bool) -> PointResult:
         from copdea_fem.fe.engines import engine_for
-        from copdea_fem.fe.pipeline import Timings, make_prestress_solver
+        from copdea_fem.progress import Timings
         study = point.study
+        engine = engine_for(study)          # resolved once for the point, passed down
         timings = Timings()
         start = time.perf_counter()
-        mesh, mesh_reused = _mesh_for(study, self.with_air, reuse.mesh, timings)
+        mesh, mesh_reused = _mesh_for(study, engine, self.with_air, reuse.mesh, timings)
         continued_from = None
         if reuse.prestress and chain.solver is not None and \
                 chain.context_key == point.context_key:
@@ -119,7 +122,7 @@ class _FEModel:
         else:
             chain.solver = None
             with timings.stage("solver_setup"):
-                solver = make_prestress_solver(study, mesh)
+                solver = engine.prestress_solver(study, mesh)
             solve_study = study
         iterations_before = solver.newton_iterations
         band = (study["eigen"]["f_min"], study["eigen"]["f_max"])
@@ -128,14 +131,14 @@ class _FEModel:
         try:
             state, modes, eigen_result = self.modes(solve_study, mesh=mesh,
                                                     timings=timings, solver=solver,
-                                                    initial_shifts=plan)
+                                                    initial_shifts=plan, engine=engine)
         except BaseException:
             # the solver may sit at a failed load: the next point starts afresh
             chain.solver = chain.last_eigen = chain.last_point = None
             raise
         modes = [mode for mode in modes if mode.kind != "air"]   # air/PML-only modes
         with timings.stage("tracking_data"):
-            arrays = engine_for(study).tracking_arrays(state, modes, needs_sampling)
+            arrays = engine.tracking_arrays(state, modes, needs_sampling)
         chain.context_key, chain.solver = point.context_key, solver
         chain.last_point, chain.last_eigen, chain.last_band = point.point_id, eigen_result, band
         seconds = dict(timings.seconds)
