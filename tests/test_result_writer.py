@@ -225,31 +225,6 @@ def test_a_background_write_that_fails_raises_when_the_series_ends(tmp_path):
     assert (tmp_path / "fine.vtu").exists() and (tmp_path / "after.vtu").exists()
 
 
-def test_panels_are_coloured_as_their_image_and_the_png_reads_back(tmp_path):
-    """Raster.rgb is colour(image) pixel for pixel, and write_png's file reads back (Pillow)
-    as the array written."""
-    from PIL import Image
-
-    from copdea_fem.output.plots import Raster, colour, write_png
-
-    generator = np.random.default_rng(2)
-    angle = np.linspace(0, 2 * np.pi, 40, endpoint=False)
-    radius = np.linspace(0.2, 1.0, 9)
-    points = np.column_stack([(radius[:, None] * np.cos(angle)).ravel(),
-                              (radius[:, None] * np.sin(angle)).ravel()])
-    from scipy.spatial import Delaunay
-    triangles = Delaunay(points).simplices
-    raster = Raster(points, triangles, 120)
-    values = np.cos(3 * np.arctan2(points[:, 1], points[:, 0])) * generator.uniform(0.5, 1.2,
-                                                                                    len(points))
-    np.testing.assert_array_equal(raster.rgb(values), colour(raster.image(values)))
-    picture = generator.integers(0, 256, (37, 53, 3)).astype(np.uint8)
-    write_png(tmp_path / "picture.png", picture)
-    with Image.open(tmp_path / "picture.png") as image:
-        assert image.mode == "RGB"
-        np.testing.assert_array_equal(np.asarray(image), picture)
-
-
 def test_a_short_gathering_write_is_completed(tmp_path, monkeypatch):
     """Where os.writev writes less than asked (it may), the rest is written: the file is
     whole, byte for byte write_vtu's."""
