@@ -404,8 +404,8 @@ def _swap(staging: Path, target: Path, record: Claim) -> None:
 def result_directory(target, command: str):
     """Yield an empty staging folder; on success it replaces ``target`` atomically.
 
-    ``target``: a path, checked and locked (:func:`claim`), or a held :class:`Claim`; on any exception,
-    KeyboardInterrupt included, the staging folder is removed and ``target``
+    ``target``: a path, checked and locked (:func:`claim`), or a held :class:`Claim`; on any
+    exception, KeyboardInterrupt included, the staging folder is removed and ``target``
     holds the previous result (or nothing, or the new result when the exception
     came after the swap; :meth:`Claim.whereabouts` says which).  An OSError while
     writing or swapping becomes :class:`ResultWriteError`, saying where the result is.

@@ -1,4 +1,4 @@
-"""Diagnose model-measurement disagreement: which physical effect is missing (issue 5).
+"""Diagnose model-measurement disagreement: which physical effect is missing.
 
 Pipeline (data flows one way; each module pure except ``report`` and the
 two actions below):

@@ -162,9 +162,8 @@ class CornerPressure:
     plus ``q``'s in the lower half.  Which DOF each corner reads is found once by
     evaluating the field of two probe vectors (the DOF numbers as values, in ``P`` and then
     in ``Q``) and checked against the evaluation of one random vector; where it is equal to
-    the bit, each vector costs two gathers (G1's meridian air: ~0.05 ms against ~1 ms for
-    an evaluation), else (a space where a corner is no single DOF) every vector is
-    evaluated.
+    the bit, each vector costs two gathers (far cheaper than an evaluation), else (a space
+    where a corner is no single DOF) every vector is evaluated.
     """
 
     def __init__(self, space, points):

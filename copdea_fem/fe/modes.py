@@ -309,9 +309,9 @@ def membrane_energy_fractions(coupled, result) -> list[float]:
 
 def coupled_mode_list(coupled, result, min_membrane_energy: float,
                       sampler: ModeSampler) -> tuple[list[Mode], list[np.ndarray]]:
-    """Classify coupled eigenpairs of the 3-D engine (:class:`copdea_fem.fe.coupled.CoupledOperators`);
-    returns modes and their pressure vectors [Pa, free DOFs]
-    (:func:`membrane_energy_fractions` decides the air modes)."""
+    """Classify coupled eigenpairs of the 3-D engine
+    (:class:`copdea_fem.fe.coupled.CoupledOperators`); returns modes and their pressure
+    vectors [Pa, free DOFs] (:func:`membrane_energy_fractions` decides the air modes)."""
     membrane_vectors = result.vectors[coupled.membrane_index]
     pressure_vectors = result.vectors[coupled.pressure_index] * coupled.pressure_scale
     fractions = membrane_energy_fractions(coupled, result)

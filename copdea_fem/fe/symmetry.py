@@ -160,7 +160,7 @@ _LAYOUTS: dict = {}     # (id(mesh), order) -> (weak reference to the mesh, layo
 def _membrane_layout(mesh, order: int):
     """The uncompressed VectorH1 on ``membrane``: DOFs per component, each mirror edge's
     scalar DOFs, and the DOFs ``Compress`` keeps; built once per mesh and order (the
-    space on a 3-D air mesh costs ~40 ms, and every sector asks twice)."""
+    space on a 3-D air mesh is not cheap to build, and every sector asks twice)."""
     import ngsolve as ngs
 
     key = (id(mesh), order)       # NGSolve meshes are not hashable

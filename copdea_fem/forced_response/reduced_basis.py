@@ -1,5 +1,5 @@
 r"""The forced response by a reduced basis: rational Krylov / multi-point moment matching of
-``T(omega)`` over the chirp band (issue 23, ``response.method: reduced``).
+``T(omega)`` over the chirp band (``response.method: reduced``).
 
 The problem
 -----------
@@ -13,7 +13,7 @@ solves, on the scaled coupled pencil (membrane + air + PML),
 (``A, B`` the coupled pencil with its ALE air and PML, ``eta`` ``membrane.loss_factor``,
 ``C`` the Rayleigh damping, ``G_j`` the Prony branches: :mod:`.harmonic`).  One sparse
 factorisation per line is what makes the direct path slow on the 3-D engine (24572 complex
-unknowns in the baffle: 1.7 s a line, 800 lines).
+unknowns in the baffle, 800 lines).
 
 Projection
 ----------

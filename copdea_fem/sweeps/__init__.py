@@ -56,10 +56,10 @@ material + prestress settings) form a chain; inside a chain
 The factorisation's symbolic analysis is *not* reused: NGSolve's UMFPACK and
 PARDISO wrappers and SciPy's SuperLU redo it inside every factorisation and
 expose no numeric-only refactorisation.  Measured on the G1 operator (9054
-unknowns, NGSolve's timers, one BLAS thread, one factorisation per point):
-symbolic ~0.015 s next to ~0.06 s numeric, i.e. ~0.3 % of a ~5 s continued
-point, so there is little to buy (the eigen stage's cost is ARPACK's ~190
-solves per point).
+unknowns, NGSolve's timers, one BLAS thread, one factorisation per point): the
+symbolic analysis is a quarter of the numeric factorisation and a negligible share
+of a continued point, so there is little to buy (the eigen stage's cost is
+ARPACK's ~190 solves per point; docs/benchmarks.md).
 
 Execution
 ---------

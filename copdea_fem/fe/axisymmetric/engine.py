@@ -47,7 +47,7 @@ logger = logging.getLogger(__name__)
 
 
 def prepare_meridian(study):
-    """The meridian mesh of the study (not cached: Netgen meshes it in ~0.1 s)."""
+    """The meridian mesh of the study (not cached: Netgen meshes it quickly)."""
     return meridian_mesh(MeridianSpec.from_study(study), study["mesh"]["curve_order"])
 
 
