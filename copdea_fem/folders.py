@@ -85,7 +85,18 @@ def _test_write_delay() -> None:
 
 
 class OutputFolderError(ValueError):
-    """An output folder this run may not write; the message says which and what to do."""
+    """An output folder this run may not write; the message says which and what to do.
+
+    Raised before any work by :func:`check_output` and :func:`claim` (the working or home
+    folder, a folder holding an input file, a file, a folder with another command's result
+    or foreign files, one another run is writing; the CLI's exit 2), and so by every
+    ``write`` of :mod:`copdea_fem.api` and by :func:`copdea_fem.api.sweep` with ``out``.
+
+    Parameters
+    ----------
+    message : str
+        The folder, why it may not be written, and what to do instead.
+    """
 
 
 #: The claims each thread holds (:func:`claim`).

@@ -24,7 +24,18 @@ from copdea_fem.units import fast_to_si
 
 
 class StudyError(ValueError):
-    """A study key has a value outside what is allowed; the message says which."""
+    """A study key has a value outside what is allowed; the message says which.
+
+    Raised for every bad input, before any work where it can be found then: a study file
+    or key, a command's argument, an input file (the CLI's exit 2).  Subclasses:
+    :class:`copdea_fem.sweeps.axes.SweepError` (a sweep file) and
+    :class:`copdea_fem.diagnosis.measured.MeasuredDataError` (a measured data set).
+
+    Parameters
+    ----------
+    message : str
+        The key (or argument or file), its value and what is allowed.
+    """
 
 
 @dataclass(frozen=True)
