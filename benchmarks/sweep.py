@@ -1,4 +1,4 @@
-"""The sweep benchmark: ``python -m copdea_fem.sweeps benchmark SWEEP.yaml``."""
+"""The sweep benchmark: ``python -m benchmarks.sweep benchmark SWEEP.yaml``."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from copdea_fem.sweeps.spec import load_sweep, parse_reuse, sweep_error
 
 
 def _benchmark(argv: list[str]) -> int:
-    """``python -m copdea_fem.sweeps benchmark SWEEP.yaml [--repeat N] [--set K=V]``.
+    """``python -m benchmarks.sweep benchmark SWEEP.yaml [--repeat N] [--set K=V]``.
 
     Runs the sweep in fresh processes with every reuse switched off, then on
     one by one (mesh; + prestress continuation; + eigen start shifts),
@@ -105,7 +105,7 @@ def _once(argv: list[str]) -> int:
 
 
 def main(argv: list[str]) -> int:
-    """``python -m copdea_fem.sweeps benchmark SWEEP.yaml [...]``."""
+    """``python -m benchmarks.sweep benchmark SWEEP.yaml [...]``."""
     command, *rest = argv or ["help"]
     if command == "benchmark":
         return _benchmark(rest)

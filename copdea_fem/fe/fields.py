@@ -139,7 +139,8 @@ class _AirHalves:
 
 
 def _jump_vertices(pressure_space, vertices: int):
-    """Per mesh vertex: whether the pressure jump ``q`` of :func:`acoustics.pressure_space`
+    """Per mesh vertex: whether the pressure jump ``q`` of
+    :func:`copdea_fem.fe.acoustics.pressure_space`
     has a free DOF there (a screen vertex; the lower half needs its own copy); None when
     the space has no jump component (every lower vertex is then split)."""
     try:

@@ -85,11 +85,13 @@ A point whose ``result.json`` says ``ok`` for the same resolved study (hash)
 is not recomputed; failed or stale points are.  A failing point is recorded
 with its error and does not stop the sweep.
 
-The package follows the pipeline of a sweep: :mod:`.spec` (the sweep file),
-:mod:`.grid` (points and their keys), :mod:`.models` (one point through the
-dry, coupled or reduced model), :mod:`.store` (point folders), :mod:`.executors`
-(local, pool, dask), :mod:`.gather` (tracking, tables), :mod:`.plots` and
-:mod:`.benchmark`.
+The package follows the pipeline of a sweep: :mod:`.spec` (the sweep file) and
+:mod:`.axes` (its axes), :mod:`.grid` (points and their keys), :mod:`.models` (one point
+through the dry, coupled or reduced model), :mod:`.store` (point folders),
+:mod:`.executors` (local, pool, dask), :mod:`.gather` (tracking, tables) with
+:mod:`.tracking` (the mode tracking itself) and :mod:`.plots`.  The reuse benchmark is
+``python -m benchmarks.sweep benchmark SWEEP.yaml`` (``benchmarks/sweep.py``, outside the
+package).
 """
 
 from copdea_fem.sweeps.executors import run_sweep

@@ -211,8 +211,9 @@ def revolved_air_meshes(operators, modes, pressures, max_order: int | None = Non
     (sets the angles; default: that of ``modes``).
 
     The meridian's vertices are revolved on the deformed meridian; as in
-    :func:`write_air_vtus` the lower half gets its own copy of the vertices (the
-    pressure jumps across the screens) and values are taken inside each element.
+    :func:`copdea_fem.fe.quadrant.fields.write_air_vtus` the lower half gets its own copy of
+    the vertices (the pressure jumps across the screens) and values are taken inside each
+    element.
     Fields and cell data as there; a field of order m is ``p(r, z) cos m theta``
     (or the sin family's turned copy).
     """

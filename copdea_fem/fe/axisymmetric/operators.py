@@ -17,8 +17,8 @@ the pressure ``p(r, z) cos m theta``)::
     m_a = Theta_m int 1/(rho_a c_a^2) p p' r dA
     c   = Theta_m int_screens [p'] (a n_r + c n_z) r ds
 
-on the deformed meridian (ALE, :func:`meridian_motion`), ``Theta_m = 2 pi``
-(m = 0) or pi.  In the PML shell the 3-D stretch ``x~ = x r~/r`` (spherical
+on the deformed meridian (ALE, :func:`copdea_fem.fe.axisymmetric.air.meridian_motion`),
+``Theta_m = 2 pi`` (m = 0) or pi.  In the PML shell the 3-D stretch ``x~ = x r~/r`` (spherical
 ``r``) acts in the meridian as ``J2 = s I + (r~' - s) e e^T`` (``s = r~/r``,
 ``e`` the unit radial vector of the (r, z) plane) and stretches the hoop
 direction by ``s``, so ``dV~ = s det J2 r dA dtheta`` and ``1/r~ = 1/(s r)``::

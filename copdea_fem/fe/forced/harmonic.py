@@ -156,7 +156,8 @@ class ForcedOrder:
     alpha: float
     equilibrium_residual: float
     backend: str = "superlu"
-    damping: object = None          # eigen.damped.DampingTerms on the scaled unknowns, or None
+    # copdea_fem.fe.eigen.damped.DampingTerms on the scaled unknowns, or None
+    damping: object = None
 
     @classmethod
     def from_parts(cls, coupled, force, k_el, balance, backend="superlu") -> "ForcedOrder":
