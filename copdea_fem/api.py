@@ -18,11 +18,14 @@ have the same shape: a result object with its tables as :class:`pandas.DataFrame
 Progress messages go to the :mod:`logging` loggers ``"copdea_fem.*"`` at level INFO, so
 nothing is printed unless asked (``logging.basicConfig(level=logging.INFO)``); a callable
 passed as ``progress`` receives each message (a handler forwards them to it while the call
-runs, and nothing is printed).  Errors are the command line's: :class:`~copdea_fem.study.StudyError`
-(bad input; the CLI's exit 2), :class:`~copdea_fem.folders.OutputFolderError` (a folder that
-may not be written; exit 2), :class:`SolveFailed` and
-:class:`~copdea_fem.fe.prestress.PrestressError` (a solve that failed for a physical or
-numerical reason; exit 3), with the same messages.
+runs, and nothing is printed).  Errors are the command line's, with the same messages:
+:class:`~copdea_fem.study.StudyError` (bad input; the CLI's exit 2),
+:class:`~copdea_fem.folders.OutputFolderError` (a folder that may not be written; exit 2),
+:class:`SolveFailed` and :class:`~copdea_fem.fe.prestress.PrestressError` (a solve that
+failed for a physical or numerical reason; exit 3), and
+:class:`~copdea_fem.reduced.rings.ReducedModelError` (the reduced model, or the diagnosis's
+model, cannot be built or evaluated for these inputs; exit 3).  Each function's *Raises*
+section says which it can raise.
 """
 
 from __future__ import annotations
@@ -34,16 +37,24 @@ import tempfile
 import weakref
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Callable
+from typing import TYPE_CHECKING, Any, Callable, Sequence
 
 from copdea_fem.folders import Claim, OutputFolderError
 from copdea_fem.study import Study, StudyError
 
 if TYPE_CHECKING:
+    import numpy as np
+    import pandas as pd
+    import pyvista as pv
+
+    from copdea_fem.diagnosis.select import DiagnosisResult
     from copdea_fem.fe.engines import Engine
     from copdea_fem.fe.pipeline import SolveResult
+    from copdea_fem.forced_response.run import ResponseResult
     from copdea_fem.reduced.model import ReducedSetup
     from copdea_fem.reduced.response import SpectrumResult
+    from copdea_fem.sweeps.gather import SweepOutcome
+    from copdea_fem.sweeps.spec import Sweep
     from copdea_fem.vtu import VtuMesh
 
 __all__ = ["load_study", "solve", "response", "force", "spectrum", "sweep", "diagnose",
@@ -58,7 +69,17 @@ _SOURCES: "weakref.WeakKeyDictionary[Study, Path]" = weakref.WeakKeyDictionary()
 
 class SolveFailed(RuntimeError):
     """A solver failure, described for the user: what failed, at which load, which key to
-    change (the CLI's exit 3)."""
+    change (the CLI's exit 3).
+
+    Raised by :func:`solve` and :func:`response` in place of the FE's own errors (the air
+    mesh that cannot follow the membrane, an eigen solve that fails or finds too many
+    modes); a failed prestress is a :class:`~copdea_fem.fe.prestress.PrestressError`.
+
+    Parameters
+    ----------
+    message : str
+        What failed, at which ``load.z`` and ``load.voltage``, and which keys to change.
+    """
 
 
 def _progress(progress):
@@ -81,10 +102,17 @@ def load_study(path: str | Path, overrides: dict[str, Any] | list[str] | None = 
         ``{"load.voltage": "1 kV"}`` (values with units, as in the file) or the command
         line's ``["load.voltage=1 kV"]``.
 
+    Returns
+    -------
+    Study
+        The resolved study (defaults filled in, every value in SI); the file it was read
+        from is remembered for the folder checks of the results' ``write``.
+
     Raises
     ------
     StudyError
-        A missing file, an unknown key, a value out of range or in a wrong unit.
+        A missing or unreadable file, an unknown key, a value out of range or in a wrong
+        unit, a malformed override.
     """
     from copdea_fem.study import load_study as _load
     from copdea_fem.study import parse_overrides
@@ -161,17 +189,18 @@ def _grid(mesh: VtuMesh):
 
 
 # -- solve ---------------------------------------------------------------------------------
-def solve(study: Study | str | Path, *, allow_large: bool = False, mesh_cache=None,
-          progress: Callable[[str], None] | None = None) -> "Solution":
+def solve(study: Study | str | Path, *, allow_large: bool = False,
+          mesh_cache: str | Path | None = None,
+          progress: Callable[[str], None] | None = None) -> Solution:
     """Prestress and modes of a study (``copdea-fem solve``, nothing written).
 
     Parameters
     ----------
-    study : Study or path
+    study : Study, str or Path
         From :func:`load_study`, or a study file.
-    allow_large : bool
+    allow_large : bool, default False
         Start even when the problem is estimated above the size limit.
-    mesh_cache : path, optional
+    mesh_cache : str or Path, optional
         Mesh cache folder of the 3-D engine (default as the CLI's ``--mesh-cache``).
     progress : callable(str), optional
         Receives each progress message while the call runs (default: the ``copdea_fem``
@@ -180,10 +209,21 @@ def solve(study: Study | str | Path, *, allow_large: bool = False, mesh_cache=No
     Returns
     -------
     Solution
+        The modes (dry, or coupled with the air when ``air.enabled``), the prestress and
+        the timings; :meth:`Solution.write` writes the files.
 
     Raises
     ------
-    StudyError, SolveFailed, PrestressError
+    StudyError
+        A bad study file or key, an ``eigen.backend`` this machine lacks, an air domain
+        the membrane would lift out of, or a problem above the size limit (without
+        ``allow_large``).
+    SolveFailed
+        The air mesh cannot follow the membrane, or the eigen solve fails (residuals,
+        too many modes in the band, a band it cannot cover).
+    PrestressError
+        The prestress (Newton) solve fails: a loss of tension (the membrane would
+        wrinkle), pull-in, or no convergence after ``prestress.max_cuts`` step halvings.
     """
     from copdea_fem.fe.engines import engine_for
     from copdea_fem.fe.pipeline import run_solve
@@ -199,11 +239,14 @@ def solve(study: Study | str | Path, *, allow_large: bool = False, mesh_cache=No
 class Solution:
     """The result of :func:`solve`: the mode table, mode fields as grids, ``write``.
 
-    ``result`` is the :class:`copdea_fem.fe.pipeline.SolveResult` (engine, prestress state,
-    modes with their vectors, eigen summary, timings).
+    Parameters
+    ----------
+    result : copdea_fem.fe.pipeline.SolveResult
+        The engine, prestress state, modes with their vectors, eigen summary and timings
+        (kept as ``self.result``).
     """
 
-    def __init__(self, result: SolveResult):
+    def __init__(self, result: SolveResult) -> None:
         self.result = result
         self._fields = None
         self._rows = None
@@ -213,7 +256,7 @@ class Solution:
         return self.result.study
 
     @property
-    def modes(self):
+    def modes(self) -> pd.DataFrame:
         """:class:`pandas.DataFrame` of the modes: the columns of modes.csv (SI: Hz, kg)."""
         from copdea_fem.output.tables import MODE_COLUMNS
         return _frame(self.rows, MODE_COLUMNS)
@@ -235,7 +278,7 @@ class Solution:
         return prestress_summary(self.result.state)
 
     @property
-    def timings(self) -> dict:
+    def timings(self) -> dict[str, float]:
         """Wall time per stage [s]."""
         return dict(self.result.timings.seconds)
 
@@ -270,19 +313,51 @@ class Solution:
             raise KeyError(f"no mode labelled {label!r}; labels: {', '.join(labels)}")
         return labels.index(label)
 
-    def membrane(self, label: str):
+    def membrane(self, label: str) -> pv.UnstructuredGrid:
         """pyvista grid of the whole membrane with mode ``label``'s fields, equal to its
         ``mode_NNN_<label>.vtu`` (displacement re/im/abs, normal displacement re/im, normal
-        velocity; peak ``|u| = 1``; points on the prestressed shape)."""
+        velocity; peak ``|u| = 1``; points on the prestressed shape).
+
+        Parameters
+        ----------
+        label : str
+            A mode label of :attr:`labels`, e.g. ``"(0,1)"``.
+
+        Returns
+        -------
+        pyvista.UnstructuredGrid
+
+        Raises
+        ------
+        KeyError
+            No structural mode has that label (the message lists the labels).
+        """
         mode = self._structural()[self._find(label)]
         with self.engine.threads():
             _, mesh = next(self._output().mode_meshes([mode]))
         return _grid(mesh)
 
-    def air(self, label: str):
+    def air(self, label: str) -> pv.UnstructuredGrid:
         """pyvista grid of the air with mode ``label``'s pressure (re/im/abs, Pa per unit peak
         membrane displacement; cell data ``pml``, ``lower_half``), equal to its
-        ``air_NNN_<label>.vtu``.  Only for a coupled solve (``air.enabled: true``)."""
+        ``air_NNN_<label>.vtu``.  Only for a coupled solve (``air.enabled: true``).
+
+        Parameters
+        ----------
+        label : str
+            A mode label of :attr:`labels`, e.g. ``"(0,1)"``.
+
+        Returns
+        -------
+        pyvista.UnstructuredGrid
+
+        Raises
+        ------
+        StudyError
+            A dry solve (``air.enabled: false``): there is no air field.
+        KeyError
+            No structural mode has that label (the message lists the labels).
+        """
         coupled = self.result.coupled
         if coupled is None:
             raise StudyError("air.enabled = false has no air field; allowed: a coupled solve "
@@ -317,7 +392,12 @@ class Solution:
         Raises
         ------
         OutputFolderError
-            A folder that may not be written.
+            A folder that may not be written (:mod:`copdea_fem.folders`: the working or
+            home folder, one holding an input file, a file, a folder with another
+            command's result or foreign files, one another run is writing).
+        copdea_fem.folders.ResultWriteError
+            The files could not be written or put in place (a full disk, a refused
+            rename); the message says where the complete result is.
         """
         from copdea_fem.folders import result_directory
         from copdea_fem.output.results import write_solve_files
@@ -333,9 +413,36 @@ class Solution:
 
 # -- response ------------------------------------------------------------------------------
 def response(study: Study | str | Path, *, allow_large: bool = False,
-             progress: Callable[[str], None] | None = None) -> "ResponseSolution":
+             progress: Callable[[str], None] | None = None) -> ResponseSolution:
     """Forced response of the coupled FE under the study's chirp, with radiated sound
-    (``copdea-fem response``, nothing written; ``progress``: as :func:`solve`'s)."""
+    (``copdea-fem response``, nothing written).
+
+    Parameters
+    ----------
+    study : Study, str or Path
+        From :func:`load_study`, or a study file (``load.voltage`` > 0: the forcing is
+        V_b dC/du; the ``response`` keys set the method, microphones and peaks).
+    allow_large : bool, default False
+        Start even when the problem is estimated above the size limit.
+    progress : callable(str), optional
+        As :func:`solve`'s.
+
+    Returns
+    -------
+    ResponseSolution
+        The velocity spectra, the SPL at the microphones and the modal basis;
+        :meth:`ResponseSolution.write` writes the files.
+
+    Raises
+    ------
+    StudyError
+        A bad study file or key, ``load.voltage = 0``, an air domain the membrane would
+        lift out of, or a problem above the size limit (without ``allow_large``).
+    SolveFailed
+        The air mesh cannot follow the membrane, or the modal basis's eigen solve fails.
+    PrestressError
+        The prestress (Newton) solve fails (as in :func:`solve`).
+    """
     from copdea_fem.fe.engines import engine_for
     from copdea_fem.forced_response.run import forced_response, prepare_order_zero
 
@@ -372,24 +479,27 @@ def _points_table(result):
 class ResponseSolution:
     """The result of :func:`response`: spectra and SPL as DataFrames, ``write``.
 
-    ``result`` is the :class:`copdea_fem.forced_response.run.ResponseResult`.
+    Parameters
+    ----------
+    result : copdea_fem.forced_response.run.ResponseResult
+        The spectra per line and what produced them (kept as ``self.result``).
     """
 
-    def __init__(self, result):
+    def __init__(self, result: ResponseResult) -> None:
         self.result = result
 
     @property
-    def average(self):
+    def average(self) -> pd.DataFrame:
         """response_average.csv: ``freq_hz, v_axial, v_radial`` [Hz, m/s]."""
         return _average_table(self.result)
 
     @property
-    def points(self):
+    def points(self) -> pd.DataFrame:
         """response_points.csv: ``freq_hz`` and the axial/radial velocity at Q1-Q3 [m/s]."""
         return _points_table(self.result)
 
     @property
-    def spl(self):
+    def spl(self) -> pd.DataFrame:
         """spl.csv: ``freq_hz, spl_<microphone>`` [Hz, dB re 20 uPa]."""
         import pandas as pd
         r = self.result
@@ -399,7 +509,7 @@ class ResponseSolution:
         return pd.DataFrame(data)
 
     @property
-    def modes(self):
+    def modes(self) -> pd.DataFrame:
         """response_modes.csv: the modal basis (label, kind, frequencies, damping b/m [1/s],
         membrane energy fraction); empty for a direct solve."""
         import pandas as pd
@@ -418,8 +528,35 @@ class ResponseSolution:
     def peaks_hz(self) -> list[float]:
         return list(self.result.peaks_hz)
 
-    def write(self, folder: str | Path, progress: Callable[[str], None] | None = None) -> Path:
-        """Every file of ``copdea-fem response --out folder``; returns the folder."""
+    def write(self, folder: str | Path | Claim,
+              progress: Callable[[str], None] | None = None) -> Path:
+        """Write every file of ``copdea-fem response --out folder``.
+
+        Parameters
+        ----------
+        folder : str, Path or Claim
+            The result folder, checked first under the rules of :mod:`copdea_fem.folders`
+            (an earlier result of the same command is replaced only when the new one is
+            complete); or the :class:`~copdea_fem.folders.Claim` of a folder the caller
+            holds.
+        progress : callable(str), optional
+            As :func:`solve`'s.
+
+        Returns
+        -------
+        Path
+            The folder written.
+
+        Raises
+        ------
+        OutputFolderError
+            A folder that may not be written (:mod:`copdea_fem.folders`: the working or
+            home folder, one holding an input file, a file, a folder with another
+            command's result or foreign files, one another run is writing).
+        copdea_fem.folders.ResultWriteError
+            The files could not be written or put in place (a full disk, a refused
+            rename); the message says where the complete result is.
+        """
         import time
 
         from copdea_fem.forced_response.files import write_response
@@ -445,10 +582,30 @@ def _quantity_list(values, key: str, unit: str) -> list[float]:
             for item in items if not isinstance(item, str) or item.strip()]
 
 
-def prepare_force(study: Study, voltages="0 kV, 3 kV", z_max=None, points: int = 10,
-                  allow_large: bool = False):
-    """Check the inputs of :func:`force` before any work: ``(study, z values [m], voltages
-    [V])``; a :class:`StudyError` names the bad one."""
+def prepare_force(study: Study, voltages: str | Sequence[str | float] = "0 kV, 3 kV",
+                  z_max: str | float | None = None, points: int = 10,
+                  allow_large: bool = False) -> tuple[Study, np.ndarray, list[float]]:
+    """Check the inputs of :func:`force` before any work.
+
+    Parameters
+    ----------
+    study : Study
+        From :func:`load_study`; its ``load.z`` is set to ``z_max`` (and checked).
+    voltages, z_max, points, allow_large
+        As :func:`force`'s.
+
+    Returns
+    -------
+    tuple of (Study, numpy.ndarray, list of float)
+        The study, the z values to solve [m] (0 left out) and the voltages [V].
+
+    Raises
+    ------
+    StudyError
+        The bad input, named: a membrane without a disc, a voltage or z that is not a
+        quantity, fewer than 2 points, no voltage, a ``z_max`` the geometry refuses, or a
+        problem above the size limit (without ``allow_large``).
+    """
     import numpy as np
 
     if study["geometry"]["inner_radius"] == 0:
@@ -469,14 +626,42 @@ def prepare_force(study: Study, voltages="0 kV, 3 kV", z_max=None, points: int =
     return study, np.linspace(0.0, z_max, points)[1:], voltage_list
 
 
-def force(study: Study | str | Path, voltages="0 kV, 3 kV", z_max=None, points: int = 10, *,
-          allow_large: bool = False, mesh_cache=None,
-          progress: Callable[[str], None] | None = None) -> "ForceCurve":
-    """Static disc force F(z) at each voltage (Fig. 4b; ``copdea-fem force``).
+def force(study: Study | str | Path, voltages: str | Sequence[str | float] = "0 kV, 3 kV",
+          z_max: str | float | None = None, points: int = 10, *, allow_large: bool = False,
+          mesh_cache: str | Path | None = None,
+          progress: Callable[[str], None] | None = None) -> ForceCurve:
+    """Static disc force F(z) at each voltage (Fig. 4b; ``copdea-fem force``, nothing
+    written).
 
-    ``voltages``: ``"0 kV, 3 kV"`` or a list of quantities; ``z_max``: the largest z
-    (default max(load.z, 18 mm)); ``points``: z values including 0 (0 is not solved);
-    ``progress``: as :func:`solve`'s.
+    Parameters
+    ----------
+    study : Study, str or Path
+        From :func:`load_study`, or a study file (a membrane with a disc:
+        ``geometry.inner_radius`` > 0).
+    voltages : str or sequence of str or float, default "0 kV, 3 kV"
+        ``"0 kV, 3 kV"`` or a list of quantities (``"2 kV"``, or numbers in V).
+    z_max : str or float, optional
+        The largest z (``"18 mm"``, or a number in m); default max(load.z, 18 mm).
+    points : int, default 10
+        z values from 0 to ``z_max``, 0 included (0 is not solved); at least 2.
+    allow_large : bool, default False
+        Start even when the problem is estimated above the size limit.
+    mesh_cache : str or Path, optional
+        As :func:`solve`'s.
+    progress : callable(str), optional
+        As :func:`solve`'s.
+
+    Returns
+    -------
+    ForceCurve
+        ``forces[i, j]`` [N] at ``voltages[i]`` and ``z_values[j]``.
+
+    Raises
+    ------
+    StudyError
+        A bad study file or key, or a bad input of :func:`prepare_force`.
+    PrestressError
+        The prestress (Newton) solve fails at one of the loads (as in :func:`solve`).
     """
     study, z_values, voltage_list = prepare_force(_as_study(study), voltages, z_max, points,
                                                   allow_large)
@@ -484,9 +669,31 @@ def force(study: Study | str | Path, voltages="0 kV, 3 kV", z_max=None, points: 
                          progress=progress)
 
 
-def compute_force(study: Study, z_values, voltages, *, mesh_cache=None,
-                  progress: Callable[[str], None] | None = None) -> "ForceCurve":
-    """F(z) [N] at the checked inputs of :func:`prepare_force`."""
+def compute_force(study: Study, z_values: Sequence[float] | np.ndarray,
+                  voltages: Sequence[float], *, mesh_cache: str | Path | None = None,
+                  progress: Callable[[str], None] | None = None) -> ForceCurve:
+    """F(z) [N] at the checked inputs of :func:`prepare_force`.
+
+    Parameters
+    ----------
+    study : Study
+        The study :func:`prepare_force` returned.
+    z_values : sequence of float or numpy.ndarray
+        The z values [m].
+    voltages : sequence of float
+        The voltages [V].
+    mesh_cache, progress
+        As :func:`solve`'s.
+
+    Returns
+    -------
+    ForceCurve
+
+    Raises
+    ------
+    PrestressError
+        The prestress (Newton) solve fails at one of the loads.
+    """
     from copdea_fem.fe.pipeline import run_force
 
     with _progress(progress):
@@ -497,15 +704,27 @@ def compute_force(study: Study, z_values, voltages, *, mesh_cache=None,
 @dataclass
 class ForceCurve:
     """The result of :func:`force`: ``forces[i, j]`` [N] at ``voltages[i]`` [V] and
-    ``z_values[j]`` [m]."""
+    ``z_values[j]`` [m].
+
+    Parameters
+    ----------
+    study : Study
+        The study solved (its ``load.z`` set to the largest z).
+    z_values : numpy.ndarray
+        The z values [m], shape (n_z,).
+    voltages : list of float
+        The voltages [V].
+    forces : numpy.ndarray
+        The disc force [N], shape (len(voltages), n_z).
+    """
 
     study: Study
-    z_values: Any
-    voltages: list
-    forces: Any
+    z_values: np.ndarray
+    voltages: list[float]
+    forces: np.ndarray
 
     @property
-    def table(self):
+    def table(self) -> pd.DataFrame:
         """force_displacement.csv: ``voltage_v, z_m, force_n`` (long format)."""
         import pandas as pd
         rows = [(voltage, z, self.forces[i, j]) for i, voltage in enumerate(self.voltages)
@@ -513,8 +732,31 @@ class ForceCurve:
         return pd.DataFrame(rows, columns=["voltage_v", "z_m", "force_n"])
 
     def write(self, folder: str | Path | Claim) -> Path:
-        """Every file of ``copdea-fem force --out folder`` (or into a held
-        :class:`~copdea_fem.folders.Claim`); returns the folder."""
+        """Write every file of ``copdea-fem force --out folder``.
+
+        Parameters
+        ----------
+        folder : str, Path or Claim
+            The result folder, checked first under the rules of :mod:`copdea_fem.folders`
+            (an earlier result of the same command is replaced only when the new one is
+            complete); or the :class:`~copdea_fem.folders.Claim` of a folder the caller
+            holds.
+
+        Returns
+        -------
+        Path
+            The folder written.
+
+        Raises
+        ------
+        OutputFolderError
+            A folder that may not be written (:mod:`copdea_fem.folders`: the working or
+            home folder, one holding an input file, a file, a folder with another
+            command's result or foreign files, one another run is writing).
+        copdea_fem.folders.ResultWriteError
+            The files could not be written or put in place (a full disk, a refused
+            rename); the message says where the complete result is.
+        """
         from copdea_fem.folders import result_directory
         from copdea_fem.output.results import write_force_files
         with _claimed(folder, "force", _inputs(self.study)) as target:
@@ -525,13 +767,32 @@ class ForceCurve:
 
 
 # -- spectrum (reduced model) ----------------------------------------------------------------
-def spectrum(study: Study | str | Path, modes_json=None) -> "Spectrum":
+def spectrum(study: Study | str | Path, modes_json: str | Path | None = None) -> Spectrum:
     """Reduced-model velocity spectra under the study's chirp (Sect. 3.2, eq. 19;
-    ``copdea-fem spectrum``).  ``modes_json``: an FE modes.json whose coupled frequencies
-    set the added masses (default ``reduced.modes_json``).
+    ``copdea-fem spectrum``, nothing written).
 
-    Raises :class:`~copdea_fem.reduced.rings.ReducedModelError` where the model fails
-    (the CLI's exit 3)."""
+    Parameters
+    ----------
+    study : Study, str or Path
+        From :func:`load_study`, or a study file (a membrane with a disc).
+    modes_json : str or Path, optional
+        An FE modes.json whose coupled frequencies set the added masses (default
+        ``reduced.modes_json``; without one the ``reduced.*`` and ``effects.*`` keys set
+        them, :mod:`copdea_fem.reduced.model`).
+
+    Returns
+    -------
+    Spectrum
+        The reduced model and its spectra; :meth:`Spectrum.write` writes the files.
+
+    Raises
+    ------
+    StudyError
+        A bad study file or key, a membrane without a disc, a modes.json that is missing
+        or not one.
+    ReducedModelError
+        The reduced model cannot be built or solved for these inputs (the CLI's exit 3).
+    """
     from copdea_fem.inputs import read_text
     from copdea_fem.reduced.io import fe_frequencies
     from copdea_fem.reduced.model import build_reduced, spectra_of
@@ -548,7 +809,22 @@ def spectrum(study: Study | str | Path, modes_json=None) -> "Spectrum":
 
 @dataclass
 class Spectrum:
-    """The result of :func:`spectrum`: the reduced model (``setup``) and its spectra."""
+    """The result of :func:`spectrum`: the reduced model (``setup``) and its spectra.
+
+    Parameters
+    ----------
+    study : Study
+        The study.
+    setup : copdea_fem.reduced.model.ReducedSetup
+        The reduced model, its chirp and its modes.
+    result : copdea_fem.reduced.response.SpectrumResult
+        The velocity spectra, ``|FFT|/N`` per line [m/s].
+    modes_json : str or Path, optional
+        The FE modes.json given to :func:`spectrum`, if any.
+    fe_path : str or Path, optional
+        The modes.json whose coupled frequencies set the added masses (``modes_json`` or
+        ``reduced.modes_json``), if any.
+    """
 
     study: Study
     setup: ReducedSetup
@@ -564,17 +840,17 @@ class Spectrum:
         return spectrum_summary(self.study, self.setup, self.fe_path)
 
     @property
-    def average(self):
+    def average(self) -> pd.DataFrame:
         """spectrum_average.csv: ``freq_hz, v_axial, v_radial`` [Hz, m/s]."""
         return _average_table(self.result)
 
     @property
-    def points(self):
+    def points(self) -> pd.DataFrame:
         """spectrum_points.csv: the velocities at Q1-Q3 [m/s]."""
         return _points_table(self.result)
 
     @property
-    def modes(self):
+    def modes(self) -> pd.DataFrame:
         """reduced_modes.csv: ``label, freq_hz, modal_mass, added_mass, damping`` (SI)."""
         import pandas as pd
         reduced = self.setup.reduced
@@ -583,8 +859,31 @@ class Spectrum:
                              "added_mass": reduced.added_mass, "damping": reduced.damping})
 
     def write(self, folder: str | Path | Claim) -> Path:
-        """Every file of ``copdea-fem spectrum --out folder`` (or into a held
-        :class:`~copdea_fem.folders.Claim`); returns the folder."""
+        """Write every file of ``copdea-fem spectrum --out folder``.
+
+        Parameters
+        ----------
+        folder : str, Path or Claim
+            The result folder, checked first under the rules of :mod:`copdea_fem.folders`
+            (an earlier result of the same command is replaced only when the new one is
+            complete); or the :class:`~copdea_fem.folders.Claim` of a folder the caller
+            holds.
+
+        Returns
+        -------
+        Path
+            The folder written.
+
+        Raises
+        ------
+        OutputFolderError
+            A folder that may not be written (:mod:`copdea_fem.folders`: the working or
+            home folder, one holding an input file, a file, a folder with another
+            command's result or foreign files, one another run is writing).
+        copdea_fem.folders.ResultWriteError
+            The files could not be written or put in place (a full disk, a refused
+            rename); the message says where the complete result is.
+        """
         from copdea_fem.folders import result_directory
         from copdea_fem.reduced.io import write_spectrum_files
         inputs = _inputs(self.study) + ([self.modes_json] if self.modes_json else [])
@@ -628,12 +927,41 @@ def _private(command: str, out) -> _Folder:
 def sweep(sweep_file: str | Path, overrides: dict[str, Any] | list[str] | None = None, *,
           out: str | Path | None = None, executor: str | None = None,
           workers: int | None = None, allow_large: bool = False,
-          progress: Callable[[str], None] | None = None) -> "SweepResult":
+          progress: Callable[[str], None] | None = None) -> SweepResult:
     """A parameter sweep with tracked modes (``copdea-fem sweep``).
 
-    ``out``: the result folder (resumable: a second call continues); without it the sweep
-    runs in a private temporary folder, kept while the result lives (``write`` copies it).
-    ``progress``: as :func:`solve`'s (one line per point and a few more).
+    Parameters
+    ----------
+    sweep_file : str or Path
+        A sweep YAML file: the base study, the axes over study keys, the model.
+    overrides : dict or list of str, optional
+        Overrides of the base study's keys, as :func:`load_study`'s.
+    out : str or Path, optional
+        The result folder (resumable: a second call continues); without it the sweep runs
+        in a private temporary folder, kept while the result lives (``write`` copies it).
+    executor : str, optional
+        ``"local"`` (default), ``"pool"`` (worker processes) or ``"dask"``.
+    workers : int, optional
+        Worker processes of the ``pool`` executor.
+    allow_large : bool, default False
+        Start even when a point's problem is estimated above the size limit.
+    progress : callable(str), optional
+        As :func:`solve`'s (one line per point and a few more).
+
+    Returns
+    -------
+    SweepResult
+        The tracked-mode table and the points that failed (a failed point is recorded,
+        not raised).
+
+    Raises
+    ------
+    StudyError
+        A bad sweep file, base study, axis or override (a
+        :class:`~copdea_fem.sweeps.axes.SweepError`), an unknown executor or a bad worker
+        count, or a point above the size limit (without ``allow_large``).
+    OutputFolderError
+        ``out`` may not be written (as in :meth:`Solution.write`).
     """
     from copdea_fem.study import parse_overrides
     from copdea_fem.sweeps import load_sweep, run_sweep
@@ -657,15 +985,27 @@ def sweep(sweep_file: str | Path, overrides: dict[str, Any] | list[str] | None =
 
 @dataclass
 class SweepResult:
-    """The result of :func:`sweep`: ``outcome`` (:class:`copdea_fem.sweeps.gather.SweepOutcome`)."""
+    """The result of :func:`sweep`: ``outcome`` (:class:`copdea_fem.sweeps.gather.SweepOutcome`).
 
-    spec: Any
-    outcome: Any
+    Parameters
+    ----------
+    spec : copdea_fem.sweeps.spec.Sweep
+        The sweep as read (its points, their studies, the continuation path).
+    outcome : copdea_fem.sweeps.gather.SweepOutcome
+        What the run did: the folder, the table, the computed, resumed and failed points.
+    folder : _Folder
+        The folder the sweep ran in (``out``, or a private temporary one).
+    source : Path, optional
+        The sweep file (an input the folder checks of ``write`` protect).
+    """
+
+    spec: Sweep
+    outcome: SweepOutcome
     folder: _Folder = field(repr=False)
     source: Path | None = None
 
     @property
-    def table(self):
+    def table(self) -> pd.DataFrame:
         """sweep.csv: one row per point and tracked mode."""
         import pandas as pd
         return pd.read_csv(self.folder.path / "sweep.csv")
@@ -674,17 +1014,77 @@ class SweepResult:
     def failed(self) -> dict:
         return dict(self.outcome.failed)
 
-    def write(self, folder: str | Path) -> Path:
-        """The sweep's files (sweep.csv/json/png, the point store) in ``folder``."""
+    def write(self, folder: str | Path | Claim) -> Path:
+        """Write the sweep's files (sweep.csv/json/png, the point store) in ``folder``.
+
+        Nothing is copied when ``folder`` is the folder the sweep ran in (``out``).
+
+        Parameters
+        ----------
+        folder : str, Path or Claim
+            The result folder, checked first under the rules of :mod:`copdea_fem.folders`
+            (an earlier result of the same command is replaced only when the new one is
+            complete); or the :class:`~copdea_fem.folders.Claim` of a folder the caller
+            holds.
+
+        Returns
+        -------
+        Path
+            The folder written.
+
+        Raises
+        ------
+        OutputFolderError
+            A folder that may not be written (:mod:`copdea_fem.folders`: the working or
+            home folder, one holding an input file, a file, a folder with another
+            command's result or foreign files, one another run is writing).
+        copdea_fem.folders.ResultWriteError
+            The files could not be written or put in place (a full disk, a refused
+            rename); the message says where the complete result is.
+        """
         return self.folder.copy_to(folder, "sweep", [self.source] if self.source else [])
 
 
 def diagnose(measured: str | Path, *, alpha: float = 0.05, model: str | None = None,
-             fe_cache=None, fe_workers: int | None = None,
-             progress: Callable[[str], None] | None = None) -> "Diagnosis":
+             fe_cache: str | Path | None = None, fe_workers: int | None = None,
+             progress: Callable[[str], None] | None = None) -> Diagnosis:
     """Which catalogued effects the model lacks, from measured resonances and spectra
-    (``copdea-fem diagnose``, nothing written; ``progress``: as :func:`solve`'s;
-    ``fe_workers``: as ``--fe-workers``)."""
+    (``copdea-fem diagnose``, nothing written).
+
+    Parameters
+    ----------
+    measured : str or Path
+        A measured.yaml: the base study, the conditions and their measured files.
+    alpha : float, default 0.05
+        Significance level of each step (false-alarm probability), in (0, 1).
+    model : str, optional
+        ``"fe"`` or ``"reduced"``: the model of record, in place of measured.yaml's
+        ``model``.
+    fe_cache : str or Path, optional
+        Cache folder of the FE solves (``model: fe``; default as the CLI's
+        ``--fe-cache``).
+    fe_workers : int, optional
+        Processes solving FE studies side by side (``model: fe``; default as the CLI's
+        ``--fe-workers``).
+    progress : callable(str), optional
+        As :func:`solve`'s.
+
+    Returns
+    -------
+    Diagnosis
+        The verdict, the missing effects and the report's content;
+        :meth:`Diagnosis.write` writes the report.
+
+    Raises
+    ------
+    StudyError
+        ``alpha`` outside (0, 1), a bad measured.yaml, measured file or base study (a
+        :class:`~copdea_fem.diagnosis.measured.MeasuredDataError`), or conditions the
+        base model cannot evaluate.
+    ReducedModelError
+        The model cannot be built or evaluated (with ``model: fe``, an FE that cannot be
+        solved: :class:`~copdea_fem.diagnosis.anchored.FEFailure`; the CLI's exit 3).
+    """
     from copdea_fem.diagnosis import diagnose_measured
 
     with _progress(progress):
@@ -696,9 +1096,17 @@ def diagnose(measured: str | Path, *, alpha: float = 0.05, model: str | None = N
 @dataclass
 class Diagnosis:
     """The result of :func:`diagnose`: ``result`` (the diagnosis), ``document`` (the
-    content of diagnosis.json), ``write``."""
+    content of diagnosis.json), ``write``.
 
-    result: Any
+    Parameters
+    ----------
+    result : copdea_fem.diagnosis.select.DiagnosisResult
+        Everything the report and diagnosis.json need.
+    source : Path, optional
+        The measured.yaml (an input the folder checks of ``write`` protect).
+    """
+
+    result: DiagnosisResult
     source: Path | None = None
 
     @property
@@ -706,7 +1114,7 @@ class Diagnosis:
         return self.result.verdict
 
     @property
-    def missing_effects(self) -> list:
+    def missing_effects(self) -> list[str]:
         return list(self.result.missing_effects)
 
     @property
@@ -715,8 +1123,31 @@ class Diagnosis:
         return diagnosis_document(self.result)
 
     def write(self, folder: str | Path | Claim) -> Path:
-        """report.md, diagnosis.json, figures and final_study.yaml in ``folder`` (or into a
-        held :class:`~copdea_fem.folders.Claim`); returns the folder."""
+        """Write report.md, diagnosis.json, figures and final_study.yaml in ``folder``.
+
+        Parameters
+        ----------
+        folder : str, Path or Claim
+            The result folder, checked first under the rules of :mod:`copdea_fem.folders`
+            (an earlier result of the same command is replaced only when the new one is
+            complete); or the :class:`~copdea_fem.folders.Claim` of a folder the caller
+            holds.
+
+        Returns
+        -------
+        Path
+            The folder written.
+
+        Raises
+        ------
+        OutputFolderError
+            A folder that may not be written (:mod:`copdea_fem.folders`: the working or
+            home folder, one holding an input file, a file, a folder with another
+            command's result or foreign files, one another run is writing).
+        copdea_fem.folders.ResultWriteError
+            The files could not be written or put in place (a full disk, a refused
+            rename); the message says where the complete result is.
+        """
         from copdea_fem.diagnosis.report import write_report
         from copdea_fem.folders import result_directory
         inputs = [self.source] + [path for condition in self.result.measured.conditions

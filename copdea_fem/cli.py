@@ -281,7 +281,7 @@ def _add_reduced_commands(commands, with_study) -> None:
     calibrate.set_defaults(handler=cmd_calibrate_damping)
 
 
-# -- parameter sweeps (issue 6): sweep SWEEP.yaml ------------------------------------------------
+# -- parameter sweeps: sweep SWEEP.yaml ---------------------------------------------------------
 def cmd_sweep(args) -> int:
     """Run or resume a sweep; exit 3 if no point produced a result."""
     from copdea_fem.study import parse_overrides
@@ -320,7 +320,7 @@ def _add_sweep_command(commands) -> None:
     sweep.set_defaults(handler=cmd_sweep)
 
 
-# -- diagnosis (issue 5): diagnose MEASURED.yaml, synth STUDY.yaml, effects --------------------
+# -- diagnosis: diagnose MEASURED.yaml, synth STUDY.yaml, effects ---------------------------------
 def cmd_diagnose(args) -> int:
     """Which catalogued effect the model lacks; report.md, diagnosis.json, PNGs."""
     from copdea_fem import api
@@ -439,7 +439,7 @@ def _version() -> str:
 
 class _VersionAction(argparse.Action):
     """``--version``: the installed version, looked up only when asked (importlib.metadata
-    scans every installed distribution: ~0.1 s of every command otherwise)."""
+    scans every installed distribution, which would slow every command otherwise)."""
 
     def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS,
                  help="show program's version number and exit"):
@@ -552,7 +552,7 @@ def _run(args) -> int:
 
 #: gen-0 threshold of Python's cyclic garbage collector in a command's process (CPython's
 #: default: 700).  A command's objects are long-lived: importing NGSolve and SciPy alone
-#: starts ~110 collections that find nothing, ~50 ms of the baffled G1 command (issue 25);
+#: starts ~110 collections that find nothing, a noticeable share of a small command's time;
 #: every 100 000 container allocations still collect what cycles a long run leaves.
 COMMAND_GC_THRESHOLD = 100_000
 
@@ -562,7 +562,7 @@ def console_main() -> int:
     process that ends with it.  The garbage collector runs less often
     (:data:`COMMAND_GC_THRESHOLD`), and the objects still alive when the command returns
     are frozen (:func:`gc.freeze`) so that the interpreter's last collection does not walk
-    them all (~60 ms after a solve); the operating system frees the process's memory
+    them all (many objects after a solve); the operating system frees the process's memory
     anyway, and every file is closed and every result folder in place by then."""
     gc.set_threshold(COMMAND_GC_THRESHOLD, *gc.get_threshold()[1:])
     code = main()

@@ -1,4 +1,4 @@
-"""Fit the membrane's structural damping keys to measured modal damping (issue 23, item 4).
+"""Fit the membrane's structural damping keys to measured modal damping.
 
 ``copdea-fem calibrate-damping STUDY.yaml [SPECTRUM.csv] --fit rayleigh|prony`` fits
 ``membrane.rayleigh_alpha`` [1/s] and ``membrane.rayleigh_beta`` [s], or one Prony term

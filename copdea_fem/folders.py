@@ -85,7 +85,18 @@ def _test_write_delay() -> None:
 
 
 class OutputFolderError(ValueError):
-    """An output folder this run may not write; the message says which and what to do."""
+    """An output folder this run may not write; the message says which and what to do.
+
+    Raised before any work by :func:`check_output` and :func:`claim` (the working or home
+    folder, a folder holding an input file, a file, a folder with another command's result
+    or foreign files, one another run is writing; the CLI's exit 2), and so by every
+    ``write`` of :mod:`copdea_fem.api` and by :func:`copdea_fem.api.sweep` with ``out``.
+
+    Parameters
+    ----------
+    message : str
+        The folder, why it may not be written, and what to do instead.
+    """
 
 
 #: The claims each thread holds (:func:`claim`).
@@ -404,8 +415,8 @@ def _swap(staging: Path, target: Path, record: Claim) -> None:
 def result_directory(target, command: str):
     """Yield an empty staging folder; on success it replaces ``target`` atomically.
 
-    ``target``: a path, checked and locked (:func:`claim`), or a held :class:`Claim`; on any exception,
-    KeyboardInterrupt included, the staging folder is removed and ``target``
+    ``target``: a path, checked and locked (:func:`claim`), or a held :class:`Claim`; on any
+    exception, KeyboardInterrupt included, the staging folder is removed and ``target``
     holds the previous result (or nothing, or the new result when the exception
     came after the swap; :meth:`Claim.whereabouts` says which).  An OSError while
     writing or swapping becomes :class:`ResultWriteError`, saying where the result is.

@@ -158,6 +158,7 @@ _OPEN = {"blocks": 0, "level": logging.NOTSET}
 def single_threaded_blas():
     """BLAS on one thread for the eigen stage: SuperLU's triangular solves call BLAS
     on small supernode blocks, where a second thread costs more than it brings
-    (coupled sectors of G1, default mesh: 12.0 s on one BLAS thread, 17.7 s on two)."""
+    (coupled sectors of G1, default mesh: about a third less time on one BLAS thread than
+    on two)."""
     from threadpoolctl import threadpool_limits
     return threadpool_limits(limits=1, user_api="blas")

@@ -24,7 +24,18 @@ from copdea_fem.units import fast_to_si
 
 
 class StudyError(ValueError):
-    """A study key has a value outside what is allowed; the message says which."""
+    """A study key has a value outside what is allowed; the message says which.
+
+    Raised for every bad input, before any work where it can be found then: a study file
+    or key, a command's argument, an input file (the CLI's exit 2).  Subclasses:
+    :class:`copdea_fem.sweeps.axes.SweepError` (a sweep file) and
+    :class:`copdea_fem.diagnosis.measured.MeasuredDataError` (a measured data set).
+
+    Parameters
+    ----------
+    message : str
+        The key (or argument or file), its value and what is allowed.
+    """
 
 
 @dataclass(frozen=True)
@@ -276,7 +287,7 @@ SCHEMA["excitation"] = {
                        maximum=1.0, open_min=True),
 }
 
-# Forced harmonic response of the coupled FE and its sound (issue 15, copdea_fem.forced_response).
+# Forced harmonic response of the coupled FE and its sound (copdea_fem.forced_response).
 SCHEMA["response"] = {
     "method": Key(None, "auto", "auto = reduced on the 3-D engine when the membrane states "
                   "its own loss (loss_factor, Rayleigh or Prony), else modal; modal = "
@@ -302,7 +313,7 @@ SCHEMA["response"] = {
                  kind=int, minimum=0, maximum=50),
 }
 
-# Physical effects the reduced model can switch on or scale (issue 5, copdea_fem.diagnosis):
+# Physical effects the reduced model can switch on or scale (copdea_fem.diagnosis):
 # each default reproduces the model without the key.
 SCHEMA["effects"] = {
     "stiffness_scale": Key(None, 1.0, "uniform factor on c10, c20, c01 of eq. (20) in the reduced "
@@ -425,7 +436,7 @@ def _to_si(key: str, spec: Key, value: Any) -> float:
     if len(value) > MAX_QUANTITY_CHARACTERS:    # pint takes minutes on 100 000 digits
         raise _fail(key, value, spec.allowed(), f"longer than {MAX_QUANTITY_CHARACTERS} "
                     "characters, not a quantity")
-    fast = fast_to_si(value.strip(), spec.unit)     # "16 mm" without pint's ~1 s start
+    fast = fast_to_si(value.strip(), spec.unit)     # "16 mm" without pint's slow start
     if fast is not None:
         return fast
     import pint
@@ -595,7 +606,8 @@ def _check_across_keys(v: dict[str, dict[str, Any]]) -> None:
     prony = v["membrane"]["prony"]
     if prony:
         # the rational eigen problem's relaxation spectrum lies on Re f = 0 from
-        # |Im f| = 1/(2 pi tau_max (1 + sum g)) (copdea_fem.fe.eigen.damped): keep it out of the band
+        # |Im f| = 1/(2 pi tau_max (1 + sum g)) (copdea_fem.fe.eigen.damped): keep it out of
+        # the band
         lowest = 1.0 / (2 * math.pi * max(t["relaxation_time"] for t in prony)
                         * (1 + sum(t["modulus_ratio"] for t in prony)))
         height = e["max_damping_ratio"] * e["f_max"]

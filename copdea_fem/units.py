@@ -1,8 +1,8 @@
-"""The common quantities of a study read without pint (issue 25: whole-command speed).
+"""The common quantities of a study read without pint, for the whole command's speed.
 
-Reading ``"16 mm"`` with :mod:`pint` costs its import (~0.5 s: it imports dask
-when dask is installed) and the build of its unit registry (~0.4 s) in every fresh
-process, more than the whole axisymmetric solve of a small study.  Almost every value
+Reading ``"16 mm"`` with :mod:`pint` costs its import (slow: it imports dask
+when dask is installed) and the build of its unit registry in every fresh
+process, together more than the whole axisymmetric solve of a small study.  Almost every value
 of a study is ``<number> <unit>`` with one of a few units: :func:`fast_to_si` reads
 those from the table below, and :mod:`copdea_fem.study` falls back to pint for
 everything else (compound expressions, other units, offsets such as degC), so no

@@ -14,9 +14,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-#: VTU files are written binary, uncompressed (:func:`write_vtu`): zlib took half of the
-#: output time of a coupled solve (3.2 of 6.7 s, G1 default mesh, 48 modes) for files 2-3x
-#: smaller.
+#: VTU files are written binary, uncompressed (:func:`write_vtu`): zlib took about half of
+#: the output time of a coupled solve (G1 default mesh, 48 modes) for files 2-3x smaller.
 VTU_COMPRESSION = None
 
 
@@ -73,9 +72,9 @@ def write_vtu(path: Path, mesh) -> None:
     """A :class:`meshio.Mesh` (points, one cell block, point and cell data) as a VTU file
     with its arrays appended as raw binary: the XML header, then every array's bytes as
     they lie in memory.  ParaView, VTK (pyvista) and meshio read it; meshio's own writer
-    took ~20 ms a file (base64 and per-array XML), this one ~7 ms, mostly the disk
-    (97 files of the baffled G1 command: 1.9 s and 0.64 s on a loaded machine).
-    (:class:`VtuWriter` for many files that share their geometry.)"""
+    takes about three times as long a file (base64 and per-array XML), while this one's
+    time is mostly the disk.  (:class:`VtuWriter` for many files that share their
+    geometry.)"""
     VtuWriter().write(path, mesh)
 
 
@@ -93,8 +92,7 @@ class VtuWriter:
     Used as a context manager (``with VtuWriter() as writer``), the files are written by
     one background thread while the caller builds the next mesh (the system call copying
     the bytes releases the GIL): every file is complete when the block ends, and the first
-    error of a write is raised there.  The baffled G1 command's 97 files: ~30 ms less
-    wall time of ~0.2 s, the same CPU time.
+    error of a write is raised there.  That saves wall time, not CPU time.
     """
 
     def __init__(self):

@@ -1,13 +1,14 @@
-"""Diagnose model-measurement disagreement: which physical effect is missing (issue 5).
+"""Diagnose model-measurement disagreement: which physical effect is missing.
 
 Pipeline (data flows one way; each module pure except ``report`` and the
 two actions below):
 
 ``measured``  ``measured.yaml`` + resonance/spectrum CSVs -> :class:`MeasuredSet` (checked)
-``effects``   the catalogue: 8 effects, parameters, signatures, study overrides
+``effects``   the catalogue: 11 effects, parameters, signatures, study overrides
 ``engine``    ring-model modes and spectra of a condition under an effect state
 ``fe``        the FE model of record: study -> structural modes, cached
 ``anchored``  the ring model anchored to the FE: the surrogate the fits run on
+``direct``    the FE evaluated directly, for a membrane without a disc (no ring model)
 ``peaks``     resonance peaks of measured spectra
 ``compare``   one-to-one matching, deviance (-2 ln L), the headline gap
 ``tabulation`` a candidate's modes over its parameters, interpolated
@@ -15,7 +16,9 @@ two actions below):
 ``evidence``  the sentences: evidence of a step, goodness of fit, verdict
 ``report``    report.md, diagnosis.json, PNG figures, final_study.yaml
 ``synth``     synthetic measurements from the ring model with chosen effects on
-``bench``     ``python -m benchmarks.diagnose``: wall time of an FE diagnosis
+
+The wall time of an FE diagnosis is benchmarked by ``python -m benchmarks.diagnose``
+(``benchmarks/diagnose.py``, outside the package).
 
 Entry points of ``copdea-fem diagnose`` and ``copdea-fem synth`` (outputs are staged and
 moved into place only when complete):

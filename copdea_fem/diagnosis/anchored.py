@@ -1,8 +1,8 @@
-"""The FE as the model of record, the ring model as its anchored surrogate (issue 13).
+"""The FE as the model of record, the ring model as its anchored surrogate.
 
 A diagnosis evaluates thousands of effect states per condition; the FE takes
-0.5-2 s (axisymmetric engine) to ~10-30 s (3-D quadrant, square frame) per solve,
-the ring model milliseconds.  So the FE fixes the numbers and the ring model
+seconds (axisymmetric engine) to tens of seconds (3-D quadrant, square frame) per
+solve, the ring model milliseconds.  So the FE fixes the numbers and the ring model
 interpolates between FE solves:
 
     f(state) = f_ring(state) * f_FE(anchor) / f_ring(anchor)            (A1)
@@ -18,10 +18,10 @@ FE parameters at the base values, so those solves are shared by every step
 and every data set of the same conditions); ring-only effects (air-mass
 scale, visco-elasticity, spring mass, damping) off -- also where the base
 study has them on (:func:`ring_only_off`), so that they act through the ring
-model's ratio and are not cancelled by the anchor.  At the anchor (A1) is the FE exactly, so the ring model's
-discretisation error (a 6-ring (0,2) 4-5 % too stiff) never reads as physics
-and an effect that only the FE has (the frame; the real coupled added mass
-in place of the baffled estimate) acts through f_FE(anchor).
+model's ratio and are not cancelled by the anchor.  At the anchor (A1) is the FE
+exactly, so the ring model's discretisation error (a 6-ring (0,2) 4-5 % too stiff)
+never reads as physics and an effect that only the FE has (the frame; the real coupled
+added mass in place of the baffled estimate) acts through f_FE(anchor).
 
 Modes the ring model lacks -- non-axisymmetric (m,n) and (0,n) past its
 truncation -- take the FE's frequency times the relative change of the ring
@@ -31,7 +31,7 @@ of P1, or of the highest axisymmetric mode that has one.  Non-axisymmetric
 modes are *optional* (excited only by imperfections: pairable, but their
 absence costs nothing).
 
-Quality factors (issue 23).  Damping adds (radiation and structural loss are
+Quality factors.  Damping adds (radiation and structural loss are
 separate terms of the damped pencil, docs/damping.md), so the damping ratio
 zeta = 1/(2Q) follows (A1) additively:
 
@@ -44,7 +44,7 @@ and the Prony term's loss, :mod:`copdea_fem.diagnosis.engine`).  At the anchor i
 is the FE's; a ring-only damping (modal b/m) adds to it.  Modes the ring model
 lacks take the change of their proxy's zeta; modes the FE lacks the ring's.
 
-The Prony term (issue 23, ``viscoelastic_membrane``).  The ring model does not
+The Prony term (``viscoelastic_membrane``).  The ring model does not
 model ``membrane.prony`` (:mod:`copdea_fem.diagnosis.engine`: its elastic stiffness
 is not the FE's material tangent), so between FE solves a *modal* surrogate moves
 it, calibrated on the FE.  A mode's stiffness splits into the material part
@@ -54,7 +54,7 @@ it, calibrated on the FE.  A mode's stiffness splits into the material part
 ``L_i = x_i / (1 + x_i^2)``, ``x_i = w tau_i`` (docs/damping.md), and a mode of
 relaxed frequency ``w_e`` sits at
 
-    w^2 = w_e^2 (1 + s sum g_i S_i(w)),    zeta = s sum g_i L_i(w) / (2 (1 + s sum g_i S_i(w)))  (P1)
+    w^2 = w_e^2 (1 + s sum g_i S_i(w)),    zeta = s sum g_i L_i(w) / (2 (1 + s sum g_i S_i(w))) (P1)
 
 (light damping, the mode shape frozen).  ``s`` of every FE mode comes from ONE
 probe FE solve per condition in vacuo with a small term (:data:`PROBE`: g = 0.1,

@@ -1,11 +1,11 @@
-"""The FE evaluated directly, for devices the ring surrogate cannot represent (issue 24).
+"""The FE evaluated directly, for devices the ring surrogate cannot represent.
 
 The ring model of Sect. 3.2.1 needs the central disc (the membrane is an annulus
 between r_i > 0 and r_o).  A membrane without one -- a drum head, a loudspeaker
 membrane (``geometry.inner_radius: 0``) -- is still an ordinary FE study, and the
 FE is the diagnosis's model of record anyway (:mod:`copdea_fem.diagnosis.fe`).  So
 for such a base the prediction of an effect state is the FE's, solved at that
-state (no anchor, no ratio (A1)): 0.5-2 s a solve on the axisymmetric engine (dry
+state (no anchor, no ratio (A1)): seconds a solve on the axisymmetric engine (dry
 modes, frames none/baffle/circle), tens of seconds to minutes on the 3-D quadrant
 (square frame).
 

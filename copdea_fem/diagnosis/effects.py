@@ -1,4 +1,4 @@
-"""Catalogue of the physical effects the model can switch on or off (issue 5).
+"""Catalogue of the physical effects the model can switch on or off.
 
 Every effect is a transformation of the study: :meth:`Effect.on` returns the
 ``{"section.key": value}`` overrides that switch it on with given parameter
@@ -15,12 +15,12 @@ off, e.g. ``uniform_stiffness``).  ``engine`` is ``"reduced"`` when the
 ring surrogate can move it, ``"coupled_fe"`` when only the fully-coupled
 FE can (tested only with the FE as the model of record and air in the model)
 and ``"fe"`` when the FE is its model of record in vacuo or with air (tested only
-with ``model: fe``; issue 23's ``viscoelastic_membrane``).
+with ``model: fe``: ``viscoelastic_membrane``).
 
 Identifiers are a contract (``diagnosis.json``): ``air_loading,
 electrostatic_softening, spring_mass, disc_pumping, modal_damping,
-frame_reflection, viscoelastic_stiffening, uniform_stiffness``, (issue 24) ``baffle``,
-``open_air`` and (issue 23) ``viscoelastic_membrane``.
+frame_reflection, viscoelastic_stiffening, uniform_stiffness``, ``baffle``,
+``open_air`` and ``viscoelastic_membrane``.
 """
 
 from __future__ import annotations
@@ -260,7 +260,7 @@ def base_mounting(study) -> str | None:
 
 
 def frame_overrides(study, shape=None) -> dict:
-    """Overrides that put the membrane in a reflecting frame (module notes of issue 24).
+    """Overrides that put the membrane in a reflecting frame.
 
     Shape: the base study's ``geometry.frame`` when it is square or circle, else square
     (Sect. 5.1).  Size: the study's ``geometry.frame_side`` / ``frame_radius`` (stated)
@@ -311,7 +311,7 @@ _register(Effect(
 _register(Effect(
     id="baffle", title="membrane in an infinite baffle (mounting)",
     description="The membrane's rim sits in an infinite rigid plane (a drum head in a wall, a "
-                "loudspeaker in a box front; issue 24): the air cannot flow round the rim from "
+                "loudspeaker in a box front): the air cannot flow round the rim from "
                 "one face to the other.  Evaluated with the coupled air/PML FE on the "
                 "axisymmetric engine (geometry.frame: baffle); the ring model has no baffle.",
     kind="physics", engine="coupled_fe", parameters=(),
@@ -326,7 +326,7 @@ _register(Effect(
 
 _register(Effect(
     id="open_air", title="membrane open in air (the base's mounting removed)",
-    description="The reverse of baffle and frame_reflection (issue 24): the membrane hangs "
+    description="The reverse of baffle and frame_reflection: the membrane hangs "
                 "open in air, nothing in its plane around it, so the air flows round the rim "
                 "from one face to the other.  A candidate only for a base that states a "
                 "mounting (geometry.frame: baffle, square or circle, with air): it replaces "
@@ -363,7 +363,7 @@ _register(Effect(
     off_overrides=lambda s: {"effects.viscoelastic_strength": 0.0},
     detect=lambda s: s["effects"]["viscoelastic_strength"] > 0))
 
-# One material-damping cause at a time (issue 23): the membrane's Prony term (FE) both
+# One material-damping cause at a time: the membrane's Prony term (FE) both
 # stiffens and damps, so it stands for the ring model's storage factor
 # (viscoelastic_stiffening) and the paper's hand-calibrated modal b/m (modal_damping)
 # together; :meth:`copdea_fem.diagnosis.select.Diagnoser.candidates` never tests it beside
@@ -404,7 +404,7 @@ def prony_band_floor(terms, eigen: dict, f_max: float | None = None) -> float | 
 
 _register(Effect(
     id="viscoelastic_membrane", title="viscoelastic membrane (Prony term, evaluated by the FE)",
-    description="The film is a generalised Maxwell material (issue 23; docs/damping.md): one "
+    description="The film is a generalised Maxwell material (docs/damping.md): one "
                 "Prony term membrane.prony = [{modulus_ratio: g, relaxation_time: tau}] on the "
                 "material tangent, K_mat (1 + g (-i w tau) / (1 - i w tau)), the hyperelastic "
                 "law of eq. (20) its relaxed modulus.  It stiffens the membrane by the storage "

@@ -6,7 +6,7 @@ switched on, in order, on top of the base study and the condition's
 overrides (:meth:`Engine.study`).  The result is an ordinary study that
 :func:`copdea_fem.reduced.build_reduced` honours.
 
-Speed.  Only the static solve and the dry modes are expensive (~10 ms); they
+Speed.  Only the static solve and the dry modes are expensive; they
 depend on the geometry, material, z, V_b, ``effects.stiffness_scale`` and
 ``effects.maxwell_scale`` and are cached in :mod:`copdea_fem.reduced.model`.
 Everything else is applied here to a cached *reference* build (air-mass

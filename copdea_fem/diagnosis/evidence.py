@@ -119,7 +119,7 @@ def verdict(result) -> str:
                      f"{100 * result.gap_after:.1f} %.")
     elif state == "partly explained":
         parts.append("Partly explained.")
-    for effect_id, text in result.status.items():    # a mounting change (issue 24)
+    for effect_id, text in result.status.items():    # a mounting change
         prefix = "on in the base model: replaced by "
         if text.startswith(prefix) and text[len(prefix):] in result.missing_effects:
             parts.append(f"The base study's mounting ({effect_id}) does not fit the data: "

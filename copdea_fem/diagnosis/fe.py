@@ -1,11 +1,11 @@
-"""The FE model of record of the diagnosis (issue 13): study -> structural modes, cached.
+"""The FE model of record of the diagnosis: study -> structural modes, cached.
 
 The diagnosis compares the measurement with the finite-element model as the
 base study is written: in vacuo where ``air.enabled`` is false, fully coupled
 with the air (and its frame) where it is true.  :func:`fe_study` maps a
 diagnosis study to the study the FE runs; :class:`FEModel` solves it with the
 engine the geometry allows (the axisymmetric-harmonic engine for dry modes and
-for frames none/baffle/circle, ~1-2 s; the 3-D quadrant for the square frame)
+for frames none/baffle/circle, seconds a solve; the 3-D quadrant for the square frame)
 and keeps the structural modes (out-of-plane and pumping) in memory and,
 optionally, on disk, keyed by a hash of the FE study.
 
@@ -17,7 +17,7 @@ What it does not: the ring model's own keys (``reduced.*``), the air-mass
 estimate and its scale, visco-elasticity, the spring's mass, modal damping --
 those act through the anchored ring surrogate (:mod:`copdea_fem.diagnosis.anchored`).
 
-Side by side (issue 24).  A cold diagnosis needs tens of independent FE solves (every
+Side by side.  A cold diagnosis needs tens of independent FE solves (every
 condition at every switch state, the grid of a fitted parameter on the direct engine):
 the search hands each batch to :meth:`FEModel.solve_many` first, which solves what the
 cache lacks in spawned worker processes (``workers``, ``--fe-workers``), each writing
@@ -158,8 +158,8 @@ def structural_modes(modes) -> tuple:
 
 CACHE_VARIABLE = "COPDEA_FEM_FE_CACHE"
 #: Longest wait [s] for an entry another run is computing (its lock file held) before this
-#: run solves it itself: past the longest single FE solve of a diagnosis (~10 s for the 3-D
-#: square frame coupled, minutes on a fine mesh), so only a hung run is overtaken.
+#: run solves it itself: past the longest single FE solve of a diagnosis (the 3-D square
+#: frame coupled on the default mesh, minutes on a fine mesh), so only a hung run is overtaken.
 LOCK_WAIT_SECONDS = 600.0
 LOCK_POLL_SECONDS = 0.2
 

@@ -116,8 +116,8 @@ PML_STRENGTH = 7.0
 #: Polynomial order added to ``pressure_order`` in the PML elements: the
 #: geometry puts about one element across the 0.5 r_o shell.  Baffled piston
 #: (9 mm membrane mesh ... 6 mm) impedance error with PML order 2: 1.4-2 %,
-#: with order 3: 0.02-0.35 %.  Factorisation of the default square-frame air
-#: (4 mm membrane mesh): 4.6 s at PML order 2, 6.0 s at 3, 20.9 s at 4.
+#: with order 3: 0.02-0.35 %.  Factorising the default square-frame air (4 mm membrane
+#: mesh) costs a little more at PML order 3 than at 2, and 3.5x that at 4.
 PML_EXTRA_ORDER = 1
 
 
@@ -150,7 +150,8 @@ PLANE_FACES = ("membrane", "disc", "frame", "aperture", "pml_plane")
 
 
 def open_plane_faces(screens: str) -> str:
-    """Plane faces (of ``aperture``, ``pml_plane``) not in ``screens``: pressure continuous there."""
+    """Plane faces (of ``aperture``, ``pml_plane``) not in ``screens``: pressure continuous
+    there."""
     named = set(screens.split("|"))
     return "|".join(face for face in ("aperture", "pml_plane") if face not in named)
 

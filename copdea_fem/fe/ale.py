@@ -21,7 +21,7 @@ where w, u_rho are the membrane's axial and radial displacement profiles
 line the map zeta -> zeta + w phi(zeta) is strictly increasing when
 |w| < L/2 (phi' >= -2/L), so the two air halves never overlap; the rest is a
 shear (det 1) plus the small radial motion u_rho.  The decay length L
-(:func:`geometry.ale_decay_length`) keeps D inside the air sphere, away from
+(:func:`copdea_fem.fe.airbox.ale_decay_length`) keeps D inside the air sphere, away from
 the PML; phi is C1 at |zeta| = L.  D has kinks where w has: across the rims
 r = r_i, r_o (slope of the membrane vs the flat disc / frame) and across the
 plane; the mesh conforms to all of them (the ``ale_guide`` cylinders and the
@@ -69,7 +69,8 @@ def _piecewise_linear(xs: np.ndarray, values: np.ndarray, argument, outside_low,
 
 
 def checked_decay_length(state, domain_radius: float) -> float:
-    """The decay length L [m] (:func:`geometry.ale_decay_length`); MeshMotionError when the
+    """The decay length L [m] (:func:`copdea_fem.fe.airbox.ale_decay_length`); MeshMotionError
+    when the
     disc lift z is too large for it (|z| < L/2 keeps the map monotone, 0.45 L a margin)."""
     length = ale_decay_length(domain_radius, state.outer_radius)
     if abs(state.z) >= 0.45 * length:

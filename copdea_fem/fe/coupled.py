@@ -2,18 +2,18 @@
 
 Unknowns ``x = (u, p)``: the membrane displacement on its free DOFs (plus the
 rigid disc DOF when the disc rides on the spring) [m] and the air pressure with
-its jump across the screens [Pa] (:func:`acoustics.pressure_space`).  With the
-forms of :mod:`copdea_fem.fe.acoustics` (eq. A3 there)::
+its jump across the screens [Pa] (:func:`copdea_fem.fe.acoustics.pressure_space`).  With
+the forms of :mod:`copdea_fem.fe.acoustics` (eq. A3 there)::
 
     [ K_s  C^T ] x = omega^2 [ M_s   0  ] x,      C_ij = int_screens [p'_i] (u_j . n) ds
     [ 0    K_a ]             [ -C   M_a ]
 
-``K_s, M_s`` come from :mod:`linearise` (flat reference, Lagrangian);
-``K_a, M_a, C`` are assembled on the deformed air (:mod:`ale`, Eulerian) with
-the PML set, so the pencil is complex and non-symmetric.  The air rows and the
+``K_s, M_s`` come from :mod:`copdea_fem.fe.linearise` (flat reference, Lagrangian);
+``K_a, M_a, C`` are assembled on the deformed air (:mod:`copdea_fem.fe.ale`, Eulerian)
+with the PML set, so the pencil is complex and non-symmetric.  The air rows and the
 pressure unknowns are scaled (``p = beta p^``, air rows times ``alpha``) so
 that all blocks have the size of ``K_s``; the eigenvalues do not change and the
-relative residuals of :mod:`eigen` then weigh both physics alike.
+relative residuals of :mod:`copdea_fem.fe.eigen` then weigh both physics alike.
 
 :func:`assemble_coupled` assembles the forms once on all DOFs;
 :meth:`CoupledAssembly.restrict` cuts out the pencil of one mirror-symmetry
@@ -83,9 +83,9 @@ def assemble_coupled(study, mesh, state) -> "CoupledAssembly":
     the flat reference; the air and coupling terms with the ALE deformation
     ``D`` (``dx(..., deformation=D)``).  The disc on the spring is a
     :class:`ngsolve.NumberSpace` unknown ``w_d`` moving the inner rim through
-    the lift of :mod:`linearise` (``u = u_free + w_d lift``), with mass
+    the lift of :mod:`copdea_fem.fe.linearise` (``u = u_free + w_d lift``), with mass
     ``M_d + M_s/3`` and stiffness ``k_d`` spread over the disc face (a quadrant
-    mesh's disc face carries a quarter of them, :mod:`symmetry`).  One
+    mesh's disc face carries a quarter of them, :mod:`copdea_fem.fe.symmetry`).  One
     assembly serves every symmetry sector: :meth:`CoupledAssembly.restrict`.
     """
     air, geometry = study["air"], study["geometry"]
@@ -122,7 +122,8 @@ def assemble_coupled(study, mesh, state) -> "CoupledAssembly":
     stiffness = ngs.BilinearForm(space)
     stiffness += ngs.Variation(energy_density(None, material, state.voltage, gradient=gradient)
                                * measure)
-    # eq. (A3) with the tested forms (acoustics.coupled_forms); k_s is the Variation above
+    # eq. (A3) with the tested forms (copdea_fem.fe.acoustics.coupled_forms); k_s is the
+    # Variation above
     coupling_and_air, membrane_mass_and_air = acoustics.coupled_forms(
         pressure, pressure_test, u * normal, v * normal, None,
         material.areal_density * u * v * measure, density, sound_speed, "membrane",

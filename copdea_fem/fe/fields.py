@@ -139,7 +139,8 @@ class _AirHalves:
 
 
 def _jump_vertices(pressure_space, vertices: int):
-    """Per mesh vertex: whether the pressure jump ``q`` of :func:`acoustics.pressure_space`
+    """Per mesh vertex: whether the pressure jump ``q`` of
+    :func:`copdea_fem.fe.acoustics.pressure_space`
     has a free DOF there (a screen vertex; the lower half needs its own copy); None when
     the space has no jump component (every lower vertex is then split)."""
     try:
@@ -162,9 +163,8 @@ class CornerPressure:
     plus ``q``'s in the lower half.  Which DOF each corner reads is found once by
     evaluating the field of two probe vectors (the DOF numbers as values, in ``P`` and then
     in ``Q``) and checked against the evaluation of one random vector; where it is equal to
-    the bit, each vector costs two gathers (G1's meridian air: ~0.05 ms against ~1 ms for
-    an evaluation), else (a space where a corner is no single DOF) every vector is
-    evaluated.
+    the bit, each vector costs two gathers (far cheaper than an evaluation), else (a space
+    where a corner is no single DOF) every vector is evaluated.
     """
 
     def __init__(self, space, points):

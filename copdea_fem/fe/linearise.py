@@ -13,7 +13,7 @@ adds mass ``M_d + M_s/3`` (Rayleigh's equivalent mass of a spring with a
 linear static deflection profile; the spring's own wave modes P2, P3, ... are
 Annex I's business) and stiffness ``k_d`` (eq. 4, linear spring).
 
-On a quadrant mesh (:mod:`symmetry`) the operators are those of one sector:
+On a quadrant mesh (:mod:`copdea_fem.fe.symmetry`) the operators are those of one sector:
 its mirror conditions remove DOFs, the disc DOF exists in the even-even
 sector only, and the disc's mass and stiffness enter divided by 4.
 

@@ -85,7 +85,8 @@ def energy_density(u, material: Membrane, voltage, gradient=None):
 
 def material_energy_density(base_gradient, increment_gradient, material: Membrane):
     """Strain energy per pre-stretched area whose Hessian at a zero increment is the
-    MATERIAL part of the tangent only [J/m^2] (for the Prony branches, :mod:`linearise`).
+    MATERIAL part of the tangent only [J/m^2] (for the Prony branches,
+    :mod:`copdea_fem.fe.linearise`).
 
     The whole tangent is ``d2/du2 Psi(C(u0 + u))`` = ``Psi'' : dC : dC`` (material) +
     ``Psi' : d2C`` (initial stress) + the electrostatic terms.  With ``Ct`` replaced by
@@ -127,7 +128,7 @@ def field_coefficients(u, material: Membrane, voltage: float) -> dict:
     _, det_c = invariants(u, material.prestretch)
     d_tr, d_det, *_ = material.free_energy_partials(lam1**2 + lam2**2, lam1**2 * lam2**2,
                                                     voltage)
-    sigma1 = 2 * lam1**2 * (d_tr + lam2**2 * d_det)    # materials.principal_stresses
+    sigma1 = 2 * lam1**2 * (d_tr + lam2**2 * d_det)    # materials.Membrane.principal_stresses
     sigma2 = 2 * lam2**2 * (d_tr + lam1**2 * d_det)
     return {
         "displacement": u,

@@ -53,7 +53,8 @@ class Mode:
     vector: np.ndarray = field(repr=False)   # full membrane-space coefficients
     disc_displacement: complex = 0.0
     membrane_energy_fraction: float = 1.0    # kinetic energy share of the membrane (+ disc)
-    sector: object = None          # symmetry.Sector on a quadrant mesh (vector: quadrant part)
+    # copdea_fem.fe.symmetry.Sector on a quadrant mesh (vector: quadrant part)
+    sector: object = None
     family: str = ""               # "cos" / "sin": normal and radial parts go as cos / sin m theta
     in_plane_component: str = ""   # in-plane modes: "radial" or "hoop", the dominant component
 
@@ -278,7 +279,8 @@ def assign_labels(modes: list[Mode]) -> None:
 # -- coupled modes (post-processing of the coupled pencil's eigenpairs) ---------------
 @dataclass
 class _MembranePart:
-    """Membrane part of coupled eigenpairs, shaped like an eigen.BandResult for modes.py."""
+    """Membrane part of coupled eigenpairs, shaped like a
+    :class:`copdea_fem.fe.eigen.BandResult` for this module."""
 
     vectors: np.ndarray
     freq_hz: np.ndarray
@@ -309,9 +311,9 @@ def membrane_energy_fractions(coupled, result) -> list[float]:
 
 def coupled_mode_list(coupled, result, min_membrane_energy: float,
                       sampler: ModeSampler) -> tuple[list[Mode], list[np.ndarray]]:
-    """Classify coupled eigenpairs of the 3-D engine (:class:`copdea_fem.fe.coupled.CoupledOperators`);
-    returns modes and their pressure vectors [Pa, free DOFs]
-    (:func:`membrane_energy_fractions` decides the air modes)."""
+    """Classify coupled eigenpairs of the 3-D engine
+    (:class:`copdea_fem.fe.coupled.CoupledOperators`); returns modes and their pressure
+    vectors [Pa, free DOFs] (:func:`membrane_energy_fractions` decides the air modes)."""
     membrane_vectors = result.vectors[coupled.membrane_index]
     pressure_vectors = result.vectors[coupled.pressure_index] * coupled.pressure_scale
     fractions = membrane_energy_fractions(coupled, result)

@@ -74,9 +74,11 @@ class PrestressedState:
     disc_lift: object = None        # unit axial disc displacement on the inner-rim DOFs
     outer_radius: float = 0.0       # m
     inner_radius: float = 0.0       # m
-    measure: object = None          # ds on the membrane, see membrane.membrane_measure
+    # ds on the membrane, see copdea_fem.fe.membrane.membrane_measure
+    measure: object = None
     symmetry: Symmetry = field(default_factory=Symmetry)   # the mesh's part of the device
-    matrices: tuple | None = field(default=None, repr=False)  # (K, M) of linearise.membrane_matrices
+    # (K, M) of copdea_fem.fe.linearise.membrane_matrices
+    matrices: tuple | None = field(default=None, repr=False)
 
     @property
     def has_disc(self) -> bool:

@@ -5,7 +5,7 @@ about the planes x = 0 and y = 0, and the prestress is axisymmetric.  The
 linearised coupled operator therefore commutes with both reflections, and
 every mode is even or odd about each plane: it belongs to one *sector*
 ``(parity_x, parity_y)`` with parities +1 (even) or -1 (odd).  On the quadrant
-x >= 0, y >= 0 (:mod:`geometry`, ``symmetry = "quarter"``) a sector is the
+x >= 0, y >= 0 (:mod:`copdea_fem.fe.quadrant.geometry`, ``symmetry = "quarter"``) a sector is the
 same pencil with its own conditions on the mirror planes:
 
 =================  ====================================  ===========================
@@ -87,7 +87,8 @@ class Symmetry:
 
     @classmethod
     def of_mesh(cls, mesh) -> "Symmetry":
-        """The symmetry a mesh of :func:`geometry.load_mesh` was cut to (by its face names)."""
+        """The symmetry a mesh of :func:`copdea_fem.fe.quadrant.geometry.load_mesh` was cut to (by
+    its face names)."""
         return cls("quarter" if "mirror_x" in mesh.GetBoundaries() else "none")
 
     @property
@@ -135,7 +136,7 @@ def bitarray(mask: np.ndarray):
 def membrane_mirror_dofs(space, mesh, order: int, sector: Sector | None) -> np.ndarray:
     """Indices of the membrane DOFs a sector fixes to zero (module table).
 
-    ``space`` is :func:`membrane.displacement_space` (a compressed VectorH1 on
+    ``space`` is :func:`copdea_fem.fe.membrane.displacement_space` (a compressed VectorH1 on
     ``membrane``); the uncompressed space is rebuilt to find each component's
     DOFs on the mirror edges.
     """
@@ -160,7 +161,7 @@ _LAYOUTS: dict = {}     # (id(mesh), order) -> (weak reference to the mesh, layo
 def _membrane_layout(mesh, order: int):
     """The uncompressed VectorH1 on ``membrane``: DOFs per component, each mirror edge's
     scalar DOFs, and the DOFs ``Compress`` keeps; built once per mesh and order (the
-    space on a 3-D air mesh costs ~40 ms, and every sector asks twice)."""
+    space on a 3-D air mesh is not cheap to build, and every sector asks twice)."""
     import ngsolve as ngs
 
     key = (id(mesh), order)       # NGSolve meshes are not hashable
@@ -180,7 +181,7 @@ def _membrane_layout(mesh, order: int):
 
 def pressure_mirror_dofs(pressure_space, mesh, sector: Sector | None) -> np.ndarray:
     """Indices (in ``pressure_space``) of the pressure DOFs an odd parity fixes: p = q = 0
-    on that mirror plane (:func:`acoustics.pressure_space`, a product P x Q)."""
+    on that mirror plane (:func:`copdea_fem.fe.acoustics.pressure_space`, a product P x Q)."""
     if sector is None:
         return np.zeros(0, dtype=int)
     fixed = np.zeros(pressure_space.ndof, dtype=bool)

@@ -1,4 +1,4 @@
-"""Forced harmonic response of the coupled FE model and the sound it radiates (issue 15).
+"""Forced harmonic response of the coupled FE model and the sound it radiates.
 
 - :mod:`.run`: the ``copdea-fem response`` pipeline; :mod:`.files`: its result files.
 

@@ -1,9 +1,9 @@
 r"""The forced response by a reduced basis: rational Krylov / multi-point moment matching of
-``T(omega)`` over the chirp band (issue 23, ``response.method: reduced``).
+``T(omega)`` over the chirp band (``response.method: reduced``).
 
 The problem
 -----------
-Every line of the direct path (:meth:`copdea_fem.forced_response.harmonic.ForcedOrder.direct`)
+Every line of the direct path (:meth:`copdea_fem.fe.forced.harmonic.ForcedOrder.direct`)
 solves, on the scaled coupled pencil (membrane + air + PML),
 
     T(omega) x = F,     T(omega) = A - i eta K_el - omega^2 B - i omega C
@@ -13,7 +13,7 @@ solves, on the scaled coupled pencil (membrane + air + PML),
 (``A, B`` the coupled pencil with its ALE air and PML, ``eta`` ``membrane.loss_factor``,
 ``C`` the Rayleigh damping, ``G_j`` the Prony branches: :mod:`.harmonic`).  One sparse
 factorisation per line is what makes the direct path slow on the 3-D engine (24572 complex
-unknowns in the baffle: 1.7 s a line, 800 lines).
+unknowns in the baffle, 800 lines).
 
 Projection
 ----------
@@ -141,7 +141,8 @@ class ReducedBasis:
                 "solves": int(self.solves)}
 
     def response(self, frequency_hz) -> np.ndarray:
-        """Scaled solutions per volt (n, lines), as :meth:`ForcedOrder.direct`."""
+        """Scaled solutions per volt (n, lines), as
+        :meth:`copdea_fem.fe.forced.harmonic.ForcedOrder.direct`."""
         return self.vectors @ self.coefficients(frequency_hz).T
 
 
@@ -246,7 +247,8 @@ class _Builder:
 def build_reduced_basis(forced, frequency_hz, loss_factor: float = 0.0, tol: float = 1e-7,
                         steps: int = STEPS_PER_SHIFT, initial: int = INITIAL_SHIFTS,
                         max_shifts: int = MAX_SHIFTS, shifts_hz=None) -> ReducedBasis:
-    """The adaptive reduced model of ``forced`` (a :class:`ForcedOrder`) on the lines
+    """The adaptive reduced model of ``forced`` (a
+    :class:`copdea_fem.fe.forced.harmonic.ForcedOrder`) on the lines
     ``frequency_hz`` [Hz] (module doc).
 
     ``shifts_hz``: fixed shifts [Hz] instead of the adaptive choice (tests); ``tol``: the

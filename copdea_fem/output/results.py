@@ -29,8 +29,9 @@ def prestress_summary(state) -> dict:
 
 def write_solve_files(staging: Path, result: SolveResult, rows: list[dict]) -> None:
     """Every file of ``solve`` for a :class:`copdea_fem.fe.pipeline.SolveResult` (either
-    engine) into ``staging``: modes.csv/json with ``rows`` (:func:`mode_rows`), the
-    resolved study, ParaView files and plots as ``output.*`` asks."""
+    engine) into ``staging``: modes.csv/json with ``rows``
+    (:func:`copdea_fem.output.tables.mode_rows`), the resolved study, ParaView files and plots
+    as ``output.*`` asks."""
     from copdea_fem.fe.modes import IN_PLANE, OUT_OF_PLANE, PUMPING
 
     study = result.study

@@ -9,7 +9,9 @@ Pipeline (each step a pure module; file glue in :mod:`copdea_fem.reduced.io`):
 ``response`` eq. (19) in air, chirp spectra (Sects 4.2, 5.3), damping calibration
 ``fit``     c10, c20, c01 from force-displacement data (Sect. 5.1)
 ``model``   everything above for a study: :func:`build_reduced`
-``bench``   ``python -m benchmarks.reduced``
+
+Its benchmark is ``python -m benchmarks.reduced`` (``benchmarks/reduced.py``, outside the
+package).
 """
 
 from copdea_fem.reduced.fit import MaterialFit, fit_material

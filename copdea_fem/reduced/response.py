@@ -16,7 +16,7 @@ Excitation and spectra (Sect. 4.2-4.3): the periodic chirp
 one period T.  Its steady-state response is periodic with the same period,
 so the FFT line k of any response is exactly H(w_k) times line k of the
 input: spectra are computed line by line, with the vibrometer's
-normalisation |FFT| / N (N samples per period, the issue's "FFT/N"), on the
+normalisation |FFT| / N (N samples per period, "FFT/N"), on the
 lines k = 1 .. floor(f1 T) (0.8 s: 1.25 Hz spacing, 800 lines to 1 kHz).
 The average spectrum is the mean of |v| over the scan points (a magnitude
 average: phases differ across the membrane and a complex average would cancel

@@ -56,10 +56,10 @@ material + prestress settings) form a chain; inside a chain
 The factorisation's symbolic analysis is *not* reused: NGSolve's UMFPACK and
 PARDISO wrappers and SciPy's SuperLU redo it inside every factorisation and
 expose no numeric-only refactorisation.  Measured on the G1 operator (9054
-unknowns, NGSolve's timers, one BLAS thread, one factorisation per point):
-symbolic ~0.015 s next to ~0.06 s numeric, i.e. ~0.3 % of a ~5 s continued
-point, so there is little to buy (the eigen stage's cost is ARPACK's ~190
-solves per point).
+unknowns, NGSolve's timers, one BLAS thread, one factorisation per point): the
+symbolic analysis is a quarter of the numeric factorisation and a negligible share
+of a continued point, so there is little to buy (the eigen stage's cost is
+ARPACK's ~190 solves per point; docs/benchmarks.md).
 
 Execution
 ---------
@@ -85,11 +85,13 @@ A point whose ``result.json`` says ``ok`` for the same resolved study (hash)
 is not recomputed; failed or stale points are.  A failing point is recorded
 with its error and does not stop the sweep.
 
-The package follows the pipeline of a sweep: :mod:`.spec` (the sweep file),
-:mod:`.grid` (points and their keys), :mod:`.models` (one point through the
-dry, coupled or reduced model), :mod:`.store` (point folders), :mod:`.executors`
-(local, pool, dask), :mod:`.gather` (tracking, tables), :mod:`.plots` and
-:mod:`.benchmark`.
+The package follows the pipeline of a sweep: :mod:`.spec` (the sweep file) and
+:mod:`.axes` (its axes), :mod:`.grid` (points and their keys), :mod:`.models` (one point
+through the dry, coupled or reduced model), :mod:`.store` (point folders),
+:mod:`.executors` (local, pool, dask), :mod:`.gather` (tracking, tables) with
+:mod:`.tracking` (the mode tracking itself) and :mod:`.plots`.  The reuse benchmark is
+``python -m benchmarks.sweep benchmark SWEEP.yaml`` (``benchmarks/sweep.py``, outside the
+package).
 """
 
 from copdea_fem.sweeps.executors import run_sweep

@@ -26,7 +26,7 @@ logger = logging.getLogger(__name__)
 
 @dataclass
 class SweepOutcome:
-    """What :func:`run_sweep` did."""
+    """What :func:`copdea_fem.sweeps.executors.run_sweep` did."""
 
     directory: Path
     table: list

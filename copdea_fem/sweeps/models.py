@@ -175,7 +175,8 @@ class _CoupledModel(_FEModel):
     with_air = True
 
     def modes(self, study, **reuse):
-        """(state, modes, eigen result) of one point: :func:`copdea_fem.fe.pipeline.coupled_modes`."""
+        """(state, modes, eigen result) of one point:
+        :func:`copdea_fem.fe.pipeline.coupled_modes`."""
         from copdea_fem.fe.pipeline import coupled_modes
         solution = coupled_modes(study, **reuse)
         return solution.state, solution.modes, solution.eigen

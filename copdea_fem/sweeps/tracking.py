@@ -514,7 +514,7 @@ def track_modes(sets: Sequence[ModeSet], settings: TrackingSettings | None = Non
 def _unit_label(modes: ModeSet, unit) -> str:
     """A pair (or an m >= 1 mode) by its base label; an m = 0 single keeps its suffix.
 
-    ``modes.py`` suffixes every repeated (m,n): for m = 0 the suffix tells apart
+    :mod:`copdea_fem.fe.modes` suffixes every repeated (m,n): for m = 0 the suffix tells apart
     distinct modes (e.g. the radial and the torsional ``ip(0,1)a``/``ip(0,1)b``).
     """
     if len(unit) == 2 or modes.m[unit[0]] >= 1:

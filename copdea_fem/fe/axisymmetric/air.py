@@ -19,7 +19,8 @@ from copdea_fem.fe.axisymmetric.meridian import theta_integral
 
 
 def pml_stretch(domain_radius: float, pml_thickness: float, strength: float = PML_STRENGTH):
-    """(s, dr~/dr, e) of the unbounded radial profile (acoustics.radial_pml) in the meridian.
+    """(s, dr~/dr, e) of the unbounded radial profile (copdea_fem.fe.acoustics.radial_pml) in
+    the meridian.
 
     ``r~ = rho + i b t ln(t / (R + t - rho))`` with rho the spherical radius;
     ``s = r~/rho``, ``e = (r, z)/rho``: :func:`copdea_fem.fe.acoustics.radial_stretch`, the

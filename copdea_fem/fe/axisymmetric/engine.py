@@ -47,7 +47,7 @@ logger = logging.getLogger(__name__)
 
 
 def prepare_meridian(study):
-    """The meridian mesh of the study (not cached: Netgen meshes it in ~0.1 s)."""
+    """The meridian mesh of the study (not cached: Netgen meshes it quickly)."""
     return meridian_mesh(MeridianSpec.from_study(study), study["mesh"]["curve_order"])
 
 
@@ -71,7 +71,8 @@ def _dry_order(band: BandSolver, forms, m, f_max, initial_shifts=None):
     """The dry pencil of order m and its modes from 0 Hz to ``f_max``, and the frequency
     of its lowest mode [Hz] (from the band, else one lowest-eigenvalue solve)."""
     operators = forms.operators(m)
-    # damping keys: the quadratic/rational step in omega (eigen.damped), else linear
+    # damping keys: the quadratic/rational step in omega (copdea_fem.fe.eigen.damped),
+    # else linear
     result = band.solve(operators.stiffness, operators.mass, 0.0, f_max,
                         damping=forms.damping(operators), initial_shifts=initial_shifts)
     lowest = float(np.min(result.freq_hz)) if len(result) else \

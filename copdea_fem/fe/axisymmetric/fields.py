@@ -18,7 +18,8 @@ def revolution_angles(max_order: int, minimum: int = 72, per_wave: int = 8) -> n
 
 
 def _harmonics(m: int, family: str, angles):
-    """(radial/axial factor, hoop factor) of an order-m field: cos/sin family (axisymmetric.modes)."""
+    """(radial/axial factor, hoop factor) of an order-m field: cos/sin family
+    (:mod:`copdea_fem.fe.axisymmetric.modes`)."""
     if family == "cos":
         return np.cos(m * angles), np.sin(m * angles)
     return np.sin(m * angles), -np.cos(m * angles)
@@ -92,7 +93,7 @@ class RevolvedMembraneSampler:
 
         One evaluation of all of them, compiled (:meth:`ngsolve.CoefficientFunction.Compile`:
         the subexpressions they share, the material's energy partials, evaluated once):
-        equal to the bit to one evaluation per field, 0.4 against 23 ms for G1.  Found once
+        equal to the bit to one evaluation per field, and far faster.  Found once
         per sampler; a sampler made from another one (:func:`revolved_sampler`) takes them.
         """
         import ngsolve as ngs
@@ -174,8 +175,8 @@ def amplitude_profiles(sampler, modes) -> list[np.ndarray]:
 
     The real and imaginary parts of every mode of one order (one space) are sampled in one
     evaluation of all their amplitude CoefficientFunctions (the components of one tuple
-    CoefficientFunction): equal to the bit to one evaluation per amplitude and part, in a
-    quarter of the time (G1, 48 modes in 17 orders: 7 against 25 ms).
+    CoefficientFunction): equal to the bit to one evaluation per amplitude and part, in
+    about a quarter of the time.
     """
     import ngsolve as ngs
 
@@ -210,8 +211,9 @@ def revolved_air_meshes(operators, modes, pressures, max_order: int | None = Non
     (sets the angles; default: that of ``modes``).
 
     The meridian's vertices are revolved on the deformed meridian; as in
-    :func:`write_air_vtus` the lower half gets its own copy of the vertices (the
-    pressure jumps across the screens) and values are taken inside each element.
+    :func:`copdea_fem.fe.quadrant.fields.write_air_vtus` the lower half gets its own copy of
+    the vertices (the pressure jumps across the screens) and values are taken inside each
+    element.
     Fields and cell data as there; a field of order m is ``p(r, z) cos m theta``
     (or the sin family's turned copy).
     """

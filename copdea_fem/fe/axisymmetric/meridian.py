@@ -20,7 +20,7 @@ points    ``inner_rim`` (r_i, 0), ``outer_rim`` (r_o, 0), ``centre`` (0, 0)
 The ``frame`` is the square frame's rotationally symmetric counterpart: a
 rigid ring plane from r_o to ``geometry.frame_radius`` (``frame: circle``), the
 whole plane (``baffle``) or nothing (``none``).  Netgen meshes the half-disc
-in ~0.1 s, so meridian meshes are not cached.
+quickly, so meridian meshes are not cached.
 """
 
 from __future__ import annotations
@@ -40,7 +40,7 @@ AXISYMMETRIC_FRAMES = ("none", "baffle", "circle")
 #: still holds).  Flat G1 in a baffle, default keys, against a converged meridian run
 #: (1.5 mm membrane, air 8.9 mm, pressure order 3; 340.109 Hz, zeta 1.942e-2): with the
 #: full air_size (0,1) is +0.15 % and its zeta -3.7 %, (1,1)'s zeta (1.4e-4) +99 %;
-#: with half of it +0.009 %, +0.07 % and -2 %, for 0.05 s more per order.
+#: with half of it +0.009 %, +0.07 % and -2 %, for little more time per order.
 MERIDIAN_AIR_REFINEMENT = 0.5
 
 

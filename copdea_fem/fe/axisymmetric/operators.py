@@ -17,8 +17,8 @@ the pressure ``p(r, z) cos m theta``)::
     m_a = Theta_m int 1/(rho_a c_a^2) p p' r dA
     c   = Theta_m int_screens [p'] (a n_r + c n_z) r ds
 
-on the deformed meridian (ALE, :func:`meridian_motion`), ``Theta_m = 2 pi``
-(m = 0) or pi.  In the PML shell the 3-D stretch ``x~ = x r~/r`` (spherical
+on the deformed meridian (ALE, :func:`copdea_fem.fe.axisymmetric.air.meridian_motion`),
+``Theta_m = 2 pi`` (m = 0) or pi.  In the PML shell the 3-D stretch ``x~ = x r~/r`` (spherical
 ``r``) acts in the meridian as ``J2 = s I + (r~' - s) e e^T`` (``s = r~/r``,
 ``e`` the unit radial vector of the (r, z) plane) and stretches the hoop
 direction by ``s``, so ``dV~ = s det J2 r dA dtheta`` and ``1/r~ = 1/(s r)``::
@@ -63,7 +63,8 @@ class OrderOperators:
     state: object
     mass_full: sp.csr_matrix = None       # M_s on all DOFs of ``space`` (for MAC) [kg]
     disc_mass: float = 0.0                # lumped M_d + M_s/3 of the disc unknown [kg]
-    #: M_n on all DOFs of ``space`` [kg] (:func:`normal_mass_form`; :func:`.modes.normal_mass_matrix`)
+    #: M_n on all DOFs of ``space`` [kg] (:func:`normal_mass_form`;
+    #: :func:`.modes.normal_mass_matrix`)
     normal_mass: sp.csr_matrix = field(default=None, repr=False, compare=False)
 
     @property
@@ -167,7 +168,7 @@ class OrderForms:
     polynomial of degree 2 in m: ``K(m) = sum_j L_j(m) K(m_j)`` with the Lagrange weights
     ``L_j`` of the three assembled orders ``m_j`` is exact (the weights' cancellation
     costs ~m^0 eps relative: ``sum |L_j| ~ m^2 / 2`` against ``|K(m)| ~ (m / m_2)^2 |K(m_2)|``).
-    One assembly costs ~14 ms on G1's membrane line; the sum, ~0.1 ms.
+    The sum costs a small fraction of an assembly.
     """
 
     #: orders assembled per space before the stiffness is interpolated (degree 2 in m)

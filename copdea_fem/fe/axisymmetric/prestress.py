@@ -86,8 +86,9 @@ class AxisymmetricMembraneSolver(MembraneSolver):
     """:class:`MembraneSolver` on the membrane line of a meridian mesh."""
 
     #: the line's tangent has tens of unknowns (38 for G1 at order 3): NGSolve's sparse
-    #: Cholesky costs ~20 ms of CPU per factorisation whatever the size (its set-up), UMFPACK
-    #: ~0.1 ms -- 16 Newton iterations of the baffled G1 command, 0.35 s of CPU (issue 25).
+    #: Cholesky's set-up costs far more per factorisation, whatever the size, than UMFPACK's
+    #: whole factorisation of so small a matrix, and the line is factorised once per Newton
+    #: iteration.
     #: On the 3-D membrane (thousands of unknowns) the Cholesky is the faster one.
     inverse_kind = "umfpack"
 

@@ -25,8 +25,8 @@ NGSolve 6.2.2608 notes (checked):
 
 SciPy's SuperLU (5.x, thread-safe) releases the GIL in its factorisation and
 solves (checked on SciPy 1.17: two threads factorising / solving a 13.5k coupled
-sector pencil take 0.72 s / 0.76 s where one after the other take 1.22 s / 1.39 s),
-so independent pencils can be solved side by side in threads.
+sector pencil side by side take little more than half the time of one after the
+other), so independent pencils can be solved side by side in threads.
 """
 
 from __future__ import annotations
@@ -123,9 +123,9 @@ SUPERLU_PIVOT_THRESHOLD = 0.1
 #: First try: threshold 0, i.e. the diagonal is the pivot whenever it is nonzero (static
 #: pivoting in the fill-reducing order, as the ordering assumed).  Measured (SciPy 1.17,
 #: one BLAS thread), threshold 0.1 -> 0: G1's odd-even coupled sector (n = 12775) nnz(LU)
-#: 5.14 -> 3.67 M, factorisation 0.78 -> 0.50 s, solve 16.1 -> 12.7 ms; the 0.65 m drum's
-#: even-even sector (n = 46913) 35.2 -> 25.1 M, 8.7 -> 4.6 s, 89 -> 69 ms; the probe's
-#: backward error 3.6e-16 and 1.4e-17 (0.1: 3.3e-16, 4.4e-18).  Even threshold 0.001
+#: 5.14 -> 3.67 M, the 0.65 m drum's even-even sector (n = 46913) 35.2 -> 25.1 M, the
+#: a third to a half less factorisation time, a fifth less a solve (docs/benchmarks.md);
+#: the probe's backward error 3.6e-16 and 1.4e-17 (0.1: 3.3e-16, 4.4e-18).  Even threshold 0.001
 #: keeps the drum at 33 M: the smallest diagonal of its columns is 1.3e-3 of the largest.
 SUPERLU_STATIC_PIVOT_THRESHOLD = 0.0
 #: Normwise backward error ``||S x - b||_1 / (||S||_1 ||x||_1 + ||b||_1)`` of a random
@@ -133,12 +133,11 @@ SUPERLU_STATIC_PIVOT_THRESHOLD = 0.0
 #: and the matrix is factorised again with :data:`SUPERLU_PIVOT_THRESHOLD`.
 STATIC_PIVOT_BACKWARD_ERROR = 1e-12
 #: Below this size the METIS call costs more than the fill it saves (a 2-D FE-like
-#: pattern of 1600 unknowns: factorisation + 20 solves 0.019 s in METIS order,
-#: 0.013 s in SuperLU's own; the 3-D pencils here are 9k-14k).  Small matrices take
-#: SuperLU's MMD_AT_PLUS_A order with the same diagonal pivoting: a coupled meridian
-#: pencil of order m = 2 (1005 unknowns) factorises in 0.005 s instead of 0.094 s with
-#: SuperLU's default partial pivoting (nnz(LU) 40k instead of 464k), solves in
-#: 0.24 ms instead of 1.6 ms.
+#: pattern of 1600 unknowns: factorisation + 20 solves take longer in METIS order than in
+#: SuperLU's own; the 3-D pencils here are 9k-14k).  Small matrices take SuperLU's
+#: MMD_AT_PLUS_A order with the same diagonal pivoting: a coupled meridian pencil of
+#: order m = 2 (1005 unknowns) factorises far faster than with SuperLU's default partial
+#: pivoting (nnz(LU) 40k instead of 464k), and solves several times faster.
 NESTED_DISSECTION_MIN = 2000
 
 

@@ -305,10 +305,10 @@ def block_krylov_schur(apply: Callable, start: np.ndarray, k: int, tol: float,
     basis, H = decomposition.basis, decomposition.H
     expanded, size = decomposition.expanded, decomposition.size
     restarts = 0
-    # The Ritz values cost an eig of the m x m projection, ~1e-8 m^3 s, against a
-    # solve of ~5e-7 n s (SuperLU, coupled sectors of 5k-48k unknowns): check
-    # convergence every ceil(0.02 m^3 / n) steps (m the basis now) so the eig never
-    # costs more than the solves it watches (and at every restart point).
+    # The Ritz values cost an eig of the m x m projection, measured at about 0.02 m^3 / n
+    # solves' time (SuperLU, coupled sectors of 5k-48k unknowns): check convergence
+    # every ceil(0.02 m^3 / n) steps (m the basis now) so the eig never costs more than
+    # the solves it watches (and at every restart point).
     steps = 0
     while True:
         W = apply(basis[:, expanded:expanded + block])

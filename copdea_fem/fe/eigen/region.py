@@ -96,7 +96,7 @@ class BandRegion:
     def first_shift(self) -> float:
         """Real shift nearest the farthest point of the region (Chebyshev centre on the axis).
 
-        The ternary search takes ~6 ms; the orders of the axisymmetric engine ask it of
+        The ternary search is not free; the orders of the axisymmetric engine ask it of
         two regions 33 times in one solve, so the answer is kept per region
         (:data:`_FIRST_SHIFTS`, keyed by the cells it reads: the same number)."""
         key = (self.centres.tobytes(), self.slack.tobytes(), self.real_extent, self.scale)

@@ -1,4 +1,4 @@
-"""The forced harmonic response's parts that both engines share (issue 15).
+"""The forced harmonic response's parts that both engines share.
 
 - :mod:`.problem`: what an engine's forced problem hands the pipeline
   (:class:`~.problem.OrderZero`, :class:`~.problem.DrivenSector`);

@@ -1,4 +1,4 @@
-r"""Harmonic response of the coupled membrane-air model to the AC voltage (issue 15).
+r"""Harmonic response of the coupled membrane-air model to the AC voltage.
 
 Forcing (the FE counterpart of eq. 14)
 --------------------------------------
@@ -40,8 +40,8 @@ Direct path::
 on the scaled pencil of :func:`copdea_fem.fe.axisymmetric.operators.coupled_order_operators`
 (membrane rows are not scaled, ``p = beta p^``).
 
-Rayleigh and Prony damping (issue 23)
--------------------------------------
+Rayleigh and Prony damping
+--------------------------
 With ``membrane.rayleigh_alpha/beta`` or ``membrane.prony`` the membrane block of the
 pencil gets the same terms as the damped eigen step (:mod:`copdea_fem.fe.eigen.damped`,
 :func:`copdea_fem.fe.linearise.damping_terms`).  The direct path solves, exactly,
@@ -154,7 +154,8 @@ class ForcedOrder:
     alpha: float
     equilibrium_residual: float
     backend: str = "superlu"
-    damping: object = None          # eigen.damped.DampingTerms on the scaled unknowns, or None
+    # copdea_fem.fe.eigen.damped.DampingTerms on the scaled unknowns, or None
+    damping: object = None
 
     @classmethod
     def from_parts(cls, coupled, force, k_el, balance, backend="superlu") -> "ForcedOrder":

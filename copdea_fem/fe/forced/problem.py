@@ -17,8 +17,8 @@ class DrivenSector:
     the order m = 0 (axisymmetric engine, :mod:`copdea_fem.fe.axisymmetric.forced`) or the
     even-even symmetry sector (3-D engine, :mod:`copdea_fem.fe.quadrant.forced`).  Built by the
     engine with its forced problem (:meth:`copdea_fem.fe.engines.Engine.forced_problem`), so
-    that :mod:`copdea_fem.forced_response.run` and :mod:`copdea_fem.forced_response.files` never test the
-    engine's name."""
+    that :mod:`copdea_fem.forced_response.run` and :mod:`copdea_fem.forced_response.files`
+    never test the engine's name."""
 
     name: str                       # progress: "coupled modes of the <name>"
     excited: str                    # response.json "excited"
@@ -30,7 +30,7 @@ class DrivenSector:
     sphere: type                    # the Kirchhoff sphere's pressure sampler
     shape_sector: Callable          # (membrane operators) -> the ShapeAt sector (or None)
     write_shapes: Callable          # (staging, state, coupled, shapes, pressures) -> (files, air)
-    default_method: str = "modal"   # what ``response.method: auto`` means here (issue 23)
+    default_method: str = "modal"   # what ``response.method: auto`` means here
 
 
 @dataclass

@@ -3,9 +3,9 @@
 A 3-D mesh of the membrane (and the air): the whole plane for dry modes, a quadrant
 for coupled ones (``mesh.symmetry: quarter``, :mod:`copdea_fem.fe.symmetry`: the four
 mirror-symmetry sectors are solved apart, side by side on the cores, and merged).
-Assembly lives in :mod:`coupled` / :mod:`linearise`, the band solves in :mod:`eigen`
-(configured once: :class:`copdea_fem.fe.bands.BandSolver`), classification, labels and
-dry matching in :mod:`modes`.
+Assembly lives in :mod:`copdea_fem.fe.coupled` / :mod:`copdea_fem.fe.linearise`, the band
+solves in :mod:`copdea_fem.fe.eigen` (configured once: :class:`copdea_fem.fe.bands.BandSolver`),
+classification, labels and dry matching in :mod:`copdea_fem.fe.modes`.
 """
 
 from __future__ import annotations
@@ -88,11 +88,13 @@ class QuadrantEngine:
             study["mesh"]["curve_order"]
 
     def prepare_mesh(self, study, with_air=None, cache_dir=None):
-        """The (cached) 3-D mesh; ``cache_dir=None``: :func:`geometry.mesh_cache_dir`."""
+        """The (cached) 3-D mesh; ``cache_dir=None``:
+        :func:`copdea_fem.fe.quadrant.geometry.mesh_cache_dir`."""
         return study_mesh(study, with_air=with_air, cache_dir=cache_dir)
 
     def estimate_size(self, study):
-        """(elements, unknowns) of the 3-D mesh (:func:`geometry.estimate_size`)."""
+        """(elements, unknowns) of the 3-D mesh
+        (:func:`copdea_fem.fe.quadrant.geometry.estimate_size`)."""
         mesh = study["mesh"]
         return estimate_size(GeometrySpec.from_study(study), mesh["order"],
                              mesh["pressure_order"])
@@ -147,7 +149,7 @@ class QuadrantEngine:
             with timings.stage("eigen"), single_threaded_blas():
                 logger.info(f"dry modes in [{band.f_min:g}, {band.f_max:g}] Hz "
                             f"({operators.size} unknowns) ...")
-                # damping keys: the quadratic/rational step in omega (eigen.damped)
+                # damping keys: the quadratic/rational step in omega (copdea_fem.fe.eigen.damped)
                 result = band.solve(operators.stiffness, operators.mass, band.f_min,
                                     band.f_max, damping=operator_damping(operators, study),
                                     initial_shifts=initial_shifts)

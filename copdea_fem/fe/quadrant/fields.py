@@ -127,8 +127,8 @@ def air_meshes(operators, modes, pressures):
     halves get their own copies of the mesh vertices; values are taken inside
     each element (no ambiguity at the plane); elsewhere, on the open plane too, a vertex
     is written once.  A quadrant mesh is unfolded into the whole air, the copies of the
-    mirror planes' vertices merged (:class:`PointMerge`; they agree by parity).  Pressures are per unit peak membrane displacement
-    [Pa/m], like the membrane files.
+    mirror planes' vertices merged (:class:`PointMerge`; they agree by parity).  Pressures
+    are per unit peak membrane displacement [Pa/m], like the membrane files.
     """
     import ngsolve as ngs
 

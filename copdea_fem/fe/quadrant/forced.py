@@ -12,9 +12,9 @@ Observation: the vibrometer's points at projected radius ``r`` and polar angles
 ``OBSERVATION_ANGLES`` in the quadrant (the square frame makes the response depend slightly
 on the angle; the average spectrum averages |v| over radii and angles); the reference point
 of ``(r cos phi, r sin phi)`` is found on the prestressed profile along that ray.  Sound:
-Kirchhoff-Helmholtz over the sphere 0.85 R as in :mod:`copdea_fem.fe.forced.radiation`, here with 3-D surface
-quadrature (Gauss in the polar angle, trapezoidal in the azimuth), the quadrant's field
-unfolded by the even-even parity ``p(x, y, z) = p(|x|, |y|, z)``.
+Kirchhoff-Helmholtz over the sphere 0.85 R as in :mod:`copdea_fem.fe.forced.radiation`,
+here with 3-D surface quadrature (Gauss in the polar angle, trapezoidal in the azimuth), the
+quadrant's field unfolded by the even-even parity ``p(x, y, z) = p(|x|, |y|, z)``.
 """
 
 from __future__ import annotations
@@ -224,4 +224,4 @@ QUADRANT_SECTOR = DrivenSector(
     summary="3-D, even-even sector", classify=_classify, label=_label,
     observer=QuadrantObserver, angles=len(OBSERVATION_ANGLES), sphere=QuadrantSphere,
     shape_sector=lambda operators: operators.sector, write_shapes=_write_shapes,
-    default_method="reduced")      # its modal band costs minutes (issue 23)
+    default_method="reduced")      # its modal band costs minutes

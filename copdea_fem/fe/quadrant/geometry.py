@@ -16,12 +16,13 @@ faces     ``membrane``, ``disc``, ``frame`` (screens, z = 0),
           ``pml_plane`` (the plane inside the PML), ``interface`` (air|PML
           sphere), ``outer`` (outside of the PML), ``ale_guide`` (internal
           cylinders r = r_i, r_o, |z| < L: no physics, they make the mesh
-          conform to the kinks of the air-mesh motion, see :mod:`ale`)
+          conform to the kinks of the air-mesh motion, see
+          :mod:`copdea_fem.fe.ale`)
 edges     ``outer_rim`` (r = r_o), ``inner_rim`` (r = r_i), ``frame_edge``
 
 With ``symmetry = "quarter"`` (air meshes only) the shape is cut to the
 quadrant x >= 0, y >= 0: circle, square frame and sphere are symmetric about
-both planes, so every mode is even or odd about each (:mod:`symmetry`).  The
+both planes, so every mode is even or odd about each (:mod:`copdea_fem.fe.symmetry`).  The
 cut faces are ``mirror_x`` (x = 0) and ``mirror_y`` (y = 0); the cut edges
 ``mirror_x_edge`` and ``mirror_y_edge``.
 
