@@ -46,17 +46,20 @@ FE_SOURCES = _modules_of("fe", NOT_FE_SOURCES)
 REDUCED_SOURCES = ("fe/materials.py", "reduced")
 
 
+class _Prose(ast.NodeTransformer):
+    """Drops every bare string statement: docstrings of modules, classes and functions, and
+    the attribute docstrings below assignments (they compute nothing)."""
+
+    def visit_Expr(self, node):
+        if isinstance(node.value, ast.Constant) and isinstance(node.value.value, str):
+            return None
+        return node
+
+
 def _code(source: bytes) -> bytes:
     """The code of a module without its docstrings and comments: the dump of its syntax
     tree (a docstring or comment edit keeps the caches; any change of code does not)."""
-    tree = ast.parse(source)
-    for node in ast.walk(tree):
-        body = getattr(node, "body", None)
-        if (isinstance(body, list) and body and isinstance(body[0], ast.Expr)
-                and isinstance(body[0].value, ast.Constant)
-                and isinstance(body[0].value.value, str)):
-            body[0] = ast.Pass()
-    return ast.dump(tree, annotate_fields=False).encode()
+    return ast.dump(_Prose().visit(ast.parse(source)), annotate_fields=False).encode()
 
 
 @functools.lru_cache(maxsize=None)

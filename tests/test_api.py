@@ -162,30 +162,18 @@ def test_force_table_is_the_csv(tmp_path):
                              curve.write(tmp_path / "force") / "force_displacement.csv")
 
 
-def test_command_names_are_callable_and_still_modules():
-    import copdea_fem.fe.pipeline
-    from copdea_fem.fe.pipeline import run_solve
-    assert cf.solve.run_solve is run_solve and callable(cf.solve)
-    assert callable(cf.sweep) and callable(cf.diagnose) and callable(cf.response)
-    assert cf.sweep.run_sweep is not None and cf.diagnose.load_measured is not None
-    assert copdea_fem.fe.pipeline is cf.solve
+def test_the_api_names_are_the_api_functions_and_no_module_is_named_like_one():
+    """``copdea_fem.solve`` and its siblings are the functions of :mod:`copdea_fem.api`; no
+    submodule takes an API name, and the package is a plain module (no module class)."""
+    import importlib.util
+    import types
 
-
-def test_command_modules_are_callable_however_imported():
-    """The command modules are callable however they were imported (directly, from a
-    sibling, or through the package), and the package does not intercept its attribute
-    reads (the class is set once, when the import system binds the submodule)."""
-    code = ("import sys, types, copdea_fem.forced_response.run, copdea_fem.sweeps.store\n"
-            "from copdea_fem.fe.pipeline import run_solve\n"
-            "print(all(callable(sys.modules[f'copdea_fem.{name}']) for name in "
-            "('solve', 'response', 'sweep')))\n"
-            "import copdea_fem as cf\n"
-            "print(type(cf).__getattribute__ is types.ModuleType.__getattribute__, "
-            "[callable(getattr(cf, name)) for name in "
-            "('solve', 'response', 'sweep', 'diagnose')])\n")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         check=True, cwd=ROOT).stdout.strip()
-    assert out.splitlines() == ["True", "True [True, True, True, True]"]
+    from copdea_fem import api
+    for name in cf.__all__:
+        assert getattr(cf, name) is getattr(api, name)
+        assert importlib.util.find_spec(f"copdea_fem.{name}") is None, name
+    assert isinstance(cf.solve, types.FunctionType)
+    assert type(cf) is types.ModuleType
 
 
 def test_import_stays_light():

@@ -111,8 +111,8 @@ def test_the_fe_fingerprint_holds_every_fe_module_that_computes_modes(tmp_path, 
 def test_docstrings_and_comments_keep_the_fingerprint(tmp_path, monkeypatch, fresh_fingerprints):
     """The fingerprint hashes the code, not its prose: a docstring or a comment edit keeps
     the caches warm, any code edit (a constant, an annotation) does not."""
-    (tmp_path / "physics.py").write_text('"""Doc."""\nK = 1.0  # N/m\n\n\ndef f(x):\n'
-                                         '    """Doc."""\n    return K * x\n')
+    (tmp_path / "physics.py").write_text('"""Doc."""\nK = 1.0  # N/m\n"""Stiffness."""\n\n\n'
+                                         'def f(x):\n    """Doc."""\n    return K * x\n')
     monkeypatch.setattr(fingerprint, "PACKAGE", tmp_path)
 
     def current():
@@ -120,7 +120,8 @@ def test_docstrings_and_comments_keep_the_fingerprint(tmp_path, monkeypatch, fre
         return fingerprint.code_fingerprint(("physics.py",))
 
     first = current()
-    (tmp_path / "physics.py").write_text('"""Other words."""\nK = 1.0  # another comment\n\n\n'
+    (tmp_path / "physics.py").write_text('"""Other words."""\nK = 1.0  # another comment\n'
+                                         '"""Spring stiffness [N/m]."""\n\n\n'
                                          'def f(x):\n    """More."""\n    return K * x\n')
     assert current() == first
     (tmp_path / "physics.py").write_text('"""Doc."""\nK = 2.0\n\n\ndef f(x):\n'

@@ -384,7 +384,7 @@ def test_cache_location(tmp_path, monkeypatch):
     monkeypatch.delenv(geometry.CACHE_VARIABLE)
     assert geometry.mesh_cache_dir() == ROOT / "meshes"      # a source checkout
     monkeypatch.setattr(geometry, "__file__", str(tmp_path / "site-packages" / "copdea_fem"
-                                                  / "geometry.py"))
+                                                  / "fe" / "quadrant" / "geometry.py"))
     import platformdirs
     assert geometry.mesh_cache_dir() == Path(platformdirs.user_cache_dir("copdea-fem")) / "meshes"
 
@@ -514,7 +514,7 @@ def test_sweep_file_with_an_alias_is_refused(work, capsys):
 def test_a_mesh_far_too_fine_is_refused_before_meshing(work, capsys, argv):
     line = refused([*argv, "--out", work / "r"] if argv[0] != "check" else argv, work, capsys)
     assert line.startswith("error: mesh.membrane_size = ") and "unknowns, more than the limit " \
-        f"of {geometry.MAX_UNKNOWNS:.3g}; allowed: a larger mesh.membrane_size" in line
+        f"of {engines.MAX_UNKNOWNS:.3g}; allowed: a larger mesh.membrane_size" in line
     assert line.endswith("or --allow-large")
 
 

@@ -243,7 +243,7 @@ def mesh_cache_dir() -> Path:
     """
     if os.environ.get(CACHE_VARIABLE):
         return Path(os.environ[CACHE_VARIABLE]).expanduser()
-    checkout = Path(__file__).resolve().parent.parent
+    checkout = Path(__file__).resolve().parents[3]       # copdea_fem/fe/quadrant/ -> root
     if (checkout / "pyproject.toml").is_file() and (checkout / "meshes").is_dir():
         return checkout / "meshes"
     import platformdirs
