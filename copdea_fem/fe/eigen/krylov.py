@@ -49,12 +49,9 @@ PROGRESS_INTERVAL_S = 15.0
 
 BLOCK_SIZE = 1
 """Right-hand sides per step of a Krylov-Schur run.  A block solve is cheaper per
-right-hand side (coupled sectors, SuperLU, one BLAS thread, ms per right-hand side
-alone / 4 / 8 / 16 at a time: 13.5k unknowns 17.7 / 8.5 / 6.5 / 5.4; 48k unknowns
-101 / 50 / 38 / 32), but the block Krylov space needs more vectors: G1's even-even
-coupled sector (k = 17, then certified) takes 88 solves at p = 1 (1.97 s), 125 in 63
-blocks at p = 2 (2.12 s), 241 in 61 at p = 4 (2.90 s), 385 in 49 at p = 8 (3.91 s);
-the drum's first run (k = 11) 98 solves at p = 1, 340 at p = 4.  So one."""
+right-hand side, but the block Krylov space needs more vectors: on G1's coupled sectors and
+the drum the solves grow faster with the block size than the time per solve falls, so
+one (the measured counts and times are in docs/benchmarks.md)."""
 
 
 BASIS_FACTOR = 3
