@@ -530,33 +530,9 @@ class ResponseSolution:
 
     def write(self, folder: str | Path | Claim,
               progress: Callable[[str], None] | None = None) -> Path:
-        """Write every file of ``copdea-fem response --out folder``.
-
-        Parameters
-        ----------
-        folder : str, Path or Claim
-            The result folder, checked first under the rules of :mod:`copdea_fem.folders`
-            (an earlier result of the same command is replaced only when the new one is
-            complete); or the :class:`~copdea_fem.folders.Claim` of a folder the caller
-            holds.
-        progress : callable(str), optional
-            As :func:`solve`'s.
-
-        Returns
-        -------
-        Path
-            The folder written.
-
-        Raises
-        ------
-        OutputFolderError
-            A folder that may not be written (:mod:`copdea_fem.folders`: the working or
-            home folder, one holding an input file, a file, a folder with another
-            command's result or foreign files, one another run is writing).
-        copdea_fem.folders.ResultWriteError
-            The files could not be written or put in place (a full disk, a refused
-            rename); the message says where the complete result is.
-        """
+        """Write every file of ``copdea-fem response --out folder``; or into a held
+        :class:`~copdea_fem.folders.Claim`.  Parameters, return and errors as
+        :meth:`Solution.write`."""
         import time
 
         from copdea_fem.forced_response.files import write_response
@@ -732,31 +708,9 @@ class ForceCurve:
         return pd.DataFrame(rows, columns=["voltage_v", "z_m", "force_n"])
 
     def write(self, folder: str | Path | Claim) -> Path:
-        """Write every file of ``copdea-fem force --out folder``.
-
-        Parameters
-        ----------
-        folder : str, Path or Claim
-            The result folder, checked first under the rules of :mod:`copdea_fem.folders`
-            (an earlier result of the same command is replaced only when the new one is
-            complete); or the :class:`~copdea_fem.folders.Claim` of a folder the caller
-            holds.
-
-        Returns
-        -------
-        Path
-            The folder written.
-
-        Raises
-        ------
-        OutputFolderError
-            A folder that may not be written (:mod:`copdea_fem.folders`: the working or
-            home folder, one holding an input file, a file, a folder with another
-            command's result or foreign files, one another run is writing).
-        copdea_fem.folders.ResultWriteError
-            The files could not be written or put in place (a full disk, a refused
-            rename); the message says where the complete result is.
-        """
+        """Write every file of ``copdea-fem force --out folder``; or into a held
+        :class:`~copdea_fem.folders.Claim`.  Parameters, return and errors as
+        :meth:`Solution.write`."""
         from copdea_fem.folders import result_directory
         from copdea_fem.output.results import write_force_files
         with _claimed(folder, "force", _inputs(self.study)) as target:
@@ -859,31 +813,9 @@ class Spectrum:
                              "added_mass": reduced.added_mass, "damping": reduced.damping})
 
     def write(self, folder: str | Path | Claim) -> Path:
-        """Write every file of ``copdea-fem spectrum --out folder``.
-
-        Parameters
-        ----------
-        folder : str, Path or Claim
-            The result folder, checked first under the rules of :mod:`copdea_fem.folders`
-            (an earlier result of the same command is replaced only when the new one is
-            complete); or the :class:`~copdea_fem.folders.Claim` of a folder the caller
-            holds.
-
-        Returns
-        -------
-        Path
-            The folder written.
-
-        Raises
-        ------
-        OutputFolderError
-            A folder that may not be written (:mod:`copdea_fem.folders`: the working or
-            home folder, one holding an input file, a file, a folder with another
-            command's result or foreign files, one another run is writing).
-        copdea_fem.folders.ResultWriteError
-            The files could not be written or put in place (a full disk, a refused
-            rename); the message says where the complete result is.
-        """
+        """Write every file of ``copdea-fem spectrum --out folder``; or into a held
+        :class:`~copdea_fem.folders.Claim`.  Parameters, return and errors as
+        :meth:`Solution.write`."""
         from copdea_fem.folders import result_directory
         from copdea_fem.reduced.io import write_spectrum_files
         inputs = _inputs(self.study) + ([self.modes_json] if self.modes_json else [])
@@ -1015,33 +947,9 @@ class SweepResult:
         return dict(self.outcome.failed)
 
     def write(self, folder: str | Path | Claim) -> Path:
-        """Write the sweep's files (sweep.csv/json/png, the point store) in ``folder``.
-
-        Nothing is copied when ``folder`` is the folder the sweep ran in (``out``).
-
-        Parameters
-        ----------
-        folder : str, Path or Claim
-            The result folder, checked first under the rules of :mod:`copdea_fem.folders`
-            (an earlier result of the same command is replaced only when the new one is
-            complete); or the :class:`~copdea_fem.folders.Claim` of a folder the caller
-            holds.
-
-        Returns
-        -------
-        Path
-            The folder written.
-
-        Raises
-        ------
-        OutputFolderError
-            A folder that may not be written (:mod:`copdea_fem.folders`: the working or
-            home folder, one holding an input file, a file, a folder with another
-            command's result or foreign files, one another run is writing).
-        copdea_fem.folders.ResultWriteError
-            The files could not be written or put in place (a full disk, a refused
-            rename); the message says where the complete result is.
-        """
+        """Write the sweep's files (sweep.csv/json/png, the point store) in ``folder``; or
+        into a held :class:`~copdea_fem.folders.Claim`.  Parameters, return and errors as
+        :meth:`Solution.write`."""
         return self.folder.copy_to(folder, "sweep", [self.source] if self.source else [])
 
 
@@ -1123,31 +1031,9 @@ class Diagnosis:
         return diagnosis_document(self.result)
 
     def write(self, folder: str | Path | Claim) -> Path:
-        """Write report.md, diagnosis.json, figures and final_study.yaml in ``folder``.
-
-        Parameters
-        ----------
-        folder : str, Path or Claim
-            The result folder, checked first under the rules of :mod:`copdea_fem.folders`
-            (an earlier result of the same command is replaced only when the new one is
-            complete); or the :class:`~copdea_fem.folders.Claim` of a folder the caller
-            holds.
-
-        Returns
-        -------
-        Path
-            The folder written.
-
-        Raises
-        ------
-        OutputFolderError
-            A folder that may not be written (:mod:`copdea_fem.folders`: the working or
-            home folder, one holding an input file, a file, a folder with another
-            command's result or foreign files, one another run is writing).
-        copdea_fem.folders.ResultWriteError
-            The files could not be written or put in place (a full disk, a refused
-            rename); the message says where the complete result is.
-        """
+        """Write report.md, diagnosis.json, figures and final_study.yaml in ``folder``; or
+        into a held :class:`~copdea_fem.folders.Claim`.  Parameters, return and errors as
+        :meth:`Solution.write`."""
         from copdea_fem.diagnosis.report import write_report
         from copdea_fem.folders import result_directory
         inputs = [self.source] + [path for condition in self.result.measured.conditions
