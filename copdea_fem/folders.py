@@ -35,10 +35,19 @@ removed, an old copy whose swap did not finish is renamed back, one whose new
 result is in place is removed.
 
 Concurrent runs into one folder: :func:`claim` takes an exclusive lock
-(``.NAME.copdea-fem-lock`` beside the folder, ``flock``, released by the
-kernel when a process dies) for the whole run; a second run is refused at once,
-naming the holder's process id.  The CLI claims once, before any work, and hands
-the :class:`Claim` to the writer (:func:`held`).
+(``.NAME.copdea-fem-lock`` beside the folder, :func:`exclusive_lock`) for the
+whole run; a second run is refused at once, naming the holder's process id.
+The CLI claims once, before any work, and hands the :class:`Claim` to the writer
+(:func:`held`).
+
+:func:`exclusive_lock` is the package's one file lock (also the FE cache's per
+entry, :class:`copdea_fem.diagnosis.fe.FEModel`): ``flock`` on a lock file that
+holds the holder's process id, released by the kernel when a process dies, and
+the file removed by its holder when done.  Since the file is removed, a process
+that opened it before the removal may lock an unlinked file: only a lock on the
+file still in place counts (its inode is checked after locking, else it tries
+again), so two holders never coexist.  (The filelock package keeps the file in
+place for that reason and records no holder.)
 """
 
 from __future__ import annotations
@@ -168,6 +177,31 @@ def write_manifest(folder: Path, command: str, files=None) -> None:
     temporary.replace(folder / MANIFEST)
 
 
+def package_versions() -> dict[str, str]:
+    """Python's and the packages' versions, the provenance every result carries beside its
+    manifest (``study.resolved.yaml``, ``modes.json``, ``diagnosis.json``, a sweep's spec).
+
+    A new dict each call; looked up once per process (the installed metadata are searched
+    on ``sys.path``, ~35 ms a time).
+    """
+    global _VERSIONS
+    if _VERSIONS is None:
+        import platform
+        from importlib import metadata
+        versions = {"python": platform.python_version()}
+        for package in ("copdea-fem", "ngsolve", "numpy", "scipy", "meshio", "pyvista",
+                        "pint"):
+            try:
+                versions[package] = metadata.version(package)
+            except metadata.PackageNotFoundError:
+                versions[package] = "not installed"
+        _VERSIONS = versions
+    return dict(_VERSIONS)
+
+
+_VERSIONS: dict[str, str] | None = None
+
+
 def check_output(target, command: str, inputs=(), from_file=None) -> Path:
     """Refuse an output folder ``command`` may not write (module doc); return its absolute path.
 
@@ -249,24 +283,25 @@ def claim(target, command: str, inputs=(), from_file=None):
     if target in held_here:
         yield held_here[target]
         return
-    try:
-        target.parent.mkdir(parents=True, exist_ok=True)
-        fd = _lock(target)
-    except OSError as error:
-        raise OutputFolderError(f"output folder {target} cannot be written: "
-                                f"{error.strerror or error}") from None
-    try:
-        _clean_leftovers(target)
-        check_output(target, command, inputs, from_file)   # again, now that it is ours
-        record = Claim(target, command, had_result=read_manifest(target) is not None)
-        held_here[target] = record
-        yield record
-    finally:
-        held_here.pop(target, None)
-        if fd is not None:
-            with contextlib.suppress(OSError):
-                os.unlink(_lock_path(target))
-            os.close(fd)
+    with contextlib.ExitStack() as lock:
+        try:
+            target.parent.mkdir(parents=True, exist_ok=True)
+            lock.enter_context(exclusive_lock(_lock_path(target)))
+        except LockHeld as held_by:
+            raise OutputFolderError(
+                f"output folder {target} is being written by another copdea-fem run (process "
+                f"{held_by.holder}); wait for it to finish or choose another folder") from None
+        except OSError as error:
+            raise OutputFolderError(f"output folder {target} cannot be written: "
+                                    f"{error.strerror or error}") from None
+        try:
+            _clean_leftovers(target)
+            check_output(target, command, inputs, from_file)   # again, now that it is ours
+            record = Claim(target, command, had_result=read_manifest(target) is not None)
+            held_here[target] = record
+            yield record
+        finally:
+            held_here.pop(target, None)
 
 
 @contextlib.contextmanager
@@ -286,11 +321,62 @@ def _lock_path(target: Path) -> Path:
     return target.parent / f".{target.name}.copdea-fem-lock"
 
 
-def _lock(target: Path) -> int | None:
-    """Exclusive lock of ``target``'s lock file, or OutputFolderError naming the holder."""
+#: Seconds between two tries of a lock another process holds (:func:`exclusive_lock`).
+LOCK_POLL_SECONDS = 0.2
+
+
+class LockHeld(Exception):
+    """The lock file ``path`` is held by another process; ``holder``: its process id as
+    the holder wrote it in the file (``"unknown"`` when it is not there yet)."""
+
+    def __init__(self, path: Path, holder: str):
+        super().__init__(f"{path} is held by process {holder}")
+        self.path, self.holder = path, holder
+
+
+@contextlib.contextmanager
+def exclusive_lock(path, wait: float = 0.0, waiting=None):
+    """Hold an exclusive ``flock`` of the lock file ``path`` for the block (module notes).
+
+    Parameters
+    ----------
+    path : path
+        The lock file: created, the holder's process id written in it, removed after the
+        block.
+    wait : float
+        Longest wait [s] for another holder, trying every :data:`LOCK_POLL_SECONDS`; 0:
+        refused at once.
+    waiting : callable, optional
+        Called once with the holder's process id when the lock is busy and this call
+        waits for it.
+
+    Raises
+    ------
+    LockHeld
+        Another process still holds the lock after ``wait`` seconds.
+    OSError
+        The lock file cannot be created (a read-only or missing folder).
+
+    Where ``fcntl`` is missing (Windows) the block runs without a lock.
+    """
     if fcntl is None:
-        return None
-    path = _lock_path(target)
+        yield
+        return
+    path = Path(path)
+    fd = _acquire(path, wait, waiting)
+    try:
+        yield
+    finally:
+        with contextlib.suppress(OSError):
+            if os.stat(path).st_ino == os.fstat(fd).st_ino:
+                os.unlink(path)
+        os.close(fd)
+
+
+def _acquire(path: Path, wait: float, waiting) -> int:
+    """The descriptor of the locked file still in place at ``path`` (:func:`exclusive_lock`)."""
+    deadline = time.monotonic() + wait
+    told = False
     while True:
         fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
         try:
@@ -298,9 +384,13 @@ def _lock(target: Path) -> int | None:
         except BlockingIOError:
             holder = os.read(fd, 64).decode(errors="replace").strip() or "unknown"
             os.close(fd)
-            raise OutputFolderError(
-                f"output folder {target} is being written by another copdea-fem run (process "
-                f"{holder}); wait for it to finish or choose another folder") from None
+            if time.monotonic() >= deadline:
+                raise LockHeld(path, holder) from None
+            if waiting is not None and not told:
+                waiting(holder)
+                told = True
+            time.sleep(LOCK_POLL_SECONDS)
+            continue
         # the previous holder removes the file when done: lock only the file still in place
         with contextlib.suppress(FileNotFoundError):
             if os.stat(path).st_ino == os.fstat(fd).st_ino:

@@ -19,6 +19,7 @@ from typing import Any
 
 import yaml
 
+from copdea_fem.folders import package_versions
 from copdea_fem.inputs import parse_yaml, preview, read_yaml
 from copdea_fem.units import fast_to_si
 
@@ -621,8 +622,7 @@ def _check_across_keys(v: dict[str, dict[str, Any]]) -> None:
                     f"<= {(r_o - r_i) / 2:g} m = half the membrane width",
                     "fewer than two elements across the membrane")
     _check_reduced_keys(v)
-    response_microphones(v["response"]["microphones"], v["response"]["microphone_distance"],
-                         g["frame"])
+    listed_microphones(v["response"]["microphones"], g["frame"])
 
 
 def engine_of(study) -> str:
@@ -638,28 +638,6 @@ def dump_resolved(study: Study, path: str | Path) -> None:
     data = study.as_dict()
     data["provenance"] = package_versions()
     Path(path).write_text(yaml.safe_dump(data, sort_keys=False))
-
-
-def package_versions() -> dict[str, str]:
-    """Python's and the packages' versions (a new dict each call; looked up once per
-    process: the installed metadata are searched on ``sys.path``, ~35 ms a time, and both
-    ``study.resolved.yaml`` and ``modes.json`` carry them)."""
-    global _VERSIONS
-    if _VERSIONS is None:
-        import platform
-        from importlib import metadata
-        versions = {"python": platform.python_version()}
-        for package in ("copdea-fem", "ngsolve", "numpy", "scipy", "meshio", "pyvista",
-                        "pint"):
-            try:
-                versions[package] = metadata.version(package)
-            except metadata.PackageNotFoundError:
-                versions[package] = "not installed"
-        _VERSIONS = versions
-    return dict(_VERSIONS)
-
-
-_VERSIONS: dict[str, str] | None = None
 
 
 def reference_table() -> str:
@@ -701,22 +679,28 @@ def reduced_mode_labels(text: str, disc_motion: str) -> tuple[str, ...]:
 
 
 MICROPHONES_ALLOWED = "'name = x, y, z; ...' with lengths, e.g. 'side = 0.5 m, 0 m, 0.5 m'"
+#: The name of the default microphone (on the +z axis at ``response.microphone_distance``);
+#: a microphone of ``response.microphones`` may not take it.
+DEFAULT_MICROPHONE = "axis"
 
 
-def response_microphones(text: str, distance: float,
-                         frame: str = "square") -> list[tuple[str, tuple[float, float, float]]]:
-    """Named microphone positions (x, y, z) [m] of the ``response`` section: ``axis`` at
-    ``distance`` (``response.microphone_distance``) on the +z axis, then those of
-    ``response.microphones`` (``"name = x, y, z; ..."``, units allowed, a bare number in m).
+def listed_microphones(text: str,
+                       frame: str = "square") -> list[tuple[str, tuple[float, float, float]]]:
+    """The microphones of ``response.microphones`` (``"name = x, y, z; ..."``, units
+    allowed, a bare number in m): named positions (x, y, z) [m], checked.
 
     Refused (key ``response.microphones``): an item that is not ``name = x, y, z`` (a name of
-    letters, digits and ``_``; three coordinates), a name given twice (``axis`` included),
-    a coordinate that is not a length in [-1e4, 1e4] m, a point at the origin (the
-    membrane's centre), and with ``frame = "baffle"`` a point on the rigid plane z = 0
-    (the Rayleigh integral is taken on the microphone's side of the baffle).
+    letters, digits and ``_``; three coordinates), a name given twice (the default
+    microphone's, :data:`DEFAULT_MICROPHONE`, included), a coordinate that is not a length
+    in [-1e4, 1e4] m, a point at the origin (the membrane's centre), and with
+    ``frame = "baffle"`` a point on the rigid plane z = 0 (the Rayleigh integral is taken on
+    the microphone's side of the baffle).  Called when a study is read, so a bad list never
+    reaches a solve; the forced response adds the default microphone
+    (:func:`copdea_fem.forced_response.run.parse_microphones`).
     """
     key = "response.microphones"
-    microphones = [("axis", (0.0, 0.0, float(distance)))]
+    microphones = []
+    names = {DEFAULT_MICROPHONE}
     text = text or ""
     for item in filter(None, (part.strip() for part in text.split(";"))):
         name, _, coordinates = item.partition("=")
@@ -724,7 +708,7 @@ def response_microphones(text: str, distance: float,
         values = [part.strip() for part in coordinates.split(",")]
         if not name or not name.replace("_", "").isalnum() or len(values) != 3:
             raise _fail(key, text, MICROPHONES_ALLOWED, f"cannot read {item!r}")
-        if name in {existing for existing, _ in microphones}:
+        if name in names:
             raise _fail(key, text, f"{MICROPHONES_ALLOWED} with distinct names",
                         f"microphone {name!r} repeated")
         position = tuple(convert_quantity(key, _number_or_text(value), "m", -1e4, 1e4)
@@ -736,6 +720,7 @@ def response_microphones(text: str, distance: float,
             raise _fail(key, text, "z != 0 with geometry.frame = baffle", f"microphone {name!r} "
                         f"at z = 0 lies on the rigid plane (position {list(position)} m)")
         microphones.append((name, position))
+        names.add(name)
     return microphones
 
 

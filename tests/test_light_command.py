@@ -72,7 +72,7 @@ def test_first_shift_is_computed_once_per_region(monkeypatch):
 
 
 def test_package_versions_are_a_new_dict_each_call():
-    from copdea_fem.study import package_versions
+    from copdea_fem.folders import package_versions
 
     versions = package_versions()
     versions["numpy"] = "changed"

@@ -1,18 +1,21 @@
 """Diagnose model-measurement disagreement: which physical effect is missing.
 
 Pipeline (data flows one way; each module pure except ``report`` and the
-two actions below):
+entry points below):
 
 ``measured``  ``measured.yaml`` + resonance/spectrum CSVs -> :class:`MeasuredSet` (checked)
-``effects``   the catalogue: 11 effects, parameters, signatures, study overrides
+``effects``   the catalogue: effects, parameters, signatures, study overrides
 ``engine``    ring-model modes and spectra of a condition under an effect state
 ``fe``        the FE model of record: study -> structural modes, cached
 ``anchored``  the ring model anchored to the FE: the surrogate the fits run on
-``direct``    the FE evaluated directly, for a membrane without a disc (no ring model)
-``peaks``     resonance peaks of measured spectra
+``direct``    the FE evaluated directly, for a membrane the ring model cannot represent
+``peaks``     resonance peaks of measured spectra; the measured peaks of a condition
 ``compare``   one-to-one matching, deviance (-2 ln L), the headline gap
+``candidates`` the effects a step may add to the model, and why not the others
 ``tabulation`` a candidate's modes over its parameters, interpolated
-``select``    fit, cross-validate, test, accept, rank; ambiguity; the loop
+``scoring``   deviance of a state; fit, cross-validate, test, accept; ambiguity
+``separation`` the measurement that separates two indistinguishable candidates
+``select``    the search: the loop of steps, each effect's status, the result
 ``evidence``  the sentences: evidence of a step, goodness of fit, verdict
 ``report``    report.md, diagnosis.json, PNG figures, final_study.yaml
 ``synth``     synthetic measurements from the ring model with chosen effects on
@@ -59,7 +62,7 @@ def diagnose_measured(measured_path, alpha: float = 0.05, model: str | None = No
     measured_path : path
         ``measured.yaml`` (:mod:`copdea_fem.diagnosis.measured`).
     alpha : float
-        False-alarm probability per step (:mod:`copdea_fem.diagnosis.select`), in (0, 1).
+        False-alarm probability per step (:mod:`copdea_fem.diagnosis.scoring`), in (0, 1).
     model : str, optional
         ``"fe"`` or ``"reduced"``: overrides the manifest's ``model``.
     fe_cache : path, optional

@@ -76,6 +76,7 @@ from copdea_fem.diagnosis.effects import CATALOGUE
 from copdea_fem.diagnosis.engine import Engine, ModelMode
 from copdea_fem.diagnosis.fe import BAND_MARGIN, FEModel
 from copdea_fem.reduced.rings import ReducedModelError
+from copdea_fem.study import StudyError
 
 # How the FE represents each effect: "switch" (the ring model cannot: on in the FE whenever
 # on in the state; its parameters, if any, act on the ring surrogate only), "anchored" (the
@@ -88,6 +89,7 @@ FE_ROLES = {"air_loading": "switch", "frame_reflection": "switch", "baffle": "sw
             "viscoelastic_membrane": "anchored"}
 # Parameter values of a switch in the anchor state (the ring side of the ratio).
 SWITCH_VALUES = {"air_loading": (1.0,)}
+MAX_RINGS = 48         # the largest ring count the convergence check suggests
 
 
 def ring_only_off(study):
@@ -393,6 +395,59 @@ class AnchoredEngine(Engine):
                     strong_modes.get(m.label))
                 for m in weak.modes}
         return hit
+
+    def ring_convergence(self) -> dict:
+        """The ring surrogate against the FE at the base point.
+
+        The anchor (A1) removes the ring model's discretisation error at the anchor, but
+        a surrogate far from the FE also moves its modes differently with the
+        parameters; it is flagged when its largest error on an axisymmetric mode in a
+        band exceeds the data's scatter sigma_f, with the ring count (doubling, up to
+        :data:`MAX_RINGS`) that brings it below sigma_f / 2.
+
+        Returns
+        -------
+        dict
+            ``rings``, ``sigma``, ``largest_error`` (relative), its ``label`` and
+            ``condition``, ``converged``, ``suggested_rings`` (None when converged or
+            none found) and ``suggested_error``.
+        """
+        sigma = self.measured.noise.frequency_relative
+        rings = self.measured.base_study["reduced"]["rings"]
+
+        def worst(ring_count):
+            out = (0.0, "", "")
+            for c in self.measured.conditions:
+                study = self.condition_study(c)
+                study = ring_only_off(study.replace(CATALOGUE["air_loading"].off(study)))
+                fe = self.fe.modes(study, f_max=BAND_MARGIN * c.band[1]).frequencies()
+                if ring_count != rings:
+                    study = study.replace({"reduced.rings": ring_count})
+                try:
+                    modes = self.ring_predict_study(study, c).modes
+                except (ReducedModelError, StudyError):    # a ring count it cannot take
+                    return None
+                for m in modes:
+                    if (m.kind == "axisymmetric" and m.label in fe
+                            and c.band[0] <= fe[m.label] <= c.band[1]):
+                        error = m.frequency_hz / fe[m.label] - 1
+                        if abs(error) > abs(out[0]):
+                            out = (error, m.label, c.name)
+            return out
+
+        error, label, where = worst(rings)
+        report = {"rings": rings, "sigma": sigma, "largest_error": error, "label": label,
+                  "condition": where, "converged": abs(error) <= sigma, "suggested_rings": None}
+        if not report["converged"]:
+            count = rings
+            while count < MAX_RINGS:
+                count = min(2 * count, MAX_RINGS)
+                found = worst(count)
+                if found is not None and abs(found[0]) <= sigma / 2:
+                    report["suggested_rings"] = count
+                    report["suggested_error"] = found[0]
+                    break
+        return report
 
     def _move_prony(self, condition, modes, then, now) -> tuple:
         """Modes under the anchor's Prony terms ``then`` moved to ``now`` by (P1)."""

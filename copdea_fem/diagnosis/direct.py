@@ -86,7 +86,7 @@ class DirectFEEngine(Engine):
         """Nothing to anchor: every prediction is the FE's (kept for the search's calls)."""
         self.anchored = {e: tuple(v) for e, v in state}
 
-    def anchor(self, condition, state=()):   # marks an FE model of record (Diagnoser.uses_fe)
+    def anchor(self, condition, state=()):   # marks an FE model of record (Scorer.uses_fe)
         return None
 
     def prefetch(self, pairs) -> None:

@@ -249,7 +249,7 @@ _register(Effect(
 # the size of a frame the base study does not state validly for its membrane.
 FRAME_OVER_DIAMETER = 0.080 / 0.071
 # Mutually exclusive: one mounting at a time.  The base study's own mounting is the starting
-# point; the others are candidates that replace it (select.Diagnoser.candidates).
+# point; the others are candidates that replace it (candidates.mounting_skipped).
 MOUNTINGS = ("baffle", "frame_reflection", "open_air")
 
 
@@ -366,8 +366,8 @@ _register(Effect(
 # One material-damping cause at a time: the membrane's Prony term (FE) both
 # stiffens and damps, so it stands for the ring model's storage factor
 # (viscoelastic_stiffening) and the paper's hand-calibrated modal b/m (modal_damping)
-# together; :meth:`copdea_fem.diagnosis.select.Diagnoser.candidates` never tests it beside
-# either, nor either beside it.
+# together; :func:`copdea_fem.diagnosis.candidates.material_skipped` never lets it be
+# tested beside either, nor either beside it.
 MATERIAL_DAMPING = ("viscoelastic_membrane", "viscoelastic_stiffening", "modal_damping")
 
 

@@ -44,12 +44,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from copdea_fem.fingerprint import fe_fingerprint
+from copdea_fem.folders import LockHeld, exclusive_lock
 from copdea_fem.study import Study, StudyError
-
-try:
-    import fcntl
-except ImportError:          # Windows: no advisory locks; concurrent runs may solve twice
-    fcntl = None
 
 logger = logging.getLogger(__name__)
 
@@ -161,7 +157,6 @@ CACHE_VARIABLE = "COPDEA_FEM_FE_CACHE"
 #: run solves it itself: past the longest single FE solve of a diagnosis (the 3-D square
 #: frame coupled on the default mesh, minutes on a fine mesh), so only a hung run is overtaken.
 LOCK_WAIT_SECONDS = 600.0
-LOCK_POLL_SECONDS = 0.2
 
 ENTRY_ENGINES = ("axisymmetric", "3d")
 ENTRY_KINDS = ("pumping", "axisymmetric", "non-axisymmetric")
@@ -447,27 +442,31 @@ class FEModel:
 
     @contextlib.contextmanager
     def _entry_lock(self, key: str):
-        """Hold ``<key>.lock`` in the cache folder while solving ``key`` (class notes);
-        without a cache folder, or where it cannot be locked, no lock."""
-        if self.cache_dir is None or fcntl is None:
+        """Hold ``<key>.lock`` in the cache folder while solving ``key`` (class notes:
+        :func:`copdea_fem.folders.exclusive_lock`, waiting up to :attr:`lock_wait` for
+        another run); without a cache folder, where it cannot be locked, or after the
+        wait, no lock."""
+        if self.cache_dir is None:
             yield
             return
         path = self.cache_dir / f"{key}.lock"
-        fd = None
-        try:
-            self.cache_dir.mkdir(parents=True, exist_ok=True)
-            fd = _acquire(path, self.lock_wait)
-        except OSError as error:           # a read-only folder: solve without the lock
-            logger.warning(f"FE cache {self.cache_dir} cannot be locked "
-                           f"({error.strerror or error}); solving without coordination")
-        try:
+
+        def waiting(holder):
+            logger.info(f"waiting for FE cache entry {path.stem}, being computed by another "
+                        f"run (process {holder}) ...")
+
+        with contextlib.ExitStack() as lock:
+            try:
+                self.cache_dir.mkdir(parents=True, exist_ok=True)
+                lock.enter_context(exclusive_lock(path, self.lock_wait, waiting))
+            except LockHeld as held:
+                logger.warning(f"FE cache entry {path.with_suffix('.json')} is still being "
+                               f"computed by process {held.holder} after {self.lock_wait:g} s; "
+                               "solving it here too")
+            except OSError as error:           # a read-only folder: solve without the lock
+                logger.warning(f"FE cache {self.cache_dir} cannot be locked "
+                               f"({error.strerror or error}); solving without coordination")
             yield
-        finally:
-            if fd is not None:
-                with contextlib.suppress(OSError):
-                    if os.stat(path).st_ino == os.fstat(fd).st_ino:
-                        os.unlink(path)
-                os.close(fd)
 
     def _write(self, result: FEResult) -> None:
         path = self._path(result.key)
@@ -527,35 +526,3 @@ def _solve_in_worker(study, f_max, folder, lock_wait):
 def _refuse_constant(name: str):
     """``json.loads`` hook: NaN and Infinity are not numbers of an entry."""
     raise ValueError(f"{name} is not a finite number")
-
-
-def _acquire(path: Path, wait: float) -> int | None:
-    """An exclusive ``flock`` of the lock file ``path``, waiting up to ``wait`` seconds
-    for another holder; None after the wait (the caller solves anyway).  The holder
-    removes the file when done, so only the file still in place counts as locked."""
-    deadline = time.monotonic() + wait
-    told = False
-    while True:
-        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            holder = os.read(fd, 32).decode(errors="replace").strip() or "unknown"
-            os.close(fd)
-            if time.monotonic() >= deadline:
-                logger.warning(f"FE cache entry {path.with_suffix('.json')} is still being "
-                               f"computed by process {holder} after {wait:g} s; solving it "
-                               "here too")
-                return None
-            if not told:
-                logger.info(f"waiting for FE cache entry {path.stem}, being computed by another "
-                            f"run (process {holder}) ...")
-                told = True
-            time.sleep(LOCK_POLL_SECONDS)
-            continue
-        with contextlib.suppress(FileNotFoundError):
-            if os.stat(path).st_ino == os.fstat(fd).st_ino:
-                os.ftruncate(fd, 0)
-                os.write(fd, f"{os.getpid()}\n".encode())
-                return fd
-        os.close(fd)

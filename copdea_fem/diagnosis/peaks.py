@@ -1,6 +1,7 @@
 """Resonance peaks of a velocity spectrum: frequency, height, width (quality factor).
 
-Used when a condition gives a spectrum and no resonance list, and to read
+Used when a condition gives a spectrum and no resonance list
+(:func:`condition_peaks`: the measured peaks of a condition), and to read
 peak heights and widths for the amplitude/width ratios of the report.
 
 Method, on ``L = ln(v_axial + v_radial)`` (|FFT|/N magnitudes [m/s]):
@@ -121,3 +122,23 @@ def peak_width(frequency_hz, values, target_hz, relative_window: float = 0.03) -
     index = int(inside[np.argmax(np.asarray(values)[inside])])
     width = _half_power_width(f, np.asarray(values, float), index, float(values[index]))
     return width if width >= 2 * float(np.median(np.diff(f))) else math.nan
+
+
+def condition_peaks(condition) -> list[MeasuredPeak]:
+    """The measured peaks of a condition: its resonance list (heights and radial ratios
+    read from its spectrum, if any), else the peaks found in its spectrum."""
+    spectrum = condition.spectrum
+    if condition.resonances is None:
+        return find_spectrum_peaks(spectrum.frequency_hz, spectrum.axial, spectrum.radial,
+                                   condition.band)
+    peaks = []
+    for r in condition.resonances:
+        height = ratio = math.nan
+        if spectrum is not None:
+            axial = peak_height(spectrum.frequency_hz, spectrum.axial, r.frequency_hz, 0.01)
+            radial = peak_height(spectrum.frequency_hz, spectrum.radial, r.frequency_hz, 0.01)
+            height = axial + radial
+            ratio = radial / axial if axial > 0 else math.nan
+        peaks.append(MeasuredPeak(r.frequency_hz, r.label, r.kind, r.quality_factor, height,
+                                  ratio, "resonances"))
+    return peaks

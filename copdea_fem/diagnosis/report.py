@@ -26,7 +26,7 @@ from copdea_fem.diagnosis.effects import CATALOGUE, catalogue_table
 from copdea_fem.diagnosis.engine import state_overrides
 from copdea_fem.diagnosis.evidence import explained
 from copdea_fem.diagnosis.peaks import peak_height, peak_width
-from copdea_fem.study import package_versions
+from copdea_fem.folders import package_versions
 
 
 def _pyplot():

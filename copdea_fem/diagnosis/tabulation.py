@@ -43,12 +43,14 @@ def extend_state(state, group, values) -> tuple:
 class Tabulation:
     """Per-condition modes of a candidate on a coarse parameter grid, interpolated anywhere.
 
-    Parameters are mapped to u in [0, 1] (log or linear between the bounds).
+    Parameters are mapped to u in [0, 1] (log or linear between the bounds).  ``scorer``
+    (:class:`copdea_fem.diagnosis.scoring.Scorer`) gives the engine, the conditions and
+    the deviance of modes matched to a condition's peaks.
     """
 
-    def __init__(self, diagnoser, state, group, parameters: list[Parameter],
+    def __init__(self, scorer, state, group, parameters: list[Parameter],
                  nuisance: bool = False, pinned=(), grid: int | None = None):
-        self.d = diagnoser
+        self.scorer = scorer
         self.state, self.group = state, tuple(group)
         # ``pinned``: study keys the engine does not read (held at their defaults, not
         # fitted); ``grid``: points per parameter axis (default 9 or 17, module notes)
@@ -100,15 +102,15 @@ class Tabulation:
             u = u0.copy()
             u[self.k + n] += step if u[self.k + n] + step <= 1 else -step
             points.append(u)
-        self.d.engine.prefetch([(c, self.state_at(u)) for c in self.d.conditions
+        self.scorer.engine.prefetch([(c, self.state_at(u)) for c in self.scorer.conditions
                                 for u in points])
-        for c in self.d.conditions:
-            centre = safe_predict(self.d.engine, c, self.state_at(u0))
+        for c in self.scorer.conditions:
+            centre = safe_predict(self.scorer.engine, c, self.state_at(u0))
             columns = []
             for n in range(len(self.nuisance)):
                 u = u0.copy()
                 u[self.k + n] += step if u[self.k + n] + step <= 1 else -step
-                shifted = safe_predict(self.d.engine, c, self.state_at(u))
+                shifted = safe_predict(self.scorer.engine, c, self.state_at(u))
                 if centre is None or shifted is None:
                     columns = None
                     break
@@ -145,10 +147,10 @@ class Tabulation:
     def _tabulate(self):
         grid = np.array(np.meshgrid(*self.axes, indexing="ij")).reshape(self.k, -1).T
         shape = tuple(a.size for a in self.axes)
-        self.d.engine.prefetch([(c, extend_state(self.state, self.group, self.values(u)))
-                                for c in self.d.conditions for u in grid])
-        for c in self.d.conditions:
-            predictions = [safe_predict(self.d.engine, c, extend_state(self.state, self.group,
+        self.scorer.engine.prefetch([(c, extend_state(self.state, self.group, self.values(u)))
+                                for c in self.scorer.conditions for u in grid])
+        for c in self.scorer.conditions:
+            predictions = [safe_predict(self.scorer.engine, c, extend_state(self.state, self.group,
                                                                   self.values(u)))
                            for u in grid]
             valid = [p for p in predictions if p is not None]
@@ -202,9 +204,9 @@ class Tabulation:
         if not hasattr(self, "_fixed"):
             self._fixed = {}
             state = extend_state(self.state, self.group, self.values([]))
-            self.d.engine.prefetch([(c, state) for c in self.d.conditions])
-            for c in self.d.conditions:
-                p = safe_predict(self.d.engine, c,
+            self.scorer.engine.prefetch([(c, state) for c in self.scorer.conditions])
+            for c in self.scorer.conditions:
+                p = safe_predict(self.scorer.engine, c,
                                  extend_state(self.state, self.group, self.values([])))
                 self._fixed[c.name] = list(p.modes) if p is not None else None
         return self._fixed.get(name)
@@ -212,13 +214,13 @@ class Tabulation:
     def deviance(self, names, u) -> float:
         """Deviance of the named conditions at u (candidate [+ nuisance] parameters)."""
         total = 0.0
-        for c in self.d.conditions:
+        for c in self.scorer.conditions:
             if c.name not in names:
                 continue
             modes = self.modes_at(c.name, u)
             if modes is None:
                 return INVALID
-            total += self.d.match(c, modes).deviance
+            total += self.scorer.match(c, modes).deviance
         return total
 
     def profile(self, names, candidate_u) -> tuple[float, np.ndarray]:
@@ -237,12 +239,12 @@ class Tabulation:
         u = best_u.copy()
         for _ in range(2):
             rows, residuals = [], []
-            for c in self.d.conditions:
+            for c in self.scorer.conditions:
                 if c.name not in names or self.jacobian.get(c.name) is None:
                     continue
                 modes = self.modes_at(c.name, u)
-                match = self.d.match(c, modes)
-                limit = self.d.terms(c.name).strict_gate()
+                match = self.scorer.match(c, modes)
+                limit = self.scorer.terms(c.name).strict_gate()
                 for pair in match.pairs:
                     row = self.jacobian[c.name].get(pair.model.label)
                     if row is not None and abs(pair.log_error) <= limit:
@@ -267,14 +269,14 @@ class Tabulation:
     def check_interpolation(self, name) -> float:
         """Largest |ln f| error of the interpolation against exact predictions, at the
         midpoints of the coarse grid (for tests)."""
-        condition = next(c for c in self.d.conditions if c.name == name)
+        condition = next(c for c in self.scorer.conditions if c.name == name)
         worst = 0.0
         if self.k != 1:
             return worst
         axis = self.axes[0]
         for x in 0.5 * (axis[1:] + axis[:-1]):
             u = np.concatenate([[x], self.nuisance_u0])
-            exact = safe_predict(self.d.engine, condition, self.state_at(u))
+            exact = safe_predict(self.scorer.engine, condition, self.state_at(u))
             modes = self.modes_at(name, u)
             if exact is None or modes is None:
                 continue
@@ -325,7 +327,7 @@ class Tabulation:
         if hasattr(self, "_fine"):
             return self._fine
         table = {}
-        for c in self.d.conditions:
+        for c in self.scorer.conditions:
             table[c.name] = np.array([self.deviance([c.name], u) for u in points])
         self._fine = table
         return table

@@ -51,7 +51,7 @@ import numpy as np
 from copdea_fem.fe.airbox import check_air_lift
 from copdea_fem.fe.forced.problem import OrderZero
 from copdea_fem.forced_response.files import AVERAGE_COLUMNS, MODE_COLUMNS, POINT_COLUMNS  # noqa: F401
-from copdea_fem.study import StudyError
+from copdea_fem.study import DEFAULT_MICROPHONE, StudyError, listed_microphones
 
 if TYPE_CHECKING:
     from copdea_fem.fe.engines import Engine
@@ -62,12 +62,13 @@ logger = logging.getLogger(__name__)
 def parse_microphones(study) -> list[tuple[str, np.ndarray]]:
     """Named microphone positions (x, y, z) [m]: ``axis`` at ``response.microphone_distance``
     on the +z axis, then those of ``response.microphones`` ("name = x, y, z; ...", units
-    allowed, e.g. ``side = 0.5 m, 0 m, 0.5 m``); parsed and checked with the study
-    (:func:`copdea_fem.study.response_microphones`), so a bad one never reaches a solve."""
-    from copdea_fem.study import response_microphones
-    return [(name, np.array(position)) for name, position in response_microphones(
-        study["response"]["microphones"], study["response"]["microphone_distance"],
-        study["geometry"]["frame"])]
+    allowed, e.g. ``side = 0.5 m, 0 m, 0.5 m``), parsed and checked as the study was read
+    (:func:`copdea_fem.study.listed_microphones`), so a bad one never reaches a solve."""
+    response = study["response"]
+    axis = (0.0, 0.0, float(response["microphone_distance"]))
+    listed = listed_microphones(response["microphones"], study["geometry"]["frame"])
+    return [(name, np.array(position))
+            for name, position in [(DEFAULT_MICROPHONE, axis), *listed]]
 
 
 def prepare_order_zero(study, engine: Engine | None = None) -> OrderZero:

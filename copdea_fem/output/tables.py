@@ -9,7 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from copdea_fem.study import Study, dump_resolved, package_versions
+from copdea_fem.folders import package_versions
+from copdea_fem.study import Study, dump_resolved
 
 MODE_COLUMNS = ("label", "m", "n", "kind", "freq_hz", "freq_im_hz", "damping_ratio",
                 "membrane_energy_fraction", "modal_mass", "dry_freq_hz", "added_mass_ratio",

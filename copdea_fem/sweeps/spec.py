@@ -11,8 +11,9 @@ from pathlib import Path
 
 import numpy as np
 
+from copdea_fem.folders import package_versions
 from copdea_fem.inputs import read_yaml
-from copdea_fem.study import SCHEMA, Study, StudyError, _convert, load_study, package_versions
+from copdea_fem.study import SCHEMA, Study, StudyError, _convert, load_study
 from copdea_fem.sweeps.axes import (
     MAX_POINTS,
     Axis,

@@ -163,17 +163,16 @@ def test_engine_quality_factor_is_the_half_power_width_of_its_spectrum():
 def test_interpolated_modes_are_far_more_accurate_than_the_measurement(tmp_path):
     """The fits work on modes interpolated over a coarse parameter grid; at the grid's
     midpoints the error in ln f is < 1e-3, a fifteenth of sigma_f = 1.5 %."""
-    from copdea_fem.diagnosis.select import Diagnoser
+    from copdea_fem.diagnosis.scoring import Scorer
     from copdea_fem.diagnosis.tabulation import Tabulation
     study = parse_study(G1).replace({"effects.maxwell_scale": 0.0,
                                      "effects.air_added_mass": "incompressible"})
     conditions = tuple(Condition(name, overrides, None, None, (1.25, 1000.0)) for name, overrides
                        in (("a", {"load.voltage": 3000.0}), ("b", {"load.z": 0.011})))
     measured = MeasuredSet("x", "", None, study, conditions, NoiseModel())
-    diagnoser = Diagnoser.__new__(Diagnoser)          # no peaks needed for the modes
-    diagnoser.measured, diagnoser.engine, diagnoser.conditions = measured, Engine(measured), \
-        conditions
+    scorer = Scorer.__new__(Scorer)          # no peaks needed for the modes
+    scorer.measured, scorer.engine, scorer.conditions = measured, Engine(measured), conditions
     for effect in ("electrostatic_softening", "air_loading", "spring_mass"):
-        table = Tabulation(diagnoser, (), (effect,), list(CATALOGUE[effect].parameters))
+        table = Tabulation(scorer, (), (effect,), list(CATALOGUE[effect].parameters))
         for condition in conditions:
             assert table.check_interpolation(condition.name) < 1e-3, (effect, condition.name)

@@ -25,6 +25,7 @@ from copdea_fem.diagnosis.compare import MeasuredPeak, gap, match_condition  # n
 from copdea_fem.diagnosis.engine import Engine, ModelMode  # noqa: E402
 from copdea_fem.diagnosis.fe import FEModel, fe_key, fe_study  # noqa: E402
 from copdea_fem.diagnosis.measured import NoiseModel, load_measured  # noqa: E402
+from copdea_fem.diagnosis.scoring import refusal  # noqa: E402
 from copdea_fem.diagnosis.select import Diagnoser  # noqa: E402
 from copdea_fem.study import parse_study  # noqa: E402
 
@@ -168,6 +169,7 @@ def test_a_fit_at_a_bound_is_reported_and_not_accepted(tmp_path):
 def test_mode_lists_that_change_with_a_parameter_keep_scores_finite(tmp_path):
     """A mode that comes and goes across the fit range (a cut-off crossing) must not make a
     held-out deviance infinite (the issue's electrostatic misses)."""
+    from copdea_fem.diagnosis.scoring import Scorer
     from copdea_fem.diagnosis.tabulation import Tabulation
     measured = load_measured(battery.write_measured("electrostatic_hidden", 1, tmp_path))
 
@@ -180,9 +182,9 @@ def test_mode_lists_that_change_with_a_parameter_keep_scores_finite(tmp_path):
                                                        if m.label != "(0,3)"))
             return prediction
 
-    diagnoser = Diagnoser(measured, engine=CutOff(measured))
+    scorer = Scorer(measured, CutOff(measured))
     from copdea_fem.diagnosis.effects import CATALOGUE
-    table = Tabulation(diagnoser, (), ("electrostatic_softening",),
+    table = Tabulation(scorer, (), ("electrostatic_softening",),
                        list(CATALOGUE["electrostatic_softening"].parameters))
     names = [c.name for c in measured.conditions]
     values = [table.deviance(names, [u]) for u in np.linspace(0, 1, 21)]
@@ -340,7 +342,6 @@ def test_a_passing_candidate_is_refused_when_the_exact_gap_or_deviance_does_not_
         return {"c": match_condition("c", modes, peaks, band, noise)}
 
     far, near = matches(440.0, 950.0), matches(402.0, 905.0)
-    refusal = Diagnoser._refusal
     assert refusal(far, near, ("air_loading",)) is None
     assert "gap does not fall" in refusal(near, far, ("air_loading",))
     assert "gap does not fall" in refusal(near, near, ("air_loading",))
@@ -366,7 +367,7 @@ def test_the_acceptance_rule_refuses_a_step_that_raises_the_gap_by_one_per_cent(
     rising = matches(0.0, 0.0303)          # the error moved to (0,2), 1 % larger
     before, after = gap(current.values()), gap(rising.values())
     assert 1.005 < after / before < 1.015
-    assert "gap does not fall" in Diagnoser._refusal(current, rising, ("uniform_stiffness",))
+    assert "gap does not fall" in refusal(current, rising, ("uniform_stiffness",))
     falling = matches(0.0, 0.0297)
     assert gap(falling.values()) < before
-    assert Diagnoser._refusal(current, falling, ("uniform_stiffness",)) is None
+    assert refusal(current, falling, ("uniform_stiffness",)) is None

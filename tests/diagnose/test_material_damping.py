@@ -27,6 +27,7 @@ from copdea_fem.diagnosis.anchored import (
     material_share,
     prony_mode,
 )
+from copdea_fem.diagnosis.candidates import material_skipped  # noqa: E402
 from copdea_fem.diagnosis.effects import CATALOGUE, catalogue_table  # noqa: E402
 from copdea_fem.diagnosis.engine import ModelMode  # noqa: E402
 from copdea_fem.diagnosis.fe import FEMode, FEModel, FEResult, fe_study  # noqa: E402
@@ -167,7 +168,7 @@ def test_the_effect_sets_one_prony_term_replaces_modal_damping_and_keeps_the_ban
 
 
 def test_one_material_damping_cause_at_a_time():
-    skipped = Diagnoser._material_skipped
+    skipped = material_skipped
     base = parse_study(G1)                                        # modal b/m on (Sect. 5.3)
     assert skipped("viscoelastic_membrane", (), base) is None     # replaces the b/m
     assert "viscoelastic_stiffening" in skipped(

@@ -19,6 +19,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import mount_battery as battery  # noqa: E402
 
 from copdea_fem.diagnosis.anchored import AnchoredEngine  # noqa: E402
+from copdea_fem.diagnosis.candidates import mounting_skipped  # noqa: E402
 from copdea_fem.diagnosis.direct import DirectFEEngine, ring_can_represent  # noqa: E402
 from copdea_fem.diagnosis.effects import CATALOGUE  # noqa: E402
 from copdea_fem.diagnosis.fe import FEModel  # noqa: E402
@@ -113,7 +114,7 @@ def test_a_stated_mounting_is_replaced_not_stacked():
     baffled = parse_study(battery.G1_BAFFLED)
     assert CATALOGUE["open_air"].on(baffled) == {"geometry.frame": "none"}
     assert CATALOGUE["open_air"].is_on(parse_study(battery.G1_OPEN))
-    skipped = Diagnoser._mounting_skipped
+    skipped = mounting_skipped
     for mounting in ("open_air", "frame_reflection"):
         assert skipped(mounting, (("air_loading", (1.0,)),), baffled) is None
     assert "another mounting (open_air)" in skipped("frame_reflection",

@@ -21,10 +21,11 @@ from diagnose_helpers import make_data
 
 from copdea_fem.diagnosis.measured import load_measured
 from copdea_fem.diagnosis.report import write_report
+from copdea_fem.diagnosis.scoring import refusal
 from copdea_fem.diagnosis.select import Diagnoser
 
 
-def _diagnose(name, seed, folder, diagnoser=Diagnoser, **manifest):
+def _diagnose(name, seed, folder, **manifest):
     path = make_data(name, seed, folder)
     if manifest:
         raw = yaml.safe_load(path.read_text())
@@ -34,7 +35,7 @@ def _diagnose(name, seed, folder, diagnoser=Diagnoser, **manifest):
             else:
                 raw[key] = value
         path.write_text(yaml.safe_dump(raw, sort_keys=False))
-    return diagnoser(load_measured(path)).run()
+    return Diagnoser(load_measured(path)).run()
 
 
 def _written_and_read_back(result, folder: Path) -> dict:
@@ -51,16 +52,17 @@ def _written_and_read_back(result, folder: Path) -> dict:
     return document
 
 
-class _RefuseFirst(Diagnoser):
-    """The acceptance rule refuses the first significant candidate once (a refused step)."""
+def _refuse_first():
+    """An acceptance rule that refuses the first significant candidate once (a refused
+    step), then is :func:`~copdea_fem.diagnosis.scoring.refusal`."""
+    refused = []
 
-    refused = False
-
-    def _refusal(self, matches, new_matches, effects):
-        if not type(self).refused:
-            type(self).refused = True
+    def rule(matches, new_matches, effects):
+        if not refused:
+            refused.append(effects)
             return "refused by the test"
-        return Diagnoser._refusal(matches, new_matches, effects)
+        return refusal(matches, new_matches, effects)
+    return rule
 
 
 @pytest.fixture(scope="module")
@@ -69,7 +71,8 @@ def air_result(tmp_path_factory):
     return _diagnose("air_loading", 1, tmp_path_factory.mktemp("air"))
 
 
-def test_every_path_of_the_loop_writes_a_report_that_reads_back(tmp_path, air_result):
+def test_every_path_of_the_loop_writes_a_report_that_reads_back(tmp_path, air_result,
+                                                                 monkeypatch):
     added = air_result
     assert added.missing_effects == ["air_loading"]
     document = _written_and_read_back(added, tmp_path / "added_report")
@@ -85,8 +88,9 @@ def test_every_path_of_the_loop_writes_a_report_that_reads_back(tmp_path, air_re
     document = _written_and_read_back(ambiguous, tmp_path / "ambiguous_report")
     assert document["ambiguous"] and "separation" in document["history"][1]
 
-    _RefuseFirst.refused = False
-    refused = _diagnose("air_loading", 1, tmp_path / "refused", diagnoser=_RefuseFirst)
+    with monkeypatch.context() as patch:
+        patch.setattr("copdea_fem.diagnosis.select.refusal", _refuse_first())
+        refused = _diagnose("air_loading", 1, tmp_path / "refused")
     assert refused.rejected and refused.rejected[0]["reason"] == "refused by the test"
     document = _written_and_read_back(refused, tmp_path / "refused_report")
     assert document["rejected"][0]["reason"] == "refused by the test"
@@ -150,7 +154,6 @@ def test_the_acceptance_boundary_a_gap_rising_by_one_percent_is_refused():
     base = matches(0.02)
     worse, better = matches(0.02 * 1.01), matches(0.02 / 1.01)
     assert gap(worse.values()) == pytest.approx(1.01 * gap(base.values()), rel=1e-3)
-    refusal = Diagnoser._refusal
     assert "gap does not fall" in refusal(base, worse, ("uniform_stiffness",))
     assert "gap does not fall" in refusal(base, worse, ("modal_damping",))
     assert refusal(base, better, ("uniform_stiffness",)) is None
@@ -160,15 +163,16 @@ def test_an_ambiguity_between_a_mounting_and_a_material_effect_names_what_separa
     """The separating measurement of two explanations: the mode where the FE-evaluated
     models differ most, and in vacuo where one acts through the air only."""
     from copdea_fem.diagnosis.report import _separation_text
-    from copdea_fem.diagnosis.select import CandidateScore, _in_vacuo_separates
+    from copdea_fem.diagnosis.scoring import CandidateScore
+    from copdea_fem.diagnosis.separation import in_vacuo_separates
 
     def score(effect):
         return CandidateScore((effect,), (), 0.0, 0.0, {}, 0.0, 0.0, 0.0, False, {})
 
-    assert _in_vacuo_separates(score("baffle"), score("uniform_stiffness"))
-    assert _in_vacuo_separates(score("viscoelastic_stiffening"), score("frame_reflection"))
-    assert not _in_vacuo_separates(score("baffle"), score("frame_reflection"))
-    assert not _in_vacuo_separates(score("uniform_stiffness"), score("electrostatic_softening"))
+    assert in_vacuo_separates(score("baffle"), score("uniform_stiffness"))
+    assert in_vacuo_separates(score("viscoelastic_stiffening"), score("frame_reflection"))
+    assert not in_vacuo_separates(score("baffle"), score("frame_reflection"))
+    assert not in_vacuo_separates(score("uniform_stiffness"), score("electrostatic_softening"))
     text = _separation_text({"first": "baffle", "second": "uniform_stiffness", "sigma": 9.0,
                              "label": "(0,1)", "condition": "stretch1p05", "first_hz": 57.0,
                              "second_hz": 62.1, "in_vacuo": True}, 0.01)
