@@ -182,14 +182,14 @@ def package_versions() -> dict[str, str]:
     manifest (``study.resolved.yaml``, ``modes.json``, ``diagnosis.json``, a sweep's spec).
 
     A new dict each call; looked up once per process (the installed metadata are searched
-    on ``sys.path``, ~35 ms a time).
+    on ``sys.path``, which is slow).
     """
     global _VERSIONS
     if _VERSIONS is None:
         import platform
         from importlib import metadata
         versions = {"python": platform.python_version()}
-        for package in ("copdea-fem", "ngsolve", "numpy", "scipy", "meshio", "pyvista",
+        for package in ("copdea-fem", "ngsolve", "numpy", "scipy", "matplotlib", "pyvista",
                         "pint"):
             try:
                 versions[package] = metadata.version(package)
