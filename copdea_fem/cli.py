@@ -1,7 +1,9 @@
 """Command line: ``copdea-fem solve|check|force|schema ...`` (thin: parse, call, print).
 
-``solve``, ``response`` and ``force`` call the Python API (:mod:`copdea_fem.api`): the
-command checks its inputs and output folder, calls the API, writes and prints.
+Every command has one shape: read and check its inputs, claim the output folder once
+(:func:`_output`, before any expensive work), call the Python API (:mod:`copdea_fem.api`;
+``fit-material``, ``calibrate-damping`` and ``synth``: their action), hand the claim to the
+result's ``write`` (the only writer of its files), print a summary.
 
 Exit codes: 0 success; 2 bad input (study, --set, options, input files, an
 output folder that may not be written, a problem too large), before any
@@ -22,8 +24,7 @@ import sys
 import threading
 from pathlib import Path
 
-from copdea_fem.api import SolveFailed  # noqa: F401 (kept for callers)
-from copdea_fem.api import solving as _solving
+from copdea_fem.api import SolveFailed, solving
 from copdea_fem.folders import OutputFolderError, claim
 from copdea_fem.study import StudyError, load_study, parse_overrides
 
@@ -235,7 +236,7 @@ def cmd_calibrate_damping(args) -> int:
             return calibrate_structural_damping(
                 study, args.spectrum, out_dir, args.fit, args.quality_factors,
                 modes_json=args.modes_json, window=args.window, relaxation_time=relaxation_time)
-    with _output(args, out_dir, "calibrate-damping", inputs), _solving(study):
+    with _output(args, out_dir, "calibrate-damping", inputs), solving(study):
         return _reduced_action(action)
 
 

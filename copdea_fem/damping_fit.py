@@ -295,7 +295,7 @@ def fe_modes(study) -> dict:
     imports this module's callers: the CLI wraps the fit in :func:`copdea_fem.api.solving`).
     """
     from copdea_fem.fe.pipeline import run_solve
-    result = run_solve(study, out_dir=None)
+    result = run_solve(study)
     modes = {}
     for mode in result.modes:
         modes.setdefault(mode.label, (float(np.hypot(mode.freq_hz, mode.freq_im_hz)),

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from helpers import coupled_study
 
+from copdea_fem.api import Solution
 from copdea_fem.fe.pipeline import coupled_modes, prepare_mesh, run_solve
 from copdea_fem.fe.prestress import solve_prestress
 from copdea_fem.fe.quadrant.geometry import GeometrySpec
@@ -136,7 +137,8 @@ def test_quadrant_prestress_carries_the_whole_disc_force():
 
 def test_written_fields_are_unfolded_with_the_sector_parity(tmp_path):
     study = coupled_study(eigen={"f_max": "450 Hz"}, output={"plots": False})
-    result = run_solve(study, out_dir=tmp_path / "run")
+    result = run_solve(study)
+    Solution(result).write(tmp_path / "run")
     rows = {row["label"]: row for row in csv.DictReader(open(tmp_path / "run" / "modes.csv"))}
     assert rows["(0,1)"]["symmetry"] == "even-even"
     assert {rows["(1,1)a"]["symmetry"], rows["(1,1)b"]["symmetry"]} == {"odd-even", "even-odd"}

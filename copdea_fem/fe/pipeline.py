@@ -120,7 +120,7 @@ def coupled_modes(study: Study, mesh=None, timings: Timings | None = None, cache
                                 BandSolver.from_study(study))
 
 
-def run_solve(study: Study, cache_dir=None, engine: Engine | None = None) -> SolveResult:
+def run_solve(study: Study, *, cache_dir=None, engine: Engine | None = None) -> SolveResult:
     """Prestress and modes of ``copdea-fem solve`` (coupled when ``air.enabled``)."""
     timings = Timings()
     engine = engine or engine_for(study)
@@ -134,7 +134,7 @@ def run_solve(study: Study, cache_dir=None, engine: Engine | None = None) -> Sol
     return SolveResult(study, engine, state, modes, timings, eigen_result, coupled)
 
 
-def run_force(study: Study, z_values, voltages, cache_dir=None,
+def run_force(study: Study, z_values, voltages, *, cache_dir=None,
               engine: Engine | None = None) -> np.ndarray:
     """Static disc force F(z) [N] at each voltage [V] and z [m] (Fig. 4b):
     ``forces[i, j]`` at ``voltages[i]``, ``z_values[j]``."""
