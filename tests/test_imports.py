@@ -11,6 +11,7 @@ contracts catch one.
 from __future__ import annotations
 
 import ast
+import re
 import os
 import shutil
 import subprocess
@@ -104,3 +105,19 @@ def test_an_engine_name_branch_is_found(tmp_path):
             "fe/engines.py": 'def h(s):\n    return engine_of(s) == "3d"\n'}.items():
         (package / name).write_text(source)
     assert engine_name_tests(package) == ["a.py:2", "b.py:2"]
+
+
+HISTORY = re.compile(r"\bissue[s]?[ -]?#?\d+", re.IGNORECASE)
+
+
+def test_the_package_carries_no_history_and_no_benchmark():
+    """Docstrings and comments say what the code does and why; issue numbers belong in the
+    git log.  The benchmarks live in ``benchmarks/`` at the repository root."""
+    history = [f"{path.relative_to(REPOSITORY)}:{number}"
+               for path in sorted(PACKAGE.rglob("*.py"))
+               for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1)
+               if HISTORY.search(line)]
+    assert history == []
+    assert not [path for path in PACKAGE.rglob("*.py")
+                if "bench" in path.stem or path.name == "__main__.py"]
+    assert HISTORY.search("see Issue 25 for the timings") and not HISTORY.search("tissue 3")
