@@ -1016,3 +1016,39 @@ def test_pool_workers_die_with_a_killed_sweep(tmp_path):
         for pid in children:
             if running(pid):
                 os.kill(pid, signal.SIGKILL)
+
+
+def test_two_threads_claiming_one_folder_the_second_is_refused(tmp_path):
+    """A claim is re-entrant within its own thread only: a second thread of the same
+    process (two API calls at once) is refused like another process, and the first
+    thread's writer below its claim still takes it."""
+    import threading
+    import time
+
+    target, seen = tmp_path / "out", []
+    held = threading.Event()
+
+    def first():
+        with folders.claim(target, "solve"):
+            held.set()
+            with folders.result_directory(target, "solve") as staging:   # below the claim
+                (staging / "a.txt").write_text("a")
+            time.sleep(0.3)
+
+    def second():
+        held.wait()
+        try:
+            with folders.claim(target, "solve"):
+                seen.append("claimed")
+        except folders.OutputFolderError as error:
+            seen.append(str(error))
+
+    threads = [threading.Thread(target=first), threading.Thread(target=second)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert len(seen) == 1 and "is being written by another copdea-fem run" in seen[0]
+    assert (target / "a.txt").read_text() == "a"
+    with folders.claim(target, "solve"):          # released: claimed again
+        pass
