@@ -551,10 +551,10 @@ class ResponseSolution:
 
 # -- force ---------------------------------------------------------------------------------
 def _quantity_list(values, key: str, unit: str) -> list[float]:
-    from copdea_fem.study import Key, _convert
+    from copdea_fem.study import Key, convert_value
     spec = Key(unit, 0.0, key, minimum=0)
     items = values.split(",") if isinstance(values, str) else list(values)
-    return [_convert(key, spec, item.strip() if isinstance(item, str) else item)
+    return [convert_value(key, spec, item.strip() if isinstance(item, str) else item)
             for item in items if not isinstance(item, str) or item.strip()]
 
 

@@ -353,7 +353,9 @@ META_KEYS = ("name", "description", "provenance")
 
 
 @functools.lru_cache(maxsize=1)
-def _units():
+def unit_registry():
+    """pint's unit registry, made once (slow to build): the fallback of :func:`convert_value`
+    for units :mod:`copdea_fem.units` does not know."""
     import pint
     return pint.UnitRegistry()
 
@@ -363,7 +365,7 @@ def _fail(key: str, value: Any, allowed: str, why: str = "") -> StudyError:
     return StudyError(f"{key} = {preview(value)} is not allowed{why}; allowed: {allowed}")
 
 
-def _convert(key: str, spec: Key, value: Any) -> Any:
+def convert_value(key: str, spec: Key, value: Any) -> Any:
     """Turn one raw value into its SI value, checking type, unit and bounds."""
     if value is None and spec.default is None:
         return None
@@ -410,9 +412,9 @@ def _prony_terms(key: str, value: Any) -> list:
         if not isinstance(item, dict) or set(item) != {"modulus_ratio", "relaxation_time"}:
             raise _fail(where, item, PRONY_ALLOWED, "each term needs exactly the keys "
                         "modulus_ratio and relaxation_time")
-        ratio = _convert(f"{where}.modulus_ratio", Key(None, 0.0, "", minimum=0, maximum=1e3,
+        ratio = convert_value(f"{where}.modulus_ratio", Key(None, 0.0, "", minimum=0, maximum=1e3,
                                                        open_min=True), item["modulus_ratio"])
-        tau = _convert(f"{where}.relaxation_time", Key("s", 0.0, "", minimum=0, maximum=1e3,
+        tau = convert_value(f"{where}.relaxation_time", Key("s", 0.0, "", minimum=0, maximum=1e3,
                                                        open_min=True), item["relaxation_time"])
         terms.append({"modulus_ratio": ratio, "relaxation_time": tau})
     return terms
@@ -425,7 +427,7 @@ def convert_quantity(key: str, value: Any, unit: str, minimum: float | None = No
                      maximum: float | None = None) -> float:
     """One value of a compound key (e.g. a coordinate in a list) to SI ``unit``, bounds
     checked; a bare number is already SI.  Raises StudyError naming ``key``."""
-    return _convert(key, Key(unit, 0.0, key, minimum=minimum, maximum=maximum), value)
+    return convert_value(key, Key(unit, 0.0, key, minimum=minimum, maximum=maximum), value)
 
 
 def _to_si(key: str, spec: Key, value: Any) -> float:
@@ -442,7 +444,7 @@ def _to_si(key: str, spec: Key, value: Any) -> float:
         return fast
     import pint
     try:
-        quantity = _units().Quantity(value.strip())
+        quantity = unit_registry().Quantity(value.strip())
     except Exception as exc:  # pint raises several types for unparsable text
         raise _fail(key, value, spec.allowed(), f"cannot read it as a quantity: {exc}") from None
     try:
@@ -536,7 +538,7 @@ def parse_study(raw: dict[str, Any], overrides: dict[str, Any] | None = None,
         for key, value in given.items():
             if key not in keys:
                 raise _unknown_key(f"{section}.{key}", value)
-        values[section] = {key: _convert(f"{section}.{key}", spec,
+        values[section] = {key: convert_value(f"{section}.{key}", spec,
                                          given[key] if key in given else spec.default)
                            for key, spec in keys.items()}
     _derived_defaults(values, name)

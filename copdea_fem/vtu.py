@@ -259,7 +259,8 @@ def write_all(directory: Path, meshes, kept: dict | None = None) -> list[Path]:
     return files
 
 
-def _safe(label: str) -> str:
+def safe_name(label: str) -> str:
+    """A mode label as a file name part: ``(1,1)a`` -> ``1_1_a``."""
     return "".join(ch if ch.isalnum() else "_" for ch in label).strip("_")
 
 

@@ -11,8 +11,8 @@ contracts catch one.
 from __future__ import annotations
 
 import ast
-import re
 import os
+import re
 import shutil
 import subprocess
 import sys

@@ -316,8 +316,8 @@ def read_spectrum(path, point: str = "average", key: str = "spectrum") -> Spectr
 
 
 def _quantity(value, unit, where):
-    from copdea_fem.study import Key, _convert
-    return _convert(where, Key(unit, 0.0, where, minimum=0), value)
+    from copdea_fem.study import Key, convert_value
+    return convert_value(where, Key(unit, 0.0, where, minimum=0), value)
 
 
 def load_measured(path) -> MeasuredSet:

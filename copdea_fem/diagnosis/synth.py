@@ -122,7 +122,7 @@ def parse_conditions(text: str | None) -> list[dict]:
 
 def parse_parameters(items) -> dict:
     """``["air_loading.scale=1.2", "spring_mass.mass=2 g"]`` -> {effect: {name: SI value}}."""
-    from copdea_fem.study import Key, _convert
+    from copdea_fem.study import Key, convert_value
     out: dict = {}
     for item in items or []:
         if "=" not in item or "." not in item.split("=", 1)[0]:
@@ -139,7 +139,7 @@ def parse_parameters(items) -> dict:
         key = Key(spec.unit, spec.default, spec.description, minimum=spec.lower,
                   maximum=spec.upper)
         parsed = parse_yaml(value, f"--param {name.strip()}", StudyError)
-        out.setdefault(effect_id, {})[parameter] = _convert(
+        out.setdefault(effect_id, {})[parameter] = convert_value(
             f"--param {name.strip()}", key, value.strip() if isinstance(parsed, str) or
             parsed is None else parsed)
     return out

@@ -75,7 +75,7 @@ def _quadrants(symmetry):
     return QUADRANTS if symmetry.quarter else QUADRANTS[:1]
 
 
-def _unfold_cells(cells: np.ndarray, n_points: int, symmetry) -> np.ndarray:
+def unfold_cells(cells: np.ndarray, n_points: int, symmetry) -> np.ndarray:
     """Cells of every quadrant copy; a copy reflected once has its orientation reversed."""
     copies = []
     for number, (qx, qy) in enumerate(_quadrants(symmetry)):
@@ -84,7 +84,7 @@ def _unfold_cells(cells: np.ndarray, n_points: int, symmetry) -> np.ndarray:
     return np.concatenate(copies)
 
 
-def _unfold_values(values: np.ndarray, symmetry, sector=None) -> np.ndarray:
+def unfold_values(values: np.ndarray, symmetry, sector=None) -> np.ndarray:
     """Quadrant values -> all quadrants: f(q x) = s(q) R_q f(x) (vectors: x, y flipped)."""
     parts = []
     for qx, qy in _quadrants(symmetry):
@@ -96,14 +96,14 @@ def _unfold_values(values: np.ndarray, symmetry, sector=None) -> np.ndarray:
     return np.concatenate(parts)
 
 
-class _AirHalves:
+class AirHalves:
     """The air's element corners with the lower half on its own copy of the mesh vertices
     (the pressure jumps across the screens; values are taken inside each element), on the
     mesh moved by ``mesh_motion``; 3-D tetrahedra or meridian triangles (the dimension of
     ``mesh``).  ``copy[e, k]``: the (doubled) vertex of corner k of element e; ``moved``:
     the moved coordinates of every doubled vertex; ``used``/``renumber``: the vertices a
     cell uses and their new numbers.  ``split``: per mesh vertex, whether its lower copy is
-    its own point (where the pressure jumps: :func:`_jump_vertices`); None: every lower
+    its own point (where the pressure jumps: :func:`jump_vertices`); None: every lower
     vertex (the open plane then carries two coincident copies of one pressure)."""
 
     def __init__(self, mesh, points, mesh_motion, split=None):
@@ -138,7 +138,7 @@ class _AirHalves:
         self.renumber[self.used] = np.arange(len(self.used))
 
 
-def _jump_vertices(pressure_space, vertices: int):
+def jump_vertices(pressure_space, vertices: int):
     """Per mesh vertex: whether the pressure jump ``q`` of
     :func:`copdea_fem.fe.acoustics.pressure_space`
     has a free DOF there (a screen vertex; the lower half needs its own copy); None when

@@ -65,8 +65,8 @@ class Axis:
         if not isinstance(value, (int, float)) or not self.display_unit or \
                 self.display_unit == self.unit:
             return value
-        from copdea_fem.study import _units
-        return float(_units().Quantity(value, self.unit).to(self.display_unit).magnitude)
+        from copdea_fem.study import unit_registry
+        return float(unit_registry().Quantity(value, self.unit).to(self.display_unit).magnitude)
 
     def format(self, value) -> str:
         """A value as text in the display unit: ``2 kV``, ``12 mm``, ``square``."""

@@ -13,7 +13,7 @@ import numpy as np
 
 from copdea_fem.folders import package_versions
 from copdea_fem.inputs import read_yaml
-from copdea_fem.study import SCHEMA, Study, StudyError, _convert, load_study
+from copdea_fem.study import SCHEMA, Study, StudyError, convert_value, load_study
 from copdea_fem.sweeps.axes import (
     MAX_POINTS,
     Axis,
@@ -254,7 +254,7 @@ def _parse_axis(key: str, value) -> Axis:
 
 def _convert_value(where: str, spec, value):
     try:
-        return _convert(where, spec, value)
+        return convert_value(where, spec, value)
     except StudyError as error:
         raise SweepError(str(error)) from None
 

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
-from copdea_fem.fe.fields import CornerPressure, PointMerge, _AirHalves, _jump_vertices
-from copdea_fem.vtu import VtuMesh, _safe, membrane_mesh, pressure_point_data, write_all
+from copdea_fem.fe.fields import AirHalves, CornerPressure, PointMerge, jump_vertices
+from copdea_fem.vtu import VtuMesh, membrane_mesh, pressure_point_data, safe_name, write_all
 
 
 def revolution_angles(max_order: int, minimum: int = 72, per_wave: int = 8) -> np.ndarray:
@@ -165,7 +165,7 @@ def revolved_mode_meshes(state, modes, sampler=None):
                   "normal_displacement_real": normal_shape.real,
                   "normal_displacement_imag": normal_shape.imag,
                   "normal_velocity_abs": omega * np.abs(normal_shape)}
-        yield (f"mode_{number:03d}_{_safe(mode.label)}",
+        yield (f"mode_{number:03d}_{safe_name(mode.label)}",
                VtuMesh(deformed, [("triangle", sampler.cells)], point_data=fields))
 
 
@@ -223,8 +223,8 @@ def revolved_air_meshes(operators, modes, pressures, max_order: int | None = Non
     mesh = operators[0].pressure_space.mesh
     corners = ngs.IntegrationRule([(1, 0), (0, 1), (0, 0)], [0.0] * 3)
     points = mesh.MapToAllElements(corners, ngs.VOL)
-    halves = _AirHalves(mesh, points, operators[0].mesh_motion,
-                        split=_jump_vertices(operators[0].pressure_space,
+    halves = AirHalves(mesh, points, operators[0].mesh_motion,
+                        split=jump_vertices(operators[0].pressure_space,
                                              len(mesh.ngmesh.Coordinates())))
     lower, in_pml, copy, used, count = (halves.lower, halves.in_pml, halves.copy, halves.used,
                                         halves.count)
@@ -268,7 +268,7 @@ def revolved_air_meshes(operators, modes, pressures, max_order: int | None = Non
         main, _ = _harmonics(mode.m, mode.family, angles)
         field = merge.reduce((nodal[used][:, None] * main[None, :]).ravel())
         data = pressure_point_data(field)
-        yield (f"air_{number:03d}_{_safe(mode.label)}",
+        yield (f"air_{number:03d}_{safe_name(mode.label)}",
                VtuMesh(xyz, [("wedge", cells)], point_data=data, cell_data=cell_data))
 
 

@@ -8,14 +8,14 @@ from pathlib import Path
 import numpy as np
 
 from copdea_fem.fe.fields import (
+    AirHalves,
     CornerPressure,
     PointMerge,
-    _AirHalves,
-    _jump_vertices,
-    _unfold_cells,
-    _unfold_values,
+    jump_vertices,
+    unfold_cells,
+    unfold_values,
 )
-from copdea_fem.vtu import VtuMesh, _safe, membrane_mesh, pressure_point_data, write_all
+from copdea_fem.vtu import VtuMesh, membrane_mesh, pressure_point_data, safe_name, write_all
 
 
 class MembraneSampler:
@@ -57,10 +57,10 @@ class MembraneSampler:
         cells = (np.arange(count)[:, None, None] * per_element
                  + np.array(triangles)[None, :, :]).reshape(-1, 3)
         self.symmetry = Symmetry.of_mesh(mesh)
-        reference = _unfold_values(np.asarray(ngs.CF((ngs.x, ngs.y, ngs.z))(self.points)),
+        reference = unfold_values(np.asarray(ngs.CF((ngs.x, ngs.y, ngs.z))(self.points)),
                                    self.symmetry)
         self.merge = PointMerge.coincident(reference)
-        self.cells = self.merge.labels[_unfold_cells(cells, count * per_element, self.symmetry)]
+        self.cells = self.merge.labels[unfold_cells(cells, count * per_element, self.symmetry)]
         self.coordinates = self.merge.reduce(reference)
 
     def evaluate(self, coefficient, sector=None) -> np.ndarray:
@@ -72,7 +72,7 @@ class MembraneSampler:
         """
         values = np.asarray(coefficient(self.points))
         values = values[:, 0] if values.ndim == 2 and values.shape[1] == 1 else values
-        return self.merge.reduce(_unfold_values(values, self.symmetry, sector))
+        return self.merge.reduce(unfold_values(values, self.symmetry, sector))
 
 
 def write_mode_vtus(directory: Path, state, modes, sampler: MembraneSampler) -> list[Path]:
@@ -108,7 +108,7 @@ def mode_meshes(state, modes, sampler: MembraneSampler):
                   "normal_displacement_real": normal_shape.real,
                   "normal_displacement_imag": normal_shape.imag,
                   "normal_velocity_abs": omega * np.abs(normal_shape)}
-        yield (f"mode_{number:03d}_{_safe(mode.label)}",
+        yield (f"mode_{number:03d}_{safe_name(mode.label)}",
                VtuMesh(deformed, [("triangle", sampler.cells)], point_data=fields))
 
 
@@ -141,17 +141,17 @@ def air_meshes(operators, modes, pressures):
     symmetry = Symmetry.of_mesh(mesh)
     corners = ngs.IntegrationRule([(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)], [0.0] * 4)
     points = mesh.MapToAllElements(corners, ngs.VOL)
-    halves = _AirHalves(mesh, points, first.mesh_motion,
-                        split=_jump_vertices(space, len(mesh.ngmesh.Coordinates())))
+    halves = AirHalves(mesh, points, first.mesh_motion,
+                        split=jump_vertices(space, len(mesh.ngmesh.Coordinates())))
     lower, in_pml, copy, used, count = (halves.lower, halves.in_pml, halves.copy, halves.used,
                                         halves.count)
-    moved = _unfold_values(halves.moved[used], symmetry)
+    moved = unfold_values(halves.moved[used], symmetry)
     # the copies of the mirror planes' vertices merged (the two sides of a screen kept apart);
     # found on the reference mesh (the ALE motion leaves ~1e-8 m normal to the planes there),
     # so the merged point, the mean of the mirror images, lies exactly on the plane
-    merge = PointMerge.coincident(_unfold_values(halves.reference[used], symmetry),
+    merge = PointMerge.coincident(unfold_values(halves.reference[used], symmetry),
                                   groups=np.tile(used >= count, symmetry.copies))
-    cells = merge.labels[_unfold_cells(halves.renumber[copy], len(used), symmetry)]
+    cells = merge.labels[unfold_cells(halves.renumber[copy], len(used), symmetry)]
     moved = merge.reduce(moved).astype(np.float32)
     cell_data = {"pml": [np.tile(in_pml.astype(np.int8), symmetry.copies)],
                  "lower_half": [np.tile(lower.astype(np.int8), symmetry.copies)]}
@@ -162,9 +162,9 @@ def air_meshes(operators, modes, pressures):
         values = reader(vector)
         nodal = np.zeros(2 * count, dtype=complex)
         nodal[copy.ravel()] = values.ravel()
-        nodal = merge.reduce(_unfold_values(nodal[used], symmetry, mode.sector))
+        nodal = merge.reduce(unfold_values(nodal[used], symmetry, mode.sector))
         data = pressure_point_data(nodal)
-        yield (f"air_{number:03d}_{_safe(mode.label)}",
+        yield (f"air_{number:03d}_{safe_name(mode.label)}",
                VtuMesh(moved, [("tetra", cells)], point_data=data, cell_data=cell_data))
 
 
