@@ -210,6 +210,12 @@ def test_a_held_folder_is_refused_naming_the_holder(work, capsys):
 
 # ------------------------------------------------------------- writing, interruptions
 
+def _default_sigint():
+    """Ctrl-C acts in the child even when the tests run as a background job (a shell starts
+    those with SIGINT ignored, and an ignored signal stays ignored across exec)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def cli_process(argv, cwd, delay=None, gate=None):
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     if delay is not None:
@@ -217,7 +223,8 @@ def cli_process(argv, cwd, delay=None, gate=None):
     if gate is not None:
         env[folders.WRITE_GATE_VARIABLE] = str(gate)
     return subprocess.Popen([sys.executable, "-m", "copdea_fem.cli", *map(str, argv)], cwd=cwd,
-                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=_default_sigint)
 
 
 def wait_for_staging(folder: Path, process, timeout=60.0) -> Path:
