@@ -55,7 +55,6 @@ if TYPE_CHECKING:
     from copdea_fem.reduced.response import SpectrumResult
     from copdea_fem.sweeps.gather import SweepOutcome
     from copdea_fem.sweeps.spec import Sweep
-    from copdea_fem.vtu import VtuMesh
 
 __all__ = ["load_study", "solve", "response", "force", "spectrum", "sweep", "diagnose",
            "Solution", "ResponseSolution", "ForceCurve", "Spectrum", "SweepResult",
@@ -180,12 +179,6 @@ def _claimed(folder: str | Path | Claim, command: str, inputs) -> Path:
 def _frame(rows: list[dict], columns) -> "pandas.DataFrame":  # noqa: F821
     import pandas as pd
     return pd.DataFrame(rows, columns=list(columns))
-
-
-def _grid(mesh: VtuMesh):
-    """A :class:`~copdea_fem.vtu.VtuMesh` as a pyvista grid (the VTU file's points, cells
-    and data)."""
-    return mesh.to_pyvista()
 
 
 # -- solve ---------------------------------------------------------------------------------
@@ -335,7 +328,7 @@ class Solution:
         mode = self._structural()[self._find(label)]
         with self.engine.threads():
             _, mesh = next(self._output().mode_meshes([mode]))
-        return _grid(mesh)
+        return mesh.to_pyvista()
 
     def air(self, label: str) -> pv.UnstructuredGrid:
         """pyvista grid of the air with mode ``label``'s pressure (re/im/abs, Pa per unit peak
@@ -368,7 +361,7 @@ class Solution:
         pressure = coupled.pressures[k]
         with self.engine.threads():
             _, mesh = next(self._output().air_meshes(coupled.operators, [mode], [pressure]))
-        return _grid(mesh)
+        return mesh.to_pyvista()
 
     def write(self, folder: str | Path | Claim,
               progress: Callable[[str], None] | None = None) -> Path:

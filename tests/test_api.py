@@ -183,3 +183,16 @@ def test_import_stays_light():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True, cwd=ROOT).stdout.strip()
     assert out == "[]"
+
+
+@pytest.mark.parametrize("option, value, allowed", [
+    ("alpha", "0.05", "a number in (0, 1)"), ("alpha", True, "a number in (0, 1)"),
+    ("alpha", float("nan"), "a number in (0, 1)"), ("alpha", 1, "a number in (0, 1)"),
+    ("fe_workers", 0, "an integer >= 1"), ("fe_workers", "two", "an integer >= 1"),
+    ("fe_workers", 2.5, "an integer >= 1"), ("fe_workers", True, "an integer >= 1")])
+def test_diagnose_refuses_bad_options_naming_them(option, value, allowed):
+    measured = ROOT / "studies" / "measured_fe_example" / "measured.yaml"
+    with pytest.raises(cf.StudyError) as error:
+        cf.diagnose(measured, model="reduced", **{option: value})
+    message = str(error.value)
+    assert message.startswith(f"--{option.replace('_', '-')} = ") and allowed in message

@@ -82,9 +82,11 @@ def diagnose_measured(measured_path, alpha: float = 0.05, model: str | None = No
     ReducedModelError
         The ring model failed at a condition.
     """
+    import numbers
+
     from copdea_fem.study import StudyError
-    if not 0 < alpha < 1:
-        raise StudyError(f"--alpha = {alpha!r} is not allowed; allowed: (0, 1)")
+    if isinstance(alpha, bool) or not isinstance(alpha, numbers.Real) or not 0 < alpha < 1:
+        raise StudyError(f"--alpha = {alpha!r} is not allowed; allowed: a number in (0, 1)")
     if fe_cache:
         from copdea_fem.diagnosis.fe import check_cache_dir
         check_cache_dir(fe_cache, "--fe-cache")
