@@ -28,7 +28,7 @@ from copdea_fem.vibrometer.correlate import (
 RADIUS = 0.0355          # m, G1's outer radius (Table 1)
 BASE_HZ = 200.0          # Hz per unit of j_mn
 M_ZERO_SHIFT = 1.20      # the measured m = 0 modes are 20 % above the model's
-ORDERS = [(m, n) for m in range(0, 5) for n in range(1, 4)]
+ORDERS = [(m, n) for m in range(5) for n in range(1, 4)]
 
 
 def psv_grid(rings=5, per_ring=16, disc_points=4, inner=0.0):
@@ -178,7 +178,7 @@ def test_a_mode_the_model_lacks_is_unpaired_and_columns_are_filled():
     positions = psv_grid()
     point, direction = channels(positions)
     model = model_modes(positions, point, direction)
-    truth, freq, shapes = measured_modes(rng, positions, point, direction)
+    _, freq, shapes = measured_modes(rng, positions, point, direction)
     # a spurious test mode: a random shape at 300 Hz
     spurious = rng.standard_normal(len(point)) + 1j * rng.standard_normal(len(point))
     freq = np.append(freq, 300.0)

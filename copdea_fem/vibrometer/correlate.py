@@ -71,7 +71,8 @@ def unit_key(label: str) -> str:
 
 @dataclass(frozen=True)
 class FEShapes:
-    """FE modes along a scan's channels (:func:`copdea_fem.vibrometer.sampling.mode_shapes_at_scan`).
+    """FE modes along a scan's channels
+    (:func:`copdea_fem.vibrometer.sampling.mode_shapes_at_scan`).
 
     Attributes
     ----------
@@ -101,7 +102,7 @@ class FEShapes:
         object.__setattr__(self, "shapes", shapes)
 
     @classmethod
-    def from_modes(cls, modes, shapes) -> "FEShapes":
+    def from_modes(cls, modes, shapes) -> FEShapes:
         """From :class:`copdea_fem.fe.modes.Mode` objects and their sampled shapes (C, K)."""
         return cls(tuple(mode.label for mode in modes),
                    np.array([mode.freq_hz for mode in modes]), shapes,
@@ -244,8 +245,8 @@ def correlate_shapes(test_freq_hz, test_shapes, fe: FEShapes, *, test_damping_ra
     pairs = []
     for t in range(n_test):
         k = pairs_of.get(t)
-        common = dict(test_mode=t + 1, test_freq_hz=float(test_freq[t]),
-                      test_damping_ratio=float(damping[t]))
+        common = {"test_mode": t + 1, "test_freq_hz": float(test_freq[t]),
+                  "test_damping_ratio": float(damping[t])}
         if k is None:
             pairs.append(ModePair(**common))
         else:
@@ -338,6 +339,5 @@ def pair_by_frequency(test_freq_hz, fe_freq_hz, fe_labels, window: float = DEFAU
     return labels
 
 
-__all__ = ["CorrelationError", "Correlation", "FEShapes", "ModePair", "correlate_shapes",
-           "coordinate_mac", "pair_by_frequency", "unit_key", "DEFAULT_WINDOW",
-           "DEFAULT_MAC_MIN"]
+__all__ = ["DEFAULT_MAC_MIN", "DEFAULT_WINDOW", "Correlation", "CorrelationError", "FEShapes",
+           "ModePair", "coordinate_mac", "correlate_shapes", "pair_by_frequency", "unit_key"]
