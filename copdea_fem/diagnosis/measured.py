@@ -52,11 +52,7 @@ import numpy as np
 from copdea_fem.diagnosis.effects import EFFECT_IDS, parse_effect_list
 from copdea_fem.inputs import preview, read_text, read_yaml
 from copdea_fem.study import Study, StudyError, load_study
-
-
-class MeasuredDataError(StudyError):
-    """Bad measured data: the message names the file or key, the value and what is allowed."""
-
+from copdea_fem.vibrometer.scan import MeasuredDataError
 
 KINDS = ("pumping", "axisymmetric", "non-axisymmetric")
 POINTS = ("average", "Q1", "Q2", "Q3")
@@ -260,7 +256,7 @@ def read_resonances(path, key: str = "resonances") -> tuple:
         row = _rejoin_labels(row, len(header))
         where = f"{path.name} line {line}"
         cell = lambda name: row[index[name]] if name in index and index[name] < len(row) \
-            else ""  # noqa: E731
+            else ""
         frequency = _number(cell("freq_hz"), f"{where} freq_hz")
         label, implied = normalise_label(cell("label"), f"{where} label")
         kind = cell("kind").strip().lower()
@@ -435,6 +431,16 @@ def _parse_condition(item, index, base: Study, folder: Path) -> Condition:
                      spectrum=spectrum, band=band, fe_frequencies=fe, files=files)
 
 
-__all__ = ["MeasuredDataError", "NoiseModel", "Resonance", "Spectrum", "Condition",
-           "MeasuredSet", "load_measured", "parse_measured", "read_resonances", "read_spectrum",
-           "normalise_label"]
+__all__ = [
+    "Condition",
+    "MeasuredDataError",
+    "MeasuredSet",
+    "NoiseModel",
+    "Resonance",
+    "Spectrum",
+    "load_measured",
+    "normalise_label",
+    "parse_measured",
+    "read_resonances",
+    "read_spectrum",
+]
