@@ -57,11 +57,7 @@ import numpy as np
 from copdea_fem.diagnosis.effects import EFFECT_IDS, parse_effect_list
 from copdea_fem.inputs import preview, read_text, read_yaml
 from copdea_fem.study import Study, StudyError, load_study
-
-
-class MeasuredDataError(StudyError):
-    """Bad measured data: the message names the file or key, the value and what is allowed."""
-
+from copdea_fem.vibrometer.scan import MeasuredDataError
 
 KINDS = ("pumping", "axisymmetric", "non-axisymmetric")
 POINTS = ("average", "Q1", "Q2", "Q3")
@@ -267,7 +263,7 @@ def read_resonances(path, key: str = "resonances") -> tuple:
         row = _rejoin_labels(row, len(header))
         where = f"{path.name} line {line}"
         cell = lambda name: row[index[name]] if name in index and index[name] < len(row) \
-            else ""  # noqa: E731
+            else ""
         frequency = _number(cell("freq_hz"), f"{where} freq_hz")
         label, implied = normalise_label(cell("label"), f"{where} label")
         kind = cell("kind").strip().lower()
@@ -537,7 +533,20 @@ def parse_pairing(value) -> PairingSettings:
     return PairingSettings(**settings)
 
 
-__all__ = ["MeasuredDataError", "NoiseModel", "Resonance", "Spectrum", "Condition",
-           "MeasuredSet", "load_measured", "parse_measured", "read_resonances", "read_spectrum",
-           "normalise_label", "ObservedFamilies", "PairingSettings", "parse_observed",
-           "parse_pairing"]
+__all__ = [
+    "Condition",
+    "MeasuredDataError",
+    "MeasuredSet",
+    "NoiseModel",
+    "ObservedFamilies",
+    "PairingSettings",
+    "Resonance",
+    "Spectrum",
+    "load_measured",
+    "normalise_label",
+    "parse_measured",
+    "parse_observed",
+    "parse_pairing",
+    "read_resonances",
+    "read_spectrum",
+]
