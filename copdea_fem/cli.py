@@ -345,6 +345,28 @@ def cmd_diagnose(args) -> int:
         return _reduced_action(action)
 
 
+def cmd_correlate(args) -> int:
+    """Pair each scanned condition's identified modes with the FE's by shape."""
+    from copdea_fem import api
+    from copdea_fem.diagnosis import load_measured
+    measured = load_measured(args.measured)
+    if not any(getattr(c, "scan", None) is not None for c in measured.conditions):
+        raise StudyError(f"{args.measured}: no condition names a scan; allowed: conditions "
+                         "with scan: FILE.uff")
+    out_dir = Path(args.out) if args.out else Path("results") / f"correlate_{measured.name}"
+    inputs = [args.measured, *(path for condition in measured.conditions
+                               for path in condition.files.values())]
+    with _output(args, out_dir, "correlate", inputs) as folder:
+        result = api.correlate(args.measured)
+        result.write(folder)
+    for correlation in result.correlations:
+        paired = sum(1 for pair in correlation.pairs if pair.label)
+        print(f"{correlation.condition}: {paired} of {len(correlation.pairs)} test modes "
+              "paired by shape")
+    print(f"wrote pairs.csv, comac.csv, mac.png and report.md to {out_dir}")
+    return 0
+
+
 def cmd_synth(args) -> int:
     """Synthetic measured.yaml set from the model with chosen effects on."""
     from copdea_fem.diagnosis import run_synth, synth_out_dir
@@ -390,6 +412,16 @@ def _add_diagnose_commands(commands, with_study) -> None:
                                "a time)")
     diagnose.add_argument("--quiet", action="store_true", help="no progress messages")
     diagnose.set_defaults(handler=cmd_diagnose)
+
+    correlate = commands.add_parser(
+        "correlate", help="pair the modes identified in each condition's vibrometer scan "
+        "with the FE's by shape: pairs.csv, comac.csv, mac.png, report.md")
+    correlate.add_argument("measured", help="measured.yaml with conditions that name a scan "
+                           "(scan: FILE.uff)")
+    correlate.add_argument("--out", help="result directory (default: "
+                           "results/correlate_<name>)")
+    correlate.add_argument("--quiet", action="store_true", help="no progress messages")
+    correlate.set_defaults(handler=cmd_correlate)
 
     synth = with_study("synth", "synthetic measured data from the model with chosen effects on "
                        "(frequency noise, missing and spurious peaks, spectra), for diagnose")

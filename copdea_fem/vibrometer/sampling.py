@@ -64,11 +64,9 @@ class ScanSampler:
     """
 
     def __init__(self, state, positions):
-        from copdea_fem.fe.axisymmetric.prestress import AxisymmetricState
-
         self.state = state
         self.positions = np.asarray(positions, dtype=float).reshape(-1, 3)
-        self.axisymmetric = isinstance(state, AxisymmetricState)
+        self.axisymmetric = isinstance_axisymmetric(state)
         r_o, r_i = float(state.outer_radius), float(state.inner_radius)
         radius = np.hypot(self.positions[:, 0], self.positions[:, 1])
         self.on_disc = radius < r_i if r_i > 0 else np.zeros(len(radius), dtype=bool)
@@ -85,11 +83,7 @@ class ScanSampler:
         the prestress is axisymmetric)."""
         if self.axisymmetric:
             return self.state.profile(radii)[:, 0]
-        import ngsolve as ngs
-
-        mesh = self.state.mesh
-        points = mesh(radii, np.zeros_like(radii), np.zeros_like(radii), ngs.BND)
-        return np.asarray(self.state.displacement(points))[:, 0]
+        return _quadrant_prestress(self.state, radii)[:, 0]
 
     def _reference_radii(self, radius, r_i, r_o) -> np.ndarray:
         """Reference radii of the membrane points (module notes); the disc's keep theirs."""
@@ -183,6 +177,56 @@ class ScanSampler:
         return out
 
 
+def prestressed_positions(state, reference_xy, disc_z: float) -> np.ndarray:
+    """Where material points of the flat reference device lie on the prestressed one: (P, 3)
+    [m] in the model's frame (the inverse of :class:`ScanSampler`'s mapping).
+
+    Parameters
+    ----------
+    state : copdea_fem.fe.prestress.PrestressedState
+    reference_xy : (P, 2) array
+        Reference points [m]; those inside the disc's rim (``state.inner_radius``) are on
+        the rigid disc.
+    disc_z : float
+        The disc's height ``load.z`` [m] (it moves rigidly along z).
+    """
+    reference_xy = np.asarray(reference_xy, dtype=float).reshape(-1, 2)
+    r_o, r_i = float(state.outer_radius), float(state.inner_radius)
+    radius = np.hypot(reference_xy[:, 0], reference_xy[:, 1])
+    angle = np.arctan2(reference_xy[:, 1], reference_xy[:, 0])
+    on_disc = radius < r_i if r_i > 0 else np.zeros(len(radius), dtype=bool)
+    out = np.column_stack([reference_xy, np.full(len(radius), float(disc_z))])
+    membrane = ~on_disc
+    if np.any(membrane):
+        inside = radius[membrane].clip(r_i + RIM_NUDGE * r_o, r_o * (1 - RIM_NUDGE))
+        if isinstance_axisymmetric(state):
+            u_r, u_z = state.profile(inside).T
+        else:
+            values = _quadrant_prestress(state, inside)
+            u_r, u_z = values[:, 0], values[:, 2]
+        deformed = radius[membrane] + u_r
+        out[membrane] = np.column_stack([deformed * np.cos(angle[membrane]),
+                                         deformed * np.sin(angle[membrane]), u_z])
+    return out
+
+
+def _quadrant_prestress(state, radii) -> np.ndarray:
+    """The 3-D engine's prestress displacement (P, 3) [m] at reference radii on the x axis
+    (axisymmetric: any angle will do; the mirror line's points nudged into the mesh)."""
+    import ngsolve as ngs
+
+    xs, ys, _, _ = state.symmetry.fold(radii, np.zeros_like(radii))
+    points = state.mesh(xs, ys, np.zeros_like(xs), ngs.BND)
+    return np.asarray(state.displacement(points)).reshape(-1, 3)
+
+
+def isinstance_axisymmetric(state) -> bool:
+    """Whether ``state`` is the axisymmetric engine's (its fields live on the meridian)."""
+    from copdea_fem.fe.axisymmetric.prestress import AxisymmetricState
+
+    return isinstance(state, AxisymmetricState)
+
+
 def project_channels(point_values, channel_point, channel_direction) -> np.ndarray:
     """Per-channel values ``v(point) . direction``: (C, ...) from point vectors (P, 3, ...).
 
@@ -215,4 +259,5 @@ def mode_shapes_at_scan(state, modes, scan) -> np.ndarray:
                             scan.channel_direction)
 
 
-__all__ = ["ScanSampler", "mode_shapes_at_scan", "project_channels"]
+__all__ = ["ScanSampler", "isinstance_axisymmetric", "mode_shapes_at_scan",
+           "prestressed_positions", "project_channels"]
