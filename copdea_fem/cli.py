@@ -378,6 +378,14 @@ def cmd_synth(args) -> int:
                            missing_probability=args.missing, spurious=args.spurious,
                            label_fraction=args.label_fraction, spectra=not args.no_spectra,
                            seed=args.seed)
+    if args.format == "uff":
+        from copdea_fem.diagnosis import run_synth_scan
+        from copdea_fem.diagnosis.synth_scan import ScanOptions
+        options = ScanOptions(frequency_noise=args.frequency_noise, seed=args.seed)
+        options.check()
+        with _output(args, out_dir, "synth", [args.study]):
+            return _reduced_action(lambda: run_synth_scan(study, args.effects, args.conditions,
+                                                          args.param, options, out_dir))
     with _output(args, out_dir, "synth", [args.study]):
         return _reduced_action(lambda: run_synth(study, args.effects, args.conditions,
                                                  args.param, options, out_dir))
@@ -445,6 +453,11 @@ def _add_diagnose_commands(commands, with_study) -> None:
     synth.add_argument("--label-fraction", type=float, default=0.5,
                        help="share of peaks that keep their mode label (default 0.5)")
     synth.add_argument("--no-spectra", action="store_true", help="resonance lists only")
+    synth.add_argument("--format", choices=("csv", "uff"), default="csv",
+                       help="csv (default): resonance and spectrum CSVs from the ring model; "
+                       "uff: a scanning vibrometer's export per condition (UFF, FRFs of the "
+                       "velocity per volt on the paper's 84-point grid, three components) "
+                       "made by the FE, for diagnose and correlate")
     synth.add_argument("--out", help="output directory (default: results/synth_<study>_seed<N>)")
     synth.set_defaults(handler=cmd_synth)
     commands.add_parser("effects", help="print the effect catalogue of diagnose").set_defaults(
