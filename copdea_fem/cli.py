@@ -350,7 +350,7 @@ def cmd_correlate(args) -> int:
     from copdea_fem import api
     from copdea_fem.diagnosis import load_measured
     measured = load_measured(args.measured)
-    if not any(getattr(c, "scan", None) is not None for c in measured.conditions):
+    if not any(condition.scan is not None for condition in measured.conditions):
         raise StudyError(f"{args.measured}: no condition names a scan; allowed: conditions "
                          "with scan: FILE.uff")
     out_dir = Path(args.out) if args.out else Path("results") / f"correlate_{measured.name}"
@@ -364,6 +364,27 @@ def cmd_correlate(args) -> int:
         print(f"{correlation.condition}: {paired} of {len(correlation.pairs)} test modes "
               "paired by shape")
     print(f"wrote pairs.csv, comac.csv, mac.png and report.md to {out_dir}")
+    return 0
+
+
+def cmd_identify(args) -> int:
+    """The modes of every scan of a measured.yaml: identified.csv, stabilisation PNGs, VTU."""
+    from copdea_fem import api
+    from copdea_fem.diagnosis import load_measured
+    measured = load_measured(args.measured)
+    if not any(condition.scan is not None for condition in measured.conditions):
+        raise StudyError(f"measured file {args.measured}: no condition has a scan; allowed: "
+                         "at least one condition with scan: FILE (.uff/.unv)")
+    out_dir = Path(args.out) if args.out else Path("results") / f"identify_{measured.name}"
+    inputs = [args.measured, *(path for condition in measured.conditions
+                               for path in condition.files.values())]
+    with _output(args, out_dir, "identify", inputs) as folder:
+        result = api.identify(args.measured)
+        result.write(folder)
+    for item in result.sets:
+        modes = ", ".join(f"{m.freq_hz:.1f}" for m in item.modes)
+        print(f"{item.condition}: {len(item.modes)} modes [Hz]: {modes}")
+    print(f"wrote {out_dir}")
     return 0
 
 
@@ -430,6 +451,14 @@ def _add_diagnose_commands(commands, with_study) -> None:
                            "results/correlate_<name>)")
     correlate.add_argument("--quiet", action="store_true", help="no progress messages")
     correlate.set_defaults(handler=cmd_correlate)
+
+    identify = commands.add_parser(
+        "identify", help="identify the modes of the vibrometer scans (UFF exports) of a "
+        "measured.yaml: identified.csv, stabilisation_<condition>.png, shapes VTU")
+    identify.add_argument("measured", help="measured.yaml whose conditions name scan: FILE")
+    identify.add_argument("--out", help="output directory (default: results/identify_<name>)")
+    identify.add_argument("--quiet", action="store_true", help="no progress messages")
+    identify.set_defaults(handler=cmd_identify)
 
     synth = with_study("synth", "synthetic measured data from the model with chosen effects on "
                        "(frequency noise, missing and spurious peaks, spectra), for diagnose")

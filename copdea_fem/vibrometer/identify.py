@@ -53,6 +53,9 @@ logger = logging.getLogger(__name__)
 DEFAULTS = {"max_order": 80, "components": 24, "frequency_tolerance": 0.01,
             "damping_tolerance": 0.05, "max_damping": 0.2, "min_stable_orders": None}
 
+#: The options of :func:`identify_scan`.
+OPTIONS = ("f_min", "f_max", *DEFAULTS)
+
 #: Pole status in the stabilisation diagram.
 NEW, FREQUENCY_STABLE, STABLE = 0, 1, 2
 
@@ -320,6 +323,46 @@ def _choose(tracks, options) -> np.ndarray:
     return np.array([c[0] for c in chosen], complex)
 
 
+#: Columns of identified.csv.
+IDENTIFIED_COLUMNS = ("condition", "test_mode", "freq_hz", "damping_ratio", "mpc")
+
+
+def identified_rows(sets) -> list[dict]:
+    """identified.csv's rows: one per mode of every :class:`IdentifiedSet`."""
+    return [{"condition": item.condition, "test_mode": mode.test_mode,
+             "freq_hz": mode.freq_hz, "damping_ratio": mode.damping_ratio, "mpc": mode.mpc}
+            for item in sets for mode in item.modes]
+
+
+def write_identified(folder, sets) -> None:
+    """identified.csv, stabilisation_<condition>.png and shapes_<condition>/ (one VTU per
+    mode on the scan grid and a ParaView collection shapes.pvd, "time" = test mode) in
+    ``folder`` (a staging folder: the caller's ``write`` owns it)."""
+    import csv
+    from pathlib import Path
+
+    from copdea_fem.vibrometer.geometry import shape_meshes
+    from copdea_fem.vtu import write_all, write_pvd
+
+    folder = Path(folder)
+    with open(folder / "identified.csv", "w", newline="", encoding="utf-8") as handle:
+        writer = csv.DictWriter(handle, fieldnames=IDENTIFIED_COLUMNS)
+        writer.writeheader()
+        for row in identified_rows(sets):
+            writer.writerow({**row, "freq_hz": f"{row['freq_hz']:.6g}",
+                             "damping_ratio": f"{row['damping_ratio']:.6g}",
+                             "mpc": f"{row['mpc']:.4f}"})
+    for item in sets:
+        if item.diagram is not None:
+            plot_stabilisation(folder / f"stabilisation_{item.condition}.png", item.diagram,
+                               f"{item.condition}: {len(item.modes)} modes")
+        if item.modes:
+            shapes = folder / f"shapes_{item.condition}"
+            shapes.mkdir()
+            files = write_all(shapes, shape_meshes(item.scan, item.modes))
+            write_pvd(shapes / "shapes.pvd", files, [m.test_mode for m in item.modes])
+
+
 def plot_stabilisation(path, diagram: StabilisationDiagram, title: str = "") -> None:
     """PNG of the stabilisation diagram: every order's poles (o new, f frequency-stable,
     filled: stable), the chosen modes as vertical lines, the mean |H| behind (log scale).
@@ -359,5 +402,16 @@ def plot_stabilisation(path, diagram: StabilisationDiagram, title: str = "") -> 
     figure.savefig(path, pil_kwargs={"compress_level": 1})
 
 
-__all__ = ["DEFAULTS", "Identification", "StabilisationDiagram", "identify", "identify_scan",
-           "modal_phase_collinearity", "plot_stabilisation"]
+__all__ = [
+    "DEFAULTS",
+    "IDENTIFIED_COLUMNS",
+    "OPTIONS",
+    "Identification",
+    "StabilisationDiagram",
+    "identified_rows",
+    "identify",
+    "identify_scan",
+    "modal_phase_collinearity",
+    "plot_stabilisation",
+    "write_identified",
+]

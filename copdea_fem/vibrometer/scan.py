@@ -135,8 +135,11 @@ class IdentifiedMode:
 
 @dataclass(frozen=True)
 class IdentifiedSet:
-    """The modes identified in one condition's scan."""
+    """The modes identified in one condition's scan (``diagram``: the
+    :class:`~copdea_fem.vibrometer.identify.StabilisationDiagram` they were chosen from,
+    None when not kept)."""
 
     condition: str
     scan: ScanData
     modes: tuple[IdentifiedMode, ...] = field(default_factory=tuple)
+    diagram: object = None

@@ -592,7 +592,8 @@ def write_scan(path, scan: ScanData, *, binary: bool = True) -> Path:
 
     A channel along a global axis gets ``rsp_dir`` +-1..3; any other direction (a 1-D
     laser) gets ``rsp_dir`` 0 and must be given to :func:`read_scan` again.  Abscissae are
-    written with 6 significant digits (pyuff's ``%13.5e``), values in double precision.
+    written with 6 significant digits (pyuff's ``%13.5e``), values as doubles (binary) or
+    with 12 significant digits (ASCII, pyuff's ``%20.11e``).
     """
     import pyuff
 
