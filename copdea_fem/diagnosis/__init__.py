@@ -96,6 +96,10 @@ def diagnose_measured(measured_path, alpha: float = 0.05, model: str | None = No
     measured = load_measured(measured_path)
     if model is not None:
         measured = dataclasses.replace(measured, model=model)
+    pairings = ()
+    if any(c.scan is not None and c.resonances is None for c in measured.conditions):
+        from copdea_fem.diagnosis.scanned import resonances_from_scans
+        measured, pairings = resonances_from_scans(measured)
     engine = None
     if measured.model == "fe":
         from copdea_fem.diagnosis.anchored import AnchoredEngine
@@ -105,7 +109,8 @@ def diagnose_measured(measured_path, alpha: float = 0.05, model: str | None = No
         engine = (AnchoredEngine(measured, fe) if ring_can_represent(measured.base_study)
                   else DirectFEEngine(measured, fe))     # no disc: the FE directly
     try:
-        return Diagnoser(measured, alpha=alpha, engine=engine).run()
+        result = Diagnoser(measured, alpha=alpha, engine=engine).run()
+        return dataclasses.replace(result, scan_pairings=pairings) if pairings else result
     finally:
         if engine is not None:
             engine.fe.close()                            # the FE worker processes, if any

@@ -26,6 +26,7 @@ from copdea_fem.diagnosis.effects import CATALOGUE, catalogue_table
 from copdea_fem.diagnosis.engine import state_overrides
 from copdea_fem.diagnosis.evidence import explained
 from copdea_fem.diagnosis.peaks import peak_height, peak_width
+from copdea_fem.diagnosis.scanned import pairing_report_lines
 from copdea_fem.folders import package_versions
 
 
@@ -348,6 +349,7 @@ def report_markdown(result, document: dict, figures: list) -> str:
               + ("; modes still off beyond the noise: "
                  + ", ".join(i["label"] for i in result.remaining_off)
                  if result.remaining_off else ""), ""]
+    lines += pairing_report_lines(result.scan_pairings)
     lines += ["## Data", "",
               "| condition | overrides | peaks in scope | out of scope | spectrum | band [Hz] |",
               "|---|---|---|---|---|---|"]

@@ -106,6 +106,7 @@ class DiagnosisResult:
     fe_seconds: float = 0.0
     remaining_off: list = field(default_factory=list)   # modes off beyond the noise (final)
     engines: dict = field(default_factory=dict)          # what evaluated what (report)
+    scan_pairings: tuple = ()     # scanned conditions' shape pairing (diagnosis.scanned)
 
 
 class Diagnoser:
