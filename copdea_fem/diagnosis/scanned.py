@@ -132,9 +132,9 @@ def pairing_report_lines(pairings) -> list[str]:
     if not pairings:
         return []
     lines = ["## Shape pairing (vibrometer scans)", "",
-             "Peaks identified in the scans (no FE input) and labelled by the FE mode of the "
-             "base model whose shape they match (largest total MAC, one-to-one; a split "
-             "pair compared as a subspace); a labelled peak pairs only with that mode.", ""]
+             ("Peaks identified in the scans (no FE input) and labelled by the FE mode of the "
+              "base model whose shape they match (largest total MAC, one-to-one; a split "
+              "pair compared as a subspace); a labelled peak pairs only with that mode."), ""]
     for pairing in pairings:
         correlation = pairing.correlation
         lines += [f"### {pairing.condition}", "",

@@ -106,7 +106,7 @@ class ScanOptions:
 
     def frequencies(self) -> np.ndarray:
         """The export's frequency axis [Hz]."""
-        count = int(math.floor((self.f_max - self.f_min) / self.resolution + 1e-9)) + 1
+        count = math.floor((self.f_max - self.f_min) / self.resolution + 1e-9) + 1
         return self.f_min + self.resolution * np.arange(count)
 
 
