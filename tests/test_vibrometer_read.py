@@ -6,7 +6,7 @@ import re
 import numpy as np
 import pytest
 import pyuff
-from vibrometer_helpers import REALDATA, make_scan, paper_grid, pole, write_measured
+from vibrometer_helpers import BASE_STUDY, REALDATA, make_scan, paper_grid, pole, write_measured
 
 from copdea_fem.diagnosis.measured import MeasuredDataError, load_measured
 from copdea_fem.vibrometer.geometry import device_distances
@@ -328,3 +328,46 @@ def test_on_device_distance_closed_form():
     assert distances[3] == pytest.approx(0.010, abs=1e-12)
     flat = device_distances(np.array([[0.01, 0.01, 0.002]]), 0.0355, 0.0, 0.0)
     assert flat[0] == pytest.approx(0.002) and math.isfinite(flat[0])
+
+
+#: bad input as a hurried user gives it (AUDIT.md categories 1, 2, 4): (condition keys,
+#: files to make, the message)
+CARELESS = {
+    "missing": ({"scan": "nope.uff"}, {}, r"nope\.uff' .*dataset -: the file does not exist"),
+    "empty": ({"scan": "empty.uff"}, {"empty.uff": b""}, r"no dataset found"),
+    "garbage": ({"scan": "noise.uff"}, {"noise.uff": bytes(range(256)) * 20},
+                r"no dataset found"),
+    "folder": ({"scan": "folder.uff"}, {"folder.uff": None}, r"a folder, not a file"),
+    "list": ({"scan": ["ok.uff"]}, {}, r"scan = \['ok\.uff'\] is not allowed"),
+    "tolerance unit": ({"scan": "ok.uff", "scan_tolerance": "3 s"}, {},
+                       r"scan_tolerance = '3 s'.*wrong unit"),
+    "tolerance nan": ({"scan": "ok.uff", "scan_tolerance": "nan mm"}, {},
+                      r"scan_tolerance = 'nan mm'"),
+    "frame unit": ({"scan": "ok.uff", "scan_frame": {"length_unit": "kg"}}, {},
+                   r"scan_frame\.length_unit.*wrong unit"),
+    "frame nan": ({"scan": "ok.uff", "scan_frame": {"origin": [0, 0, math.nan]}}, {},
+                  r"scan_frame\.origin"),
+    "frame list": ({"scan": "ok.uff", "scan_frame": [1, 2]}, {}, r"scan_frame = \[1, 2\]"),
+    "directions text": ({"scan": "ok.uff", "scan_directions": "z"}, {},
+                        r"scan_directions = 'z'"),
+    "frame without scan": ({"resonances": "r.csv", "scan_frame": {}}, {"r.csv": b"freq_hz\n9\n"},
+                           r"scan_frame = \{\} is not allowed; allowed: only beside scan"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(CARELESS))
+def test_careless_scan_input(tmp_path, case):
+    import yaml
+
+    keys, files, message = CARELESS[case]
+    write_scan(tmp_path / "ok.uff", _scan(n_lines=21))
+    for name, content in files.items():
+        if content is None:
+            (tmp_path / name).mkdir()
+        else:
+            (tmp_path / name).write_bytes(content)
+    path = tmp_path / "measured.yaml"
+    path.write_text(yaml.safe_dump({"base_study": str(BASE_STUDY), "conditions": [
+        {"name": "c", "set": {"load.z": "16 mm"}, **keys}]}))
+    with pytest.raises(ValueError, match=message):
+        load_measured(path)

@@ -435,7 +435,10 @@ def _parse_condition(item, index, base: Study, folder: Path) -> Condition:
         spectrum = read_spectrum(files["spectrum"], point, f"{where}.spectrum")
     scan, scan_distance = None, math.nan
     if item.get("scan") is not None:
-        files["scan"] = folder / str(item["scan"])
+        if not isinstance(item["scan"], str) or not item["scan"].strip():
+            raise _fail(f"{where}.scan", item["scan"], "the name of a .uff/.unv file, relative "
+                        "to the measured.yaml")
+        files["scan"] = folder / item["scan"]
         scan, scan_distance = _read_scan(item, where, files["scan"], study)
     else:
         for key in ("scan_frame", "scan_directions", "scan_tolerance"):

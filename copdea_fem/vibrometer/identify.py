@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import logging
 import math
+import numbers
 import time
 from dataclasses import dataclass
 
@@ -110,7 +111,7 @@ def modal_phase_collinearity(shape: np.ndarray) -> float:
 
 
 def _check(name, value, low, high, integer=False):
-    ok = (isinstance(value, (int, float)) and not isinstance(value, bool)
+    ok = (isinstance(value, numbers.Real) and not isinstance(value, bool)
           and math.isfinite(value) and low <= value <= high
           and (not integer or float(value).is_integer()))
     if not ok:

@@ -192,7 +192,8 @@ def _open(path: Path):
     import pyuff
 
     if not path.is_file():
-        raise _error(path, "-", "the file does not exist", "an existing .uff/.unv file")
+        raise _error(path, "-", "a folder, not a file" if path.is_dir() else
+                     "the file does not exist", "an existing .uff/.unv file")
     try:
         with contextlib.redirect_stdout(io.StringIO()):
             uff = pyuff.UFF(str(path))
