@@ -25,7 +25,8 @@ The two engines store a mode differently:
   ``(a, b, c)(r)`` on the meridian; the cos family is
   ``u_r = a cos m theta, u_theta = b sin m theta, u_z = c cos m theta``, the sin family its
   copy turned by a quarter wave (``a sin, -b cos, c sin``:
-  :mod:`copdea_fem.fe.axisymmetric.fields`).
+  :mod:`copdea_fem.fe.axisymmetric.fields`); at m = 0 the hoop part is ``b(r)`` itself
+  (the torsion mode, whose ``sin 0 theta`` factor would drop it).
 """
 
 from __future__ import annotations
@@ -150,6 +151,8 @@ class ScanSampler:
             theta, m = self.angle[membrane], int(mode.m)
             if mode.family == "sin":
                 main, cross = np.sin(m * theta), -np.cos(m * theta)
+            elif m == 0:        # the order-0 hoop motion (torsion) is b(r) itself
+                main, cross = np.ones_like(theta), np.ones_like(theta)
             else:
                 main, cross = np.cos(m * theta), np.sin(m * theta)
             u_r, u_t, u_z = a * main, b * cross, c * main
