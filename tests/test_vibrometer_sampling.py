@@ -24,7 +24,7 @@ QUICK = ROOT / "studies" / "g1_z16_v2_quick.yaml"
 DRY_FRAMELESS = {"air.enabled": False, "geometry.frame": "none", "eigen.f_max": "800 Hz"}
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _solve(engine: str, air: bool):
     from copdea_fem.api import load_study
     from copdea_fem.fe.pipeline import run_solve
