@@ -109,7 +109,11 @@ def diagnose_measured(measured_path, alpha: float = 0.05, model: str | None = No
         engine = (AnchoredEngine(measured, fe) if ring_can_represent(measured.base_study)
                   else DirectFEEngine(measured, fe))     # no disc: the FE directly
     try:
-        result = Diagnoser(measured, alpha=alpha, engine=engine).run()
+        shape_check = None
+        if pairings:
+            from copdea_fem.diagnosis.scanned import ShapeCheck
+            shape_check = ShapeCheck(measured, pairings)
+        result = Diagnoser(measured, alpha=alpha, engine=engine, shape_check=shape_check).run()
         return dataclasses.replace(result, scan_pairings=pairings) if pairings else result
     finally:
         if engine is not None:

@@ -26,7 +26,7 @@ from copdea_fem.diagnosis.effects import CATALOGUE, catalogue_table
 from copdea_fem.diagnosis.engine import state_overrides
 from copdea_fem.diagnosis.evidence import explained
 from copdea_fem.diagnosis.peaks import peak_height, peak_width
-from copdea_fem.diagnosis.scanned import pairing_report_lines
+from copdea_fem.diagnosis.scanned import base_shape_macs, pairing_report_lines, step_mac_lines
 from copdea_fem.folders import package_versions
 
 
@@ -398,6 +398,7 @@ def report_markdown(result, document: dict, figures: list) -> str:
     lines += ["## Steps", ""]
     if not result.steps:
         lines += ["No candidate effect could be tested.", ""]
+    shape_before = base_shape_macs(result.scan_pairings)
     for step in result.steps:
         if not step.effects:
             lines += [f"### Step {step.index}: stop", "",
@@ -417,6 +418,9 @@ def report_markdown(result, document: dict, figures: list) -> str:
                       ""]
             for sep in step.separation:
                 lines += [_separation_text(sep, measured.noise.frequency_relative), ""]
+            if step.shape_macs:
+                lines += step_mac_lines(shape_before, step.shape_macs)
+                shape_before = step.shape_macs
         lines += ["| candidate | fitted | Delta_in | Delta_cv | ln U | threshold | "
                   "significant |", "|---|---|---|---|---|---|---|"]
         for c in step.candidates:

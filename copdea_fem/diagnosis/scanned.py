@@ -37,11 +37,15 @@ logger = logging.getLogger(__name__)
 
 @dataclasses.dataclass(frozen=True)
 class ScanPairing:
-    """One scanned condition's identification and shape pairing (for the report)."""
+    """One scanned condition's identification and shape pairing (for the report and the
+    shape check of each step, :class:`ShapeCheck`)."""
 
     condition: str
     correlation: object            # copdea_fem.vibrometer.correlate.Correlation
     resonances: tuple
+    modes: tuple = ()              # the identified modes (IdentifiedMode)
+    scan: object = None            # the condition's ScanData
+    f_max: float = math.nan        # top of the FE band [Hz]
 
 
 def _resonance(pair) -> Resonance | None:
@@ -116,7 +120,8 @@ def resonances_from_scans(measured: MeasuredSet) -> tuple[MeasuredSet, tuple]:
         logger.info("%s: %d modes identified in the scan, %d paired by shape, %d resonances",
                     condition.name, len(modes),
                     sum(1 for pair in correlation.pairs if pair.label), len(resonances))
-        pairings.append(ScanPairing(condition.name, correlation, resonances))
+        pairings.append(ScanPairing(condition.name, correlation, resonances, tuple(modes),
+                                    condition.scan, high * (1 + window)))
         conditions.append(dataclasses.replace(condition, resonances=resonances or None))
         if not resonances and condition.spectrum is None:
             from copdea_fem.diagnosis.measured import MeasuredDataError
@@ -125,6 +130,92 @@ def resonances_from_scans(measured: MeasuredSet) -> tuple[MeasuredSet, tuple]:
                                     f"[{low:g} Hz, {high:g} Hz]; allowed: a scan with at "
                                     "least one resonance in the condition's band")
     return dataclasses.replace(measured, conditions=tuple(conditions)), tuple(pairings)
+
+
+class ShapeCheck:
+    """The shape pairing of a model state: an accepted step must keep it (module notes).
+
+    For a state of the diagnosis (effects and values), every scanned condition's FE is solved
+    with the state's effects on (:func:`copdea_fem.diagnosis.engine.state_overrides`), its
+    modes sampled at the scan points and paired with the identified modes again.  The step
+    is refused when a test mode that the base model paired by shape with one mode (unit)
+    now pairs with a mode of another shape, or with none: an effect that brings frequencies
+    closer by breaking the shape pairing.  :meth:`macs` keeps each pair's MAC per state
+    for the report.
+    """
+
+    def __init__(self, measured: MeasuredSet, pairings):
+        self.measured = measured
+        self.pairings = {pairing.condition: pairing for pairing in pairings}
+        settings = measured.pairing
+        self.window = settings.window if settings is not None else 0.5
+        self.mac_min = settings.mac_min if settings is not None else 0.5
+        self._cache: dict = {}
+
+    def correlations(self, state) -> dict:
+        """``{condition: Correlation}`` of the model ``state`` (FE solved once per state)."""
+        from copdea_fem.diagnosis.engine import state_overrides
+        from copdea_fem.diagnosis.fe import fe_study
+        from copdea_fem.vibrometer.model_shapes import correlate_identified, fe_shapes
+
+        key = repr(state)
+        if key not in self._cache:
+            out = {}
+            for condition in self.measured.conditions:
+                pairing = self.pairings.get(condition.name)
+                if pairing is None:
+                    continue
+                study = self.measured.study_of(condition)
+                if state:
+                    study = study.replace(state_overrides(study, state))
+                out[condition.name] = correlate_identified(
+                    condition.name, pairing.modes, fe_shapes(fe_study(study, pairing.f_max),
+                                                             pairing.scan),
+                    window=self.window, mac_min=self.mac_min)
+            self._cache[key] = out
+        return self._cache[key]
+
+    def refusal(self, state) -> str | None:
+        """Why ``state`` breaks the base model's shape pairing (None: it keeps it)."""
+        from copdea_fem.vibrometer.correlate import unit_key
+
+        broken = []
+        for name, correlation in self.correlations(state).items():
+            base = self.pairings[name].correlation
+            for before, after in zip(base.pairs, correlation.pairs):
+                if before.label and unit_key(after.label) != unit_key(before.label):
+                    broken.append(f"{name} test mode {before.test_mode} "
+                                  f"({before.test_freq_hz:.1f} Hz): {before.label} -> "
+                                  f"{after.label or 'unpaired'}")
+        if broken:
+            return "it breaks the shape pairing (" + "; ".join(broken) + ")"
+        return None
+
+    def macs(self, state) -> dict:
+        """``{condition: {test_mode: (label, MAC)}}`` of the model ``state``."""
+        return {name: {pair.test_mode: (pair.label, pair.mac) for pair in correlation.pairs}
+                for name, correlation in self.correlations(state).items()}
+
+
+def base_shape_macs(pairings) -> dict:
+    """``{condition: {test_mode: (label, MAC)}}`` of the base model (:meth:`ShapeCheck.macs`'s
+    form)."""
+    return {pairing.condition: {pair.test_mode: (pair.label, pair.mac)
+                                for pair in pairing.correlation.pairs}
+            for pairing in pairings}
+
+
+def step_mac_lines(before: dict, after: dict) -> list[str]:
+    """report.md's table of a step: each shape pair's label and MAC before -> after."""
+    lines = ["Shape pairing of the scans, before -> after this step (label, MAC):", "",
+             "| condition | test mode | before | after |", "|---|---|---|---|"]
+    for name, pairs in after.items():
+        for test_mode, (label, mac) in pairs.items():
+            old_label, old_mac = before.get(name, {}).get(test_mode, ("", math.nan))
+            shown = [f"{lab or 'unpaired'}" + (f" {value:.3f}" if lab else "")
+                     for lab, value in ((old_label, old_mac), (label, mac))]
+            lines.append(f"| {name} | {test_mode} | {shown[0]} | {shown[1]} |")
+    return lines + [""]
 
 
 def pairing_report_lines(pairings) -> list[str]:
@@ -151,4 +242,5 @@ def pairing_report_lines(pairings) -> list[str]:
     return lines
 
 
-__all__ = ["ScanPairing", "pairing_report_lines", "resonances_from_scans"]
+__all__ = ["ScanPairing", "ShapeCheck", "base_shape_macs", "pairing_report_lines",
+           "resonances_from_scans", "step_mac_lines"]
