@@ -118,13 +118,25 @@ def load_study(path: str | Path, overrides: dict[str, Any] | list[str] | None = 
 
     if isinstance(overrides, (list, tuple)):
         overrides = parse_overrides(list(overrides))
+    elif overrides is not None and not isinstance(overrides, dict):
+        parse_overrides(overrides)          # refused, naming what is allowed
     study = _load(path, overrides=overrides)
     _SOURCES[study] = Path(path)
     return study
 
 
 def _as_study(study: Study | str | Path) -> Study:
-    return study if isinstance(study, Study) else load_study(study)
+    """A study file read, or a :class:`Study` validated again (:meth:`Study.checked`: a hand
+    edit after :func:`load_study` is checked like a file), remembering its source file."""
+    if not isinstance(study, Study):
+        if not isinstance(study, (str, Path)):
+            raise StudyError(f"study = {type(study).__name__} is not allowed; allowed: a "
+                             "Study from load_study or a study file's path")
+        return load_study(study)
+    checked = study.checked()
+    if study in _SOURCES:
+        _SOURCES[checked] = _SOURCES[study]
+    return checked
 
 
 def _inputs(study: Study) -> list:
@@ -159,6 +171,12 @@ def solving(study):
         what, keys = next(item for kind, item in advice.items() if isinstance(error, kind))
         raise SolveFailed(f"{what} failed at {_load_text(study)}: {error}; change {keys}") \
             from None
+    except Exception as error:
+        if type(error).__name__ != "NgException":     # Netgen's one error type
+            raise
+        message = " ".join(str(error).split()) or "an error"
+        raise SolveFailed(f"Netgen failed ({message}); change mesh.membrane_size, "
+                          "mesh.air_size or mesh.grading (or the geometry.* radii)") from None
 
 
 def check_size(study: Study, allow_large: bool = False, engine: Engine | None = None) -> None:
@@ -665,7 +683,7 @@ def compute_force(study: Study, z_values: Sequence[float] | np.ndarray,
     """
     from copdea_fem.fe.pipeline import run_force
 
-    with _progress(progress):
+    with solving(study), _progress(progress):
         forces = run_force(study, z_values, voltages, cache_dir=mesh_cache)
     return ForceCurve(study, z_values, list(voltages), forces)
 

@@ -520,15 +520,35 @@ class Study:
         return parse_study(raw, overrides=overrides, name=self.name,
                            description=self.description)
 
+    def checked(self) -> "Study":
+        """This study validated again, as a file would be: a study changed by hand after
+        :func:`load_study` (``study["load"]["voltage"] = "2 kV"``, a key added, deleted or
+        misspelled, a section replaced) comes back resolved to SI, or a :class:`StudyError`
+        names the key.  Values already in SI are kept as they are."""
+        if not isinstance(self.values, dict):
+            raise _fail("study", self.values, "a mapping of sections")
+        raw = {section: dict(keys) if isinstance(keys, dict) else keys
+               for section, keys in self.values.items()}
+        return parse_study(raw, name=self.name, description=self.description)
+
     def as_dict(self) -> dict[str, Any]:
         return {"name": self.name, "description": self.description,
                 **copy.deepcopy(self.values)}
 
 
+#: What study overrides may be, for the messages.
+OVERRIDES_ALLOWED = ('a mapping {"SECTION.KEY": value} (e.g. {"load.voltage": "1 kV"}) or a '
+                     'list of "SECTION.KEY=VALUE" texts')
+
+
 def parse_overrides(items: list[str] | None) -> dict[str, Any]:
     """``["load.voltage=3 kV", ...]`` -> ``{"load.voltage": "3 kV"}`` (YAML-typed values)."""
     overrides: dict[str, Any] = {}
+    if items is not None and not isinstance(items, (list, tuple)):
+        raise _fail("overrides", items, OVERRIDES_ALLOWED)
     for item in items or []:
+        if not isinstance(item, str):
+            raise _fail("overrides", item, OVERRIDES_ALLOWED)
         if "=" not in item:
             raise StudyError(f"--set {preview(item)} is not allowed; allowed: SECTION.KEY=VALUE, "
                              "e.g. --set load.voltage='3 kV'")
@@ -558,7 +578,11 @@ def parse_study(raw: dict[str, Any], overrides: dict[str, Any] | None = None,
         if key not in SCHEMA and key not in META_KEYS:
             raise _fail(key, "...", "sections " + ", ".join(SCHEMA) + " (and name, description)",
                         "unknown section")
+    if overrides is not None and not isinstance(overrides, dict):
+        raise _fail("overrides", overrides, OVERRIDES_ALLOWED)
     for dotted, value in (overrides or {}).items():
+        if not isinstance(dotted, str):
+            raise _fail(f"overrides key {dotted!r}", value, OVERRIDES_ALLOWED)
         section, _, key = dotted.partition(".")
         if section not in SCHEMA or key not in SCHEMA[section]:
             raise _unknown_key(dotted, value)
