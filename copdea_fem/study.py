@@ -408,6 +408,7 @@ def convert_value(key: str, spec: Key, value: Any) -> Any:
         if not float(number).is_integer():
             raise _fail(key, value, "an integer " + spec.allowed())
         number = int(number)
+    number = number + 0        # -0.0 is 0
     lo, hi = spec.minimum, spec.maximum
     if (lo is not None and (number < lo or (spec.open_min and not above(number, lo)))) or (
             hi is not None and number > hi):
