@@ -1124,7 +1124,7 @@ def test_a_fault_at_each_step_of_the_swap(tmp_path, capsys, monkeypatch, caplog,
     if step == "remove" and fault == "oserror":         # a warning; the run succeeded
         assert code == 0 and [r.getMessage() for r in caplog.records] == [
             f"the previous result {old[0]} was not removed (Input/output error (injected)); "
-            f"the next run into {out} removes it (or delete it)"]
+            f"the next run into {out} tries again (or delete it)"]
     elif fault == "oserror":
         assert code == 1 and err == [f"error: output folder {out}: the result could not be "
                                      f"written (Input/output error (injected)); {where}"]
