@@ -211,8 +211,8 @@ def test_overdamped_roots_are_left_out_of_the_modes(caplog):
     roots of the slower ones lie on the imaginary axis (overdamped, not modes).  With
     alpha / (4 pi) = 500 Hz the modes table keeps only oscillating roots, each at that
     Im f (closed form, to the eigen residual), and one warning counts the rest.  (The
-    undamped (0,1) .. (3,1) lie at 452 .. 531 Hz here: at alpha / (4 pi) = 500 Hz the
-    first seven are overdamped.)"""
+    undamped (0,1), (1,1)a/b, (2,1)a/b lie at 452 .. 488 Hz here, below 500 Hz:
+    overdamped.)"""
     import logging
 
     from copdea_fem.fe.pipeline import run_solve
