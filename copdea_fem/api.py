@@ -26,6 +26,13 @@ failed for a physical or numerical reason; exit 3), and
 :class:`~copdea_fem.reduced.rings.ReducedModelError` (the reduced model, or the diagnosis's
 model, cannot be built or evaluated for these inputs; exit 3).  Each function's *Raises*
 section says which it can raise.
+
+A :class:`~copdea_fem.study.Study` given to a function is validated again first
+(:meth:`~copdea_fem.study.Study.checked`): a study changed by hand after :func:`load_study`
+is checked like a file (an unknown key, a wrong type or a value out of range is a
+:class:`~copdea_fem.study.StudyError`; a deleted key takes its default), so no hand edit
+reaches the solver unchecked.  A Netgen failure while meshing is a :class:`SolveFailed`
+naming the mesh keys.
 """
 
 from __future__ import annotations
@@ -151,7 +158,8 @@ def _load_text(study) -> str:
 
 @contextlib.contextmanager
 def solving(study):
-    """Solver failures -> :class:`SolveFailed`: what failed, at which load, which key to change."""
+    """Solver failures -> :class:`SolveFailed`: what failed, at which load, which key to change
+    (a Netgen failure, ``NgException``: the mesh keys)."""
     from copdea_fem.fe.ale import MeshMotionError
     from copdea_fem.fe.eigen import EigenResidualError, EigenSolverError, TooManyModesError
     eigen = study["eigen"]
@@ -230,8 +238,8 @@ def solve(study: Study | str | Path, *, allow_large: bool = False,
         the membrane would lift out of, or a problem above the size limit (without
         ``allow_large``).
     SolveFailed
-        The air mesh cannot follow the membrane, or the eigen solve fails (residuals,
-        too many modes in the band, a band it cannot cover).
+        Netgen cannot mesh the geometry, the air mesh cannot follow the membrane, or the
+        eigen solve fails (residuals, too many modes in the band, a band it cannot cover).
     PrestressError
         The prestress (Newton) solve fails: a loss of tension (the membrane would
         wrinkle), pull-in, or no convergence after ``prestress.max_cuts`` step halvings.
