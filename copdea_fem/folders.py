@@ -14,7 +14,9 @@ run wrote (with the tool version and the command).  The rules, checked by
 - a directory taken from an input file (``output.directory`` of a study or
   sweep file, data that may come from someone else) must lie inside the
   working folder;
-- its parent must be a writable folder (checked by creating the lock file).
+- its parent must be a writable folder (checked by creating the lock file), and an
+  existing folder must be writable too (a file created in it and removed, once it is
+  locked: a read-only folder is refused, not swapped for a writable one).
 
 Writing (:func:`result_directory`) is staged: the files go to a hidden sibling
 ``.NAME.staging-*``; when complete, the old result (if any) is renamed to
@@ -239,7 +241,6 @@ def check_output(target, command: str, inputs=(), from_file=None) -> Path:
                                 "choose another path")
     if target.is_dir():
         _check_replaceable(target, command)
-        _check_writable(target)
     return target
 
 
@@ -312,6 +313,8 @@ def claim(target, command: str, inputs=(), from_file=None):
         try:
             _clean_leftovers(target)
             check_output(target, command, inputs, from_file)   # again, now that it is ours
+            if target.is_dir():             # probed only while held: no other run swaps it
+                _check_writable(target)
             record = Claim(target, command, had_result=read_manifest(target) is not None)
             held_here[target] = record
             yield record
