@@ -521,7 +521,7 @@ class Study:
         return parse_study(raw, overrides=overrides, name=self.name,
                            description=self.description)
 
-    def checked(self) -> "Study":
+    def checked(self) -> Study:
         """This study validated again, as a file would be: a study changed by hand after
         :func:`load_study` (``study["load"]["voltage"] = "2 kV"``, a key added, deleted or
         misspelled, a section replaced) comes back resolved to SI, or a :class:`StudyError`
