@@ -316,6 +316,15 @@ CASES = [
          "not allowed (more than 200 elements across the membrane: Netgen cannot mesh it)",
          argv=("solve", QUICK, "--set", "geometry.frame=baffle", "--set",
                "mesh.membrane_size=0.01 mm", "--out", "{work}/r")),
+    Case("a membrane mesh Netgen cannot mesh, API", 3,
+         "(more than 200 elements across the membrane",
+         api=_load({"geometry.frame": "baffle", "mesh.membrane_size": "0.01 mm"}),
+         expect=StudyError),
+    Case("a frame ring within round-off of r_o, solve", 3, "geometry.frame_radius = "
+         "0.035500000000000004 is not allowed", argv=("solve", QUICK, "--set",
+                                                     "geometry.frame=circle", "--set",
+                                                     "geometry.frame_radius=35.5 mm", "--out",
+                                                     "{work}/r")),
     Case("the same size on the 3-D engine", 3, "mesh.membrane_size = 1e-05 is not allowed "
          "(more than 200 elements across", argv=("check", QUICK, "--set",
                                                   "mesh.membrane_size=0.01 mm")),
