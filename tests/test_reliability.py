@@ -380,6 +380,8 @@ CASES = [
          setup=lambda work: (_copy_example(work), (work / "data" / "z16_v2_spectrum.csv")
                              .write_bytes(b"\x89PNG\r\n\x1a\n\x00\x00"))),
     Case("a duplicated peak row counts once", 4, "2 peaks", api=_resonances, expect=None),
+    Case("a duplicated peak row, the warning", 4, "peaks.csv line 4 repeats line 2 (a "
+         "duplicated peak): counted once", api=_resonances, expect=None),
     Case("overdamped damping ratios", 4, QUALITY + "damping_ratio = 2 is not allowed "
          "(overdamped: no oscillation, no resonance to fit); allowed: (0, 1)", argv=CALIBRATE,
          files=_quality('label,damping_ratio\n"(0,1)",2\n"(1,1)a",3\n')),
@@ -448,6 +450,9 @@ CASES = [
     # 7. load
     Case("--fe-workers far above the cores", 7, f"workers = {os.cpu_count()}",
          api=_workers(100_000), expect=None),
+    Case("--fe-workers far above the cores, the warning", 7, "--fe-workers = 100000 is more "
+         f"than the {os.cpu_count()} cores of this machine: {os.cpu_count()} worker(s) used",
+         api=_workers(100_000), expect=None),
     Case("--fe-workers 0", 7, "--fe-workers = '0' is not allowed; allowed: an integer >= 1",
          argv=("diagnose", "{work}/data/measured.yaml", "--fe-workers", "0", "--out",
                "{work}/report"), setup=_copy_example),
@@ -502,7 +507,8 @@ def test_the_table(case, work, capsys, monkeypatch, caplog):
         case.patch(monkeypatch)
     if case.api is not None:
         if case.expect is None:
-            text = case.api(work)
+            with caplog.at_level("WARNING", logger="copdea_fem"):
+                text = f"{case.api(work)} | warnings: {caplog.text}"
         else:
             with pytest.raises(case.expect) as raised:
                 case.api(work)
