@@ -26,6 +26,13 @@ failed for a physical or numerical reason; exit 3), and
 :class:`~copdea_fem.reduced.rings.ReducedModelError` (the reduced model, or the diagnosis's
 model, cannot be built or evaluated for these inputs; exit 3).  Each function's *Raises*
 section says which it can raise.
+
+A :class:`~copdea_fem.study.Study` given to a function is validated again first
+(:meth:`~copdea_fem.study.Study.checked`): a study changed by hand after :func:`load_study`
+is checked like a file (an unknown key, a wrong type or a value out of range is a
+:class:`~copdea_fem.study.StudyError`; a deleted key takes its default), so no hand edit
+reaches the solver unchecked.  A Netgen failure while meshing is a :class:`SolveFailed`
+naming the mesh keys.
 """
 
 from __future__ import annotations
@@ -118,13 +125,25 @@ def load_study(path: str | Path, overrides: dict[str, Any] | list[str] | None = 
 
     if isinstance(overrides, (list, tuple)):
         overrides = parse_overrides(list(overrides))
+    elif overrides is not None and not isinstance(overrides, dict):
+        parse_overrides(overrides)          # refused, naming what is allowed
     study = _load(path, overrides=overrides)
     _SOURCES[study] = Path(path)
     return study
 
 
 def _as_study(study: Study | str | Path) -> Study:
-    return study if isinstance(study, Study) else load_study(study)
+    """A study file read, or a :class:`Study` validated again (:meth:`Study.checked`: a hand
+    edit after :func:`load_study` is checked like a file), remembering its source file."""
+    if not isinstance(study, Study):
+        if not isinstance(study, (str, Path)):
+            raise StudyError(f"study = {type(study).__name__} is not allowed; allowed: a "
+                             "Study from load_study or a study file's path")
+        return load_study(study)
+    checked = study.checked()
+    if study in _SOURCES:
+        _SOURCES[checked] = _SOURCES[study]
+    return checked
 
 
 def _inputs(study: Study) -> list:
@@ -139,7 +158,8 @@ def _load_text(study) -> str:
 
 @contextlib.contextmanager
 def solving(study):
-    """Solver failures -> :class:`SolveFailed`: what failed, at which load, which key to change."""
+    """Solver failures -> :class:`SolveFailed`: what failed, at which load, which key to change
+    (a Netgen failure, ``NgException``: the mesh keys)."""
     from copdea_fem.fe.ale import MeshMotionError
     from copdea_fem.fe.eigen import EigenResidualError, EigenSolverError, TooManyModesError
     eigen = study["eigen"]
@@ -159,6 +179,12 @@ def solving(study):
         what, keys = next(item for kind, item in advice.items() if isinstance(error, kind))
         raise SolveFailed(f"{what} failed at {_load_text(study)}: {error}; change {keys}") \
             from None
+    except Exception as error:
+        if type(error).__name__ != "NgException":     # Netgen's one error type
+            raise
+        message = " ".join(str(error).split()) or "an error"
+        raise SolveFailed(f"Netgen failed ({message}); change mesh.membrane_size, "
+                          "mesh.air_size or mesh.grading (or the geometry.* radii)") from None
 
 
 def check_size(study: Study, allow_large: bool = False, engine: Engine | None = None) -> None:
@@ -212,8 +238,8 @@ def solve(study: Study | str | Path, *, allow_large: bool = False,
         the membrane would lift out of, or a problem above the size limit (without
         ``allow_large``).
     SolveFailed
-        The air mesh cannot follow the membrane, or the eigen solve fails (residuals,
-        too many modes in the band, a band it cannot cover).
+        Netgen cannot mesh the geometry, the air mesh cannot follow the membrane, or the
+        eigen solve fails (residuals, too many modes in the band, a band it cannot cover).
     PrestressError
         The prestress (Newton) solve fails: a loss of tension (the membrane would
         wrinkle), pull-in, or no convergence after ``prestress.max_cuts`` step halvings.
@@ -665,7 +691,7 @@ def compute_force(study: Study, z_values: Sequence[float] | np.ndarray,
     """
     from copdea_fem.fe.pipeline import run_force
 
-    with _progress(progress):
+    with solving(study), _progress(progress):
         forces = run_force(study, z_values, voltages, cache_dir=mesh_cache)
     return ForceCurve(study, z_values, list(voltages), forces)
 

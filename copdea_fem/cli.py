@@ -221,6 +221,9 @@ def cmd_calibrate_damping(args) -> int:
                          "--quality-factors; allowed: a spectrum CSV, or --fit rayleigh|prony "
                          "with --quality-factors Q.csv or a spectrum CSV")
     if args.fit != "modal":
+        if args.quality_factors is not None:     # every row checked before any work
+            from copdea_fem.damping_fit import check_measured, read_quality_csv
+            check_measured(read_quality_csv(args.quality_factors))
         if args.spectrum is None and args.quality_factors is None:
             raise StudyError(f"--fit {args.fit} needs measured damping; allowed: "
                              "--quality-factors Q.csv or a SPECTRUM.csv")
