@@ -51,7 +51,7 @@ from copdea_fem.vibrometer.scan import RESPONSES, IdentifiedMode, MeasuredDataEr
 logger = logging.getLogger(__name__)
 
 #: Defaults of the automatic pole choice (see the module notes).
-DEFAULTS = {"max_order": 80, "components": 24, "frequency_tolerance": 0.01,
+DEFAULTS = {"max_order": 120, "components": 24, "frequency_tolerance": 0.01,
             "damping_tolerance": 0.05, "max_damping": 0.2, "min_stable_orders": None}
 
 #: The options of :func:`identify_scan`.
@@ -137,8 +137,9 @@ def identify_scan(scan: ScanData, *, f_min=None, f_max=None, max_order=None,
     f_min, f_max : float, optional
         The band [Hz]; default: the scan's axis above 0 Hz.
     max_order : int, optional
-        Highest even polynomial order of LSCF (default 80: up to 40 modes in the band;
-        about twice the number of modes expected is the usual over-modelling).
+        Highest even polynomial order of LSCF (default 120: up to 60 modes in the band;
+        twice the number of modes or more is the usual over-modelling: 24 modes with
+        two split pairs in 120-980 Hz at 60 dB noise were all found at 120, not at 80).
     components : int, optional
         Principal response functions fed to LSCF (default 24, at most the channels).
     frequency_tolerance, damping_tolerance : float, optional
@@ -169,8 +170,11 @@ def identify_scan(scan: ScanData, *, f_min=None, f_max=None, max_order=None,
     scale = float(np.abs(values[:, in_band]).max()) or 1.0
     values = values / scale
     # principal response functions: LSCF sees the space the channels span
-    left, singular, _ = np.linalg.svd(values[:, in_band], full_matrices=False)
-    keep = min(options["components"], int(np.sum(singular > 1e-9 * singular[0])))
+    # (the eigenvectors of the channels' Gram matrix: the left singular vectors, at a
+    # fraction of an SVD's cost for 252 channels x 800 lines)
+    power, left = np.linalg.eigh(values[:, in_band] @ values[:, in_band].conj().T)
+    power, left = power[::-1], left[:, ::-1]
+    keep = min(options["components"], int(np.sum(power > 1e-18 * power[0])))
     principal = left[:, :keep].conj().T @ values[:, frequencies <= f_high]
     frf_form = RESPONSES.get(scan.response, "mobility")
     model = Model(frf=principal, freq=frequencies[frequencies <= f_high], lower=f_low,
