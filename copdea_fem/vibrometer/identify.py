@@ -156,12 +156,21 @@ def identify_scan(scan: ScanData, *, f_min=None, f_max=None, max_order=None,
     Identification
         ``modes`` sorted by frequency (``test_mode`` 1, 2, ...), and the diagram.
     """
+    from copdea_fem.progress import single_threaded_blas
+
+    options = _options(scan, f_min, f_max, max_order, components, frequency_tolerance,
+                       damping_tolerance, max_damping, min_stable_orders)
+    # BLAS on one thread: the matrices are small (order 120, 252 channels), and BLAS threads
+    # fighting for a shared machine's cores made the 84 x 3 x 800 benchmark 15 times slower
+    with single_threaded_blas():
+        return _identify(scan, options)
+
+
+def _identify(scan: ScanData, options: dict) -> Identification:
     from sdypy.EMA import Model
     from sdypy.EMA.EMA import LSFD
 
     started = time.perf_counter()
-    options = _options(scan, f_min, f_max, max_order, components, frequency_tolerance,
-                       damping_tolerance, max_damping, min_stable_orders)
     f_low, f_high = options["band"]
     frequencies = np.asarray(scan.frequencies, float)
     in_band = (frequencies >= f_low) & (frequencies <= f_high)
