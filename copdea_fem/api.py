@@ -1045,9 +1045,9 @@ def identify(measured: str | Path, *, progress: Callable[[str], None] | None = N
     """The modes of every scan of a measured.yaml (``copdea-fem identify``, nothing written).
 
     Each condition with ``scan: FILE`` is read (:func:`copdea_fem.vibrometer.uff.read_scan`,
-    checked on the device) and identified automatically: LSCF poles stable over the model
-    orders, LSFD residues as shapes (:mod:`copdea_fem.vibrometer.identify`; nothing from
-    the FE).
+    checked on the device) and identified automatically in its ``band`` (default: the
+    scan's lines above 0 Hz): LSCF poles stable over the model orders, LSFD residues as
+    shapes (:mod:`copdea_fem.vibrometer.identify`; nothing from the FE).
 
     Parameters
     ----------
@@ -1057,7 +1057,7 @@ def identify(measured: str | Path, *, progress: Callable[[str], None] | None = N
         As :func:`solve`'s.
     **options
         Passed to :func:`copdea_fem.vibrometer.identify.identify_scan` (``f_min``,
-        ``f_max`` [Hz], ``max_order``, ``components``, ``frequency_tolerance``,
+        ``f_max`` [Hz] in place of the conditions' bands, ``max_order``, ``components``, ``frequency_tolerance``,
         ``damping_tolerance``, ``max_damping``, ``min_stable_orders``).
 
     Returns
@@ -1089,7 +1089,10 @@ def identify(measured: str | Path, *, progress: Callable[[str], None] | None = N
             logger.info("identifying %s (%d channels, %d lines, largest distance off the "
                         "device %.2f mm)", condition.name, condition.scan.n_channels,
                         condition.scan.frequencies.size, 1e3 * condition.scan_distance)
-            found = identify_scan(condition.scan, **options)
+            frequencies = condition.scan.frequencies
+            band = {"f_min": max(condition.band[0], float(frequencies[frequencies > 0][0])),
+                    "f_max": min(condition.band[1], float(frequencies[-1]))}
+            found = identify_scan(condition.scan, **{**band, **options})
             sets.append(IdentifiedSet(condition.name, condition.scan, found.modes,
                                       found.diagram))
     return IdentifyResult(tuple(sets), Path(measured),

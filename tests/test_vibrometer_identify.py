@@ -200,3 +200,20 @@ def test_dense_spectrum_with_two_split_pairs():
     found = np.array([m.freq_hz for m in modes])
     assert found.size == frequencies.size
     assert np.all(np.abs(found - frequencies) <= 0.002 * frequencies)
+
+
+def test_identify_command_bad_option_exit_2(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["identify", str(_measured(tmp_path)), "--out", str(out),
+                 "--max-order", "2"]) == 2
+    assert "identify max_order = 2 is not allowed" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_condition_band_is_the_identification_band(tmp_path):
+    """band: [200 Hz, 500 Hz] leaves out the 95 Hz mode."""
+    path = _measured(tmp_path)
+    text = path.read_text().replace("scan: z16.uff", "scan: z16.uff\n  band: [200 Hz, 500 Hz]")
+    path.write_text(text)
+    frequencies = [m.freq_hz for m in api.identify(path).sets[0].modes]
+    assert frequencies == pytest.approx([300.0, 303.0, 455.0], rel=1e-3)

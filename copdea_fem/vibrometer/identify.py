@@ -186,8 +186,12 @@ def _identify(scan: ScanData, options: dict) -> Identification:
     keep = min(options["components"], int(np.sum(power > 1e-18 * power[0])))
     principal = left[:, :keep].conj().T @ values[:, frequencies <= f_high]
     frf_form = RESPONSES.get(scan.response, "mobility")
-    model = Model(frf=principal, freq=frequencies[frequencies <= f_high], lower=f_low,
-                  upper=f_high, pol_order_high=options["max_order"] // 2, frf_form=frf_form)
+    # LSCF on every line from the first above 0 Hz up to f_high; f_low only bounds the poles
+    # kept (a fit that leaves out the lines below f_low, sdypy's ``lower``, turns poles
+    # unstable at the higher orders: a 200-500 Hz band kept 1 of 3 modes)
+    model = Model(frf=principal, freq=frequencies[frequencies <= f_high],
+                  lower=float(frequencies[frequencies > 0][0]), upper=f_high,
+                  pol_order_high=options["max_order"] // 2, frf_form=frf_form)
     model.get_poles(method="lscf", show_progress=False)
     logger.info("LSCF: %d orders on %d principal functions of %d channels (%.1f s)",
                 len(model.all_poles), keep, scan.n_channels, time.perf_counter() - started)
@@ -241,13 +245,18 @@ def _options(scan, f_min, f_max, max_order, components, frequency_tolerance,
         raise MeasuredDataError(f"identify band = [{low:g}, {high:g}] Hz is not allowed; "
                                 f"allowed: 0 < f_min < f_max within the scan's "
                                 f"{frequencies[0]:g}..{frequencies[-1]:g} Hz holding >= 8 lines")
-    values = {k: v for k, v in {"max_order": max_order, "components": components,
-                                "frequency_tolerance": frequency_tolerance,
-                                "damping_tolerance": damping_tolerance,
-                                "max_damping": max_damping,
-                                "min_stable_orders": min_stable_orders}.items()
-              if v is not None}
-    options = {**DEFAULTS, **values}
+    options = check_options({"max_order": max_order, "components": components,
+                             "frequency_tolerance": frequency_tolerance,
+                             "damping_tolerance": damping_tolerance, "max_damping": max_damping,
+                             "min_stable_orders": min_stable_orders})
+    options["band"] = (low, high)
+    return options
+
+
+def check_options(values: dict) -> dict:
+    """The options of the pole choice (:data:`DEFAULTS`'s keys; None: the default) checked
+    and completed; :class:`MeasuredDataError` naming a bad one."""
+    options = {**DEFAULTS, **{k: v for k, v in values.items() if v is not None}}
     _check("max_order", options["max_order"], 4, 400, integer=True)
     _check("components", options["components"], 1, 1000, integer=True)
     _check("frequency_tolerance", options["frequency_tolerance"], 1e-6, 0.2)
@@ -259,7 +268,6 @@ def _options(scan, f_min, f_max, max_order, components, frequency_tolerance,
     _check("min_stable_orders", options["min_stable_orders"], 2, n_orders, integer=True)
     options["max_order"] = int(options["max_order"])
     options["components"] = int(options["components"])
-    options["band"] = (low, high)
     return options
 
 
