@@ -217,3 +217,13 @@ def test_condition_band_is_the_identification_band(tmp_path):
     path.write_text(text)
     frequencies = [m.freq_hz for m in api.identify(path).sets[0].modes]
     assert frequencies == pytest.approx([300.0, 303.0, 455.0], rel=1e-3)
+
+
+def test_short_scan_limits_the_order():
+    """41 lines (0-50 Hz) cannot carry order 120 (LSCF needs order <= lines - 2): the order
+    is limited and the mode still found."""
+    positions = paper_grid()
+    scan = make_scan(np.arange(41) * 1.25, [pole(20.0, 0.05)],
+                     membrane_shapes(positions, [(0, 1, 0.0)]), positions)
+    (mode,) = identify(scan)
+    assert mode.freq_hz == pytest.approx(20.0, rel=0.01)

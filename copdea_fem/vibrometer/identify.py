@@ -57,6 +57,10 @@ DEFAULTS = {"max_order": 120, "components": 24, "frequency_tolerance": 0.01,
 #: The options of :func:`identify_scan`.
 OPTIONS = ("f_min", "f_max", *DEFAULTS)
 
+class IdentificationFailed(RuntimeError):
+    """The fit itself failed (a singular system): not bad input, the data defeat it."""
+
+
 #: Pole status in the stabilisation diagram.
 NEW, FREQUENCY_STABLE, STABLE = 0, 1, 2
 
@@ -184,23 +188,45 @@ def _identify(scan: ScanData, options: dict) -> Identification:
     power, left = np.linalg.eigh(values[:, in_band] @ values[:, in_band].conj().T)
     power, left = power[::-1], left[:, ::-1]
     keep = min(options["components"], int(np.sum(power > 1e-18 * power[0])))
+    if keep == 0 or not power[0] > 0:
+        raise MeasuredDataError(f"scan file {scan.path}: every FRF is zero in "
+                                f"{f_low:g}-{f_high:g} Hz; allowed: a measured response")
     principal = left[:, :keep].conj().T @ values[:, frequencies <= f_high]
     frf_form = RESPONSES.get(scan.response, "mobility")
     # LSCF on every line from the first above 0 Hz up to f_high; f_low only bounds the poles
     # kept (a fit that leaves out the lines below f_low, sdypy's ``lower``, turns poles
     # unstable at the higher orders: a 200-500 Hz band kept 1 of 3 modes)
+    # LSCF's highest order is bounded by the lines it fits (its normal equations hold the
+    # correlations of lags -n..n of a spectrum of F lines: n <= F - 2)
+    lines = int(np.sum(frequencies <= f_high))
+    half_order = min(options["max_order"] // 2, (lines - 2) // 2)
+    if half_order < 2:
+        raise MeasuredDataError(f"scan file {scan.path}: {lines} lines up to {f_high:g} Hz "
+                                "are not allowed for identification; allowed: at least 6")
+    if half_order < options["max_order"] // 2:
+        logger.info("LSCF order limited to %d by the %d lines", 2 * half_order, lines)
+        options = {**options, "min_stable_orders": min(options["min_stable_orders"],
+                                                        max(2, round(0.2 * half_order)))}
     model = Model(frf=principal, freq=frequencies[frequencies <= f_high],
                   lower=float(frequencies[frequencies > 0][0]), upper=f_high,
-                  pol_order_high=options["max_order"] // 2, frf_form=frf_form)
-    model.get_poles(method="lscf", show_progress=False)
+                  pol_order_high=half_order, frf_form=frf_form)
+    try:
+        model.get_poles(method="lscf", show_progress=False)
+    except (ValueError, IndexError, np.linalg.LinAlgError) as error:
+        raise IdentificationFailed(f"scan file {scan.path}: LSCF failed ({error}); try "
+                                   "another band or max_order") from None
     logger.info("LSCF: %d orders on %d principal functions of %d channels (%.1f s)",
                 len(model.all_poles), keep, scan.n_channels, time.perf_counter() - started)
     diagram_poles = _physical_poles(model.all_poles, options)
     tracks, status = _tracks(diagram_poles, options)
     chosen = _choose(tracks, options)
     if chosen.size:
-        constants, *_ = LSFD(chosen, values[:, in_band], band_frequencies, True, True, 0,
-                             band_frequencies.size, frf_form)
+        try:
+            constants, *_ = LSFD(chosen, values[:, in_band], band_frequencies, True, True, 0,
+                                 band_frequencies.size, frf_form)
+        except (ValueError, np.linalg.LinAlgError) as error:
+            raise IdentificationFailed(f"scan file {scan.path}: LSFD failed ({error})") \
+                from None
         constants = constants * scale
     else:
         constants = np.zeros((scan.n_channels, 0), complex)
