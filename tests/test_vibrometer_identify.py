@@ -227,3 +227,12 @@ def test_short_scan_limits_the_order():
                      membrane_shapes(positions, [(0, 1, 0.0)]), positions)
     (mode,) = identify(scan)
     assert mode.freq_hz == pytest.approx(20.0, rel=0.01)
+
+
+def test_noise_alone_gives_no_mode():
+    """Complex Gaussian noise on 252 channels x 801 lines: no pole stays stable over the
+    orders, so no mode is reported (the choice does not invent modes)."""
+    rng = np.random.default_rng(0)
+    scan, _ = _analytic_scan()
+    noise = rng.normal(size=scan.values.shape) + 1j * rng.normal(size=scan.values.shape)
+    assert identify(ScanData(**{**scan.__dict__, "values": noise})) == ()
