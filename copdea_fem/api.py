@@ -62,10 +62,12 @@ if TYPE_CHECKING:
     from copdea_fem.reduced.response import SpectrumResult
     from copdea_fem.sweeps.gather import SweepOutcome
     from copdea_fem.sweeps.spec import Sweep
+    from copdea_fem.vibrometer.scan import IdentifiedSet
 
 __all__ = ["load_study", "solve", "response", "force", "spectrum", "sweep", "diagnose",
            "Solution", "ResponseSolution", "ForceCurve", "Spectrum", "SweepResult",
-           "Diagnosis", "SolveFailed", "StudyError", "OutputFolderError"]
+           "Diagnosis", "SolveFailed", "StudyError", "OutputFolderError", "identify",
+           "IdentifyResult"]
 
 logger = logging.getLogger("copdea_fem")
 
@@ -1060,4 +1062,93 @@ class Diagnosis:
         with _claimed(folder, "diagnose", inputs) as target:
             with result_directory(target, "diagnose") as staging:
                 write_report(self.result, staging)
+        return target
+
+
+# -- identify (vibrometer scans) -------------------------------------------------------------
+def identify(measured: str | Path, *, progress: Callable[[str], None] | None = None,
+             **options) -> IdentifyResult:
+    """The modes of every scan of a measured.yaml (``copdea-fem identify``, nothing written).
+
+    Each condition with ``scan: FILE`` is read (:func:`copdea_fem.vibrometer.uff.read_scan`,
+    checked on the device) and identified automatically in its ``band`` (default: the
+    scan's lines above 0 Hz): LSCF poles stable over the model orders, LSFD residues as
+    shapes (:mod:`copdea_fem.vibrometer.identify`; nothing from the FE).
+
+    Parameters
+    ----------
+    measured : str or Path
+        A measured.yaml with at least one condition with a ``scan``.
+    progress : callable(str), optional
+        As :func:`solve`'s.
+    **options
+        Passed to :func:`copdea_fem.vibrometer.identify.identify_scan` (``f_min``,
+        ``f_max`` [Hz] in place of the conditions' bands, ``max_order``, ``components``, ``frequency_tolerance``,
+        ``damping_tolerance``, ``max_damping``, ``min_stable_orders``).
+
+    Returns
+    -------
+    IdentifyResult
+
+    Raises
+    ------
+    StudyError
+        A bad measured.yaml, scan file or option, or no condition with a scan (a
+        :class:`~copdea_fem.diagnosis.measured.MeasuredDataError`).
+    """
+    from copdea_fem.diagnosis.measured import MeasuredDataError, load_measured
+    from copdea_fem.vibrometer.identify import OPTIONS, identify_scan
+    from copdea_fem.vibrometer.scan import IdentifiedSet
+
+    for name in options:
+        if name not in OPTIONS:
+            raise StudyError(f"identify option {name!r} is not allowed (unknown option); "
+                             f"allowed: {', '.join(OPTIONS)}")
+    measured_set = load_measured(measured)
+    scanned = [c for c in measured_set.conditions if c.scan is not None]
+    if not scanned:
+        raise MeasuredDataError(f"measured file {measured}: no condition has a scan; "
+                                "allowed: at least one condition with scan: FILE (.uff/.unv)")
+    sets = []
+    with _progress(progress):
+        for condition in scanned:
+            logger.info("identifying %s (%d channels, %d lines, largest distance off the "
+                        "device %.2f mm)", condition.name, condition.scan.n_channels,
+                        condition.scan.frequencies.size, 1e3 * condition.scan_distance)
+            frequencies = condition.scan.frequencies
+            band = {"f_min": max(condition.band[0], float(frequencies[frequencies > 0][0])),
+                    "f_max": min(condition.band[1], float(frequencies[-1]))}
+            found = identify_scan(condition.scan, **{**band, **options})
+            sets.append(IdentifiedSet(condition.name, condition.scan, found.modes,
+                                      found.diagram))
+    return IdentifyResult(tuple(sets), Path(measured),
+                          [p for c in measured_set.conditions for p in c.files.values()])
+
+
+@dataclass
+class IdentifyResult:
+    """The result of :func:`identify`: ``sets`` (one
+    :class:`~copdea_fem.vibrometer.scan.IdentifiedSet` per scanned condition), ``table``,
+    ``write``."""
+
+    sets: tuple[IdentifiedSet, ...]
+    source: Path | None = None
+    files: list = field(default_factory=list)
+
+    @property
+    def table(self) -> pd.DataFrame:
+        """identified.csv as a DataFrame (condition, test_mode, freq_hz, damping_ratio, mpc)."""
+        from copdea_fem.vibrometer.identify import IDENTIFIED_COLUMNS, identified_rows
+        return _frame(identified_rows(self.sets), IDENTIFIED_COLUMNS)
+
+    def write(self, folder: str | Path | Claim) -> Path:
+        """Write identified.csv, stabilisation_<condition>.png and shapes_<condition>/
+        (VTU per mode, shapes.pvd) in ``folder``; or into a held
+        :class:`~copdea_fem.folders.Claim`.  Parameters, return and errors as
+        :meth:`Solution.write`."""
+        from copdea_fem.folders import result_directory
+        from copdea_fem.vibrometer.identify import write_identified
+        with _claimed(folder, "identify", [self.source, *self.files]) as target:
+            with result_directory(target, "identify") as staging:
+                write_identified(staging, self.sets)
         return target
