@@ -4,7 +4,7 @@ A PSV-sized scan - 84 points x 3 velocity components x 800 lines (1.25 ... 1000 
 1.25 Hz, the paper's chirp) - made analytically from a few modal poles (the closed form
 ``H_c = i w sum_r [A_cr / (i w - s_r) + conj(A_cr) / (i w - conj(s_r))]``, real shapes,
 a split pair 1 % apart), with complex Gaussian noise 60 dB below the largest value.
-Timed: :func:`copdea_fem.vibrometer.identify.identify` on it (LSCF up to order 80 on the
+Timed: :func:`copdea_fem.vibrometer.identify.identify` on it (LSCF up to order 120 on the
 principal response functions, the automatic choice, LSFD on all 252 channels), and reading
 the same scan from a binary UFF export (:func:`~copdea_fem.vibrometer.uff.read_scan`).
 Each repetition runs in process after one warm-up; reported: median and range, and the
@@ -66,14 +66,15 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     scan = make_scan()
     identify(scan)                               # warm-up: imports, first BLAS calls
-    identify_seconds, read_seconds, errors = [], [], []
+    identify_seconds, cpu_seconds, read_seconds, errors = [], [], [], []
     with tempfile.TemporaryDirectory() as folder:
         path = write_scan(Path(folder) / "scan.uff", scan, binary=True)
         read_scan(path)
         for _ in range(args.repeat):
-            start = time.perf_counter()
+            start, cpu = time.perf_counter(), time.process_time()
             modes = identify(scan)
             identify_seconds.append(time.perf_counter() - start)
+            cpu_seconds.append(time.process_time() - cpu)
             start = time.perf_counter()
             read_scan(path)
             read_seconds.append(time.perf_counter() - start)
@@ -84,7 +85,8 @@ def main(argv=None) -> int:
     print(f"scan: {scan.n_points} points x 3 components x {scan.frequencies.size} lines, "
           f"{len(MODES)} modes, noise -60 dB")
     print(f"identify: median {median:.2f} s (range {min(identify_seconds):.2f}-"
-          f"{max(identify_seconds):.2f}, {args.repeat} runs), {len(modes)} modes, largest "
+          f"{max(identify_seconds):.2f}, {args.repeat} runs; CPU "
+          f"{statistics.median(cpu_seconds):.2f} s), {len(modes)} modes, largest "
           f"relative frequency error {max(errors):.2e}; target <= {TARGET_SECONDS:g} s: "
           f"{'met' if median <= TARGET_SECONDS else 'MISSED'}")
     print(f"read_scan (binary UFF, {path.name}): median {statistics.median(read_seconds):.3f} s")

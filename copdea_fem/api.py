@@ -26,6 +26,13 @@ failed for a physical or numerical reason; exit 3), and
 :class:`~copdea_fem.reduced.rings.ReducedModelError` (the reduced model, or the diagnosis's
 model, cannot be built or evaluated for these inputs; exit 3).  Each function's *Raises*
 section says which it can raise.
+
+A :class:`~copdea_fem.study.Study` given to a function is validated again first
+(:meth:`~copdea_fem.study.Study.checked`): a study changed by hand after :func:`load_study`
+is checked like a file (an unknown key, a wrong type or a value out of range is a
+:class:`~copdea_fem.study.StudyError`; a deleted key takes its default), so no hand edit
+reaches the solver unchecked.  A Netgen failure while meshing is a :class:`SolveFailed`
+naming the mesh keys.
 """
 
 from __future__ import annotations
@@ -120,13 +127,25 @@ def load_study(path: str | Path, overrides: dict[str, Any] | list[str] | None = 
 
     if isinstance(overrides, (list, tuple)):
         overrides = parse_overrides(list(overrides))
+    elif overrides is not None and not isinstance(overrides, dict):
+        parse_overrides(overrides)          # refused, naming what is allowed
     study = _load(path, overrides=overrides)
     _SOURCES[study] = Path(path)
     return study
 
 
 def _as_study(study: Study | str | Path) -> Study:
-    return study if isinstance(study, Study) else load_study(study)
+    """A study file read, or a :class:`Study` validated again (:meth:`Study.checked`: a hand
+    edit after :func:`load_study` is checked like a file), remembering its source file."""
+    if not isinstance(study, Study):
+        if not isinstance(study, (str, Path)):
+            raise StudyError(f"study = {type(study).__name__} is not allowed; allowed: a "
+                             "Study from load_study or a study file's path")
+        return load_study(study)
+    checked = study.checked()
+    if study in _SOURCES:
+        _SOURCES[checked] = _SOURCES[study]
+    return checked
 
 
 def _inputs(study: Study) -> list:
@@ -141,7 +160,8 @@ def _load_text(study) -> str:
 
 @contextlib.contextmanager
 def solving(study):
-    """Solver failures -> :class:`SolveFailed`: what failed, at which load, which key to change."""
+    """Solver failures -> :class:`SolveFailed`: what failed, at which load, which key to change
+    (a Netgen failure, ``NgException``: the mesh keys)."""
     from copdea_fem.fe.ale import MeshMotionError
     from copdea_fem.fe.eigen import EigenResidualError, EigenSolverError, TooManyModesError
     eigen = study["eigen"]
@@ -161,6 +181,12 @@ def solving(study):
         what, keys = next(item for kind, item in advice.items() if isinstance(error, kind))
         raise SolveFailed(f"{what} failed at {_load_text(study)}: {error}; change {keys}") \
             from None
+    except Exception as error:
+        if type(error).__name__ != "NgException":     # Netgen's one error type
+            raise
+        message = " ".join(str(error).split()) or "an error"
+        raise SolveFailed(f"Netgen failed ({message}); change mesh.membrane_size, "
+                          "mesh.air_size or mesh.grading (or the geometry.* radii)") from None
 
 
 def check_size(study: Study, allow_large: bool = False, engine: Engine | None = None) -> None:
@@ -214,8 +240,8 @@ def solve(study: Study | str | Path, *, allow_large: bool = False,
         the membrane would lift out of, or a problem above the size limit (without
         ``allow_large``).
     SolveFailed
-        The air mesh cannot follow the membrane, or the eigen solve fails (residuals,
-        too many modes in the band, a band it cannot cover).
+        Netgen cannot mesh the geometry, the air mesh cannot follow the membrane, or the
+        eigen solve fails (residuals, too many modes in the band, a band it cannot cover).
     PrestressError
         The prestress (Newton) solve fails: a loss of tension (the membrane would
         wrinkle), pull-in, or no convergence after ``prestress.max_cuts`` step halvings.
@@ -667,7 +693,7 @@ def compute_force(study: Study, z_values: Sequence[float] | np.ndarray,
     """
     from copdea_fem.fe.pipeline import run_force
 
-    with _progress(progress):
+    with solving(study), _progress(progress):
         forces = run_force(study, z_values, voltages, cache_dir=mesh_cache)
     return ForceCurve(study, z_values, list(voltages), forces)
 
@@ -1045,9 +1071,9 @@ def identify(measured: str | Path, *, progress: Callable[[str], None] | None = N
     """The modes of every scan of a measured.yaml (``copdea-fem identify``, nothing written).
 
     Each condition with ``scan: FILE`` is read (:func:`copdea_fem.vibrometer.uff.read_scan`,
-    checked on the device) and identified automatically: LSCF poles stable over the model
-    orders, LSFD residues as shapes (:mod:`copdea_fem.vibrometer.identify`; nothing from
-    the FE).
+    checked on the device) and identified automatically in its ``band`` (default: the
+    scan's lines above 0 Hz): LSCF poles stable over the model orders, LSFD residues as
+    shapes (:mod:`copdea_fem.vibrometer.identify`; nothing from the FE).
 
     Parameters
     ----------
@@ -1057,7 +1083,7 @@ def identify(measured: str | Path, *, progress: Callable[[str], None] | None = N
         As :func:`solve`'s.
     **options
         Passed to :func:`copdea_fem.vibrometer.identify.identify_scan` (``f_min``,
-        ``f_max`` [Hz], ``max_order``, ``components``, ``frequency_tolerance``,
+        ``f_max`` [Hz] in place of the conditions' bands, ``max_order``, ``components``, ``frequency_tolerance``,
         ``damping_tolerance``, ``max_damping``, ``min_stable_orders``).
 
     Returns
@@ -1089,7 +1115,10 @@ def identify(measured: str | Path, *, progress: Callable[[str], None] | None = N
             logger.info("identifying %s (%d channels, %d lines, largest distance off the "
                         "device %.2f mm)", condition.name, condition.scan.n_channels,
                         condition.scan.frequencies.size, 1e3 * condition.scan_distance)
-            found = identify_scan(condition.scan, **options)
+            frequencies = condition.scan.frequencies
+            band = {"f_min": max(condition.band[0], float(frequencies[frequencies > 0][0])),
+                    "f_max": min(condition.band[1], float(frequencies[-1]))}
+            found = identify_scan(condition.scan, **{**band, **options})
             sets.append(IdentifiedSet(condition.name, condition.scan, found.modes,
                                       found.diagram))
     return IdentifyResult(tuple(sets), Path(measured),

@@ -221,6 +221,9 @@ def cmd_calibrate_damping(args) -> int:
                          "--quality-factors; allowed: a spectrum CSV, or --fit rayleigh|prony "
                          "with --quality-factors Q.csv or a spectrum CSV")
     if args.fit != "modal":
+        if args.quality_factors is not None:     # every row checked before any work
+            from copdea_fem.damping_fit import check_measured, read_quality_csv
+            check_measured(read_quality_csv(args.quality_factors))
         if args.spectrum is None and args.quality_factors is None:
             raise StudyError(f"--fit {args.fit} needs measured damping; allowed: "
                              "--quality-factors Q.csv or a SPECTRUM.csv")
@@ -378,8 +381,12 @@ def cmd_identify(args) -> int:
     out_dir = Path(args.out) if args.out else Path("results") / f"identify_{measured.name}"
     inputs = [args.measured, *(path for condition in measured.conditions
                                for path in condition.files.values())]
+    options = {} if args.max_order is None else {"max_order": args.max_order}
+    if options:
+        from copdea_fem.vibrometer.identify import check_options
+        check_options(options)                       # exit 2 before any work
     with _output(args, out_dir, "identify", inputs) as folder:
-        result = api.identify(args.measured)
+        result = api.identify(args.measured, **options)
         result.write(folder)
     for item in result.sets:
         modes = ", ".join(f"{m.freq_hz:.1f}" for m in item.modes)
@@ -457,6 +464,9 @@ def _add_diagnose_commands(commands, with_study) -> None:
         "measured.yaml: identified.csv, stabilisation_<condition>.png, shapes VTU")
     identify.add_argument("measured", help="measured.yaml whose conditions name scan: FILE")
     identify.add_argument("--out", help="output directory (default: results/identify_<name>)")
+    identify.add_argument("--max-order", type=int, metavar="N",
+                          help="highest LSCF model order (default 120: up to 60 modes in the "
+                               "band)")
     identify.add_argument("--quiet", action="store_true", help="no progress messages")
     identify.set_defaults(handler=cmd_identify)
 

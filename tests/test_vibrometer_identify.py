@@ -181,3 +181,58 @@ def test_api_identify(tmp_path):
     assert list(result.table["condition"].unique()) == ["a", "b"]
     with pytest.raises(StudyError, match="identify option 'order'"):
         api.identify(_measured(tmp_path), order=3)
+
+
+def test_dense_spectrum_with_two_split_pairs():
+    """22 modes spread over 120-980 Hz plus two split pairs (0.8 % and 0.6 % apart, at
+    1-2 % damping), random shapes, 60 dB noise: every mode found, none extra, each within
+    0.2 % (a tenth of the smallest half-power width, 2 %)."""
+    rng = np.random.default_rng(2)
+    frequencies = np.sort(rng.uniform(120, 980, 22))
+    frequencies = np.sort(np.concatenate([frequencies, [frequencies[5] * 1.008,
+                                                        frequencies[12] * 1.006]]))
+    poles = [pole(f, 0.01 + 0.01 * rng.random()) for f in frequencies]
+    scan = make_scan(FREQUENCIES, poles, rng.normal(size=(len(poles), 84, 3)), paper_grid())
+    size = 1e-3 * np.abs(scan.values).max()
+    noisy = scan.values + size * (rng.normal(size=scan.values.shape)
+                                  + 1j * rng.normal(size=scan.values.shape))
+    modes = identify(ScanData(**{**scan.__dict__, "values": noisy}))
+    found = np.array([m.freq_hz for m in modes])
+    assert found.size == frequencies.size
+    assert np.all(np.abs(found - frequencies) <= 0.002 * frequencies)
+
+
+def test_identify_command_bad_option_exit_2(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["identify", str(_measured(tmp_path)), "--out", str(out),
+                 "--max-order", "2"]) == 2
+    assert "identify max_order = 2 is not allowed" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_condition_band_is_the_identification_band(tmp_path):
+    """band: [200 Hz, 500 Hz] leaves out the 95 Hz mode."""
+    path = _measured(tmp_path)
+    text = path.read_text().replace("scan: z16.uff", "scan: z16.uff\n  band: [200 Hz, 500 Hz]")
+    path.write_text(text)
+    frequencies = [m.freq_hz for m in api.identify(path).sets[0].modes]
+    assert frequencies == pytest.approx([300.0, 303.0, 455.0], rel=1e-3)
+
+
+def test_short_scan_limits_the_order():
+    """41 lines (0-50 Hz) cannot carry order 120 (LSCF needs order <= lines - 2): the order
+    is limited and the mode still found."""
+    positions = paper_grid()
+    scan = make_scan(np.arange(41) * 1.25, [pole(20.0, 0.05)],
+                     membrane_shapes(positions, [(0, 1, 0.0)]), positions)
+    (mode,) = identify(scan)
+    assert mode.freq_hz == pytest.approx(20.0, rel=0.01)
+
+
+def test_noise_alone_gives_no_mode():
+    """Complex Gaussian noise on 252 channels x 801 lines: no pole stays stable over the
+    orders, so no mode is reported (the choice does not invent modes)."""
+    rng = np.random.default_rng(0)
+    scan, _ = _analytic_scan()
+    noise = rng.normal(size=scan.values.shape) + 1j * rng.normal(size=scan.values.shape)
+    assert identify(ScanData(**{**scan.__dict__, "values": noise})) == ()

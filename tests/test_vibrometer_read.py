@@ -6,7 +6,15 @@ import re
 import numpy as np
 import pytest
 import pyuff
-from vibrometer_helpers import BASE_STUDY, REALDATA, make_scan, paper_grid, pole, write_measured
+from vibrometer_helpers import (
+    BASE_STUDY,
+    REALDATA,
+    ROOT,
+    make_scan,
+    paper_grid,
+    pole,
+    write_measured,
+)
 
 from copdea_fem.diagnosis.measured import MeasuredDataError, load_measured
 from copdea_fem.vibrometer.geometry import device_distances
@@ -371,3 +379,50 @@ def test_careless_scan_input(tmp_path, case):
         {"name": "c", "set": {"load.z": "16 mm"}, **keys}]}))
     with pytest.raises(ValueError, match=message):
         load_measured(path)
+
+
+def test_units_from_164_and_labels(tmp_path):
+    """A file in millimetres (164: length factor 1000, coordinates in mm) with velocities
+    labelled mm/s: positions and values come back in SI."""
+    scan = _scan(n_lines=21)
+    path = write_scan(tmp_path / "mm.uff", scan, binary=False)
+    sets = _records(path)
+    sets[0]["length"] = 1000.0
+    for axis in "xyz":
+        sets[1][axis] = np.asarray(sets[1][axis]) * 1e3
+    for record in sets[2:]:
+        record["ordinate_axis_units_lab"] = "mm/s"
+        record["data"] = np.asarray(record["data"]) * 1e3
+    back = read_scan(_rewrite(path, sets))
+    assert np.allclose(back.positions, scan.positions, rtol=1e-9, atol=1e-15)
+    assert np.allclose(back.values, scan.values, rtol=1e-9, atol=1e-11 * np.abs(scan.values).max())
+
+
+def test_spectrum_scan(tmp_path):
+    """Function type 12 (a velocity spectrum, which pyuff does not write: the header is
+    edited) reads as quantity 'spectrum'; identification refuses it (no reference)."""
+    from copdea_fem.vibrometer.identify import identify
+
+    path = write_scan(tmp_path / "spectrum.uff", _scan(n_lines=21), binary=False)
+    text = path.read_text().splitlines(keepends=True)
+    text = ["   12" + line[5:] if line.startswith("    4         0") else line for line in text]
+    path.write_text("".join(text))
+    back = read_scan(path)
+    assert back.quantity == "spectrum" and back.n_channels == 252
+    with pytest.raises(MeasuredDataError, match="quantity = 'spectrum'"):
+        identify(back)
+
+
+def test_fe_prestressed_membrane_is_near_the_geometric_model():
+    """The axisymmetric FE's prestressed membrane (G1, z = 16 mm, 2 kV, coarse mesh) lies
+    within half the default on-device tolerance (3.55 mm) of the catenoid model: the
+    tolerance covers the model's error with a margin (1.3 mm measured)."""
+    import copdea_fem as cf
+
+    study = cf.load_study(ROOT / "studies" / "g1_z16_v2_quick.yaml", {
+        "geometry.frame": "baffle", "air.enabled": False, "mesh.engine": "axisymmetric"})
+    solution = cf.solve(study)
+    points = np.asarray(solution.membrane(solution.labels[0]).points)
+    distances = device_distances(points, study["geometry"]["outer_radius"],
+                                 study["geometry"]["inner_radius"], study["load"]["z"])
+    assert distances.max() < 0.5 * 0.1 * study["geometry"]["outer_radius"]

@@ -60,6 +60,7 @@ radial = pi/4 (v_x + v_y).  Lines starting with ``#`` are comments.
 from __future__ import annotations
 
 import csv
+import logging
 import math
 import re
 from dataclasses import dataclass, field
@@ -278,10 +279,16 @@ def read_resonances(path, key: str = "resonances") -> tuple:
         raise _fail(f"{key} columns", header, "freq_hz and optionally label, quality_factor, "
                     f"kind (file {path})")
     index = {name: header.index(name) for name in header}
-    out, seen = [], {}
+    out, seen, lines_of = [], {}, {}
     for line, row in enumerate(rows, start=2):
         row = _rejoin_labels(row, len(header))
         where = f"{path.name} line {line}"
+        same = tuple(cell.strip() for cell in row)
+        if same in lines_of:        # a peak pasted twice would weigh twice in the fit
+            logging.getLogger(__name__).warning(
+                f"{where} repeats line {lines_of[same]} (a duplicated peak): counted once")
+            continue
+        lines_of[same] = line
         cell = lambda name: row[index[name]] if name in index and index[name] < len(row) \
             else ""
         frequency = _number(cell("freq_hz"), f"{where} freq_hz")

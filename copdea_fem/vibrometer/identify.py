@@ -51,11 +51,15 @@ from copdea_fem.vibrometer.scan import RESPONSES, IdentifiedMode, MeasuredDataEr
 logger = logging.getLogger(__name__)
 
 #: Defaults of the automatic pole choice (see the module notes).
-DEFAULTS = {"max_order": 80, "components": 24, "frequency_tolerance": 0.01,
+DEFAULTS = {"max_order": 120, "components": 24, "frequency_tolerance": 0.01,
             "damping_tolerance": 0.05, "max_damping": 0.2, "min_stable_orders": None}
 
 #: The options of :func:`identify_scan`.
 OPTIONS = ("f_min", "f_max", *DEFAULTS)
+
+class IdentificationFailed(RuntimeError):
+    """The fit itself failed (a singular system): not bad input, the data defeat it."""
+
 
 #: Pole status in the stabilisation diagram.
 NEW, FREQUENCY_STABLE, STABLE = 0, 1, 2
@@ -137,8 +141,9 @@ def identify_scan(scan: ScanData, *, f_min=None, f_max=None, max_order=None,
     f_min, f_max : float, optional
         The band [Hz]; default: the scan's axis above 0 Hz.
     max_order : int, optional
-        Highest even polynomial order of LSCF (default 80: up to 40 modes in the band;
-        about twice the number of modes expected is the usual over-modelling).
+        Highest even polynomial order of LSCF (default 120: up to 60 modes in the band;
+        twice the number of modes or more is the usual over-modelling: 24 modes with
+        two split pairs in 120-980 Hz at 60 dB noise were all found at 120, not at 80).
     components : int, optional
         Principal response functions fed to LSCF (default 24, at most the channels).
     frequency_tolerance, damping_tolerance : float, optional
@@ -155,12 +160,21 @@ def identify_scan(scan: ScanData, *, f_min=None, f_max=None, max_order=None,
     Identification
         ``modes`` sorted by frequency (``test_mode`` 1, 2, ...), and the diagram.
     """
+    from copdea_fem.progress import single_threaded_blas
+
+    options = _options(scan, f_min, f_max, max_order, components, frequency_tolerance,
+                       damping_tolerance, max_damping, min_stable_orders)
+    # BLAS on one thread: the matrices are small (order 120, 252 channels), and BLAS threads
+    # fighting for a shared machine's cores made the 84 x 3 x 800 benchmark 15 times slower
+    with single_threaded_blas():
+        return _identify(scan, options)
+
+
+def _identify(scan: ScanData, options: dict) -> Identification:
     from sdypy.EMA import Model
     from sdypy.EMA.EMA import LSFD
 
     started = time.perf_counter()
-    options = _options(scan, f_min, f_max, max_order, components, frequency_tolerance,
-                       damping_tolerance, max_damping, min_stable_orders)
     f_low, f_high = options["band"]
     frequencies = np.asarray(scan.frequencies, float)
     in_band = (frequencies >= f_low) & (frequencies <= f_high)
@@ -169,21 +183,50 @@ def identify_scan(scan: ScanData, *, f_min=None, f_max=None, max_order=None,
     scale = float(np.abs(values[:, in_band]).max()) or 1.0
     values = values / scale
     # principal response functions: LSCF sees the space the channels span
-    left, singular, _ = np.linalg.svd(values[:, in_band], full_matrices=False)
-    keep = min(options["components"], int(np.sum(singular > 1e-9 * singular[0])))
+    # (the eigenvectors of the channels' Gram matrix: the left singular vectors, at a
+    # fraction of an SVD's cost for 252 channels x 800 lines)
+    power, left = np.linalg.eigh(values[:, in_band] @ values[:, in_band].conj().T)
+    power, left = power[::-1], left[:, ::-1]
+    keep = min(options["components"], int(np.sum(power > 1e-18 * power[0])))
+    if keep == 0 or not power[0] > 0:
+        raise MeasuredDataError(f"scan file {scan.path}: every FRF is zero in "
+                                f"{f_low:g}-{f_high:g} Hz; allowed: a measured response")
     principal = left[:, :keep].conj().T @ values[:, frequencies <= f_high]
     frf_form = RESPONSES.get(scan.response, "mobility")
-    model = Model(frf=principal, freq=frequencies[frequencies <= f_high], lower=f_low,
-                  upper=f_high, pol_order_high=options["max_order"] // 2, frf_form=frf_form)
-    model.get_poles(method="lscf", show_progress=False)
+    # LSCF on every line from the first above 0 Hz up to f_high; f_low only bounds the poles
+    # kept (a fit that leaves out the lines below f_low, sdypy's ``lower``, turns poles
+    # unstable at the higher orders: a 200-500 Hz band kept 1 of 3 modes)
+    # LSCF's highest order is bounded by the lines it fits (its normal equations hold the
+    # correlations of lags -n..n of a spectrum of F lines: n <= F - 2)
+    lines = int(np.sum(frequencies <= f_high))
+    half_order = min(options["max_order"] // 2, (lines - 2) // 2)
+    if half_order < 2:
+        raise MeasuredDataError(f"scan file {scan.path}: {lines} lines up to {f_high:g} Hz "
+                                "are not allowed for identification; allowed: at least 6")
+    if half_order < options["max_order"] // 2:
+        logger.info("LSCF order limited to %d by the %d lines", 2 * half_order, lines)
+        options = {**options, "min_stable_orders": min(options["min_stable_orders"],
+                                                        max(2, round(0.2 * half_order)))}
+    model = Model(frf=principal, freq=frequencies[frequencies <= f_high],
+                  lower=float(frequencies[frequencies > 0][0]), upper=f_high,
+                  pol_order_high=half_order, frf_form=frf_form)
+    try:
+        model.get_poles(method="lscf", show_progress=False)
+    except (ValueError, IndexError, np.linalg.LinAlgError) as error:
+        raise IdentificationFailed(f"scan file {scan.path}: LSCF failed ({error}); try "
+                                   "another band or max_order") from None
     logger.info("LSCF: %d orders on %d principal functions of %d channels (%.1f s)",
                 len(model.all_poles), keep, scan.n_channels, time.perf_counter() - started)
     diagram_poles = _physical_poles(model.all_poles, options)
     tracks, status = _tracks(diagram_poles, options)
     chosen = _choose(tracks, options)
     if chosen.size:
-        constants, *_ = LSFD(chosen, values[:, in_band], band_frequencies, True, True, 0,
-                             band_frequencies.size, frf_form)
+        try:
+            constants, *_ = LSFD(chosen, values[:, in_band], band_frequencies, True, True, 0,
+                                 band_frequencies.size, frf_form)
+        except (ValueError, np.linalg.LinAlgError) as error:
+            raise IdentificationFailed(f"scan file {scan.path}: LSFD failed ({error})") \
+                from None
         constants = constants * scale
     else:
         constants = np.zeros((scan.n_channels, 0), complex)
@@ -228,13 +271,18 @@ def _options(scan, f_min, f_max, max_order, components, frequency_tolerance,
         raise MeasuredDataError(f"identify band = [{low:g}, {high:g}] Hz is not allowed; "
                                 f"allowed: 0 < f_min < f_max within the scan's "
                                 f"{frequencies[0]:g}..{frequencies[-1]:g} Hz holding >= 8 lines")
-    values = {k: v for k, v in {"max_order": max_order, "components": components,
-                                "frequency_tolerance": frequency_tolerance,
-                                "damping_tolerance": damping_tolerance,
-                                "max_damping": max_damping,
-                                "min_stable_orders": min_stable_orders}.items()
-              if v is not None}
-    options = {**DEFAULTS, **values}
+    options = check_options({"max_order": max_order, "components": components,
+                             "frequency_tolerance": frequency_tolerance,
+                             "damping_tolerance": damping_tolerance, "max_damping": max_damping,
+                             "min_stable_orders": min_stable_orders})
+    options["band"] = (low, high)
+    return options
+
+
+def check_options(values: dict) -> dict:
+    """The options of the pole choice (:data:`DEFAULTS`'s keys; None: the default) checked
+    and completed; :class:`MeasuredDataError` naming a bad one."""
+    options = {**DEFAULTS, **{k: v for k, v in values.items() if v is not None}}
     _check("max_order", options["max_order"], 4, 400, integer=True)
     _check("components", options["components"], 1, 1000, integer=True)
     _check("frequency_tolerance", options["frequency_tolerance"], 1e-6, 0.2)
@@ -246,7 +294,6 @@ def _options(scan, f_min, f_max, max_order, components, frequency_tolerance,
     _check("min_stable_orders", options["min_stable_orders"], 2, n_orders, integer=True)
     options["max_order"] = int(options["max_order"])
     options["components"] = int(options["components"])
-    options["band"] = (low, high)
     return options
 
 
