@@ -217,4 +217,5 @@ QUADRANT_SECTOR = DrivenSector(
     summary="3-D, even-even sector", classify=_classify, label=_label,
     observer=QuadrantObserver, angles=len(OBSERVATION_ANGLES), sphere=QuadrantSphere,
     shape_sector=lambda operators: operators.sector, write_shapes=_write_shapes,
-    default_method="reduced")      # its modal band costs minutes
+    default_method="reduced",      # its modal band costs minutes
+    modal_method="reduced_modal")
