@@ -38,7 +38,7 @@ ROOT = Path(__file__).resolve().parent.parent
 STUDY = ROOT / "studies" / "g1_z16_v2.yaml"
 #: files off: no ParaView files, no plots (both commands still write their tables)
 FILES_OFF = ["output.paraview=false", "output.plots=false"]
-#: issue 35's target for the ratio of the medians' pairs response / solve
+#: the target for the median of the pairs' ratios response / solve
 TARGET_RATIO = 4.0
 
 
