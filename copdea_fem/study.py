@@ -629,6 +629,14 @@ def _check_across_keys(v: dict[str, dict[str, Any]]) -> None:
                     "fewer than two elements across the membrane")
     _check_reduced_keys(v)
     listed_microphones(v["response"]["microphones"], g["frame"])
+    m = v["membrane"]
+    if v["response"]["method"] == "reduced_modal" and (
+            m["loss_factor"] > 0 or m["rayleigh_alpha"] > 0 or m["rayleigh_beta"] > 0
+            or m["prony"]):
+        raise _fail("response.method", "reduced_modal", "auto, modal, direct or reduced with a "
+                    "loss of the membrane's own (membrane.loss_factor, rayleigh_alpha, "
+                    "rayleigh_beta or prony)", "the reduced basis's modes would not "
+                    "diagonalise that loss")
 
 
 def engine_of(study) -> str:

@@ -225,16 +225,24 @@ def test_reduced_modal_matches_the_modal_path_on_the_square_frame():
     assert mine.average_axial[peak] == pytest.approx(modal.average_axial[peak], rel=1e-4)
 
 
-def test_reduced_modal_refuses_a_loss_of_its_own(tmp_path):
-    """reduced_modal with a loss factor (or Rayleigh, Prony): the one-line StudyError before
-    any solve, exit 2 from the CLI with no folder."""
-    with pytest.raises(StudyError, match="response.method = reduced_modal"):
-        prepare_order_zero(coarse("axisymmetric", loss_factor=0.01).replace(
-            {"response.method": "reduced_modal"}))
+@pytest.mark.parametrize("loss", [{"loss_factor": 0.01}, {"rayleigh_beta": 1e-6},
+                                  {"prony": DAMPED["prony"]}], ids=["eta", "beta", "prony"])
+def test_reduced_modal_refuses_a_loss_of_its_own(loss):
+    """reduced_modal with a loss factor, Rayleigh or Prony: the one-line StudyError as the
+    study is read (``check`` says it too)."""
+    with pytest.raises(StudyError, match="response.method = 'reduced_modal' is not allowed"):
+        coarse("axisymmetric", **loss).replace({"response.method": "reduced_modal"})
+
+
+@pytest.mark.parametrize("command", ["check", "response"])
+def test_cli_refuses_reduced_modal_with_a_loss_of_its_own(tmp_path, capsys, command):
+    """Exit 2, one line naming the key, no folder."""
     out = tmp_path / "r"
-    assert main(["response", "studies/g1_z16_v2_quick.yaml", "--set",
-                 "response.method=reduced_modal", "--set", "membrane.rayleigh_alpha=10",
-                 "--out", str(out), "--quiet"]) == 2
+    argv = [command, "studies/g1_z16_v2_quick.yaml", "--set", "response.method=reduced_modal",
+            "--set", "membrane.rayleigh_alpha=10"]
+    assert main(argv + (["--out", str(out), "--quiet"] if command == "response" else [])) == 2
+    error = capsys.readouterr().err.strip().splitlines()
+    assert len(error) == 1 and "response.method" in error[0] and "Traceback" not in error[0]
     assert not out.exists()
 
 

@@ -86,11 +86,6 @@ def prepare_order_zero(study, engine: Engine | None = None) -> OrderZero:
     if study["load"]["voltage"] <= 0:
         raise StudyError("load.voltage = 0 is not allowed for `response`; allowed: > 0 V (the "
                          "linear forcing V_b dC/du vanishes without a bias)")
-    if study["response"]["method"] == "reduced_modal" and states_material_damping(study):
-        raise StudyError("response.method = reduced_modal is not allowed with a loss of the "
-                         "membrane's own (membrane.loss_factor, rayleigh_alpha, rayleigh_beta "
-                         "or prony: its modes would not diagonalise it); allowed: reduced, "
-                         "direct or modal")
     check_air_lift(study)
     return (engine or engine_for(study)).forced_problem(study)
 
