@@ -22,6 +22,7 @@ from copdea_fem.forced_response.run import (
     forced_response,
     modal_solution,
     prepare_order_zero,
+    reduced_modal_solution,
     resolved_method,
 )
 from copdea_fem.study import StudyError, parse_study
@@ -202,6 +203,26 @@ def test_reduced_modal_matches_the_modal_path_with_the_papers_bm(plain_meridian)
         np.testing.assert_allclose(getattr(mine, name), getattr(modal, name), rtol=5e-3)
     peak = int(np.argmax(modal.average_axial))
     assert mine.average_axial[peak] == pytest.approx(modal.average_axial[peak], rel=1e-4)
+
+
+def test_reduced_modal_shifts_to_an_unconverged_structural_mode(plain_meridian, monkeypatch,
+                                                               caplog):
+    """A basis too small to converge its structural Ritz modes in the lines (6 Arnoldi steps
+    per shift): each such mode gets a shift of its own and the basis is built again, until
+    every structural mode it damps is converged (residual <= eigen.residual_tol)."""
+    from copdea_fem.forced_response import reduced_basis
+    original = reduced_basis.build_reduced_basis
+    monkeypatch.setattr(reduced_basis, "build_reduced_basis",
+                        lambda *args, **kwargs: original(*args, steps=6, **kwargs))
+    with caplog.at_level(logging.INFO, logger="copdea_fem"):
+        ritz, modes = reduced_modal_solution(plain_meridian, LINES)
+    assert any("not converged; shifts added" in r.getMessage() for r in caplog.records)
+    first = original(plain_meridian.forced, LINES, steps=6).shifts_hz
+    assert len(ritz.reduced.shifts_hz) > len(first)
+    damped = ritz.mode_index[ritz.damping_per_mass > 0]
+    assert damped.size and np.all(ritz.residuals[damped]
+                                  <= plain_meridian.study["eigen"]["residual_tol"])
+    assert "(0,1)" in [m.label for m in modes]
 
 
 @pytest.mark.slow
