@@ -47,6 +47,10 @@ BAD_ENCLOSURES = [
      "air.domain_radius", "farthest point"),
     ({"geometry": {**BAFFLE, "enclosure_depth": "nan"}}, "geometry.enclosure_depth", ""),
     ({"air": {"outside": "no thanks"}}, "air.outside", "true or false"),
+    ({"geometry": {"frame": "baffle", "enclosure": "bowl", "enclosure_depth": "40 mm"}},
+     "geometry.enclosure_depth", "at most a hemisphere"),
+    ({"geometry": {**BAFFLE, "enclosure_radius": "110 mm"}}, "air.domain_radius",
+     "the enclosure's top"),
 ]
 
 
