@@ -25,6 +25,7 @@ quickly, so meridian meshes are not cached.
 
 from __future__ import annotations
 
+import itertools
 import logging
 import math
 from dataclasses import dataclass
@@ -315,15 +316,16 @@ def build_enclosed_geometry(spec: MeridianSpec):
                else _CAVITY_MEMBRANE)
     breaks = sorted({0.0, a, r_o, *((r_i,) if has_disc else ()),
                      *((cavity.vent_radius,) if cavity.vent_radius > 0 else ())}, reverse=True)
-    for start, end in zip(breaks[:-1], breaks[1:]):
+    for start, end in itertools.pairwise(breaks):
         middle = 0.5 * (start + end)
         name = "vent" if middle < cavity.vent_radius else "enclosure"
         ends = (start, float(cavity.bottom(start))), (end, float(cavity.bottom(end)))
+        size = min(h_screen, 0.5 * cavity.vent_radius) if name == "vent" else h_screen
         if cavity.shape == "cylinder":
-            b.line(*ends, name, below, column(middle), h_screen)
+            b.line(*ends, name, below, column(middle), size)
         else:
             b.arc(ends[0], _tangent_intersection(cavity, start, end), ends[1], name, below,
-                  column(middle), h_screen)
+                  column(middle), size)
     names = {_UNDER_DISC: "air_upper", _UNDER_MEMBRANE: "air_upper", _UPPER_REST: "air_upper",
              _UPPER_PML: "pml_upper", _CAVITY_DISC: "cavity", _CAVITY_MEMBRANE: "cavity",
              _CAVITY_RIM: "cavity", _LOWER_AIR: "air_lower", _LOWER_PML: "pml_lower"}
