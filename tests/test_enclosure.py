@@ -1,9 +1,9 @@
-"""The enclosure under the membrane (geometry.enclosure*, air.outside): study checks."""
+"""The enclosure under the membrane (geometry.enclosure*, air.outside): study checks, the
+meridian cavity, cavity labels, closed-form verifications and the commands."""
 
 import math
 
 import numpy as np
-
 import pytest
 
 from copdea_fem.study import ENCLOSURE_AIR_SHARE, StudyError, engine_of, parse_study
