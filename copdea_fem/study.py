@@ -89,6 +89,10 @@ AXISYMMETRIC_ENCLOSURES = ("none", "cylinder", "bowl")
 #: The enclosure's farthest point must lie within this share of air.domain_radius, so that
 #: the outside air around it is meshed (frame none, circle, square).
 ENCLOSURE_AIR_SHARE = 0.8
+#: An enclosure's depth is at least this share of the outer radius, and its radii (vent,
+#: disc, membrane, enclosure, circular frame) are equal or this share of r_o apart: Netgen
+#: meshes the meridian at these limits in ~1 s, fails or hangs far below them.
+ENCLOSURE_MIN_DEPTH, ENCLOSURE_MIN_GAP = 0.02, 1e-4
 SCHEMA: dict[str, dict[str, Key]] = {
     "geometry": {
         "outer_radius": Key("m", 0.0355, f"outer radius r_o of the pre-stretched membrane ({G1})",
@@ -673,6 +677,10 @@ def _check_enclosure(v: dict[str, dict[str, Any]]) -> None:
                         "without an enclosure there is no air but the outside air")
         return
     r_o, depth, vent = g["outer_radius"], g["enclosure_depth"], g["enclosure_vent_radius"]
+    if depth < ENCLOSURE_MIN_DEPTH * r_o:
+        raise _fail("geometry.enclosure_depth", depth,
+                    f">= {ENCLOSURE_MIN_DEPTH * r_o:g} m = {ENCLOSURE_MIN_DEPTH:g} * "
+                    "geometry.outer_radius", "a thinner gap cannot be meshed sensibly")
     if enclosure == "box":
         if frame != "square":
             raise _fail("geometry.enclosure", enclosure, "cylinder or bowl with geometry.frame "
@@ -702,6 +710,8 @@ def _check_enclosure(v: dict[str, dict[str, Any]]) -> None:
     if vent >= half_width:
         raise _fail("geometry.enclosure_vent_radius", vent,
                     f"[0, {half_width:g}) m = narrower than the enclosure's bottom")
+    if enclosure != "box":
+        _check_enclosure_radii(g, vent, r_o)
     if vent > 0 and frame == "baffle":
         raise _fail("geometry.enclosure_vent_radius", vent, "0 with geometry.frame = baffle",
                     "with a baffle the enclosure replaces the lower half-space: no outside "
@@ -722,6 +732,32 @@ def _check_enclosure(v: dict[str, dict[str, Any]]) -> None:
                     f"the enclosure's farthest point ({farthest:g} m from the centre) must lie "
                     f"within {ENCLOSURE_AIR_SHARE:g} of the air sphere's radius, with outside "
                     "air around it")
+
+
+def _check_enclosure_radii(g: dict[str, Any], vent: float, r_o: float) -> None:
+    """The radii where the meridian's lines meet: equal or :data:`ENCLOSURE_MIN_GAP` r_o
+    apart (a vent of 0 is none; the frame's only with frame circle)."""
+    gap = ENCLOSURE_MIN_GAP * r_o
+    radii = {"geometry.inner_radius": g["inner_radius"], "geometry.outer_radius": r_o,
+             "geometry.enclosure_radius": g["enclosure_radius"]}
+    if g["frame"] == "circle":
+        radii["geometry.frame_radius"] = g["frame_radius"]
+    if 0 < vent < gap:
+        raise _fail("geometry.enclosure_vent_radius", vent,
+                    f"0 or >= {gap:g} m = {ENCLOSURE_MIN_GAP:g} * geometry.outer_radius",
+                    "a smaller vent cannot be meshed")
+    for name, radius in radii.items():
+        if radius > 0 and vent > 0 and 0 < abs(vent - radius) < gap:
+            raise _fail("geometry.enclosure_vent_radius", vent, f"equal to {name} = "
+                        f"{radius:g} m or at least {gap:g} m from it",
+                        "the lines meeting there cannot be meshed")
+    for name in ("geometry.enclosure_radius", "geometry.frame_radius"):
+        if name not in radii:
+            continue
+        for other, radius in radii.items():
+            if other != name and 0 < abs(radii[name] - radius) < gap:
+                raise _fail(name, radii[name], f"equal to {other} = {radius:g} m or at least "
+                            f"{gap:g} m from it", "the lines meeting there cannot be meshed")
 
 
 def engine_of(study) -> str:

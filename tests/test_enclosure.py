@@ -53,6 +53,18 @@ BAD_ENCLOSURES = [
      "geometry.enclosure_depth", "at most a hemisphere"),
     ({"geometry": {**BAFFLE, "enclosure_radius": "110 mm"}}, "air.domain_radius",
      "the enclosure's top"),
+    # geometries Netgen cannot mesh (touching radii, a hairline gap or vent)
+    ({"geometry": {**BAFFLE, "enclosure_depth": "1e-7 m"}}, "geometry.enclosure_depth",
+     ">= 0.00071 m"),
+    ({"geometry": {**BAFFLE, "enclosure_radius": 0.0355 + 1e-9}}, "geometry.enclosure_radius",
+     "equal to geometry.outer_radius"),
+    ({"geometry": {"frame": "none", "enclosure": "cylinder", "enclosure_vent_radius": 1e-9}},
+     "geometry.enclosure_vent_radius", "0 or >= 3.55e-06 m"),
+    ({"geometry": {"frame": "none", "enclosure": "cylinder", "enclosure_vent_radius": 0.017 + 1e-9}},
+     "geometry.enclosure_vent_radius", "equal to geometry.inner_radius"),
+    ({"geometry": {"frame": "circle", "frame_radius": "50 mm", "enclosure": "cylinder",
+                   "enclosure_radius": 0.05 - 1e-9}},
+     "geometry.enclosure_radius", "equal to geometry.frame_radius"),
 ]
 
 
