@@ -351,3 +351,22 @@ def test_response_refusals_over_an_enclosure(tmp_path):
         sets = [item for value in extra for item in ("--set", value)]
         assert main(["response", str(BOXED), "--out", str(out), *sets]) == 2
         assert not out.exists()
+
+
+def test_the_api_gives_a_cavity_mode_and_its_air():
+    """cf.solve of a membrane over a sealed cylinder, air inside only: the cavity modes in
+    the modes table by their labels, and Solution.air of one: the cavity's cells only,
+    the pressure's nodal surface across the depth where cos(pi z / L) has it (z = -L/2)."""
+    import copdea_fem as cf
+    study = _membrane_study(geometry={"enclosure": "cylinder", "enclosure_depth": A},
+                            membrane={"density": 1e5, "prestretch": 2, "c10": "1000 MPa"},
+                            air={"enabled": True, "outside": False},
+                            eigen={"f_max": 5000})
+    solution = cf.solve(study)
+    labels = set(solution.modes["label"])
+    assert {"cavity(1,0,0)a", "cavity(1,0,0)b", "cavity(0,0,1)"} <= labels
+    grid = solution.air("cavity(0,0,1)")
+    assert set(np.unique(grid.cell_data["cavity"])) == {1}
+    pressure = np.asarray(grid.point_data["pressure_real"])
+    z = grid.points[:, 2]
+    assert np.all(np.sign(pressure[z > -0.3 * A]) == -np.sign(pressure[z < -0.7 * A][0]))
