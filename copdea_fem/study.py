@@ -418,6 +418,11 @@ def above(value: float, bound: float) -> bool:
     return value - bound > ROUND_OFF_ULPS * math.ulp(max(abs(value), abs(bound)))
 
 
+def apart(first: float, second: float) -> bool:
+    """Whether two values differ beyond round-off (:func:`above` either way)."""
+    return above(first, second) or above(second, first)
+
+
 def _fail(key: str, value: Any, allowed: str, why: str = "") -> StudyError:
     why = f" ({why})" if why else ""
     return StudyError(f"{key} = {preview(value)} is not allowed{why}; allowed: {allowed}")
@@ -752,7 +757,7 @@ def _check_enclosure(v: dict[str, dict[str, Any]]) -> None:
                         "without an enclosure there is no air but the outside air")
         return
     r_o, depth, vent = g["outer_radius"], g["enclosure_depth"], g["enclosure_vent_radius"]
-    if depth < ENCLOSURE_MIN_DEPTH * r_o:
+    if above(ENCLOSURE_MIN_DEPTH * r_o, depth):
         raise _fail("geometry.enclosure_depth", depth,
                     f">= {ENCLOSURE_MIN_DEPTH * r_o:g} m = {ENCLOSURE_MIN_DEPTH:g} * "
                     "geometry.outer_radius", "a thinner gap cannot be meshed sensibly")
@@ -764,25 +769,25 @@ def _check_enclosure(v: dict[str, dict[str, Any]]) -> None:
         farthest = math.hypot(half_width * math.sqrt(2), depth)
     else:
         radius = g["enclosure_radius"]
-        if radius < r_o:
+        if above(r_o, radius):
             raise _fail("geometry.enclosure_radius", radius,
                         f">= {r_o:g} m = geometry.outer_radius",
                         "the enclosure's rim is sealed to the membrane's rim")
-        if frame == "circle" and radius > g["frame_radius"]:
+        if frame == "circle" and above(radius, g["frame_radius"]):
             raise _fail("geometry.enclosure_radius", radius,
                         f"<= {g['frame_radius']:g} m = geometry.frame_radius",
                         "the enclosure sits under the circular frame")
-        if frame == "square" and radius >= 0.5 * g["frame_side"]:
+        if frame == "square" and not above(0.5 * g["frame_side"], radius):
             raise _fail("geometry.enclosure_radius", radius,
                         f"< {0.5 * g['frame_side']:g} m = half geometry.frame_side",
                         "the enclosure sits under the square frame")
-        if enclosure == "bowl" and depth > radius:
+        if enclosure == "bowl" and above(depth, radius):
             raise _fail("geometry.enclosure_depth", depth,
                         f"(0, {radius:g}] m = at most geometry.enclosure_radius",
                         "a bowl is a spherical cap, at most a hemisphere")
         half_width = radius
         farthest = math.hypot(radius, depth)
-    if vent >= half_width:
+    if not above(half_width, vent):
         raise _fail("geometry.enclosure_vent_radius", vent,
                     f"[0, {half_width:g}) m = narrower than the enclosure's bottom")
     if enclosure != "box":
@@ -798,11 +803,11 @@ def _check_enclosure(v: dict[str, dict[str, Any]]) -> None:
         raise _fail("air.outside", False, "true when air.enabled = false",
                     "there is no air to keep")
     R = air["domain_radius"]
-    if frame == "baffle" and half_width > ENCLOSURE_AIR_SHARE * R:
+    if frame == "baffle" and above(half_width, ENCLOSURE_AIR_SHARE * R):
         raise _fail("air.domain_radius", R, f">= {half_width / ENCLOSURE_AIR_SHARE:g} m",
                     f"the enclosure's top (radius {half_width:g} m) must lie within "
                     f"{ENCLOSURE_AIR_SHARE:g} of the air sphere's radius")
-    if frame != "baffle" and air["outside"] and farthest > ENCLOSURE_AIR_SHARE * R:
+    if frame != "baffle" and air["outside"] and above(farthest, ENCLOSURE_AIR_SHARE * R):
         raise _fail("air.domain_radius", R, f">= {farthest / ENCLOSURE_AIR_SHARE:g} m",
                     f"the enclosure's farthest point ({farthest:g} m from the centre) must lie "
                     f"within {ENCLOSURE_AIR_SHARE:g} of the air sphere's radius, with outside "
@@ -822,7 +827,7 @@ def _check_enclosure_radii(g: dict[str, Any], vent: float, r_o: float) -> None:
                     f"0 or >= {gap:g} m = {ENCLOSURE_MIN_GAP:g} * geometry.outer_radius",
                     "a smaller vent cannot be meshed")
     for name, radius in radii.items():
-        if radius > 0 and vent > 0 and 0 < abs(vent - radius) < gap:
+        if radius > 0 and vent > 0 and apart(vent, radius) and abs(vent - radius) < gap:
             raise _fail("geometry.enclosure_vent_radius", vent, f"equal to {name} = "
                         f"{radius:g} m or at least {gap:g} m from it",
                         "the lines meeting there cannot be meshed")
@@ -830,7 +835,7 @@ def _check_enclosure_radii(g: dict[str, Any], vent: float, r_o: float) -> None:
         if name not in radii:
             continue
         for other, radius in radii.items():
-            if other != name and 0 < abs(radii[name] - radius) < gap:
+            if other != name and apart(radii[name], radius) and abs(radii[name] - radius) < gap:
                 raise _fail(name, radii[name], f"equal to {other} = {radius:g} m or at least "
                             f"{gap:g} m from it", "the lines meeting there cannot be meshed")
 

@@ -395,3 +395,18 @@ def test_a_sealed_box_radiates_as_a_monopole_into_the_half_space_or_the_whole():
     assert velocity_ratio == pytest.approx(1, abs=3e-3)
     difference = results["baffle"].spl_db[:, 0] - results["none"].spl_db[:, 0]
     assert difference == pytest.approx(20 * np.log10(2), abs=0.3)
+
+
+def test_radii_written_with_units_meet_where_they_are_equal():
+    """"35.5 mm" is 0.035500000000000004 m, one ulp above the default r_o = 0.0355: an
+    enclosure radius written that way equals r_o within round-off, is accepted and meshed
+    as r_o itself (no sliver of a top wall for Netgen)."""
+    from copdea_fem.fe.axisymmetric.meridian import MeridianSpec, meridian_mesh
+    study = parse_study({"geometry": {"frame": "none", "enclosure": "cylinder",
+                                      "enclosure_radius": "35.5 mm",
+                                      "enclosure_vent_radius": "5 mm"},
+                         "air": {"enabled": True}})
+    assert study["geometry"]["enclosure_radius"] != study["geometry"]["outer_radius"]
+    spec = MeridianSpec.from_study(study)
+    assert spec.enclosure_radius == spec.outer_radius
+    assert meridian_mesh(spec, 2).ne > 0
