@@ -328,14 +328,18 @@ SCHEMA["excitation"] = {
 
 # Forced harmonic response of the coupled FE and its sound (copdea_fem.forced_response).
 SCHEMA["response"] = {
-    "method": Key(None, "auto", "auto = reduced on the 3-D engine when the membrane states "
-                  "its own loss (loss_factor, Rayleigh or Prony), else modal; modal = "
+    "method": Key(None, "auto", "auto = on the 3-D engine reduced when the membrane states "
+                  "its own loss (loss_factor, Rayleigh or Prony), else reduced_modal; modal on "
+                  "the axisymmetric engine; modal = "
                   "superposition of the coupled m = 0 modes with the "
                   "paper's modal damping reduced.damping_* and a residual correction; direct = "
                   "one sparse solve per line with membrane.loss_factor (no modal b/m); reduced = "
                   "the direct path's model (loss factor, Rayleigh, Prony; no modal b/m) projected "
-                  "on a rational Krylov basis from a few shifts in the band (docs/response.md)",
-                  kind=str, choices=("auto", "modal", "direct", "reduced")),
+                  "on a rational Krylov basis from a few shifts in the band; reduced_modal = "
+                  "that basis without a loss of its own, its modes damped with the paper's "
+                  "reduced.damping_* as the modal path damps its modes (no loss factor, "
+                  "Rayleigh or Prony) (docs/response.md)",
+                  kind=str, choices=("auto", "modal", "direct", "reduced", "reduced_modal")),
     "reduced_tol": Key(None, 1e-7, "reduced path: largest relative residual "
                        "|T(omega) x_r - F| / |F| accepted on every line; shifts are added where "
                        "it is largest", minimum=1e-14, maximum=1e-2),
@@ -745,6 +749,14 @@ def _check_across_keys(v: dict[str, dict[str, Any]]) -> None:
                     "cannot mesh it")
     _check_reduced_keys(v)
     listed_microphones(v["response"]["microphones"], g["frame"], g["enclosure"])
+    m = v["membrane"]
+    if v["response"]["method"] == "reduced_modal" and (
+            m["loss_factor"] > 0 or m["rayleigh_alpha"] > 0 or m["rayleigh_beta"] > 0
+            or m["prony"]):
+        raise _fail("response.method", "reduced_modal", "auto, modal, direct or reduced with a "
+                    "loss of the membrane's own (membrane.loss_factor, rayleigh_alpha, "
+                    "rayleigh_beta or prony)", "the reduced basis's modes would not "
+                    "diagonalise that loss")
 
 
 def _check_enclosure(v: dict[str, dict[str, Any]]) -> None:
