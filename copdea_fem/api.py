@@ -360,13 +360,15 @@ class Solution:
 
     def air(self, label: str) -> pv.UnstructuredGrid:
         """pyvista grid of the air with mode ``label``'s pressure (re/im/abs, Pa per unit peak
-        membrane displacement; cell data ``pml``, ``lower_half``), equal to its
-        ``air_NNN_<label>.vtu``.  Only for a coupled solve (``air.enabled: true``).
+        membrane displacement; cell data ``pml``, ``lower_half`` and, with an enclosure,
+        ``cavity``), the blocks of its ``air_NNN_<label>*.vtu`` in one grid.  Only for a
+        coupled solve (``air.enabled: true``).
 
         Parameters
         ----------
         label : str
-            A mode label of :attr:`labels`, e.g. ``"(0,1)"``.
+            A mode label of :attr:`labels`, e.g. ``"(0,1)"``, or an enclosure's cavity mode,
+            e.g. ``"cavity(1,0,0)a"`` (docs/enclosures.md).
 
         Returns
         -------
@@ -383,8 +385,9 @@ class Solution:
         if coupled is None:
             raise StudyError("air.enabled = false has no air field; allowed: a coupled solve "
                              "(air.enabled: true)")
-        index = self._find(label)
-        mode = self._structural()[index]
+        cavity = [mode for mode in self.result.modes if mode.cavity_orders
+                  and mode.label == label]
+        mode = cavity[0] if cavity else self._structural()[self._find(label)]
         k = next(k for k, item in enumerate(self.result.modes) if item is mode)
         pressure = coupled.pressures[k]
         with self.engine.threads():

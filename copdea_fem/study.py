@@ -85,6 +85,16 @@ class Key:
 G1 = "Table 1, G1"
 ENGINES = ("auto", "3d", "axisymmetric")
 AXISYMMETRIC_FRAMES = ("none", "baffle", "circle")
+ENCLOSURES = ("none", "cylinder", "bowl", "box")
+#: Enclosures the axisymmetric engine meshes (a box is 3-D only).
+AXISYMMETRIC_ENCLOSURES = ("none", "cylinder", "bowl")
+#: The enclosure's farthest point must lie within this share of air.domain_radius, so that
+#: the outside air around it is meshed (frame none, circle, square).
+ENCLOSURE_AIR_SHARE = 0.8
+#: An enclosure's depth is at least this share of the outer radius, and its radii (vent,
+#: disc, membrane, enclosure, circular frame) are equal or this share of r_o apart: Netgen
+#: meshes the meridian at these limits in ~1 s, fails or hangs far below them.
+ENCLOSURE_MIN_DEPTH, ENCLOSURE_MIN_GAP = 0.02, 1e-4
 SCHEMA: dict[str, dict[str, Key]] = {
     "geometry": {
         "outer_radius": Key("m", 0.0355, f"outer radius r_o of the pre-stretched membrane ({G1})",
@@ -100,6 +110,28 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "frame_radius": Key("m", None, "outer radius of the circular frame (frame: circle)",
                             minimum=0, maximum=2.0, open_min=True,
                             derived="0.5 * geometry.frame_side"),
+        "enclosure": Key(None, "none", "rigid closed back under the membrane, on z < 0 (away "
+                         "from the disc's travel), its rim sealed to the membrane's rim: none "
+                         "(open back), cylinder, bowl (a spherical cap, a drum's kettle) or box "
+                         "(under the square frame, 3-D engine). The air inside (region "
+                         "'cavity') is meshed and coupled like the outside air; with frame "
+                         "baffle it replaces the lower half-space, with frame none it stands in "
+                         "free air (its outside reflects), with a circle or square frame it "
+                         "sits under the frame (docs/enclosures.md). Needs air.enabled to act",
+                         kind=str, choices=ENCLOSURES),
+        "enclosure_depth": Key("m", None, "depth L of the enclosure below the membrane plane "
+                               "(bowl: the cap's depth at its centre)", minimum=0, maximum=10,
+                               open_min=True, derived="geometry.outer_radius"),
+        "enclosure_radius": Key("m", None, "radius of the cylinder (bowl: of the cap's rim) "
+                                "sealed to the membrane plane; >= geometry.outer_radius, the "
+                                "top between r_o and this radius is rigid wall (with frame "
+                                "circle: <= geometry.frame_radius); ignored for box (its side "
+                                "is geometry.frame_side)", minimum=0, maximum=10,
+                                open_min=True, derived="geometry.outer_radius"),
+        "enclosure_vent_radius": Key("m", 0.0, "radius of a circular vent in the enclosure's "
+                                     "bottom, centred on the axis, open to the outside air "
+                                     "(region boundary 'vent'); 0 = sealed", minimum=0,
+                                     maximum=10),
     },
     "membrane": {
         "thickness": Key("m", 100e-6, "film thickness h0 before pre-stretch (Table 1)",
@@ -166,6 +198,10 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "pml_thickness": Key("m", None, "radial thickness of the PML shell (Sect. 5.1)",
                              minimum=0, maximum=10, open_min=True,
                              derived="0.5 * geometry.outer_radius"),
+        "outside": Key(None, True, "mesh the outside air (the PML sphere); false = only the "
+                       "air inside the enclosure (needs geometry.enclosure != none, "
+                       "air.enabled and no vent): the membrane over a sealed cavity in vacuo",
+                       kind=bool),
         "min_membrane_energy": Key(None, 0.1, "coupled modes whose membrane (+ disc) share of "
                                    "the kinetic energy is below this are air/PML modes "
                                    "(kind air); 0.1 keeps structural modes with added "
@@ -292,14 +328,18 @@ SCHEMA["excitation"] = {
 
 # Forced harmonic response of the coupled FE and its sound (copdea_fem.forced_response).
 SCHEMA["response"] = {
-    "method": Key(None, "auto", "auto = reduced on the 3-D engine when the membrane states "
-                  "its own loss (loss_factor, Rayleigh or Prony), else modal; modal = "
+    "method": Key(None, "auto", "auto = on the 3-D engine reduced when the membrane states "
+                  "its own loss (loss_factor, Rayleigh or Prony), else reduced_modal; modal on "
+                  "the axisymmetric engine; modal = "
                   "superposition of the coupled m = 0 modes with the "
                   "paper's modal damping reduced.damping_* and a residual correction; direct = "
                   "one sparse solve per line with membrane.loss_factor (no modal b/m); reduced = "
                   "the direct path's model (loss factor, Rayleigh, Prony; no modal b/m) projected "
-                  "on a rational Krylov basis from a few shifts in the band (docs/response.md)",
-                  kind=str, choices=("auto", "modal", "direct", "reduced")),
+                  "on a rational Krylov basis from a few shifts in the band; reduced_modal = "
+                  "that basis without a loss of its own, its modes damped with the paper's "
+                  "reduced.damping_* as the modal path damps its modes (no loss factor, "
+                  "Rayleigh or Prony) (docs/response.md)",
+                  kind=str, choices=("auto", "modal", "direct", "reduced", "reduced_modal")),
     "reduced_tol": Key(None, 1e-7, "reduced path: largest relative residual "
                        "|T(omega) x_r - F| / |F| accepted on every line; shifts are added where "
                        "it is largest", minimum=1e-14, maximum=1e-2),
@@ -380,6 +420,11 @@ def above(value: float, bound: float) -> bool:
     """``value > bound`` beyond round-off (:data:`ROUND_OFF_ULPS`): a value within a few
     ulps of an open bound is on it, as the number written without a unit would be."""
     return value - bound > ROUND_OFF_ULPS * math.ulp(max(abs(value), abs(bound)))
+
+
+def apart(first: float, second: float) -> bool:
+    """Whether two values differ beyond round-off (:func:`above` either way)."""
+    return above(first, second) or above(second, first)
 
 
 def _fail(key: str, value: Any, allowed: str, why: str = "") -> StudyError:
@@ -625,6 +670,9 @@ def _derived_defaults(v: dict[str, dict[str, Any]], name: str) -> None:
             v[section][key] = factor * r_o
     if v["geometry"]["frame_radius"] is None:
         v["geometry"]["frame_radius"] = 0.5 * v["geometry"]["frame_side"]
+    for key in ("enclosure_depth", "enclosure_radius"):
+        if v["geometry"][key] is None:
+            v["geometry"][key] = r_o
     if v["output"]["directory"] is None:
         v["output"]["directory"] = f"results/{name}"
 
@@ -663,6 +711,7 @@ def _check_across_keys(v: dict[str, dict[str, Any]]) -> None:
     if engine == "3d" and g["frame"] == "circle":
         raise _fail("mesh.engine", engine, "axisymmetric or auto with geometry.frame = circle",
                     "the 3-D mesh has no circular frame")
+    _check_enclosure(v)
     if r_i == 0:
         if load["z"] != 0:
             raise _fail("load.z", load["z"], "0 m when geometry.inner_radius = 0",
@@ -699,14 +748,122 @@ def _check_across_keys(v: dict[str, dict[str, Any]]) -> None:
                     f"more than {MAX_ELEMENTS_ACROSS} elements across the membrane: Netgen "
                     "cannot mesh it")
     _check_reduced_keys(v)
-    listed_microphones(v["response"]["microphones"], g["frame"])
+    listed_microphones(v["response"]["microphones"], g["frame"], g["enclosure"])
+    m = v["membrane"]
+    if v["response"]["method"] == "reduced_modal" and (
+            m["loss_factor"] > 0 or m["rayleigh_alpha"] > 0 or m["rayleigh_beta"] > 0
+            or m["prony"]):
+        raise _fail("response.method", "reduced_modal", "auto, modal, direct or reduced with a "
+                    "loss of the membrane's own (membrane.loss_factor, rayleigh_alpha, "
+                    "rayleigh_beta or prony)", "the reduced basis's modes would not "
+                    "diagonalise that loss")
+
+
+def _check_enclosure(v: dict[str, dict[str, Any]]) -> None:
+    """Cross-key checks of geometry.enclosure* and air.outside (docs/enclosures.md)."""
+    g, air = v["geometry"], v["air"]
+    enclosure, frame = g["enclosure"], g["frame"]
+    if enclosure == "none":
+        if not air["outside"]:
+            raise _fail("air.outside", False, "true with geometry.enclosure = none",
+                        "without an enclosure there is no air but the outside air")
+        return
+    r_o, depth, vent = g["outer_radius"], g["enclosure_depth"], g["enclosure_vent_radius"]
+    if above(ENCLOSURE_MIN_DEPTH * r_o, depth):
+        raise _fail("geometry.enclosure_depth", depth,
+                    f">= {ENCLOSURE_MIN_DEPTH * r_o:g} m = {ENCLOSURE_MIN_DEPTH:g} * "
+                    "geometry.outer_radius", "a thinner gap cannot be meshed sensibly")
+    if enclosure == "box":
+        if frame != "square":
+            raise _fail("geometry.enclosure", enclosure, "cylinder or bowl with geometry.frame "
+                        f"= {frame}", "a box sits under the square frame (frame: square)")
+        half_width = 0.5 * g["frame_side"]
+        farthest = math.hypot(half_width * math.sqrt(2), depth)
+    else:
+        radius = g["enclosure_radius"]
+        if above(r_o, radius):
+            raise _fail("geometry.enclosure_radius", radius,
+                        f">= {r_o:g} m = geometry.outer_radius",
+                        "the enclosure's rim is sealed to the membrane's rim")
+        if frame == "circle" and above(radius, g["frame_radius"]):
+            raise _fail("geometry.enclosure_radius", radius,
+                        f"<= {g['frame_radius']:g} m = geometry.frame_radius",
+                        "the enclosure sits under the circular frame")
+        if frame == "square" and not above(0.5 * g["frame_side"], radius):
+            raise _fail("geometry.enclosure_radius", radius,
+                        f"< {0.5 * g['frame_side']:g} m = half geometry.frame_side",
+                        "the enclosure sits under the square frame")
+        if enclosure == "bowl" and above(depth, radius):
+            raise _fail("geometry.enclosure_depth", depth,
+                        f"(0, {radius:g}] m = at most geometry.enclosure_radius",
+                        "a bowl is a spherical cap, at most a hemisphere")
+        half_width = radius
+        farthest = math.hypot(radius, depth)
+    if not above(half_width, vent):
+        raise _fail("geometry.enclosure_vent_radius", vent,
+                    f"[0, {half_width:g}) m = narrower than the enclosure's bottom")
+    if enclosure != "box":
+        _check_enclosure_radii(g, vent, r_o)
+    if vent > 0 and frame == "baffle":
+        raise _fail("geometry.enclosure_vent_radius", vent, "0 with geometry.frame = baffle",
+                    "with a baffle the enclosure replaces the lower half-space: no outside "
+                    "air for the vent to open to")
+    if vent > 0 and not air["outside"]:
+        raise _fail("geometry.enclosure_vent_radius", vent, "0 with air.outside = false",
+                    "a vent opens to the outside air")
+    if not air["outside"] and not air["enabled"]:
+        raise _fail("air.outside", False, "true when air.enabled = false",
+                    "there is no air to keep")
+    R = air["domain_radius"]
+    if frame == "baffle" and above(half_width, ENCLOSURE_AIR_SHARE * R):
+        raise _fail("air.domain_radius", R, f">= {half_width / ENCLOSURE_AIR_SHARE:g} m",
+                    f"the enclosure's top (radius {half_width:g} m) must lie within "
+                    f"{ENCLOSURE_AIR_SHARE:g} of the air sphere's radius")
+    if frame != "baffle" and air["outside"] and above(farthest, ENCLOSURE_AIR_SHARE * R):
+        raise _fail("air.domain_radius", R, f">= {farthest / ENCLOSURE_AIR_SHARE:g} m",
+                    f"the enclosure's farthest point ({farthest:g} m from the centre) must lie "
+                    f"within {ENCLOSURE_AIR_SHARE:g} of the air sphere's radius, with outside "
+                    "air around it")
+
+
+def _check_enclosure_radii(g: dict[str, Any], vent: float, r_o: float) -> None:
+    """The radii where the meridian's lines meet: equal or :data:`ENCLOSURE_MIN_GAP` r_o
+    apart (a vent of 0 is none; the frame's only with frame circle)."""
+    gap = ENCLOSURE_MIN_GAP * r_o
+    radii = {"geometry.inner_radius": g["inner_radius"], "geometry.outer_radius": r_o,
+             "geometry.enclosure_radius": g["enclosure_radius"]}
+    if g["frame"] == "circle":
+        radii["geometry.frame_radius"] = g["frame_radius"]
+    if 0 < vent < gap:
+        raise _fail("geometry.enclosure_vent_radius", vent,
+                    f"0 or >= {gap:g} m = {ENCLOSURE_MIN_GAP:g} * geometry.outer_radius",
+                    "a smaller vent cannot be meshed")
+    for name, radius in radii.items():
+        if radius > 0 and vent > 0 and apart(vent, radius) and abs(vent - radius) < gap:
+            raise _fail("geometry.enclosure_vent_radius", vent, f"equal to {name} = "
+                        f"{radius:g} m or at least {gap:g} m from it",
+                        "the lines meeting there cannot be meshed")
+    for name in ("geometry.enclosure_radius", "geometry.frame_radius"):
+        if name not in radii:
+            continue
+        for other, radius in radii.items():
+            if other != name and apart(radii[name], radius) and abs(radii[name] - radius) < gap:
+                raise _fail(name, radii[name], f"equal to {other} = {radius:g} m or at least "
+                            f"{gap:g} m from it", "the lines meeting there cannot be meshed")
 
 
 def engine_of(study) -> str:
-    """The FE engine a study runs on: ``"axisymmetric"`` or ``"3d"`` (key mesh.engine)."""
+    """The FE engine a study runs on: ``"axisymmetric"`` or ``"3d"`` (key mesh.engine).
+
+    ``auto`` picks the axisymmetric engine for a frame none, baffle or circle with no
+    enclosure, a cylinder or a bowl; else the 3-D engine.
+    """
     engine = study["mesh"]["engine"]
     if engine == "auto":
-        return "axisymmetric" if study["geometry"]["frame"] in AXISYMMETRIC_FRAMES else "3d"
+        g = study["geometry"]
+        axisymmetric = (g["frame"] in AXISYMMETRIC_FRAMES
+                        and g.get("enclosure", "none") in AXISYMMETRIC_ENCLOSURES)
+        return "axisymmetric" if axisymmetric else "3d"
     return engine
 
 
@@ -761,8 +918,8 @@ MICROPHONES_ALLOWED = "'name = x, y, z; ...' with lengths, e.g. 'side = 0.5 m, 0
 DEFAULT_MICROPHONE = "axis"
 
 
-def listed_microphones(text: str,
-                       frame: str = "square") -> list[tuple[str, tuple[float, float, float]]]:
+def listed_microphones(text: str, frame: str = "square",
+                       enclosure: str = "none") -> list[tuple[str, tuple[float, float, float]]]:
     """The microphones of ``response.microphones`` (``"name = x, y, z; ..."``, units
     allowed, a bare number in m): named positions (x, y, z) [m], checked.
 
@@ -771,7 +928,8 @@ def listed_microphones(text: str,
     microphone's, :data:`DEFAULT_MICROPHONE`, included), a coordinate that is not a length
     in [-1e4, 1e4] m, a point at the origin (the membrane's centre), and with
     ``frame = "baffle"`` a point on the rigid plane z = 0 (the Rayleigh integral is taken on
-    the microphone's side of the baffle).  Called when a study is read, so a bad list never
+    the microphone's side of the baffle), and with a baffle over an enclosure a point
+    below it (z < 0: the enclosure replaces the lower half-space).  Called when a study is read, so a bad list never
     reaches a solve; the forced response adds the default microphone
     (:func:`copdea_fem.forced_response.run.parse_microphones`).
     """
@@ -793,6 +951,10 @@ def listed_microphones(text: str,
         if not any(position):
             raise _fail(key, text, "a point away from the membrane centre",
                         f"microphone {name!r} at the origin")
+        if frame == "baffle" and enclosure != "none" and position[2] < 0:
+            raise _fail(key, text, "z > 0 with geometry.frame = baffle over an enclosure",
+                        f"microphone {name!r} at z < 0 lies inside the enclosure's "
+                        f"half-space (position {list(position)} m)")
         if frame == "baffle" and position[2] == 0:
             raise _fail(key, text, "z != 0 with geometry.frame = baffle", f"microphone {name!r} "
                         f"at z = 0 lies on the rigid plane (position {list(position)} m)")

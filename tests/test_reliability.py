@@ -212,6 +212,8 @@ def _quality(text):
     return {"q.csv": text}
 
 
+#: G1 in a baffle over a sealed cylinder (geometry.enclosure)
+ENCLOSED = ("--set", "geometry.frame=baffle", "--set", "geometry.enclosure=cylinder")
 BAD_STUDY_TEXT = "is not valid YAML"
 CASES = [
     # 1. numbers as people write them
@@ -351,6 +353,32 @@ CASES = [
     Case("touching radii", 3, "geometry.inner_radius = 0.035500000000000004 is not allowed; "
          "allowed: [0, 0.0355) m",
          argv=("check", QUICK, "--set", "geometry.inner_radius=35.5 mm")),
+    # an enclosure under the membrane (docs/enclosures.md)
+    Case("an enclosure rim touching the membrane's", 3, "geometry.enclosure_radius = "
+         "0.035500000100000005 is not allowed (the lines meeting there cannot be meshed); "
+         "allowed: equal to geometry.outer_radius",
+         argv=("check", QUICK, *ENCLOSED, "--set", "geometry.enclosure_radius=35.5000001 mm")),
+    Case("a hairline enclosure", 3, "geometry.enclosure_depth = 1e-07 is not allowed",
+         argv=("solve", QUICK, *ENCLOSED, "--set", "geometry.enclosure_depth=0.1 um", "--out",
+               "{work}/r")),
+    Case("a hairline vent", 3, "geometry.enclosure_vent_radius = 1e-09 is not allowed",
+         argv=("check", QUICK, *ENCLOSED, "--set", "geometry.frame=none", "--set",
+               "geometry.enclosure_vent_radius=1 nm")),
+    Case("a vent in a baffle", 3, "(with a baffle the enclosure replaces the lower",
+         argv=("check", QUICK, *ENCLOSED, "--set", "geometry.enclosure_vent_radius=5 mm")),
+    Case("a box without the square frame", 3, "geometry.enclosure = 'box' is not allowed",
+         argv=("check", QUICK, *ENCLOSED, "--set", "geometry.enclosure=box")),
+    Case("an enclosure past the air sphere, solve", 3, "the enclosure's farthest point "
+         "(0.203126 m from the centre) must lie within 0.8", argv=("solve", QUICK, *ENCLOSED, "--set", "geometry.frame=none", "--set",
+                          "geometry.enclosure_depth=0.2 m", "--out", "{work}/r")),
+    Case("only the cavity's air without a cavity", 3, "air.outside = False is not allowed",
+         argv=("check", QUICK, "--set", "air.outside=false")),
+    Case("a modal response over a sealed box", 3, "response.method = modal is not allowed "
+         "with a sealed enclosure", argv=("response", QUICK, *ENCLOSED, "--set",
+                                          "response.method=modal", "--out", "{work}/r")),
+    Case("a response without the outside air", 3, "air.outside = false is not allowed for "
+         "`response`", argv=("response", QUICK, *ENCLOSED, "--set", "geometry.frame=none",
+                             "--set", "air.outside=false", "--out", "{work}/r")),
     # 4. files
     Case("empty study file", 4, "is not allowed (empty file); allowed: a UTF-8 text file of "
          "at most 1048576 bytes", argv=("solve", "{work}/study.yaml"), files={"study.yaml": ""}),

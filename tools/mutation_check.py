@@ -42,7 +42,7 @@ FIRST = ("tests/test_materials.py", "tests/test_damping.py", "tests/test_coupled
          "tests/test_axisymmetric.py",
          "tests/test_acoustics.py", "tests/test_coupled.py", "tests/test_symmetry.py",
          "tests/test_dry_modes.py", "tests/test_prestress.py", "tests/test_damping_fit.py",
-         "tests/test_response_reduced.py")
+         "tests/test_response_reduced.py", "tests/test_response_engines.py")
 
 
 @dataclass(frozen=True)
@@ -251,6 +251,20 @@ MUTATIONS = (
     Mutation("reduced_forcing_row", "copdea_fem/forced_response/reduced_basis.py",
              "rhs[n:2 * n] = self.force", "rhs[:n] = self.force",
              "reduced basis: the forcing in the wrong row of the linearisation"),
+    # --- the 3-D forced response pinned to the axisymmetric one ---------------------------
+    Mutation("quadrant_forcing_halved", "copdea_fem/fe/quadrant/forced.py",
+             "    return reduce_vector_3d(force, operators), balance",
+             "    return reduce_vector_3d(0.5 * force, operators), balance",
+             "3-D forced response: the voltage forcing halved (the engine's own use of the "
+             "shared forcing)"),
+    Mutation("shared_forcing_halved", "copdea_fem/fe/forced/harmonic.py",
+             "    force = -2.0 * (at_bias - at_zero) / voltage_b",
+             "    force = -1.0 * (at_bias - at_zero) / voltage_b",
+             "forced response: the shared voltage forcing halved (both engines)"),
+    Mutation("green_time_sign", "copdea_fem/fe/forced/radiation.py",
+             "        g = np.exp(1j * wavenumber * d) / (4 * np.pi * d)",
+             "        g = np.exp(-1j * wavenumber * d) / (4 * np.pi * d)",
+             "far field: the shared Green's function with the e^{+i omega t} sign (both engines)"),
 )
 
 

@@ -96,6 +96,9 @@ add an edge diffraction that the closed form does not have.
 
 from __future__ import annotations
 
+#: The air inside an enclosure (:mod:`copdea_fem.fe.axisymmetric.meridian`); its walls are
+#: the boundary ``enclosure``, its vent ``vent``.
+CAVITY = "cavity"
 UPPER = "air_upper|pml_upper"
 LOWER = "air_lower|pml_lower"
 AIR_AND_PML = "air_upper|air_lower|pml_upper|pml_lower"
@@ -119,6 +122,47 @@ PML_STRENGTH = 7.0
 #: with order 3: 0.02-0.35 %.  Factorising the default square-frame air (4 mm membrane
 #: mesh) costs a little more at PML order 3 than at 2, and 3.5x that at 4.
 PML_EXTRA_ORDER = 1
+
+
+def has_cavity(mesh) -> bool:
+    """Whether ``mesh`` holds the air of an enclosure (the volume :data:`CAVITY`)."""
+    return CAVITY in mesh.GetMaterials()
+
+
+def jump_side(mesh) -> str:
+    """Volumes where the pressure is ``p + q`` (:func:`pressure_space`): the cavity when the
+    mesh has an enclosure (the outside air is then all ``p``), else the lower half."""
+    return CAVITY if has_cavity(mesh) else LOWER
+
+
+def pressure_regions(mesh) -> list[tuple[str, str, bool]]:
+    """``(air volumes, PML volumes, with q)`` of each side of the screens (module doc):
+    ``p`` on the first, ``p + q`` where ``with q``; names of volumes the mesh lacks are left
+    out ('' = none)."""
+    present = set(mesh.GetMaterials())
+
+    def keep(pattern):
+        return "|".join(name for name in pattern.split("|") if name in present)
+
+    if has_cavity(mesh):
+        return [(keep("air_upper|air_lower"), keep(PML_REGIONS), False), (CAVITY, "", True)]
+    return [(keep("air_upper"), keep("pml_upper"), False),
+            (keep("air_lower"), keep("pml_lower"), True)]
+
+
+def enclosure_screen_faces(frame: str, outside: bool = True) -> str:
+    """Faces across which the pressure may jump with an enclosure (:func:`screen_faces`).
+
+    ``q`` lives in the cavity: the membrane and disc on its top; the frame over it; the
+    walls (``enclosure``) where outside air lies beyond them (frame none, circle, square).
+    ``outside`` false (only the cavity's air): ``membrane|disc``, where ``p`` is held at 0
+    (the vacuum above) and ``q`` carries the cavity's pressure (:func:`pressure_space`).
+    """
+    if not outside:
+        return "membrane|disc"
+    if frame == "baffle":
+        return "membrane|disc|frame"
+    return "membrane|disc|frame|enclosure"
 
 
 def screen_faces(frame: str) -> str:
@@ -147,6 +191,9 @@ def screen_faces(frame: str) -> str:
 
 
 PLANE_FACES = ("membrane", "disc", "frame", "aperture", "pml_plane")
+#: Faces of an enclosure: its rigid walls (a screen when outside air lies beyond them)
+#: and its vent (open: the pressure is continuous).
+ENCLOSURE_FACES = ("enclosure", "vent")
 
 
 def open_plane_faces(screens: str) -> str:
@@ -278,7 +325,8 @@ def set_order_in(space, mesh, regions: str, order: int) -> None:
 
 
 def pressure_space(mesh, order: int, screens: str, pml_order: int | None = None,
-                   outer_dirichlet: bool = True, also_dirichlet: str = ""):
+                   outer_dirichlet: bool = True, also_dirichlet: str = "",
+                   vacuum_above: bool = False):
     """Complex pressure space ``P x Q`` with a jump across the screens.
 
     Parameters
@@ -298,6 +346,15 @@ def pressure_space(mesh, order: int, screens: str, pml_order: int | None = None,
         ``p = 0`` on ``outer`` (needed by the unbounded PML profile).
     also_dirichlet : str
         More boundaries with ``p = q = 0`` (the meridian's ``axis`` for an order m >= 1).
+    vacuum_above : bool
+        Only the air of an enclosure is meshed (``air.outside: false``): ``p = 0`` on the
+        screens (the vacuum above them), the cavity's pressure there is ``q``.
+
+    With an enclosure (a mesh with the volume :data:`CAVITY`) ``q`` lives in the cavity
+    instead of the lower half: ``p`` is the outside air's pressure everywhere, ``p + q``
+    the cavity's; ``q`` keeps its degrees of freedom on the screens (the walls included
+    where outside air lies beyond them, :func:`enclosure_screen_faces`) and is zero on the
+    ``vent``, where the cavity opens to the outside air.
 
     Returns
     -------
@@ -308,16 +365,18 @@ def pressure_space(mesh, order: int, screens: str, pml_order: int | None = None,
     """
     from ngsolve import H1, Compress, FESpace
 
-    unknown = set(screens.split("|")) - set(PLANE_FACES)
+    unknown = set(screens.split("|")) - set(PLANE_FACES) - set(ENCLOSURE_FACES)
     if unknown:
         raise ValueError(f"screens = {screens!r} is not allowed; allowed: names of "
-                         f"{', '.join(PLANE_FACES)} joined by '|'")
+                         f"{', '.join(PLANE_FACES + ENCLOSURE_FACES)} joined by '|'")
     pml_order = order + PML_EXTRA_ORDER if pml_order is None else pml_order
-    open_plane = open_plane_faces(screens)
+    open_plane = "vent" if has_cavity(mesh) else open_plane_faces(screens)
     outer = "|".join(name for name in (OUTER if outer_dirichlet else "", also_dirichlet) if name)
-    continuous = H1(mesh, order=order, complex=True, definedon=mesh.Materials(AIR_AND_PML),
-                    dirichlet=outer)
-    jump = H1(mesh, order=order, complex=True, definedon=mesh.Materials(LOWER),
+    continuous = H1(mesh, order=order, complex=True,
+                    definedon=mesh.Materials(AIR_AND_PML + "|" + CAVITY),
+                    dirichlet="|".join(name for name in (outer, screens if vacuum_above else "")
+                                       if name))
+    jump = H1(mesh, order=order, complex=True, definedon=mesh.Materials(jump_side(mesh)),
               dirichlet="|".join(name for name in (open_plane, outer) if name))
     for space in (continuous, jump):     # same basis in both: the bijection needs it
         if pml_order != order:
@@ -361,6 +420,24 @@ def _over_half(integrand, half: str, deformation):
     if deformation is None:
         return integrand * dx(f"air_{half}|pml_{half}")
     return integrand * dx(f"air_{half}", deformation=deformation) + integrand * dx(f"pml_{half}")
+
+
+def over_sides(pressure, pressure_test, integrand, deformation=None):
+    """``sum over the sides of integrand(p_side, p'_side) dx``: ``p`` on one side of the
+    screens, ``p + q`` on the other (:func:`pressure_regions`; the cavity's side with an
+    enclosure), the mesh deformation on the air only (as :func:`_over_half`)."""
+    from ngsolve import dx
+
+    p, q = pressure
+    p_test, q_test = pressure_test
+    total = 0
+    for air, pml, with_q in pressure_regions(p.space.mesh):
+        value = integrand(p + q, p_test + q_test) if with_q else integrand(p, p_test)
+        if air:
+            total = total + value * dx(air, deformation=deformation)
+        if pml:
+            total = total + value * dx(pml)
+    return total
 
 
 def air_stiffness(pressure, pressure_test, density: float, deformation=None):
@@ -514,5 +591,5 @@ def pressure_field(gf_continuous, gf_jump, mesh):
 
     Equal to ``p`` in the upper half and ``p + q`` in the lower half.
     """
-    lower = mesh.MaterialCF({LOWER: 1.0}, default=0.0)
+    lower = mesh.MaterialCF({jump_side(mesh): 1.0}, default=0.0)
     return gf_continuous + lower * gf_jump

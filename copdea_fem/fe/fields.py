@@ -97,8 +97,8 @@ def unfold_values(values: np.ndarray, symmetry, sector=None) -> np.ndarray:
 
 
 class AirHalves:
-    """The air's element corners with the lower half on its own copy of the mesh vertices
-    (the pressure jumps across the screens; values are taken inside each element), on the
+    """The air's element corners with the lower half (an enclosure's cavity) on its own copy
+    of the mesh vertices (the pressure jumps across the screens; values are taken inside each element), on the
     mesh moved by ``mesh_motion``; 3-D tetrahedra or meridian triangles (the dimension of
     ``mesh``).  ``copy[e, k]``: the (doubled) vertex of corner k of element e; ``moved``:
     the moved coordinates of every doubled vertex; ``used``/``renumber``: the vertices a
@@ -109,11 +109,15 @@ class AirHalves:
     def __init__(self, mesh, points, mesh_motion, split=None):
         import ngsolve as ngs
 
-        from copdea_fem.fe.acoustics import LOWER, PML_REGIONS
+        from copdea_fem.fe.acoustics import CAVITY, PML_REGIONS, jump_side
         dim = mesh.dim
         elements = list(mesh.Elements(ngs.VOL))
-        lower, in_pml = mesh.Materials(LOWER).Mask(), mesh.Materials(PML_REGIONS).Mask()
+        lower, in_pml = mesh.Materials(jump_side(mesh)).Mask(), mesh.Materials(PML_REGIONS).Mask()
+        cavity = mesh.Materials(CAVITY).Mask()
         self.lower = np.array([lower[el.index] for el in elements])
+        #: elements of an enclosure's air (:data:`copdea_fem.fe.acoustics.CAVITY`; there
+        #: the pressure is ``p + q``, so they are :attr:`lower` too)
+        self.cavity = np.array([cavity[el.index] for el in elements], dtype=bool)
         self.in_pml = np.array([in_pml[el.index] for el in elements])
         reference = np.asarray(ngs.CF((ngs.x, ngs.y, ngs.z)[:dim])(points)).reshape(
             len(elements), -1, dim)

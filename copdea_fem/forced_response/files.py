@@ -153,7 +153,7 @@ def write_response(result, out_dir: Path, reduced=(None, None)) -> None:
             "unknowns": int(result.problem.forced.size),
             "equilibrium_residual": result.problem.forced.equilibrium_residual,
             "timings_s": result.timings}
-        if result.method == "reduced":
+        if result.method in ("reduced", "reduced_modal"):
             document["reduced_basis"] = result.basis.summary()
         write_json(staging / "response.json", document)
         if study["output"]["plots"]:

@@ -59,6 +59,35 @@ goes to the line of the largest residual, until ``max rho <= tol`` (``response.r
 or ``max_shifts``.  ``rho`` bounds the error through ``||T^-1||``: near a lightly damped
 resonance the same residual means a larger error, which the benchmark and tests measure
 against the direct path.
+
+The paper's modal damping on the reduced basis (``response.method: reduced_modal``)
+-------------------------------------------------------------------------------------
+The paper damps modal coordinates (Sect. 5.3, eq. 19: ``b_j = (b/m)_j m_j``), which no
+matrix of (1) holds; the modal path (:mod:`copdea_fem.fe.forced.harmonic`, "Modal
+superposition") puts ``-i omega lambda_j (b/m)_j m_j`` in each mode's denominator.  The
+reduced model is damped the same way, in *its* modes: without a loss of its own (1) is
+``A - omega^2 B`` and its projection ``A_r - omega^2 B_r`` (``A_r = V^H A V``, k x k) has
+right and left eigenvectors ``A_r z_i = lambda_i B_r z_i``, ``w_i^H A_r = lambda_i w_i^H B_r``
+(``w_i^H B_r z_j = 0`` for ``lambda_i != lambda_j``), so the reduced solution of (2) is,
+exactly, the sum over all k of them::
+
+    x_r(omega) = sum_i V z_i  phi_i / (lambda_i - omega^2),   phi_i = w_i^H V^H F / (w_i^H B_r z_i).
+
+Each structural mode gets the modal path's damping term divided by its ``n_i``::
+
+    x_r(omega) = sum_i V z_i  phi_i / (lambda_i - omega^2 - i omega (b/m)_i s_i),
+    s_i = lambda_i m_i / n_i                                                        (3)
+
+with ``m_i = u_i^T M_s u_i``, ``n_i = y_i^T B x_i`` of the Ritz vector ``x_i = V z_i`` and its
+left vector ``y_i = (lambda_i u_i, beta p_i^/alpha)`` (as :class:`~copdea_fem.fe.forced.harmonic.ModalBasis`):
+``s_i`` is the mode's membrane share of the kinetic energy, so the term is eq. (19)'s
+``(b/m) m/(m + m_ad)``.  Where ``x_i`` is an eigenvector of the full pencil (Ritz residual
+~0), (3)'s term of mode i is the modal path's; the modes the basis does not resolve are in
+(2) through the moment matching, where the modal path has its residual correction.  Modes
+are damped only where converged (relative residual <= ``eigen.residual_tol``, as the
+eigen solver accepts a pair); a structural Ritz mode inside the lines that is not
+converged gets a shift of its own (:func:`ritz_modes`' caller,
+:func:`copdea_fem.forced_response.run.reduced_modal_solution`).
 """
 
 from __future__ import annotations
@@ -246,13 +275,16 @@ class _Builder:
 
 def build_reduced_basis(forced, frequency_hz, loss_factor: float = 0.0, tol: float = 1e-7,
                         steps: int = STEPS_PER_SHIFT, initial: int = INITIAL_SHIFTS,
-                        max_shifts: int = MAX_SHIFTS, shifts_hz=None) -> ReducedBasis:
+                        max_shifts: int = MAX_SHIFTS, shifts_hz=None,
+                        extra_shifts_hz=()) -> ReducedBasis:
     """The adaptive reduced model of ``forced`` (a
     :class:`copdea_fem.fe.forced.harmonic.ForcedOrder`) on the lines
     ``frequency_hz`` [Hz] (module doc).
 
-    ``shifts_hz``: fixed shifts [Hz] instead of the adaptive choice (tests); ``tol``: the
-    largest accepted relative residual; ``steps``: Arnoldi steps per shift.
+    ``shifts_hz``: fixed shifts [Hz] instead of the adaptive choice (tests);
+    ``extra_shifts_hz``: shifts [Hz] added to the adaptive start (the modes that
+    :func:`ritz_modes` found unconverged); ``tol``: the largest accepted relative residual;
+    ``steps``: Arnoldi steps per shift.
     """
     from copdea_fem.progress import single_threaded_blas
     frequency_hz = np.atleast_1d(np.asarray(frequency_hz, float))
@@ -260,10 +292,11 @@ def build_reduced_basis(forced, frequency_hz, loss_factor: float = 0.0, tol: flo
         raise ValueError("no lines for the reduced basis; allowed: at least one frequency")
     with single_threaded_blas():
         return _build(forced, frequency_hz, loss_factor, tol, steps, initial, max_shifts,
-                      shifts_hz)
+                      shifts_hz, [float(f) for f in extra_shifts_hz])
 
 
-def _build(forced, frequency_hz, loss_factor, tol, steps, initial, max_shifts, shifts_hz):
+def _build(forced, frequency_hz, loss_factor, tol, steps, initial, max_shifts, shifts_hz,
+           extra_shifts_hz):
     timings = {"factorise_and_krylov": 0.0, "project": 0.0, "residual": 0.0}
     builder = _Builder(forced, loss_factor)
     f_lo, f_hi = float(frequency_hz.min()), float(frequency_hz.max())
@@ -275,6 +308,7 @@ def _build(forced, frequency_hz, loss_factor, tol, steps, initial, max_shifts, s
         # count grows like f^2), and so do the vectors a shift needs
         share = (np.arange(initial) + 0.5) / initial
         plan, adaptive = list(np.sqrt(f_lo ** 2 + share * (f_hi ** 2 - f_lo ** 2))), True
+        plan += extra_shifts_hz
     shifts, solves = [], 0
     for _ in range(max_shifts):          # each round: the plan, then one shift at a time
         added = 0
@@ -314,3 +348,91 @@ def _build(forced, frequency_hz, loss_factor, tol, steps, initial, max_shifts, s
     model.residuals, model.seconds, model.solves = rho, timings, solves
     model.line_coefficients = coefficients
     return model
+
+
+@dataclass
+class RitzModes:
+    """The reduced model without a loss of its own, diagonalised in its k modes and damped
+    per mode (module doc, eq. 3): ``x_r(omega) = vectors @ coefficients(omega)``.
+
+    ``eigenvalues`` lambda_i [rad^2/s^2] and ``right`` z_i (k, k) of ``A_r z = lambda B_r z``;
+    ``participation`` phi_i [N/V per kg: the solution's units times rad^2/s^2];
+    ``residuals`` ``||A x_i - lambda_i B x_i|| / (||A|| ||x_i||)`` of ``x_i = V z_i``
+    (``||A|| = sqrt(||A||_1 ||A||_inf)``, as :class:`copdea_fem.fe.eigen.band.BandResult`);
+    ``damping`` ``(b/m)_i s_i`` [1/s] per Ritz mode (0: undamped); ``mode_index`` the Ritz
+    modes reported as the response's modes, ``damping_per_mass`` their (b/m) [1/s].
+    """
+
+    reduced: ReducedBasis
+    eigenvalues: np.ndarray
+    right: np.ndarray
+    participation: np.ndarray
+    residuals: np.ndarray
+    damping: np.ndarray
+    mode_index: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+    damping_per_mass: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    vectors: np.ndarray | None = None
+
+    @property
+    def size(self) -> int:
+        return self.eigenvalues.size
+
+    @property
+    def frequency(self) -> np.ndarray:
+        """f_i = sqrt(lambda_i) / (2 pi) [Hz], Re f >= 0 (complex)."""
+        f = np.sqrt(self.eigenvalues.astype(complex)) / (2 * math.pi)
+        return np.where(f.real < 0, -f, f)
+
+    def coefficients(self, frequency_hz) -> np.ndarray:
+        """Weights (lines, k) of the Ritz vectors per volt (module doc, eq. 3)."""
+        omega = 2 * math.pi * np.atleast_1d(np.asarray(frequency_hz, float))[:, None]
+        return self.participation / (self.eigenvalues - omega ** 2
+                                     - 1j * omega * self.damping)
+
+    def response(self, frequency_hz) -> np.ndarray:
+        """Scaled solutions per volt (n, lines), as
+        :meth:`copdea_fem.fe.forced.harmonic.ForcedOrder.direct`."""
+        return self.vectors @ self.coefficients(frequency_hz).T
+
+    def kinetic_shares(self, forced, index) -> np.ndarray:
+        """s_i = lambda_i m_i / n_i (module doc, eq. 3) of the Ritz modes ``index`` [-]."""
+        coupled = forced.coupled
+        x = self.vectors[:, index]
+        lam = self.eigenvalues[index]
+        left = x.copy()
+        left[coupled.membrane_index] *= lam[None, :]
+        left[coupled.pressure_index] *= coupled.pressure_scale / forced.alpha
+        norms = np.einsum("ij,ij->j", left, coupled.mass @ x)
+        membrane = x[coupled.membrane_index]
+        mass = np.einsum("ij,ij->j", membrane, coupled.membrane.mass @ membrane)
+        return lam * mass / norms
+
+    def summary(self) -> dict:
+        """For ``response.json``: the basis (:meth:`ReducedBasis.summary`) and its modes."""
+        return {**self.reduced.summary(), "ritz_modes": int(self.size),
+                "damped_modes": int(np.count_nonzero(self.damping))}
+
+
+def ritz_modes(forced, reduced: ReducedBasis) -> RitzModes:
+    """The modes of the projected pencil ``(V^H A V, V^H B V)`` of ``reduced`` (built without
+    a loss of its own: module doc, eq. 3), undamped, with their Ritz residuals."""
+    import scipy.sparse.linalg as spla
+    projected = {name: block for (block, _), (_, _, name) in
+                 zip(reduced.projected, _pieces(forced, 0.0))}
+    if set(projected) != {"A", "B"}:
+        raise ValueError("modal damping on the reduced basis needs a model without a loss of "
+                         f"its own; got the terms {sorted(projected)}; allowed: A, B")
+    a_r, b_r = projected["A"], projected["B"]
+    eigenvalues, left, right = scipy.linalg.eig(a_r, b_r, left=True, right=True)
+    if not np.all(np.isfinite(eigenvalues)):
+        raise ValueError("the reduced pencil V^H B V is singular (an infinite Ritz value); "
+                         "allowed: a basis whose mass is non-singular")
+    participation = (left.conj().T @ reduced.forcing) / np.einsum(
+        "ij,ij->j", left.conj(), b_r @ right)
+    vectors = reduced.vectors @ right
+    a, b = forced.coupled.stiffness, forced.coupled.mass
+    a_norm = math.sqrt(spla.norm(a, 1) * spla.norm(a, np.inf))
+    residuals = np.linalg.norm(a @ vectors - (b @ vectors) * eigenvalues, axis=0) / (
+        a_norm * np.maximum(np.linalg.norm(vectors, axis=0), 1e-300))
+    return RitzModes(reduced, eigenvalues, right, participation, residuals,
+                     np.zeros(eigenvalues.size, complex), vectors=vectors)

@@ -6,8 +6,13 @@ electrode drives -- the order m = 0 on the axisymmetric engine
 sector on the 3-D quadrant (:mod:`.quadrant`, any frame, the square one included) -- the
 voltage forcing (:mod:`.harmonic`), then either
 
-- ``response.method: auto`` (default): ``reduced`` on the 3-D engine, ``modal`` on the
-  axisymmetric one (:func:`resolved_method`);
+- ``response.method: auto`` (default): on the 3-D engine ``reduced_modal`` where the
+  damping is the paper's modal b/m, ``reduced`` where the membrane states its own loss;
+  ``modal`` on the axisymmetric one (:func:`resolved_method`);
+- ``response.method: reduced_modal``: the reduced basis below built without a loss of its
+  own, its projected pencil's modes damped with ``reduced.damping_*`` as the modal path
+  damps its modes (:mod:`.reduced_basis`, eq. 3): the modal path's model at the reduced
+  path's cost (refused with ``membrane.loss_factor``, Rayleigh or Prony);
 - ``response.method: modal``: the coupled modes with ``Re f <= modal_band f_end``
   and ``|Im f| <= modal_band f_end``, the paper's modal damping ``reduced.damping_*`` and
   ``membrane.loss_factor`` projected per mode, residual correction (:mod:`.harmonic`);
@@ -66,7 +71,8 @@ def parse_microphones(study) -> list[tuple[str, np.ndarray]]:
     (:func:`copdea_fem.study.listed_microphones`), so a bad one never reaches a solve."""
     response = study["response"]
     axis = (0.0, 0.0, float(response["microphone_distance"]))
-    listed = listed_microphones(response["microphones"], study["geometry"]["frame"])
+    listed = listed_microphones(response["microphones"], study["geometry"]["frame"],
+                                study["geometry"]["enclosure"])
     return [(name, np.array(position))
             for name, position in [(DEFAULT_MICROPHONE, axis), *listed]]
 
@@ -81,6 +87,15 @@ def prepare_order_zero(study, engine: Engine | None = None) -> OrderZero:
     if study["load"]["voltage"] <= 0:
         raise StudyError("load.voltage = 0 is not allowed for `response`; allowed: > 0 V (the "
                          "linear forcing V_b dC/du vanishes without a bias)")
+    if study["response"]["method"] == "modal" and sealed_enclosure(study):
+        raise StudyError("response.method = modal is not allowed with a sealed enclosure; "
+                         "allowed: direct, reduced or auto (the modal path's static "
+                         "correction A^-1 F does not exist: a uniform cavity pressure and the "
+                         "membrane's static deflection under it solve A x = 0, "
+                         "copdea_fem.fe.cavity.without_static_solution)")
+    if not study["air"]["outside"]:
+        raise StudyError("air.outside = false is not allowed for `response`; allowed: true "
+                         "(the sound at the microphones needs the outside air)")
     check_air_lift(study)
     return (engine or engine_for(study)).forced_problem(study)
 
@@ -89,7 +104,6 @@ def modal_solution(problem: OrderZero, f_end: float):
     """(ModalBasis, modes) of the m = 0 band (module doc), labelled as ``solve`` labels them."""
     from copdea_fem.fe.eigen import solve_band
     from copdea_fem.fe.forced.harmonic import ModalBasis
-    from copdea_fem.fe.modes import AIR
 
     study, coupled = problem.study, problem.coupled
     reach = study["response"]["modal_band"] * f_end
@@ -99,14 +113,7 @@ def modal_solution(problem: OrderZero, f_end: float):
     result = solve_band(coupled.stiffness, coupled.mass, 0.0, reach, factorize=coupled.factorize,
                         hermitian=False, max_imag_hz=reach, backend=eigen["backend"],
                         max_modes=eigen["max_modes"], residual_tol=eigen["residual_tol"])
-    modes = problem.sector.classify(problem, result)
-    for mode in modes:
-        # air/PML modes: little membrane energy, or damped beyond what `solve` looks for
-        # (its band holds |Im f| <= eigen.max_damping_ratio f_max; PML modes reach zeta ~ 1)
-        if (mode.membrane_energy_fraction < study["air"]["min_membrane_energy"]
-                or mode.damping_ratio > eigen["max_damping_ratio"]):
-            mode.kind = AIR
-    problem.sector.label(modes)
+    modes = _band_modes(problem, result.eigenvalues, result.vectors, result.residuals)
     if study["membrane"].get("prony"):
         logger.warning("response.method: modal with membrane.prony: the modal path is a few % "
                        "off the exact response (its static correction uses the relaxed "
@@ -116,6 +123,95 @@ def modal_solution(problem: OrderZero, f_end: float):
     basis = ModalBasis.build(problem.forced, result.eigenvalues, result.vectors,
                              [m.label for m in modes], damping)
     return basis, modes
+
+
+#: Rounds of shifts for the unconverged structural Ritz modes inside the lines.
+RITZ_ROUNDS = 3
+
+
+def _band_modes(problem: OrderZero, eigenvalues, vectors, residuals):
+    """Classified, labelled modes (as ``solve`` labels them) of eigenpairs: air/PML modes
+    (little membrane energy, or damped beyond what ``solve`` looks for: its band holds
+    |Im f| <= eigen.max_damping_ratio f_max; PML modes reach zeta ~ 1) get kind AIR."""
+    import types
+
+    from copdea_fem.fe.modes import AIR
+
+    study = problem.study
+    eigen = study["eigen"]
+    freq = np.sqrt(np.asarray(eigenvalues, complex)) / (2 * np.pi)
+    freq = np.where(freq.real < 0, -freq, freq)
+    result = types.SimpleNamespace(eigenvalues=np.asarray(eigenvalues), vectors=vectors,
+                                   freq_hz=freq.real, freq_im_hz=freq.imag,
+                                   residuals=np.asarray(residuals))
+    modes = problem.sector.classify(problem, result)
+    for mode in modes:
+        if (mode.membrane_energy_fraction < study["air"]["min_membrane_energy"]
+                or mode.damping_ratio > eigen["max_damping_ratio"]):
+            mode.kind = AIR
+    problem.sector.label(modes)
+    return modes
+
+
+def reduced_modal_solution(problem: OrderZero, frequency_hz):
+    """(RitzModes, modes): the reduced basis of the lines (no loss of its own), its modes
+    damped with the paper's modal b/m as the modal path damps its modes
+    (:mod:`.reduced_basis`, eq. 3).
+
+    The Ritz modes with ``Re f`` and ``|Im f|`` up to ``response.modal_band`` times the last
+    line and a relative residual <= ``eigen.residual_tol`` are classified and labelled as
+    ``solve`` labels them, and damped by label (:func:`modal_damping`); a structural Ritz
+    mode inside the lines above that residual gets a shift of its own and the basis is built
+    again (at most :data:`RITZ_ROUNDS` rounds)."""
+    import types
+
+    from copdea_fem.fe.modes import AIR, membrane_energy_fractions
+    from copdea_fem.forced_response.reduced_basis import build_reduced_basis, ritz_modes
+
+    study, forced = problem.study, problem.forced
+    frequency_hz = np.asarray(frequency_hz, float)
+    f_last = float(frequency_hz.max())
+    reach = study["response"]["modal_band"] * f_last
+    tolerance = study["eigen"]["residual_tol"]
+    extra: list[float] = []
+    for round_ in range(RITZ_ROUNDS):
+        reduced = build_reduced_basis(forced, frequency_hz, 0.0,
+                                      tol=study["response"]["reduced_tol"],
+                                      extra_shifts_hz=extra)
+        ritz = ritz_modes(forced, reduced)
+        freq = ritz.frequency
+        in_band = (freq.real <= reach) & (np.abs(freq.imag) <= reach)
+        converged = in_band & (ritz.residuals <= tolerance)
+        suspects = np.flatnonzero(in_band & ~converged & (freq.real <= f_last)
+                                  & (freq.real >= float(frequency_hz.min())))
+        if suspects.size:
+            record = types.SimpleNamespace(vectors=ritz.vectors[:, suspects],
+                                           eigenvalues=ritz.eigenvalues[suspects])
+            fractions = np.array(membrane_energy_fractions(problem.coupled, record))
+            suspects = suspects[fractions >= study["air"]["min_membrane_energy"]]
+        if not suspects.size:
+            break
+        if round_ + 1 == RITZ_ROUNDS:
+            logger.warning(f"reduced_modal: {suspects.size} structural Ritz mode(s) in the "
+                           f"lines not converged (residual > eigen.residual_tol = "
+                           f"{tolerance:g}) after {RITZ_ROUNDS} rounds; left undamped")
+            break
+        extra += [float(f) for f in freq[suspects].real]
+        logger.info(f"reduced_modal: {suspects.size} structural Ritz mode(s) not converged; "
+                    f"shifts added at " + ", ".join(f"{f:.2f}" for f in freq[suspects].real)
+                    + " Hz")
+    index = np.flatnonzero(converged)
+    index = index[np.argsort(freq[index].real)]
+    modes = _band_modes(problem, ritz.eigenvalues[index], ritz.vectors[:, index],
+                        ritz.residuals[index])
+    damping = modal_damping([m.label for m in modes], [m.kind for m in modes], study)
+    damped = index[damping > 0]
+    ritz.damping[damped] = damping[damping > 0] * ritz.kinetic_shares(forced, damped)
+    ritz.mode_index, ritz.damping_per_mass = index, damping
+    logger.info(f"reduced_modal: {ritz.size} Ritz modes, {index.size} converged in the band, "
+                f"{damped.size} damped with the modal b/m ("
+                f"{sum(m.kind != AIR for m in modes)} structural)")
+    return ritz, modes
 
 
 def modal_damping(labels, kinds, study) -> np.ndarray:
@@ -141,17 +237,30 @@ def states_material_damping(study) -> bool:
                 or membrane["rayleigh_beta"] > 0 or membrane["prony"])
 
 
+def sealed_enclosure(study) -> bool:
+    """Whether the study's membrane closes an enclosure without a vent (air enabled)."""
+    g = study["geometry"]
+    return (study["air"]["enabled"] and g["enclosure"] != "none"
+            and g["enclosure_vent_radius"] == 0)
+
+
 def resolved_method(problem: OrderZero) -> str:
-    """``response.method``, with ``auto`` resolved: ``modal`` where the study's damping is
-    the paper's modal b/m (``reduced.damping_*``, which only the modal path carries: the
-    reduced path would leave the peaks damped by radiation alone), else what the driven
-    sector prefers -- ``reduced`` on the 3-D engine (its modal band costs minutes),
-    ``modal`` on the axisymmetric one."""
+    """``response.method``, with ``auto`` resolved: ``direct`` over a sealed enclosure (no
+    static correction, :func:`sealed_enclosure`); else by what the driven sector prefers:
+    where the study's damping is the paper's modal b/m (``reduced.damping_*``: no loss of the
+    membrane's own), the sector's ``modal_method`` -- ``reduced_modal`` on the 3-D engine
+    (its modal band costs minutes; the reduced basis's own modes, damped per mode),
+    ``modal`` on the axisymmetric one; else its ``default_method`` -- ``reduced`` on the
+    3-D engine, ``modal`` on the axisymmetric one."""
     method = problem.study["response"]["method"]
     if method != "auto":
         return method
-    if problem.sector is None or not states_material_damping(problem.study):
+    if sealed_enclosure(problem.study):
+        return "direct"
+    if problem.sector is None:
         return "modal"
+    if not states_material_damping(problem.study):
+        return problem.sector.modal_method
     return problem.sector.default_method
 
 
@@ -185,8 +294,10 @@ class ResponseResult:
 
 def _far_field_method(study) -> str:
     if study["geometry"]["frame"] == "baffle":
+        closed = study["geometry"]["enclosure"] != "none"
         return ("Rayleigh (baffle): Kirchhoff-Helmholtz with the half-space Green's function over "
-                "the hemisphere on the microphone's side")
+                "the hemisphere on the microphone's side" + (
+                    " (the front only: an enclosure closes the back)" if closed else ""))
     return "Kirchhoff-Helmholtz over a sphere inside the air (free-space Green's function)"
 
 
@@ -209,6 +320,12 @@ def forced_response(problem: OrderZero, frequency_hz=None,
         basis, modes = modal_solution(problem, float(frequency_hz.max()))
         vectors = basis.basis
         weights = basis.coefficients(frequency_hz, eta) * voltage_lines[:, None]
+    elif method == "reduced_modal":
+        logger.info(f"reduced basis (rational Krylov) on {frequency_hz.size} lines, its modes "
+                    "damped with the modal b/m (reduced.damping_*) ...")
+        basis, modes = reduced_modal_solution(problem, frequency_hz)
+        vectors = basis.vectors
+        weights = basis.coefficients(frequency_hz) * voltage_lines[:, None]
     elif method == "reduced":
         from copdea_fem.forced_response.reduced_basis import build_reduced_basis
         logger.info(f"reduced basis (rational Krylov) on {frequency_hz.size} lines; the "
@@ -241,8 +358,10 @@ def forced_response(problem: OrderZero, frequency_hz=None,
     radius = KIRCHHOFF_FRACTION * study["air"]["domain_radius"]
     baffle = study["geometry"]["frame"] == "baffle"
     sphere = problem.sector.sphere
+    # a baffle over an enclosure has no air below it (microphones there refused: study.py)
+    below = () if study["geometry"]["enclosure"] != "none" else ("lower",)
     samplers = ({"upper": sphere(coupled, radius, ("upper",)),
-                 "lower": sphere(coupled, radius, ("lower",))} if baffle else
+                 **{side: sphere(coupled, radius, (side,)) for side in below}} if baffle else
                 {"all": sphere(coupled, radius)})
     pressure_vectors = forced.pressure(vectors)
     sampled = {name: sampler.sample(pressure_vectors) for name, sampler in samplers.items()}

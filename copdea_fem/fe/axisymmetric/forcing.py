@@ -18,7 +18,12 @@ import numpy as np
 import scipy.sparse as sp
 
 from copdea_fem.fe.axisymmetric.operators import membrane_forms
-from copdea_fem.fe.forced.harmonic import ForcedOrder, reduce_matrix, reduce_vector
+from copdea_fem.fe.forced.harmonic import (
+    ForcedOrder,
+    forcing_from_energy,
+    reduce_matrix,
+    reduce_vector,
+)
 from copdea_fem.fe.linearise import to_scipy
 
 
@@ -53,24 +58,11 @@ def voltage_forcing(state, dry) -> tuple[np.ndarray, float]:
     if dry.m != 0:
         raise ValueError(f"order m = {dry.m} is not allowed for the voltage forcing; allowed: 0 "
                          "(a uniform electrode excites only the axisymmetric order)")
-    voltage_b = float(state.voltage)
-    if voltage_b == 0:
-        raise ValueError("load.voltage = 0 is not allowed for a forced response; allowed: > 0 V "
-                         "(the linear forcing V_b dC/du vanishes; the response is quadratic in V~)")
-    voltage = ngs.Parameter(voltage_b)
+    voltage = ngs.Parameter(float(state.voltage))
     form = _energy_form(state, dry.space, voltage, dry.axis_m1)
-    zero = ngs.GridFunction(dry.space).vec
-    residuals = []
-    for value in (voltage_b, 0.0):
-        voltage.Set(value)
-        out = zero.CreateVector()
-        form.Apply(zero, out)
-        residuals.append(np.array(out.FV().NumPy()) * 1.0)
-    at_bias, at_zero = residuals
-    force = -2.0 * (at_bias - at_zero) / voltage_b
-    free = dry.free_dofs
-    balance = np.linalg.norm(at_bias[free]) / max(np.linalg.norm(at_zero[free]), 1e-300)
-    return reduce_vector(force, dry.free_dofs, _order_lift(dry)), float(balance)
+    force, balance = forcing_from_energy(form, voltage, state.voltage,
+                                     ngs.GridFunction(dry.space).vec, dry.free_dofs)
+    return reduce_vector(force, dry.free_dofs, _order_lift(dry)), balance
 
 
 def elastic_stiffness(state, dry) -> sp.csr_matrix:

@@ -104,6 +104,53 @@ def reduce_vector(full: np.ndarray, free_dofs, lift=None) -> np.ndarray:
     return reduced
 
 
+def forcing_from_energy(energy_form, voltage, voltage_b: float, at, free_dofs):
+    """f = -dR/dV (u0, V_b) = -2 (R(u0; V_b) - R(u0; 0)) / V_b [N/V] on a membrane space's DOFs
+    (module doc: the co-energy is quadratic in V, so the difference quotient is exact), and
+    the relative residual |R(u0; V_b)| / |R(u0; 0)| on the free DOFs (the prestress
+    equilibrium check): both engines' forcing
+    (:mod:`copdea_fem.fe.axisymmetric.forcing`, :mod:`copdea_fem.fe.quadrant.forced`).
+
+    Parameters
+    ----------
+    energy_form : ngsolve.BilinearForm
+        ``Variation`` of the membrane energy ``E(.; V)``; ``energy_form.Apply(at)`` is the
+        residual R [N] at the prestress.
+    voltage : ngsolve.Parameter
+        The voltage [V] in ``energy_form``; set to ``voltage_b`` and 0 here, left at 0.
+    voltage_b : float
+        The bias V_b [V], > 0.
+    at : ngsolve.BaseVector
+        Where the residual is taken: the prestress u0 (3-D) or u = 0 of a form of
+        ``E(u0 + u)`` (axisymmetric).
+    free_dofs : array of int
+        The free DOFs of the space (the balance's norm).
+
+    Returns
+    -------
+    force : numpy.ndarray
+        f on every DOF of the space [N/V].
+    balance : float
+        |R(u0; V_b)| / |R(u0; 0)| on ``free_dofs`` (0 at an exact equilibrium).
+    """
+    voltage_b = float(voltage_b)
+    if not voltage_b > 0:
+        raise ValueError(f"load.voltage = {voltage_b:g} V is not allowed for a forced response; "
+                         "allowed: > 0 V (the linear forcing V_b dC/du vanishes; the response "
+                         "is quadratic in V~)")
+    residuals = []
+    for value in (voltage_b, 0.0):
+        voltage.Set(value)
+        out = at.CreateVector()
+        energy_form.Apply(at, out)
+        residuals.append(np.array(out.FV().NumPy()) * 1.0)
+    at_bias, at_zero = residuals
+    force = -2.0 * (at_bias - at_zero) / voltage_b
+    balance = np.linalg.norm(at_bias[free_dofs]) / max(np.linalg.norm(at_zero[free_dofs]),
+                                                        1e-300)
+    return force, float(balance)
+
+
 def reduce_matrix(full: sp.spmatrix, free_dofs, lift=None) -> sp.csr_matrix:
     """A matrix on a membrane space's DOFs -> on the unknowns (``u = u_free + w_d lift``)."""
     free = free_dofs

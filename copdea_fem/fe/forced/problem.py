@@ -31,6 +31,7 @@ class DrivenSector:
     shape_sector: Callable          # (membrane operators) -> the ShapeAt sector (or None)
     write_shapes: Callable          # (staging, state, coupled, shapes, pressures) -> (files, air)
     default_method: str = "modal"   # what ``response.method: auto`` means here
+    modal_method: str = "modal"     # ... and where the damping is the paper's modal b/m
 
 
 @dataclass

@@ -136,26 +136,51 @@ def pressure_parts(gf, free, pressure_vectors):
             yield k, factor
 
 
-def kirchhoff_kernels(sampler: SphereSampler, microphone, wavenumber: float, baffle: bool):
-    """(K_p, K_g) per sphere point: p(x) = sum_i K_p,i p_i - K_g,i (dp/drho)_i (module doc)."""
+def green_kernels(points, normals, microphone, wavenumber: float, baffle: bool):
+    """The Kirchhoff-Helmholtz integrand's kernels at sphere points (module doc), for both
+    engines' spheres (:class:`SphereSampler`, :class:`copdea_fem.fe.quadrant.forced.QuadrantSphere`).
+
+    Parameters
+    ----------
+    points, normals : numpy.ndarray
+        Sphere points y [m] and their outward unit normals n_y, shape (..., 3).
+    microphone : array_like
+        The field point x [m], (3,).
+    wavenumber : float
+        k = omega / c_a [1/m].
+    baffle : bool
+        The half-space Green's function ``G(x, y) + G(x', y)`` (x' mirrored in z = 0: zero
+        normal derivative on the rigid plane z = 0) instead of the free-space one.
+
+    Returns
+    -------
+    d_green, green : numpy.ndarray
+        ``dG/dn_y`` [1/m^2] and ``G = e^{ikd}/(4 pi d)`` [1/m] (outgoing for the
+        ``e^{-i omega t}`` convention), shape (...), so that
+        ``p(x) = int [p dG/dn_y - G dp/dn_y] dS_y``.
+    """
     x = np.asarray(microphone, float)
+    d_green = np.zeros(np.shape(points)[:-1], complex)
+    green = np.zeros_like(d_green)
+    for source in ([x, x * np.array([1, 1, -1])] if baffle else [x]):
+        d_vec = points - source
+        d = np.linalg.norm(d_vec, axis=-1)
+        g = np.exp(1j * wavenumber * d) / (4 * np.pi * d)
+        d_green += (1j * wavenumber - 1 / d) * g * np.einsum("...k,...k->...", d_vec,
+                                                              normals) / d
+        green += g
+    return d_green, green
+
+
+def kirchhoff_kernels(sampler: SphereSampler, microphone, wavenumber: float, baffle: bool):
+    """(K_p, K_g) per sphere point: p(x) = sum_i K_p,i p_i - K_g,i (dp/drho)_i (module doc):
+    :func:`green_kernels` averaged over the azimuth, times the polar weights and areas."""
     phi = 2 * np.pi * np.arange(AZIMUTH_POINTS) / AZIMUTH_POINTS
     rs, zs = sampler.r[:, None], sampler.z[:, None]
     y = np.stack([rs * np.cos(phi), rs * np.sin(phi), zs * np.ones_like(phi)], axis=-1)
-    normal = y / sampler.radius
-    kernels_p = np.zeros(sampler.polar.size, complex)
-    kernels_g = np.zeros(sampler.polar.size, complex)
-    images = [x, x * np.array([1, 1, -1])] if baffle else [x]
-    for source in images:
-        d_vec = y - source
-        d = np.linalg.norm(d_vec, axis=-1)
-        green = np.exp(1j * wavenumber * d) / (4 * np.pi * d)
-        d_green = (1j * wavenumber - 1 / d) * green * np.einsum("...k,...k->...", d_vec,
-                                                                 normal) / d
-        kernels_p += d_green.mean(axis=1) * 2 * np.pi
-        kernels_g += green.mean(axis=1) * 2 * np.pi
+    d_green, green = green_kernels(y, y / sampler.radius, microphone, wavenumber, baffle)
     area = sampler.weight * sampler.radius ** 2 * np.sin(sampler.polar)
-    return kernels_p * area, kernels_g * area
+    return d_green.mean(axis=1) * 2 * np.pi * area, green.mean(axis=1) * 2 * np.pi * area
 
 
 def radiated_power(p_values, dp_values, sampler: SphereSampler, omega: float,

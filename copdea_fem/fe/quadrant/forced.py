@@ -25,9 +25,19 @@ import time
 import ngsolve as ngs
 import numpy as np
 
-from copdea_fem.fe.forced.harmonic import ForcedOrder, reduce_matrix_3d, reduce_vector_3d
+from copdea_fem.fe.forced.harmonic import (
+    ForcedOrder,
+    forcing_from_energy,
+    reduce_matrix_3d,
+    reduce_vector_3d,
+)
 from copdea_fem.fe.forced.problem import DrivenSector, OrderZero
-from copdea_fem.fe.forced.radiation import AZIMUTH_POINTS, polar_quadrature, pressure_parts
+from copdea_fem.fe.forced.radiation import (
+    AZIMUTH_POINTS,
+    green_kernels,
+    polar_quadrature,
+    pressure_parts,
+)
 
 #: Polar angles of the observation points in the quadrant [rad].
 OBSERVATION_ANGLES = np.radians([11.25, 33.75, 56.25, 78.75])
@@ -46,20 +56,10 @@ def _energy_form(state, voltage):
 
 def quadrant_forcing(state, operators):
     """f [N/V] on the sector's unknowns and the equilibrium residual (:mod:`.harmonic`)."""
-    voltage_b = float(state.voltage)
-    voltage = ngs.Parameter(voltage_b)
-    form = _energy_form(state, voltage)
-    residuals = []
-    for value in (voltage_b, 0.0):
-        voltage.Set(value)
-        out = state.displacement.vec.CreateVector()
-        form.Apply(state.displacement.vec, out)
-        residuals.append(np.array(out.FV().NumPy()) * 1.0)
-    at_bias, at_zero = residuals
-    force = -2.0 * (at_bias - at_zero) / voltage_b
-    free = operators.free_dofs
-    balance = np.linalg.norm(at_bias[free]) / max(np.linalg.norm(at_zero[free]), 1e-300)
-    return reduce_vector_3d(force, operators), float(balance)
+    voltage = ngs.Parameter(float(state.voltage))
+    force, balance = forcing_from_energy(_energy_form(state, voltage), voltage, state.voltage,
+                                     state.displacement.vec, operators.free_dofs)
+    return reduce_vector_3d(force, operators), balance
 
 
 def quadrant_elastic(state, operators):
@@ -183,17 +183,10 @@ class QuadrantSphere:
         return p_values, dp_values
 
     def kernels(self, microphone, wavenumber: float, baffle: bool):
-        x = np.asarray(microphone, float)
-        kp = np.zeros(len(self.xyz), complex)
-        kg = np.zeros_like(kp)
-        for source in ([x, x * np.array([1, 1, -1])] if baffle else [x]):
-            d_vec = self.xyz - source
-            d = np.linalg.norm(d_vec, axis=1)
-            green = np.exp(1j * wavenumber * d) / (4 * np.pi * d)
-            kp += (1j * wavenumber - 1 / d) * green * np.einsum("ij,ij->i", d_vec,
-                                                                 self.normal) / d
-            kg += green
-        return kp * self.area, kg * self.area
+        """(K_p, K_g) per sphere point (:func:`.radiation.kirchhoff_kernels`): the shared
+        :func:`.radiation.green_kernels` times the quadrature areas."""
+        d_green, green = green_kernels(self.xyz, self.normal, microphone, wavenumber, baffle)
+        return d_green * self.area, green * self.area
 
 
 def _classify(problem, result):
@@ -224,4 +217,5 @@ QUADRANT_SECTOR = DrivenSector(
     summary="3-D, even-even sector", classify=_classify, label=_label,
     observer=QuadrantObserver, angles=len(OBSERVATION_ANGLES), sphere=QuadrantSphere,
     shape_sector=lambda operators: operators.sector, write_shapes=_write_shapes,
-    default_method="reduced")      # its modal band costs minutes
+    default_method="reduced",      # its modal band costs minutes
+    modal_method="reduced_modal")
