@@ -95,3 +95,18 @@ def test_diagnose_names_air_loading_from_the_example_scan(tmp_path, capsys):
     report = (out / "report.md").read_text()
     assert "## Shape pairing (vibrometer scans)" in report and "paired RMS error" in report
     assert math.isfinite(document["gap_after"])
+
+
+def test_the_api_gives_the_pairs_it_writes(tmp_path):
+    import copdea_fem as cf
+
+    result = cf.correlate(EXAMPLE / "measured.yaml")
+    table = result.pairs
+    assert list(table.columns) == ["condition", "test_mode", "test_freq_hz",
+                                   "test_damping_ratio", "label", "fe_freq_hz", "freq_error",
+                                   "mac"]
+    folder = result.write(tmp_path / "pairs")
+    with open(folder / "pairs.csv", newline="") as stream:
+        rows = list(csv.DictReader(stream))
+    assert [row["label"] for row in rows] == list(table["label"])
+    assert [float(row["mac"]) for row in rows] == pytest.approx(list(table["mac"]), abs=1e-4)
