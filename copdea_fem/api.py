@@ -67,7 +67,7 @@ if TYPE_CHECKING:
 __all__ = ["load_study", "solve", "response", "force", "spectrum", "sweep", "diagnose",
            "Solution", "ResponseSolution", "ForceCurve", "Spectrum", "SweepResult",
            "Diagnosis", "SolveFailed", "StudyError", "OutputFolderError", "identify",
-           "IdentifyResult"]
+           "IdentifyResult", "correlate", "CorrelateResult"]
 
 logger = logging.getLogger("copdea_fem")
 
@@ -1154,4 +1154,114 @@ class IdentifyResult:
         with _claimed(folder, "identify", [self.source, *self.files]) as target:
             with result_directory(target, "identify") as staging:
                 write_identified(staging, self.sets)
+        return target
+
+
+def correlate(measured: str | Path, *,
+              progress: Callable[[str], None] | None = None) -> CorrelateResult:
+    """Pair the modes identified in each condition's scan with the FE's by shape
+    (``copdea-fem correlate``, nothing written).
+
+    For each condition of ``measured`` with a ``scan:``: the modes are identified
+    (:func:`copdea_fem.vibrometer.identify.identify`, in the condition's band), the base
+    study at the condition is solved (the FE band reaching the pairing window past the
+    condition's), its structural modes sampled at the scan points along the measured
+    directions (:mod:`copdea_fem.vibrometer.sampling`) and paired one-to-one by shape
+    (:func:`copdea_fem.vibrometer.correlate.correlate_shapes`, measured.yaml's
+    ``pairing:`` window and smallest MAC).
+
+    Parameters
+    ----------
+    measured : str or Path
+        A measured.yaml with at least one condition that names a scan file.
+    progress : callable(str), optional
+        As :func:`solve`'s.
+
+    Returns
+    -------
+    CorrelateResult
+        The correlation of each scanned condition; :meth:`CorrelateResult.write` writes
+        pairs.csv, comac.csv, mac.png and report.md.
+
+    Raises
+    ------
+    StudyError
+        A bad measured.yaml, scan file or base study
+        (:class:`~copdea_fem.diagnosis.measured.MeasuredDataError`), or no condition with
+        a scan.
+    """
+    from copdea_fem.diagnosis.measured import MeasuredDataError, load_measured
+    from copdea_fem.vibrometer.identify import identify
+    from copdea_fem.vibrometer.model_shapes import correlate_identified, fe_shapes
+
+    measured = load_measured(measured)
+    scanned = [c for c in measured.conditions if c.scan is not None]
+    if not scanned:
+        raise MeasuredDataError(f"{measured.path or measured.name}: no condition names a "
+                                "scan; allowed: conditions with scan: FILE.uff")
+    settings = measured.pairing
+    correlations, scans = [], []
+    with _progress(progress):
+        for condition in scanned:
+            logger.info("correlate %s: identify the scan's modes", condition.name)
+            modes = identify(condition.scan, f_min=condition.band[0], f_max=condition.band[1])
+            study = measured.study_of(condition).replace(
+                {"eigen.f_max": condition.band[1] * (1 + settings.window)})
+            logger.info("correlate %s: %d modes identified; FE modes at the scan points",
+                        condition.name, len(modes))
+            model = fe_shapes(study, condition.scan)
+            correlations.append(correlate_identified(condition.name, modes, model,
+                                                     window=settings.window,
+                                                     mac_min=settings.mac_min))
+            scans.append(condition.scan)
+    return CorrelateResult(measured, tuple(correlations), tuple(scans))
+
+
+@dataclass
+class CorrelateResult:
+    """The result of :func:`correlate`: one
+    :class:`~copdea_fem.vibrometer.correlate.Correlation` per scanned condition.
+
+    Attributes
+    ----------
+    measured : copdea_fem.diagnosis.measured.MeasuredSet
+    correlations : tuple of Correlation
+    scans : tuple of ScanData
+        Each correlation's scan (its channels: comac.csv).
+    """
+
+    measured: Any
+    correlations: tuple
+    scans: tuple
+
+    @property
+    def pairs(self) -> pd.DataFrame:
+        """pairs.csv as a DataFrame (one row per identified test mode)."""
+        from copdea_fem.vibrometer.correlation_files import PAIR_COLUMNS
+        rows = [{"condition": c.condition, "test_mode": p.test_mode,
+                 "test_freq_hz": p.test_freq_hz, "test_damping_ratio": p.test_damping_ratio,
+                 "label": p.label, "fe_freq_hz": p.fe_freq_hz, "freq_error": p.freq_error,
+                 "mac": p.mac} for c in self.correlations for p in c.pairs]
+        return _frame(rows, PAIR_COLUMNS)
+
+    def write(self, folder: str | Path | Claim) -> Path:
+        """Write pairs.csv, comac.csv, mac.png and report.md in ``folder``; or into a held
+        :class:`~copdea_fem.folders.Claim`.  Parameters, return and errors as
+        :meth:`Solution.write`."""
+        from copdea_fem.folders import result_directory
+        from copdea_fem.vibrometer.correlation_files import (
+            plot_mac,
+            report_markdown,
+            write_comac_csv,
+            write_pairs_csv,
+        )
+        inputs = [self.measured.path] + [path for condition in self.measured.conditions
+                                         for path in condition.files.values()]
+        with _claimed(folder, "correlate", [i for i in inputs if i]) as target, \
+                result_directory(target, "correlate") as staging:
+            write_pairs_csv(staging / "pairs.csv", self.correlations)
+            write_comac_csv(staging / "comac.csv", self.correlations, self.scans)
+            plot_mac(staging / "mac.png", self.correlations)
+            (staging / "report.md").write_text(
+                report_markdown(self.measured.name, self.correlations), encoding="utf-8")
         return target

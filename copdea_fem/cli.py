@@ -348,6 +348,28 @@ def cmd_diagnose(args) -> int:
         return _reduced_action(action)
 
 
+def cmd_correlate(args) -> int:
+    """Pair each scanned condition's identified modes with the FE's by shape."""
+    from copdea_fem import api
+    from copdea_fem.diagnosis import load_measured
+    measured = load_measured(args.measured)
+    if not any(condition.scan is not None for condition in measured.conditions):
+        raise StudyError(f"{args.measured}: no condition names a scan; allowed: conditions "
+                         "with scan: FILE.uff")
+    out_dir = Path(args.out) if args.out else Path("results") / f"correlate_{measured.name}"
+    inputs = [args.measured, *(path for condition in measured.conditions
+                               for path in condition.files.values())]
+    with _output(args, out_dir, "correlate", inputs) as folder:
+        result = api.correlate(args.measured)
+        result.write(folder)
+    for correlation in result.correlations:
+        paired = sum(1 for pair in correlation.pairs if pair.label)
+        print(f"{correlation.condition}: {paired} of {len(correlation.pairs)} test modes "
+              "paired by shape")
+    print(f"wrote pairs.csv, comac.csv, mac.png and report.md to {out_dir}")
+    return 0
+
+
 def cmd_identify(args) -> int:
     """The modes of every scan of a measured.yaml: identified.csv, stabilisation PNGs, VTU."""
     from copdea_fem import api
@@ -384,6 +406,14 @@ def cmd_synth(args) -> int:
                            missing_probability=args.missing, spurious=args.spurious,
                            label_fraction=args.label_fraction, spectra=not args.no_spectra,
                            seed=args.seed)
+    if args.format == "uff":
+        from copdea_fem.diagnosis import run_synth_scan
+        from copdea_fem.diagnosis.synth_scan import ScanOptions
+        options = ScanOptions(frequency_noise=args.frequency_noise, seed=args.seed)
+        options.check()
+        with _output(args, out_dir, "synth", [args.study]):
+            return _reduced_action(lambda: run_synth_scan(study, args.effects, args.conditions,
+                                                          args.param, options, out_dir))
     with _output(args, out_dir, "synth", [args.study]):
         return _reduced_action(lambda: run_synth(study, args.effects, args.conditions,
                                                  args.param, options, out_dir))
@@ -419,6 +449,16 @@ def _add_diagnose_commands(commands, with_study) -> None:
     diagnose.add_argument("--quiet", action="store_true", help="no progress messages")
     diagnose.set_defaults(handler=cmd_diagnose)
 
+    correlate = commands.add_parser(
+        "correlate", help="pair the modes identified in each condition's vibrometer scan "
+        "with the FE's by shape: pairs.csv, comac.csv, mac.png, report.md")
+    correlate.add_argument("measured", help="measured.yaml with conditions that name a scan "
+                           "(scan: FILE.uff)")
+    correlate.add_argument("--out", help="result directory (default: "
+                           "results/correlate_<name>)")
+    correlate.add_argument("--quiet", action="store_true", help="no progress messages")
+    correlate.set_defaults(handler=cmd_correlate)
+
     identify = commands.add_parser(
         "identify", help="identify the modes of the vibrometer scans (UFF exports) of a "
         "measured.yaml: identified.csv, stabilisation_<condition>.png, shapes VTU")
@@ -452,6 +492,11 @@ def _add_diagnose_commands(commands, with_study) -> None:
     synth.add_argument("--label-fraction", type=float, default=0.5,
                        help="share of peaks that keep their mode label (default 0.5)")
     synth.add_argument("--no-spectra", action="store_true", help="resonance lists only")
+    synth.add_argument("--format", choices=("csv", "uff"), default="csv",
+                       help="csv (default): resonance and spectrum CSVs from the ring model; "
+                       "uff: a scanning vibrometer's export per condition (UFF, FRFs of the "
+                       "velocity per volt on the paper's 84-point grid, three components) "
+                       "made by the FE, for diagnose and correlate")
     synth.add_argument("--out", help="output directory (default: results/synth_<study>_seed<N>)")
     synth.set_defaults(handler=cmd_synth)
     commands.add_parser("effects", help="print the effect catalogue of diagnose").set_defaults(

@@ -1433,3 +1433,62 @@ def test_a_leftover_that_cannot_be_removed_is_named_truthfully(tmp_path):
         assert "removed .r.old" not in run.stderr and old.is_dir()
     finally:
         (old / "locked").chmod(0o755)
+
+
+# ------------------------------------------------------------------ correlate, synth --format uff
+
+SCAN_EXAMPLE = ROOT / "studies" / "measured_scan_example"
+
+
+def test_correlate_without_a_scan_is_refused(work, capsys):
+    data = work / "data"
+    shutil.copytree(EXAMPLE, data)
+    line = refused(["correlate", data / "measured.yaml", "--out", work / "pairs"], work,
+                   capsys)
+    assert line.startswith("error: ") and "no condition names a scan" in line
+
+
+@pytest.mark.parametrize("pairing, expected", [
+    ("{window: 0}", "pairing.window = 0 is not allowed"),
+    ("{window: 1_000 %}", "pairing.window = '1_000 %' is not allowed"),
+    ("{window: .nan}", "pairing.window = nan is not allowed"),
+    ("{window: 2e3 V}", "pairing.window = '2e3 V' is not allowed"),
+    ("{mac_min: [0.5]}", "pairing.mac_min = [0.5] is not allowed"),
+    ("{windw: 0.3}", "pairing.windw = 0.3 is not allowed (unknown key)"),
+    ("0.3", "pairing = 0.3 is not allowed; allowed: a mapping"),
+])
+def test_bad_pairing_settings_are_refused(work, capsys, pairing, expected):
+    data = work / "data"
+    shutil.copytree(SCAN_EXAMPLE, data)
+    manifest = data / "measured.yaml"
+    manifest.write_text(manifest.read_text() + f"\npairing: {pairing}\n")
+    line = refused(["correlate", manifest, "--out", work / "pairs"], work, capsys)
+    assert expected in line, line
+
+
+@pytest.mark.parametrize("observed, expected", [
+    ("[]", "observed = [] is not allowed"),
+    ("(m,1)", "observed = '(m,1)' is not allowed"),
+    ("['(m,0)']", "observed[0] = '(m,0)' is not allowed"),
+    ("[{m: 1}]", "observed[0] = {'m': 1} is not allowed"),
+    ("[out of plane]", "observed[0] = 'out of plane' is not allowed"),
+])
+def test_bad_observed_families_are_refused(work, capsys, observed, expected):
+    data = work / "data"
+    shutil.copytree(EXAMPLE, data)
+    manifest = data / "measured.yaml"
+    manifest.write_text(manifest.read_text() + f"\nobserved: {observed}\n")
+    line = refused(["diagnose", manifest, "--out", work / "report"], work, capsys)
+    assert expected in line, line
+
+
+def test_synth_uff_refuses_an_effect_the_fe_does_not_hold(work, capsys):
+    line = refused(["synth", SCAN_EXAMPLE / "base_study.yaml", "--format", "uff",
+                    "--effects", "spring_mass", "--out", work / "synth"], work, capsys)
+    assert "--effects spring_mass is not allowed with --format uff" in line
+
+
+def test_synth_uff_refuses_a_bad_frequency_noise(work, capsys):
+    line = refused(["synth", SCAN_EXAMPLE / "base_study.yaml", "--format", "uff",
+                    "--frequency-noise", "nan", "--out", work / "synth"], work, capsys)
+    assert "frequency_noise = nan is not allowed" in line

@@ -20,14 +20,13 @@ import numpy as np
 import pytest
 import scipy.linalg
 
+from copdea_fem.mac import mac_matrix, subspace_mac
 from copdea_fem.sweeps.tracking import (
     ModeSet,
     TrackingInputError,
     TrackingSettings,
     base_label,
     group_degenerate,
-    mac_matrix,
-    subspace_mac,
     track_modes,
 )
 

@@ -96,6 +96,10 @@ def diagnose_measured(measured_path, alpha: float = 0.05, model: str | None = No
     measured = load_measured(measured_path)
     if model is not None:
         measured = dataclasses.replace(measured, model=model)
+    pairings = ()
+    if any(c.scan is not None and c.resonances is None for c in measured.conditions):
+        from copdea_fem.diagnosis.scanned import resonances_from_scans
+        measured, pairings = resonances_from_scans(measured)
     engine = None
     if measured.model == "fe":
         from copdea_fem.diagnosis.anchored import AnchoredEngine
@@ -105,7 +109,12 @@ def diagnose_measured(measured_path, alpha: float = 0.05, model: str | None = No
         engine = (AnchoredEngine(measured, fe) if ring_can_represent(measured.base_study)
                   else DirectFEEngine(measured, fe))     # no disc: the FE directly
     try:
-        return Diagnoser(measured, alpha=alpha, engine=engine).run()
+        shape_check = None
+        if pairings:
+            from copdea_fem.diagnosis.scanned import ShapeCheck
+            shape_check = ShapeCheck(measured, pairings)
+        result = Diagnoser(measured, alpha=alpha, engine=engine, shape_check=shape_check).run()
+        return dataclasses.replace(result, scan_pairings=pairings) if pairings else result
     finally:
         if engine is not None:
             engine.fe.close()                            # the FE worker processes, if any
@@ -182,6 +191,62 @@ def run_synth(study, effects_text, conditions_text=None, parameters=None, option
             "conditions": [i.name for i in items]}
 
 
+#: Effects a synthetic vibrometer export can hide: those the FE honours (air, frame, disc
+#: motion, stiffness scale, the membrane's relaxation spectrum); the others act only through
+#: the ring model.
+SCAN_EFFECTS = ("air_loading", "frame_reflection", "baffle", "open_air", "disc_pumping",
+                "uniform_stiffness", "viscoelastic_membrane")
+
+
+def run_synth_scan(study, effects_text, conditions_text=None, parameters=None, options=None,
+                   out_dir=None) -> dict:
+    """Synthetic vibrometer exports made by the FE (``copdea-fem synth --format uff``), see
+    :mod:`copdea_fem.diagnosis.synth_scan`.  Parameters as :func:`run_synth`'s; ``options``
+    a :class:`~copdea_fem.diagnosis.synth_scan.ScanOptions`."""
+    from copdea_fem.diagnosis.effects import parse_effect_list
+    from copdea_fem.diagnosis.synth import condition_name, parse_conditions, parse_parameters
+    from copdea_fem.diagnosis.synth_scan import ScanOptions, write_scan_set
+    from copdea_fem.folders import result_directory
+    from copdea_fem.study import StudyError
+    options = options or ScanOptions()
+    options.check()
+    names = parse_effect_list(effects_text or "")
+    for effect_id in names:
+        if effect_id not in SCAN_EFFECTS:
+            raise StudyError(f"--effects {effect_id} is not allowed with --format uff (the FE "
+                             "makes the export and does not hold it); allowed: "
+                             + ", ".join(SCAN_EFFECTS))
+    given = parse_parameters(parameters)
+    for effect_id in given:
+        if effect_id not in names:
+            raise StudyError(f"--param {effect_id}.* is not allowed; allowed: parameters of "
+                             f"the effects in --effects ({', '.join(names) or 'none'})")
+    effects = {effect_id: tuple(given.get(effect_id, {}).get(p.name, p.default)
+                                for p in CATALOGUE[effect_id].parameters)
+               for effect_id in names}
+    conditions, taken = [], set()
+    for index, overrides in enumerate(parse_conditions(conditions_text)):
+        try:
+            condition_study = study.replace(overrides)
+        except StudyError as error:
+            raise StudyError(f"--conditions #{index + 1}: {error}") from None
+        conditions.append((condition_name(condition_study, overrides, index, taken),
+                           overrides))
+    out = Path(out_dir) if out_dir else synth_out_dir(study, options.seed)
+    with result_directory(out, "synth") as staging:
+        files = write_scan_set(study, effects, conditions, options, staging)
+    files = [out / f.name for f in files]
+    truth = ", ".join(f"{e} ({CATALOGUE[e].describe_values(v)})" if v else e
+                      for e, v in effects.items()) or "no effect added"
+    lines = [f"{len(conditions)} scanned conditions: "
+             + ", ".join(name for name, _ in conditions),
+             f"truth: {truth}; seed {options.seed}",
+             f"wrote {len(files)} files to {out}; diagnose with: copdea-fem diagnose "
+             f"{out / 'measured.yaml'}"]
+    return {"files": [str(f) for f in files], "out": str(out), "lines": lines,
+            "conditions": [name for name, _ in conditions]}
+
+
 __all__ = ["CATALOGUE", "EFFECT_IDS", "Effect", "Parameter", "catalogue_table",
            "MeasuredDataError", "MeasuredSet", "load_measured", "Diagnoser", "DiagnosisResult",
-           "diagnose_measured", "run_synth", "summary_lines", "diagnose_out_dir", "synth_out_dir"]
+           "diagnose_measured", "run_synth", "run_synth_scan", "summary_lines", "diagnose_out_dir", "synth_out_dir"]

@@ -215,10 +215,13 @@ def _softmin(a: float, b: float) -> float:
 
 
 def match_condition(name, model_modes, peaks, band, noise: NoiseModel,
-                    terms: "DevianceTerms | None" = None) -> ConditionMatch:
+                    terms: DevianceTerms | None = None, observed=None) -> ConditionMatch:
     """Pair model modes and measured peaks of one condition and score them (module notes).
 
     ``terms`` (optional) are the condition's :class:`DevianceTerms`, to save rebuilding them.
+    ``observed`` (:class:`copdea_fem.diagnosis.measured.ObservedFamilies`, optional): the
+    families the measurement can see; a model mode outside them may explain a peak, but
+    no peak for it costs nothing (like an optional mode).
     """
     orders = any(m.kind == "non-axisymmetric" for m in model_modes)
     in_scope = [p for p in peaks if orders or p.kind != "non-axisymmetric"]
@@ -251,7 +254,8 @@ def match_condition(name, model_modes, peaks, band, noise: NoiseModel,
                 used.add(free[j].label)
     else:
         unexplained.extend(unlabelled)
-    required = [m for m in expected if not m.optional]
+    required = [m for m in expected if not m.optional
+                and (observed is None or observed.covers(m.label, m.kind))]
     lonely = [m for m in required if m.label not in used]
     inside = {m.label: terms.inside(m.frequency_hz) for m in required}
     unseen = tuple(m for m in lonely if inside[m.label] >= 0.5)
@@ -314,6 +318,21 @@ def gap(matches) -> float:
     if count == 0:
         return 0.0
     return math.sqrt((sum(e * e for e in errors) + GATE ** 2 * excess) / count)
+
+
+def gap_parts(matches) -> dict:
+    """The two parts of :func:`gap`: the RMS relative error over the pairs alone
+    (``paired_rms``, [-], NaN without pairs), the pairs' count, and the count penalty
+    (``excess``: unexplained peaks and unseen modes beyond the noise model's expectation,
+    each counted as an error of GATE)."""
+    errors = [p.relative_error for m in matches for p in m.pairs]
+    unexplained = sum(len(m.unseen) + len(m.unexplained) for m in matches)
+    expected = sum(m.expected_unexplained for m in matches)
+    spread = math.sqrt(sum(m.variance_unexplained for m in matches))
+    return {"paired_rms": (math.sqrt(sum(e * e for e in errors) / len(errors)) if errors
+                           else math.nan),
+            "pairs": len(errors), "unexplained": unexplained,
+            "excess": max(0.0, unexplained - expected - 2 * spread)}
 
 
 def total_deviance(matches) -> float:

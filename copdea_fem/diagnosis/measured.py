@@ -15,6 +15,11 @@ Manifest (paths relative to the manifest's folder)::
       missing_probability: 0.1       #   chance that a mode in the band is not identified
       spurious_per_condition: 0.2    #   expected peaks per condition no axisymmetric model has
     candidates: [air_loading, ...]   # optional: effects the diagnosis may add (default: all)
+    observed: ["(m,1)", "(0,n)"]     # optional: the mode families the measurement can see
+                                     #   (default: all); model modes outside them cost
+                                     #   nothing when no peak explains them
+    pairing: {window: 50 %, mac_min: 0.5}   # optional: pairing of scanned shapes with the
+                                     #   model's (copdea_fem.vibrometer.correlate)
     model: fe                        # optional: the model of record, fe (default: the FE as
                                      #   the base study is written, the ring model its
                                      #   anchored surrogate) or reduced (the ring model alone)
@@ -71,7 +76,7 @@ from copdea_fem.vibrometer.scan import MeasuredDataError, ScanData, ScanFrame
 KINDS = ("pumping", "axisymmetric", "non-axisymmetric")
 POINTS = ("average", "Q1", "Q2", "Q3")
 MANIFEST_KEYS = ("name", "description", "base_study", "noise", "candidates", "conditions",
-                 "model")
+                 "model", "observed", "pairing")
 MODELS = ("fe", "reduced")     # the model of record (key ``model``, default fe)
 CONDITION_KEYS = ("name", "set", "resonances", "spectrum", "spectrum_point", "band",
                   "modes_json", "scan", "scan_frame", "scan_directions", "scan_tolerance")
@@ -184,6 +189,8 @@ class MeasuredSet:
     noise: NoiseModel
     candidates: tuple = EFFECT_IDS
     model: str = "fe"
+    observed: ObservedFamilies | None = None
+    pairing: PairingSettings | None = None
 
     def study_of(self, condition: Condition, extra: dict | None = None) -> Study:
         """The base study with the condition's overrides (and ``extra`` ones) applied."""
@@ -394,7 +401,8 @@ def parse_measured(raw: dict, folder, name: str = "measured", path=None) -> Meas
     return MeasuredSet(name=name, description=str(raw.get("description", "")),
                        path=Path(path) if path else None, base_study=base,
                        conditions=tuple(conditions), noise=noise, candidates=candidates,
-                       model=model)
+                       model=model, observed=parse_observed(raw.get("observed")),
+                       pairing=parse_pairing(raw.get("pairing")))
 
 
 def _parse_condition(item, index, base: Study, folder: Path) -> Condition:
@@ -545,16 +553,114 @@ def _read_scan(item: dict, where: str, path: Path, study: Study):
     return scan, distance
 
 
+# -- observed families and the pairing of scanned shapes ---------------------------------------
+
+_FAMILY = re.compile(r"^\(\s*(m|\d+)\s*,\s*(n|[1-9]\d*)\s*\)$")
+#: Kind words of ``observed``, and the model kinds each covers.  The diagnosis's model modes
+#: are pumping, axisymmetric or non-axisymmetric (out-of-plane all three; its FE drops the
+#: in-plane family, which an out-of-plane vibrometer hardly sees).
+FAMILY_KINDS = {"out-of-plane": ("pumping", "axisymmetric", "non-axisymmetric"),
+                "in-plane": ("in-plane",), "pumping": ("pumping",),
+                "axisymmetric": ("axisymmetric",), "non-axisymmetric": ("non-axisymmetric",)}
+
+
+@dataclass(frozen=True)
+class ObservedFamilies:
+    """The mode families a measurement can see (``observed:``).
+
+    ``"(m,1)"``: every mode with one nodal circle (m any); ``"(0,n)"``: the axisymmetric
+    membrane modes; ``"(2,1)"``: that mode (both members of its pair); a kind word
+    (``out-of-plane``, ``in-plane``, ``pumping``, ``axisymmetric``, ``non-axisymmetric``):
+    every mode of that kind.  A pumping mode ``P1, P2, ...`` is covered by ``pumping`` and
+    ``out-of-plane`` only.
+    """
+
+    families: tuple
+
+    def covers(self, label: str, kind: str) -> bool:
+        """Whether a model mode (label, kind) belongs to an observed family."""
+        match = _LABEL_MN.match(label or "")
+        for family in self.families:
+            if family in FAMILY_KINDS:
+                if kind in FAMILY_KINDS[family]:
+                    return True
+                continue
+            m_text, n_text = _FAMILY.match(family).groups()
+            if match and m_text in ("m", match.group(1)) and n_text in ("n", match.group(2)):
+                return True
+        return False
+
+
+def parse_observed(value) -> ObservedFamilies | None:
+    """``observed:`` -> :class:`ObservedFamilies` (None: every mode can be seen)."""
+    if value is None:
+        return None
+    allowed = ("a non-empty list of families: (m,n) patterns such as \"(m,1)\", \"(0,n)\", "
+               "\"(2,1)\", or " + ", ".join(FAMILY_KINDS))
+    if isinstance(value, str) or not isinstance(value, list) or not value:
+        raise _fail("observed", value, allowed)
+    families = []
+    for index, item in enumerate(value):
+        text = re.sub(r"\s+", "", item) if isinstance(item, str) else item
+        if not isinstance(text, str) or not (text in FAMILY_KINDS or _FAMILY.match(text)):
+            raise _fail(f"observed[{index}]", item, allowed)
+        families.append(text)
+    return ObservedFamilies(tuple(dict.fromkeys(families)))
+
+
+@dataclass(frozen=True)
+class PairingSettings:
+    """How scanned shapes pair with the model's (:func:`copdea_fem.vibrometer.correlate.
+    correlate_shapes`): relative frequency ``window`` and smallest ``mac_min`` of a pair."""
+
+    window: float = 0.5
+    mac_min: float = 0.5
+
+
+PAIRING_BOUNDS = {"window": (0.01, 2.0), "mac_min": (0.05, 1.0)}
+
+
+def parse_pairing(value) -> PairingSettings:
+    """``pairing:`` -> :class:`PairingSettings` (defaults when absent); ``window`` takes a
+    fraction (0.5) or a percentage (``50 %``)."""
+    if value is None:
+        return PairingSettings()
+    if not isinstance(value, dict):
+        raise _fail("pairing", value, "a mapping of " + ", ".join(PAIRING_BOUNDS))
+    settings = {}
+    for key, raw in value.items():
+        if key not in PAIRING_BOUNDS:
+            raise _fail(f"pairing.{key}", raw, "keys " + ", ".join(PAIRING_BOUNDS),
+                        "unknown key")
+        number = raw
+        if isinstance(raw, str) and raw.strip().endswith("%"):
+            try:
+                number = float(raw.strip()[:-1]) / 100
+            except ValueError:
+                number = raw
+        lo, hi = PAIRING_BOUNDS[key]
+        if (isinstance(number, bool) or not isinstance(number, (int, float))
+                or not math.isfinite(number) or not lo <= number <= hi):
+            raise _fail(f"pairing.{key}", raw, f"a number in [{lo:g}, {hi:g}]"
+                        + (" (or a percentage)" if key == "window" else ""))
+        settings[key] = float(number)
+    return PairingSettings(**settings)
+
+
 __all__ = [
     "Condition",
     "MeasuredDataError",
     "MeasuredSet",
     "NoiseModel",
+    "ObservedFamilies",
+    "PairingSettings",
     "Resonance",
     "Spectrum",
     "load_measured",
     "normalise_label",
     "parse_measured",
+    "parse_observed",
+    "parse_pairing",
     "read_resonances",
     "read_spectrum",
 ]

@@ -21,11 +21,12 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from copdea_fem.diagnosis.compare import GATE
+from copdea_fem.diagnosis.compare import GATE, gap_parts
 from copdea_fem.diagnosis.effects import CATALOGUE, catalogue_table
 from copdea_fem.diagnosis.engine import state_overrides
 from copdea_fem.diagnosis.evidence import explained
 from copdea_fem.diagnosis.peaks import peak_height, peak_width
+from copdea_fem.diagnosis.scanned import base_shape_macs, pairing_report_lines, step_mac_lines
 from copdea_fem.folders import package_versions
 
 
@@ -318,6 +319,21 @@ def model_of_record_lines(result) -> list:
     return lines
 
 
+def _gap_parts_line(result) -> str:
+    """The gap's two parts, base -> final: the paired RMS error and the count penalty."""
+    parts = [gap_parts(matches.values()) for matches in (result.matches_before,
+                                                         result.matches_after)]
+    rms = " -> ".join("-" if math.isnan(p["paired_rms"]) else f"{100 * p['paired_rms']:.2f} %"
+                      for p in parts)
+    excess = " -> ".join(f"{p['excess']:.1f}" for p in parts)
+    observed = (f" (observed families: {', '.join(result.measured.observed.families)}; "
+                "model modes outside them cost nothing)"
+                if result.measured.observed else "")
+    return (f"- paired RMS error: {rms} over the pairs; count penalty: {excess} peaks or "
+            f"modes beyond the noise model, each counted as a {100 * GATE:.0f} % error"
+            + observed)
+
+
 def report_markdown(result, document: dict, figures: list) -> str:
     measured = result.measured
     lines = [f"# Diagnosis: {measured.name}", ""]
@@ -328,10 +344,12 @@ def report_markdown(result, document: dict, figures: list) -> str:
               f"- ambiguous: {'; '.join(' / '.join(g) for g in result.ambiguous) or 'none'}",
               f"- gap: {100 * result.gap_before:.2f} % (base model) -> "
               f"{100 * result.gap_after:.2f} % (final model)",
+              _gap_parts_line(result),
               f"- explained: {explained(result)}"
               + ("; modes still off beyond the noise: "
                  + ", ".join(i["label"] for i in result.remaining_off)
                  if result.remaining_off else ""), ""]
+    lines += pairing_report_lines(result.scan_pairings)
     lines += ["## Data", "",
               "| condition | overrides | peaks in scope | out of scope | spectrum | band [Hz] |",
               "|---|---|---|---|---|---|"]
@@ -380,6 +398,7 @@ def report_markdown(result, document: dict, figures: list) -> str:
     lines += ["## Steps", ""]
     if not result.steps:
         lines += ["No candidate effect could be tested.", ""]
+    shape_before = base_shape_macs(result.scan_pairings)
     for step in result.steps:
         if not step.effects:
             lines += [f"### Step {step.index}: stop", "",
@@ -399,6 +418,9 @@ def report_markdown(result, document: dict, figures: list) -> str:
                       ""]
             for sep in step.separation:
                 lines += [_separation_text(sep, measured.noise.frequency_relative), ""]
+            if step.shape_macs:
+                lines += step_mac_lines(shape_before, step.shape_macs)
+                shape_before = step.shape_macs
         lines += ["| candidate | fitted | Delta_in | Delta_cv | ln U | threshold | "
                   "significant |", "|---|---|---|---|---|---|---|"]
         for c in step.candidates:

@@ -193,7 +193,8 @@ class Scorer:
     def match(self, condition, modes) -> ConditionMatch:
         """The model's ``modes`` matched to the measured peaks of ``condition``."""
         return match_condition(condition.name, modes, self.peaks[condition.name],
-                               condition.band, self.measured.noise, self.terms(condition.name))
+                               condition.band, self.measured.noise, self.terms(condition.name),
+                               observed=self.measured.observed)
 
     def evaluate(self, state) -> tuple[dict, dict]:
         """Exact predictions and matches of every condition ({} entries None if invalid)."""

@@ -73,6 +73,8 @@ class Step:
     ambiguous_with: tuple = ()
     separation: list = field(default_factory=list)
     candidates: list = field(default_factory=list)
+    shape_macs: dict = field(default_factory=dict)   # scans: {condition: {test mode: (label,
+                                                     # MAC)}} of the model after the step
 
 
 @dataclass
@@ -106,6 +108,7 @@ class DiagnosisResult:
     fe_seconds: float = 0.0
     remaining_off: list = field(default_factory=list)   # modes off beyond the noise (final)
     engines: dict = field(default_factory=dict)          # what evaluated what (report)
+    scan_pairings: tuple = ()     # scanned conditions' shape pairing (diagnosis.scanned)
 
 
 class Diagnoser:
@@ -123,9 +126,11 @@ class Diagnoser:
         model cannot represent); else the ring model.
     """
 
-    def __init__(self, measured, alpha: float = ALPHA, engine: Engine | None = None):
+    def __init__(self, measured, alpha: float = ALPHA, engine: Engine | None = None,
+                 shape_check=None):
         self.measured = measured
         self.alpha = alpha
+        self.shape_check = shape_check   # diagnosis.scanned.ShapeCheck of scanned conditions
         self.progress = logger.info      # progress lines, at INFO
         if engine is None and measured.model == "fe":
             from copdea_fem.diagnosis.anchored import AnchoredEngine
@@ -184,6 +189,8 @@ class Diagnoser:
                 previous = self._anchor(new_state)
                 _, new_matches = scorer.evaluate(new_state)
                 reason = refusal(matches, new_matches, best.effects)
+                if reason is None and self.shape_check is not None:
+                    reason = self.shape_check.refusal(new_state)
                 if reason is None:
                     accepted = best
                     break
@@ -208,6 +215,8 @@ class Diagnoser:
                         best, gap(matches.values()), gap(new_matches.values()),
                         sum(deviance.values()), sum(new_deviance.values()), evidence,
                         ambiguous_with=tuple(r.effects[-1] for r in rivals), candidates=scores)
+            if self.shape_check is not None:
+                step.shape_macs = self.shape_check.macs(new_state)
             if rivals:
                 group = [best.effects[-1]] + [r.effects[-1] for r in rivals]
                 ambiguous.append(group)

@@ -145,7 +145,8 @@ def parse_parameters(items) -> dict:
     return out
 
 
-def _condition_name(study: Study, overrides: dict, index: int, taken: set) -> str:
+def condition_name(study: Study, overrides: dict, index: int, taken: set) -> str:
+    """A condition's name from its operating point (``z16_v2``), unique among ``taken``."""
     parts = []
     for key in overrides:
         if key == "load.z":
@@ -197,7 +198,7 @@ def synthesise(study: Study, effects: dict, conditions: list[dict],
             raise StudyError(f"--conditions #{index + 1}: {error}") from None
         x = condition_study["excitation"]
         band = (max(x["f_start"], 1.0 / x["duration"]), x["f_end"])
-        name = _condition_name(condition_study, overrides, index, taken)
+        name = condition_name(condition_study, overrides, index, taken)
         prepared.append(Condition(name=name, overrides=dict(overrides), resonances=None,
                                   spectrum=None, band=band))
     measured = MeasuredSet(name="synth", description="", path=None, base_study=study,

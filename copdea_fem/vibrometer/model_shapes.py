@@ -1,0 +1,67 @@
+"""The model's side of a scan: the FE solved at the scan's operating point, its structural
+modes sampled along the scan's channels (:mod:`copdea_fem.vibrometer.sampling`) and paired
+with the identified modes (:mod:`copdea_fem.vibrometer.correlate`)."""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+
+from copdea_fem.vibrometer.correlate import (
+    DEFAULT_MAC_MIN,
+    DEFAULT_WINDOW,
+    Correlation,
+    FEShapes,
+    correlate_shapes,
+)
+from copdea_fem.vibrometer.sampling import mode_shapes_at_scan
+
+logger = logging.getLogger(__name__)
+
+#: The FE modes a vibrometer's shapes are compared with: not the air's own modes.
+STRUCTURAL_KINDS = ("out-of-plane", "in-plane", "pumping")
+
+
+def fe_shapes(study, scan, *, solve=None) -> FEShapes:
+    """The FE modes of ``study`` along the channels of ``scan``.
+
+    Parameters
+    ----------
+    study : copdea_fem.study.Study
+        The model at the scan's operating point (coupled with the air when
+        ``air.enabled``; the band ``eigen.f_min..f_max`` should cover the scan's).
+    scan : copdea_fem.vibrometer.scan.ScanData
+    solve : callable, optional
+        ``solve(study) -> SolveResult`` (:func:`copdea_fem.fe.pipeline.run_solve`, the
+        default).
+
+    Returns
+    -------
+    FEShapes
+        Labels, frequencies [Hz] and velocity shapes (C, K) of the structural modes.
+    """
+    from copdea_fem.fe.pipeline import run_solve
+
+    result = (solve or run_solve)(study.replace({"output.plots": False,
+                                                 "output.paraview": False}))
+    modes = [mode for mode in result.modes if mode.kind in STRUCTURAL_KINDS and mode.label]
+    logger.info("FE: %d structural modes sampled at %d scan points", len(modes),
+                scan.n_points)
+    return FEShapes.from_modes(modes, mode_shapes_at_scan(result.state, modes, scan))
+
+
+def correlate_identified(condition: str, identified, fe: FEShapes, *,
+                         window: float = DEFAULT_WINDOW,
+                         mac_min: float = DEFAULT_MAC_MIN) -> Correlation:
+    """Pair identified modes (:class:`copdea_fem.vibrometer.scan.IdentifiedMode`) with the
+    FE's sampled shapes (:func:`copdea_fem.vibrometer.correlate.correlate_shapes`)."""
+    identified = tuple(identified)
+    shapes = (np.column_stack([mode.shape for mode in identified]) if identified
+              else np.zeros((fe.shapes.shape[0], 0), dtype=complex))
+    return correlate_shapes([mode.freq_hz for mode in identified], shapes, fe,
+                            test_damping_ratio=[mode.damping_ratio for mode in identified],
+                            window=window, mac_min=mac_min, condition=condition)
+
+
+__all__ = ["STRUCTURAL_KINDS", "correlate_identified", "fe_shapes"]

@@ -1,0 +1,112 @@
+"""studies/measured_scan_example: a vibrometer export made by the FE, read, identified, paired
+by shape with the base model (correlate) and turned into the diagnosis's labelled peaks.
+
+The export's truth is the FE coupled with the air (synth_truth.json holds its frequencies);
+the base model is the same device in vacuo, whose modes lie 10-20 % higher: exactly where
+pairing by frequency goes wrong and pairing by shape must not.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+from copdea_fem.cli import main
+
+ROOT = Path(__file__).resolve().parent.parent
+EXAMPLE = ROOT / "studies" / "measured_scan_example"
+
+
+def _truth_label(frequency_hz: float) -> str:
+    """The true mode nearest a test frequency (the export's own modes, not the FE's)."""
+    truth = json.loads((EXAMPLE / "synth_truth.json").read_text())["conditions"]["z16_v2"]
+    return min(truth, key=lambda label: abs(truth[label]["freq_hz"] - frequency_hz))
+
+
+def _same_unit(first: str, second: str) -> bool:
+    from copdea_fem.vibrometer.correlate import unit_key
+    return unit_key(first) == unit_key(second)
+
+
+def test_the_example_is_small():
+    assert sum(path.stat().st_size for path in EXAMPLE.iterdir()) < 300_000
+
+
+def test_correlate_labels_the_example_by_shape(tmp_path, capsys):
+    out = tmp_path / "correlate"
+    assert main(["correlate", str(EXAMPLE / "measured.yaml"), "--out", str(out),
+                 "--quiet"]) == 0
+    assert "test modes paired by shape" in capsys.readouterr().out
+    with open(out / "pairs.csv", newline="") as stream:
+        rows = list(csv.DictReader(stream))
+    assert list(rows[0]) == ["condition", "test_mode", "test_freq_hz", "test_damping_ratio",
+                             "label", "fe_freq_hz", "freq_error", "mac"]
+    assert len(rows) >= 3
+    for row in rows:
+        truth = _truth_label(float(row["test_freq_hz"]))
+        assert row["label"] and _same_unit(row["label"], truth), (row, truth)
+        assert 0.5 <= float(row["mac"]) <= 1.0
+        # the dry base is higher than the truth in air: a positive frequency error
+        assert float(row["freq_error"]) > 0
+        assert 0 < float(row["test_damping_ratio"]) < 0.05
+    first = rows[0]
+    assert first["label"] == "(0,1)" and float(first["freq_error"]) > 0.1
+    for name in ("comac.csv", "mac.png", "report.md"):
+        assert (out / name).stat().st_size > 0
+    report = (out / "report.md").read_text()
+    assert "(differs)" in report          # frequency order alone would have mislabelled
+    with open(out / "comac.csv", newline="") as stream:
+        comac = list(csv.DictReader(stream))
+    assert len(comac) == 3 * 34                 # 34 points, three directions each
+
+
+def test_the_scan_becomes_labelled_peaks_with_quality_factors():
+    from copdea_fem.diagnosis.measured import load_measured
+    from copdea_fem.diagnosis.scanned import pairing_report_lines, resonances_from_scans
+
+    measured, pairings = resonances_from_scans(load_measured(EXAMPLE / "measured.yaml"))
+    (condition,) = measured.conditions
+    assert condition.resonances and len(pairings) == 1
+    for resonance in condition.resonances:
+        truth = _truth_label(resonance.frequency_hz)
+        assert resonance.label and _same_unit(resonance.label, truth)
+        # Q = 1 / (2 zeta): the export's damping is 1 % plus the (small) radiation
+        assert 20 < resonance.quality_factor < 55
+        assert resonance.kind == ("axisymmetric" if resonance.label.startswith("(0,")
+                                  else "non-axisymmetric")
+    text = "\n".join(pairing_report_lines(pairings))
+    assert "## Shape pairing (vibrometer scans)" in text and "| MAC |" in text
+
+
+@pytest.mark.slow
+def test_diagnose_names_air_loading_from_the_example_scan(tmp_path, capsys):
+    """The whole path: scan -> identified peaks -> shape labels -> diagnosis (cold FE cache:
+    about a minute on two cores)."""
+    out = tmp_path / "diagnose"
+    assert main(["diagnose", str(EXAMPLE / "measured.yaml"), "--out", str(out), "--quiet",
+                 "--fe-cache", str(tmp_path / "cache"), "--fe-workers", "1"]) == 0
+    document = json.loads((out / "diagnosis.json").read_text())
+    assert document["missing_effects"] == ["air_loading"]
+    assert document["gap_before"] > 5 * document["gap_after"]
+    report = (out / "report.md").read_text()
+    assert "## Shape pairing (vibrometer scans)" in report and "paired RMS error" in report
+    assert math.isfinite(document["gap_after"])
+
+
+def test_the_api_gives_the_pairs_it_writes(tmp_path):
+    import copdea_fem as cf
+
+    result = cf.correlate(EXAMPLE / "measured.yaml")
+    table = result.pairs
+    assert list(table.columns) == ["condition", "test_mode", "test_freq_hz",
+                                   "test_damping_ratio", "label", "fe_freq_hz", "freq_error",
+                                   "mac"]
+    folder = result.write(tmp_path / "pairs")
+    with open(folder / "pairs.csv", newline="") as stream:
+        rows = list(csv.DictReader(stream))
+    assert [row["label"] for row in rows] == list(table["label"])
+    assert [float(row["mac"]) for row in rows] == pytest.approx(list(table["mac"]), abs=1e-4)
