@@ -190,7 +190,7 @@ def _once_response(study) -> dict:
     import numpy as np
 
     from copdea_fem.forced_response.run import forced_response, prepare_order_zero
-    from copdea_fem.reduced.response import Chirp
+    from copdea_fem.reduced.chirp_response import Chirp
 
     start = time.perf_counter()
     problem = prepare_order_zero(study)
@@ -244,7 +244,7 @@ def _once_response_reduced(study, overrides) -> dict:
     picks = np.array(picks)
     direct_problem = dataclasses.replace(problem, study=study.replace(
         {"response.method": "direct"}))
-    from copdea_fem.reduced.response import Chirp
+    from copdea_fem.reduced.chirp_response import Chirp
     _, volts = Chirp.from_study(study).lines()
     direct_start = time.perf_counter()
     with single_threaded_blas():

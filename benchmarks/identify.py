@@ -4,7 +4,7 @@ A PSV-sized scan - 84 points x 3 velocity components x 800 lines (1.25 ... 1000 
 1.25 Hz, the paper's chirp) - made analytically from a few modal poles (the closed form
 ``H_c = i w sum_r [A_cr / (i w - s_r) + conj(A_cr) / (i w - conj(s_r))]``, real shapes,
 a split pair 1 % apart), with complex Gaussian noise 60 dB below the largest value.
-Timed: :func:`copdea_fem.vibrometer.identify.identify` on it (LSCF up to order 120 on the
+Timed: :func:`copdea_fem.vibrometer.identification.identify` on it (LSCF up to order 120 on the
 principal response functions, the automatic choice, LSFD on all 252 channels), and reading
 the same scan from a binary UFF export (:func:`~copdea_fem.vibrometer.uff.read_scan`).
 Each repetition runs in process after one warm-up; reported: median and range, and the
@@ -58,7 +58,7 @@ def make_scan(seed: int = 0):
 
 
 def main(argv=None) -> int:
-    from copdea_fem.vibrometer.identify import identify
+    from copdea_fem.vibrometer.identification import identify
     from copdea_fem.vibrometer.uff import read_scan, write_scan
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])

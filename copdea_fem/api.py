@@ -58,8 +58,8 @@ if TYPE_CHECKING:
     from copdea_fem.fe.engines import Engine
     from copdea_fem.fe.pipeline import SolveResult
     from copdea_fem.forced_response.run import ResponseResult
+    from copdea_fem.reduced.chirp_response import SpectrumResult
     from copdea_fem.reduced.model import ReducedSetup
-    from copdea_fem.reduced.response import SpectrumResult
     from copdea_fem.sweeps.gather import SweepOutcome
     from copdea_fem.sweeps.spec import Sweep
     from copdea_fem.vibrometer.scan import IdentifiedSet
@@ -795,7 +795,7 @@ class Spectrum:
         The study.
     setup : copdea_fem.reduced.model.ReducedSetup
         The reduced model, its chirp and its modes.
-    result : copdea_fem.reduced.response.SpectrumResult
+    result : copdea_fem.reduced.chirp_response.SpectrumResult
         The velocity spectra, ``|FFT|/N`` per line [m/s].
     modes_json : str or Path, optional
         The FE modes.json given to :func:`spectrum`, if any.
@@ -1076,7 +1076,7 @@ def identify(measured: str | Path, *, progress: Callable[[str], None] | None = N
     Each condition with ``scan: FILE`` is read (:func:`copdea_fem.vibrometer.uff.read_scan`,
     checked on the device) and identified automatically in its ``band`` (default: the
     scan's lines above 0 Hz): LSCF poles stable over the model orders, LSFD residues as
-    shapes (:mod:`copdea_fem.vibrometer.identify`; nothing from the FE).
+    shapes (:mod:`copdea_fem.vibrometer.identification`; nothing from the FE).
 
     Parameters
     ----------
@@ -1085,7 +1085,7 @@ def identify(measured: str | Path, *, progress: Callable[[str], None] | None = N
     progress : callable(str), optional
         As :func:`solve`'s.
     **options
-        Passed to :func:`copdea_fem.vibrometer.identify.identify_scan` (``f_min``,
+        Passed to :func:`copdea_fem.vibrometer.identification.identify_scan` (``f_min``,
         ``f_max`` [Hz] in place of the conditions' bands, ``max_order``, ``components``, ``frequency_tolerance``,
         ``damping_tolerance``, ``max_damping``, ``min_stable_orders``).
 
@@ -1100,7 +1100,7 @@ def identify(measured: str | Path, *, progress: Callable[[str], None] | None = N
         :class:`~copdea_fem.diagnosis.measured.MeasuredDataError`).
     """
     from copdea_fem.diagnosis.measured import MeasuredDataError, load_measured
-    from copdea_fem.vibrometer.identify import OPTIONS, identify_scan
+    from copdea_fem.vibrometer.identification import OPTIONS, identify_scan
     from copdea_fem.vibrometer.scan import IdentifiedSet
 
     for name in options:
@@ -1141,7 +1141,7 @@ class IdentifyResult:
     @property
     def table(self) -> pd.DataFrame:
         """identified.csv as a DataFrame (condition, test_mode, freq_hz, damping_ratio, mpc)."""
-        from copdea_fem.vibrometer.identify import IDENTIFIED_COLUMNS, identified_rows
+        from copdea_fem.vibrometer.identification import IDENTIFIED_COLUMNS, identified_rows
         return _frame(identified_rows(self.sets), IDENTIFIED_COLUMNS)
 
     def write(self, folder: str | Path | Claim) -> Path:
@@ -1150,7 +1150,7 @@ class IdentifyResult:
         :class:`~copdea_fem.folders.Claim`.  Parameters, return and errors as
         :meth:`Solution.write`."""
         from copdea_fem.folders import result_directory
-        from copdea_fem.vibrometer.identify import write_identified
+        from copdea_fem.vibrometer.identification import write_identified
         with _claimed(folder, "identify", [self.source, *self.files]) as target:
             with result_directory(target, "identify") as staging:
                 write_identified(staging, self.sets)
@@ -1163,11 +1163,11 @@ def correlate(measured: str | Path, *,
     (``copdea-fem correlate``, nothing written).
 
     For each condition of ``measured`` with a ``scan:``: the modes are identified
-    (:func:`copdea_fem.vibrometer.identify.identify`, in the condition's band), the base
+    (:func:`copdea_fem.vibrometer.identification.identify`, in the condition's band), the base
     study at the condition is solved (the FE band reaching the pairing window past the
     condition's), its structural modes sampled at the scan points along the measured
     directions (:mod:`copdea_fem.vibrometer.sampling`) and paired one-to-one by shape
-    (:func:`copdea_fem.vibrometer.correlate.correlate_shapes`, measured.yaml's
+    (:func:`copdea_fem.vibrometer.pairing.correlate_shapes`, measured.yaml's
     ``pairing:`` window and smallest MAC).
 
     Parameters
@@ -1191,7 +1191,7 @@ def correlate(measured: str | Path, *,
         a scan.
     """
     from copdea_fem.diagnosis.measured import MeasuredDataError, load_measured
-    from copdea_fem.vibrometer.identify import identify
+    from copdea_fem.vibrometer.identification import identify
     from copdea_fem.vibrometer.model_shapes import correlate_identified, fe_shapes
 
     measured = load_measured(measured)
@@ -1220,7 +1220,7 @@ def correlate(measured: str | Path, *,
 @dataclass
 class CorrelateResult:
     """The result of :func:`correlate`: one
-    :class:`~copdea_fem.vibrometer.correlate.Correlation` per scanned condition.
+    :class:`~copdea_fem.vibrometer.pairing.Correlation` per scanned condition.
 
     Attributes
     ----------

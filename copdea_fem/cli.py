@@ -383,7 +383,7 @@ def cmd_identify(args) -> int:
                                for path in condition.files.values())]
     options = {} if args.max_order is None else {"max_order": args.max_order}
     if options:
-        from copdea_fem.vibrometer.identify import check_options
+        from copdea_fem.vibrometer.identification import check_options
         check_options(options)                       # exit 2 before any work
     with _output(args, out_dir, "identify", inputs) as folder:
         result = api.identify(args.measured, **options)

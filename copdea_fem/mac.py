@@ -2,7 +2,7 @@
 
 One implementation for the package: the sweeps' mode tracking
 (:mod:`copdea_fem.sweeps.tracking`) compares the modes of neighbouring sweep points with it,
-the vibrometer's correlation (:mod:`copdea_fem.vibrometer.correlate`) measured shapes with
+the vibrometer's correlation (:mod:`copdea_fem.vibrometer.pairing`) measured shapes with
 the FE's.  Pure functions on arrays.
 
 A degenerate pair (the ``cos m theta`` / ``sin m theta`` modes of a circular membrane) is

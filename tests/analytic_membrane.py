@@ -13,7 +13,7 @@ import math
 import numpy as np
 from scipy.special import jn_zeros, jv
 
-from copdea_fem.vibrometer.correlate import FEShapes
+from copdea_fem.vibrometer.pairing import FEShapes
 
 RADIUS = 0.0355          # m, G1's outer radius (Table 1)
 BASE_HZ = 200.0          # Hz per unit of j_mn

@@ -169,9 +169,13 @@ def test_the_api_names_are_the_api_functions_and_no_module_is_named_like_one():
     import types
 
     from copdea_fem import api
+    package = Path(cf.__file__).parent
+    modules = {path.stem for path in package.rglob("*.py")} | {
+        path.name for path in package.rglob("*") if path.is_dir()}
     for name in cf.__all__:
         assert getattr(cf, name) is getattr(api, name)
         assert importlib.util.find_spec(f"copdea_fem.{name}") is None, name
+        assert name not in modules, f"a module or folder of copdea_fem is named {name!r}"
     assert isinstance(cf.solve, types.FunctionType)
     assert type(cf) is types.ModuleType
 

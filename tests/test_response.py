@@ -334,7 +334,7 @@ def test_quadrant_engine_matches_the_axisymmetric_response():
     0.36 %; the engines' coupled frequencies differ by <= 0.075 %, README)."""
     from copdea_fem.fe.forced.radiation import MembraneObserver
     from copdea_fem.fe.quadrant.forced import QuadrantObserver, QuadrantSphere, prepare_quadrant
-    from copdea_fem.reduced.response import scan_fractions
+    from copdea_fem.reduced.chirp_response import scan_fractions
     quadrant = prepare_quadrant(study_of(mesh={"engine": "3d"}))
     meridian = prepare_order_zero(study_of())
     frequencies = [100.0, 383.0, 700.0]

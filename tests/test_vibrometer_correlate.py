@@ -1,4 +1,4 @@
-"""Pairing measured shapes with the model's by shape (copdea_fem.vibrometer.correlate).
+"""Pairing measured shapes with the model's by shape (copdea_fem.vibrometer.pairing).
 
 The "measurement" here is made without the FE: an analytic circular membrane, whose modes
 are ``J_m(j_mn r / a) cos(m theta + phi)`` with frequencies proportional to ``j_mn`` (the
@@ -23,7 +23,7 @@ from analytic_membrane import (
 )
 
 from copdea_fem.mac import subspace_mac
-from copdea_fem.vibrometer.correlate import (
+from copdea_fem.vibrometer.pairing import (
     CorrelationError,
     correlate_shapes,
     pair_by_frequency,

@@ -28,7 +28,7 @@ def _truth_label(frequency_hz: float) -> str:
 
 
 def _same_unit(first: str, second: str) -> bool:
-    from copdea_fem.vibrometer.correlate import unit_key
+    from copdea_fem.vibrometer.pairing import unit_key
     return unit_key(first) == unit_key(second)
 
 

@@ -19,7 +19,7 @@ from vibrometer_helpers import (
 from copdea_fem import api
 from copdea_fem.cli import main
 from copdea_fem.study import StudyError
-from copdea_fem.vibrometer.identify import identify, identify_scan, modal_phase_collinearity
+from copdea_fem.vibrometer.identification import identify, identify_scan, modal_phase_collinearity
 from copdea_fem.vibrometer.scan import MeasuredDataError, ScanData
 from copdea_fem.vibrometer.uff import read_functions, write_scan
 

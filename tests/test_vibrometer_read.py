@@ -401,7 +401,7 @@ def test_units_from_164_and_labels(tmp_path):
 def test_spectrum_scan(tmp_path):
     """Function type 12 (a velocity spectrum, which pyuff does not write: the header is
     edited) reads as quantity 'spectrum'; identification refuses it (no reference)."""
-    from copdea_fem.vibrometer.identify import identify
+    from copdea_fem.vibrometer.identification import identify
 
     path = write_scan(tmp_path / "spectrum.uff", _scan(n_lines=21), binary=False)
     text = path.read_text().splitlines(keepends=True)

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from copdea_fem.mac import subspace_mac
-from copdea_fem.vibrometer.correlate import unit_key
+from copdea_fem.vibrometer.pairing import unit_key
 
 ROOT = Path(__file__).resolve().parent.parent
 QUICK = ROOT / "studies" / "g1_z16_v2_quick.yaml"

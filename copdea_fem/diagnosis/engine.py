@@ -51,8 +51,8 @@ import numpy as np
 import scipy.optimize
 
 from copdea_fem.diagnosis.effects import CATALOGUE
+from copdea_fem.reduced.chirp_response import Chirp, SpectrumResult
 from copdea_fem.reduced.model import build_reduced, damping_key, operating_point, ring_model_of
-from copdea_fem.reduced.response import Chirp, SpectrumResult
 from copdea_fem.reduced.rings import ReducedModelError
 
 # Keys applied in closed form on the cached reference build (module notes).

@@ -19,7 +19,7 @@ Manifest (paths relative to the manifest's folder)::
                                      #   (default: all); model modes outside them cost
                                      #   nothing when no peak explains them
     pairing: {window: 50 %, mac_min: 0.5}   # optional: pairing of scanned shapes with the
-                                     #   model's (copdea_fem.vibrometer.correlate)
+                                     #   model's (copdea_fem.vibrometer.pairing)
     model: fe                        # optional: the model of record, fe (default: the FE as
                                      #   the base study is written, the ring model its
                                      #   anchored surrogate) or reduced (the ring model alone)
@@ -610,7 +610,7 @@ def parse_observed(value) -> ObservedFamilies | None:
 
 @dataclass(frozen=True)
 class PairingSettings:
-    """How scanned shapes pair with the model's (:func:`copdea_fem.vibrometer.correlate.
+    """How scanned shapes pair with the model's (:func:`copdea_fem.vibrometer.pairing.
     correlate_shapes`): relative frequency ``window`` and smallest ``mac_min`` of a pair."""
 
     window: float = 0.5

@@ -2,12 +2,12 @@
 
 A condition with a ``scan:`` and no ``resonances:`` gets its resonance list from the scan:
 
-1. its modes are identified (:func:`copdea_fem.vibrometer.identify.identify`, in the
+1. its modes are identified (:func:`copdea_fem.vibrometer.identification.identify`, in the
    condition's band; nothing from the FE): frequency, damping ratio zeta, shape;
 2. they are paired by shape with the base model's FE modes at that condition
    (:func:`copdea_fem.vibrometer.model_shapes.fe_shapes`, the FE the diagnosis runs:
    :func:`copdea_fem.diagnosis.fe.fe_study`; one-to-one, largest total MAC within the
-   ``pairing:`` window, :mod:`copdea_fem.vibrometer.correlate`);
+   ``pairing:`` window, :mod:`copdea_fem.vibrometer.pairing`);
 3. each test mode becomes a resonance: its frequency, ``Q = 1 / (2 zeta)`` (the half-power
    quality factor of a lightly damped mode), and the *label of the FE mode its shape
    matches* (with the kind that label implies).  A labelled peak pairs only with the model
@@ -41,7 +41,7 @@ class ScanPairing:
     shape check of each step, :class:`ShapeCheck`)."""
 
     condition: str
-    correlation: object            # copdea_fem.vibrometer.correlate.Correlation
+    correlation: object            # copdea_fem.vibrometer.pairing.Correlation
     resonances: tuple
     modes: tuple = ()              # the identified modes (IdentifiedMode)
     scan: object = None            # the condition's ScanData
@@ -97,7 +97,7 @@ def resonances_from_scans(measured: MeasuredSet) -> tuple[MeasuredSet, tuple]:
     Conditions without a scan, or with their own ``resonances:``, are kept as they are.
     """
     from copdea_fem.diagnosis.fe import fe_study
-    from copdea_fem.vibrometer.identify import identify
+    from copdea_fem.vibrometer.identification import identify
     from copdea_fem.vibrometer.model_shapes import correlate_identified, fe_shapes
 
     settings = measured.pairing
@@ -177,7 +177,7 @@ class ShapeCheck:
 
     def refusal(self, state) -> str | None:
         """Why ``state`` breaks the base model's shape pairing (None: it keeps it)."""
-        from copdea_fem.vibrometer.correlate import unit_key
+        from copdea_fem.vibrometer.pairing import unit_key
 
         broken = []
         for name, correlation in self.correlations(state).items():

@@ -22,7 +22,7 @@ voltage forcing (:mod:`.harmonic`), then either
   projected on a rational Krylov basis built from a few shifts in the band
   (:mod:`.reduced_basis`), a small dense solve per line.
 
-Lines: the chirp's (``excitation.*``, :class:`copdea_fem.reduced.response.Chirp`), each
+Lines: the chirp's (``excitation.*``, :class:`copdea_fem.reduced.chirp_response.Chirp`), each
 response line ``H(omega_k) V~_k`` with the chirp's line values (|FFT|/N), so the spectra
 compare with ``spectrum``'s line for line.
 
@@ -305,7 +305,7 @@ def forced_response(problem: OrderZero, frequency_hz=None,
                     voltage_lines=None) -> ResponseResult:
     """Spectra and SPL on the chirp's lines (or given lines and complex amplitudes [V])."""
     from copdea_fem.fe.forced.radiation import KIRCHHOFF_FRACTION, spl_db
-    from copdea_fem.reduced.response import QUARTER_POINTS, Chirp, scan_fractions
+    from copdea_fem.reduced.chirp_response import QUARTER_POINTS, Chirp, scan_fractions
 
     study, forced, coupled = problem.study, problem.forced, problem.coupled
     timings = dict(problem.timings)

@@ -14,10 +14,7 @@ Its benchmark is ``python -m benchmarks.reduced`` (``benchmarks/reduced.py``, ou
 package).
 """
 
-from copdea_fem.reduced.fit import MaterialFit, fit_material
-from copdea_fem.reduced.modal import ModalBasis, Mode, modal_decomposition, mode_profile
-from copdea_fem.reduced.model import ReducedSetup, build_reduced, dry_frequencies, spectra_of
-from copdea_fem.reduced.response import (
+from copdea_fem.reduced.chirp_response import (
     QUARTER_POINTS,
     Chirp,
     DampingCalibration,
@@ -29,6 +26,9 @@ from copdea_fem.reduced.response import (
     observation_matrix,
     vibrometer_spectrum,
 )
+from copdea_fem.reduced.fit import MaterialFit, fit_material
+from copdea_fem.reduced.modal import ModalBasis, Mode, modal_decomposition, mode_profile
+from copdea_fem.reduced.model import ReducedSetup, build_reduced, dry_frequencies, spectra_of
 from copdea_fem.reduced.rings import Equilibrium, Linearisation, ReducedModelError, RingModel
 from copdea_fem.reduced.spring import (
     pumping_added_mass,

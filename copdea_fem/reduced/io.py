@@ -30,10 +30,10 @@ import numpy as np
 
 from copdea_fem.folders import result_directory
 from copdea_fem.inputs import read_text
+from copdea_fem.reduced.chirp_response import calibrate_damping
 from copdea_fem.reduced.fit import PARAMETERS, fit_material
 from copdea_fem.reduced.modal import mode_profile
 from copdea_fem.reduced.model import build_reduced, damping_key, spectra_of
-from copdea_fem.reduced.response import calibrate_damping
 from copdea_fem.reduced.rings import ReducedModelError, RingModel
 from copdea_fem.study import StudyError, dump_resolved
 

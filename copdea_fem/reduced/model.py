@@ -35,13 +35,13 @@ from typing import Mapping
 
 import numpy as np
 
-from copdea_fem.reduced.modal import ModalBasis, modal_decomposition
-from copdea_fem.reduced.response import (
+from copdea_fem.reduced.chirp_response import (
     Chirp,
     ReducedModel,
     added_mass_ratio_from_frequency,
     assemble_reduced_model,
 )
+from copdea_fem.reduced.modal import ModalBasis, modal_decomposition
 from copdea_fem.reduced.rings import Linearisation, RingModel
 from copdea_fem.reduced.spring import pumping_added_mass, pumping_frequencies
 

@@ -95,7 +95,7 @@ def plot_mac(path: Path, correlations) -> Path:
 
 def report_markdown(name: str, correlations) -> str:
     """report.md: per condition, the pairs and what frequency order alone would have said."""
-    from copdea_fem.vibrometer.correlate import pair_by_frequency
+    from copdea_fem.vibrometer.pairing import pair_by_frequency
 
     lines = [f"# Correlation: {name}", "",
              ("Identified test modes paired one-to-one with the FE's modes by shape (largest "

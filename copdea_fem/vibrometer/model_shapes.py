@@ -1,6 +1,6 @@
 """The model's side of a scan: the FE solved at the scan's operating point, its structural
 modes sampled along the scan's channels (:mod:`copdea_fem.vibrometer.sampling`) and paired
-with the identified modes (:mod:`copdea_fem.vibrometer.correlate`)."""
+with the identified modes (:mod:`copdea_fem.vibrometer.pairing`)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import logging
 
 import numpy as np
 
-from copdea_fem.vibrometer.correlate import (
+from copdea_fem.vibrometer.pairing import (
     DEFAULT_MAC_MIN,
     DEFAULT_WINDOW,
     Correlation,
@@ -55,7 +55,7 @@ def correlate_identified(condition: str, identified, fe: FEShapes, *,
                          window: float = DEFAULT_WINDOW,
                          mac_min: float = DEFAULT_MAC_MIN) -> Correlation:
     """Pair identified modes (:class:`copdea_fem.vibrometer.scan.IdentifiedMode`) with the
-    FE's sampled shapes (:func:`copdea_fem.vibrometer.correlate.correlate_shapes`)."""
+    FE's sampled shapes (:func:`copdea_fem.vibrometer.pairing.correlate_shapes`)."""
     identified = tuple(identified)
     shapes = (np.column_stack([mode.shape for mode in identified]) if identified
               else np.zeros((fe.shapes.shape[0], 0), dtype=complex))

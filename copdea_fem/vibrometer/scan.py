@@ -136,7 +136,7 @@ class IdentifiedMode:
 @dataclass(frozen=True)
 class IdentifiedSet:
     """The modes identified in one condition's scan (``diagram``: the
-    :class:`~copdea_fem.vibrometer.identify.StabilisationDiagram` they were chosen from,
+    :class:`~copdea_fem.vibrometer.identification.StabilisationDiagram` they were chosen from,
     None when not kept)."""
 
     condition: str

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from copdea_fem.diagnosis.scanned import ScanPairing, ShapeCheck, step_mac_lines
-from copdea_fem.vibrometer.correlate import FEShapes, correlate_shapes
+from copdea_fem.vibrometer.pairing import FEShapes, correlate_shapes
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 import analytic_membrane as membrane

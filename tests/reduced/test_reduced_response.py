@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 from reduced_helpers import paper_study
 
-from copdea_fem.reduced.model import build_reduced, spectra_of
-from copdea_fem.reduced.response import (
+from copdea_fem.reduced.chirp_response import (
     QUARTER_POINTS,
     Chirp,
     added_mass_ratio_from_frequency,
@@ -15,6 +14,7 @@ from copdea_fem.reduced.response import (
     observation_matrix,
     vibrometer_spectrum,
 )
+from copdea_fem.reduced.model import build_reduced, spectra_of
 from copdea_fem.reduced.rings import ReducedModelError
 
 

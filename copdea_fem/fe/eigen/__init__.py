@@ -26,7 +26,7 @@ The package follows the solve's jobs:
     the band as a lam-plane region, its cover by discs and their certification;
 :mod:`~copdea_fem.fe.eigen.band`
     :func:`solve_band` and its results (:class:`BandResult`, :class:`SectorBandResults`);
-:mod:`~copdea_fem.fe.eigen.spectrum` and :mod:`~copdea_fem.fe.eigen.errors`
+:mod:`~copdea_fem.fe.eigen.frequencies` and :mod:`~copdea_fem.fe.eigen.errors`
     eigenvalue/frequency conversions, residuals; the exceptions.
 
 Everything works on SciPy sparse matrices; NGSolve is only used as a
@@ -52,8 +52,7 @@ from copdea_fem.fe.eigen.factorization import (
     factor_memory_estimate,
     fill_reducing_order,
 )
-from copdea_fem.fe.eigen.krylov import KRYLOV_METHODS
-from copdea_fem.fe.eigen.spectrum import (
+from copdea_fem.fe.eigen.frequencies import (
     TWO_PI,
     eigenvalue_from_frequency,
     frequency_from_eigenvalue,
@@ -61,6 +60,7 @@ from copdea_fem.fe.eigen.spectrum import (
     matrix_norm_estimate,
     relative_residuals,
 )
+from copdea_fem.fe.eigen.krylov import KRYLOV_METHODS
 
 __all__ = [
     "BACKENDS", "KRYLOV_METHODS", "NESTED_DISSECTION_MIN", "SUPERLU_PIVOT_THRESHOLD", "TWO_PI",

@@ -16,10 +16,14 @@ import scipy.sparse as sp
 
 from copdea_fem.fe.eigen.errors import EigenInputError, EigenResidualError, TooManyModesError
 from copdea_fem.fe.eigen.factorization import Factorization, check_backend_name, require_backend
+from copdea_fem.fe.eigen.frequencies import (
+    frequency_from_eigenvalue,
+    is_hermitian,
+    relative_residuals,
+)
 from copdea_fem.fe.eigen.krylov import check_krylov
 from copdea_fem.fe.eigen.planner import BandSolver
 from copdea_fem.fe.eigen.region import BandRegion
-from copdea_fem.fe.eigen.spectrum import frequency_from_eigenvalue, is_hermitian, relative_residuals
 from copdea_fem.progress import tagged
 
 logger = logging.getLogger(__name__)

@@ -69,9 +69,9 @@ import scipy.sparse as sp
 from copdea_fem.fe.eigen.band import BandResult, _normalise, _validate_band, solve_band
 from copdea_fem.fe.eigen.errors import EigenInputError, EigenResidualError, TooManyModesError
 from copdea_fem.fe.eigen.factorization import Factorization, check_backend_name, require_backend
+from copdea_fem.fe.eigen.frequencies import TWO_PI, matrix_norm_estimate
 from copdea_fem.fe.eigen.planner import BandSolver
 from copdea_fem.fe.eigen.region import BandRegion
-from copdea_fem.fe.eigen.spectrum import TWO_PI, matrix_norm_estimate
 from copdea_fem.progress import tagged
 
 logger = logging.getLogger(__name__)

@@ -39,7 +39,7 @@ import scipy.linalg
 import scipy.sparse.linalg as spla
 
 from copdea_fem.fe.eigen.errors import EigenInputError, EigenSolverError
-from copdea_fem.fe.eigen.spectrum import format_hz
+from copdea_fem.fe.eigen.frequencies import format_hz
 
 KRYLOV_METHODS: tuple[str, ...] = ("krylov-schur", "arpack")
 """Names accepted by ``krylov`` (:func:`copdea_fem.fe.eigen.solve_band`)."""

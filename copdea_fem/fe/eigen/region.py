@@ -14,7 +14,7 @@ import threading
 
 import numpy as np
 
-from copdea_fem.fe.eigen.spectrum import TWO_PI, format_hz, format_radius
+from copdea_fem.fe.eigen.frequencies import TWO_PI, format_hz, format_radius
 
 #: :meth:`BandRegion.first_shift` of the last regions asked (cells -> shift)
 _FIRST_SHIFTS: dict = {}

@@ -5,7 +5,7 @@ basis vectors (:class:`.harmonic.ModalBasis`) and combined per line.
 
 Velocity (Sect. 5.3): ``v = -i omega u`` (``e^{-i omega t}``); the vibrometer looks along
 the axis, so a point sits at the *projected* radius ``r = r_i + f (r_o - r_i)`` on the
-prestressed profile (as :func:`copdea_fem.reduced.response.observation_matrix`); its
+prestressed profile (as :func:`copdea_fem.reduced.chirp_response.observation_matrix`); its
 reference radius R solves ``R + u_r0(R) = r``.  Axial = u_z, radial = u_r (order 0).
 
 Far field beyond the air sphere (the FE field ends at the PML), on a sphere ``Sigma`` of
