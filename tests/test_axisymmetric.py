@@ -415,3 +415,25 @@ def test_fig11b_sweep_on_the_axisymmetric_engine(tmp_path):
         values = sorted(by_track[label])
         assert len(values) == points, label
         assert all(b[1] > a[1] for a, b in zip(values[:rising], values[1:rising])), label
+
+
+def test_order_zero_in_plane_modes_are_drawn_with_their_motion(tmp_path):
+    """The ParaView file of each order-0 in-plane mode (radial breathing and torsion, whose
+    hoop factor is 1, not sin 0 theta) shows a displacement as large as the mode's own:
+    the largest in-plane displacement on the revolved surface equals the largest of its
+    meridian amplitudes, the mode being scaled to a largest displacement of 1."""
+    import meshio
+
+    from copdea_fem.vtu import safe_name
+
+    study = axisymmetric_study(load={"z": "16 mm", "voltage": "2 kV"},
+                               eigen={"f_max": "750 Hz"}, mesh={"membrane_size": "4 mm"})
+    result = run_solve(study)
+    Solution(result).write(tmp_path / "out")
+    labels = [mode.label for mode in result.modes if mode.label.startswith("ip(0,")]
+    assert len(labels) == 2, labels                      # ip(0,1)a and b below 750 Hz
+    for label in labels:
+        (path,) = (tmp_path / "out").glob(f"mode_*_{safe_name(label)}.vtu")
+        data = meshio.read(path).point_data["displacement_real"]
+        in_plane = np.hypot(data[:, 0], data[:, 1])
+        assert in_plane.max() > 0.5 * np.abs(data).max() > 0, label

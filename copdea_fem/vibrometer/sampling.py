@@ -25,8 +25,7 @@ The two engines store a mode differently:
   ``(a, b, c)(r)`` on the meridian; the cos family is
   ``u_r = a cos m theta, u_theta = b sin m theta, u_z = c cos m theta``, the sin family its
   copy turned by a quarter wave (``a sin, -b cos, c sin``:
-  :mod:`copdea_fem.fe.axisymmetric.fields`); at m = 0 the hoop part is ``b(r)`` itself
-  (the torsion mode, whose ``sin 0 theta`` factor would drop it).
+  :func:`copdea_fem.fe.axisymmetric.modes.order_harmonics`, also at m = 0).
 """
 
 from __future__ import annotations
@@ -137,6 +136,8 @@ class ScanSampler:
         """Cartesian displacement (P, 3) of an axisymmetric engine's order-m mode."""
         import ngsolve as ngs
 
+        from copdea_fem.fe.axisymmetric.modes import order_harmonics
+
         out = np.zeros((len(self.positions), 3), dtype=complex)
         membrane = ~self.on_disc
         if np.any(membrane):
@@ -149,12 +150,7 @@ class ScanSampler:
                                                        self._reference_radius[membrane]))
             a, b, c = (amplitudes[0] + 1j * amplitudes[1]).T
             theta, m = self.angle[membrane], int(mode.m)
-            if mode.family == "sin":
-                main, cross = np.sin(m * theta), -np.cos(m * theta)
-            elif m == 0:        # the order-0 hoop motion (torsion) is b(r) itself
-                main, cross = np.ones_like(theta), np.ones_like(theta)
-            else:
-                main, cross = np.cos(m * theta), np.sin(m * theta)
+            main, cross = order_harmonics(m, mode.family, theta)
             u_r, u_t, u_z = a * main, b * cross, c * main
             out[membrane] = np.column_stack([u_r * np.cos(theta) - u_t * np.sin(theta),
                                              u_r * np.sin(theta) + u_t * np.cos(theta), u_z])

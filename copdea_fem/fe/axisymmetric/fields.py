@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from copdea_fem.fe.axisymmetric.modes import order_harmonics
 from copdea_fem.fe.fields import AirHalves, CornerPressure, PointMerge, jump_vertices
 from copdea_fem.vtu import VtuMesh, membrane_mesh, pressure_point_data, safe_name, write_all
 
@@ -15,14 +16,6 @@ def revolution_angles(max_order: int, minimum: int = 72, per_wave: int = 8) -> n
     the highest order."""
     count = max(minimum, per_wave * int(max_order))
     return 2 * np.pi * np.arange(count) / count
-
-
-def _harmonics(m: int, family: str, angles):
-    """(radial/axial factor, hoop factor) of an order-m field: cos/sin family
-    (:mod:`copdea_fem.fe.axisymmetric.modes`)."""
-    if family == "cos":
-        return np.cos(m * angles), np.sin(m * angles)
-    return np.sin(m * angles), -np.cos(m * angles)
 
 
 class RevolvedMembraneSampler:
@@ -81,7 +74,7 @@ class RevolvedMembraneSampler:
 
     def vector(self, radial, hoop, axial, m=0, family="cos") -> np.ndarray:
         """Cartesian vectors (n, 3) of (u_r, u_theta, u_z) amplitudes of an order-m field."""
-        main, cross = _harmonics(m, family, self.angles)
+        main, cross = order_harmonics(m, family, self.angles)
         u_r, u_t, u_z = (self._ring(radial, main), self._ring(hoop, cross),
                          self._ring(axial, main))
         return self.merge.reduce(np.column_stack([u_r * self._cos - u_t * self._sin,
@@ -157,7 +150,7 @@ def revolved_mode_meshes(state, modes, sampler=None):
                  sampler.vector(amplitude[:, 0].imag, amplitude[:, 1].imag,
                                 amplitude[:, 2].imag, mode.m, mode.family)]
         normal = amplitude[:, 0] * normal_profile[:, 0] + amplitude[:, 2] * normal_profile[:, 1]
-        main, _ = _harmonics(mode.m, mode.family, sampler.angles)
+        main, _ = order_harmonics(mode.m, mode.family, sampler.angles)
         normal_shape = sampler.ring(normal, main)
         omega = 2 * np.pi * abs(complex(mode.freq_hz, mode.freq_im_hz))
         fields = {"displacement_real": shape[0], "displacement_imag": shape[1],
@@ -267,7 +260,7 @@ def revolved_air_meshes(operators, modes, pressures, max_order: int | None = Non
         values = reader(vector)
         nodal = np.zeros(2 * count, dtype=complex)
         nodal[copy.ravel()] = values.ravel()
-        main, _ = _harmonics(mode.m, mode.family, angles)
+        main, _ = order_harmonics(mode.m, mode.family, angles)
         field = merge.reduce((nodal[used][:, None] * main[None, :]).ravel())
         data = pressure_point_data(field)
         yield (f"air_{number:03d}_{safe_name(mode.label)}",

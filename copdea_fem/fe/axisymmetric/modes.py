@@ -48,6 +48,20 @@ class OrderMode(Mode):
     operators: object = None        # the OrderOperators the vector belongs to
 
 
+def order_harmonics(m: int, family: str, angles):
+    """(radial/axial factor, hoop factor) of an order-m field at ``angles`` [rad].
+
+    The cos family is ``u_r = a cos m theta, u_theta = b sin m theta, u_z = c cos m theta``,
+    the sin family its copy turned by a quarter wave (``a sin, -b cos, c sin``).  At m = 0
+    only the cos family exists and its hoop factor is 1, not ``sin 0 theta = 0``: the
+    order-0 hoop motion (torsion, ``ip(0,n)``) is ``b(r)`` itself, and the (a, c) modes of
+    order 0 carry no b.
+    """
+    if family == "cos":
+        return np.cos(m * angles), (np.sin(m * angles) if m else np.ones_like(angles))
+    return np.sin(m * angles), -np.cos(m * angles)
+
+
 def family_sector(m: int, family: str) -> Sector:
     """Parity about x = 0 and y = 0 of a cos / sin m theta normal displacement."""
     sign = 1 if m % 2 == 0 else -1
@@ -237,8 +251,7 @@ def sampled_shapes(state, modes, n_radii: int = 40, n_angles: int = 64) -> np.nd
         normal, a, b, c = sampler.components(mode.vector)
         profiles = [np.interp(radii, sampler.radii, part.real) + 1j * np.interp(
             radii, sampler.radii, part.imag) for part in (normal, a, b)]
-        main = np.cos(mode.m * angles) if mode.family == "cos" else np.sin(mode.m * angles)
-        cross = np.sin(mode.m * angles) if mode.family == "cos" else -np.cos(mode.m * angles)
+        main, cross = order_harmonics(mode.m, mode.family, angles)
         field_ = np.stack([profiles[0][:, None] * main, profiles[1][:, None] * main,
                            profiles[2][:, None] * cross]) * weights[None]
         rows.append(field_.ravel())
