@@ -10,7 +10,6 @@ exit 2.  Skipped where dask.distributed is not installed (a test dependency).
 from __future__ import annotations
 
 import multiprocessing
-import sys
 import time
 from pathlib import Path
 
@@ -18,18 +17,16 @@ import pytest
 
 pytest.importorskip("distributed")
 
-from copdea_fem.cli import main  # noqa: E402
-from copdea_fem.study import StudyError, parse_study  # noqa: E402
-from copdea_fem.sweeps import load_sweep, read_table, run_sweep  # noqa: E402
+from copdea_fem.cli import main
+from copdea_fem.study import StudyError
+from copdea_fem.sweeps import load_sweep, read_table, run_sweep
 
 ROOT = Path(__file__).resolve().parent.parent
 GRID = ROOT / "studies" / "sweeps" / "coarse_reduced_grid.yaml"
 UNREACHABLE = "tcp://127.0.0.1:1"          # port 1: nothing listens there
 
-sys.path.insert(0, str(ROOT / "tests" / "diagnose"))
 
-
-def _no_children_left(seconds: float = 10.0) -> bool:
+def no_children_left(seconds: float = 10.0) -> bool:
     """Whether this process's worker processes are all gone within ``seconds``."""
     end = time.monotonic() + seconds
     while multiprocessing.active_children() and time.monotonic() < end:
@@ -53,7 +50,7 @@ def test_sweep_on_a_local_cluster_gives_the_table_of_the_local_executor(tmp_path
     assert sorted(remote.computed) == sorted(local.computed) and not remote.failed
     assert read_table(tmp_path / "dask" / "sweep.csv") == \
         read_table(tmp_path / "local" / "sweep.csv")
-    assert _no_children_left()                     # the local cluster is closed
+    assert no_children_left()                     # the local cluster is closed
 
 
 def test_an_interrupted_dask_sweep_closes_its_cluster_and_resumes(tmp_path):
@@ -66,35 +63,9 @@ def test_an_interrupted_dask_sweep_closes_its_cluster_and_resumes(tmp_path):
     with pytest.raises(KeyboardInterrupt):
         run_sweep(sweep, out_dir=tmp_path / "s", executor="dask", workers=2,
                   on_point_done=interrupt)
-    assert _no_children_left()
+    assert no_children_left()
     again = run_sweep(sweep, out_dir=tmp_path / "s", executor="dask", workers=2)
     assert again.resumed and len(again.resumed) + len(again.computed) == len(sweep.points)
-
-
-def test_a_batch_of_fe_solves_on_a_local_cluster_gives_the_local_modes(tmp_path):
-    """FEModel.solve_many on a local cluster of two processes: the modes of one solve at a
-    time in this process, each cache entry written once by the workers (the per-entry
-    lock), the cluster closed by close()."""
-    import fe_battery as battery
-
-    from copdea_fem.diagnosis.fe import FEModel
-    study = parse_study(battery.DRY, name="flat").replace(
-        {"load.z": 0.0, "load.voltage": 0.0, "eigen.f_max": 600.0, "mesh.membrane_size": 0.004})
-    studies = [study.replace({"effects.stiffness_scale": s}) for s in (0.9, 1.1)]
-    requests = [(s, None) for s in studies] * 2                      # duplicates solved once
-    cluster = FEModel(cache_dir=tmp_path, workers=2, executor="dask")
-    try:
-        assert cluster.solve_many(requests) == 2 and cluster.solves == 2
-    finally:
-        cluster.close()
-    assert _no_children_left()
-    assert len(list(tmp_path.glob("*.json"))) == 2 and not list(tmp_path.glob("*.lock"))
-    serial = FEModel(cache_dir=False, workers=1)
-    for s in studies:
-        assert cluster.modes(s).modes == serial.modes(s).modes
-    assert cluster.solves == 2                                       # memory hits
-    again = FEModel(cache_dir=tmp_path, workers=2, executor="dask")
-    assert again.solve_many(requests) == 0 and again._client is None  # no cluster started
 
 
 def test_executor_and_scheduler_are_checked_before_any_work(quick_timeout, tmp_path, capsys):
@@ -124,8 +95,7 @@ def test_executor_and_scheduler_are_checked_before_any_work(quick_timeout, tmp_p
 
 def test_diagnose_with_an_unreachable_scheduler_stops_with_one_line(quick_timeout, tmp_path,
                                                                    capsys):
-    import fe_battery as battery
-    measured = battery.write_measured("nothing_hidden", 1, tmp_path / "measured")
+    measured = ROOT / "studies" / "measured_drum_example" / "measured.yaml"
     code = main(["diagnose", str(measured), "--executor", "dask", "--scheduler", UNREACHABLE,
                  "--fe-cache", str(tmp_path / "cache"), "--out", str(tmp_path / "out")])
     err = capsys.readouterr().err.strip()
