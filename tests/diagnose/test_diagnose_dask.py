@@ -57,7 +57,7 @@ def test_a_batch_of_fe_solves_on_a_local_cluster_gives_the_local_modes(tmp_path)
     assert again.solve_many(requests) == 0 and again._client is None  # no cluster started
 
 
-def test_a_cold_diagnosis_on_a_local_cluster_is_the_local_one(tmp_path, monkeypatch):
+def test_a_cold_diagnosis_on_a_local_cluster_is_the_local_one(tmp_path, monkeypatch, caplog):
     """The whole diagnosis (battery case ``air_hidden``, seed 1) with the committed cache
     read by the local executor, then again with the in-vacuo entries it read removed from a
     copy of that cache, so that a local cluster of two processes solves them: the same
@@ -84,9 +84,11 @@ def test_a_cold_diagnosis_on_a_local_cluster_is_the_local_one(tmp_path, monkeypa
     assert len(removed) == 2                    # a batch the cluster solves side by side
     for key in removed:
         (cache / f"{key}.json").unlink()
-    remote = cf.diagnose(measured, fe_cache=cache, executor="dask", fe_workers=2)
+    with caplog.at_level("INFO", logger="copdea_fem"):
+        remote = cf.diagnose(measured, fe_cache=cache, executor="dask", fe_workers=2)
     assert no_children_left()
-    assert remote.result.fe_solves >= len(removed)
+    assert remote.result.fe_solves == len(removed)
+    assert f"FE: {len(removed)} solves on the Dask cluster ..." in caplog.messages
     for key, text in removed.items():
         assert json.loads((cache / f"{key}.json").read_text())["modes"] == \
             json.loads(text)["modes"]
