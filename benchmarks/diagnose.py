@@ -44,8 +44,9 @@ def _once(measured: str, cache: str, variant: str = "local", workers: int | None
         diagnosis.write(Path(out) / "report")
         seconds = time.perf_counter() - start
     result = diagnosis.result
-    entries = sorted(json.dumps(json.loads(path.read_text())["modes"])
-                     for path in Path(cache).glob("*.json"))
+    entries = {path.stem: {m["label"]: m["frequency_hz"]
+                           for m in json.loads(path.read_text())["modes"]}
+               for path in Path(cache).glob("*.json")}
     return {"seconds": seconds, "fe_solves": result.fe_solves, "fe_seconds": result.fe_seconds,
             "missing": result.missing_effects, "gap_before": result.gap_before,
             "gap_after": result.gap_after, "fe_entries": entries}
@@ -80,9 +81,19 @@ def _compare(args) -> dict:
             report[f"speed_up_over_{reference}"] = {
                 name: report[reference]["median_s"] / report[name]["median_s"] for name in runs}
     first = next(iter(runs.values()))[0]
-    keys = ("missing", "gap_before", "gap_after", "fe_entries")
-    report["same_diagnosis"] = all({k: r[k] for k in keys} == {k: first[k] for k in keys}
-                                   for values in runs.values() for r in values)
+    every = [r for values in runs.values() for r in values]
+    report["same_missing_effects"] = all(r["missing"] == first["missing"] for r in every)
+    report["same_fe_studies"] = all(set(r["fe_entries"]) == set(first["fe_entries"])
+                                    for r in every)
+    report["largest_relative_gap_difference"] = max(
+        abs(r[gap] / first[gap] - 1) for r in every for gap in ("gap_before", "gap_after"))
+    # the FE entries' frequencies: the same studies solved in other processes (and, one at
+    # a time in the diagnosis's own process, NGSolve's threads), so round-off apart
+    report["largest_relative_fe_frequency_difference"] = max(
+        (abs(frequency / first["fe_entries"][key][label] - 1)
+         for r in every for key, modes in r["fe_entries"].items()
+         for label, frequency in modes.items()
+         if label in first["fe_entries"].get(key, {})), default=None)
     return report
 
 
