@@ -114,7 +114,8 @@ def _executors(argv: list[str]) -> int:
     (``--workers`` spawned processes) and with ``--executor dask`` and no scheduler (a local
     cluster of ``--workers`` processes started for the run, its start counted), interleaved,
     each run a fresh process with an empty result folder; reports the median wall time of
-    the sweep (``sweep.json``'s ``wall_s``) and of the whole process, the speed-up of each
+    the sweep (``sweep.json``'s ``wall_s``) and of the whole process, the CPU seconds of the
+    process and its workers (user + system, the cluster's too), the speed-up of each
     over ``local``, and how far each table lies from the local one: the rows (point, label,
     kind, m, n, member) must be the same; the rows whose track differs are listed (with two
     workers the path is cut into two chains, so the second chain starts afresh and a
@@ -123,6 +124,7 @@ def _executors(argv: list[str]) -> int:
     """
     import argparse
     import csv
+    import resource
     import statistics
     import subprocess
     import tempfile
@@ -143,21 +145,24 @@ def _executors(argv: list[str]) -> int:
     for repetition in range(args.repeat):
         for executor in names:
             with tempfile.TemporaryDirectory() as tmp:
+                before = resource.getrusage(resource.RUSAGE_CHILDREN)
                 started = time.perf_counter()
                 subprocess.run([sys.executable, "-m", "benchmarks.sweep", "_run", args.sweep,
                                 tmp, executor, str(args.workers)] + args.set, check=True)
                 process = time.perf_counter() - started
+                after = resource.getrusage(resource.RUSAGE_CHILDREN)   # workers included
+                cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
                 wall = json.loads((Path(tmp) / "sweep.json").read_text())["wall_s"]
                 with open(Path(tmp) / "sweep.csv", newline="") as handle:
                     tables[executor].append(list(csv.DictReader(handle)))
-            runs[executor].append({"sweep_s": wall, "process_s": process})
+            runs[executor].append({"sweep_s": wall, "process_s": process, "cpu_s": cpu})
             print(f"{executor} {repetition + 1}/{args.repeat}: sweep {wall:.1f} s, process "
-                  f"{process:.1f} s", file=sys.stderr, flush=True)
+                  f"{process:.1f} s, CPU {cpu:.1f} s", file=sys.stderr, flush=True)
     report = {"sweep": args.sweep, "workers": args.workers, "repeat": args.repeat}
     for executor, values in runs.items():
         report[executor] = {key: {"median": statistics.median(v[key] for v in values),
                                   "all": [v[key] for v in values]}
-                            for key in ("sweep_s", "process_s")}
+                            for key in ("sweep_s", "process_s", "cpu_s")}
     exact = ("point", "status", "label", "m", "n", "kind", "member")
     reference = tables["local"][0]
     for name in names:
