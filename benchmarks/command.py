@@ -50,7 +50,15 @@ server's next solve), in-process wall and CPU seconds, against the same 1.07 s.
 ``command-peer``: the same two variants on the FreeFEM peer's own case (flat G1 in a baffle,
 ``studies/g1_z00_v2.yaml`` at 0 V, every coupled mode below 400 Hz: (0,1) at 350.02 Hz,
 zeta 2.00e-2; the peer solves the (0,1) alone in 1.07 s as a whole process) -- a smaller
-problem than ``command`` (6 orders against 17, 3 modes against 48).
+problem than ``command`` (6 orders against 17, 3 modes against 48) -- and, where the peer
+can run here, the peer's whole process in the same repetitions: each ``bare`` run (the
+command without files) is paired with one run of the peer (the order alternating), and the
+report gives the paired wall ratio bare / peer (median, range) against
+:data:`PEER_RATIO_LIMIT`.  The peer is the command line of ``--peer`` (e.g. ``--peer
+'FreeFem++ -nw -ne g1_flat_baffle.edp'``) or of ``$COPDEA_FEM_PEER``; the repository holds no
+FreeFEM script.  Without one, or without FreeFEM on this machine, the benchmark says so on
+stderr and in the report (``peer.measured: false`` and why) and skips the pairing: the
+recorded 1.07 s is then a reference only, not a measurement.
 ``--baseline PATH`` runs another checkout (e.g. ``/work/main``, by ``PYTHONPATH``) interleaved
 with this one and reports the ratios this / baseline (median of the pairwise ratios): on a
 shared machine the CPU ratios carry the comparison.
@@ -278,6 +286,13 @@ def _once_response_reduced(study, overrides) -> dict:
 
 #: issue 25: the FreeFEM peer's whole process on the same case [s] and the targets
 PEER_PROCESS_S = 1.07
+#: the paired wall ratio bare / peer must stay at or below this: at parity when last
+#: measured (1.00-1.11 over 5 runs), the top of that range
+PEER_RATIO_LIMIT = 1.11
+#: the peer's command line, when no --peer is given
+PEER_VARIABLE = "COPDEA_FEM_PEER"
+#: the names the FreeFEM executable goes by
+FREEFEM_NAMES = ("FreeFem++", "FreeFem++-nw", "freefem++", "FreeFem++-mpi")
 COMMAND_TARGETS_S = {"files": 2.0, "bare": PEER_PROCESS_S}
 COMMAND_VARIANTS = {"files": [], "bare": ["output.paraview=false", "output.plots=false"],
                     "warm": ["output.paraview=false", "output.plots=false"]}
@@ -329,21 +344,72 @@ def _command_once(variant: str, overrides: list[str], checkout: Path,
     return {"wall_s": wall, "cpu_s": cpu}
 
 
+def find_peer(peer: str | None) -> tuple[list[str] | None, str]:
+    """The FreeFEM peer's command line (``peer``, else ``$COPDEA_FEM_PEER``) as a list, and
+    where it came from; or None and why the peer cannot run on this machine."""
+    import os
+    import shlex
+    import shutil
+
+    text = peer or os.environ.get(PEER_VARIABLE)
+    freefem = next((found for name in FREEFEM_NAMES if (found := shutil.which(name))), None)
+    if not text:
+        where = (f"FreeFEM is installed ({freefem}) but" if freefem else
+                 "FreeFEM is not installed on this machine (none of " +
+                 ", ".join(FREEFEM_NAMES) + " on PATH), and")
+        return None, (f"{where} no peer command was given (--peer 'FreeFem++ -nw SCRIPT.edp' or "
+                      f"${PEER_VARIABLE}; the repository holds no FreeFEM script)")
+    command = shlex.split(text)
+    if not command or shutil.which(command[0]) is None:
+        return None, (f"the peer command {text!r} cannot run here: {command[0] if command else ''}"
+                      f" is not found" + ("" if freefem else " (FreeFEM is not installed)"))
+    return command, "--peer" if peer else f"${PEER_VARIABLE}"
+
+
+def _peer_once(command: list[str]) -> dict:
+    """One whole process of the peer: wall and CPU (user + system) seconds."""
+    import tempfile
+    with tempfile.TemporaryDirectory() as directory:
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        started = time.perf_counter()
+        subprocess.run(command, cwd=directory, check=True, capture_output=True)
+        wall = time.perf_counter() - started
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return {"wall_s": wall,
+            "cpu_s": (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)}
+
+
 def run_command(repeat: int, overrides: list[str], baseline: str | None,
-                case: str = "command") -> dict:
+                case: str = "command", peer: str | None = None) -> dict:
     """The ``command`` benchmark (or ``command-peer``): both variants, this checkout (and
-    ``baseline``) interleaved."""
+    ``baseline``) interleaved; for ``command-peer`` each ``bare`` run paired with one of
+    the FreeFEM peer's whole process where it can run (:func:`find_peer`)."""
     checkouts = {"this": ROOT}
     if baseline:
         checkouts["baseline"] = Path(baseline).resolve()
+    peer_command, peer_source = find_peer(peer) if case == "command-peer" else (None, "")
+    if case == "command-peer" and peer_command is None:
+        print(f"command-peer: the FreeFEM peer is NOT measured: {peer_source}. The paired "
+              f"ratio is skipped; the recorded {PEER_PROCESS_S} s is a reference only.",
+              file=sys.stderr)
     runs = {(name, variant): [] for name in checkouts for variant in COMMAND_VARIANTS}
+    peer_runs, pairs = [], []
     for k in range(repeat):
         for variant in COMMAND_VARIANTS:
             for name, checkout in checkouts.items():
+                if peer_command and variant == "bare" and name == "this" and k % 2:
+                    peer_runs.append(_peer_once(peer_command))     # odd runs: peer first
                 runs[name, variant].append(_command_once(variant, overrides, checkout, case))
                 print(f"run {k + 1}/{repeat} {name} {variant}: "
                       f"{runs[name, variant][-1]['wall_s']:.2f} s wall, "
                       f"{runs[name, variant][-1]['cpu_s']:.2f} s CPU", file=sys.stderr)
+                if peer_command and variant == "bare" and name == "this":
+                    if not k % 2:
+                        peer_runs.append(_peer_once(peer_command))
+                    pairs.append(runs[name, variant][-1]["wall_s"] / peer_runs[-1]["wall_s"])
+                    print(f"run {k + 1}/{repeat} peer: {peer_runs[-1]['wall_s']:.2f} s wall, "
+                          f"{peer_runs[-1]['cpu_s']:.2f} s CPU; bare / peer {pairs[-1]:.3f}",
+                          file=sys.stderr)
     report = {"case": case, "peer_process_s": PEER_PROCESS_S, "targets_s": COMMAND_TARGETS_S,
               "repeat": repeat}
     for (name, variant), values in runs.items():
@@ -356,6 +422,17 @@ def run_command(repeat: int, overrides: list[str], baseline: str | None,
             report["this"][variant]["wall_s"]["median"] <= target
     report["this"]["warm"]["wall_below_peer_process"] = \
         report["this"]["warm"]["wall_s"]["median"] <= PEER_PROCESS_S
+    if case == "command-peer":
+        report["peer"] = {"measured": peer_command is not None, "source": peer_source}
+        if peer_command is not None:
+            report["peer"].update({"command": peer_command, **{
+                key: {"median": statistics.median(r[key] for r in peer_runs),
+                      "min": min(r[key] for r in peer_runs),
+                      "max": max(r[key] for r in peer_runs)} for key in ("wall_s", "cpu_s")}})
+            report["paired_wall_ratio_bare_to_peer"] = {
+                "median": statistics.median(pairs), "min": min(pairs), "max": max(pairs),
+                "all": pairs, "limit": PEER_RATIO_LIMIT,
+                "held": statistics.median(pairs) <= PEER_RATIO_LIMIT}
     if baseline:
         report["ratio_this_to_baseline"] = {
             variant: {key: statistics.median(a[key] / b[key] for a, b in
@@ -418,13 +495,16 @@ def main(argv=None) -> int:
     parser.add_argument("--baseline", metavar="PATH",
                         help="command, command-peer: another checkout run interleaved "
                         "(ratios to it)")
+    parser.add_argument("--peer", metavar="COMMAND",
+                        help="command-peer: the FreeFEM peer's command line, run as a whole "
+                        "process paired with each bare run (default $COPDEA_FEM_PEER)")
     parser.add_argument("--once", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.once:
         print(json.dumps(_once(args.case, args.set)))
         return 0
     if args.case in COMMAND_CASES:
-        report = run_command(args.repeat, args.set, args.baseline, args.case)
+        report = run_command(args.repeat, args.set, args.baseline, args.case, args.peer)
     else:
         report = (run_pair if args.case in PAIRS else run)(args.case, args.repeat, args.set)
     print(json.dumps(report, indent=1))

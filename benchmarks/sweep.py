@@ -1,4 +1,6 @@
-"""The sweep benchmark: ``python -m benchmarks.sweep benchmark SWEEP.yaml``."""
+"""The sweep benchmarks: ``python -m benchmarks.sweep benchmark SWEEP.yaml`` (the reuse
+variants) and ``python -m benchmarks.sweep executors SWEEP.yaml`` (the local executor against
+a local Dask cluster)."""
 
 from __future__ import annotations
 
@@ -104,14 +106,109 @@ def _once(argv: list[str]) -> int:
     return 0
 
 
+def _executors(argv: list[str]) -> int:
+    """``python -m benchmarks.sweep executors SWEEP.yaml [--repeat N] [--workers 2]
+    [--executors local,pool,dask] [--set K=V]``.
+
+    Runs the sweep on the local executor (one process, one chain per context), the pool
+    (``--workers`` spawned processes) and with ``--executor dask`` and no scheduler (a local
+    cluster of ``--workers`` processes started for the run, its start counted), interleaved,
+    each run a fresh process with an empty result folder; reports the median wall time of
+    the sweep (``sweep.json``'s ``wall_s``) and of the whole process, the CPU seconds of the
+    process and its workers (user + system, the cluster's too), the speed-up of each
+    over ``local``, and how far each table lies from the local one: the rows (point, label,
+    kind, m, n, member) must be the same; the rows whose track differs are listed (with two
+    workers the path is cut into two chains, so the second chain starts afresh and a
+    degenerate pair's vectors, hence a MAC near the threshold, can differ), and the largest
+    relative frequency difference.
+    """
+    import argparse
+    import csv
+    import resource
+    import statistics
+    import subprocess
+    import tempfile
+    import time
+
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.sweep executors")
+    parser.add_argument("sweep")
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--executors", default="local,pool,dask")
+    parser.add_argument("--set", action="append", default=[])
+    args = parser.parse_args(argv)
+    names = args.executors.split(",")
+    if "local" not in names:
+        names.insert(0, "local")
+    runs: dict[str, list] = {name: [] for name in names}
+    tables: dict[str, list] = {name: [] for name in names}
+    for repetition in range(args.repeat):
+        for executor in names:
+            with tempfile.TemporaryDirectory() as tmp:
+                before = resource.getrusage(resource.RUSAGE_CHILDREN)
+                started = time.perf_counter()
+                subprocess.run([sys.executable, "-m", "benchmarks.sweep", "_run", args.sweep,
+                                tmp, executor, str(args.workers)] + args.set, check=True)
+                process = time.perf_counter() - started
+                after = resource.getrusage(resource.RUSAGE_CHILDREN)   # workers included
+                cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+                wall = json.loads((Path(tmp) / "sweep.json").read_text())["wall_s"]
+                with open(Path(tmp) / "sweep.csv", newline="") as handle:
+                    tables[executor].append(list(csv.DictReader(handle)))
+            runs[executor].append({"sweep_s": wall, "process_s": process, "cpu_s": cpu})
+            print(f"{executor} {repetition + 1}/{args.repeat}: sweep {wall:.1f} s, process "
+                  f"{process:.1f} s, CPU {cpu:.1f} s", file=sys.stderr, flush=True)
+    report = {"sweep": args.sweep, "workers": args.workers, "repeat": args.repeat}
+    for executor, values in runs.items():
+        report[executor] = {key: {"median": statistics.median(v[key] for v in values),
+                                  "all": [v[key] for v in values]}
+                            for key in ("sweep_s", "process_s", "cpu_s")}
+    exact = ("point", "status", "label", "m", "n", "kind", "member")
+    reference = tables["local"][0]
+    for name in names:
+        report[name]["speed_up_over_local"] = {
+            key: report["local"][key]["median"] / report[name][key]["median"]
+            for key in ("sweep_s", "process_s")}
+        report[name]["same_rows"] = all(
+            [tuple(r[k] for k in exact) for r in table] == [tuple(r[k] for k in exact)
+                                                             for r in reference]
+            for table in tables[name])
+        report[name]["rows_with_another_track"] = sorted({
+            f"{a['point']} {a['label']} ({a['kind']})" for table in tables[name]
+            for a, b in zip(table, reference) if a["track"] != b["track"]})
+        report[name]["largest_relative_frequency_difference"] = max(
+            (abs(float(a["freq_hz"]) / float(b["freq_hz"]) - 1)
+             for table in tables[name] for a, b in zip(table, reference)
+             if a["freq_hz"] and b["freq_hz"]), default=None)
+    print(json.dumps(report, indent=1))
+    return 0
+
+
+def _run(argv: list[str]) -> int:
+    sweep_path, directory, executor, workers, *sets = argv
+    from copdea_fem.progress import progress_to
+    from copdea_fem.study import parse_overrides
+    sweep = load_sweep(sweep_path, overrides=parse_overrides(sets))
+    sweep.plots = False
+    with progress_to(lambda message: print(message, file=sys.stderr, flush=True)):
+        run_sweep(sweep, out_dir=directory, executor=executor,
+                  workers=None if executor == "local" else int(workers))
+    return 0
+
+
 def main(argv: list[str]) -> int:
-    """``python -m benchmarks.sweep benchmark SWEEP.yaml [...]``."""
+    """``python -m benchmarks.sweep benchmark|executors SWEEP.yaml [...]``."""
     command, *rest = argv or ["help"]
     if command == "benchmark":
         return _benchmark(rest)
+    if command == "executors":
+        return _executors(rest)
     if command == "_once":
         return _once(rest)
+    if command == "_run":
+        return _run(rest)
     print(_benchmark.__doc__)
+    print(_executors.__doc__)
     return 2
 
 

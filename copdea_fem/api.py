@@ -874,6 +874,8 @@ class _Folder:
 
 
 def _private(command: str, out) -> _Folder:
+    if isinstance(out, Claim):
+        return _Folder(out.target)
     if out is not None:
         return _Folder(Path(out))
     temporary = tempfile.TemporaryDirectory(prefix=f"copdea-fem-{command}-")
@@ -881,8 +883,10 @@ def _private(command: str, out) -> _Folder:
 
 
 def sweep(sweep_file: str | Path, overrides: dict[str, Any] | list[str] | None = None, *,
-          out: str | Path | None = None, executor: str | None = None,
-          workers: int | None = None, allow_large: bool = False,
+          out: str | Path | Claim | None = None, executor: str | None = None,
+          workers: int | None = None, scheduler: str | Any | None = None,
+          chain_length: int | str | None = None, reuse: bool | dict | None = None,
+          allow_large: bool = False,
           progress: Callable[[str], None] | None = None) -> SweepResult:
     """A parameter sweep with tracked modes (``copdea-fem sweep``).
 
@@ -892,13 +896,26 @@ def sweep(sweep_file: str | Path, overrides: dict[str, Any] | list[str] | None =
         A sweep YAML file: the base study, the axes over study keys, the model.
     overrides : dict or list of str, optional
         Overrides of the base study's keys, as :func:`load_study`'s.
-    out : str or Path, optional
-        The result folder (resumable: a second call continues); without it the sweep runs
-        in a private temporary folder, kept while the result lives (``write`` copies it).
+    out : str, Path or Claim, optional
+        The result folder (resumable: a second call continues), or the
+        :class:`~copdea_fem.folders.Claim` of one the caller holds (the CLI's); without it
+        the sweep runs in a private temporary folder, kept while the result lives
+        (``write`` copies it).
     executor : str, optional
-        ``"local"`` (default), ``"pool"`` (worker processes) or ``"dask"``.
+        ``"local"``, ``"pool"`` (worker processes) or ``"dask"`` (a Dask cluster); default
+        the file's ``execution.executor``, else local.
     workers : int, optional
-        Worker processes of the ``pool`` executor.
+        Worker processes of the ``pool`` executor, or of the local Dask cluster (default:
+        the file's ``execution.workers`` for ``pool``, one per core for ``dask``).
+    scheduler : str or distributed.Client, optional
+        With ``executor="dask"``: a running Dask scheduler's address (``tcp://HOST:PORT``)
+        or a connected client; without it (and no ``execution.scheduler``) a local cluster
+        is started for the sweep and closed at its end.  Refused with another executor.
+    chain_length : "auto" or int, optional
+        Points per continuation chain (default ``execution.chain_length``).
+    reuse : bool or dict, optional
+        What neighbouring points share, as ``execution.reuse`` (default the file's):
+        ``False`` solves every point from scratch.
     allow_large : bool, default False
         Start even when a point's problem is estimated above the size limit.
     progress : callable(str), optional
@@ -914,13 +931,14 @@ def sweep(sweep_file: str | Path, overrides: dict[str, Any] | list[str] | None =
     ------
     StudyError
         A bad sweep file, base study, axis or override (a
-        :class:`~copdea_fem.sweeps.axes.SweepError`), an unknown executor or a bad worker
-        count, or a point above the size limit (without ``allow_large``).
+        :class:`~copdea_fem.sweeps.axes.SweepError`), an unknown executor, a bad worker
+        count, chain length or reuse, a scheduler without ``executor="dask"`` or one that
+        does not answer, or a point above the size limit (without ``allow_large``).
     OutputFolderError
         ``out`` may not be written (as in :meth:`Solution.write`).
     """
     from copdea_fem.study import parse_overrides
-    from copdea_fem.sweeps import load_sweep, run_sweep
+    from copdea_fem.sweeps import load_sweep, parse_reuse, run_sweep
 
     if isinstance(overrides, (list, tuple)):
         overrides = parse_overrides(list(overrides))
@@ -928,14 +946,17 @@ def sweep(sweep_file: str | Path, overrides: dict[str, Any] | list[str] | None =
     if spec.model != "reduced":
         for point in spec.points:
             check_size(point.study, allow_large)
+    settings = {"executor": executor, "workers": workers, "scheduler": scheduler,
+                "chain_length": chain_length,
+                "reuse": None if reuse is None else parse_reuse(reuse)}
     folder = _private("sweep", out)
     with _progress(progress):
         if out is not None:
             from copdea_fem.folders import held
             with held(out, "sweep", [sweep_file]) as record:
-                outcome = run_sweep(spec, out_dir=record, executor=executor, workers=workers)
+                outcome = run_sweep(spec, out_dir=record, **settings)
         else:
-            outcome = run_sweep(spec, out_dir=folder.path, executor=executor, workers=workers)
+            outcome = run_sweep(spec, out_dir=folder.path, **settings)
     return SweepResult(spec, outcome, folder, Path(sweep_file))
 
 
@@ -979,6 +1000,7 @@ class SweepResult:
 
 def diagnose(measured: str | Path, *, alpha: float = 0.05, model: str | None = None,
              fe_cache: str | Path | None = None, fe_workers: int | None = None,
+             executor: str | None = None, scheduler: str | Any | None = None,
              progress: Callable[[str], None] | None = None) -> Diagnosis:
     """Which catalogued effects the model lacks, from measured resonances and spectra
     (``copdea-fem diagnose``, nothing written).
@@ -997,7 +1019,14 @@ def diagnose(measured: str | Path, *, alpha: float = 0.05, model: str | None = N
         ``--fe-cache``).
     fe_workers : int, optional
         Processes solving FE studies side by side (``model: fe``; default as the CLI's
-        ``--fe-workers``).
+        ``--fe-workers``); with ``executor="dask"`` and no ``scheduler``, the local
+        cluster's workers.
+    executor : str, optional
+        Where the FE studies are solved side by side (``model: fe``): ``"local"``
+        (default), processes of this machine; ``"dask"``, a Dask cluster.
+    scheduler : str or distributed.Client, optional
+        With ``executor="dask"``: a running Dask scheduler's address or a connected client;
+        without it a local cluster is started for the diagnosis and closed at its end.
     progress : callable(str), optional
         As :func:`solve`'s.
 
@@ -1010,7 +1039,9 @@ def diagnose(measured: str | Path, *, alpha: float = 0.05, model: str | None = N
     Raises
     ------
     StudyError
-        ``alpha`` outside (0, 1), a bad measured.yaml, measured file or base study (a
+        ``alpha`` outside (0, 1), an unknown executor, a scheduler without
+        ``executor="dask"`` or one that does not answer, a bad measured.yaml, measured
+        file or base study (a
         :class:`~copdea_fem.diagnosis.measured.MeasuredDataError`), or conditions the
         base model cannot evaluate.
     ReducedModelError
@@ -1021,7 +1052,8 @@ def diagnose(measured: str | Path, *, alpha: float = 0.05, model: str | None = N
 
     with _progress(progress):
         result = diagnose_measured(measured, alpha=alpha, model=model, fe_cache=fe_cache,
-                                   fe_workers=fe_workers)
+                                   fe_workers=fe_workers, executor=executor,
+                                   scheduler=scheduler)
     return Diagnosis(result, Path(measured))
 
 

@@ -288,18 +288,22 @@ def _add_reduced_commands(commands, with_study) -> None:
 # -- parameter sweeps: sweep SWEEP.yaml ---------------------------------------------------------
 def cmd_sweep(args) -> int:
     """Run or resume a sweep; exit 3 if no point produced a result."""
+    from copdea_fem import api
     from copdea_fem.study import parse_overrides
-    from copdea_fem.sweeps import ReuseSettings, format_summary, load_sweep, run_sweep
+    from copdea_fem.sweeps import format_summary, load_sweep
+    from copdea_fem.sweeps.cluster import check_scheduler
 
     sweep = load_sweep(args.sweep, overrides=parse_overrides(args.set))
+    check_scheduler(args.executor or sweep.execution.executor, args.scheduler)
     if sweep.model != "reduced":
         _check_size(args, *(point.study for point in sweep.points))
     out_dir = Path(args.out or sweep.output_directory)
     with _output(args, out_dir, "sweep", [args.sweep]) as folder:
-        outcome = run_sweep(sweep, out_dir=folder, executor=args.executor,
-                            workers=args.workers, scheduler=args.scheduler,
-                            chain_length=args.chain_length,
-                            reuse=ReuseSettings(False, False, False) if args.no_reuse else None)
+        result = api.sweep(args.sweep, args.set or None, out=folder, executor=args.executor,
+                           workers=args.workers, scheduler=args.scheduler,
+                           chain_length=args.chain_length,
+                           reuse=False if args.no_reuse else None, allow_large=True)
+    outcome = result.outcome                  # run in the claimed folder: nothing to copy
     print(format_summary(sweep, outcome))
     return 3 if len(outcome.failed) == len(sweep.points) else 0
 
@@ -312,10 +316,13 @@ def _add_sweep_command(commands) -> None:
                        help="override a key of the base study, with units")
     sweep.add_argument("--out", help="result directory (default: output.directory of the file)")
     sweep.add_argument("--executor", choices=("local", "pool", "dask"),
-                       help="local (default), a pool of worker processes, or a Dask cluster")
-    sweep.add_argument("--workers", type=int, help="worker processes of --executor pool")
+                       help="local (default), a pool of worker processes, or a Dask cluster "
+                       "(the one at --scheduler, else a local one started for the sweep)")
+    sweep.add_argument("--workers", type=int, help="worker processes of --executor pool, or "
+                       "of the local cluster of --executor dask (default: one per core)")
     sweep.add_argument("--scheduler", metavar="ADDRESS",
-                       help="Dask scheduler address for --executor dask, e.g. tcp://host:8786")
+                       help="a running Dask scheduler for --executor dask, e.g. "
+                       "tcp://host:8786 (default: a local cluster for the sweep)")
     sweep.add_argument("--chain-length", help="points per continuation chain: auto or N")
     sweep.add_argument("--no-reuse", action="store_true",
                        help="solve every point from scratch (benchmark baseline)")
@@ -335,6 +342,8 @@ def cmd_diagnose(args) -> int:
     if args.fe_workers is not None:
         from copdea_fem.diagnosis.fe import check_workers
         check_workers(args.fe_workers, "--fe-workers")
+    from copdea_fem.sweeps.cluster import check_scheduler
+    check_scheduler(args.executor, args.scheduler)      # exit 2 before any work
     measured = load_measured(args.measured)
     out_dir = Path(args.out) if args.out else diagnose_out_dir(measured)
     inputs = [args.measured, *(path for condition in measured.conditions
@@ -342,7 +351,8 @@ def cmd_diagnose(args) -> int:
     with _output(args, out_dir, "diagnose", inputs) as folder:
         def action():
             diagnosis = api.diagnose(args.measured, alpha=args.alpha, model=args.model,
-                                     fe_cache=args.fe_cache, fe_workers=args.fe_workers)
+                                     fe_cache=args.fe_cache, fe_workers=args.fe_workers,
+                                     executor=args.executor, scheduler=args.scheduler)
             diagnosis.write(folder)
             return {"lines": summary_lines(diagnosis.result, out_dir)}
         return _reduced_action(action)
@@ -445,7 +455,15 @@ def _add_diagnose_commands(commands, with_study) -> None:
     diagnose.add_argument("--fe-workers", metavar="N",
                           help="processes solving FE studies side by side (default: "
                                "$COPDEA_FEM_FE_WORKERS, else the cores, at most 4; 1: one at "
-                               "a time)")
+                               "a time); with --executor dask, the local cluster's workers")
+    diagnose.add_argument("--executor", choices=("local", "dask"),
+                          help="where the FE studies are solved side by side: local "
+                               "processes (default) or a Dask cluster (the one at "
+                               "--scheduler, else a local one started for the run)")
+    diagnose.add_argument("--scheduler", metavar="ADDRESS",
+                          help="a running Dask scheduler for --executor dask, e.g. "
+                               "tcp://host:8786 (the workers must reach the --fe-cache folder "
+                               "to share it)")
     diagnose.add_argument("--quiet", action="store_true", help="no progress messages")
     diagnose.set_defaults(handler=cmd_diagnose)
 

@@ -53,7 +53,8 @@ def synth_out_dir(study, seed: int) -> Path:
 
 
 def diagnose_measured(measured_path, alpha: float = 0.05, model: str | None = None,
-                      fe_cache=None, fe_workers=None) -> DiagnosisResult:
+                      fe_cache=None, fe_workers=None, executor=None,
+                      scheduler=None) -> DiagnosisResult:
     """Diagnose a measured data set (nothing written: :func:`copdea_fem.api.diagnose` and its
     :meth:`~copdea_fem.api.Diagnosis.write`).
 
@@ -69,7 +70,14 @@ def diagnose_measured(measured_path, alpha: float = 0.05, model: str | None = No
         Folder of cached FE solves (:class:`copdea_fem.diagnosis.fe.FEModel`).
     fe_workers : int, optional
         Processes solving FE studies side by side (default
-        :func:`copdea_fem.diagnosis.fe.default_workers`).
+        :func:`copdea_fem.diagnosis.fe.default_workers`); with ``executor="dask"`` and
+        no ``scheduler``, the local cluster's workers.
+    executor : {"local", "dask"}, optional
+        Where the FE studies are solved side by side: ``"local"`` (default), processes of
+        this machine; ``"dask"``, a Dask cluster (:class:`copdea_fem.diagnosis.fe.FEModel`).
+    scheduler : str or distributed.Client, optional
+        With ``executor="dask"``: a running scheduler's address (or a client); without it a
+        local cluster is started for the run and closed at its end.
 
     Returns
     -------
@@ -93,6 +101,8 @@ def diagnose_measured(measured_path, alpha: float = 0.05, model: str | None = No
     if fe_workers is not None:
         from copdea_fem.diagnosis.fe import check_workers
         fe_workers = check_workers(fe_workers, "--fe-workers")
+    from copdea_fem.diagnosis.fe import check_executor
+    executor, scheduler = check_executor(executor, scheduler)
     measured = load_measured(measured_path)
     if model is not None:
         measured = dataclasses.replace(measured, model=model)
@@ -105,7 +115,8 @@ def diagnose_measured(measured_path, alpha: float = 0.05, model: str | None = No
         from copdea_fem.diagnosis.anchored import AnchoredEngine
         from copdea_fem.diagnosis.direct import DirectFEEngine, ring_can_represent
         from copdea_fem.diagnosis.fe import FEModel
-        fe = FEModel(cache_dir=fe_cache, workers=fe_workers)
+        fe = FEModel(cache_dir=fe_cache, workers=fe_workers, executor=executor,
+                     scheduler=scheduler)         # a wrong scheduler address stops here
         engine = (AnchoredEngine(measured, fe) if ring_can_represent(measured.base_study)
                   else DirectFEEngine(measured, fe))     # no disc: the FE directly
     try:

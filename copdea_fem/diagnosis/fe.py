@@ -20,8 +20,10 @@ those act through the anchored ring surrogate (:mod:`copdea_fem.diagnosis.anchor
 Side by side.  A cold diagnosis needs tens of independent FE solves (every
 condition at every switch state, the grid of a fitted parameter on the direct engine):
 the search hands each batch to :meth:`FEModel.solve_many` first, which solves what the
-cache lacks in spawned worker processes (``workers``, ``--fe-workers``), each writing
-its entry under the per-entry lock, so runs and workers share one cache folder safely.
+cache lacks in spawned worker processes (``workers``, ``--fe-workers``), or on a Dask
+cluster (``executor="dask"``, ``--executor dask``: the cluster at ``--scheduler``, else a local
+one of ``workers`` processes started for the run), each worker writing its entry under the
+per-entry lock, so runs and workers share one cache folder safely.
 
 Modes.  Frequencies are the real parts of the (coupled) eigenfrequencies [Hz].
 A split pair ``(m,n)a``/``(m,n)b`` that a vibrometer cannot resolve (relative
@@ -254,6 +256,15 @@ class FEModel:
     workers : int, optional
         Processes that solve a batch of FE studies side by side (:meth:`solve_many`);
         default :func:`default_workers`; 1: every solve in this process, one at a time.
+        With ``executor="dask"`` and no ``scheduler``: the local cluster's workers.
+    executor : {"local", "dask"}
+        Where :meth:`solve_many` solves: ``"local"`` (default), spawned processes of this
+        machine; ``"dask"``, a Dask cluster (:func:`copdea_fem.sweeps.cluster.dask_client`),
+        started at the first batch and closed by :meth:`close`.
+    scheduler : str or distributed.Client, optional
+        With ``executor="dask"``: the address of a running scheduler (connected here, so a
+        wrong address fails at once with a :class:`StudyError`) or a client the caller
+        holds; None: a local cluster.  Refused with ``executor="local"``.
 
     The cache never fails a diagnosis.  An entry is read only when it follows the
     schema of :func:`entry_problem`; a damaged one (not JSON, a wrong type, a
@@ -266,7 +277,8 @@ class FEModel:
     """
 
     def __init__(self, cache_dir=None, lock_wait: float = LOCK_WAIT_SECONDS,
-                 workers: int | None = None):
+                 workers: int | None = None, executor: str = "local", scheduler=None):
+        executor, scheduler = check_executor(executor, scheduler)
         if cache_dir is None:
             cache_dir = fe_cache_dir()
         self.cache_dir = Path(cache_dir).expanduser() if cache_dir else None
@@ -281,6 +293,12 @@ class FEModel:
         self.workers = default_workers() if workers is None else check_workers(workers)
         self._memory: dict = {}
         self._pool = None
+        self.executor = executor
+        self._cluster = contextlib.ExitStack()    # the Dask client (and local cluster), if any
+        self._client = None
+        if executor == "dask" and scheduler is not None:
+            from copdea_fem.sweeps.cluster import dask_client
+            self._client = self._cluster.enter_context(dask_client(scheduler))
         self.solves = 0
         self.seconds = 0.0
 
@@ -310,9 +328,13 @@ class FEModel:
         workers, or two runs, never solve the same entry at once, and a worker that
         finds an entry another run wrote reads it.  A study a worker cannot solve is
         left out (the caller's :meth:`modes` solves it again and raises its error).
-        Returns the number of studies solved here (0 with one worker or < 2 to solve).
+        Returns the number of studies solved here (0 with one local worker or < 2 to solve).
+
+        With ``executor="dask"`` the batch goes to the Dask cluster instead, as the same
+        tasks (one :class:`FEModel` per task on the cache folder); an entry a remote worker
+        solved that this machine's folder lacks is written there too.
         """
-        if self.workers < 2:
+        if self.workers < 2 and self.executor == "local":
             return 0
         todo = {}
         for study, f_max in requests:
@@ -328,19 +350,33 @@ class FEModel:
         if len(todo) < 2:
             return 0
         import concurrent.futures
-        self.progress(f"FE: {len(todo)} solves on {self.workers} processes side by side ...")
+        where = ("the Dask cluster" if self.executor == "dask" else
+                 f"{self.workers} processes side by side")
+        self.progress(f"FE: {len(todo)} solves on {where} ...")
         folder = str(self.cache_dir) if self.cache_dir is not None else None
         saved = {name: os.environ.get(name) for name in THREAD_VARIABLES}
         for name in saved:                   # read by the workers as they start
             os.environ[name] = "1"
         solved, broken = 0, None
         start = time.perf_counter()
+        futures = {}
         try:
-            pool = self._worker_pool()
-            futures = {pool.submit(_solve_in_worker, study, f_max, folder,
-                                   self.lock_wait): key
-                       for key, (study, f_max) in todo.items()}
-            for future in concurrent.futures.as_completed(futures):
+            if self.executor == "dask":
+                from distributed import as_completed
+                client = self._dask_client()
+                batch = uuid.uuid4().hex[:8]
+                futures = {client.submit(_solve_in_worker, study, f_max, folder,
+                                         self.lock_wait, key=f"copdea-fe-{key}-{batch}",
+                                         pure=False): key
+                           for key, (study, f_max) in todo.items()}
+                completed = as_completed(list(futures))
+            else:
+                pool = self._worker_pool()
+                futures = {pool.submit(_solve_in_worker, study, f_max, folder,
+                                       self.lock_wait): key
+                           for key, (study, f_max) in todo.items()}
+                completed = concurrent.futures.as_completed(futures)
+            for future in completed:
                 try:
                     result, solves = future.result()
                 except (RuntimeError, ValueError) as error:   # the FE's own error:
@@ -352,10 +388,17 @@ class FEModel:
                     broken = broken or error
                     continue
                 self._memory[futures[future]] = result
+                path = self._path(result.key)
+                if self.executor == "dask" and path is not None and not path.is_file():
+                    self._write(result)          # solved on another machine's folder
                 if solves:
                     solved += 1
                     self.solves += 1
                     self.seconds += result.seconds
+        except BaseException:            # an error or Ctrl-C: nothing left running
+            for future in futures:
+                future.cancel()
+            raise
         finally:
             for name, value in saved.items():
                 if value is None:
@@ -364,7 +407,7 @@ class FEModel:
                     os.environ[name] = value
         if broken is not None:             # do not try again: one at a time from now on
             self.close()
-            self.workers = 1
+            self.workers, self.executor = 1, "local"
             logger.warning(f"FE worker processes failed ({broken!r}); the remaining FE "
                            "studies are solved here, one at a time")
         self.progress(f"FE: {solved} solves in {time.perf_counter() - start:.1f} s "
@@ -388,11 +431,23 @@ class FEModel:
                                                cancel_futures=True)
         return self._pool
 
+    def _dask_client(self):
+        """The Dask client of :meth:`solve_many`: the one connected at construction, else a
+        local cluster of :attr:`workers` processes started at the first batch and kept for
+        the next ones; closed by :meth:`close`."""
+        if self._client is None:
+            from copdea_fem.sweeps.cluster import dask_client
+            self._client = self._cluster.enter_context(dask_client(None, self.workers))
+        return self._client
+
     def close(self) -> None:
-        """End the worker processes of :meth:`solve_many` (if any were started)."""
+        """End the worker processes of :meth:`solve_many` (if any were started), and close
+        the Dask client and its local cluster (if any)."""
         if self._pool is not None:
             self._finalizer()
             self._pool = None
+        self._client = None
+        self._cluster.close()
 
     def _solve(self, run: Study, key: str) -> FEResult:
         from copdea_fem.fe.engines import engine_for
@@ -511,6 +566,26 @@ def check_workers(value, option: str = "--fe-workers") -> int:
                        f"{cores} worker(s) used")
         count = cores
     return count
+
+
+EXECUTORS = ("local", "dask")
+
+
+def check_executor(executor, scheduler, option: str = "--executor") -> tuple:
+    """``(executor, scheduler)`` checked: ``executor`` one of :data:`EXECUTORS`, a
+    ``scheduler`` only with ``"dask"`` (:func:`copdea_fem.sweeps.cluster.check_scheduler`),
+    else :class:`StudyError` naming the option (called before any work)."""
+    from copdea_fem.inputs import preview
+    from copdea_fem.sweeps.cluster import check_scheduler
+    executor = "local" if executor is None else executor
+    if executor not in EXECUTORS:
+        raise StudyError(f"{option} = {preview(executor)} is not allowed; allowed: one of "
+                         + ", ".join(EXECUTORS))
+    check_scheduler(executor, scheduler)
+    if executor == "dask":
+        from copdea_fem.sweeps.cluster import require_distributed
+        require_distributed()
+    return executor, scheduler
 
 
 def default_workers() -> int:

@@ -22,7 +22,7 @@ SWEEP.yaml
     execution:                          # optional; CLI options override
       executor: local                   # local | pool | dask
       workers: 2                        # pool processes
-      scheduler: null                   # dask scheduler address
+      scheduler: null                   # dask scheduler address; null: a local cluster
       chain_length: auto                # points per continuation chain (auto or >= 1)
       reuse: true                       # or false, or {mesh, prestress, shifts}
     output:
@@ -88,7 +88,9 @@ with its error and does not stop the sweep.
 The package follows the pipeline of a sweep: :mod:`.spec` (the sweep file) and
 :mod:`.axes` (its axes), :mod:`.grid` (points and their keys), :mod:`.models` (one point
 through the dry, coupled or reduced model), :mod:`.store` (point folders),
-:mod:`.executors` (local, pool, dask), :mod:`.gather` (tracking, tables) with
+:mod:`.executors` (local, pool, dask) with :mod:`.cluster` (the Dask cluster: a running
+one, or a local one for the run; the diagnosis's FE solves use it too), :mod:`.gather`
+(tracking, tables) with
 :mod:`.tracking` (the mode tracking itself) and :mod:`.plots`.  The reuse benchmark is
 ``python -m benchmarks.sweep benchmark SWEEP.yaml`` (``benchmarks/sweep.py``, outside the
 package).

@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Callable
 
 from copdea_fem.folders import Claim, held, write_manifest
+from copdea_fem.sweeps.cluster import check_scheduler, dask_client, require_distributed
 from copdea_fem.sweeps.gather import SweepOutcome, finish_sweep, write_summary
 from copdea_fem.sweeps.grid import content_hash
 from copdea_fem.sweeps.models import MODEL_CLASSES, ChainState, PointResult, solve_point
@@ -154,9 +155,13 @@ def run_sweep(sweep: Sweep, out_dir: str | Path | Claim | None = None, executor:
     executor : {"local", "pool", "dask"}, optional
         Default ``execution.executor``.
     workers : int, optional
-        Processes of the ``pool`` executor (default ``execution.workers``).
+        Processes of the ``pool`` executor (default ``execution.workers``), or of the
+        local Dask cluster.
     scheduler : str or distributed.Client, optional
-        Dask scheduler address (or a connected client) for ``executor="dask"``.
+        Dask scheduler address (or a connected client) for ``executor="dask"`` (default
+        ``execution.scheduler``); without one, a local cluster of ``workers`` processes
+        (when given, else one per core) runs the sweep and is closed at its end
+        (:func:`copdea_fem.sweeps.cluster.dask_client`).  Refused with another executor.
     chain_length : "auto" or int, optional
         Points per continuation chain (default ``execution.chain_length``).
     reuse : ReuseSettings, optional
@@ -173,15 +178,21 @@ def run_sweep(sweep: Sweep, out_dir: str | Path | Claim | None = None, executor:
     executor = executor or sweep.execution.executor
     if executor not in EXECUTORS:
         raise sweep_error("--executor", executor, "one of " + ", ".join(EXECUTORS))
+    explicit_workers = workers is not None
     workers = sweep.execution.workers if workers is None else workers
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise sweep_error("--workers", workers, "an integer >= 1")
     chain_length = check_chain_length(sweep.execution.chain_length if chain_length is None
                                       else chain_length)
-    scheduler = scheduler if scheduler is not None else sweep.execution.scheduler
+    check_scheduler(executor, scheduler)
     if executor == "dask" and scheduler is None:
-        raise sweep_error("--scheduler", None, "a Dask scheduler address (tcp://HOST:PORT) with "
-                          "--executor dask")
+        scheduler = sweep.execution.scheduler      # None: a local cluster for the run
+    if executor == "dask":
+        require_distributed()
+        if isinstance(scheduler, str):             # a wrong address stops before any folder
+            with dask_client(scheduler) as client:
+                return run_sweep(sweep, out_dir, executor, workers if explicit_workers else None,
+                                 client, chain_length, reuse, on_point_done)
     reuse = reuse or sweep.execution.reuse
     MODEL_CLASSES[sweep.model]().check_available(sweep)
     with held(out_dir or sweep.output_directory, "sweep") as record:
@@ -218,7 +229,8 @@ def run_sweep(sweep: Sweep, out_dir: str | Path | Claim | None = None, executor:
         elif executor == "pool":
             _run_pool(sweep, chains_for(workers), reuse, directory, workers, store, sink)
         elif todo:
-            _run_dask(sweep, chains_for, reuse, scheduler, sink)
+            with dask_client(scheduler, workers if explicit_workers else None) as client:
+                _run_dask(sweep, chains_for, reuse, client, sink)
         outcome = finish_sweep(sweep, directory)
         outcome.computed, outcome.resumed = computed, resumed
         outcome.wall_seconds = time.perf_counter() - start
@@ -285,14 +297,11 @@ def _run_pool(sweep, chains, reuse, directory, workers, store, sink) -> None:
                 os.environ[name] = value
 
 
-def _run_dask(sweep, chains_for, reuse, scheduler, sink) -> None:
-    try:
-        from distributed import Client, as_completed
-    except ImportError:
-        raise sweep_error("--executor", "dask", "local or pool, or install Dask: pip install "
-                          "'copdea-fem[dask]'", "dask.distributed is not installed") from None
-    own_client = isinstance(scheduler, str)
-    client = Client(scheduler) if own_client else scheduler
+def _run_dask(sweep, chains_for, reuse, client, sink) -> None:
+    """Chains as task chains on the Dask cluster of ``client`` (:func:`dask_client`), one
+    chain's points on one worker where it can, reported as they finish."""
+    from distributed import as_completed
+    futures = {}
     try:
         addresses = sorted(client.scheduler_info()["workers"])
         chains = chains_for(max(1, len(addresses)))
@@ -301,7 +310,6 @@ def _run_dask(sweep, chains_for, reuse, scheduler, sink) -> None:
         needs_sampling = _needs_sampling(sweep)
         token = content_hash([sweep.name, sweep.path, time.time_ns()])
         shared_sweep = client.scatter(sweep, broadcast=True)   # shipped once, not per task
-        futures = {}
         for number, chain in enumerate(chains):
             worker = [addresses[number % len(addresses)]] if addresses else None
             previous_future, previous_id = None, None
@@ -325,6 +333,6 @@ def _run_dask(sweep, chains_for, reuse, scheduler, sink) -> None:
                 result = PointResult(point_id, "failed", record)
             sink(result)
             future.release()
-    finally:
-        if own_client:
-            client.close()
+    except BaseException:       # an error or Ctrl-C here: nothing left running on the cluster
+        client.cancel(list(futures))
+        raise
