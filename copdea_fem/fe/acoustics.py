@@ -85,6 +85,27 @@ continuous except across the screens: ``q`` only has degrees of freedom that
 ``p`` shares between the halves.  A ``q`` on the whole lower half would repeat
 ``p``'s lower interior DOFs and the system would be singular.
 
+Enclosure (a rigid cavity under the membrane)
+---------------------------------------------
+With an enclosure the air inside it (region ``cavity``, sealed to the membrane's
+rim, walls ``enclosure`` rigid) is the lower side of the membrane and disc, and the
+pressure jumps across its walls too (a rigid wall of no thickness between the
+cavity and the outside lower air).  A third field ``q_c`` on the cavity keeps only
+its degrees of freedom on the cavity's boundary (compressed; zero on the ``vent``,
+where the cavity opens to the outside air)::
+
+    p_upper = p,   p_lower = p + q,   p_cavity = p + q_c,   [p] = -q_c on membrane, disc
+
+and ``q`` keeps its screen DOFs outside the cavity (a square frame around a
+cylinder); it has none where no screen separates the outside halves (frame none, a
+box under the whole frame, a baffle: no outside lower air at all).  At a DOF on a
+wall the outside and inside values are ``p + q`` and ``p + q_c``, two unknowns for
+two values: the bijection above still holds.  Without the outside air
+(``outside = False``) the space is one H1 field ``p_c`` on the cavity, the upper side
+is vacuum and ``[p] = -p_c``.  A pressure is then a tuple of one (``p_c``), two
+(``p, q``) or three (``p, q, q_c``) fields; :func:`region_pressures` says which
+field is the pressure of which region.
+
 Frames: ``square`` and ``none`` leave the plane open outside the frame
 (``aperture`` and ``pml_plane`` continuous).  ``baffle`` makes the frame the
 whole plane inside the air sphere; we continue the baffle through the PML
@@ -97,6 +118,9 @@ add an edge diffraction that the closed form does not have.
 from __future__ import annotations
 
 UPPER = "air_upper|pml_upper"
+CAVITY = "cavity"                # the air inside an enclosure
+WALL = "enclosure"               # its rigid walls (and its top between r_o and its rim)
+VENT = "vent"                    # a hole in its bottom, open to the outside air
 LOWER = "air_lower|pml_lower"
 AIR_AND_PML = "air_upper|air_lower|pml_upper|pml_lower"
 PML_REGIONS = "pml_upper|pml_lower"
@@ -278,7 +302,8 @@ def set_order_in(space, mesh, regions: str, order: int) -> None:
 
 
 def pressure_space(mesh, order: int, screens: str, pml_order: int | None = None,
-                   outer_dirichlet: bool = True, also_dirichlet: str = ""):
+                   outer_dirichlet: bool = True, also_dirichlet: str = "",
+                   cavity: bool = False, outside: bool = True):
     """Complex pressure space ``P x Q`` with a jump across the screens.
 
     Parameters
@@ -298,16 +323,29 @@ def pressure_space(mesh, order: int, screens: str, pml_order: int | None = None,
         ``p = 0`` on ``outer`` (needed by the unbounded PML profile).
     also_dirichlet : str
         More boundaries with ``p = q = 0`` (the meridian's ``axis`` for an order m >= 1).
+    cavity : bool
+        The mesh has an enclosure (region ``cavity``): add the field ``q_c`` of the
+        cavity (module doc, "Enclosure").
+    outside : bool
+        The mesh has the outside air (False: only the cavity; needs ``cavity``).
 
     Returns
     -------
     ngsolve.FESpace
         Product space; ``(p, q) = space.TrialFunction()`` etc.  ``p`` [Pa] on
         all air + PML, ``q`` [Pa] on the lower half, non-zero only next to the
-        screens: ``p_lower = p + q``, ``[p] = -q`` (module doc).
+        screens: ``p_lower = p + q``, ``[p] = -q`` (module doc).  With ``cavity``
+        ``(p, q, q_c)``; without ``outside`` the one field ``(p_c,)``.
     """
     from ngsolve import H1, Compress, FESpace
 
+    if not outside:
+        if not cavity:
+            raise ValueError("outside = False needs an enclosure (cavity = True): there "
+                             "would be no air")
+        cavity_air = H1(mesh, order=order, complex=True, definedon=mesh.Materials(CAVITY),
+                        dirichlet=also_dirichlet)
+        return FESpace([cavity_air])
     unknown = set(screens.split("|")) - set(PLANE_FACES)
     if unknown:
         raise ValueError(f"screens = {screens!r} is not allowed; allowed: names of "
@@ -315,7 +353,8 @@ def pressure_space(mesh, order: int, screens: str, pml_order: int | None = None,
     pml_order = order + PML_EXTRA_ORDER if pml_order is None else pml_order
     open_plane = open_plane_faces(screens)
     outer = "|".join(name for name in (OUTER if outer_dirichlet else "", also_dirichlet) if name)
-    continuous = H1(mesh, order=order, complex=True, definedon=mesh.Materials(AIR_AND_PML),
+    regions = AIR_AND_PML + (f"|{CAVITY}" if cavity else "")
+    continuous = H1(mesh, order=order, complex=True, definedon=mesh.Materials(regions),
                     dirichlet=outer)
     jump = H1(mesh, order=order, complex=True, definedon=mesh.Materials(LOWER),
               dirichlet="|".join(name for name in (open_plane, outer) if name))
@@ -323,22 +362,51 @@ def pressure_space(mesh, order: int, screens: str, pml_order: int | None = None,
         if pml_order != order:
             set_order_in(space, mesh, PML_REGIONS, pml_order)
     active = jump.GetDofs(mesh.Boundaries(screens)) & jump.FreeDofs()
-    if active.NumSet() == 0:
-        raise ValueError(f"screens = {screens!r} match no face of the mesh with air; "
-                         "allowed: a pattern of membrane, disc, frame, pml_plane")
-    return FESpace([continuous, Compress(jump, active_dofs=active)])
+    if not cavity:
+        if active.NumSet() == 0:
+            raise ValueError(f"screens = {screens!r} match no face of the mesh with air; "
+                             "allowed: a pattern of membrane, disc, frame, pml_plane")
+        return FESpace([continuous, Compress(jump, active_dofs=active)])
+    # the cavity's field: all its boundary but the vent and the open plane (module doc)
+    cavity_jump = H1(mesh, order=order, complex=True, definedon=mesh.Materials(CAVITY),
+                     dirichlet="|".join(name for name in (VENT, also_dirichlet) if name))
+    walls = cavity_jump.GetDofs(mesh.Boundaries(f"{screens}|{WALL}")) \
+        & cavity_jump.FreeDofs()
+    if walls.NumSet() == 0:
+        raise ValueError("cavity = True but the mesh has no region 'cavity' bounded by "
+                         "screens or 'enclosure' walls")
+    return FESpace([continuous, Compress(jump, active_dofs=active),
+                    Compress(cavity_jump, active_dofs=walls)])
 
 
-def _split(pressure):
-    """``(p, q)`` from a pressure of :func:`pressure_space`; ``(p, None)`` for a plain H1 field."""
-    if isinstance(pressure, (list, tuple)):
-        continuous, jump = pressure
-        return continuous, jump
-    return pressure, None
+def region_pressures(pressure):
+    """The pressure of each air region [Pa] of ``pressure`` (module doc, "Enclosure").
+
+    Parameters
+    ----------
+    pressure : tuple or ProxyFunction
+        ``(p_c,)``, ``(p, q)`` or ``(p, q, q_c)`` of :func:`pressure_space`, or one plain
+        H1 field (no screens).
+
+    Returns
+    -------
+    list of (str, str, CoefficientFunction)
+        ``(air regions, PML regions, pressure)``: the regions of one pressure (the
+        PML's, without the ALE deformation, may be empty).
+    """
+    if not isinstance(pressure, (list, tuple)):
+        return [("air_upper|air_lower|cavity", PML_REGIONS, pressure)]
+    if len(pressure) == 1:
+        return [(CAVITY, "", pressure[0])]
+    parts = [("air_upper", "pml_upper", pressure[0]),
+             ("air_lower", "pml_lower", pressure[0] + pressure[1])]
+    if len(pressure) == 3:
+        parts.append((CAVITY, "", pressure[0] + pressure[2]))
+    return parts
 
 
 def upper_pressure(pressure):
-    """Pressure in the upper half [Pa]: ``p`` (``pressure = (p, q)``)."""
+    """Pressure in the upper half [Pa]: ``p`` (``pressure = (p, q[, q_c])``)."""
     return pressure[0]
 
 
@@ -348,19 +416,29 @@ def lower_pressure(pressure):
 
 
 def pressure_jump(pressure):
-    """``[p] = p+ - p- = -q`` [Pa], to be integrated over the screens (``ds``)."""
-    return -pressure[1]
+    """``[p] = p+ - p-`` [Pa] on the moving screens, to be integrated over them (``ds``):
+    ``-q``; over an enclosure (module doc) ``-q_c``, or ``-p_c`` without the outside air."""
+    return -pressure[-1]
 
 
-def _over_half(integrand, half: str, deformation):
-    """``integrand dx`` over the air and PML of one half; the mesh deformation
-    (ALE, zero in the PML) only on the air: an integral with its own
-    deformation would not see the PML set on the mesh."""
+def _over_regions(integrand_of, pressure, pressure_test, deformation):
+    """``sum integrand_of(p_region, p'_region) dx`` over the regions of
+    :func:`region_pressures`; the mesh deformation (ALE, zero in the PML) only on the air:
+    an integral with its own deformation would not see the PML set on the mesh."""
     from ngsolve import dx
 
-    if deformation is None:
-        return integrand * dx(f"air_{half}|pml_{half}")
-    return integrand * dx(f"air_{half}", deformation=deformation) + integrand * dx(f"pml_{half}")
+    total = None
+    for (air, pml, value), (_, _, test) in zip(region_pressures(pressure),
+                                               region_pressures(pressure_test)):
+        integrand = integrand_of(value, test)
+        if deformation is None:
+            term = integrand * dx("|".join(name for name in (air, pml) if name))
+        else:
+            term = integrand * dx(air, deformation=deformation)
+            if pml:
+                term = term + integrand * dx(pml)
+        total = term if total is None else total + term
+    return total
 
 
 def air_stiffness(pressure, pressure_test, density: float, deformation=None):
@@ -382,13 +460,10 @@ def air_stiffness(pressure, pressure_test, density: float, deformation=None):
     """
     from ngsolve import dx, grad
 
-    p, q = _split(pressure)
-    p_test, q_test = _split(pressure_test)
-    if q is None:                  # one continuous field (no screens)
-        return (1.0 / density) * grad(p) * grad(p_test) * dx
-    upper = (1.0 / density) * grad(p) * grad(p_test)
-    lower = (1.0 / density) * grad(p + q) * grad(p_test + q_test)
-    return _over_half(upper, "upper", deformation) + _over_half(lower, "lower", deformation)
+    if not isinstance(pressure, (list, tuple)):      # one continuous field (no screens)
+        return (1.0 / density) * grad(pressure) * grad(pressure_test) * dx
+    return _over_regions(lambda value, test: (1.0 / density) * grad(value) * grad(test),
+                         pressure, pressure_test, deformation)
 
 
 def air_mass(pressure, pressure_test, density: float, sound_speed: float, deformation=None):
@@ -408,14 +483,11 @@ def air_mass(pressure, pressure_test, density: float, sound_speed: float, deform
     """
     from ngsolve import dx
 
-    p, q = _split(pressure)
-    p_test, q_test = _split(pressure_test)
     compressibility = 1.0 / (density * sound_speed**2)      # [1/Pa]
-    if q is None:
-        return compressibility * p * p_test * dx
-    upper = compressibility * p * p_test
-    lower = compressibility * (p + q) * (p_test + q_test)
-    return _over_half(upper, "upper", deformation) + _over_half(lower, "lower", deformation)
+    if not isinstance(pressure, (list, tuple)):
+        return compressibility * pressure * pressure_test * dx
+    return _over_regions(lambda value, test: compressibility * value * test,
+                         pressure, pressure_test, deformation)
 
 
 def screen_coupling(pressure, normal_displacement, screens: str, deformation=None):
@@ -509,10 +581,16 @@ def coupling_forms(pressure, pressure_test, normal_displacement, normal_displace
     return traction, acceleration
 
 
-def pressure_field(gf_continuous, gf_jump, mesh):
-    """Pressure CoefficientFunction [Pa] from the two GridFunction components.
+def pressure_field(gf_continuous, gf_jump, mesh, gf_cavity=None):
+    """Pressure CoefficientFunction [Pa] from the GridFunction components.
 
-    Equal to ``p`` in the upper half and ``p + q`` in the lower half.
+    Equal to ``p`` in the upper half, ``p + q`` in the lower half and ``p + q_c`` in
+    the cavity (``gf_cavity`` = ``q_c``; module doc, "Enclosure").  Without the outside
+    air pass ``p_c`` as ``gf_continuous`` and None for the others.
     """
-    lower = mesh.MaterialCF({LOWER: 1.0}, default=0.0)
-    return gf_continuous + lower * gf_jump
+    field = gf_continuous
+    if gf_jump is not None:
+        field = field + mesh.MaterialCF({LOWER: 1.0}, default=0.0) * gf_jump
+    if gf_cavity is not None:
+        field = field + mesh.MaterialCF({CAVITY: 1.0}, default=0.0) * gf_cavity
+    return field

@@ -28,6 +28,20 @@ cut faces are ``mirror_x`` (x = 0) and ``mirror_y`` (y = 0); the cut edges
 
 Without air only the plane faces are meshed (a surface mesh in 3-D space):
 the membrane field and its forms are the same in both cases.
+
+Enclosure (``enclosure`` cylinder, bowl or box; with air): a rigid closed back on
+z < 0 sealed to the membrane's rim, its inside air the volume ``cavity`` (depth
+``enclosure_depth``; cylinder and bowl of rim radius ``enclosure_radius``, the bowl a
+spherical cap whose depth at the centre is the depth; the box as wide as the square
+frame).  The outside air is the sphere less the enclosure (it reflects off the
+walls); with a baffle the enclosure replaces the lower half-space (no ``air_lower``,
+``pml_lower``); without the outside air (``outside`` False) only the cavity and the
+plane faces over it are meshed.  Its walls are the faces ``enclosure`` (with frame
+none also the top between r_o and the rim; under a frame that top is ``frame``), a
+hole of radius ``enclosure_vent_radius`` in its bottom the face ``vent`` (on the bowl
+cut out by a short cylinder, the internal faces ``vent_guide``).  No ``ale_guide``
+faces: the air mesh follows only a flat membrane there (``load.z`` = 0,
+:func:`copdea_fem.fe.airbox.check_air_lift`).
 """
 
 from __future__ import annotations
@@ -47,6 +61,7 @@ from copdea_fem.fingerprint import mesh_fingerprint
 
 SCREENS = "membrane|disc|frame"
 SYMMETRIES = ("quarter", "none")
+ENCLOSURES = ("none", "cylinder", "bowl", "box")
 
 GEOMETRY_VERSION = 2  # keys the mesh cache with the code fingerprint (GeometrySpec.key)
 CACHE_VARIABLE = "COPDEA_FEM_MESH_CACHE"
@@ -70,11 +85,23 @@ class GeometrySpec:
     air_size: float
     grading: float
     symmetry: str = "none"
+    enclosure: str = "none"
+    enclosure_depth: float = 0.0
+    enclosure_radius: float = 0.0
+    enclosure_vent_radius: float = 0.0
+    outside: bool = True
 
     @classmethod
     def from_study(cls, study, with_air: bool | None = None) -> "GeometrySpec":
         g, a, m = study["geometry"], study["air"], study["mesh"]
-        return cls(outer_radius=g["outer_radius"], inner_radius=g["inner_radius"],
+        air = a["enabled"] if with_air is None else with_air
+        enclosure = g.get("enclosure", "none") if air else "none"
+        closed = {} if enclosure == "none" else {
+            "enclosure": enclosure, "enclosure_depth": g["enclosure_depth"],
+            "enclosure_radius": 0.5 * g["frame_side"] if enclosure == "box"
+            else g["enclosure_radius"],
+            "enclosure_vent_radius": g["enclosure_vent_radius"], "outside": a["outside"]}
+        return cls(**closed, outer_radius=g["outer_radius"], inner_radius=g["inner_radius"],
                    frame=g["frame"], frame_side=g["frame_side"],
                    with_air=a["enabled"] if with_air is None else with_air,
                    domain_radius=a["domain_radius"], pml_thickness=a["pml_thickness"],
@@ -90,6 +117,10 @@ class GeometrySpec:
                 data.pop(name)
         if self.symmetry == "none":    # full meshes keep the keys they had before the key
             data.pop("symmetry")
+        if self.enclosure == "none":   # open meshes keep the keys they had before the keys
+            for name in ("enclosure", "enclosure_depth", "enclosure_radius",
+                         "enclosure_vent_radius", "outside"):
+                data.pop(name)
         data["version"] = GEOMETRY_VERSION
         # the code that builds and meshes the shapes (copdea_fem.fingerprint): a change
         # there gives new keys, never a stale mesh
@@ -108,6 +139,9 @@ def build_shape(spec: GeometrySpec):
     """OCC shape with every region, face and rim edge named (see module doc)."""
     from netgen.occ import Box, Cylinder, Glue, Pnt, Sphere, WorkPlane, Z
 
+    if spec.enclosure not in ENCLOSURES:
+        raise ValueError(f"enclosure = {spec.enclosure!r} is not allowed; allowed: "
+                         f"{', '.join(ENCLOSURES)}")
     r_o, r_i = spec.outer_radius, spec.inner_radius
     disc_hole = WorkPlane().Circle(r_i).Face() if r_i > 0 else None
     outer_disc = WorkPlane().Circle(r_o).Face()
@@ -115,18 +149,27 @@ def build_shape(spec: GeometrySpec):
     if disc_hole:
         plane.append(disc_hole)
     R, t = spec.domain_radius, spec.pml_thickness
+    closed = spec.with_air and spec.enclosure != "none"
+    outside = spec.outside or not closed
+    rim = _enclosure_top(spec) if closed else None
+    if closed and spec.enclosure != "box" and spec.enclosure_radius > r_o * (1 + 1e-9):
+        plane.append(rim - outer_disc)      # the top between r_o and the enclosure's rim
     if spec.frame == "square":
         square = WorkPlane().RectangleC(spec.frame_side, spec.frame_side).Face()
-        plane.append(square - outer_disc)
+        if not closed or spec.enclosure == "box":
+            plane.append(square - outer_disc)
+        elif outside:                           # the frame around a cylinder's or bowl's rim
+            plane.append(square - rim)
         inner_of_aperture = square
     elif spec.frame == "baffle":
-        plane.append(WorkPlane().Circle(R).Face() - outer_disc if spec.with_air else None)
+        plane.append(WorkPlane().Circle(R).Face() - (rim if closed else outer_disc)
+                     if spec.with_air and outside else None)
         inner_of_aperture = None
     else:
-        inner_of_aperture = outer_disc
+        inner_of_aperture = rim if closed else outer_disc
     plane = [face for face in plane if face is not None]
     parts = list(plane)
-    if spec.with_air:
+    if spec.with_air and outside:
         if inner_of_aperture is not None:
             parts.append(WorkPlane().Circle(R).Face() - inner_of_aperture)
         parts.append(WorkPlane().Circle(R + t).Face() - WorkPlane().Circle(R).Face())
@@ -135,25 +178,86 @@ def build_shape(spec: GeometrySpec):
         big = 2 * (R + t)
         upper = Box(Pnt(-big, -big, 0), Pnt(big, big, big))
         lower = Box(Pnt(-big, -big, -big), Pnt(big, big, 0))
-        for solid, name in ((ball * upper, "air_upper"), (ball * lower, "air_lower"),
-                            (shell * upper, "pml_upper"), (shell * lower, "pml_lower")):
+        solids = [(ball * upper, "air_upper"), (shell * upper, "pml_upper")]
+        if not (closed and spec.frame == "baffle"):     # a baffled enclosure: no lower half
+            lower_air = ball * lower - _enclosure_solid(spec) if closed else ball * lower
+            solids += [(lower_air, "air_lower"), (shell * lower, "pml_lower")]
+        for solid, name in solids:
             solid.mat(name)
             parts.insert(0, solid)
-        half_height = ale_decay_length(R, r_o)
-        for radius in (r_i, r_o) if r_i > 0 else (r_o,):
-            cylinder = Cylinder(Pnt(0, 0, -half_height), Z, radius, 2 * half_height)
-            parts += [face for face in cylinder.faces if _height(face) > half_height]
+        if not closed:
+            half_height = ale_decay_length(R, r_o)
+            for radius in (r_i, r_o) if r_i > 0 else (r_o,):
+                cylinder = Cylinder(Pnt(0, 0, -half_height), Z, radius, 2 * half_height)
+                parts += [face for face in cylinder.faces if _height(face) > half_height]
+    if closed:
+        parts = _cavity_parts(spec) + parts
     shape = Glue(parts)
     if spec.symmetry == "quarter":
         if not spec.with_air:
             raise ValueError("symmetry = 'quarter' is for meshes with air; allowed: none")
-        big = 2 * (R + t)
+        big = 2 * (R + t + spec.enclosure_depth)
         shape = shape * Box(Pnt(0, 0, -big), Pnt(big, big, big))
     elif spec.symmetry != "none":
         raise ValueError(f"symmetry = {spec.symmetry!r} is not allowed; allowed: "
                          f"{', '.join(SYMMETRIES)}")
     _name_faces(shape, spec)
     return shape
+
+
+def _enclosure_top(spec: GeometrySpec):
+    """The enclosure's opening in the plane z = 0: a disc of the rim radius, or the box's
+    square (the frame's)."""
+    from netgen.occ import WorkPlane
+
+    if spec.enclosure == "box":
+        return WorkPlane().RectangleC(spec.frame_side, spec.frame_side).Face()
+    return WorkPlane().Circle(spec.enclosure_radius).Face()
+
+
+def bowl_sphere_radius(rim_radius: float, depth: float) -> float:
+    """Radius [m] of the sphere whose cap has the rim radius ``a`` and the depth ``L`` at its
+    centre: ``(a^2 + L^2) / (2 L)`` (the chord-sagitta relation a^2 = L (2 R_s - L))."""
+    return (rim_radius**2 + depth**2) / (2 * depth)
+
+
+def _enclosure_solid(spec: GeometrySpec):
+    """The enclosure's inside (the cavity) as one OCC solid below the plane."""
+    from netgen.occ import Box, Cylinder, Pnt, Sphere, Z
+
+    depth, radius = spec.enclosure_depth, spec.enclosure_radius
+    if spec.enclosure == "cylinder":
+        return Cylinder(Pnt(0, 0, -depth), Z, radius, depth)
+    if spec.enclosure == "box":
+        half = 0.5 * spec.frame_side
+        return Box(Pnt(-half, -half, -depth), Pnt(half, half, 0))
+    sphere_radius = bowl_sphere_radius(radius, depth)
+    big = 2 * (sphere_radius + depth)
+    return (Sphere(Pnt(0, 0, sphere_radius - depth), sphere_radius)
+            * Box(Pnt(-big, -big, -big), Pnt(big, big, 0)))
+
+
+def _cavity_parts(spec: GeometrySpec) -> list:
+    """The cavity solid(s), material ``cavity``, and the vent's outline on its bottom: a
+    flat disc glued into the flat bottom (cylinder, box), or, on the bowl, the cap cut by a
+    short cylinder of the vent radius (the internal faces are ``vent_guide``)."""
+    from netgen.occ import Axes, Cylinder, Pnt, WorkPlane, Z
+
+    cavity = _enclosure_solid(spec)
+    vent, depth = spec.enclosure_vent_radius, spec.enclosure_depth
+    parts = [cavity]
+    if vent > 0 and spec.enclosure == "bowl":
+        sphere_radius = bowl_sphere_radius(spec.enclosure_radius, depth)
+        sagitta = sphere_radius - (sphere_radius**2 - vent**2) ** 0.5
+        height = min(2 * sagitta + 0.05 * depth, 0.5 * depth)
+        lens = cavity * Cylinder(Pnt(0, 0, -depth), Z, vent, height)
+        parts = [cavity - lens, lens]
+    elif vent > 0:
+        parts.append(WorkPlane(Axes((0, 0, -depth), n=Z, h=(1, 0, 0))).Circle(vent).Face())
+    for part in parts:
+        if part.solids:
+            part.mat("cavity")
+    return parts
 
 
 def _height(shape) -> float:
@@ -164,6 +268,8 @@ def _height(shape) -> float:
 def _name_faces(shape, spec: GeometrySpec) -> None:
     r_o, r_i, R, t = spec.outer_radius, spec.inner_radius, spec.domain_radius, spec.pml_thickness
     tol = 1e-5 * (R + t)     # OCC pads bounding boxes by ~1e-7 m, more after a cut
+    closed = spec.with_air and spec.enclosure != "none"
+    depth, vent = spec.enclosure_depth, spec.enclosure_vent_radius
 
     def near(value, target):
         return abs(value - target) < tol + 1e-9
@@ -188,6 +294,8 @@ def _name_faces(shape, spec: GeometrySpec) -> None:
                 name = "membrane"
             elif r_i > 0 and near(extent, r_i):
                 name = "disc"
+            elif closed and spec.enclosure != "box" and near(extent, spec.enclosure_radius):
+                name = "enclosure" if spec.frame == "none" else "frame"
             elif spec.frame == "square" and near(extent, spec.frame_side / 2):
                 name = "frame"
             elif near(extent, R):
@@ -201,6 +309,13 @@ def _name_faces(shape, spec: GeometrySpec) -> None:
                 face.maxh = spec.membrane_size
             elif name in ("disc", "frame"):
                 face.maxh = 2 * spec.membrane_size
+        elif closed and lo[2] > -depth - tol and extent < spec.enclosure_radius + tol:
+            if extent < vent + tol and near(lo[2], -depth):
+                face.name = "vent"
+            elif extent < vent + tol:
+                face.name = "vent_guide"
+            else:
+                face.name = "enclosure"
         elif _height(face) < 2 * ale_decay_length(R, r_o) + tol and extent < R - tol:
             face.name = "ale_guide"
         else:
