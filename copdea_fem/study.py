@@ -83,6 +83,12 @@ class Key:
 G1 = "Table 1, G1"
 ENGINES = ("auto", "3d", "axisymmetric")
 AXISYMMETRIC_FRAMES = ("none", "baffle", "circle")
+ENCLOSURES = ("none", "cylinder", "bowl", "box")
+#: Enclosures the axisymmetric engine meshes (a box is 3-D only).
+AXISYMMETRIC_ENCLOSURES = ("none", "cylinder", "bowl")
+#: The enclosure's farthest point must lie within this share of air.domain_radius, so that
+#: the outside air around it is meshed (frame none, circle, square).
+ENCLOSURE_AIR_SHARE = 0.8
 SCHEMA: dict[str, dict[str, Key]] = {
     "geometry": {
         "outer_radius": Key("m", 0.0355, f"outer radius r_o of the pre-stretched membrane ({G1})",
@@ -98,6 +104,28 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "frame_radius": Key("m", None, "outer radius of the circular frame (frame: circle)",
                             minimum=0, maximum=2.0, open_min=True,
                             derived="0.5 * geometry.frame_side"),
+        "enclosure": Key(None, "none", "rigid closed back under the membrane, on z < 0 (away "
+                         "from the disc's travel), its rim sealed to the membrane's rim: none "
+                         "(open back), cylinder, bowl (a spherical cap, a drum's kettle) or box "
+                         "(under the square frame, 3-D engine). The air inside (region "
+                         "'cavity') is meshed and coupled like the outside air; with frame "
+                         "baffle it replaces the lower half-space, with frame none it stands in "
+                         "free air (its outside reflects), with a circle or square frame it "
+                         "sits under the frame (docs/enclosures.md). Needs air.enabled to act",
+                         kind=str, choices=ENCLOSURES),
+        "enclosure_depth": Key("m", None, "depth L of the enclosure below the membrane plane "
+                               "(bowl: the cap's depth at its centre)", minimum=0, maximum=10,
+                               open_min=True, derived="geometry.outer_radius"),
+        "enclosure_radius": Key("m", None, "radius of the cylinder (bowl: of the cap's rim) "
+                                "sealed to the membrane plane; >= geometry.outer_radius, the "
+                                "top between r_o and this radius is rigid wall (with frame "
+                                "circle: <= geometry.frame_radius); ignored for box (its side "
+                                "is geometry.frame_side)", minimum=0, maximum=10,
+                                open_min=True, derived="geometry.outer_radius"),
+        "enclosure_vent_radius": Key("m", 0.0, "radius of a circular vent in the enclosure's "
+                                     "bottom, centred on the axis, open to the outside air "
+                                     "(region boundary 'vent'); 0 = sealed", minimum=0,
+                                     maximum=10),
     },
     "membrane": {
         "thickness": Key("m", 100e-6, "film thickness h0 before pre-stretch (Table 1)",
@@ -164,6 +192,10 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "pml_thickness": Key("m", None, "radial thickness of the PML shell (Sect. 5.1)",
                              minimum=0, maximum=10, open_min=True,
                              derived="0.5 * geometry.outer_radius"),
+        "outside": Key(None, True, "mesh the outside air (the PML sphere); false = only the "
+                       "air inside the enclosure (needs geometry.enclosure != none, "
+                       "air.enabled and no vent): the membrane over a sealed cavity in vacuo",
+                       kind=bool),
         "min_membrane_energy": Key(None, 0.1, "coupled modes whose membrane (+ disc) share of "
                                    "the kinetic energy is below this are air/PML modes "
                                    "(kind air); 0.1 keeps structural modes with added "
@@ -562,6 +594,9 @@ def _derived_defaults(v: dict[str, dict[str, Any]], name: str) -> None:
             v[section][key] = factor * r_o
     if v["geometry"]["frame_radius"] is None:
         v["geometry"]["frame_radius"] = 0.5 * v["geometry"]["frame_side"]
+    for key in ("enclosure_depth", "enclosure_radius"):
+        if v["geometry"][key] is None:
+            v["geometry"][key] = r_o
     if v["output"]["directory"] is None:
         v["output"]["directory"] = f"results/{name}"
 
@@ -593,6 +628,7 @@ def _check_across_keys(v: dict[str, dict[str, Any]]) -> None:
     if engine == "3d" and g["frame"] == "circle":
         raise _fail("mesh.engine", engine, "axisymmetric or auto with geometry.frame = circle",
                     "the 3-D mesh has no circular frame")
+    _check_enclosure(v)
     if r_i == 0:
         if load["z"] != 0:
             raise _fail("load.z", load["z"], "0 m when geometry.inner_radius = 0",
@@ -627,11 +663,71 @@ def _check_across_keys(v: dict[str, dict[str, Any]]) -> None:
     listed_microphones(v["response"]["microphones"], g["frame"])
 
 
+def _check_enclosure(v: dict[str, dict[str, Any]]) -> None:
+    """Cross-key checks of geometry.enclosure* and air.outside (docs/enclosures.md)."""
+    g, air = v["geometry"], v["air"]
+    enclosure, frame = g["enclosure"], g["frame"]
+    if enclosure == "none":
+        if not air["outside"]:
+            raise _fail("air.outside", False, "true with geometry.enclosure = none",
+                        "without an enclosure there is no air but the outside air")
+        return
+    r_o, depth, vent = g["outer_radius"], g["enclosure_depth"], g["enclosure_vent_radius"]
+    if enclosure == "box":
+        if frame != "square":
+            raise _fail("geometry.enclosure", enclosure, "cylinder or bowl with geometry.frame "
+                        f"= {frame}", "a box sits under the square frame (frame: square)")
+        half_width = 0.5 * g["frame_side"]
+        farthest = math.hypot(half_width * math.sqrt(2), depth)
+    else:
+        radius = g["enclosure_radius"]
+        if radius < r_o:
+            raise _fail("geometry.enclosure_radius", radius,
+                        f">= {r_o:g} m = geometry.outer_radius",
+                        "the enclosure's rim is sealed to the membrane's rim")
+        if frame == "circle" and radius > g["frame_radius"]:
+            raise _fail("geometry.enclosure_radius", radius,
+                        f"<= {g['frame_radius']:g} m = geometry.frame_radius",
+                        "the enclosure sits under the circular frame")
+        if frame == "square" and radius >= 0.5 * g["frame_side"]:
+            raise _fail("geometry.enclosure_radius", radius,
+                        f"< {0.5 * g['frame_side']:g} m = half geometry.frame_side",
+                        "the enclosure sits under the square frame")
+        half_width = radius
+        farthest = math.hypot(radius, depth)
+    if vent >= half_width:
+        raise _fail("geometry.enclosure_vent_radius", vent,
+                    f"[0, {half_width:g}) m = narrower than the enclosure's bottom")
+    if vent > 0 and frame == "baffle":
+        raise _fail("geometry.enclosure_vent_radius", vent, "0 with geometry.frame = baffle",
+                    "with a baffle the enclosure replaces the lower half-space: no outside "
+                    "air for the vent to open to")
+    if vent > 0 and not air["outside"]:
+        raise _fail("geometry.enclosure_vent_radius", vent, "0 with air.outside = false",
+                    "a vent opens to the outside air")
+    if not air["outside"] and not air["enabled"]:
+        raise _fail("air.outside", False, "true when air.enabled = false",
+                    "there is no air to keep")
+    R = air["domain_radius"]
+    if frame != "baffle" and air["outside"] and farthest > ENCLOSURE_AIR_SHARE * R:
+        raise _fail("air.domain_radius", R, f">= {farthest / ENCLOSURE_AIR_SHARE:g} m",
+                    f"the enclosure's farthest point ({farthest:g} m from the centre) must lie "
+                    f"within {ENCLOSURE_AIR_SHARE:g} of the air sphere's radius, with outside "
+                    "air around it")
+
+
 def engine_of(study) -> str:
-    """The FE engine a study runs on: ``"axisymmetric"`` or ``"3d"`` (key mesh.engine)."""
+    """The FE engine a study runs on: ``"axisymmetric"`` or ``"3d"`` (key mesh.engine).
+
+    ``auto`` picks the axisymmetric engine for a frame none, baffle or circle with no
+    enclosure, a cylinder or a bowl; else the 3-D engine.
+    """
     engine = study["mesh"]["engine"]
     if engine == "auto":
-        return "axisymmetric" if study["geometry"]["frame"] in AXISYMMETRIC_FRAMES else "3d"
+        g = study["geometry"]
+        axisymmetric = (g["frame"] in AXISYMMETRIC_FRAMES
+                        and g.get("enclosure", "none") in AXISYMMETRIC_ENCLOSURES)
+        return "axisymmetric" if axisymmetric else "3d"
     return engine
 
 
