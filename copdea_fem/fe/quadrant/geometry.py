@@ -40,8 +40,8 @@ plane faces over it are meshed.  Its walls are the faces ``enclosure`` (with fra
 none also the top between r_o and the rim; under a frame that top is ``frame``), a
 hole of radius ``enclosure_vent_radius`` in its bottom the face ``vent`` (on the bowl
 cut out by a short cylinder, the internal faces ``vent_guide``).  No ``ale_guide``
-faces: the air mesh follows only a flat membrane there (``load.z`` = 0,
-:func:`copdea_fem.fe.airbox.check_air_lift`).
+faces: the air mesh follows only a flat membrane there (``load.z`` = 0, refused
+otherwise by :meth:`GeometrySpec.from_study`).
 """
 
 from __future__ import annotations
@@ -58,6 +58,8 @@ from pathlib import Path
 
 from copdea_fem.fe.airbox import ale_decay_length
 from copdea_fem.fingerprint import mesh_fingerprint
+from copdea_fem.inputs import preview
+from copdea_fem.study import StudyError
 
 SCREENS = "membrane|disc|frame"
 SYMMETRIES = ("quarter", "none")
@@ -96,6 +98,11 @@ class GeometrySpec:
         g, a, m = study["geometry"], study["air"], study["mesh"]
         air = a["enabled"] if with_air is None else with_air
         enclosure = g.get("enclosure", "none") if air else "none"
+        if enclosure != "none" and study["load"]["z"] != 0:
+            raise StudyError(f"load.z = {preview(study['load']['z'])} is not allowed with "
+                             f"geometry.enclosure = {enclosure} on the 3-D engine; allowed: "
+                             "0 m (its air mesh follows only a flat membrane over an "
+                             "enclosure: the lift would move the cavity's walls)")
         closed = {} if enclosure == "none" else {
             "enclosure": enclosure, "enclosure_depth": g["enclosure_depth"],
             "enclosure_radius": 0.5 * g["frame_side"] if enclosure == "box"
