@@ -121,3 +121,54 @@ def test_enclosure_regions_have_their_exact_sizes():
         for name, exact in areas.items():
             measured = 4 * ngs.Integrate(1, mesh, ngs.BND, definedon=mesh.Boundaries(name))
             assert measured == pytest.approx(exact, rel=1e-3), name
+
+
+# A heavy, taut film over a shallow sealed cylinder, air inside only: r_o 35.5 mm, no disc,
+# h0 10 mm, rho0 3200 kg/m^3, lambda_p 1.05, neo-Hookean c10 700 kPa, 0 V (T ~ 3.55 kN/m).
+LUMPED_FILM = {"thickness": "10 mm", "density": 3200, "prestretch": 1.05, "c10": "700 kPa",
+               "c20": 0, "c01": 0}
+
+
+@pytest.mark.parametrize("b_parameter", [5.0, 10.0])
+def test_membrane_over_a_shallow_sealed_cylinder_meets_the_lumped_cavity_roots(
+        b_parameter, tmp_path, monkeypatch):
+    """The cavity's uniform pressure P = -rho c^2 Delta V / V stiffens only the m = 0 modes:
+    x^2 J0(x) + B J2(x) = 0 with x = k a, B = rho c^2 pi a^4 / (T V) (the depth set for B);
+    m >= 1 modes (no net volume) stay at the zeros of J_m.  The closed form needs
+    (k a)^2 << 1 and k L << 1 for the air (here k a ~ 0.1, k L ~ 0.03).  Measured at 9 mm,
+    membrane order 3, pressure order 2: (0,1), (0,2) within 0.02 %, (1,1), (2,1) within
+    0.07 %; the test allows 0.5 %."""
+    from scipy.optimize import brentq
+    from scipy.special import jn_zeros, jv
+
+    from copdea_fem.fe.materials import Membrane
+    from copdea_fem.fe.pipeline import coupled_modes
+
+    monkeypatch.setenv("COPDEA_FEM_MESH_CACHE", str(tmp_path))
+    raw = {"geometry": {"inner_radius": 0, "frame": "none", "enclosure": "cylinder"},
+           "membrane": LUMPED_FILM, "air": {"enabled": True, "outside": False},
+           "load": {"voltage": 0},
+           "mesh": {"engine": "3d", "membrane_size": "9 mm", "order": 3, "pressure_order": 2,
+                    "air_size": "9 mm"},
+           "eigen": {"f_max": "300 Hz"}}
+    material = Membrane.from_study(parse_study(raw, name="lumped"))
+    tension = material.equibiaxial_tension(0.0)
+    air = parse_study(raw, name="lumped")["air"]
+    # B = rho c^2 pi a^4 / (T pi a^2 L)  ->  L = rho c^2 a^2 / (B T)
+    depth = air["density"] * air["sound_speed"]**2 * A**2 / (b_parameter * tension)
+    raw["geometry"]["enclosure_depth"] = depth
+    study = parse_study(raw, name="lumped")
+    to_hz = math.sqrt(tension / material.areal_density) / (2 * math.pi * A)    # f per x = k a
+
+    def lumped(x):
+        return x**2 * jv(0, x) + b_parameter * jv(2, x)
+
+    grid = np.linspace(0.5, 7.0, 4000)
+    values = lumped(grid)
+    roots = [brentq(lumped, grid[i], grid[i + 1])
+             for i in np.flatnonzero(np.sign(values[:-1]) != np.sign(values[1:]))]
+    expected = {"(0,1)": roots[0] * to_hz, "(0,2)": roots[1] * to_hz,
+                "(1,1)a": jn_zeros(1, 1)[0] * to_hz, "(2,1)a": jn_zeros(2, 1)[0] * to_hz}
+    computed = {mode.label: mode.freq_hz for mode in coupled_modes(study).modes}
+    for label, frequency in expected.items():
+        assert computed[label] == pytest.approx(frequency, rel=0.005), label

@@ -53,10 +53,17 @@ def write_solve_files(staging: Path, result: SolveResult, rows: list[dict]) -> N
         shapes = [kept[k] for k in plotted]
         if result.coupled is not None:
             indices = [k for k, mode in enumerate(result.modes) if mode.kind != "air"]
-            air_files = write_all(staging, fields.air_meshes(
-                result.coupled.operators, [result.modes[k] for k in indices],
-                [result.coupled.pressures[k] for k in indices]))
+            modes = [result.modes[k] for k in indices]
+            pressures = [result.coupled.pressures[k] for k in indices]
+            air_files = write_all(staging, fields.air_meshes(result.coupled.operators, modes,
+                                                             pressures))
             write_pvd(staging / "air.pvd", air_files, list(range(len(air_files))))
+            if study["geometry"]["enclosure"] != "none" and hasattr(fields, "cavity_meshes"):
+                # the enclosure's air, its own block (3-D engine)
+                cavity_files = write_all(staging, fields.cavity_meshes(
+                    result.coupled.operators, modes, pressures))
+                write_pvd(staging / "cavity.pvd", cavity_files,
+                          list(range(len(cavity_files))))
     elif study["output"]["plots"]:                # only the plotted modes, no file
         shapes = [mesh for _, mesh in fields.mode_meshes([structural[k] for k in plotted])]
     if study["output"]["plots"]:
