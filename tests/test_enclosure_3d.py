@@ -172,3 +172,83 @@ def test_membrane_over_a_shallow_sealed_cylinder_meets_the_lumped_cavity_roots(
     computed = {mode.label: mode.freq_hz for mode in coupled_modes(study).modes}
     for label, frequency in expected.items():
         assert computed[label] == pytest.approx(frequency, rel=0.005), label
+
+
+def test_refuses_a_lift_over_an_enclosure_on_the_3d_engine(capsys):
+    from copdea_fem.cli import main
+
+    code = main(["check", str(BOX_STUDY), "--set", "load.z=5 mm"])
+    assert code == 2
+    error = capsys.readouterr().err
+    assert "load.z = 0.005 is not allowed with geometry.enclosure = box" in error
+    assert "Traceback" not in error
+
+
+ROOT = __import__("pathlib").Path(__file__).resolve().parents[1]
+BOX_STUDY = ROOT / "studies/g1_enclosure_box.yaml"
+
+
+@pytest.fixture(scope="module")
+def box_results(tmp_path_factory):
+    """The bundled box study and the same membrane with an open back, (0,1) in the band."""
+    from copdea_fem.cli import main
+
+    folder = tmp_path_factory.mktemp("box")
+    for name, extra in (("box", []), ("open", ["--set", "geometry.enclosure=none"])):
+        code = main(["solve", str(BOX_STUDY), "--out", str(folder / name), "--quiet",
+                     "--set", "eigen.f_max=700 Hz", "--set", "output.plots=false", *extra])
+        assert code == 0
+    return folder
+
+
+def _frequencies(folder):
+    import csv
+    with open(folder / "modes.csv") as handle:
+        return {row["label"]: float(row["freq_hz"]) for row in csv.DictReader(handle)}
+
+
+def test_the_box_stiffens_the_volume_mode_only(box_results):
+    """The air sealed in the box pushes back on the net volume the membrane sweeps: the
+    (0,1) mode rises (measured 370 -> 630 Hz on this coarse mesh; the box's stiffness
+    rho c^2 S^2 / V is several times the membrane's); a mode with m >= 1 sweeps no net
+    volume and moves only by the changed inertia of the air behind it (measured < 3 %)."""
+    boxed, open_back = _frequencies(box_results / "box"), _frequencies(box_results / "open")
+    assert boxed["(0,1)"] > 1.3 * open_back["(0,1)"]
+    for label in ("(1,1)a", "(2,1)a", "(3,1)a", "(4,1)a"):
+        assert boxed[label] == pytest.approx(open_back[label], rel=0.05), label
+
+
+def test_the_cavity_is_its_own_paraview_block(box_results):
+    """cavity_NNN_<label>.vtu beside every air file: the cavity's cells only, each point
+    once; in the air files the points on the enclosure's walls and under the membrane are
+    written once per side (the pressure jumps there), the open plane's and the vent's once.
+    Below the box's first mode (2.1 kHz) the (0,1) mode's cavity pressure is nearly uniform
+    (a deviation of order (k a_box)^2 / 2 ~ 0.1 at 630 Hz)."""
+    import pyvista as pv
+    from scipy.spatial import cKDTree
+
+    folder = box_results / "box"
+    air_files = sorted(folder.glob("air_*.vtu"))
+    cavity_files = sorted(folder.glob("cavity_*.vtu"))
+    assert (folder / "cavity.pvd").is_file()
+    assert [path.name.replace("air_", "", 1) for path in air_files] == \
+        [path.name.replace("cavity_", "", 1) for path in cavity_files]
+    for air_path, cavity_path in zip(air_files, cavity_files):
+        air, cavity = pv.read(air_path), pv.read(cavity_path)
+        assert np.all(cavity.cell_data["cavity"] == 1)
+        assert cavity.n_cells == int(np.sum(air.cell_data["cavity"]))
+        assert len(cKDTree(cavity.points).query_pairs(1e-9)) == 0
+        cells = air.cells_dict[pv.CellType.TETRA]
+        side = np.where(air.cell_data["cavity"] == 1, 2,
+                        np.asarray(air.cell_data["lower_half"], dtype=int))
+        sides = np.zeros((air.n_points, 3), dtype=bool)
+        for corner in cells.T:
+            sides[corner, side] = True
+        # sealed: no point of a cavity cell is shared with the outside air's cells
+        assert not np.any(sides[:, 2] & (sides[:, 0] | sides[:, 1])), air_path.name
+        pairs = cKDTree(air.points).query_pairs(1e-9, output_type="ndarray")
+        assert len(pairs) > 0
+        assert not np.any(sides[pairs[:, 0]] & sides[pairs[:, 1]]), air_path.name
+    volume_mode = pv.read(next(folder.glob("cavity_*_0_1.vtu")))
+    magnitude = np.asarray(volume_mode.point_data["pressure_abs"])
+    assert magnitude.std() < 0.15 * magnitude.mean()
