@@ -693,6 +693,10 @@ def _check_enclosure(v: dict[str, dict[str, Any]]) -> None:
             raise _fail("geometry.enclosure_radius", radius,
                         f"< {0.5 * g['frame_side']:g} m = half geometry.frame_side",
                         "the enclosure sits under the square frame")
+        if enclosure == "bowl" and depth > radius:
+            raise _fail("geometry.enclosure_depth", depth,
+                        f"(0, {radius:g}] m = at most geometry.enclosure_radius",
+                        "a bowl is a spherical cap, at most a hemisphere")
         half_width = radius
         farthest = math.hypot(radius, depth)
     if vent >= half_width:
@@ -709,6 +713,10 @@ def _check_enclosure(v: dict[str, dict[str, Any]]) -> None:
         raise _fail("air.outside", False, "true when air.enabled = false",
                     "there is no air to keep")
     R = air["domain_radius"]
+    if frame == "baffle" and half_width > ENCLOSURE_AIR_SHARE * R:
+        raise _fail("air.domain_radius", R, f">= {half_width / ENCLOSURE_AIR_SHARE:g} m",
+                    f"the enclosure's top (radius {half_width:g} m) must lie within "
+                    f"{ENCLOSURE_AIR_SHARE:g} of the air sphere's radius")
     if frame != "baffle" and air["outside"] and farthest > ENCLOSURE_AIR_SHARE * R:
         raise _fail("air.domain_radius", R, f">= {farthest / ENCLOSURE_AIR_SHARE:g} m",
                     f"the enclosure's farthest point ({farthest:g} m from the centre) must lie "

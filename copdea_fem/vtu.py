@@ -237,10 +237,33 @@ def membrane_mesh(sampler, fields: dict, displacement=None):
     return VtuMesh(coordinates, [("triangle", sampler.cells)], point_data=data)
 
 
-def write_pvd(path: Path, files: list[Path], times: list[float]) -> None:
-    """A ParaView collection; 'time' is the mode index so ParaView steps through modes."""
-    entries = "\n".join(f'    <DataSet timestep="{t:g}" group="" part="0" file="{f.name}"/>'
-                        for f, t in zip(files, times))
+def split_cells(mesh: VtuMesh, flag: str) -> tuple[VtuMesh, VtuMesh]:
+    """``mesh`` as two meshes: the cells whose cell data ``flag`` is 0, and those where it is
+    not (one cell block; points renumbered to those each part uses; ``flag`` dropped).  An
+    enclosure's air as its own ParaView block (:func:`write_pvd`'s ``parts``)."""
+    (block,) = mesh.cells
+    chosen = np.asarray(mesh.cell_data[flag][0]) != 0
+    parts = []
+    for take in (~chosen, chosen):
+        cells = block.data[take]
+        used, renumbered = np.unique(cells, return_inverse=True)
+        parts.append(VtuMesh(mesh.points[used], [(block.type, renumbered.reshape(cells.shape))],
+                             point_data={name: np.asarray(values)[used]
+                                         for name, values in mesh.point_data.items()},
+                             cell_data={name: [np.asarray(values[0])[take]]
+                                        for name, values in mesh.cell_data.items()
+                                        if name != flag}))
+    return parts[0], parts[1]
+
+
+def write_pvd(path: Path, files: list[Path], times: list[float],
+              parts: list[int] | None = None) -> None:
+    """A ParaView collection; 'time' is the mode index so ParaView steps through modes;
+    ``parts``: the block of each file (default 0: one block), which ParaView shows as a
+    multiblock data set (e.g. the outside air and an enclosure's air)."""
+    parts = [0] * len(files) if parts is None else parts
+    entries = "\n".join(f'    <DataSet timestep="{t:g}" group="" part="{part:d}" '
+                        f'file="{f.name}"/>' for f, t, part in zip(files, times, parts))
     path.write_text('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n'
                     f"  <Collection>\n{entries}\n  </Collection>\n</VTKFile>\n")
 

@@ -87,24 +87,24 @@ continuous except across the screens: ``q`` only has degrees of freedom that
 
 Enclosure (a rigid cavity under the membrane)
 ---------------------------------------------
-With an enclosure the air inside it (region ``cavity``, sealed to the membrane's
-rim, walls ``enclosure`` rigid) is the lower side of the membrane and disc, and the
-pressure jumps across its walls too (a rigid wall of no thickness between the
-cavity and the outside lower air).  A third field ``q_c`` on the cavity keeps only
-its degrees of freedom on the cavity's boundary (compressed; zero on the ``vent``,
-where the cavity opens to the outside air)::
+With an enclosure the air inside it (volume ``cavity``, sealed to the membrane's rim,
+walls ``enclosure`` rigid) is the lower side of the membrane and disc, and the pressure
+jumps across its walls too (a rigid wall of no thickness between the cavity and the
+outside air).  ``q`` then lives in the cavity instead of the lower half and keeps its
+degrees of freedom on the cavity's screens and walls (:func:`enclosure_screen_faces`;
+zero on the ``vent``, where the cavity opens to the outside air)::
 
-    p_upper = p,   p_lower = p + q,   p_cavity = p + q_c,   [p] = -q_c on membrane, disc
+    p_outside = p,   p_cavity = p + q,   [p] = -q on membrane, disc
 
-and ``q`` keeps its screen DOFs outside the cavity (a square frame around a
-cylinder); it has none where no screen separates the outside halves (frame none, a
-box under the whole frame, a baffle: no outside lower air at all).  At a DOF on a
-wall the outside and inside values are ``p + q`` and ``p + q_c``, two unknowns for
-two values: the bijection above still holds.  Without the outside air
-(``outside = False``) the space is one H1 field ``p_c`` on the cavity, the upper side
-is vacuum and ``[p] = -p_c``.  A pressure is then a tuple of one (``p_c``), two
-(``p, q``) or three (``p, q, q_c``) fields; :func:`region_pressures` says which
-field is the pressure of which region.
+At a DOF on a wall the outside and inside values are ``p`` and ``p + q``: the bijection
+above still holds.  Where a frame reaches beyond the enclosure's rim (a cylinder or bowl
+under the square frame) the frame separates the outside halves too: a third field
+``q_o`` on the lower half keeps its DOFs on those frame faces (``outside_jump``), and
+``p_lower = p + q_o``; its DOFs on the rim circle, where the frame, the wall and the
+three airs meet, make three unknowns for the three values.  Without the outside air
+(``vacuum_above``) ``p = 0`` on the screens (the vacuum above them) and the cavity's
+pressure there is ``q``.  A pressure is a tuple ``(p, q)`` or ``(p, q, q_o)``;
+:func:`region_pressures` says which sum is the pressure of which volume.
 
 Frames: ``square`` and ``none`` leave the plane open outside the frame
 (``aperture`` and ``pml_plane`` continuous).  ``baffle`` makes the frame the
@@ -117,10 +117,10 @@ add an edge diffraction that the closed form does not have.
 
 from __future__ import annotations
 
+#: The air inside an enclosure (the 3-D and meridian meshes); its walls are the boundary
+#: ``enclosure``, its vent ``vent``.
+CAVITY = "cavity"
 UPPER = "air_upper|pml_upper"
-CAVITY = "cavity"                # the air inside an enclosure
-WALL = "enclosure"               # its rigid walls (and its top between r_o and its rim)
-VENT = "vent"                    # a hole in its bottom, open to the outside air
 LOWER = "air_lower|pml_lower"
 AIR_AND_PML = "air_upper|air_lower|pml_upper|pml_lower"
 PML_REGIONS = "pml_upper|pml_lower"
@@ -143,6 +143,47 @@ PML_STRENGTH = 7.0
 #: with order 3: 0.02-0.35 %.  Factorising the default square-frame air (4 mm membrane
 #: mesh) costs a little more at PML order 3 than at 2, and 3.5x that at 4.
 PML_EXTRA_ORDER = 1
+
+
+def has_cavity(mesh) -> bool:
+    """Whether ``mesh`` holds the air of an enclosure (the volume :data:`CAVITY`)."""
+    return CAVITY in mesh.GetMaterials()
+
+
+def jump_side(mesh) -> str:
+    """Volumes where the pressure is ``p + q`` (:func:`pressure_space`): the cavity when the
+    mesh has an enclosure (the outside air is then all ``p``), else the lower half."""
+    return CAVITY if has_cavity(mesh) else LOWER
+
+
+def pressure_regions(mesh) -> list[tuple[str, str, bool]]:
+    """``(air volumes, PML volumes, with q)`` of each side of the screens (module doc):
+    ``p`` on the first, ``p + q`` where ``with q``; names of volumes the mesh lacks are left
+    out ('' = none)."""
+    present = set(mesh.GetMaterials())
+
+    def keep(pattern):
+        return "|".join(name for name in pattern.split("|") if name in present)
+
+    if has_cavity(mesh):
+        return [(keep("air_upper|air_lower"), keep(PML_REGIONS), False), (CAVITY, "", True)]
+    return [(keep("air_upper"), keep("pml_upper"), False),
+            (keep("air_lower"), keep("pml_lower"), True)]
+
+
+def enclosure_screen_faces(frame: str, outside: bool = True) -> str:
+    """Faces across which the pressure may jump with an enclosure (:func:`screen_faces`).
+
+    ``q`` lives in the cavity: the membrane and disc on its top; the frame over it; the
+    walls (``enclosure``) where outside air lies beyond them (frame none, circle, square).
+    ``outside`` false (only the cavity's air): ``membrane|disc``, where ``p`` is held at 0
+    (the vacuum above) and ``q`` carries the cavity's pressure (:func:`pressure_space`).
+    """
+    if not outside:
+        return "membrane|disc"
+    if frame == "baffle":
+        return "membrane|disc|frame"
+    return "membrane|disc|frame|enclosure"
 
 
 def screen_faces(frame: str) -> str:
@@ -171,6 +212,9 @@ def screen_faces(frame: str) -> str:
 
 
 PLANE_FACES = ("membrane", "disc", "frame", "aperture", "pml_plane")
+#: Faces of an enclosure: its rigid walls (a screen when outside air lies beyond them)
+#: and its vent (open: the pressure is continuous).
+ENCLOSURE_FACES = ("enclosure", "vent")
 
 
 def open_plane_faces(screens: str) -> str:
@@ -303,7 +347,7 @@ def set_order_in(space, mesh, regions: str, order: int) -> None:
 
 def pressure_space(mesh, order: int, screens: str, pml_order: int | None = None,
                    outer_dirichlet: bool = True, also_dirichlet: str = "",
-                   cavity: bool = False, outside: bool = True):
+                   vacuum_above: bool = False, outside_jump: bool = False):
     """Complex pressure space ``P x Q`` with a jump across the screens.
 
     Parameters
@@ -323,102 +367,111 @@ def pressure_space(mesh, order: int, screens: str, pml_order: int | None = None,
         ``p = 0`` on ``outer`` (needed by the unbounded PML profile).
     also_dirichlet : str
         More boundaries with ``p = q = 0`` (the meridian's ``axis`` for an order m >= 1).
-    cavity : bool
-        The mesh has an enclosure (region ``cavity``): add the field ``q_c`` of the
-        cavity (module doc, "Enclosure").
-    outside : bool
-        The mesh has the outside air (False: only the cavity; needs ``cavity``).
+    vacuum_above : bool
+        Only the air of an enclosure is meshed (``air.outside: false``): ``p = 0`` on the
+        screens (the vacuum above them), the cavity's pressure there is ``q``.
+    outside_jump : bool
+        With an enclosure: the third field ``q_o`` of the lower half, on the plane's screens
+        beyond the enclosure's rim (module doc, "Enclosure").
+
+    With an enclosure (a mesh with the volume :data:`CAVITY`) ``q`` lives in the cavity
+    instead of the lower half: ``p`` is the outside air's pressure everywhere, ``p + q``
+    the cavity's; ``q`` keeps its degrees of freedom on the screens (the walls included
+    where outside air lies beyond them, :func:`enclosure_screen_faces`) and is zero on the
+    ``vent``, where the cavity opens to the outside air.
 
     Returns
     -------
     ngsolve.FESpace
         Product space; ``(p, q) = space.TrialFunction()`` etc.  ``p`` [Pa] on
-        all air + PML, ``q`` [Pa] on the lower half, non-zero only next to the
-        screens: ``p_lower = p + q``, ``[p] = -q`` (module doc).  With ``cavity``
-        ``(p, q, q_c)``; without ``outside`` the one field ``(p_c,)``.
+        all air + PML, ``q`` [Pa] on the lower half (the cavity), non-zero only next to the
+        screens: ``p_lower = p + q``, ``[p] = -q`` (module doc); ``(p, q, q_o)`` with
+        ``outside_jump``.
     """
     from ngsolve import H1, Compress, FESpace
 
-    if not outside:
-        if not cavity:
-            raise ValueError("outside = False needs an enclosure (cavity = True): there "
-                             "would be no air")
-        cavity_air = H1(mesh, order=order, complex=True, definedon=mesh.Materials(CAVITY),
-                        dirichlet=also_dirichlet)
-        return FESpace([cavity_air])
-    unknown = set(screens.split("|")) - set(PLANE_FACES)
+    unknown = set(screens.split("|")) - set(PLANE_FACES) - set(ENCLOSURE_FACES)
     if unknown:
         raise ValueError(f"screens = {screens!r} is not allowed; allowed: names of "
-                         f"{', '.join(PLANE_FACES)} joined by '|'")
+                         f"{', '.join(PLANE_FACES + ENCLOSURE_FACES)} joined by '|'")
     pml_order = order + PML_EXTRA_ORDER if pml_order is None else pml_order
-    open_plane = open_plane_faces(screens)
+    open_plane = "vent" if has_cavity(mesh) else open_plane_faces(screens)
     outer = "|".join(name for name in (OUTER if outer_dirichlet else "", also_dirichlet) if name)
-    regions = AIR_AND_PML + (f"|{CAVITY}" if cavity else "")
-    continuous = H1(mesh, order=order, complex=True, definedon=mesh.Materials(regions),
-                    dirichlet=outer)
-    jump = H1(mesh, order=order, complex=True, definedon=mesh.Materials(LOWER),
+    continuous = H1(mesh, order=order, complex=True,
+                    definedon=mesh.Materials(AIR_AND_PML + "|" + CAVITY),
+                    dirichlet="|".join(name for name in (outer, screens if vacuum_above else "")
+                                       if name))
+    jump = H1(mesh, order=order, complex=True, definedon=mesh.Materials(jump_side(mesh)),
               dirichlet="|".join(name for name in (open_plane, outer) if name))
-    for space in (continuous, jump):     # same basis in both: the bijection needs it
+    spaces = [continuous, jump]
+    plane_screens = "|".join(face for face in screens.split("|") if face in PLANE_FACES)
+    if outside_jump:
+        if not has_cavity(mesh):
+            raise ValueError("outside_jump = True is for a mesh with an enclosure (volume "
+                             "'cavity'); allowed: False")
+        spaces.append(H1(mesh, order=order, complex=True, definedon=mesh.Materials(LOWER),
+                         dirichlet="|".join(name for name in (
+                             open_plane_faces(plane_screens), "vent", outer) if name)))
+    for space in spaces:                 # same basis in all: the bijection needs it
         if pml_order != order:
             set_order_in(space, mesh, PML_REGIONS, pml_order)
     active = jump.GetDofs(mesh.Boundaries(screens)) & jump.FreeDofs()
-    if not cavity:
-        if active.NumSet() == 0:
-            raise ValueError(f"screens = {screens!r} match no face of the mesh with air; "
-                             "allowed: a pattern of membrane, disc, frame, pml_plane")
-        return FESpace([continuous, Compress(jump, active_dofs=active)])
-    # the cavity's field: all its boundary but the vent and the open plane (module doc)
-    cavity_jump = H1(mesh, order=order, complex=True, definedon=mesh.Materials(CAVITY),
-                     dirichlet="|".join(name for name in (VENT, also_dirichlet) if name))
-    walls = cavity_jump.GetDofs(mesh.Boundaries(f"{screens}|{WALL}")) \
-        & cavity_jump.FreeDofs()
-    if walls.NumSet() == 0:
-        raise ValueError("cavity = True but the mesh has no region 'cavity' bounded by "
-                         "screens or 'enclosure' walls")
-    return FESpace([continuous, Compress(jump, active_dofs=active),
-                    Compress(cavity_jump, active_dofs=walls)])
+    if active.NumSet() == 0:
+        raise ValueError(f"screens = {screens!r} match no face of the mesh with air; "
+                         "allowed: a pattern of membrane, disc, frame, pml_plane")
+    components = [continuous, Compress(jump, active_dofs=active)]
+    if outside_jump:
+        lower_jump = spaces[2]
+        components.append(Compress(lower_jump, active_dofs=lower_jump.GetDofs(
+            mesh.Boundaries(plane_screens)) & lower_jump.FreeDofs()))
+    return FESpace(components)
 
 
-def region_pressures(pressure):
-    """The pressure of each air region [Pa] of ``pressure`` (module doc, "Enclosure").
+def region_pressures(pressure) -> list:
+    """The pressure of each air volume [Pa] of ``pressure`` (module doc, "Enclosure").
 
     Parameters
     ----------
-    pressure : tuple or ProxyFunction
-        ``(p_c,)``, ``(p, q)`` or ``(p, q, q_c)`` of :func:`pressure_space`, or one plain
-        H1 field (no screens).
+    pressure : tuple
+        ``(p, q)`` or ``(p, q, q_o)`` of :func:`pressure_space` (trial, test or data).
 
     Returns
     -------
     list of (str, str, CoefficientFunction)
-        ``(air regions, PML regions, pressure)``: the regions of one pressure (the
-        PML's, without the ALE deformation, may be empty).
+        ``(air volumes, PML volumes, pressure)``, ``p`` or ``p`` plus a jump field, for the
+        volumes the mesh has ('' = none): :func:`pressure_regions`, the outside air's lower
+        half on its own with a third field.
     """
-    if not isinstance(pressure, (list, tuple)):
-        return [("air_upper|air_lower|cavity", PML_REGIONS, pressure)]
-    if len(pressure) == 1:
-        return [(CAVITY, "", pressure[0])]
-    parts = [("air_upper", "pml_upper", pressure[0]),
-             ("air_lower", "pml_lower", pressure[0] + pressure[1])]
-    if len(pressure) == 3:
-        parts.append((CAVITY, "", pressure[0] + pressure[2]))
-    return parts
+    p, q = pressure[0], pressure[1]
+    present = set(p.space.mesh.GetMaterials())
+
+    def keep(pattern):
+        return "|".join(name for name in pattern.split("|") if name in present)
+
+    if CAVITY not in present:
+        parts = [("air_upper", "pml_upper", p), ("air_lower", "pml_lower", p + q)]
+    elif len(pressure) == 3:
+        parts = [("air_upper", "pml_upper", p), ("air_lower", "pml_lower", p + pressure[2]),
+                 (CAVITY, "", p + q)]
+    else:
+        parts = [("air_upper|air_lower", PML_REGIONS, p), (CAVITY, "", p + q)]
+    return [(keep(air), keep(pml), value) for air, pml, value in parts if keep(air + "|" + pml)]
 
 
 def upper_pressure(pressure):
-    """Pressure in the upper half [Pa]: ``p`` (``pressure = (p, q[, q_c])``)."""
+    """Pressure in the upper half [Pa]: ``p`` (``pressure = (p, q[, q_o])``)."""
     return pressure[0]
 
 
 def lower_pressure(pressure):
-    """Pressure in the lower half [Pa]: ``p + q``."""
+    """Pressure in the lower half (an enclosure's cavity) [Pa]: ``p + q``."""
     return pressure[0] + pressure[1]
 
 
 def pressure_jump(pressure):
-    """``[p] = p+ - p-`` [Pa] on the moving screens, to be integrated over them (``ds``):
-    ``-q``; over an enclosure (module doc) ``-q_c``, or ``-p_c`` without the outside air."""
-    return -pressure[-1]
+    """``[p] = p+ - p- = -q`` [Pa], to be integrated over the screens (``ds``); over an
+    enclosure ``q`` is the cavity's (module doc)."""
+    return -pressure[1]
 
 
 def _over_regions(integrand_of, pressure, pressure_test, deformation):
@@ -581,16 +634,14 @@ def coupling_forms(pressure, pressure_test, normal_displacement, normal_displace
     return traction, acceleration
 
 
-def pressure_field(gf_continuous, gf_jump, mesh, gf_cavity=None):
+def pressure_field(gf_continuous, gf_jump, mesh, gf_outside_jump=None):
     """Pressure CoefficientFunction [Pa] from the GridFunction components.
 
-    Equal to ``p`` in the upper half, ``p + q`` in the lower half and ``p + q_c`` in
-    the cavity (``gf_cavity`` = ``q_c``; module doc, "Enclosure").  Without the outside
-    air pass ``p_c`` as ``gf_continuous`` and None for the others.
+    Equal to ``p`` in the upper half and ``p + q`` in the lower half; with an enclosure
+    ``p + q`` in the cavity, ``p`` outside, ``p + q_o`` in the lower half with a third
+    field (``gf_outside_jump``; module doc, "Enclosure").
     """
-    field = gf_continuous
-    if gf_jump is not None:
-        field = field + mesh.MaterialCF({LOWER: 1.0}, default=0.0) * gf_jump
-    if gf_cavity is not None:
-        field = field + mesh.MaterialCF({CAVITY: 1.0}, default=0.0) * gf_cavity
+    field = gf_continuous + mesh.MaterialCF({jump_side(mesh): 1.0}, default=0.0) * gf_jump
+    if gf_outside_jump is not None:
+        field = field + mesh.MaterialCF({LOWER: 1.0}, default=0.0) * gf_outside_jump
     return field

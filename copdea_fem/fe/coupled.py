@@ -89,22 +89,27 @@ def assemble_coupled(study, mesh, state) -> "CoupledAssembly":
     assembly serves every symmetry sector: :meth:`CoupledAssembly.restrict`.
     """
     air, geometry = study["air"], study["geometry"]
-    screens = acoustics.screen_faces(geometry["frame"])
+    closed = geometry["enclosure"] != "none"
+    outside = air["outside"] or not closed
+    screens = acoustics.enclosure_screen_faces(geometry["frame"], outside) if closed else \
+        acoustics.screen_faces(geometry["frame"])
     if geometry["inner_radius"] == 0:
         screens = "|".join(face for face in screens.split("|") if face != "disc")
     logger.info("air mesh follows the membrane (ALE) ...")
     motion = air_mesh_displacement(state, mesh, air["domain_radius"])
-    closed = geometry["enclosure"] != "none"
-    outside = air["outside"] or not closed
+    # a square frame beyond a cylinder's or bowl's rim separates the outside halves too
+    frame_beyond_rim = closed and outside and geometry["frame"] == "square" \
+        and geometry["enclosure"] != "box"
     pressure_space = acoustics.pressure_space(mesh, study["mesh"]["pressure_order"], screens,
-                                              cavity=closed, outside=outside)
+                                              vacuum_above=not outside,
+                                              outside_jump=frame_beyond_rim)
     membrane_space = displacement_space(mesh, study["mesh"]["order"], state.has_disc,
                                         complex_=True)
     if membrane_space.ndof != state.space.ndof:
         raise RuntimeError("complex and real membrane spaces differ; cannot couple")
     with_disc = study["disc"]["motion"] == "spring" and state.has_disc
     spaces = [membrane_space, *pressure_space.components]
-    disc_component = len(spaces)       # (p, q), (p, q, q_c) or (p_c,): acoustics.pressure_space
+    disc_component = len(spaces)       # after (p, q) or (p, q, q_o): acoustics.pressure_space
     if with_disc:
         spaces.append(ngs.NumberSpace(mesh, complex=True))
     space = ngs.FESpace(spaces)

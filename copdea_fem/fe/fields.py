@@ -97,31 +97,36 @@ def unfold_values(values: np.ndarray, symmetry, sector=None) -> np.ndarray:
 
 
 class AirHalves:
-    """The air's element corners with the lower half, and an enclosure's cavity, on their own
-    copies of the mesh vertices (the pressure jumps across the screens and the enclosure's
-    walls; values are taken inside each element), on the mesh moved by ``mesh_motion``; 3-D
-    tetrahedra or meridian triangles (the dimension of ``mesh``).  ``copy[e, k]``: the
-    (tripled) vertex of corner k of element e, ``side * count + vertex`` with side 0 upper,
-    1 lower, 2 cavity; ``moved``: the moved coordinates of every tripled vertex;
-    ``used``/``renumber``: the vertices a cell uses and their new numbers.  ``split``: per
-    mesh vertex, whether its lower copy is its own point (where the pressure jumps:
-    :func:`jump_vertices`); None: every lower vertex (the open plane then carries two
-    coincident copies of one pressure); ``cavity_split`` the same for the cavity's copy
-    (:func:`jump_vertices` of the cavity's field ``q_c``)."""
+    """The air's element corners with the lower half (an enclosure's cavity) on its own copy
+    of the mesh vertices (the pressure jumps across the screens; values are taken inside each
+    element), on the mesh moved by ``mesh_motion``; 3-D tetrahedra or meridian triangles
+    (the dimension of ``mesh``).  ``copy[e, k]``: the vertex of corner k of element e,
+    ``side * count + vertex`` with side 0 (``p``), 1 (``p + q``: the lower half, or the
+    cavity) and 2 (``p + q_o``: the lower half of an enclosure's mesh with a third field,
+    :func:`copdea_fem.fe.acoustics.pressure_space`); ``moved``: the moved coordinates of
+    every copy; ``used``/``renumber``: the vertices a cell uses and their new numbers.
+    ``split``: per mesh vertex, whether its side-1 copy is its own point (where the pressure
+    jumps: :func:`jump_vertices`); None: every side-1 vertex (the open plane then carries
+    two coincident copies of one pressure); ``outside_split`` the same for side 2 (None:
+    no side 2)."""
 
     SIDES = 3
 
-    def __init__(self, mesh, points, mesh_motion, split=None, cavity_split=None):
+    def __init__(self, mesh, points, mesh_motion, split=None, outside_split=None):
         import ngsolve as ngs
 
-        from copdea_fem.fe.acoustics import CAVITY, LOWER, PML_REGIONS
+        from copdea_fem.fe.acoustics import CAVITY, LOWER, PML_REGIONS, jump_side
         dim = mesh.dim
         elements = list(mesh.Elements(ngs.VOL))
-        lower, in_pml = mesh.Materials(LOWER).Mask(), mesh.Materials(PML_REGIONS).Mask()
-        cavity = mesh.Materials(CAVITY).Mask()
+        lower, in_pml = mesh.Materials(jump_side(mesh)).Mask(), mesh.Materials(PML_REGIONS).Mask()
+        cavity, below = mesh.Materials(CAVITY).Mask(), mesh.Materials(LOWER).Mask()
         self.lower = np.array([lower[el.index] for el in elements], dtype=bool)
+        #: elements of an enclosure's air (:data:`copdea_fem.fe.acoustics.CAVITY`; there
+        #: the pressure is ``p + q``, so they are :attr:`lower` too)
         self.cavity = np.array([cavity[el.index] for el in elements], dtype=bool)
         self.in_pml = np.array([in_pml[el.index] for el in elements], dtype=bool)
+        outside_lower = np.array([below[el.index] for el in elements], dtype=bool) \
+            & self.cavity.any()
         reference = np.asarray(ngs.CF((ngs.x, ngs.y, ngs.z)[:dim])(points)).reshape(
             len(elements), -1, dim)
         corners = reference.shape[1]
@@ -132,13 +137,11 @@ class AirHalves:
             distance = np.linalg.norm(reference[:, k:k + 1, :] - coordinates[vertex_ids], axis=2)
             corner_vertex[:, k] = vertex_ids[np.arange(len(elements)), distance.argmin(axis=1)]
         self.count = count = len(coordinates)
-
-        def own_copy(in_side, where):
-            return in_side[:, None] if where is None else \
-                in_side[:, None] & np.asarray(where, dtype=bool)[corner_vertex]
-
-        side = np.where(own_copy(self.lower, split), 1, 0)
-        side = np.where(own_copy(self.cavity, cavity_split), 2, side)
+        side = np.where(self.lower[:, None] if split is None else
+                        self.lower[:, None] & np.asarray(split, dtype=bool)[corner_vertex], 1, 0)
+        if outside_split is not None:
+            side = np.where(outside_lower[:, None]
+                            & np.asarray(outside_split, dtype=bool)[corner_vertex], 2, side)
         self.copy = side * count + corner_vertex
         motion = np.asarray(mesh_motion(points)).reshape(len(elements), corners, dim)
         total = self.SIDES * count
@@ -152,10 +155,10 @@ class AirHalves:
 
 
 def jump_vertices(pressure_space, vertices: int, component: int = 1):
-    """Per mesh vertex: whether the pressure jump ``q`` (``component`` 1; 2: the cavity's
-    ``q_c``) of :func:`copdea_fem.fe.acoustics.pressure_space` has a free DOF there (a
-    screen or wall vertex; that side needs its own copy); None when the space has no such
-    component (every vertex of that side is then split)."""
+    """Per mesh vertex: whether the pressure jump ``q`` (``component`` 1; 2: the lower
+    half's ``q_o`` beside an enclosure) of :func:`copdea_fem.fe.acoustics.pressure_space`
+    has a free DOF there (a screen or wall vertex; that side needs its own copy); None when
+    the space has no such component."""
     try:
         active = pressure_space.components[component].GetActiveDofs()
     except (AttributeError, IndexError):
@@ -166,9 +169,9 @@ def jump_vertices(pressure_space, vertices: int, component: int = 1):
 
 class CornerPressure:
     """The complex pressure [Pa] at the air's element corners of a vector of the pressure
-    space ``P x Q`` (:func:`copdea_fem.fe.acoustics.pressure_space`; with an enclosure
-    ``P x Q x Q_c``): ``__call__`` returns what :func:`copdea_fem.fe.acoustics.pressure_field`
-    (``p + lower q + cavity q_c``) evaluates to at
+    space ``P x Q`` (:func:`copdea_fem.fe.acoustics.pressure_space`; beside an enclosure
+    maybe ``P x Q x Q_o``): ``__call__`` returns what
+    :func:`copdea_fem.fe.acoustics.pressure_field` (``p + lower q [+ q_o]``) evaluates to at
     ``points`` (every element's corners, :meth:`ngsolve.Mesh.MapToAllElements`), as an
     (n,) array, read from the vector instead of evaluated.
 
@@ -188,7 +191,7 @@ class CornerPressure:
 
         self.size = space.ndof
         self._gf = ngs.GridFunction(space)
-        parts = list(self._gf.components) + [None, None]    # (p[, q[, q_c]]): pressure_space
+        parts = list(self._gf.components) + [None]      # (p, q[, q_o]): pressure_space
         self._field = pressure_field(parts[0], parts[1], space.mesh, parts[2])
         self._points = points
         self._dofs = None

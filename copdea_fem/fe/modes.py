@@ -57,6 +57,8 @@ class Mode:
     sector: object = None
     family: str = ""               # "cos" / "sin": normal and radial parts go as cos / sin m theta
     in_plane_component: str = ""   # in-plane modes: "radial" or "hoop", the dominant component
+    # an air mode inside an enclosure: its (m, n, p) (copdea_fem.fe.cavity); () otherwise
+    cavity_orders: tuple = ()
 
     @property
     def damping_ratio(self) -> float:

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 
 from copdea_fem.output.tables import write_force_csv, write_modes
 from copdea_fem.study import Study, dump_resolved
-from copdea_fem.vtu import write_all, write_pvd, write_vtu
+from copdea_fem.vtu import split_cells, write_all, write_pvd, write_vtu
 
 if TYPE_CHECKING:
     from copdea_fem.fe.modes import Mode
@@ -52,23 +52,37 @@ def write_solve_files(staging: Path, result: SolveResult, rows: list[dict]) -> N
         write_paraview(staging, result.state, structural, fields, kept=kept)
         shapes = [kept[k] for k in plotted]
         if result.coupled is not None:
-            indices = [k for k, mode in enumerate(result.modes) if mode.kind != "air"]
-            modes = [result.modes[k] for k in indices]
-            pressures = [result.coupled.pressures[k] for k in indices]
-            air_files = write_all(staging, fields.air_meshes(result.coupled.operators, modes,
-                                                             pressures))
-            write_pvd(staging / "air.pvd", air_files, list(range(len(air_files))))
-            if study["geometry"]["enclosure"] != "none" and hasattr(fields, "cavity_meshes"):
-                # the enclosure's air, its own block (3-D engine)
-                cavity_files = write_all(staging, fields.cavity_meshes(
-                    result.coupled.operators, modes, pressures))
-                write_pvd(staging / "cavity.pvd", cavity_files,
-                          list(range(len(cavity_files))))
+            # structural modes and an enclosure's cavity modes
+            indices = [k for k, mode in enumerate(result.modes)
+                       if mode.kind != "air" or mode.cavity_orders]
+            air_files, times, parts = _air_blocks(staging, fields.air_meshes(
+                result.coupled.operators, [result.modes[k] for k in indices],
+                [result.coupled.pressures[k] for k in indices]))
+            write_pvd(staging / "air.pvd", air_files, times, parts)
     elif study["output"]["plots"]:                # only the plotted modes, no file
         shapes = [mesh for _, mesh in fields.mode_meshes([structural[k] for k in plotted])]
     if study["output"]["plots"]:
         from copdea_fem.output.plots import plot_modes  # a bare solve does without the plots
         plot_modes(staging / "modes.png", shapes, [structural[k] for k in plotted])
+
+
+def _air_blocks(staging: Path, meshes) -> tuple[list[Path], list[int], list[int]]:
+    """Write each mode's air (``(stem, VtuMesh)`` pairs); an enclosure's air (cell data
+    ``cavity``) as its own file ``<stem>_cavity.vtu`` and ParaView block (part 1).
+    Returns the files, their time (the mode's number) and part."""
+    times, parts = [], []
+
+    def pieces():                      # lazily, as write_all takes them
+        for number, (stem, mesh) in enumerate(meshes):
+            split = split_cells(mesh, "cavity") if "cavity" in mesh.cell_data else (mesh,)
+            names = (stem, f"{stem}_cavity")
+            for part, piece in enumerate(split):
+                if len(piece.cells[0].data):
+                    times.append(number)
+                    parts.append(part)
+                    yield names[part], piece
+
+    return write_all(staging, pieces()), times, parts
 
 
 def _sector_summary(eigen_result) -> dict:

@@ -35,10 +35,15 @@ def _off_axis(region: str, deformation):
     return ngs.dx(region, deformation=deformation, bonus_intorder=2)
 
 
-def _half(pressure, half: str):
-    """The pressure of one half: p above, p + q below."""
-    p, q = pressure
-    return p if half == "upper" else p + q
+def _sides(pressure, pressure_test):
+    """``(air volumes, PML volumes, pressure, test pressure)`` of each side of the screens:
+    ``p`` on one, ``p + q`` on the other (the lower half, or the cavity of an enclosure:
+    :func:`copdea_fem.fe.acoustics.pressure_regions`)."""
+    from copdea_fem.fe.acoustics import pressure_regions
+
+    (p, q), (p_test, q_test) = pressure, pressure_test
+    for air, pml, with_q in pressure_regions(p.space.mesh):
+        yield (air, pml, p + q, p_test + q_test) if with_q else (air, pml, p, p_test)
 
 
 def air_form_parts(pressure, pressure_test, density: float, sound_speed: float,
@@ -52,17 +57,19 @@ def air_form_parts(pressure, pressure_test, density: float, sound_speed: float,
     j_inverse = (1 / s) * (ngs.Id(2) - radial) + (1 / derivative) * radial
     volume = s * (s * derivative) * r                    # s det(J2) r
     gradient_part = hoop_part = mass = 0
-    for half in ("upper", "lower"):
-        p, p_test = _half(pressure, half), _half(pressure_test, half)
-        air = ngs.dx(f"air_{half}", deformation=deformation)
-        pml = ngs.dx(f"pml_{half}", bonus_intorder=2)
-        gradient_part = gradient_part + (
-            ngs.grad(p) * ngs.grad(p_test) * r / density * air
-            + (j_inverse * ngs.grad(p)) * (j_inverse * ngs.grad(p_test)) * volume / density * pml)
-        hoop_part = hoop_part + (p * p_test / r / density * _off_axis(f"air_{half}", deformation)
-                                 + p * p_test / (s * r) ** 2 * volume / density * pml)
-        mass = mass + compressibility * p * p_test * r * air \
-            + compressibility * p * p_test * volume * pml
+    for air_regions, pml_regions, p, p_test in _sides(pressure, pressure_test):
+        if air_regions:
+            air = ngs.dx(air_regions, deformation=deformation)
+            gradient_part = gradient_part + ngs.grad(p) * ngs.grad(p_test) * r / density * air
+            hoop_part = hoop_part + p * p_test / r / density * _off_axis(air_regions,
+                                                                         deformation)
+            mass = mass + compressibility * p * p_test * r * air
+        if pml_regions:
+            pml = ngs.dx(pml_regions, bonus_intorder=2)
+            gradient_part = gradient_part + (j_inverse * ngs.grad(p)) * (
+                j_inverse * ngs.grad(p_test)) * volume / density * pml
+            hoop_part = hoop_part + p * p_test / (s * r) ** 2 * volume / density * pml
+            mass = mass + compressibility * p * p_test * volume * pml
     return gradient_part, hoop_part, mass
 
 
@@ -81,12 +88,12 @@ def air_kinetic_parts(pressure, pressure_test, density: float, deformation=None)
     """(1/rho_a) int_air grad p . grad p' r dA and (1/rho_a) int_air p p' / r dA: the physical
     air's kinetic-energy norm of order m is Theta_m (first + m^2 second) (no PML)."""
     gradient_part = hoop_part = 0
-    for half in ("upper", "lower"):
-        p, p_test = _half(pressure, half), _half(pressure_test, half)
-        air = ngs.dx(f"air_{half}", deformation=deformation)
-        gradient_part = gradient_part + ngs.grad(p) * ngs.grad(p_test) * ngs.x / density * air
-        hoop_part = hoop_part + p * p_test / ngs.x / density * _off_axis(f"air_{half}",
-                                                                         deformation)
+    for air_regions, _, p, p_test in _sides(pressure, pressure_test):
+        if air_regions:
+            air = ngs.dx(air_regions, deformation=deformation)
+            gradient_part = gradient_part + ngs.grad(p) * ngs.grad(p_test) * ngs.x / density * air
+            hoop_part = hoop_part + p * p_test / ngs.x / density * _off_axis(air_regions,
+                                                                             deformation)
     return gradient_part, hoop_part
 
 
@@ -102,14 +109,16 @@ def screen_coupling(m: int, pressure, normal_displacement, screens: str, deforma
             * ngs.ds(screens, deformation=deformation))
 
 
-def meridian_motion(state, mesh, domain_radius: float, order: int = 2):
+def meridian_motion(state, mesh, domain_radius: float, order: int = 2, cavity=None):
     r"""Mesh deformation D of the meridian for the prestress (transfinite, as in
     :mod:`copdea_fem.fe.ale`).
 
     ``D(r, z) = (u_r(r), w(r)) phi(z)``, ``phi = (1 - |z|/L)^2`` for |z| < L,
     with the prestress profiles on the membrane, ``w = z_disc`` under the disc
     and 0 beyond r_o; the mesh conforms to the kinks (``ale_guide`` lines), and
-    the membrane line carries the FE prestress itself.
+    the membrane line carries the FE prestress itself.  With an enclosure (``cavity``, a
+    :class:`.meridian.Cavity`) L below the plane is the cavity's depth at r, so the walls
+    stay put (phi = 0 on the bottom; w = u_r = 0 beyond r_o).
     """
     from copdea_fem.fe.ale import checked_decay_length, follow_membrane, transfinite_factors
 
@@ -120,5 +129,8 @@ def meridian_motion(state, mesh, domain_radius: float, order: int = 2):
     rho = np.concatenate([[r_i], radii, [r_o]])
     radial = np.concatenate([[0.0], profile[:, 0], [0.0]])
     axial = np.concatenate([[state.z], profile[:, 1], [0.0]])
+    if cavity is not None:
+        column = ngs.IfPos(ngs.x - cavity.radius, cavity.radius, ngs.x)
+        length = ngs.IfPos(ngs.y, length, -cavity.bottom(column, sqrt=ngs.sqrt))
     u_r, w, phi = transfinite_factors(rho, radial, axial, state.z, ngs.x, ngs.y, length)
     return follow_membrane(mesh, state, ngs.CF((u_r, w)) * phi, order)

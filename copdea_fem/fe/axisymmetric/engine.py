@@ -24,6 +24,7 @@ import numpy as np
 from copdea_fem.fe.axisymmetric.air import meridian_motion
 from copdea_fem.fe.axisymmetric.meridian import MeridianSpec, meridian_mesh
 from copdea_fem.fe.axisymmetric.modes import (
+    CavitySampler,
     OrderSampler,
     classify_order,
     label_all,
@@ -34,6 +35,7 @@ from copdea_fem.fe.axisymmetric.modes import (
 from copdea_fem.fe.axisymmetric.operators import MeridianAir, OrderForms, coupled_order_operators
 from copdea_fem.fe.axisymmetric.prestress import make_axisymmetric_solver
 from copdea_fem.fe.bands import BandSolver, OrderStop, coupled_start_modes, lowest_frequency_hz
+from copdea_fem.fe.cavity import lowest_order_frequency, without_static_solution
 from copdea_fem.fe.eigen import SectorBandResults
 from copdea_fem.fe.modes import AIR, OUT_OF_PLANE, mac, match_dry, membrane_energy_fractions
 from copdea_fem.fe.solution import CoupledSolution
@@ -163,7 +165,8 @@ def axisymmetric_coupled_modes(study, mesh=None, timings=None, solver=None,
     state = _prestressed(study, mesh, timings, solver)
     with timings.stage("assembly"):
         logger.info("air mesh follows the membrane (ALE) ...")
-        motion = meridian_motion(state, state.mesh, air["domain_radius"])
+        motion = meridian_motion(state, state.mesh, air["domain_radius"],
+                                 cavity=MeridianSpec.from_study(study).cavity)
         logger.info("assembling the air of every order ...")
         meridian_air = MeridianAir(state, study, motion)
     initial_shifts = initial_shifts or {}
@@ -171,12 +174,17 @@ def axisymmetric_coupled_modes(study, mesh=None, timings=None, solver=None,
     modes, pressures, dry, partners, results, operators = [], [], [], {}, {}, []
     samplers = {}                  # one per order space (the orders m >= 1 share theirs)
     stop = OrderStop(band.dry_partner_top)
+    cavity = MeridianSpec.from_study(study).cavity
+    cavity_sampler = None if cavity is None else CavitySampler(meridian_air.pressure_space,
+                                                               cavity)
     for m in range(MAX_ORDER + 1):
         def say(text, m=m):
             logger.info(f"m = {m}: {text}")
         with timings.stage("eigen"), tagging(f"m = {m}: "):
             dry_operators, dry_result, lowest = _dry_order(band, forms, m,
                                                            band.dry_partner_top)
+        if cavity is not None:     # the enclosure's own modes of order m start here too
+            lowest = min(lowest, lowest_order_frequency(m, cavity.radius, air["sound_speed"]))
         stop.record(lowest)
         if stop.done():
             break
@@ -194,6 +202,8 @@ def axisymmetric_coupled_modes(study, mesh=None, timings=None, solver=None,
                                     coupled.membrane_index, coupled.stiffness.shape[0]),
                                 start_modes=expected, max_imag_hz=band.max_imag_hz,
                                 initial_shifts=initial_shifts.get(f"m={m}"))
+        if cavity is not None:
+            result = without_static_solution(result, band.f_max)
         with timings.stage("classify"):
             sampler = order_sampler(samplers, state, dry_operators)
             order_dry = classify_order(dry_operators, dry_result.vectors, dry_result.freq_hz,
@@ -212,6 +222,9 @@ def axisymmetric_coupled_modes(study, mesh=None, timings=None, solver=None,
                 scale = np.linalg.norm(mode.vector) / max(np.linalg.norm(full[:, k]), 1e-300)
                 order_pressures.append(result.vectors[coupled.pressure_index, k]
                                        * coupled.pressure_scale * scale)
+                if mode.kind == AIR and cavity_sampler is not None:
+                    mode.cavity_orders = cavity_sampler.orders(m, coupled.pressure_free,
+                                                               order_pressures[-1])
             number_from_dry(order_modes, order_dry, dry_operators.mass_full)
             order_partners = match_dry(order_modes, order_dry, dry_operators.mass_full,
                                        same_order_family)

@@ -253,6 +253,8 @@ def revolved_air_meshes(operators, modes, pressures, max_order: int | None = Non
     cells = merge.labels[np.moveaxis(cells, 2, 1).reshape(-1, 6)]
     cell_data = {"pml": [np.repeat(in_pml.astype(np.int8), n_t)],
                  "lower_half": [np.repeat(lower.astype(np.int8), n_t)]}
+    if halves.cavity.any():         # an enclosure's air: ParaView's Threshold on it
+        cell_data["cavity"] = [np.repeat(halves.cavity.astype(np.int8), n_t)]
     readers: dict = {}          # id(pressure space) -> CornerPressure
     for number, (mode, pressure) in enumerate(zip(modes, pressures)):
         coupled = by_order[mode.m]

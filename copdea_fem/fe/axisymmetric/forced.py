@@ -25,6 +25,7 @@ def order_zero_problem(study, mesh, state, timings: dict) -> OrderZero:
     """The ALE air and the forced m = 0 pencil on the prestressed meridian."""
     from copdea_fem.fe.axisymmetric.air import meridian_motion
     from copdea_fem.fe.axisymmetric.forcing import forced_order
+    from copdea_fem.fe.axisymmetric.meridian import MeridianSpec
     from copdea_fem.fe.axisymmetric.operators import (
         MeridianAir,
         OrderForms,
@@ -33,7 +34,8 @@ def order_zero_problem(study, mesh, state, timings: dict) -> OrderZero:
 
     start = time.perf_counter()
     logger.info("assembling the m = 0 membrane-air pencil and the voltage forcing ...")
-    motion = meridian_motion(state, mesh, study["air"]["domain_radius"])
+    motion = meridian_motion(state, mesh, study["air"]["domain_radius"],
+                             cavity=MeridianSpec.from_study(study).cavity)
     air = MeridianAir(state, study, motion)
     forms = OrderForms(state, study)
     dry = forms.operators(0)

@@ -25,6 +25,7 @@ quickly, so meridian meshes are not cached.
 
 from __future__ import annotations
 
+import itertools
 import logging
 import math
 from dataclasses import dataclass
@@ -35,6 +36,8 @@ from copdea_fem.fe.airbox import ale_decay_length
 
 #: frames with a meridian geometry (the square frame needs the 3-D engine)
 AXISYMMETRIC_FRAMES = ("none", "baffle", "circle")
+#: enclosures with a meridian geometry (a box needs the 3-D engine)
+ENCLOSURES = ("none", "cylinder", "bowl")
 
 #: Largest meridian air element as a share of ``mesh.air_size`` (a bound, so the key
 #: still holds).  Flat G1 in a baffle, default keys, against a converged meridian run
@@ -60,6 +63,11 @@ class MeridianSpec:
     membrane_size: float
     air_size: float
     grading: float
+    enclosure: str = "none"
+    enclosure_depth: float = 0.0
+    enclosure_radius: float = 0.0
+    vent_radius: float = 0.0
+    outside: bool = True
 
     @classmethod
     def from_study(cls, study) -> "MeridianSpec":
@@ -67,16 +75,71 @@ class MeridianSpec:
         if g["frame"] not in AXISYMMETRIC_FRAMES:
             raise ValueError(f"geometry.frame = {g['frame']!r} has no meridian geometry; "
                              f"allowed: {', '.join(AXISYMMETRIC_FRAMES)}")
+        if g["enclosure"] not in ENCLOSURES:
+            raise ValueError(f"geometry.enclosure = {g['enclosure']!r} has no meridian "
+                             f"geometry; allowed: {', '.join(ENCLOSURES)}")
+        enclosed = g["enclosure"] != "none" and a["enabled"]
         return cls(outer_radius=g["outer_radius"], inner_radius=g["inner_radius"],
                    frame=g["frame"], frame_radius=g["frame_radius"],
                    domain_radius=a["domain_radius"], pml_thickness=a["pml_thickness"],
                    membrane_size=m["membrane_size"], air_size=m["air_size"],
-                   grading=m["grading"])
+                   grading=m["grading"],
+                   enclosure=g["enclosure"] if enclosed else "none",
+                   enclosure_depth=g["enclosure_depth"] if enclosed else 0.0,
+                   enclosure_radius=g["enclosure_radius"] if enclosed else 0.0,
+                   vent_radius=g["enclosure_vent_radius"] if enclosed else 0.0,
+                   outside=a["outside"] or not enclosed)
+
+    @property
+    def cavity(self) -> Cavity | None:
+        """The enclosure's inside (None: open back)."""
+        if self.enclosure == "none":
+            return None
+        return Cavity(self.enclosure, self.enclosure_radius, self.enclosure_depth,
+                      self.vent_radius)
+
+
+@dataclass(frozen=True)
+class Cavity:
+    """The inside of a rigid enclosure under the membrane plane [m] (docs/enclosures.md).
+
+    ``shape``: ``cylinder`` (radius a, flat bottom at z = -depth) or ``bowl`` (a spherical
+    cap of rim radius a at z = 0 and depth ``depth`` at r = 0: sphere radius
+    ``(a^2 + depth^2) / (2 depth)``, centre on the axis at ``z = radius - depth``).
+    ``vent_radius``: the open part of the bottom, r < vent_radius.
+    """
+
+    shape: str
+    radius: float
+    depth: float
+    vent_radius: float = 0.0
+
+    @property
+    def sphere_radius(self) -> float:
+        """Radius of the bowl's sphere [m]."""
+        return (self.radius**2 + self.depth**2) / (2 * self.depth)
+
+    def bottom(self, r, sqrt=np.sqrt):
+        """Height of the bottom wall below radius ``r`` (<= radius) [m]; ``sqrt``:
+        ``ngsolve.sqrt`` for a CoefficientFunction ``r``."""
+        if self.shape == "cylinder":
+            return -self.depth + 0 * r
+        sphere = self.sphere_radius
+        return sphere - self.depth - sqrt(sphere**2 - r * r)
+
+    def volume(self) -> float:
+        """Volume [m^3] (the spherical cap: pi d^2 (3 R_s - d) / 3)."""
+        if self.shape == "cylinder":
+            return math.pi * self.radius**2 * self.depth
+        return math.pi * self.depth**2 * (3 * self.sphere_radius - self.depth) / 3
 
 
 def build_geometry(spec: MeridianSpec):
     """netgen.geom2d.SplineGeometry of the meridian with every region named."""
     from netgen.geom2d import SplineGeometry
+
+    if spec.cavity is not None:
+        return build_enclosed_geometry(spec)
 
     r_o, r_i = spec.outer_radius, spec.inner_radius
     R, t = spec.domain_radius, spec.pml_thickness
@@ -146,6 +209,147 @@ def build_geometry(spec: MeridianSpec):
         if has_disc or number not in (1, 5):
             geo.SetMaterial(number, name)
     return geo
+
+
+class _Builder:
+    """Points and segments of a SplineGeometry, points shared by their coordinates."""
+
+    def __init__(self):
+        from netgen.geom2d import SplineGeometry
+        self.geo = SplineGeometry()
+        self.points: dict = {}
+
+    def point(self, r, z, name="", maxh=1e99):
+        key = (round(r, 12), round(z, 12))
+        if key not in self.points:
+            self.points[key] = self.geo.AppendPoint(r, z, maxh=maxh, name=name)
+        return self.points[key]
+
+    def line(self, a, b, bc, left, right, maxh=1e99):
+        self.geo.Append(["line", self.point(*a), self.point(*b)], bc=bc, leftdomain=left,
+                        rightdomain=right, maxh=maxh)
+
+    def arc(self, a, control, b, bc, left, right, maxh=1e99):
+        self.geo.Append(["spline3", self.point(*a), self.point(*control), self.point(*b)],
+                        bc=bc, leftdomain=left, rightdomain=right, maxh=maxh)
+
+
+#: Domain numbers of the enclosed meridian: upper air boxes (under the disc, under the
+#: membrane, the rest), upper PML, the cavity's columns (under the disc, under the
+#: membrane, beyond r_o), the outside lower air and its PML.
+_UNDER_DISC, _UNDER_MEMBRANE, _UPPER_REST, _UPPER_PML = 1, 2, 3, 4
+_CAVITY_DISC, _CAVITY_MEMBRANE, _CAVITY_RIM = 5, 6, 9
+_LOWER_AIR, _LOWER_PML = 7, 8
+
+
+def build_enclosed_geometry(spec: MeridianSpec):
+    r"""The meridian with an enclosure (``spec.cavity``) under the membrane plane.
+
+    Regions as :func:`build_geometry`'s, and: domain ``cavity`` (the enclosure's inside,
+    split into columns r < r_i, r_i < r < r_o, r_o < r < a at the ``ale_guide`` lines
+    r = r_i, r_o, which reach down to the bottom), lines ``enclosure`` (the rigid walls
+    that are not the frame: the top r_o < r < a with frame none, the side r = a, the
+    bottom outside the vent) and ``vent`` (the bottom r < vent radius, open).  With
+    ``frame: baffle`` the cavity replaces the lower half-space (no ``air_lower``,
+    ``pml_lower``); with ``air.outside: false`` there is only the cavity (no upper air,
+    no PML).  The walls have no thickness: the pressure jumps across them
+    (:func:`copdea_fem.fe.acoustics.pressure_space`).
+    """
+    cavity = spec.cavity
+    r_o, r_i, a = spec.outer_radius, spec.inner_radius, cavity.radius
+    R, t = spec.domain_radius, spec.pml_thickness
+    L = ale_decay_length(R, r_o)
+    h_membrane, h_screen = spec.membrane_size, 2 * spec.membrane_size
+    b = _Builder()
+    has_disc = r_i > 0
+    outside, lower_outside = spec.outside, spec.outside and spec.frame != "baffle"
+    up = (lambda number: number) if outside else (lambda number: 0)
+    below = _LOWER_AIR if lower_outside else 0
+    b.point(0, 0, "centre", h_screen)
+    if has_disc:
+        b.point(r_i, 0, "inner_rim", h_membrane)
+    b.point(r_o, 0, "outer_rim", h_membrane)
+
+    def column(r):
+        """The cavity column at radius r."""
+        return _CAVITY_DISC if r < r_i else (_CAVITY_MEMBRANE if r < r_o else _CAVITY_RIM)
+
+    # plane z = 0, in +r: upper domain on the left, below the cavity (then outside air)
+    if has_disc:
+        b.line((0, 0), (r_i, 0), "disc", up(_UNDER_DISC), _CAVITY_DISC, h_screen)
+    b.line((r_i, 0), (r_o, 0), "membrane", up(_UNDER_MEMBRANE), _CAVITY_MEMBRANE, h_membrane)
+    top = "frame" if spec.frame in ("baffle", "circle") else "enclosure"
+    if a > r_o:
+        b.line((r_o, 0), (a, 0), top, up(_UPPER_REST), _CAVITY_RIM, h_screen)
+    if outside:
+        if spec.frame == "baffle":
+            b.line((a, 0), (R, 0), "frame", _UPPER_REST, 0, h_screen)
+            b.line((R, 0), (R + t, 0), "pml_plane", _UPPER_PML, 0)
+        else:
+            frame_end = spec.frame_radius if spec.frame == "circle" else a
+            if frame_end > a:
+                b.line((a, 0), (frame_end, 0), "frame", _UPPER_REST, _LOWER_AIR, h_screen)
+            b.line((frame_end, 0), (R, 0), "aperture", _UPPER_REST, _LOWER_AIR)
+            b.line((R, 0), (R + t, 0), "pml_plane", _UPPER_PML, _LOWER_PML)
+        b.arc((R, 0), (R, R), (0, R), "interface", _UPPER_REST, _UPPER_PML)
+        b.arc((R + t, 0), (R + t, R + t), (0, R + t), "outer", _UPPER_PML, 0)
+        b.line((0, R + t), (0, R), "axis", _UPPER_PML, 0)
+        b.line((0, R), (0, L), "axis", _UPPER_REST, 0)
+        b.line((0, L), (0, 0), "axis", _UNDER_DISC if has_disc else _UNDER_MEMBRANE, 0)
+        if has_disc:
+            b.line((r_i, 0), (r_i, L), "ale_guide", _UNDER_DISC, _UNDER_MEMBRANE)
+            b.line((r_i, L), (0, L), "ale_guide", _UNDER_DISC, _UPPER_REST)
+        b.line((r_o, 0), (r_o, L), "ale_guide", _UNDER_MEMBRANE, _UPPER_REST)
+        b.line((r_o, L), (r_i, L), "ale_guide", _UNDER_MEMBRANE, _UPPER_REST)
+    if lower_outside:
+        b.arc((0, -R), (R, -R), (R, 0), "interface", _LOWER_AIR, _LOWER_PML)
+        b.arc((0, -R - t), (R + t, -R - t), (R + t, 0), "outer", _LOWER_PML, 0)
+        b.line((0, -R), (0, -R - t), "axis", _LOWER_PML, 0)
+        b.line((0, cavity.bottom(0.0)), (0, -R), "axis", _LOWER_AIR, 0)
+    # the cavity: axis, guides and walls (walls walked with the cavity on the right)
+    b.line((0, 0), (0, cavity.bottom(0.0)), "axis", column(0.0), 0)
+    for guide in ((r_i,) if has_disc else ()) + ((r_o,) if r_o < a else ()):
+        b.line((guide, 0), (guide, float(cavity.bottom(guide))), "ale_guide",
+               column(guide), column(0.5 * guide if guide == r_i else r_i + 0.5 * (r_o - r_i)))
+    if cavity.shape == "cylinder":
+        b.line((a, 0), (a, -cavity.depth), "enclosure", below, _CAVITY_RIM if a > r_o
+               else _CAVITY_MEMBRANE)
+    breaks = sorted({0.0, a, r_o, *((r_i,) if has_disc else ()),
+                     *((cavity.vent_radius,) if cavity.vent_radius > 0 else ())}, reverse=True)
+    for start, end in itertools.pairwise(breaks):
+        middle = 0.5 * (start + end)
+        name = "vent" if middle < cavity.vent_radius else "enclosure"
+        ends = (start, float(cavity.bottom(start))), (end, float(cavity.bottom(end)))
+        size = min(h_screen, 0.5 * cavity.vent_radius) if name == "vent" else h_screen
+        if cavity.shape == "cylinder":
+            b.line(*ends, name, below, column(middle), size)
+        else:
+            b.arc(ends[0], _tangent_intersection(cavity, start, end), ends[1], name, below,
+                  column(middle), size)
+    names = {_UNDER_DISC: "air_upper", _UNDER_MEMBRANE: "air_upper", _UPPER_REST: "air_upper",
+             _UPPER_PML: "pml_upper", _CAVITY_DISC: "cavity", _CAVITY_MEMBRANE: "cavity",
+             _CAVITY_RIM: "cavity", _LOWER_AIR: "air_lower", _LOWER_PML: "pml_lower"}
+    used = {_CAVITY_MEMBRANE} | ({_CAVITY_DISC} if has_disc else set()) | (
+        {_CAVITY_RIM} if a > r_o else set())
+    if outside:
+        used |= {_UNDER_MEMBRANE, _UPPER_REST, _UPPER_PML} | ({_UNDER_DISC} if has_disc else set())
+    if lower_outside:
+        used |= {_LOWER_AIR, _LOWER_PML}
+    for number in sorted(used):
+        b.geo.SetMaterial(number, names[number])
+    return b.geo
+
+
+def _tangent_intersection(cavity: Cavity, r_1: float, r_2: float) -> tuple[float, float]:
+    """Control point of the rational quadratic arc of the bowl between radii r_1, r_2: where
+    the tangents at its ends meet (Netgen's ``spline3`` then follows the circle exactly)."""
+    sphere = cavity.sphere_radius
+    centre = sphere - cavity.depth
+    angle_1, angle_2 = (math.asin(r / sphere) for r in (r_1, r_2))   # from the downward axis
+    half = 0.5 * (angle_1 - angle_2)
+    middle = 0.5 * (angle_1 + angle_2)
+    distance = sphere / math.cos(half)
+    return distance * math.sin(middle), centre - distance * math.cos(middle)
 
 
 def meridian_mesh(spec: MeridianSpec, curve_order: int):

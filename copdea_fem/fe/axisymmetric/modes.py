@@ -155,17 +155,71 @@ def with_pairs(modes: list[OrderMode]) -> list[OrderMode]:
     paired = []
     for mode in modes:
         paired.append(mode)
-        if mode.m > 0 and mode.kind != AIR:
+        if mode.m > 0 and (mode.kind != AIR or mode.cavity_orders):
             paired.append(replace(mode, family="sin", sector=family_sector(mode.m, "sin")))
     return paired
 
 
 def label_all(modes: list[OrderMode]) -> None:
-    """Labels over all orders, as the 3-D engine's (:func:`copdea_fem.fe.modes.assign_labels`)."""
+    """Labels over all orders, as the 3-D engine's (:func:`copdea_fem.fe.modes.assign_labels`);
+    an air mode keeps a cavity label (:class:`CavitySampler`), the others are ``air``."""
+    from copdea_fem.fe.cavity import label_cavity_modes
+
     assign_labels([mode for mode in modes if mode.kind != AIR])
     for mode in modes:
         if mode.kind == AIR:
             mode.label, mode.n = "air", 0
+    label_cavity_modes(modes)
+
+
+class CavitySampler:
+    """The pressure of an order's modes inside an enclosure: the cavity's share of the air's
+    potential energy and the (n, p) nodal counts (:mod:`copdea_fem.fe.cavity`).
+
+    ``pressure_space``: the (p, q) space of :class:`.operators.MeridianAir`; the cavity's
+    pressure is ``p + q`` (:func:`copdea_fem.fe.acoustics.pressure_space`), sampled on a
+    grid of ``samples`` x ``samples`` points of its (r, z) section, the bottom followed.
+    """
+
+    def __init__(self, pressure_space, cavity, samples: int = 33):
+        from copdea_fem.fe.acoustics import CAVITY
+
+        mesh = pressure_space.mesh
+        self.function = ngs.GridFunction(pressure_space)
+        p, q = self.function.components
+        self.inside = p + q
+        radii = cavity.radius * (np.arange(samples) + 0.5) / samples
+        fractions = (np.arange(samples) + 0.5) / samples
+        heights = fractions[None, :] * cavity.bottom(radii)[:, None]    # (radii, depths)
+        self.shape = heights.shape
+        self.points = mesh(np.repeat(radii, samples), heights.ravel())
+        outside = "|".join(name for name in ("air_upper", "air_lower")
+                           if name in mesh.GetMaterials())
+        r = ngs.x
+        self.inside_energy = ngs.Norm(self.inside) ** 2 * r * ngs.dx(CAVITY)
+        self.outside_energy = (ngs.Norm(p) ** 2 * r * ngs.dx(outside)) if outside else None
+
+    def _set(self, free_dofs, vector) -> None:
+        values = self.function.vec.FV().NumPy()
+        values[:] = 0
+        values[free_dofs] = vector
+
+    def orders(self, m: int, free_dofs, vector) -> tuple:
+        """(m, n, p) of a cavity mode of order m (pressure ``vector`` on ``free_dofs``),
+        () when most of its air's energy lies outside (module doc of
+        :mod:`copdea_fem.fe.cavity`)."""
+        from copdea_fem.fe.cavity import CAVITY_SHARE, nodal_counts
+
+        self._set(free_dofs, vector)
+        mesh = self.function.space.mesh
+        inside = abs(ngs.Integrate(self.inside_energy, mesh))
+        outside = 0.0 if self.outside_energy is None else abs(
+            ngs.Integrate(self.outside_energy, mesh))
+        if inside <= CAVITY_SHARE * (inside + outside):
+            return ()
+        section = np.asarray(self.inside(self.points)).reshape(self.shape)
+        n, p = nodal_counts(section)
+        return m, n, p
 
 
 def sampled_shapes(state, modes, n_radii: int = 40, n_angles: int = 64) -> np.ndarray:

@@ -327,11 +327,14 @@ class MeridianAir:
         from copdea_fem.fe.axisymmetric.air import air_form_parts, air_kinetic_parts, screen_normal
 
         mesh, air = state.mesh, study["air"]
-        screens = acoustics.screen_faces(study["geometry"]["frame"])
+        enclosed = acoustics.has_cavity(mesh)
+        vacuum_above = enclosed and not air["outside"]
+        screens = (acoustics.enclosure_screen_faces(study["geometry"]["frame"], air["outside"])
+                   if enclosed else acoustics.screen_faces(study["geometry"]["frame"]))
         if not state.has_disc:
             screens = "|".join(face for face in screens.split("|") if face != "disc")
         self.pressure_space = acoustics.pressure_space(mesh, study["mesh"]["pressure_order"],
-                                                       screens)
+                                                       screens, vacuum_above=vacuum_above)
         trial, test = self.pressure_space.TnT()
         parts = air_form_parts(trial, test, air["density"], air["sound_speed"],
                                air["domain_radius"], air["pml_thickness"], deformation=motion)

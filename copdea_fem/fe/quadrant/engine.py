@@ -18,6 +18,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from copdea_fem.fe.bands import BandSolver, coupled_start_modes
+from copdea_fem.fe.cavity import without_static_solution
 from copdea_fem.fe.linearise import linearised_operators, operator_damping
 from copdea_fem.fe.modes import ModeSampler, classify_modes
 from copdea_fem.fe.prestress import solve_prestress
@@ -26,21 +27,6 @@ from copdea_fem.fe.solution import CoupledSolution
 from copdea_fem.progress import Timings, carried, single_threaded_blas, tagged, tagging
 
 logger = logging.getLogger(__name__)
-
-#: Below this share of the band's top frequency a mode of a sealed enclosure is the pressure
-#: formulation's static mode, not the device's: the cavity's uniform pressure with the
-#: membrane's static deflection under it solves ``A x = 0`` (the cavity's mass balance
-#: ``m_a(p, 1) = c(u, 1)`` is enforced only through omega^2, :mod:`copdea_fem.fe.acoustics`),
-#: an eigenvalue omega^2 = 0 up to round-off (~1e-5 Hz measured on the G1 box).
-STATIC_MODE_SHARE = 1e-4
-
-
-def sealed_cavity(study) -> bool:
-    """Whether the study has an enclosure without a vent (a static mode, see
-    :data:`STATIC_MODE_SHARE`)."""
-    geometry = study["geometry"]
-    return geometry["enclosure"] != "none" and geometry["enclosure_vent_radius"] == 0
-
 
 def _say(message: str) -> None:
     """A progress line with the thread's prefix (:func:`copdea_fem.progress.tagging`)."""
@@ -224,6 +210,8 @@ class QuadrantEngine:
                                     coupled.membrane_index, coupled.stiffness.shape[0]),
                                 max_imag_hz=band.max_imag_hz, initial_shifts=plan,
                                 start_modes=expected)
+            if study["geometry"]["enclosure"] != "none":
+                result = without_static_solution(result, band.f_max)
             return key, dry_result, result
 
         with timings.stage("eigen"), single_threaded_blas():
@@ -240,12 +228,6 @@ class QuadrantEngine:
                 dry += classify_modes(operators, dry_result, sampler)
                 sector_modes, sector_pressures = coupled_mode_list(
                     coupled, result, study["air"]["min_membrane_energy"], sampler)
-                if sealed_cavity(study):
-                    static = STATIC_MODE_SHARE * band.f_max
-                    kept = [k for k, mode in enumerate(sector_modes)
-                            if abs(complex(mode.freq_hz, mode.freq_im_hz)) >= static]
-                    sector_modes = [sector_modes[k] for k in kept]
-                    sector_pressures = [sector_pressures[k] for k in kept]
                 modes += sector_modes
                 pressures += sector_pressures
                 results[key] = result

@@ -117,20 +117,20 @@ def write_air_vtus(directory: Path, operators, modes, pressures) -> list[Path]:
     return write_all(directory, air_meshes(operators, modes, pressures))
 
 
-def air_meshes(operators, modes, pressures, cavity_only: bool = False):
+def air_meshes(operators, modes, pressures):
     """``(file stem, VtuMesh)`` per mode of the air on the deformed mesh: pressure
-    re/im/abs, PML, lower-half and cavity flags.
+    re/im/abs, PML, lower-half and (with an enclosure) cavity flags.
 
     ``operators``: the :class:`copdea_fem.fe.coupled.CoupledOperators` of each
     sector (one on a whole mesh); a mode's pressure vector is read with its
     sector's.  The pressure jumps across the screens (and an enclosure's walls), so the
-    upper and lower halves and the cavity get their own copies of the mesh vertices;
-    values are taken inside each element (no ambiguity at the plane); elsewhere, on the
-    open plane and in a vent too, a vertex is written once.  A quadrant mesh is unfolded
-    into the whole air, the copies of the mirror planes' vertices merged
-    (:class:`PointMerge`; they agree by parity).  Pressures are per unit peak membrane
-    displacement [Pa/m], like the membrane files.  ``cavity_only``: the enclosure's
-    cavity alone (its own ParaView block, ``cavity_NNN_<label>.vtu``).
+    sides get their own copies of the mesh vertices (:class:`AirHalves`); values are taken
+    inside each element (no ambiguity at the plane); elsewhere, on the open plane and in a
+    vent too, a vertex is written once.  A quadrant mesh is unfolded into the whole air,
+    the copies of the mirror planes' vertices merged (:class:`PointMerge`; they agree by
+    parity).  Pressures are per unit peak membrane displacement [Pa/m], like the membrane
+    files.  The cell data ``cavity`` marks an enclosure's air, which the writer puts into
+    its own ParaView block (:func:`copdea_fem.vtu.split_cells`).
     """
     import ngsolve as ngs
 
@@ -144,15 +144,9 @@ def air_meshes(operators, modes, pressures, cavity_only: bool = False):
     corners = ngs.IntegrationRule([(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)], [0.0] * 4)
     points = mesh.MapToAllElements(corners, ngs.VOL)
     vertices = len(mesh.ngmesh.Coordinates())
-    halves = AirHalves(mesh, points, first.mesh_motion,
-                       split=jump_vertices(space, vertices),
-                       cavity_split=jump_vertices(space, vertices, component=2))
-    count = halves.count
-    kept = halves.cavity if cavity_only else np.ones(len(halves.cavity), dtype=bool)
-    copy = halves.copy[kept]
-    used = np.unique(copy)
-    renumber = -np.ones(AirHalves.SIDES * count, dtype=int)
-    renumber[used] = np.arange(len(used))
+    halves = AirHalves(mesh, points, first.mesh_motion, split=jump_vertices(space, vertices),
+                       outside_split=jump_vertices(space, vertices, component=2))
+    copy, used, count = halves.copy, halves.used, halves.count
     moved = unfold_values(halves.moved[used], symmetry)
     # the copies of the mirror planes' vertices merged (the sides of a screen or wall kept
     # apart); found on the reference mesh (the ALE motion leaves ~1e-8 m normal to the
@@ -160,21 +154,21 @@ def air_meshes(operators, modes, pressures, cavity_only: bool = False):
     # the plane
     merge = PointMerge.coincident(unfold_values(halves.reference[used], symmetry),
                                   groups=np.tile(used // count, symmetry.copies))
-    cells = merge.labels[unfold_cells(renumber[copy], len(used), symmetry)]
+    cells = merge.labels[unfold_cells(halves.renumber[copy], len(used), symmetry)]
     moved = merge.reduce(moved).astype(np.float32)
-    cell_data = {name: [np.tile(flags[kept].astype(np.int8), symmetry.copies)]
-                 for name, flags in (("pml", halves.in_pml), ("lower_half", halves.lower),
-                                     ("cavity", halves.cavity))}
+    flags = [("pml", halves.in_pml), ("lower_half", halves.lower)]
+    if halves.cavity.any():
+        flags.append(("cavity", halves.cavity))
+    cell_data = {name: [np.tile(flag.astype(np.int8), symmetry.copies)] for name, flag in flags}
     reader = CornerPressure(space, points)      # the corners' DOFs, found once
-    prefix = "cavity" if cavity_only else "air"
     for number, (mode, pressure) in enumerate(zip(modes, pressures)):
         vector = np.zeros(space.ndof, dtype=complex)
         vector[by_sector[mode.sector].pressure_free] = pressure
         nodal = np.zeros(AirHalves.SIDES * count, dtype=complex)
-        nodal[halves.copy.ravel()] = reader(vector).ravel()     # every element's corners
+        nodal[copy.ravel()] = reader(vector).ravel()
         nodal = merge.reduce(unfold_values(nodal[used], symmetry, mode.sector))
         data = pressure_point_data(nodal)
-        yield (f"{prefix}_{number:03d}_{safe_name(mode.label)}",
+        yield (f"air_{number:03d}_{safe_name(mode.label)}",
                VtuMesh(moved, [("tetra", cells)], point_data=data, cell_data=cell_data))
 
 
@@ -214,8 +208,3 @@ class QuadrantOutput:
     def air_meshes(self, operators, modes, pressures):
         """``(file stem, VtuMesh)`` of each mode's air file (:func:`air_meshes`)."""
         return air_meshes(operators, modes, pressures)
-
-    def cavity_meshes(self, operators, modes, pressures):
-        """``(file stem, VtuMesh)`` of each mode's file of the enclosure's cavity, its own
-        ParaView block (:func:`air_meshes` with ``cavity_only``)."""
-        return air_meshes(operators, modes, pressures, cavity_only=True)
