@@ -83,6 +83,10 @@ CASES = {
     # issue 12: G1, z = 16 mm, 2 kV in a baffle on the axisymmetric engine / the 3-D quadrant
     "axisymmetric": (G1_Z16, ["geometry.frame=baffle", "mesh.engine=axisymmetric"]),
     "axisymmetric-3d": (G1_Z16, ["geometry.frame=baffle", "mesh.engine=3d"]),
+    # the same over a closed cylinder 20 mm deep (benchmarks/enclosure.py)
+    "axisymmetric-enclosure": (G1_Z16, ["geometry.frame=baffle", "mesh.engine=axisymmetric",
+                                        "geometry.enclosure=cylinder",
+                                        "geometry.enclosure_depth=20 mm"]),
     "drum": (DRUM, []),
     "drum-3d": (DRUM, ["mesh.engine=3d"]),
     # issue 23: the same with one Prony term (the damped eigen step in omega)
@@ -97,6 +101,7 @@ CASES = {
 }
 #: benchmarks that run two cases interleaved and report the ratio of their medians
 PAIRS = {"engines": ("axisymmetric", "axisymmetric-3d"),
+         "enclosure": ("axisymmetric", "axisymmetric-enclosure"),
          # issue 23: one Prony term against the undamped solve (target: ratio <= 2)
          "prony-dry": ("dry", "dry-prony"), "prony-coupled": ("coupled", "coupled-prony"),
          "prony-axisymmetric": ("axisymmetric", "axisymmetric-prony")}

@@ -660,7 +660,7 @@ def _check_across_keys(v: dict[str, dict[str, Any]]) -> None:
                     f"<= {(r_o - r_i) / 2:g} m = half the membrane width",
                     "fewer than two elements across the membrane")
     _check_reduced_keys(v)
-    listed_microphones(v["response"]["microphones"], g["frame"])
+    listed_microphones(v["response"]["microphones"], g["frame"], g["enclosure"])
 
 
 def _check_enclosure(v: dict[str, dict[str, Any]]) -> None:
@@ -790,8 +790,8 @@ MICROPHONES_ALLOWED = "'name = x, y, z; ...' with lengths, e.g. 'side = 0.5 m, 0
 DEFAULT_MICROPHONE = "axis"
 
 
-def listed_microphones(text: str,
-                       frame: str = "square") -> list[tuple[str, tuple[float, float, float]]]:
+def listed_microphones(text: str, frame: str = "square",
+                       enclosure: str = "none") -> list[tuple[str, tuple[float, float, float]]]:
     """The microphones of ``response.microphones`` (``"name = x, y, z; ..."``, units
     allowed, a bare number in m): named positions (x, y, z) [m], checked.
 
@@ -800,7 +800,8 @@ def listed_microphones(text: str,
     microphone's, :data:`DEFAULT_MICROPHONE`, included), a coordinate that is not a length
     in [-1e4, 1e4] m, a point at the origin (the membrane's centre), and with
     ``frame = "baffle"`` a point on the rigid plane z = 0 (the Rayleigh integral is taken on
-    the microphone's side of the baffle).  Called when a study is read, so a bad list never
+    the microphone's side of the baffle), and with a baffle over an enclosure a point
+    below it (z < 0: the enclosure replaces the lower half-space).  Called when a study is read, so a bad list never
     reaches a solve; the forced response adds the default microphone
     (:func:`copdea_fem.forced_response.run.parse_microphones`).
     """
@@ -822,6 +823,10 @@ def listed_microphones(text: str,
         if not any(position):
             raise _fail(key, text, "a point away from the membrane centre",
                         f"microphone {name!r} at the origin")
+        if frame == "baffle" and enclosure != "none" and position[2] < 0:
+            raise _fail(key, text, "z > 0 with geometry.frame = baffle over an enclosure",
+                        f"microphone {name!r} at z < 0 lies inside the enclosure's "
+                        f"half-space (position {list(position)} m)")
         if frame == "baffle" and position[2] == 0:
             raise _fail(key, text, "z != 0 with geometry.frame = baffle", f"microphone {name!r} "
                         f"at z = 0 lies on the rigid plane (position {list(position)} m)")

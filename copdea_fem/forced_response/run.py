@@ -66,7 +66,8 @@ def parse_microphones(study) -> list[tuple[str, np.ndarray]]:
     (:func:`copdea_fem.study.listed_microphones`), so a bad one never reaches a solve."""
     response = study["response"]
     axis = (0.0, 0.0, float(response["microphone_distance"]))
-    listed = listed_microphones(response["microphones"], study["geometry"]["frame"])
+    listed = listed_microphones(response["microphones"], study["geometry"]["frame"],
+                                study["geometry"]["enclosure"])
     return [(name, np.array(position))
             for name, position in [(DEFAULT_MICROPHONE, axis), *listed]]
 
@@ -81,6 +82,15 @@ def prepare_order_zero(study, engine: Engine | None = None) -> OrderZero:
     if study["load"]["voltage"] <= 0:
         raise StudyError("load.voltage = 0 is not allowed for `response`; allowed: > 0 V (the "
                          "linear forcing V_b dC/du vanishes without a bias)")
+    if study["response"]["method"] == "modal" and sealed_enclosure(study):
+        raise StudyError("response.method = modal is not allowed with a sealed enclosure; "
+                         "allowed: direct, reduced or auto (the modal path's static "
+                         "correction A^-1 F does not exist: a uniform cavity pressure and the "
+                         "membrane's static deflection under it solve A x = 0, "
+                         "copdea_fem.fe.cavity.without_static_solution)")
+    if not study["air"]["outside"]:
+        raise StudyError("air.outside = false is not allowed for `response`; allowed: true "
+                         "(the sound at the microphones needs the outside air)")
     check_air_lift(study)
     return (engine or engine_for(study)).forced_problem(study)
 
@@ -141,15 +151,25 @@ def states_material_damping(study) -> bool:
                 or membrane["rayleigh_beta"] > 0 or membrane["prony"])
 
 
+def sealed_enclosure(study) -> bool:
+    """Whether the study's membrane closes an enclosure without a vent (air enabled)."""
+    g = study["geometry"]
+    return (study["air"]["enabled"] and g["enclosure"] != "none"
+            and g["enclosure_vent_radius"] == 0)
+
+
 def resolved_method(problem: OrderZero) -> str:
     """``response.method``, with ``auto`` resolved: ``modal`` where the study's damping is
     the paper's modal b/m (``reduced.damping_*``, which only the modal path carries: the
     reduced path would leave the peaks damped by radiation alone), else what the driven
     sector prefers -- ``reduced`` on the 3-D engine (its modal band costs minutes),
-    ``modal`` on the axisymmetric one."""
+    ``modal`` on the axisymmetric one; ``direct`` over a sealed enclosure (no static
+    correction, :func:`sealed_enclosure`)."""
     method = problem.study["response"]["method"]
     if method != "auto":
         return method
+    if sealed_enclosure(problem.study):
+        return "direct"
     if problem.sector is None or not states_material_damping(problem.study):
         return "modal"
     return problem.sector.default_method
@@ -185,8 +205,10 @@ class ResponseResult:
 
 def _far_field_method(study) -> str:
     if study["geometry"]["frame"] == "baffle":
+        closed = study["geometry"]["enclosure"] != "none"
         return ("Rayleigh (baffle): Kirchhoff-Helmholtz with the half-space Green's function over "
-                "the hemisphere on the microphone's side")
+                "the hemisphere on the microphone's side" + (
+                    " (the front only: an enclosure closes the back)" if closed else ""))
     return "Kirchhoff-Helmholtz over a sphere inside the air (free-space Green's function)"
 
 
@@ -241,8 +263,10 @@ def forced_response(problem: OrderZero, frequency_hz=None,
     radius = KIRCHHOFF_FRACTION * study["air"]["domain_radius"]
     baffle = study["geometry"]["frame"] == "baffle"
     sphere = problem.sector.sphere
+    # a baffle over an enclosure has no air below it (microphones there refused: study.py)
+    below = () if study["geometry"]["enclosure"] != "none" else ("lower",)
     samplers = ({"upper": sphere(coupled, radius, ("upper",)),
-                 "lower": sphere(coupled, radius, ("lower",))} if baffle else
+                 **{side: sphere(coupled, radius, (side,)) for side in below}} if baffle else
                 {"all": sphere(coupled, radius)})
     pressure_vectors = forced.pressure(vectors)
     sampled = {name: sampler.sample(pressure_vectors) for name, sampler in samplers.items()}

@@ -118,7 +118,7 @@ def meridian_motion(state, mesh, domain_radius: float, order: int = 2, cavity=No
     and 0 beyond r_o; the mesh conforms to the kinks (``ale_guide`` lines), and
     the membrane line carries the FE prestress itself.  With an enclosure (``cavity``, a
     :class:`.meridian.Cavity`) L below the plane is the cavity's depth at r, so the walls
-    stay put (phi = 0 on the bottom; w = u_r = 0 beyond r_o).
+    stay put (phi = 0 on the bottom, w = u_r = 0 beyond r_o; their DOFs set to 0).
     """
     from copdea_fem.fe.ale import checked_decay_length, follow_membrane, transfinite_factors
 
@@ -133,4 +133,8 @@ def meridian_motion(state, mesh, domain_radius: float, order: int = 2, cavity=No
         column = ngs.IfPos(ngs.x - cavity.radius, cavity.radius, ngs.x)
         length = ngs.IfPos(ngs.y, length, -cavity.bottom(column, sqrt=ngs.sqrt))
     u_r, w, phi = transfinite_factors(rho, radial, axial, state.z, ngs.x, ngs.y, length)
-    return follow_membrane(mesh, state, ngs.CF((u_r, w)) * phi, order)
+    motion = follow_membrane(mesh, state, ngs.CF((u_r, w)) * phi, order)
+    if cavity is not None:       # the walls exactly in place (Set projects, ~1e-3 of w off)
+        walls = np.array(motion.space.GetDofs(mesh.Boundaries("enclosure|vent")))
+        motion.vec.FV().NumPy()[walls] = 0.0
+    return motion
