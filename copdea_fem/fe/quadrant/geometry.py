@@ -39,7 +39,9 @@ walls); with a baffle the enclosure replaces the lower half-space (no ``air_lowe
 plane faces over it are meshed.  Its walls are the faces ``enclosure`` (with frame
 none also the top between r_o and the rim; under a frame that top is ``frame``), a
 hole of radius ``enclosure_vent_radius`` in its bottom the face ``vent`` (on the bowl
-cut out by a short cylinder, the internal faces ``vent_guide``).  No ``ale_guide``
+cut out by a short cylinder, the internal faces ``vent_guide``).  The walls are meshed
+at twice the membrane's size, as the disc and the frame, the vent at the membrane's size
+or half its radius if finer.  No ``ale_guide``
 faces: the air mesh follows only a flat membrane there (``load.z`` = 0, refused
 otherwise by :meth:`GeometrySpec.from_study`).
 """
@@ -314,15 +316,17 @@ def _name_faces(shape, spec: GeometrySpec) -> None:
             face.name = name
             if name == "membrane":
                 face.maxh = spec.membrane_size
-            elif name in ("disc", "frame"):
+            elif name in ("disc", "frame", "enclosure"):
                 face.maxh = 2 * spec.membrane_size
         elif closed and lo[2] > -depth - tol and extent < spec.enclosure_radius + tol:
             if extent < vent + tol and near(lo[2], -depth):
-                face.name = "vent"
+                face.name = "vent"        # the air's neck: resolved (its mass is the vent's)
+                face.maxh = min(spec.membrane_size, 0.5 * vent)
             elif extent < vent + tol:
                 face.name = "vent_guide"
             else:
                 face.name = "enclosure"
+                face.maxh = 2 * spec.membrane_size
         elif _height(face) < 2 * ale_decay_length(R, r_o) + tol and extent < R - tol:
             face.name = "ale_guide"
         else:
