@@ -458,6 +458,17 @@ def region_pressures(pressure) -> list:
     return [(keep(air), keep(pml), value) for air, pml, value in parts if keep(air + "|" + pml)]
 
 
+def outside_pressures(pressure) -> tuple[list, list]:
+    """The fields whose sum is the outside air's pressure [Pa] above and below the plane
+    (module doc): ``[p]`` and ``[p, q]`` without an enclosure; ``[p]`` and ``[p]`` (``[p,
+    q_o]`` with the third field) beside one (``q`` is then the cavity's).  What a sphere
+    around the device samples; lists, so that a caller may take the gradient of each."""
+    p, q = pressure[0], pressure[1]
+    if CAVITY not in p.space.mesh.GetMaterials():
+        return [p], [p, q]
+    return [p], [p, pressure[2]] if len(pressure) == 3 else [p]
+
+
 def upper_pressure(pressure):
     """Pressure in the upper half [Pa]: ``p`` (``pressure = (p, q[, q_o])``)."""
     return pressure[0]
