@@ -187,11 +187,13 @@ def build_shape(spec: GeometrySpec):
         big = 2 * (R + t)
         upper = Box(Pnt(-big, -big, 0), Pnt(big, big, big))
         lower = Box(Pnt(-big, -big, -big), Pnt(big, big, 0))
-        solids = [(ball * upper, "air_upper"), (shell * upper, "pml_upper")]
-        if not (closed and spec.frame == "baffle"):     # a baffled enclosure: no lower half
-            lower_air = ball * lower - _enclosure_solid(spec) if closed else ball * lower
-            solids += [(lower_air, "air_lower"), (shell * lower, "pml_lower")]
-        for solid, name in solids:
+        lower_half = not (closed and spec.frame == "baffle")  # a baffled enclosure: none
+        lower_air = ball * lower - _enclosure_solid(spec) if closed else ball * lower
+        # (the order of the parts is Netgen's meshing order: kept as without an enclosure)
+        solids = [(ball * upper, "air_upper"), (lower_air, "air_lower") if lower_half else None,
+                  (shell * upper, "pml_upper"), (shell * lower, "pml_lower") if lower_half
+                  else None]
+        for solid, name in filter(None, solids):
             solid.mat(name)
             parts.insert(0, solid)
         if not closed:
