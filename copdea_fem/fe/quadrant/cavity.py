@@ -33,7 +33,8 @@ from copdea_fem.fe.cavity import (
     real_pattern,
     sign_changes,
 )
-from copdea_fem.fe.quadrant.geometry import GeometrySpec, bowl_sphere_radius
+from copdea_fem.fe.airbox import bowl_sphere_radius
+from copdea_fem.fe.quadrant.geometry import GeometrySpec
 
 #: Samples per line (and per side of the search grid).
 SAMPLES = 48

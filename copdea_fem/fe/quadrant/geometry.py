@@ -41,9 +41,8 @@ none also the top between r_o and the rim; under a frame that top is ``frame``),
 hole of radius ``enclosure_vent_radius`` in its bottom the face ``vent`` (on the bowl
 cut out by a short cylinder, the internal faces ``vent_guide``).  The walls are meshed
 at twice the membrane's size, as the disc and the frame, the vent at the membrane's size
-or half its radius if finer.  No ``ale_guide``
-faces: the air mesh follows only a flat membrane there (``load.z`` = 0, refused
-otherwise by :meth:`GeometrySpec.from_study`).
+or half its radius if finer.  The ``ale_guide`` cylinders run above the plane and, inside
+the cavity, down to its bottom, where the air mesh's motion stops (:mod:`copdea_fem.fe.ale`).
 """
 
 from __future__ import annotations
@@ -58,7 +57,7 @@ import uuid
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
-from copdea_fem.fe.airbox import ale_decay_length
+from copdea_fem.fe.airbox import ale_decay_length, bowl_sphere_radius, cavity_depth
 from copdea_fem.fingerprint import mesh_fingerprint
 from copdea_fem.inputs import preview
 from copdea_fem.study import StudyError
@@ -100,11 +99,18 @@ class GeometrySpec:
         g, a, m = study["geometry"], study["air"], study["mesh"]
         air = a["enabled"] if with_air is None else with_air
         enclosure = g.get("enclosure", "none") if air else "none"
-        if enclosure != "none" and study["load"]["z"] != 0:
-            raise StudyError(f"load.z = {preview(study['load']['z'])} is not allowed with "
-                             f"geometry.enclosure = {enclosure} on the 3-D engine; allowed: "
-                             "0 m (its air mesh follows only a flat membrane over an "
-                             "enclosure: the lift would move the cavity's walls)")
+        if enclosure != "none":
+            # the cavity's depth where the lift is whole (the disc's rim); beyond, the lift
+            # and a bowl's depth both fall towards the rim (the Jacobians are checked)
+            under_disc = cavity_depth(enclosure, g["enclosure_depth"], g["enclosure_radius"],
+                                      g["inner_radius"])
+            if abs(study["load"]["z"]) >= 0.45 * under_disc:
+                raise StudyError(
+                    f"load.z = {preview(study['load']['z'])} is not allowed with geometry."
+                    f"enclosure = {enclosure} on the 3-D engine; allowed: below "
+                    f"{0.45 * under_disc:g} m = 0.45 times the cavity's depth under the "
+                    "disc's rim (the air inside follows the membrane down to the bottom, "
+                    "copdea_fem.fe.ale)")
         closed = {} if enclosure == "none" else {
             "enclosure": enclosure, "enclosure_depth": g["enclosure_depth"],
             "enclosure_radius": 0.5 * g["frame_side"] if enclosure == "box"
@@ -202,7 +208,8 @@ def build_shape(spec: GeometrySpec):
                 cylinder = Cylinder(Pnt(0, 0, -half_height), Z, radius, 2 * half_height)
                 parts += [face for face in cylinder.faces if _height(face) > half_height]
     if closed:
-        parts = _cavity_parts(spec) + parts
+        parts = _cavity_parts(spec) + parts + _ale_guides(
+            spec, ale_decay_length(R, r_o) if outside else 0.0)
     shape = Glue(parts)
     if spec.symmetry == "quarter":
         if not spec.with_air:
@@ -226,10 +233,26 @@ def _enclosure_top(spec: GeometrySpec):
     return WorkPlane().Circle(spec.enclosure_radius).Face()
 
 
-def bowl_sphere_radius(rim_radius: float, depth: float) -> float:
-    """Radius [m] of the sphere whose cap has the rim radius ``a`` and the depth ``L`` at its
-    centre: ``(a^2 + L^2) / (2 L)`` (the chord-sagitta relation a^2 = L (2 R_s - L))."""
-    return (rim_radius**2 + depth**2) / (2 * depth)
+def _ale_guides(spec: GeometrySpec, height: float) -> list:
+    """The ``ale_guide`` cylinders r = r_i, r_o: above the plane up to ``height`` (0: no
+    outside air), and over an enclosure down through the cavity to its bottom (where the
+    mesh motion stops, so the mesh conforms to its kinks there too,
+    :mod:`copdea_fem.fe.ale`); none at the enclosure's rim."""
+    from netgen.occ import Cylinder, Pnt, Z
+
+    r_o, r_i = spec.outer_radius, spec.inner_radius
+    faces = []
+    for radius in (r_i, r_o) if r_i > 0 else (r_o,):
+        if height > 0:                                 # the outside air above
+            faces += [face for face in Cylinder(Pnt(0, 0, 0), Z, radius, height).faces
+                      if _height(face) > 0.5 * height]
+        if spec.enclosure != "box" and radius >= spec.enclosure_radius * (1 - 1e-9):
+            continue                                   # the rim is there
+        depth = cavity_depth(spec.enclosure, spec.enclosure_depth, spec.enclosure_radius,
+                             radius)
+        faces += [face for face in Cylinder(Pnt(0, 0, -depth), Z, radius, depth).faces
+                  if _height(face) > 0.5 * depth]
+    return faces
 
 
 def _enclosure_solid(spec: GeometrySpec):
@@ -276,6 +299,22 @@ def _height(shape) -> float:
     return hi[2] - lo[2]
 
 
+def _is_guide(face, spec: GeometrySpec, tol: float) -> bool:
+    """Whether a face below the plane is an ``ale_guide`` cylinder in the cavity: vertical,
+    at r_i or r_o, not the cylinder's wall."""
+    lo, hi = face.bounding_box
+    extent = _extent(face)
+    radii = (spec.inner_radius, spec.outer_radius) if spec.inner_radius > 0 else \
+        (spec.outer_radius,)
+    on_radius = any(abs(extent - radius) < tol + 1e-9 for radius in radii)
+    wall = spec.enclosure == "cylinder" and abs(extent - spec.enclosure_radius) < tol + 1e-9
+    # a guide spans the cavity's depth at its radius; the bowl's cap at r < r_o is lower
+    depth = cavity_depth(spec.enclosure, spec.enclosure_depth, spec.enclosure_radius, extent) \
+        if extent < spec.enclosure_radius else 0.0
+    return on_radius and not wall and abs(hi[2]) < tol and abs(lo[2] + depth) < tol \
+        and hi[2] - lo[2] > tol
+
+
 def _name_faces(shape, spec: GeometrySpec) -> None:
     r_o, r_i, R, t = spec.outer_radius, spec.inner_radius, spec.domain_radius, spec.pml_thickness
     tol = 1e-5 * (R + t)     # OCC pads bounding boxes by ~1e-7 m, more after a cut
@@ -320,7 +359,10 @@ def _name_faces(shape, spec: GeometrySpec) -> None:
                 face.maxh = spec.membrane_size
             elif name in ("disc", "frame", "enclosure"):
                 face.maxh = 2 * spec.membrane_size
-        elif closed and lo[2] > -depth - tol and extent < spec.enclosure_radius + tol:
+        elif closed and hi[2] < tol and lo[2] > -depth - tol and _is_guide(face, spec, tol):
+            face.name = "ale_guide"
+        elif closed and hi[2] < tol and lo[2] > -depth - tol \
+                and extent < spec.enclosure_radius + tol:
             if extent < vent + tol and near(lo[2], -depth):
                 face.name = "vent"        # the air's neck: resolved (its mass is the vent's)
                 face.maxh = min(spec.membrane_size, 0.5 * vent)
