@@ -18,7 +18,8 @@ __version__ = "0.1.0"
 #: The names of :mod:`copdea_fem.api` exported here, imported on first access (PEP 562).
 __all__ = ["load_study", "solve", "response", "force", "spectrum", "sweep", "diagnose",
            "Solution", "ResponseSolution", "ForceCurve", "Spectrum", "SweepResult",
-           "Diagnosis", "SolveFailed", "StudyError", "OutputFolderError"]
+           "Diagnosis", "SolveFailed", "StudyError", "OutputFolderError", "identify",
+           "IdentifyResult"]
 
 
 def __getattr__(name):

@@ -26,6 +26,13 @@ failed for a physical or numerical reason; exit 3), and
 :class:`~copdea_fem.reduced.rings.ReducedModelError` (the reduced model, or the diagnosis's
 model, cannot be built or evaluated for these inputs; exit 3).  Each function's *Raises*
 section says which it can raise.
+
+A :class:`~copdea_fem.study.Study` given to a function is validated again first
+(:meth:`~copdea_fem.study.Study.checked`): a study changed by hand after :func:`load_study`
+is checked like a file (an unknown key, a wrong type or a value out of range is a
+:class:`~copdea_fem.study.StudyError`; a deleted key takes its default), so no hand edit
+reaches the solver unchecked.  A Netgen failure while meshing is a :class:`SolveFailed`
+naming the mesh keys.
 """
 
 from __future__ import annotations
@@ -55,10 +62,12 @@ if TYPE_CHECKING:
     from copdea_fem.reduced.response import SpectrumResult
     from copdea_fem.sweeps.gather import SweepOutcome
     from copdea_fem.sweeps.spec import Sweep
+    from copdea_fem.vibrometer.scan import IdentifiedSet
 
 __all__ = ["load_study", "solve", "response", "force", "spectrum", "sweep", "diagnose",
            "Solution", "ResponseSolution", "ForceCurve", "Spectrum", "SweepResult",
-           "Diagnosis", "SolveFailed", "StudyError", "OutputFolderError"]
+           "Diagnosis", "SolveFailed", "StudyError", "OutputFolderError", "identify",
+           "IdentifyResult"]
 
 logger = logging.getLogger("copdea_fem")
 
@@ -118,13 +127,25 @@ def load_study(path: str | Path, overrides: dict[str, Any] | list[str] | None = 
 
     if isinstance(overrides, (list, tuple)):
         overrides = parse_overrides(list(overrides))
+    elif overrides is not None and not isinstance(overrides, dict):
+        parse_overrides(overrides)          # refused, naming what is allowed
     study = _load(path, overrides=overrides)
     _SOURCES[study] = Path(path)
     return study
 
 
 def _as_study(study: Study | str | Path) -> Study:
-    return study if isinstance(study, Study) else load_study(study)
+    """A study file read, or a :class:`Study` validated again (:meth:`Study.checked`: a hand
+    edit after :func:`load_study` is checked like a file), remembering its source file."""
+    if not isinstance(study, Study):
+        if not isinstance(study, (str, Path)):
+            raise StudyError(f"study = {type(study).__name__} is not allowed; allowed: a "
+                             "Study from load_study or a study file's path")
+        return load_study(study)
+    checked = study.checked()
+    if study in _SOURCES:
+        _SOURCES[checked] = _SOURCES[study]
+    return checked
 
 
 def _inputs(study: Study) -> list:
@@ -139,7 +160,8 @@ def _load_text(study) -> str:
 
 @contextlib.contextmanager
 def solving(study):
-    """Solver failures -> :class:`SolveFailed`: what failed, at which load, which key to change."""
+    """Solver failures -> :class:`SolveFailed`: what failed, at which load, which key to change
+    (a Netgen failure, ``NgException``: the mesh keys)."""
     from copdea_fem.fe.ale import MeshMotionError
     from copdea_fem.fe.eigen import EigenResidualError, EigenSolverError, TooManyModesError
     eigen = study["eigen"]
@@ -159,6 +181,12 @@ def solving(study):
         what, keys = next(item for kind, item in advice.items() if isinstance(error, kind))
         raise SolveFailed(f"{what} failed at {_load_text(study)}: {error}; change {keys}") \
             from None
+    except Exception as error:
+        if type(error).__name__ != "NgException":     # Netgen's one error type
+            raise
+        message = " ".join(str(error).split()) or "an error"
+        raise SolveFailed(f"Netgen failed ({message}); change mesh.membrane_size, "
+                          "mesh.air_size or mesh.grading (or the geometry.* radii)") from None
 
 
 def check_size(study: Study, allow_large: bool = False, engine: Engine | None = None) -> None:
@@ -212,8 +240,8 @@ def solve(study: Study | str | Path, *, allow_large: bool = False,
         the membrane would lift out of, or a problem above the size limit (without
         ``allow_large``).
     SolveFailed
-        The air mesh cannot follow the membrane, or the eigen solve fails (residuals,
-        too many modes in the band, a band it cannot cover).
+        Netgen cannot mesh the geometry, the air mesh cannot follow the membrane, or the
+        eigen solve fails (residuals, too many modes in the band, a band it cannot cover).
     PrestressError
         The prestress (Newton) solve fails: a loss of tension (the membrane would
         wrinkle), pull-in, or no convergence after ``prestress.max_cuts`` step halvings.
@@ -332,13 +360,15 @@ class Solution:
 
     def air(self, label: str) -> pv.UnstructuredGrid:
         """pyvista grid of the air with mode ``label``'s pressure (re/im/abs, Pa per unit peak
-        membrane displacement; cell data ``pml``, ``lower_half``), equal to its
-        ``air_NNN_<label>.vtu``.  Only for a coupled solve (``air.enabled: true``).
+        membrane displacement; cell data ``pml``, ``lower_half`` and, with an enclosure,
+        ``cavity``), the blocks of its ``air_NNN_<label>*.vtu`` in one grid.  Only for a
+        coupled solve (``air.enabled: true``).
 
         Parameters
         ----------
         label : str
-            A mode label of :attr:`labels`, e.g. ``"(0,1)"``.
+            A mode label of :attr:`labels`, e.g. ``"(0,1)"``, or an enclosure's cavity mode,
+            e.g. ``"cavity(1,0,0)a"`` (docs/enclosures.md).
 
         Returns
         -------
@@ -355,8 +385,9 @@ class Solution:
         if coupled is None:
             raise StudyError("air.enabled = false has no air field; allowed: a coupled solve "
                              "(air.enabled: true)")
-        index = self._find(label)
-        mode = self._structural()[index]
+        cavity = [mode for mode in self.result.modes if mode.cavity_orders
+                  and mode.label == label]
+        mode = cavity[0] if cavity else self._structural()[self._find(label)]
         k = next(k for k, item in enumerate(self.result.modes) if item is mode)
         pressure = coupled.pressures[k]
         with self.engine.threads():
@@ -665,7 +696,7 @@ def compute_force(study: Study, z_values: Sequence[float] | np.ndarray,
     """
     from copdea_fem.fe.pipeline import run_force
 
-    with _progress(progress):
+    with solving(study), _progress(progress):
         forces = run_force(study, z_values, voltages, cache_dir=mesh_cache)
     return ForceCurve(study, z_values, list(voltages), forces)
 
@@ -1034,4 +1065,93 @@ class Diagnosis:
         with _claimed(folder, "diagnose", inputs) as target:
             with result_directory(target, "diagnose") as staging:
                 write_report(self.result, staging)
+        return target
+
+
+# -- identify (vibrometer scans) -------------------------------------------------------------
+def identify(measured: str | Path, *, progress: Callable[[str], None] | None = None,
+             **options) -> IdentifyResult:
+    """The modes of every scan of a measured.yaml (``copdea-fem identify``, nothing written).
+
+    Each condition with ``scan: FILE`` is read (:func:`copdea_fem.vibrometer.uff.read_scan`,
+    checked on the device) and identified automatically in its ``band`` (default: the
+    scan's lines above 0 Hz): LSCF poles stable over the model orders, LSFD residues as
+    shapes (:mod:`copdea_fem.vibrometer.identify`; nothing from the FE).
+
+    Parameters
+    ----------
+    measured : str or Path
+        A measured.yaml with at least one condition with a ``scan``.
+    progress : callable(str), optional
+        As :func:`solve`'s.
+    **options
+        Passed to :func:`copdea_fem.vibrometer.identify.identify_scan` (``f_min``,
+        ``f_max`` [Hz] in place of the conditions' bands, ``max_order``, ``components``, ``frequency_tolerance``,
+        ``damping_tolerance``, ``max_damping``, ``min_stable_orders``).
+
+    Returns
+    -------
+    IdentifyResult
+
+    Raises
+    ------
+    StudyError
+        A bad measured.yaml, scan file or option, or no condition with a scan (a
+        :class:`~copdea_fem.diagnosis.measured.MeasuredDataError`).
+    """
+    from copdea_fem.diagnosis.measured import MeasuredDataError, load_measured
+    from copdea_fem.vibrometer.identify import OPTIONS, identify_scan
+    from copdea_fem.vibrometer.scan import IdentifiedSet
+
+    for name in options:
+        if name not in OPTIONS:
+            raise StudyError(f"identify option {name!r} is not allowed (unknown option); "
+                             f"allowed: {', '.join(OPTIONS)}")
+    measured_set = load_measured(measured)
+    scanned = [c for c in measured_set.conditions if c.scan is not None]
+    if not scanned:
+        raise MeasuredDataError(f"measured file {measured}: no condition has a scan; "
+                                "allowed: at least one condition with scan: FILE (.uff/.unv)")
+    sets = []
+    with _progress(progress):
+        for condition in scanned:
+            logger.info("identifying %s (%d channels, %d lines, largest distance off the "
+                        "device %.2f mm)", condition.name, condition.scan.n_channels,
+                        condition.scan.frequencies.size, 1e3 * condition.scan_distance)
+            frequencies = condition.scan.frequencies
+            band = {"f_min": max(condition.band[0], float(frequencies[frequencies > 0][0])),
+                    "f_max": min(condition.band[1], float(frequencies[-1]))}
+            found = identify_scan(condition.scan, **{**band, **options})
+            sets.append(IdentifiedSet(condition.name, condition.scan, found.modes,
+                                      found.diagram))
+    return IdentifyResult(tuple(sets), Path(measured),
+                          [p for c in measured_set.conditions for p in c.files.values()])
+
+
+@dataclass
+class IdentifyResult:
+    """The result of :func:`identify`: ``sets`` (one
+    :class:`~copdea_fem.vibrometer.scan.IdentifiedSet` per scanned condition), ``table``,
+    ``write``."""
+
+    sets: tuple[IdentifiedSet, ...]
+    source: Path | None = None
+    files: list = field(default_factory=list)
+
+    @property
+    def table(self) -> pd.DataFrame:
+        """identified.csv as a DataFrame (condition, test_mode, freq_hz, damping_ratio, mpc)."""
+        from copdea_fem.vibrometer.identify import IDENTIFIED_COLUMNS, identified_rows
+        return _frame(identified_rows(self.sets), IDENTIFIED_COLUMNS)
+
+    def write(self, folder: str | Path | Claim) -> Path:
+        """Write identified.csv, stabilisation_<condition>.png and shapes_<condition>/
+        (VTU per mode, shapes.pvd) in ``folder``; or into a held
+        :class:`~copdea_fem.folders.Claim`.  Parameters, return and errors as
+        :meth:`Solution.write`."""
+        from copdea_fem.folders import result_directory
+        from copdea_fem.vibrometer.identify import write_identified
+        with _claimed(folder, "identify", [self.source, *self.files]) as target:
+            with result_directory(target, "identify") as staging:
+                write_identified(staging, self.sets)
         return target

@@ -221,6 +221,9 @@ def cmd_calibrate_damping(args) -> int:
                          "--quality-factors; allowed: a spectrum CSV, or --fit rayleigh|prony "
                          "with --quality-factors Q.csv or a spectrum CSV")
     if args.fit != "modal":
+        if args.quality_factors is not None:     # every row checked before any work
+            from copdea_fem.damping_fit import check_measured, read_quality_csv
+            check_measured(read_quality_csv(args.quality_factors))
         if args.spectrum is None and args.quality_factors is None:
             raise StudyError(f"--fit {args.fit} needs measured damping; allowed: "
                              "--quality-factors Q.csv or a SPECTRUM.csv")
@@ -345,6 +348,31 @@ def cmd_diagnose(args) -> int:
         return _reduced_action(action)
 
 
+def cmd_identify(args) -> int:
+    """The modes of every scan of a measured.yaml: identified.csv, stabilisation PNGs, VTU."""
+    from copdea_fem import api
+    from copdea_fem.diagnosis import load_measured
+    measured = load_measured(args.measured)
+    if not any(condition.scan is not None for condition in measured.conditions):
+        raise StudyError(f"measured file {args.measured}: no condition has a scan; allowed: "
+                         "at least one condition with scan: FILE (.uff/.unv)")
+    out_dir = Path(args.out) if args.out else Path("results") / f"identify_{measured.name}"
+    inputs = [args.measured, *(path for condition in measured.conditions
+                               for path in condition.files.values())]
+    options = {} if args.max_order is None else {"max_order": args.max_order}
+    if options:
+        from copdea_fem.vibrometer.identify import check_options
+        check_options(options)                       # exit 2 before any work
+    with _output(args, out_dir, "identify", inputs) as folder:
+        result = api.identify(args.measured, **options)
+        result.write(folder)
+    for item in result.sets:
+        modes = ", ".join(f"{m.freq_hz:.1f}" for m in item.modes)
+        print(f"{item.condition}: {len(item.modes)} modes [Hz]: {modes}")
+    print(f"wrote {out_dir}")
+    return 0
+
+
 def cmd_synth(args) -> int:
     """Synthetic measured.yaml set from the model with chosen effects on."""
     from copdea_fem.diagnosis import run_synth, synth_out_dir
@@ -390,6 +418,17 @@ def _add_diagnose_commands(commands, with_study) -> None:
                                "a time)")
     diagnose.add_argument("--quiet", action="store_true", help="no progress messages")
     diagnose.set_defaults(handler=cmd_diagnose)
+
+    identify = commands.add_parser(
+        "identify", help="identify the modes of the vibrometer scans (UFF exports) of a "
+        "measured.yaml: identified.csv, stabilisation_<condition>.png, shapes VTU")
+    identify.add_argument("measured", help="measured.yaml whose conditions name scan: FILE")
+    identify.add_argument("--out", help="output directory (default: results/identify_<name>)")
+    identify.add_argument("--max-order", type=int, metavar="N",
+                          help="highest LSCF model order (default 120: up to 60 modes in the "
+                               "band)")
+    identify.add_argument("--quiet", action="store_true", help="no progress messages")
+    identify.set_defaults(handler=cmd_identify)
 
     synth = with_study("synth", "synthetic measured data from the model with chosen effects on "
                        "(frequency noise, missing and spurious peaks, spectra), for diagnose")

@@ -63,6 +63,7 @@ from __future__ import annotations
 import csv
 import logging
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -238,9 +239,39 @@ def fit_prony(freq_hz, damping_ratio, strain_fraction, relaxation_time=None,
 
 
 # -- measured damping ------------------------------------------------------------------------
+#: A mode label as the FE writes it in modes.csv (copdea_fem.fe.modes.assign_labels):
+#: ``(m,n)`` with an optional letter and repeat suffix, ``ip(m,n)...``, or ``P<k>``.
+MODE_LABEL = re.compile(r"(?:ip)?\(\d+,[1-9]\d*\)[a-z]?(?:-\d+)?|P[1-9]\d*")
+LABEL_ALLOWED = "a mode label as in modes.csv, e.g. (0,1), (1,1)a, ip(0,1)b or P1"
+#: Largest relative difference between damping_ratio and 1/(2 quality_factor) of one row
+#: when a file gives both (both rounded to a few digits by whoever wrote them).
+COLUMNS_AGREEMENT = 0.01
+
+
+def mode_label(text: str, where: str) -> str:
+    """``text`` as a mode label (spaces dropped: ``(0, 1)`` is ``(0,1)``), else a
+    :class:`StudyError` naming ``where``."""
+    label = "".join(str(text).split())
+    if not MODE_LABEL.fullmatch(label):
+        raise StudyError(f"{where}: label = {str(text)!r} is not allowed"
+                         f"{' (empty)' if not label else ''}; allowed: {LABEL_ALLOWED}")
+    return label
+
+
+def check_damping_ratio(zeta: float, where: str) -> None:
+    """A measured damping ratio the fit can use: finite, in (0, 1); a ratio >= 1 is
+    overdamped, a motion without oscillation and so without a resonance to fit."""
+    if not (math.isfinite(zeta) and 0 < zeta < 1):
+        why = " (overdamped: no oscillation, no resonance to fit)" if zeta >= 1 else ""
+        raise StudyError(f"{where}: damping_ratio = {zeta:g} is not allowed{why}; allowed: "
+                         "(0, 1)")
+
+
 def read_quality_csv(path) -> MeasuredDamping:
     """Measured modes: columns ``label`` (as in modes.csv, e.g. ``(0,1)``) and
-    ``quality_factor`` [-] (or ``damping_ratio`` [-]); optional ``freq_hz`` [Hz]."""
+    ``quality_factor`` [-] (or ``damping_ratio`` [-], or both when they agree within
+    :data:`COLUMNS_AGREEMENT`); optional ``freq_hz`` [Hz].  Every value is checked here,
+    before any FE solve (a :class:`StudyError` naming the file, line and column)."""
     path = Path(path)
     if not path.is_file():
         raise StudyError(f"--quality-factors {str(path)!r} does not exist; allowed: a CSV with "
@@ -248,32 +279,68 @@ def read_quality_csv(path) -> MeasuredDamping:
     lines = read_text(path, "--quality-factors", error=StudyError).splitlines()
     rows = list(csv.reader(row for row in lines if row.strip() and not row.startswith("#")))
     header = [name.strip() for name in rows[0]] if rows else []
-    value = "quality_factor" if "quality_factor" in header else "damping_ratio"
-    if "label" not in header or value not in header or len(rows) < 2:
-        raise StudyError(f"--quality-factors {str(path)!r} has columns {header} and "
+    given = [name for name in ("quality_factor", "damping_ratio") if name in header]
+    duplicated = sorted({name for name in header if header.count(name) > 1})
+    if "label" not in header or not given or len(rows) < 2 or duplicated:
+        twice = f" ({', '.join(duplicated)} twice)" if duplicated else ""
+        raise StudyError(f"--quality-factors {str(path)!r} has columns {header}{twice} and "
                          f"{max(len(rows) - 1, 0)} rows; allowed: columns label, quality_factor "
-                         "(or damping_ratio) [, freq_hz] and at least one row")
+                         "(or damping_ratio) [, freq_hz], each once, and at least one row")
     labels, values, freqs = [], [], []
     for number, row in enumerate(rows[1:], start=2):
+        where = f"--quality-factors {str(path)!r} line {number}"
         cells = dict(zip(header, (cell.strip() for cell in row)))
+        ratios = {}
+        for column in given:
+            try:
+                number_value = float(cells[column])
+            except (KeyError, ValueError):
+                raise StudyError(f"{where}: {column} = {cells.get(column)!r} is not allowed; "
+                                 "allowed: a number") from None
+            if column == "damping_ratio":
+                check_damping_ratio(number_value, where)
+                zeta = number_value
+            elif not (math.isfinite(number_value) and number_value > 0.5):
+                why = " (overdamped: no oscillation, no resonance to fit)" \
+                    if 0 < number_value <= 0.5 else ""
+                raise StudyError(f"{where}: quality_factor = {number_value:g} is not allowed"
+                                 f"{why}; allowed: > 0.5 (damping ratio 1/(2 Q) < 1)")
+            else:
+                zeta = 1 / (2 * number_value)
+            ratios[column] = zeta
+        if len(ratios) == 2 and abs(ratios["damping_ratio"] / ratios["quality_factor"] - 1) \
+                > COLUMNS_AGREEMENT:
+            raise StudyError(
+                f"{where}: damping_ratio = {ratios['damping_ratio']:g} and quality_factor = "
+                f"{1 / (2 * ratios['quality_factor']):g} disagree (1/(2 Q) = "
+                f"{ratios['quality_factor']:g}); allowed: one of the columns, or both with "
+                f"damping_ratio = 1/(2 quality_factor) within {COLUMNS_AGREEMENT:.0%}")
+        text = cells.get("freq_hz", "")
         try:
-            number_value = float(cells[value])
-            freq = float(cells["freq_hz"]) if cells.get("freq_hz") else math.nan
-        except (KeyError, ValueError):
-            raise StudyError(f"--quality-factors {str(path)!r} line {number}: {value} = "
-                             f"{cells.get(value)!r} is not allowed; allowed: a number") from None
-        if not (number_value > 0 and math.isfinite(number_value)):
-            raise StudyError(f"--quality-factors {str(path)!r} line {number}: {value} = "
-                             f"{number_value:g} is not allowed; allowed: > 0")
-        if cells["label"] in labels:
-            raise StudyError(f"--quality-factors {str(path)!r} line {number}: label "
-                             f"{cells['label']!r} is not allowed twice")
-        labels.append(cells["label"])
-        values.append(number_value)
+            freq = float(text) if text else math.nan
+        except ValueError:
+            freq = -1.0
+        if text and not (math.isfinite(freq) and freq > 0):
+            raise StudyError(f"{where}: freq_hz = {text!r} is not allowed; allowed: a frequency "
+                             "> 0 Hz, or empty")
+        label = mode_label(cells.get("label", ""), where)
+        if label in labels:
+            raise StudyError(f"{where}: label {label!r} is not allowed twice")
+        labels.append(label)
+        values.append(ratios.get("damping_ratio", ratios.get("quality_factor")))
         freqs.append(freq)
-    values = np.array(values)
-    ratio = 1 / (2 * values) if value == "quality_factor" else values
-    return MeasuredDamping(labels, ratio, np.array(freqs), source=str(path))
+    return MeasuredDamping(labels, np.array(values), np.array(freqs), source=str(path))
+
+
+def check_measured(measured: MeasuredDamping) -> None:
+    """Refuse measured damping the fit cannot use, before any FE solve: empty, a label
+    that is not a mode label, a damping ratio not in (0, 1) (:func:`check_damping_ratio`)."""
+    where = f"measured damping from {measured.source or 'the spectrum'}"
+    if not len(measured.labels):
+        raise StudyError(f"{where}: no mode is allowed; allowed: at least one measured mode")
+    for label, zeta in zip(measured.labels, measured.damping_ratio):
+        mode_label(label, where)
+        check_damping_ratio(float(zeta), f"{where}, mode {label}")
 
 
 def measured_from_spectrum(labels, damping_per_mass, freq_hz, source="") -> MeasuredDamping:
@@ -358,7 +425,7 @@ def fit_damping(study, measured: MeasuredDamping, kind: str, relaxation_time=Non
         measured = MeasuredDamping([measured.labels[j] for j in kept],
                                    measured.damping_ratio[kept], None, measured.source)
     elif missing:
-        raise DampingFitError(
+        raise StudyError(
             f"measured mode(s) {', '.join(missing)} are not in the FE band of the study "
             f"(its modes: {', '.join(undamped)}); allowed: labels of the FE modes in "
             f"[eigen.f_min, eigen.f_max] = [{study['eigen']['f_min']:g}, "
@@ -454,6 +521,13 @@ def fit_damping(study, measured: MeasuredDamping, kind: str, relaxation_time=Non
         log.info(f"calibrate-damping: FE solve with the fitted keys ({attempt + 1}) ...")
         solved = fe_modes(fitted_study)
         fe = np.array([solved.get(label, (math.nan, math.nan))[1] for label in labels])
+        lost = [label for label, zeta, use in zip(labels, fe, used)
+                if use and not math.isfinite(zeta)]
+        if lost or not all(math.isfinite(value) for value in _key_values(keys)):
+            raise DampingFitError(
+                f"the fitted keys {keys} leave no FE mode {', '.join(lost) or ''} in the band "
+                "(overdamped or moved out of [eigen.f_min, eigen.f_max]): the measured "
+                "damping cannot be fitted by " + kind + " damping")
         result = DampingFit(kind, keys, labels, freq, measured.damping_ratio, radiation,
                             formula, fe, used, strain, notes)
         structural = fe - radiation
@@ -463,6 +537,15 @@ def fit_damping(study, measured: MeasuredDamping, kind: str, relaxation_time=Non
         scale = np.where(used, structural / np.maximum(formula - radiation, 1e-300) * scale,
                          scale)
     return result
+
+
+def _key_values(keys: dict) -> list:
+    """The numbers of fitted keys (a Prony term's two included)."""
+    values = []
+    for value in keys.values():
+        values.extend([number for term in value for number in term.values()]
+                      if isinstance(value, list) else [value])
+    return values
 
 
 # -- the command -----------------------------------------------------------------------------
@@ -495,6 +578,7 @@ def calibrate_structural_damping(study, spectrum_csv, out_dir, fit: str, quality
     else:
         raise StudyError(f"--fit {fit} needs measured damping; allowed: --quality-factors "
                          "Q.csv or a SPECTRUM.csv")
+    check_measured(measured)
     try:
         result = fit_damping(study, measured, fit, relaxation_time=relaxation_time)
     except DampingFitError as error:

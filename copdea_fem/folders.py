@@ -14,7 +14,9 @@ run wrote (with the tool version and the command).  The rules, checked by
 - a directory taken from an input file (``output.directory`` of a study or
   sweep file, data that may come from someone else) must lie inside the
   working folder;
-- its parent must be a writable folder (checked by creating the lock file).
+- its parent must be a writable folder (checked by creating the lock file), and an
+  existing folder must be writable too (a file created in it and removed, once it is
+  locked: a read-only folder is refused, not swapped for a writable one).
 
 Writing (:func:`result_directory`) is staged: the files go to a hidden sibling
 ``.NAME.staging-*``; when complete, the old result (if any) is renamed to
@@ -242,6 +244,20 @@ def check_output(target, command: str, inputs=(), from_file=None) -> Path:
     return target
 
 
+def _check_writable(target: Path) -> None:
+    """Refuse a folder this process cannot write: a file is created in it and removed (the
+    permission bits alone do not say it: root may write a read-only folder, unless run
+    without that capability)."""
+    try:
+        probe = target / f".copdea-fem-probe-{uuid.uuid4().hex[:8]}"
+        os.close(os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
+        os.unlink(probe)
+    except OSError as error:
+        raise OutputFolderError(f"output folder {target} cannot be written "
+                                f"({error.strerror or error}); nothing was written: make it "
+                                "writable or choose another folder") from None
+
+
 def _check_replaceable(target: Path, command: str) -> None:
     try:
         entries = sorted(entry.name for entry in target.iterdir())
@@ -297,6 +313,8 @@ def claim(target, command: str, inputs=(), from_file=None):
         try:
             _clean_leftovers(target)
             check_output(target, command, inputs, from_file)   # again, now that it is ours
+            if target.is_dir():             # probed only while held: no other run swaps it
+                _check_writable(target)
             record = Claim(target, command, had_result=read_manifest(target) is not None)
             held_here[target] = record
             yield record
@@ -414,14 +432,23 @@ def _clean_leftovers(target: Path) -> None:
 
     for path in ours("old"):
         if target.exists():
-            shutil.rmtree(path, ignore_errors=True)
-            say(f"removed {path.name}, a replaced result an interrupted run left")
+            try:
+                _remove_result(path)
+            except OSError as error:
+                logger.warning(f"{path} (a replaced result an earlier run left) could not be "
+                               f"removed ({error.strerror or error}); delete it by hand")
+            else:
+                say(f"removed {path.name}, a replaced result an interrupted run left")
         else:
             path.rename(target)
             say(f"restored the previous result {target} (an interrupted run had moved it)")
     for path in ours("staging"):
         shutil.rmtree(path, ignore_errors=True)
-        say(f"removed {path.name}, an unfinished result an interrupted run left")
+        if path.exists():
+            logger.warning(f"{path} (an unfinished result an earlier run left) could not be "
+                           "removed; delete it by hand")
+        else:
+            say(f"removed {path.name}, an unfinished result an interrupted run left")
 
 
 SWAP_SIGNALS = ("SIGINT", "SIGTERM")
@@ -497,8 +524,8 @@ def _swap(staging: Path, target: Path, record: Claim) -> None:
             raise
         if record.old_copy is not None:
             logger.warning(f"the previous result {old} was not removed "
-                           f"({error.strerror or error}); the next run into {target} removes "
-                           "it (or delete it)")
+                           f"({error.strerror or error}); the next run into {target} tries "
+                           "again (or delete it)")
 
 
 @contextlib.contextmanager

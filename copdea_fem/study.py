@@ -13,6 +13,8 @@ from __future__ import annotations
 import copy
 import functools
 import math
+import numbers
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -89,6 +91,10 @@ AXISYMMETRIC_ENCLOSURES = ("none", "cylinder", "bowl")
 #: The enclosure's farthest point must lie within this share of air.domain_radius, so that
 #: the outside air around it is meshed (frame none, circle, square).
 ENCLOSURE_AIR_SHARE = 0.8
+#: An enclosure's depth is at least this share of the outer radius, and its radii (vent,
+#: disc, membrane, enclosure, circular frame) are equal or this share of r_o apart: Netgen
+#: meshes the meridian at these limits in ~1 s, fails or hangs far below them.
+ENCLOSURE_MIN_DEPTH, ENCLOSURE_MIN_GAP = 0.02, 1e-4
 SCHEMA: dict[str, dict[str, Key]] = {
     "geometry": {
         "outer_radius": Key("m", 0.0355, f"outer radius r_o of the pre-stretched membrane ({G1})",
@@ -376,6 +382,14 @@ SCHEMA["effects"] = {
                              minimum=0, maximum=10, open_min=True),
 }
 
+#: Most elements across the membrane width r_o - r_i that both engines mesh: the smallest
+#: mesh.membrane_size, and the narrowest ring of a circular frame, is (r_o - r_i) / this.
+#: Netgen's 2-D mesher failed on G1's meridian (width 18.5 mm) at 460 and 925 elements
+#: across (0.04, 0.02 mm; 0.03 and 0.06 mm passed) and on a ring 1e-10 m wide (a ring
+#: within round-off of r_o crashed it); 200 keeps a margin of 2.  The 3-D engine's resource
+#: guard refuses such sizes anyway (G1 at 0.09 mm: ~1e7 unknowns).
+MAX_ELEMENTS_ACROSS = 200
+
 #: Longest text read as a quantity ("35.5 mm", "1.5e-3 kg/m^3").
 MAX_QUANTITY_CHARACTERS = 100
 
@@ -390,6 +404,23 @@ def unit_registry():
     for units :mod:`copdea_fem.units` does not know."""
     import pint
     return pint.UnitRegistry()
+
+
+#: Values this many units in the last place apart count as equal where a bound is open
+#: (``>``) or two keys must differ: a unit conversion rounds ("35.5 mm" is
+#: 35.5 * 1e-3 = 0.035500000000000004 m, one ulp above 0.0355).
+ROUND_OFF_ULPS = 4
+
+
+def above(value: float, bound: float) -> bool:
+    """``value > bound`` beyond round-off (:data:`ROUND_OFF_ULPS`): a value within a few
+    ulps of an open bound is on it, as the number written without a unit would be."""
+    return value - bound > ROUND_OFF_ULPS * math.ulp(max(abs(value), abs(bound)))
+
+
+def apart(first: float, second: float) -> bool:
+    """Whether two values differ beyond round-off (:func:`above` either way)."""
+    return above(first, second) or above(second, first)
 
 
 def _fail(key: str, value: Any, allowed: str, why: str = "") -> StudyError:
@@ -412,14 +443,15 @@ def convert_value(key: str, spec: Key, value: Any) -> Any:
             raise _fail(key, value, spec.allowed())
         return value
     number = _to_si(key, spec, value)
+    if not math.isfinite(number):
+        raise _fail(key, value, spec.allowed(), "not a finite number")
     if spec.kind is int:
         if not float(number).is_integer():
             raise _fail(key, value, "an integer " + spec.allowed())
         number = int(number)
-    if not math.isfinite(number):
-        raise _fail(key, value, spec.allowed(), "not a finite number")
+    number = number + 0        # -0.0 is 0
     lo, hi = spec.minimum, spec.maximum
-    if (lo is not None and (number < lo or (spec.open_min and number == lo))) or (
+    if (lo is not None and (number < lo or (spec.open_min and not above(number, lo)))) or (
             hi is not None and number > hi):
         shown = value if not isinstance(value, str) else f"{value} = {number:g} {spec.unit or ''}"
         raise _fail(key, shown, spec.allowed())
@@ -462,15 +494,31 @@ def convert_quantity(key: str, value: Any, unit: str, minimum: float | None = No
     return convert_value(key, Key(unit, 0.0, key, minimum=minimum, maximum=maximum), value)
 
 
+#: A bare number as people write it, read as a number in SI (YAML 1.1 reads ``3e-6`` and
+#: ``5E5``, without a dot, as text; pint would read the ``e`` as the elementary charge).
+_PLAIN_NUMBER = re.compile(r"[+-]?(?:\d(?:_?\d)*(?:\.(?:\d(?:_?\d)*)?)?|\.\d(?:_?\d)*)"
+                           r"(?:[eE][+-]?\d+)?")
+#: The texts of a number that is not finite (Python's and YAML's spellings).
+_NOT_FINITE = re.compile(r"[+-]?\.?(?:nan|inf|infinity)", re.IGNORECASE)
+
+
 def _to_si(key: str, spec: Key, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, str)):
+    if isinstance(value, numbers.Real) and not isinstance(value, bool):   # numpy's too
+        try:
+            return float(value)
+        except OverflowError:                   # an integer of more than 308 digits
+            return math.inf
+    if not isinstance(value, str):
         raise _fail(key, value, spec.allowed(), "expected a number"
                     + (f" or a quantity like '1.5 {_example_unit(spec.unit)}'" if spec.unit else ""))
-    if not isinstance(value, str):
-        return float(value)
     if len(value) > MAX_QUANTITY_CHARACTERS:    # pint takes minutes on 100 000 digits
         raise _fail(key, value, spec.allowed(), f"longer than {MAX_QUANTITY_CHARACTERS} "
                     "characters, not a quantity")
+    text = value.strip()
+    if _NOT_FINITE.fullmatch(text):
+        raise _fail(key, value, spec.allowed(), "not a finite number")
+    if _PLAIN_NUMBER.fullmatch(text):
+        return float(text)
     fast = fast_to_si(value.strip(), spec.unit)     # "16 mm" without pint's slow start
     if fast is not None:
         return fast
@@ -514,15 +562,35 @@ class Study:
         return parse_study(raw, overrides=overrides, name=self.name,
                            description=self.description)
 
+    def checked(self) -> Study:
+        """This study validated again, as a file would be: a study changed by hand after
+        :func:`load_study` (``study["load"]["voltage"] = "2 kV"``, a key added, deleted or
+        misspelled, a section replaced) comes back resolved to SI, or a :class:`StudyError`
+        names the key.  Values already in SI are kept as they are."""
+        if not isinstance(self.values, dict):
+            raise _fail("study", self.values, "a mapping of sections")
+        raw = {section: dict(keys) if isinstance(keys, dict) else keys
+               for section, keys in self.values.items()}
+        return parse_study(raw, name=self.name, description=self.description)
+
     def as_dict(self) -> dict[str, Any]:
         return {"name": self.name, "description": self.description,
                 **copy.deepcopy(self.values)}
 
 
+#: What study overrides may be, for the messages.
+OVERRIDES_ALLOWED = ('a mapping {"SECTION.KEY": value} (e.g. {"load.voltage": "1 kV"}) or a '
+                     'list of "SECTION.KEY=VALUE" texts')
+
+
 def parse_overrides(items: list[str] | None) -> dict[str, Any]:
     """``["load.voltage=3 kV", ...]`` -> ``{"load.voltage": "3 kV"}`` (YAML-typed values)."""
     overrides: dict[str, Any] = {}
+    if items is not None and not isinstance(items, (list, tuple)):
+        raise _fail("overrides", items, OVERRIDES_ALLOWED)
     for item in items or []:
+        if not isinstance(item, str):
+            raise _fail("overrides", item, OVERRIDES_ALLOWED)
         if "=" not in item:
             raise StudyError(f"--set {preview(item)} is not allowed; allowed: SECTION.KEY=VALUE, "
                              "e.g. --set load.voltage='3 kV'")
@@ -552,7 +620,11 @@ def parse_study(raw: dict[str, Any], overrides: dict[str, Any] | None = None,
         if key not in SCHEMA and key not in META_KEYS:
             raise _fail(key, "...", "sections " + ", ".join(SCHEMA) + " (and name, description)",
                         "unknown section")
+    if overrides is not None and not isinstance(overrides, dict):
+        raise _fail("overrides", overrides, OVERRIDES_ALLOWED)
     for dotted, value in (overrides or {}).items():
+        if not isinstance(dotted, str):
+            raise _fail(f"overrides key {dotted!r}", value, OVERRIDES_ALLOWED)
         section, _, key = dotted.partition(".")
         if section not in SCHEMA or key not in SCHEMA[section]:
             raise _unknown_key(dotted, value)
@@ -604,23 +676,30 @@ def _derived_defaults(v: dict[str, dict[str, Any]], name: str) -> None:
 def _check_across_keys(v: dict[str, dict[str, Any]]) -> None:
     g, load = v["geometry"], v["load"]
     r_o, r_i = g["outer_radius"], g["inner_radius"]
-    if r_i >= r_o:
+    if not above(r_o, r_i):
         raise _fail("geometry.inner_radius", r_i, f"[0, {r_o:g}) m = below geometry.outer_radius")
     if 0 < r_i < 0.02 * r_o:
         raise _fail("geometry.inner_radius", r_i, f"0 or >= {0.02 * r_o:g} m (2 % of r_o)",
                     "a disc this small cannot be meshed sensibly")
-    if g["frame"] == "square" and g["frame_side"] <= 2 * r_o:
+    if g["frame"] == "square" and not above(g["frame_side"], 2 * r_o):
         raise _fail("geometry.frame_side", g["frame_side"],
                     f"> {2 * r_o:g} m = the membrane diameter 2 * geometry.outer_radius")
     R = v["air"]["domain_radius"]
-    if g["frame"] == "square" and g["frame_side"] / math.sqrt(2) >= R:
+    if g["frame"] == "square" and not above(R, g["frame_side"] / math.sqrt(2)):
         raise _fail("air.domain_radius", R, f"> {g['frame_side'] / math.sqrt(2):g} m",
                     "the square frame's corners must lie inside the air sphere")
-    if R <= 1.2 * r_o:
+    if not above(R, 1.2 * r_o):
         raise _fail("air.domain_radius", R, f"> {1.2 * r_o:g} m = 1.2 * geometry.outer_radius")
-    if g["frame"] == "circle" and not r_o < g["frame_radius"] < R:
+    width = r_o - r_i
+    smallest = width / MAX_ELEMENTS_ACROSS
+    if g["frame"] == "circle" and not (above(g["frame_radius"], r_o)
+                                       and above(R, g["frame_radius"])):
         raise _fail("geometry.frame_radius", g["frame_radius"],
                     f"({r_o:g}, {R:g}) m = between geometry.outer_radius and air.domain_radius")
+    if g["frame"] == "circle" and g["frame_radius"] - r_o < smallest:
+        raise _fail("geometry.frame_radius", g["frame_radius"],
+                    f">= {r_o + smallest:g} m = geometry.outer_radius + (r_o - r_i) / "
+                    f"{MAX_ELEMENTS_ACROSS}", "a frame ring this narrow cannot be meshed")
     engine = v["mesh"]["engine"]
     if engine == "axisymmetric" and g["frame"] not in AXISYMMETRIC_FRAMES:
         raise _fail("mesh.engine", engine, f"3d or auto with geometry.frame = {g['frame']}",
@@ -640,7 +719,7 @@ def _check_across_keys(v: dict[str, dict[str, Any]]) -> None:
         raise _fail("load.z", load["z"], f"[0, {2 * (r_o - r_i):g}] m = 2 * (r_o - r_i)",
                     "meridian stretch beyond what the film survives")
     e = v["eigen"]
-    if e["f_max"] <= e["f_min"]:
+    if not above(e["f_max"], e["f_min"]):
         raise _fail("eigen.f_max", e["f_max"], f"> eigen.f_min = {e['f_min']:g} Hz")
     prony = v["membrane"]["prony"]
     if prony:
@@ -655,10 +734,15 @@ def _check_across_keys(v: dict[str, dict[str, Any]]) -> None:
                         "membrane.prony", f"the Prony relaxation spectrum (Re f = 0, |Im f| >= "
                         f"{lowest:.4g} Hz) would reach the band |Im f| <= eigen.max_damping_ratio"
                         f" * eigen.f_max = {height:.4g} Hz")
-    if v["mesh"]["membrane_size"] > (r_o - r_i) / 2:
+    if v["mesh"]["membrane_size"] > width / 2:
         raise _fail("mesh.membrane_size", v["mesh"]["membrane_size"],
-                    f"<= {(r_o - r_i) / 2:g} m = half the membrane width",
+                    f"<= {width / 2:g} m = half the membrane width",
                     "fewer than two elements across the membrane")
+    if v["mesh"]["membrane_size"] < smallest:
+        raise _fail("mesh.membrane_size", v["mesh"]["membrane_size"],
+                    f">= {smallest:g} m = (r_o - r_i) / {MAX_ELEMENTS_ACROSS}",
+                    f"more than {MAX_ELEMENTS_ACROSS} elements across the membrane: Netgen "
+                    "cannot mesh it")
     _check_reduced_keys(v)
     listed_microphones(v["response"]["microphones"], g["frame"], g["enclosure"])
 
@@ -673,6 +757,10 @@ def _check_enclosure(v: dict[str, dict[str, Any]]) -> None:
                         "without an enclosure there is no air but the outside air")
         return
     r_o, depth, vent = g["outer_radius"], g["enclosure_depth"], g["enclosure_vent_radius"]
+    if above(ENCLOSURE_MIN_DEPTH * r_o, depth):
+        raise _fail("geometry.enclosure_depth", depth,
+                    f">= {ENCLOSURE_MIN_DEPTH * r_o:g} m = {ENCLOSURE_MIN_DEPTH:g} * "
+                    "geometry.outer_radius", "a thinner gap cannot be meshed sensibly")
     if enclosure == "box":
         if frame != "square":
             raise _fail("geometry.enclosure", enclosure, "cylinder or bowl with geometry.frame "
@@ -681,27 +769,29 @@ def _check_enclosure(v: dict[str, dict[str, Any]]) -> None:
         farthest = math.hypot(half_width * math.sqrt(2), depth)
     else:
         radius = g["enclosure_radius"]
-        if radius < r_o:
+        if above(r_o, radius):
             raise _fail("geometry.enclosure_radius", radius,
                         f">= {r_o:g} m = geometry.outer_radius",
                         "the enclosure's rim is sealed to the membrane's rim")
-        if frame == "circle" and radius > g["frame_radius"]:
+        if frame == "circle" and above(radius, g["frame_radius"]):
             raise _fail("geometry.enclosure_radius", radius,
                         f"<= {g['frame_radius']:g} m = geometry.frame_radius",
                         "the enclosure sits under the circular frame")
-        if frame == "square" and radius >= 0.5 * g["frame_side"]:
+        if frame == "square" and not above(0.5 * g["frame_side"], radius):
             raise _fail("geometry.enclosure_radius", radius,
                         f"< {0.5 * g['frame_side']:g} m = half geometry.frame_side",
                         "the enclosure sits under the square frame")
-        if enclosure == "bowl" and depth > radius:
+        if enclosure == "bowl" and above(depth, radius):
             raise _fail("geometry.enclosure_depth", depth,
                         f"(0, {radius:g}] m = at most geometry.enclosure_radius",
                         "a bowl is a spherical cap, at most a hemisphere")
         half_width = radius
         farthest = math.hypot(radius, depth)
-    if vent >= half_width:
+    if not above(half_width, vent):
         raise _fail("geometry.enclosure_vent_radius", vent,
                     f"[0, {half_width:g}) m = narrower than the enclosure's bottom")
+    if enclosure != "box":
+        _check_enclosure_radii(g, vent, r_o)
     if vent > 0 and frame == "baffle":
         raise _fail("geometry.enclosure_vent_radius", vent, "0 with geometry.frame = baffle",
                     "with a baffle the enclosure replaces the lower half-space: no outside "
@@ -713,15 +803,41 @@ def _check_enclosure(v: dict[str, dict[str, Any]]) -> None:
         raise _fail("air.outside", False, "true when air.enabled = false",
                     "there is no air to keep")
     R = air["domain_radius"]
-    if frame == "baffle" and half_width > ENCLOSURE_AIR_SHARE * R:
+    if frame == "baffle" and above(half_width, ENCLOSURE_AIR_SHARE * R):
         raise _fail("air.domain_radius", R, f">= {half_width / ENCLOSURE_AIR_SHARE:g} m",
                     f"the enclosure's top (radius {half_width:g} m) must lie within "
                     f"{ENCLOSURE_AIR_SHARE:g} of the air sphere's radius")
-    if frame != "baffle" and air["outside"] and farthest > ENCLOSURE_AIR_SHARE * R:
+    if frame != "baffle" and air["outside"] and above(farthest, ENCLOSURE_AIR_SHARE * R):
         raise _fail("air.domain_radius", R, f">= {farthest / ENCLOSURE_AIR_SHARE:g} m",
                     f"the enclosure's farthest point ({farthest:g} m from the centre) must lie "
                     f"within {ENCLOSURE_AIR_SHARE:g} of the air sphere's radius, with outside "
                     "air around it")
+
+
+def _check_enclosure_radii(g: dict[str, Any], vent: float, r_o: float) -> None:
+    """The radii where the meridian's lines meet: equal or :data:`ENCLOSURE_MIN_GAP` r_o
+    apart (a vent of 0 is none; the frame's only with frame circle)."""
+    gap = ENCLOSURE_MIN_GAP * r_o
+    radii = {"geometry.inner_radius": g["inner_radius"], "geometry.outer_radius": r_o,
+             "geometry.enclosure_radius": g["enclosure_radius"]}
+    if g["frame"] == "circle":
+        radii["geometry.frame_radius"] = g["frame_radius"]
+    if 0 < vent < gap:
+        raise _fail("geometry.enclosure_vent_radius", vent,
+                    f"0 or >= {gap:g} m = {ENCLOSURE_MIN_GAP:g} * geometry.outer_radius",
+                    "a smaller vent cannot be meshed")
+    for name, radius in radii.items():
+        if radius > 0 and vent > 0 and apart(vent, radius) and abs(vent - radius) < gap:
+            raise _fail("geometry.enclosure_vent_radius", vent, f"equal to {name} = "
+                        f"{radius:g} m or at least {gap:g} m from it",
+                        "the lines meeting there cannot be meshed")
+    for name in ("geometry.enclosure_radius", "geometry.frame_radius"):
+        if name not in radii:
+            continue
+        for other, radius in radii.items():
+            if other != name and apart(radii[name], radius) and abs(radii[name] - radius) < gap:
+                raise _fail(name, radii[name], f"equal to {other} = {radius:g} m or at least "
+                            f"{gap:g} m from it", "the lines meeting there cannot be meshed")
 
 
 def engine_of(study) -> str:

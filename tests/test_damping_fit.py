@@ -160,7 +160,7 @@ def test_prony_on_a_flat_membrane_is_not_identifiable(tmp_path):
     measured = MeasuredDamping(["(0,1)", "(1,1)a"], np.array([0.01, 0.012]))
     with pytest.raises(DampingFitError, match="not identifiable by a Prony term"):
         fit_damping(flat, measured, "prony")
-    with pytest.raises(DampingFitError, match=r"\(9,9\) are not in the FE band"):
+    with pytest.raises(StudyError, match=r"\(9,9\) are not in the FE band"):   # bad input
         fit_damping(flat, MeasuredDamping(["(9,9)"], np.array([0.01])), "rayleigh")
 
 
@@ -194,3 +194,35 @@ def test_rayleigh_fit_from_a_spectrum_through_the_cli(tmp_path, capsys):
         assert main(["calibrate-damping", study, *bad, "--out", str(tmp_path / "none")]) == 2
         assert "error: --" in capsys.readouterr().err     # refused before any FE work
     assert not (tmp_path / "none").exists()
+
+
+def test_a_fit_the_fe_cannot_hold_is_an_error_not_nan():
+    """A measured zeta = 0.9 (underdamped, allowed): the fitted beta moves (0,1) to
+    |Im f| = 0.9 |f|, beyond the band's height eigen.max_damping_ratio * f_max = 30 Hz, so
+    the FE with the fitted keys has no (0,1): an error, never a NaN written as the fit."""
+    study = coarse_study(air={"enabled": False})
+    with pytest.raises(DampingFitError, match=r"leave no FE mode \(0,1\) in the band"):
+        fit_damping(study, MeasuredDamping(["(0,1)"], np.array([0.9])), "rayleigh")
+
+
+def test_overdamped_roots_are_left_out_of_the_modes(caplog):
+    """Mass-proportional damping C = alpha M: every root solves omega^2 + i alpha omega -
+    omega_k^2 = 0, so Im f = -alpha / (4 pi) for each mode with f_k > alpha / (4 pi) and the
+    roots of the slower ones lie on the imaginary axis (overdamped, not modes).  With
+    alpha / (4 pi) = 500 Hz the modes table keeps only oscillating roots, each at that
+    Im f (closed form, to the eigen residual), and one warning counts the rest.  (The
+    undamped (0,1), (1,1)a/b, (2,1)a/b lie at 452 .. 488 Hz here, below 500 Hz:
+    overdamped.)"""
+    import logging
+
+    from copdea_fem.fe.pipeline import run_solve
+    alpha = 4 * np.pi * 500.0
+    study = coarse_study(air={"enabled": False}, membrane={"rayleigh_alpha": alpha},
+                         eigen={"f_min": 0, "f_max": 600, "max_damping_ratio": 1})
+    with caplog.at_level(logging.WARNING, logger="copdea_fem"):
+        modes = run_solve(study).modes
+    dropped = [record.getMessage() for record in caplog.records
+               if "overdamped root(s) left out" in record.getMessage()]
+    assert len(dropped) == 1 and int(dropped[0].split()[0]) > 0, dropped
+    assert modes and all(mode.freq_hz > 1e-3 * abs(mode.freq_im_hz) for mode in modes)
+    assert [mode.freq_im_hz for mode in modes] == pytest.approx([-500.0] * len(modes), rel=1e-6)

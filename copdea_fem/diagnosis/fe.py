@@ -495,7 +495,9 @@ MAX_DEFAULT_WORKERS = 4
 
 def check_workers(value, option: str = "--fe-workers") -> int:
     """``value`` as a worker count (an integer >= 1), or :class:`StudyError` naming
-    ``option`` (called before any work)."""
+    ``option`` (called before any work).  A count above the machine's cores is capped at
+    them with a warning: each worker is one NGSolve process, and more than one a core
+    only share the cores (and multiply the memory)."""
     try:
         count = int(value)
     except (TypeError, ValueError):
@@ -503,6 +505,11 @@ def check_workers(value, option: str = "--fe-workers") -> int:
     if count is None or isinstance(value, bool) or count < 1 or str(count) != str(value).strip():
         raise StudyError(f"{option} = {value!r} is not allowed; allowed: an integer >= 1 "
                          "(processes solving FE studies side by side)")
+    cores = os.cpu_count() or 1
+    if count > cores:
+        logger.warning(f"{option} = {count} is more than the {cores} cores of this machine: "
+                       f"{cores} worker(s) used")
+        count = cores
     return count
 
 

@@ -26,6 +26,19 @@ Manifest (paths relative to the manifest's folder)::
         spectrum_point: average      # average (default), Q1, Q2 or Q3 (Sect. 5.3, Fig. 14)
         band: [5 Hz, 1000 Hz]        # optional; default: the spectrum's, else the chirp's
         modes_json: fe/modes.json    # optional: coupled FE frequencies (effect air_loading)
+      - name: z16_v2_scan
+        set: {load.z: 16 mm, load.voltage: 2 kV}
+        scan: z16_v2.uff             # a vibrometer's UFF export (instead of or beside the
+                                     #   resonances: see copdea_fem.vibrometer.uff)
+        scan_frame:                  # optional: where the model's frame lies in the file's
+          origin: [0, 0, -16]        #   coordinates (default: they are the model's)
+          x_axis: [1, 0, 0]
+          z_axis: [0, 0, 1]
+          length_unit: mm            #   default: the file's dataset 164
+        scan_directions: [0, 0, 1]   # optional: a 1-D laser's direction (file axes), one
+                                     #   for all points or {node: [x, y, z]} per point
+        scan_tolerance: 3.55 mm      # optional: how far a point may lie off the device
+                                     #   (default a tenth of the outer radius)
 
 Resonance CSV: ``freq_hz`` [Hz] and optionally ``label`` (``P1``, ``(0,1)``,
 ``(1,1)a``, empty = unknown; quoted or not), ``quality_factor`` [-] and ``kind``
@@ -42,6 +55,7 @@ radial = pi/4 (v_x + v_y).  Lines starting with ``#`` are comments.
 from __future__ import annotations
 
 import csv
+import logging
 import math
 import re
 from dataclasses import dataclass, field
@@ -52,11 +66,7 @@ import numpy as np
 from copdea_fem.diagnosis.effects import EFFECT_IDS, parse_effect_list
 from copdea_fem.inputs import preview, read_text, read_yaml
 from copdea_fem.study import Study, StudyError, load_study
-
-
-class MeasuredDataError(StudyError):
-    """Bad measured data: the message names the file or key, the value and what is allowed."""
-
+from copdea_fem.vibrometer.scan import MeasuredDataError, ScanData, ScanFrame
 
 KINDS = ("pumping", "axisymmetric", "non-axisymmetric")
 POINTS = ("average", "Q1", "Q2", "Q3")
@@ -64,7 +74,8 @@ MANIFEST_KEYS = ("name", "description", "base_study", "noise", "candidates", "co
                  "model")
 MODELS = ("fe", "reduced")     # the model of record (key ``model``, default fe)
 CONDITION_KEYS = ("name", "set", "resonances", "spectrum", "spectrum_point", "band",
-                  "modes_json")
+                  "modes_json", "scan", "scan_frame", "scan_directions", "scan_tolerance")
+SCAN_FRAME_KEYS = ("origin", "x_axis", "z_axis", "length_unit")
 RESONANCE_COLUMNS = ("freq_hz", "label", "quality_factor", "kind")
 
 # Keys a condition may not set: the effects switch them (see effects.CATALOGUE).
@@ -144,6 +155,10 @@ class Condition:
         Coupled FE frequencies {label: Hz} from ``modes_json``.
     files : dict
         The files read, for the report.
+    scan : ScanData or None
+        The vibrometer scan (``scan:``), in SI and in the model's frame.
+    scan_distance : float
+        Largest distance [m] of a scan point from the prestressed device (nan: no scan).
     """
 
     name: str
@@ -153,6 +168,8 @@ class Condition:
     band: tuple
     fe_frequencies: dict | None = None
     files: dict = field(default_factory=dict)
+    scan: ScanData | None = None
+    scan_distance: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -255,12 +272,18 @@ def read_resonances(path, key: str = "resonances") -> tuple:
         raise _fail(f"{key} columns", header, "freq_hz and optionally label, quality_factor, "
                     f"kind (file {path})")
     index = {name: header.index(name) for name in header}
-    out, seen = [], {}
+    out, seen, lines_of = [], {}, {}
     for line, row in enumerate(rows, start=2):
         row = _rejoin_labels(row, len(header))
         where = f"{path.name} line {line}"
+        same = tuple(cell.strip() for cell in row)
+        if same in lines_of:        # a peak pasted twice would weigh twice in the fit
+            logging.getLogger(__name__).warning(
+                f"{where} repeats line {lines_of[same]} (a duplicated peak): counted once")
+            continue
+        lines_of[same] = line
         cell = lambda name: row[index[name]] if name in index and index[name] < len(row) \
-            else ""  # noqa: E731
+            else ""
         frequency = _number(cell("freq_hz"), f"{where} freq_hz")
         label, implied = normalise_label(cell("label"), f"{where} label")
         kind = cell("kind").strip().lower()
@@ -409,8 +432,19 @@ def _parse_condition(item, index, base: Study, folder: Path) -> Condition:
     if item.get("spectrum") is not None:
         files["spectrum"] = folder / str(item["spectrum"])
         spectrum = read_spectrum(files["spectrum"], point, f"{where}.spectrum")
-    if resonances is None and spectrum is None:
-        raise _fail(f"{where} ({name})", "no data", "resonances and/or spectrum")
+    scan, scan_distance = None, math.nan
+    if item.get("scan") is not None:
+        if not isinstance(item["scan"], str) or not item["scan"].strip():
+            raise _fail(f"{where}.scan", item["scan"], "the name of a .uff/.unv file, relative "
+                        "to the measured.yaml")
+        files["scan"] = folder / item["scan"]
+        scan, scan_distance = _read_scan(item, where, files["scan"], study)
+    else:
+        for key in ("scan_frame", "scan_directions", "scan_tolerance"):
+            if item.get(key) is not None:
+                raise _fail(f"{where}.{key}", item[key], "only beside scan: FILE")
+    if resonances is None and spectrum is None and scan is None:
+        raise _fail(f"{where} ({name})", "no data", "resonances and/or spectrum, and/or scan")
     if item.get("band") is not None:
         band_raw = item["band"]
         if not isinstance(band_raw, (list, tuple)) or len(band_raw) != 2:
@@ -418,6 +452,9 @@ def _parse_condition(item, index, base: Study, folder: Path) -> Condition:
         band = tuple(_quantity(v, "Hz", f"{where}.band") for v in band_raw)
     elif spectrum is not None:
         band = (float(spectrum.frequency_hz[0]), float(spectrum.frequency_hz[-1]))
+    elif scan is not None:
+        positive = scan.frequencies[scan.frequencies > 0]
+        band = (float(positive[0]), float(positive[-1]))
     else:
         x = study["excitation"]
         band = (max(x["f_start"], 1.0 / x["duration"]), x["f_end"])
@@ -432,9 +469,92 @@ def _parse_condition(item, index, base: Study, folder: Path) -> Condition:
         except StudyError as error:
             raise MeasuredDataError(f"{where}.modes_json: {error}") from None
     return Condition(name=name, overrides=dict(overrides), resonances=resonances,
-                     spectrum=spectrum, band=band, fe_frequencies=fe, files=files)
+                     spectrum=spectrum, band=band, fe_frequencies=fe, files=files, scan=scan,
+                     scan_distance=scan_distance)
 
 
-__all__ = ["MeasuredDataError", "NoiseModel", "Resonance", "Spectrum", "Condition",
-           "MeasuredSet", "load_measured", "parse_measured", "read_resonances", "read_spectrum",
-           "normalise_label"]
+def _vector(value, where: str, nonzero: bool) -> np.ndarray:
+    allowed = "[x, y, z]: three finite numbers" + (", not all zero" if nonzero else "")
+    if not isinstance(value, (list, tuple)) or len(value) != 3 or any(
+            isinstance(v, bool) or not isinstance(v, (int, float)) for v in value):
+        raise _fail(where, value, allowed)
+    vector = np.array(value, float)
+    if not np.all(np.isfinite(vector)) or (nonzero and not np.any(vector)):
+        raise _fail(where, value, allowed)
+    return vector
+
+
+def parse_scan_frame(raw, where: str = "scan_frame") -> ScanFrame:
+    """``scan_frame:`` -> :class:`ScanFrame` (origin in the file's length unit, the model's
+    x and z axes in the file's axes, perpendicular; ``length_unit``: ``mm``, ``m``, ...)."""
+    if not isinstance(raw, dict):
+        raise _fail(where, raw, "a mapping of " + ", ".join(SCAN_FRAME_KEYS))
+    for key in raw:
+        if key not in SCAN_FRAME_KEYS:
+            raise _fail(f"{where}.{key}", raw[key], "keys " + ", ".join(SCAN_FRAME_KEYS),
+                        "unknown key")
+    origin = _vector(raw.get("origin", [0, 0, 0]), f"{where}.origin", nonzero=False)
+    x_axis = _vector(raw.get("x_axis", [1, 0, 0]), f"{where}.x_axis", nonzero=True)
+    z_axis = _vector(raw.get("z_axis", [0, 0, 1]), f"{where}.z_axis", nonzero=True)
+    cosine = abs(x_axis @ z_axis) / (np.linalg.norm(x_axis) * np.linalg.norm(z_axis))
+    if cosine > 1e-3:
+        raise _fail(f"{where}.x_axis", raw.get("x_axis", [1, 0, 0]), "an axis perpendicular "
+                    "to z_axis (|cos| <= 1e-3)", f"|cos| = {cosine:.3g}")
+    unit = raw.get("length_unit")
+    length_unit = None
+    if unit is not None:
+        text = f"1 {unit}" if isinstance(unit, str) and not unit.strip()[:1].isdigit() \
+            else unit
+        length_unit = _quantity(text, "m", f"{where}.length_unit")
+        if not length_unit > 0:
+            raise _fail(f"{where}.length_unit", unit, "a length unit such as mm or m")
+    return ScanFrame(origin=origin, x_axis=x_axis, z_axis=z_axis, length_unit=length_unit)
+
+
+def _scan_directions(raw, where: str):
+    if raw is None:
+        return None
+    if isinstance(raw, dict):
+        out = {}
+        for node, value in raw.items():
+            if isinstance(node, bool) or not isinstance(node, int):
+                raise _fail(f"{where} node", node, "the file's node numbers (integers)")
+            out[node] = _vector(value, f"{where}[{node}]", nonzero=True)
+        return out
+    return _vector(raw, where, nonzero=True)
+
+
+def _read_scan(item: dict, where: str, path: Path, study: Study):
+    """The condition's scan, read and checked on the device; (ScanData, largest distance)."""
+    from copdea_fem.vibrometer.geometry import check_on_device
+    from copdea_fem.vibrometer.uff import read_scan
+
+    frame = (parse_scan_frame(item["scan_frame"], f"{where}.scan_frame")
+             if item.get("scan_frame") is not None else None)
+    directions = _scan_directions(item.get("scan_directions"), f"{where}.scan_directions")
+    tolerance = None
+    if item.get("scan_tolerance") is not None:
+        tolerance = _quantity(item["scan_tolerance"], "m", f"{where}.scan_tolerance")
+        if not tolerance > 0:
+            raise _fail(f"{where}.scan_tolerance", item["scan_tolerance"], "a length > 0")
+    try:
+        scan = read_scan(path, frame=frame, directions=directions)
+    except MeasuredDataError as error:
+        raise MeasuredDataError(f"{where}.scan: {error}") from None
+    distance = check_on_device(scan, study, tolerance, f"{where}.scan")
+    return scan, distance
+
+
+__all__ = [
+    "Condition",
+    "MeasuredDataError",
+    "MeasuredSet",
+    "NoiseModel",
+    "Resonance",
+    "Spectrum",
+    "load_measured",
+    "normalise_label",
+    "parse_measured",
+    "read_resonances",
+    "read_spectrum",
+]

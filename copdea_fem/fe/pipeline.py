@@ -14,6 +14,8 @@ Entry points used by the API, the sweeps, the diagnosis, the benchmarks and the 
 
 from __future__ import annotations
 
+import dataclasses
+import logging
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -81,6 +83,30 @@ def _meshed(study, mesh, with_air, timings, cache_dir, engine):
     return mesh
 
 
+logger = logging.getLogger(__name__)
+
+#: A root whose oscillation frequency |Re f| is below this share of |f| does not oscillate
+#: (damping ratio -Im f / |f| within 5e-13 of 1): an overdamped or critically damped motion
+#: (Rayleigh C = alpha M + beta K with c_k >= 2 omega_k gives the roots
+#: omega = (-i c_k +- sqrt(4 omega_k^2 - c_k^2)) / 2 on the imaginary axis), not a mode.
+OVERDAMPED_SHARE = 1e-6
+
+
+def oscillates(mode: Mode) -> bool:
+    """``|Re f| > OVERDAMPED_SHARE |f|``: the root is a mode, not an overdamped motion."""
+    return abs(mode.freq_hz) > OVERDAMPED_SHARE * float(np.hypot(mode.freq_hz, mode.freq_im_hz))
+
+
+def _oscillating(modes: list) -> list[int]:
+    """Indices of the modes that oscillate; one line says how many roots were left out."""
+    kept = [k for k, mode in enumerate(modes) if oscillates(mode)]
+    if len(kept) < len(modes):
+        logger.warning(f"{len(modes) - len(kept)} overdamped root(s) left out of the modes "
+                       f"(no oscillation: |Re f| <= {OVERDAMPED_SHARE:g} |f|, damping ratio 1; "
+                       "the damping keys damp them beyond a resonance)")
+    return kept
+
+
 def dry_modes(study: Study, mesh=None, timings: Timings | None = None, cache_dir=None,
               solver=None, initial_shifts=None, engine: Engine | None = None):
     """Prestress and dry (in-vacuo) modes in the study's band: (state, modes, eigen result).
@@ -94,8 +120,9 @@ def dry_modes(study: Study, mesh=None, timings: Timings | None = None, cache_dir
     require_backend(study)
     engine = engine or engine_for(study)
     mesh = _meshed(study, mesh, study["air"]["enabled"], timings, cache_dir, engine)
-    return engine.dry_modes(study, mesh, timings, solver, initial_shifts,
-                            BandSolver.from_study(study))
+    state, modes, result = engine.dry_modes(study, mesh, timings, solver, initial_shifts,
+                                            BandSolver.from_study(study))
+    return state, [modes[k] for k in _oscillating(modes)], result
 
 
 def coupled_modes(study: Study, mesh=None, timings: Timings | None = None, cache_dir=None,
@@ -116,8 +143,17 @@ def coupled_modes(study: Study, mesh=None, timings: Timings | None = None, cache
     check_air_lift(study)
     engine = engine or engine_for(study)
     mesh = _meshed(study, mesh, True, timings, cache_dir, engine)
-    return engine.coupled_modes(study, mesh, timings, solver, initial_shifts,
-                                BandSolver.from_study(study))
+    solution = engine.coupled_modes(study, mesh, timings, solver, initial_shifts,
+                                    BandSolver.from_study(study))
+    kept = _oscillating(solution.modes)
+    if len(kept) == len(solution.modes):
+        return solution
+    position = {k: j for j, k in enumerate(kept)}
+    return dataclasses.replace(
+        solution, modes=[solution.modes[k] for k in kept],
+        pressures=[solution.pressures[k] for k in kept],
+        dry_partner_hz={position[k]: hz for k, hz in solution.dry_partner_hz.items()
+                        if k in position})
 
 
 def run_solve(study: Study, *, cache_dir=None, engine: Engine | None = None) -> SolveResult:

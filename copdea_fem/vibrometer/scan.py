@@ -14,6 +14,52 @@ from pathlib import Path
 
 import numpy as np
 
+from copdea_fem.study import StudyError
+
+#: What a channel's response is, and the FRF form of the modal model for it
+#: (``H = sum A / (i w - s)`` times 1, ``i w`` or ``-w^2``: receptance, mobility, accelerance).
+RESPONSES = {"displacement": "receptance", "velocity": "mobility",
+             "acceleration": "accelerance"}
+
+
+class MeasuredDataError(StudyError):
+    """Bad measured data: the message names the file or key, the value and what is allowed.
+
+    Defined here, below the diagnosis, so that the scan reader raises the error the
+    ``measured.yaml`` reader raises (:mod:`copdea_fem.diagnosis.measured` re-exports it).
+    """
+
+
+@dataclass(frozen=True)
+class ScanFrame:
+    """Where the model's frame lies in a scan file's coordinates (``scan_frame:``).
+
+    ``p_model = R (s p_file - s origin)`` with ``s`` the file's length unit [m] and the
+    rows of ``R`` the model's unit axes x, y = z x x, z written in the file's axes.
+
+    Attributes
+    ----------
+    origin : (3,) float array
+        The model's origin (centre of the membrane's outer rim) in file coordinates
+        [file length unit].
+    x_axis, z_axis : (3,) float arrays
+        The model's x axis and axis of symmetry (towards the disc) in file axes; made
+        unit length, ``x_axis`` must be perpendicular to ``z_axis``.
+    length_unit : float or None
+        Metres per file length unit; None: from the file's dataset 164 (else metres).
+    """
+
+    origin: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    x_axis: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0]))
+    z_axis: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
+    length_unit: float | None = None
+
+    def rotation(self) -> np.ndarray:
+        """(3, 3) rows: the model's unit axes in the file's axes."""
+        z_axis = np.asarray(self.z_axis, float) / np.linalg.norm(self.z_axis)
+        x_axis = np.asarray(self.x_axis, float) / np.linalg.norm(self.x_axis)
+        return np.array([x_axis, np.cross(z_axis, x_axis), z_axis])
+
 
 @dataclass(frozen=True)
 class ScanData:
@@ -38,6 +84,9 @@ class ScanData:
         FRFs [m/s/V] (UFF function type 4) or spectra [m/s] (type 12), SI.
     quantity : str
         ``"frf"`` or ``"spectrum"``.
+    response : str
+        What the ordinate is: ``"velocity"`` (a vibrometer), ``"acceleration"`` or
+        ``"displacement"`` (a key of :data:`RESPONSES`).
     """
 
     path: Path
@@ -48,6 +97,7 @@ class ScanData:
     frequencies: np.ndarray
     values: np.ndarray
     quantity: str = "frf"
+    response: str = "velocity"
 
     @property
     def n_points(self) -> int:
@@ -85,8 +135,11 @@ class IdentifiedMode:
 
 @dataclass(frozen=True)
 class IdentifiedSet:
-    """The modes identified in one condition's scan."""
+    """The modes identified in one condition's scan (``diagram``: the
+    :class:`~copdea_fem.vibrometer.identify.StabilisationDiagram` they were chosen from,
+    None when not kept)."""
 
     condition: str
     scan: ScanData
     modes: tuple[IdentifiedMode, ...] = field(default_factory=tuple)
+    diagram: object = None

@@ -165,8 +165,8 @@ def axisymmetric_coupled_modes(study, mesh=None, timings=None, solver=None,
     state = _prestressed(study, mesh, timings, solver)
     with timings.stage("assembly"):
         logger.info("air mesh follows the membrane (ALE) ...")
-        motion = meridian_motion(state, state.mesh, air["domain_radius"],
-                                 cavity=MeridianSpec.from_study(study).cavity)
+        cavity = MeridianSpec.from_study(study).cavity        # None: an open back
+        motion = meridian_motion(state, state.mesh, air["domain_radius"], cavity=cavity)
         logger.info("assembling the air of every order ...")
         meridian_air = MeridianAir(state, study, motion)
     initial_shifts = initial_shifts or {}
@@ -174,7 +174,6 @@ def axisymmetric_coupled_modes(study, mesh=None, timings=None, solver=None,
     modes, pressures, dry, partners, results, operators = [], [], [], {}, {}, []
     samplers = {}                  # one per order space (the orders m >= 1 share theirs)
     stop = OrderStop(band.dry_partner_top)
-    cavity = MeridianSpec.from_study(study).cavity
     cavity_sampler = None if cavity is None else CavitySampler(meridian_air.pressure_space,
                                                                cavity)
     for m in range(MAX_ORDER + 1):

@@ -79,6 +79,9 @@ class MeridianSpec:
             raise ValueError(f"geometry.enclosure = {g['enclosure']!r} has no meridian "
                              f"geometry; allowed: {', '.join(ENCLOSURES)}")
         enclosed = g["enclosure"] != "none" and a["enabled"]
+        # radii equal within round-off ("35.5 mm" = 0.035500000000000004 m) are one radius
+        radius = snapped(g["enclosure_radius"], (g["outer_radius"], g["frame_radius"]))
+        vent = snapped(g["enclosure_vent_radius"], (g["inner_radius"], g["outer_radius"]))
         return cls(outer_radius=g["outer_radius"], inner_radius=g["inner_radius"],
                    frame=g["frame"], frame_radius=g["frame_radius"],
                    domain_radius=a["domain_radius"], pml_thickness=a["pml_thickness"],
@@ -86,8 +89,8 @@ class MeridianSpec:
                    grading=m["grading"],
                    enclosure=g["enclosure"] if enclosed else "none",
                    enclosure_depth=g["enclosure_depth"] if enclosed else 0.0,
-                   enclosure_radius=g["enclosure_radius"] if enclosed else 0.0,
-                   vent_radius=g["enclosure_vent_radius"] if enclosed else 0.0,
+                   enclosure_radius=radius if enclosed else 0.0,
+                   vent_radius=vent if enclosed else 0.0,
                    outside=a["outside"] or not enclosed)
 
     @property
@@ -97,6 +100,13 @@ class MeridianSpec:
             return None
         return Cavity(self.enclosure, self.enclosure_radius, self.enclosure_depth,
                       self.vent_radius)
+
+
+def snapped(value: float, radii) -> float:
+    """``value``, or the radius of ``radii`` it equals within round-off
+    (:func:`copdea_fem.study.apart`): the meridian's lines then meet at one point."""
+    from copdea_fem.study import apart
+    return next((radius for radius in radii if not apart(value, radius)), value)
 
 
 @dataclass(frozen=True)

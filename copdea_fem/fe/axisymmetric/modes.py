@@ -20,8 +20,10 @@ from dataclasses import dataclass, replace
 import ngsolve as ngs
 import numpy as np
 
+from copdea_fem.fe.acoustics import CAVITY
 from copdea_fem.fe.axisymmetric.meridian import theta_integral
 from copdea_fem.fe.axisymmetric.operators import normal_mass_form
+from copdea_fem.fe.cavity import CAVITY_SHARE, label_cavity_modes, nodal_counts
 from copdea_fem.fe.linearise import to_scipy
 from copdea_fem.fe.modes import (
     AIR,
@@ -163,8 +165,6 @@ def with_pairs(modes: list[OrderMode]) -> list[OrderMode]:
 def label_all(modes: list[OrderMode]) -> None:
     """Labels over all orders, as the 3-D engine's (:func:`copdea_fem.fe.modes.assign_labels`);
     an air mode keeps a cavity label (:class:`CavitySampler`), the others are ``air``."""
-    from copdea_fem.fe.cavity import label_cavity_modes
-
     assign_labels([mode for mode in modes if mode.kind != AIR])
     for mode in modes:
         if mode.kind == AIR:
@@ -182,8 +182,6 @@ class CavitySampler:
     """
 
     def __init__(self, pressure_space, cavity, samples: int = 33):
-        from copdea_fem.fe.acoustics import CAVITY
-
         mesh = pressure_space.mesh
         self.function = ngs.GridFunction(pressure_space)
         p, q = self.function.components
@@ -208,8 +206,6 @@ class CavitySampler:
         """(m, n, p) of a cavity mode of order m (pressure ``vector`` on ``free_dofs``),
         () when most of its air's energy lies outside (module doc of
         :mod:`copdea_fem.fe.cavity`)."""
-        from copdea_fem.fe.cavity import CAVITY_SHARE, nodal_counts
-
         self._set(free_dofs, vector)
         mesh = self.function.space.mesh
         inside = abs(ngs.Integrate(self.inside_energy, mesh))

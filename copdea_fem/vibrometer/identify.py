@@ -1,0 +1,465 @@
+"""Modal parameters of a scan: LSCF poles chosen from a stabilisation diagram, LSFD residues.
+
+The FRF model of a scan with one input (the drive voltage) is
+
+    H_c(w) = sum_r [ A_cr / (i w - s_r) + conj(A_cr) / (i w - conj(s_r)) ] (i w)^k
+             + lower and upper residual terms,
+
+k = 0, 1, 2 for displacement, velocity and acceleration responses (receptance, mobility,
+accelerance), with the pole ``s_r = -zeta_r w_r + i w_r sqrt(1 - zeta_r^2)`` and the residue
+``A_cr`` of mode r at channel c (Ewins, *Modal testing*, 2nd ed., Sect. 4.3; Peeters et al.,
+"The PolyMAX frequency-domain method", Shock Vib. 11, 2004).  Both steps are sdypy-EMA's:
+
+1. **Poles** (:meth:`sdypy.EMA.Model.get_poles`, method ``lscf``): the least-squares
+   complex-frequency estimator fits a common-denominator polynomial of order 2, 4, ...,
+   ``max_order`` and returns its roots at every order.  A scan has hundreds of channels;
+   LSCF needs only the space they span, so it is fed the scan's principal response
+   functions: the first ``components`` right singular vectors of the (channels x lines)
+   FRF matrix, scaled by their singular values (the common-denominator poles of a sum of
+   modes are those of any set of combinations that keeps every mode's shape; the residues
+   are then fitted on every channel).
+2. **Choice** (no GUI, no FE): a pole is *stable* when a pole of the previous order (or
+   the one before it) lies within ``frequency_tolerance`` (relative) in frequency and
+   ``damping_tolerance`` (relative) in damping; stable poles are chained over the orders,
+   each pole to the nearest one (one to one), into tracks, and a physical mode is a track
+   that stays stable over at least ``min_stable_orders`` orders.  Its pole is the median
+   over the upper half of the track (the higher orders, where it has converged).  Two
+   poles closer than a peak's half-power width are told apart by this - a split pair
+   (m,n)a/b gives two tracks that coexist at the same orders - where a peak search on
+   the sum of the FRFs finds one peak.
+3. **Residues** (:func:`sdypy.EMA.EMA.LSFD`): with the chosen poles fixed, the residues
+   ``A_cr`` and the residual terms are the linear least-squares fit of every channel
+   over the band.  The mode's shape is ``A_:r`` (per channel of the scan); its modal
+   phase collinearity ``MPC = ((l1 - l2) / (l1 + l2))^2`` with l1 >= l2 the eigenvalues
+   of the 2 x 2 matrix of the real and imaginary parts' inner products (Pappa, Elliott
+   & Schenk, J. Guid. Control Dyn. 16, 1993): 1 for a real (normal) mode, 0 for phases
+   spread evenly.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import numbers
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from copdea_fem.vibrometer.scan import RESPONSES, IdentifiedMode, MeasuredDataError, ScanData
+
+logger = logging.getLogger(__name__)
+
+#: Defaults of the automatic pole choice (see the module notes).
+DEFAULTS = {"max_order": 120, "components": 24, "frequency_tolerance": 0.01,
+            "damping_tolerance": 0.05, "max_damping": 0.2, "min_stable_orders": None}
+
+#: The options of :func:`identify_scan`.
+OPTIONS = ("f_min", "f_max", *DEFAULTS)
+
+class IdentificationFailed(RuntimeError):
+    """The fit itself failed (a singular system): not bad input, the data defeat it."""
+
+
+#: Pole status in the stabilisation diagram.
+NEW, FREQUENCY_STABLE, STABLE = 0, 1, 2
+
+
+@dataclass(frozen=True)
+class StabilisationDiagram:
+    """The poles of every model order and what the choice made of them.
+
+    Attributes
+    ----------
+    orders : (K,) int array
+        Polynomial orders 2, 4, ..., max_order.
+    frequencies, dampings : list of (n_k,) float arrays
+        Each order's physical poles: damped frequency [Hz], damping ratio [-].
+    status : list of (n_k,) int arrays
+        NEW, FREQUENCY_STABLE (frequency only) or STABLE (frequency and damping).
+    chosen : (N, 2) float array
+        The chosen modes' frequency [Hz] and damping ratio [-].
+    band : (float, float)
+        The fitted band [Hz].
+    mean_magnitude : (F,) float array
+        Mean |H| over the channels on ``band_frequencies`` (the diagram's background).
+    band_frequencies : (F,) float array
+    """
+
+    orders: np.ndarray
+    frequencies: list
+    dampings: list
+    status: list
+    chosen: np.ndarray
+    band: tuple
+    mean_magnitude: np.ndarray
+    band_frequencies: np.ndarray
+
+
+@dataclass(frozen=True)
+class Identification:
+    """The modes of one scan and the stabilisation diagram they were chosen from."""
+
+    modes: tuple
+    diagram: StabilisationDiagram
+
+
+def modal_phase_collinearity(shape: np.ndarray) -> float:
+    """MPC of a complex shape in [0, 1] (Pappa et al. 1993; see the module notes)."""
+    shape = np.asarray(shape, complex).ravel()
+    real, imag = shape.real, shape.imag
+    matrix = np.array([[real @ real, real @ imag], [real @ imag, imag @ imag]])
+    low, high = np.linalg.eigvalsh(matrix)
+    total = high + low
+    return float(((high - low) / total) ** 2) if total > 0 else 0.0
+
+
+def _check(name, value, low, high, integer=False):
+    ok = (isinstance(value, numbers.Real) and not isinstance(value, bool)
+          and math.isfinite(value) and low <= value <= high
+          and (not integer or float(value).is_integer()))
+    if not ok:
+        raise MeasuredDataError(f"identify {name} = {value!r} is not allowed; allowed: "
+                                f"{'an integer' if integer else 'a number'} in "
+                                f"[{low:g}, {high:g}]")
+
+
+def identify(scan: ScanData, *, f_min=None, f_max=None, **options) -> tuple[IdentifiedMode, ...]:
+    """The modes of a scan (:func:`identify_scan`'s, without the diagram)."""
+    return identify_scan(scan, f_min=f_min, f_max=f_max, **options).modes
+
+
+def identify_scan(scan: ScanData, *, f_min=None, f_max=None, max_order=None,
+                  components=None, frequency_tolerance=None, damping_tolerance=None,
+                  max_damping=None, min_stable_orders=None) -> Identification:
+    """Identify a scan's modes automatically (LSCF poles, LSFD residues; module notes).
+
+    Parameters
+    ----------
+    scan : ScanData
+        FRFs (``quantity == "frf"``) on a uniform frequency axis.
+    f_min, f_max : float, optional
+        The band [Hz]; default: the scan's axis above 0 Hz.
+    max_order : int, optional
+        Highest even polynomial order of LSCF (default 120: up to 60 modes in the band;
+        twice the number of modes or more is the usual over-modelling: 24 modes with
+        two split pairs in 120-980 Hz at 60 dB noise were all found at 120, not at 80).
+    components : int, optional
+        Principal response functions fed to LSCF (default 24, at most the channels).
+    frequency_tolerance, damping_tolerance : float, optional
+        Relative change of frequency (default 1 %) and damping (5 %) between orders below
+        which a pole is stable.
+    max_damping : float, optional
+        Poles more damped than this (default 0.2) are not physical modes.
+    min_stable_orders : int, optional
+        Orders over which a track must stay stable (default: a fifth of the orders, at
+        least 5).
+
+    Returns
+    -------
+    Identification
+        ``modes`` sorted by frequency (``test_mode`` 1, 2, ...), and the diagram.
+    """
+    from copdea_fem.progress import single_threaded_blas
+
+    options = _options(scan, f_min, f_max, max_order, components, frequency_tolerance,
+                       damping_tolerance, max_damping, min_stable_orders)
+    # BLAS on one thread: the matrices are small (order 120, 252 channels), and BLAS threads
+    # fighting for a shared machine's cores made the 84 x 3 x 800 benchmark 15 times slower
+    with single_threaded_blas():
+        return _identify(scan, options)
+
+
+def _identify(scan: ScanData, options: dict) -> Identification:
+    from sdypy.EMA import Model
+    from sdypy.EMA.EMA import LSFD
+
+    started = time.perf_counter()
+    f_low, f_high = options["band"]
+    frequencies = np.asarray(scan.frequencies, float)
+    in_band = (frequencies >= f_low) & (frequencies <= f_high)
+    band_frequencies = frequencies[in_band]
+    values = np.asarray(scan.values, complex)
+    scale = float(np.abs(values[:, in_band]).max()) or 1.0
+    values = values / scale
+    # principal response functions: LSCF sees the space the channels span
+    # (the eigenvectors of the channels' Gram matrix: the left singular vectors, at a
+    # fraction of an SVD's cost for 252 channels x 800 lines)
+    power, left = np.linalg.eigh(values[:, in_band] @ values[:, in_band].conj().T)
+    power, left = power[::-1], left[:, ::-1]
+    keep = min(options["components"], int(np.sum(power > 1e-18 * power[0])))
+    if keep == 0 or not power[0] > 0:
+        raise MeasuredDataError(f"scan file {scan.path}: every FRF is zero in "
+                                f"{f_low:g}-{f_high:g} Hz; allowed: a measured response")
+    principal = left[:, :keep].conj().T @ values[:, frequencies <= f_high]
+    frf_form = RESPONSES.get(scan.response, "mobility")
+    # LSCF on every line from the first above 0 Hz up to f_high; f_low only bounds the poles
+    # kept (a fit that leaves out the lines below f_low, sdypy's ``lower``, turns poles
+    # unstable at the higher orders: a 200-500 Hz band kept 1 of 3 modes)
+    # LSCF's highest order is bounded by the lines it fits (its normal equations hold the
+    # correlations of lags -n..n of a spectrum of F lines: n <= F - 2)
+    lines = int(np.sum(frequencies <= f_high))
+    half_order = min(options["max_order"] // 2, (lines - 2) // 2)
+    if half_order < 2:
+        raise MeasuredDataError(f"scan file {scan.path}: {lines} lines up to {f_high:g} Hz "
+                                "are not allowed for identification; allowed: at least 6")
+    if half_order < options["max_order"] // 2:
+        logger.info("LSCF order limited to %d by the %d lines", 2 * half_order, lines)
+        options = {**options, "min_stable_orders": min(options["min_stable_orders"],
+                                                        max(2, round(0.2 * half_order)))}
+    model = Model(frf=principal, freq=frequencies[frequencies <= f_high],
+                  lower=float(frequencies[frequencies > 0][0]), upper=f_high,
+                  pol_order_high=half_order, frf_form=frf_form)
+    try:
+        model.get_poles(method="lscf", show_progress=False)
+    except (ValueError, IndexError, np.linalg.LinAlgError) as error:
+        raise IdentificationFailed(f"scan file {scan.path}: LSCF failed ({error}); try "
+                                   "another band or max_order") from None
+    logger.info("LSCF: %d orders on %d principal functions of %d channels (%.1f s)",
+                len(model.all_poles), keep, scan.n_channels, time.perf_counter() - started)
+    diagram_poles = _physical_poles(model.all_poles, options)
+    tracks, status = _tracks(diagram_poles, options)
+    chosen = _choose(tracks, options)
+    if chosen.size:
+        try:
+            constants, *_ = LSFD(chosen, values[:, in_band], band_frequencies, True, True, 0,
+                                 band_frequencies.size, frf_form)
+        except (ValueError, np.linalg.LinAlgError) as error:
+            raise IdentificationFailed(f"scan file {scan.path}: LSFD failed ({error})") \
+                from None
+        constants = constants * scale
+    else:
+        constants = np.zeros((scan.n_channels, 0), complex)
+    modes = []
+    for index in np.argsort(np.abs(chosen.imag)):
+        pole = chosen[index]
+        shape = constants[:, index]
+        modes.append(IdentifiedMode(
+            test_mode=len(modes) + 1, freq_hz=float(abs(pole.imag) / (2 * math.pi)),
+            damping_ratio=float(-pole.real / abs(pole)), shape=shape,
+            mpc=modal_phase_collinearity(shape)))
+    orders = np.arange(2, 2 * len(model.all_poles) + 1, 2)
+    diagram = StabilisationDiagram(
+        orders=orders, frequencies=[p[0] for p in diagram_poles],
+        dampings=[p[1] for p in diagram_poles], status=status,
+        chosen=np.array([[m.freq_hz, m.damping_ratio] for m in modes]).reshape(-1, 2),
+        band=(f_low, f_high), mean_magnitude=np.mean(np.abs(values[:, in_band]), axis=0)
+        * scale, band_frequencies=band_frequencies)
+    logger.info("identified %d modes in %.1f s", len(modes), time.perf_counter() - started)
+    return Identification(tuple(modes), diagram)
+
+
+def _options(scan, f_min, f_max, max_order, components, frequency_tolerance,
+             damping_tolerance, max_damping, min_stable_orders) -> dict:
+    if scan.quantity != "frf":
+        raise MeasuredDataError(f"scan file {scan.path}: quantity = {scan.quantity!r} is not "
+                                "allowed for identification; allowed: 'frf' (UFF function "
+                                "type 4: a spectrum has no reference to fit residues to)")
+    frequencies = np.asarray(scan.frequencies, float)
+    steps = np.diff(frequencies)
+    if frequencies.size < 8 or np.any(steps <= 0) or not np.allclose(steps, steps[0],
+                                                                      rtol=1e-6):
+        raise MeasuredDataError(f"scan file {scan.path}: frequency axis of {frequencies.size} "
+                                "lines is not allowed; allowed: at least 8 evenly spaced lines")
+    positive = frequencies[frequencies > 0]
+    low = float(positive[0]) if f_min is None else f_min
+    high = float(frequencies[-1]) if f_max is None else f_max
+    _check("f_min", low, 0.0, float(frequencies[-1]))
+    _check("f_max", high, 0.0, float(frequencies[-1]))
+    count = int(np.sum((frequencies >= low) & (frequencies <= high)))
+    if low <= 0 or count < 8:
+        raise MeasuredDataError(f"identify band = [{low:g}, {high:g}] Hz is not allowed; "
+                                f"allowed: 0 < f_min < f_max within the scan's "
+                                f"{frequencies[0]:g}..{frequencies[-1]:g} Hz holding >= 8 lines")
+    options = check_options({"max_order": max_order, "components": components,
+                             "frequency_tolerance": frequency_tolerance,
+                             "damping_tolerance": damping_tolerance, "max_damping": max_damping,
+                             "min_stable_orders": min_stable_orders})
+    options["band"] = (low, high)
+    return options
+
+
+def check_options(values: dict) -> dict:
+    """The options of the pole choice (:data:`DEFAULTS`'s keys; None: the default) checked
+    and completed; :class:`MeasuredDataError` naming a bad one."""
+    options = {**DEFAULTS, **{k: v for k, v in values.items() if v is not None}}
+    _check("max_order", options["max_order"], 4, 400, integer=True)
+    _check("components", options["components"], 1, 1000, integer=True)
+    _check("frequency_tolerance", options["frequency_tolerance"], 1e-6, 0.2)
+    _check("damping_tolerance", options["damping_tolerance"], 1e-6, 1.0)
+    _check("max_damping", options["max_damping"], 1e-4, 1.0)
+    n_orders = int(options["max_order"]) // 2
+    if options["min_stable_orders"] is None:
+        options["min_stable_orders"] = max(5, round(0.2 * n_orders))
+    _check("min_stable_orders", options["min_stable_orders"], 2, n_orders, integer=True)
+    options["max_order"] = int(options["max_order"])
+    options["components"] = int(options["components"])
+    return options
+
+
+def _physical_poles(all_poles, options) -> list:
+    """Per order: (frequency [Hz], damping [-], pole) of the poles in the band, Im s > 0,
+    0 < damping <= max_damping."""
+    low, high = options["band"]
+    out = []
+    for poles in all_poles:
+        poles = np.asarray(poles, complex)
+        poles = poles[np.isfinite(poles) & (poles.imag > 0)]
+        frequency = np.abs(poles.imag) / (2 * math.pi)
+        damping = -poles.real / np.maximum(np.abs(poles), 1e-300)
+        keep = ((frequency >= low) & (frequency <= high) & (damping > 0)
+                & (damping <= options["max_damping"]))
+        order = np.argsort(frequency[keep])
+        out.append((frequency[keep][order], damping[keep][order], poles[keep][order]))
+    return out
+
+
+def _tracks(diagram_poles, options):
+    """Chain stable poles over the orders (module notes); returns the tracks (lists of
+    (order index, pole)) and every pole's status."""
+    f_tol, d_tol = options["frequency_tolerance"], options["damping_tolerance"]
+    tracks, active, status = [], [], []
+    for k, (frequency, damping, poles) in enumerate(diagram_poles):
+        state = np.full(frequency.size, NEW, int)
+        pairs = []
+        for t, track in enumerate(active):
+            last_k, last_f, last_d = track[-1][0], track[-1][1], track[-1][2]
+            if last_k < k - 2:
+                continue
+            df = np.abs(frequency - last_f) / last_f
+            for i in np.flatnonzero(df < f_tol):
+                pairs.append((df[i], t, i, abs(damping[i] - last_d) / last_d < d_tol))
+        used_tracks, used_poles = set(), set()
+        for _, t, i, damping_ok in sorted(pairs, key=lambda p: p[0]):
+            if t in used_tracks or i in used_poles:
+                continue
+            if not damping_ok:
+                state[i] = max(state[i], FREQUENCY_STABLE)
+                continue
+            used_tracks.add(t)
+            used_poles.add(i)
+            state[i] = STABLE
+            active[t].append((k, frequency[i], damping[i], poles[i]))
+        for i in range(frequency.size):
+            if i not in used_poles:
+                track = [(k, frequency[i], damping[i], poles[i])]
+                active.append(track)
+                tracks.append(track)
+        active = [track for track in active if track[-1][0] >= k - 1]
+        status.append(state)
+    return tracks, status
+
+
+def _choose(tracks, options) -> np.ndarray:
+    """The poles of the tracks stable over ``min_stable_orders`` orders (module notes)."""
+    chosen = []
+    for track in sorted(tracks, key=len, reverse=True):
+        if len(track) < options["min_stable_orders"]:
+            break
+        upper = track[len(track) // 2:]
+        frequency = float(np.median([p[1] for p in upper]))
+        damping = float(np.median([p[2] for p in upper]))
+        orders = {p[0] for p in track}
+        duplicate = any(not (orders & other_orders)
+                        and abs(frequency - other_f) < options["frequency_tolerance"] * other_f
+                        for _, other_f, other_orders in chosen)
+        if duplicate:
+            continue
+        omega = 2 * math.pi * frequency / math.sqrt(1 - damping ** 2)
+        chosen.append((complex(-damping * omega, omega * math.sqrt(1 - damping ** 2)),
+                       frequency, orders))
+    return np.array([c[0] for c in chosen], complex)
+
+
+#: Columns of identified.csv.
+IDENTIFIED_COLUMNS = ("condition", "test_mode", "freq_hz", "damping_ratio", "mpc")
+
+
+def identified_rows(sets) -> list[dict]:
+    """identified.csv's rows: one per mode of every :class:`IdentifiedSet`."""
+    return [{"condition": item.condition, "test_mode": mode.test_mode,
+             "freq_hz": mode.freq_hz, "damping_ratio": mode.damping_ratio, "mpc": mode.mpc}
+            for item in sets for mode in item.modes]
+
+
+def write_identified(folder, sets) -> None:
+    """identified.csv, stabilisation_<condition>.png and shapes_<condition>/ (one VTU per
+    mode on the scan grid and a ParaView collection shapes.pvd, "time" = test mode) in
+    ``folder`` (a staging folder: the caller's ``write`` owns it)."""
+    import csv
+    from pathlib import Path
+
+    from copdea_fem.vibrometer.geometry import shape_meshes
+    from copdea_fem.vtu import write_all, write_pvd
+
+    folder = Path(folder)
+    with open(folder / "identified.csv", "w", newline="", encoding="utf-8") as handle:
+        writer = csv.DictWriter(handle, fieldnames=IDENTIFIED_COLUMNS)
+        writer.writeheader()
+        for row in identified_rows(sets):
+            writer.writerow({**row, "freq_hz": f"{row['freq_hz']:.6g}",
+                             "damping_ratio": f"{row['damping_ratio']:.6g}",
+                             "mpc": f"{row['mpc']:.4f}"})
+    for item in sets:
+        if item.diagram is not None:
+            plot_stabilisation(folder / f"stabilisation_{item.condition}.png", item.diagram,
+                               f"{item.condition}: {len(item.modes)} modes")
+        if item.modes:
+            shapes = folder / f"shapes_{item.condition}"
+            shapes.mkdir()
+            files = write_all(shapes, shape_meshes(item.scan, item.modes))
+            write_pvd(shapes / "shapes.pvd", files, [m.test_mode for m in item.modes])
+
+
+def plot_stabilisation(path, diagram: StabilisationDiagram, title: str = "") -> None:
+    """PNG of the stabilisation diagram: every order's poles (o new, f frequency-stable,
+    filled: stable), the chosen modes as vertical lines, the mean |H| behind (log scale).
+
+    Drawn on matplotlib's Agg canvas, not through pyplot (as :mod:`copdea_fem.output.plots`).
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    figure = Figure(figsize=(10, 6), dpi=100)
+    FigureCanvasAgg(figure)
+    axis = figure.add_subplot(1, 1, 1)
+    styles = {NEW: {"marker": "o", "facecolors": "none", "edgecolors": "0.6", "s": 10,
+                    "label": "new"},
+              FREQUENCY_STABLE: {"marker": "s", "facecolors": "none", "edgecolors": "tab:blue",
+                                 "s": 12, "label": "frequency stable"},
+              STABLE: {"marker": "o", "color": "tab:red", "s": 12,
+                       "label": "stable (f, damping)"}}
+    for state, style in styles.items():
+        x = np.concatenate([f[s == state] for f, s in zip(diagram.frequencies, diagram.status)]
+                           or [np.zeros(0)])
+        y = np.concatenate([np.full(int(np.sum(s == state)), order)
+                            for order, s in zip(diagram.orders, diagram.status)]
+                           or [np.zeros(0)])
+        axis.scatter(x, y, **style)
+    for frequency, _ in diagram.chosen:
+        axis.axvline(frequency, color="k", lw=0.6, alpha=0.5)
+    axis.set_xlim(*diagram.band)
+    axis.set_xlabel("frequency [Hz]")
+    axis.set_ylabel("model order")
+    axis.set_title(title or f"stabilisation diagram: {len(diagram.chosen)} modes chosen")
+    axis.legend(loc="lower right", fontsize=8, framealpha=0.9)
+    twin = axis.twinx()
+    magnitude = np.maximum(diagram.mean_magnitude, 1e-300)
+    twin.semilogy(diagram.band_frequencies, magnitude, color="0.3", lw=0.8)
+    twin.set_ylabel("mean |H| over the channels [SI]")
+    figure.savefig(path, pil_kwargs={"compress_level": 1})
+
+
+__all__ = [
+    "DEFAULTS",
+    "IDENTIFIED_COLUMNS",
+    "OPTIONS",
+    "Identification",
+    "StabilisationDiagram",
+    "identified_rows",
+    "identify",
+    "identify_scan",
+    "modal_phase_collinearity",
+    "plot_stabilisation",
+    "write_identified",
+]

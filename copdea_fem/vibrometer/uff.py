@@ -1,0 +1,659 @@
+"""Universal File Format (UFF/UNV) exports of a scanning vibrometer: read and write.
+
+A PSV-type export holds the scan points (dataset 2411, or the older 15), the units
+(164) and one function per point and direction (58, ASCII or binary "58b"): FRFs of
+the velocity per volt of drive (function type 4) or velocity spectra (type 12).
+:mod:`pyuff` parses the datasets; this module turns them into a :class:`ScanData` in SI
+and in the model's frame, and refuses a file it cannot trust with a
+:class:`MeasuredDataError` naming the file and the dataset.
+
+Units.  Dataset 164 gives factors that convert the file's units to SI by division
+(``SI = value / factor``: length, force, temperature).  A dataset 58 says its axes'
+units twice: as exponents of those base units (records 8-11) and as free-text labels
+(``m/s``, ``(1/N)*(m/s²)``, ``g²/Hz``).  A label that names a unit wins (the exponents are
+often left at zero); a label that names none (``NONE``, empty) falls back to 164 and the
+exponents.  Labels are decoded from the file's bytes, UTF-8 and else Latin-1 (a
+shaker controller's ``g²/Hz`` is the Latin-1 byte 0xB2), and read with pint, ``g``
+taken as standard gravity (no mass appears on these axes).  An FRF's ordinate label
+that already holds the denominator (``m/s/V``) is not divided by it again.
+
+Points and channels.  Every response is put on its point by its response node
+(``rsp_node``), never by its place in the file; a node without coordinates, a point
+without a response and two responses of one node and direction are refused.  The
+direction is the global axis ``rsp_dir`` = +-1, 2, 3 (x, y, z), or for a 1-D laser the
+per-point direction given in measured.yaml.  Channels are ordered by point (in the
+geometry's order) and then by direction, whatever the file's order.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import io
+import logging
+import math
+import re
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from copdea_fem.inputs import preview
+from copdea_fem.vibrometer.scan import MeasuredDataError, ScanData, ScanFrame
+
+logger = logging.getLogger(__name__)
+
+#: UFF function types read as scans: 4 = frequency response function, 12 = spectrum.
+FUNCTION_TYPES = {4: "frf", 12: "spectrum"}
+#: UFF specific data types of a 58 ordinate (record 9) that say what the response is.
+RESPONSE_CODES = {8: "displacement", 11: "velocity", 12: "acceleration"}
+#: Labels that name no unit.
+_NO_UNIT = {"", "none", "unknown", "n/a", "-", "nounit", "no unit"}
+#: SI dimensions (pint's) of the responses, to tell a response from its label.
+_RESPONSE_DIMENSIONS = {"displacement": {"[length]": 1},
+                        "velocity": {"[length]": 1, "[time]": -1},
+                        "acceleration": {"[length]": 1, "[time]": -2}}
+#: ... and of the excitations an FRF's ordinate label may already divide by: none, N, V.
+_EXCITATION_DIMENSIONS = ({}, {"[mass]": 1, "[length]": 1, "[time]": -2},
+                          {"[mass]": 1, "[length]": 2, "[time]": -3, "[current]": -1})
+
+
+@dataclass(frozen=True)
+class UnitLabel:
+    """A unit label read: the text, the factor to SI, the SI dimensions (pint's)."""
+
+    text: str
+    factor: float
+    dimensions: dict
+
+
+@dataclass(frozen=True)
+class FunctionRecord:
+    """One dataset 58 read and converted to SI (:func:`read_functions`).
+
+    Attributes
+    ----------
+    dataset : int
+        1-based position of the dataset in the file (named in errors).
+    function_type : int
+        UFF function type (1 time, 4 FRF, 9 PSD, 12 spectrum, ...).
+    response_node, response_direction, reference_node, reference_direction : int
+        Records 6 of the dataset (``rsp_node``, ``rsp_dir``, ``ref_node``, ``ref_dir``).
+    abscissa : (F,) float array
+        Frequencies [Hz] (time [s] for a time history).
+    values : (F,) complex array
+        The ordinate (divided by the denominator for an FRF) in SI.
+    ordinate_label, denominator_label : str
+        The unit labels as written in the file (decoded).
+    si_factor : float
+        The factor applied to the file's numbers.
+    response : str
+        displacement, velocity, acceleration or unknown.
+    """
+
+    dataset: int
+    function_type: int
+    response_node: int
+    response_direction: int
+    reference_node: int
+    reference_direction: int
+    abscissa: np.ndarray
+    values: np.ndarray
+    ordinate_label: str
+    denominator_label: str
+    si_factor: float
+    response: str
+
+
+def _where(path: Path, dataset: str) -> str:
+    return f"scan file {preview(Path(path))} dataset {dataset}"
+
+
+def _error(path: Path, dataset: str, problem: str, allowed: str) -> MeasuredDataError:
+    return MeasuredDataError(f"{_where(path, dataset)}: {problem}; allowed: {allowed}")
+
+
+# --- labels and units ------------------------------------------------------------------
+
+def decode_label(raw: bytes) -> str:
+    """A header field's text: UTF-8 when it is, else Latin-1 (every byte a character)."""
+    try:
+        return raw.decode("utf-8").strip()
+    except UnicodeDecodeError:
+        return raw.decode("latin-1").strip()
+
+
+@functools.lru_cache(maxsize=256)
+def parse_unit_label(text: str) -> UnitLabel | None:
+    """A UFF unit label (``m/s``, ``(1/N)*(m/s²)``, ``g²/Hz``, ``µm/s``) in SI, or None
+    when it names no unit pint can read.  ``g`` is standard gravity (9.80665 m/s^2)."""
+    cleaned = text.strip()
+    if cleaned.lower() in _NO_UNIT:
+        return None
+    cleaned = (cleaned.replace("²", "**2").replace("³", "**3").replace("µ", "u")
+               .replace("μ", "u").replace("^", "**").replace("Ohm", "ohm"))
+    cleaned = re.sub(r"(?<![A-Za-z_])g(?![A-Za-z_])", "g_n", cleaned)
+    cleaned = re.sub(r"\brms\b|\bRMS\b|\bpk\b|\bpeak\b", "", cleaned).strip()
+    from copdea_fem.study import unit_registry
+
+    registry = unit_registry()
+    try:
+        quantity = registry.parse_expression(cleaned)
+        base = (1.0 * quantity).to_base_units()
+    except Exception:  # noqa: BLE001 -- pint raises many types on text it cannot read
+        return None
+    if not hasattr(base, "dimensionality") or not math.isfinite(float(base.magnitude)):
+        return None
+    return UnitLabel(text, float(base.magnitude), dict(base.dimensionality))
+
+
+def _exponent_factor(units: dict, record: dict, axis: str) -> float:
+    """Factor to SI from dataset 164 and the axis' unit exponents (``SI = value / f``)."""
+    length = record.get(f"{axis}_len_unit_exp", 0) or 0
+    force = record.get(f"{axis}_force_unit_exp", 0) or 0
+    return 1.0 / (units["length"] ** length * units["force"] ** force)
+
+
+def _response_of(dimensions: dict | None, code: int) -> str:
+    """The response a label's dimensions name, alone or per newton or volt
+    (``(1/N)*(m/s²)`` is an acceleration per force), else the specific data type's."""
+    if dimensions is not None:
+        for excitation in _EXCITATION_DIMENSIONS:
+            times = {k: dimensions.get(k, 0) + excitation.get(k, 0)
+                     for k in set(dimensions) | set(excitation)}
+            times = {k: v for k, v in times.items() if v}
+            for name, wanted in _RESPONSE_DIMENSIONS.items():
+                if times == wanted:
+                    return name
+    return RESPONSE_CODES.get(code, "unknown")
+
+
+def _contains(outer: dict, inner: dict) -> bool:
+    """Whether a label's dimensions already hold ``1 / inner`` (``m/s/V`` holds ``V``)."""
+    with_inner = {k: outer.get(k, 0) + inner.get(k, 0) for k in set(outer) | set(inner)}
+    size = lambda dims: sum(abs(v) for v in dims.values())
+    return size(with_inner) < size(outer)
+
+
+def _raw_58_headers(data: bytes) -> list[list[bytes]]:
+    """The 13 header lines of every dataset 58 in the file's bytes, in file order."""
+    headers = []
+    for match in re.finditer(rb"(?:^|\n) {4}-1[ \t]*\r?\n {4}58b?(?=[ \t\r\n])", data):
+        start = match.start() + (1 if data[match.start():match.start() + 1] == b"\n" else 0)
+        lines = data[start:start + 13 * 200].splitlines()[:13]
+        headers.append(lines)
+    return headers
+
+
+# --- reading --------------------------------------------------------------------------
+
+def _open(path: Path):
+    import pyuff
+
+    if not path.is_file():
+        raise _error(path, "-", "a folder, not a file" if path.is_dir() else
+                     "the file does not exist", "an existing .uff/.unv file")
+    try:
+        with contextlib.redirect_stdout(io.StringIO()):
+            uff = pyuff.UFF(str(path))
+            types = [int(t) for t in uff.get_set_types()]
+    except Exception as error:  # noqa: BLE001 -- pyuff raises bare Exceptions
+        raise _error(path, "-", f"not a readable UFF file ({error})",
+                     "a Universal File Format export") from None
+    if not types:
+        raise _error(path, "-", "no dataset found (no '    -1' delimited block)",
+                     "a Universal File Format export")
+    return uff, types
+
+
+def _read_set(uff, index: int, path: Path, kind: int):
+    try:
+        with contextlib.redirect_stdout(io.StringIO()):
+            return uff.read_sets(index)
+    except Exception as error:  # noqa: BLE001 -- pyuff raises bare Exceptions
+        raise _error(path, f"{kind} #{index + 1}", f"cannot be parsed ({error})",
+                     "a well-formed dataset") from None
+
+
+def read_units(path) -> dict:
+    """Dataset 164's factors (``length``, ``force``: ``SI = value / factor``), or SI ones."""
+    path = Path(path)
+    uff, types = _open(path)
+    return _units(uff, types, path)
+
+
+def _units(uff, types, path) -> dict:
+    if 164 not in types:
+        return {"length": 1.0, "force": 1.0}
+    index = types.index(164)
+    record = _read_set(uff, index, path, 164)
+    units = {"length": float(record.get("length", 1.0)), "force": float(record.get("force", 1.0))}
+    for name, value in units.items():
+        if not math.isfinite(value) or value <= 0:
+            raise _error(path, f"164 #{index + 1}", f"{name} factor = {value!r}",
+                         "a finite factor > 0")
+    return units
+
+
+def read_geometry(path) -> tuple[np.ndarray, np.ndarray]:
+    """Node numbers (P,) and coordinates (P, 3) [m, in the file's axes] of dataset 2411
+    (else 15; the first one of the file), lengths converted with dataset 164."""
+    path = Path(path)
+    uff, types = _open(path)
+    return _geometry(uff, types, path, _units(uff, types, path)["length"])
+
+
+def _geometry(uff, types, path, length_factor: float, length_unit: float | None = None):
+    kind = 2411 if 2411 in types else 15 if 15 in types else None
+    if kind is None:
+        raise _error(path, "2411/15", "no geometry (no dataset 2411 or 15 with the scan "
+                     "points)", "an export with the scan points' coordinates")
+    index = types.index(kind)
+    record = _read_set(uff, index, path, kind)
+    try:
+        nodes = np.asarray(record["node_nums"], float)
+        coordinates = np.column_stack([np.asarray(record[a], float) for a in "xyz"])
+    except (KeyError, ValueError) as error:
+        raise _error(path, f"{kind} #{index + 1}", f"incomplete node records ({error})",
+                     "node number, coordinate systems and x, y, z per node") from None
+    where = f"{kind} #{index + 1}"
+    if nodes.size == 0:
+        raise _error(path, where, "no node", "at least one scan point")
+    if not np.all(np.isfinite(coordinates)) or not np.all(np.isfinite(nodes)):
+        bad = int(nodes[np.flatnonzero(~np.all(np.isfinite(coordinates), axis=1))[0]]) \
+            if np.all(np.isfinite(nodes)) else "?"
+        raise _error(path, where, f"node {bad} has a coordinate that is not a number",
+                     "finite coordinates")
+    unique, counts = np.unique(nodes, return_counts=True)
+    if np.any(counts > 1):
+        raise _error(path, where, f"node {int(unique[counts > 1][0])} defined twice",
+                     "each node once")
+    scale = length_unit if length_unit is not None else 1.0 / length_factor
+    return nodes.astype(int), coordinates * scale
+
+
+def read_functions(path, *, units: dict | None = None) -> tuple[FunctionRecord, ...]:
+    """Every dataset 58 of a file in SI (see the module notes on units).
+
+    A binary 58b that :mod:`pyuff` cannot parse is read again after pyuff's own fix for
+    commercial exports (:func:`pyuff.datasets.dataset_58.fix_58b`, on a temporary copy).
+    """
+    path = Path(path)
+    uff, types = _open(path)
+    units = units or _units(uff, types, path)
+    return _functions(uff, types, path, units)
+
+
+def _functions(uff, types, path, units) -> tuple[FunctionRecord, ...]:
+    indices = [i for i, t in enumerate(types) if t == 58]
+    data = path.read_bytes()
+    try:
+        records = [_read_58(uff, i) for i in indices]
+    except _Unparsed as failed:
+        if b"58b" not in data:
+            raise _error(path, f"58 #{failed.index + 1}", f"cannot be parsed ({failed.reason})",
+                         "a well-formed dataset 58") from None
+        records, data = _read_fixed(path, types, failed)
+    headers = _raw_58_headers(data)
+    if len(headers) != len(records):
+        headers = [None] * len(records)
+    out = []
+    for index, record, header in zip(indices, records, headers):
+        out.append(_function(path, index, record, header, units))
+    return tuple(out)
+
+
+class _Unparsed(Exception):
+    def __init__(self, index, reason):
+        super().__init__(reason)
+        self.index, self.reason = index, reason
+
+
+def _read_58(uff, index):
+    try:
+        with contextlib.redirect_stdout(io.StringIO()):
+            return uff.read_sets(index)
+    except Exception as error:  # noqa: BLE001 -- pyuff raises bare Exceptions
+        raise _Unparsed(index, str(error)) from None
+
+
+def _read_fixed(path: Path, types, failed: _Unparsed):
+    import pyuff
+    from pyuff.datasets.dataset_58 import fix_58b
+
+    logger.info("%s: dataset 58 #%d unreadable, reading pyuff's fixed copy", path.name,
+                failed.index + 1)
+    with tempfile.TemporaryDirectory(prefix="copdea-uff-") as folder:
+        fixed = Path(folder) / path.name
+        try:
+            with contextlib.redirect_stdout(io.StringIO()):
+                fix_58b(str(path), str(fixed))
+                uff = pyuff.UFF(str(fixed))
+                fixed_types = [int(t) for t in uff.get_set_types()]
+        except Exception as error:  # noqa: BLE001 -- pyuff raises bare Exceptions
+            raise _error(path, f"58 #{failed.index + 1}", f"cannot be parsed ({failed.reason}; "
+                         f"pyuff's 58b fix failed too: {error})", "a well-formed dataset 58") \
+                from None
+        indices = [i for i, t in enumerate(fixed_types) if t == 58]
+        try:
+            records = [_read_58(uff, i) for i in indices]
+        except _Unparsed as again:
+            raise _error(path, f"58 #{again.index + 1}", f"cannot be parsed ({again.reason}, "
+                         "also after pyuff's 58b fix)", "a well-formed dataset 58") from None
+        return records, fixed.read_bytes()
+
+
+def _label(record: dict, header, line: int, key: str) -> str:
+    """A unit label from the raw header bytes (columns 47-67 of records 8-11), else pyuff's."""
+    if header is not None and len(header) > line:
+        return decode_label(header[line][46:67])
+    return str(record.get(key, "")).strip()
+
+
+def _function(path, index, record, header, units) -> FunctionRecord:
+    where = f"58 #{index + 1}"
+    try:
+        abscissa = np.asarray(record["x"], float)
+        values = np.asarray(record["data"])
+        node = int(record["rsp_node"])
+    except (KeyError, TypeError, ValueError) as error:
+        raise _error(path, where, f"incomplete record ({error})", "a dataset 58 with data") \
+            from None
+    where = f"58 #{index + 1} (response node {node})"
+    if values.size == 0 or abscissa.size != values.size:
+        raise _error(path, where, f"{values.size} values on {abscissa.size} abscissae",
+                     "one value per abscissa, at least one")
+    bad = ~np.isfinite(values) | ~np.isfinite(abscissa)
+    if np.any(bad):
+        raise _error(path, where, f"{int(bad.sum())} values are NaN or infinite (first at "
+                     f"abscissa {abscissa[np.argmax(bad)]:g})", "finite numbers")
+    function_type = int(record.get("func_type", 0))
+    ordinate_text = _label(record, header, 10, "ordinate_axis_units_lab")
+    denominator_text = _label(record, header, 11, "orddenom_axis_units_lab")
+    abscissa_text = _label(record, header, 9, "abscissa_axis_units_lab")
+    ordinate = parse_unit_label(ordinate_text)
+    denominator = parse_unit_label(denominator_text) if function_type == 4 else None
+    factor = ordinate.factor if ordinate else _exponent_factor(units, record, "ordinate")
+    dimensions = ordinate.dimensions if ordinate else None
+    if function_type == 4:
+        if denominator is not None:
+            if dimensions is not None and _contains(dimensions, denominator.dimensions):
+                dimensions = {k: dimensions.get(k, 0) + denominator.dimensions.get(k, 0)
+                              for k in set(dimensions) | set(denominator.dimensions)}
+                dimensions = {k: v for k, v in dimensions.items() if v}
+            else:
+                factor /= denominator.factor
+        else:
+            factor /= _exponent_factor(units, record, "orddenom")
+    abscissa_unit = parse_unit_label(abscissa_text)
+    if abscissa_unit is not None and abscissa_unit.dimensions == {"[time]": -1}:
+        abscissa = abscissa * abscissa_unit.factor
+    response = _response_of(dimensions, int(record.get("ordinate_spec_data_type", 0)))
+    return FunctionRecord(
+        dataset=index + 1, function_type=function_type, response_node=node,
+        response_direction=int(record.get("rsp_dir", 0)),
+        reference_node=int(record.get("ref_node", 0)),
+        reference_direction=int(record.get("ref_dir", 0)), abscissa=abscissa,
+        values=values.astype(complex) * factor, ordinate_label=ordinate_text,
+        denominator_label=denominator_text, si_factor=factor, response=response)
+
+
+def _direction_vector(value, where: str) -> np.ndarray:
+    try:
+        vector = np.asarray(value, float).reshape(3)
+    except (TypeError, ValueError):
+        raise MeasuredDataError(f"{where} = {preview(value)} is not allowed; allowed: a "
+                                "direction [x, y, z] (three numbers, not all zero)") from None
+    norm = float(np.linalg.norm(vector))
+    if not math.isfinite(norm) or norm == 0:
+        raise MeasuredDataError(f"{where} = {preview(value)} is not allowed; allowed: a "
+                                "direction [x, y, z] (three finite numbers, not all zero)")
+    return vector / norm
+
+
+def read_scan(path, *, frame: ScanFrame | None = None, directions=None) -> ScanData:
+    """A vibrometer's UFF export as a :class:`ScanData` (SI, the model's frame).
+
+    Parameters
+    ----------
+    path : path-like
+        The ``.uff``/``.unv`` file.
+    frame : ScanFrame, optional
+        Where the model's frame lies in the file's coordinates; default: the file's
+        coordinates are the model's (lengths converted with dataset 164).
+    directions : (3,) sequence or dict, optional
+        A 1-D laser's measuring direction in the file's axes: one for every point, or
+        ``{node: [x, y, z]}`` per point.  It replaces ``rsp_dir`` for those points;
+        without it ``rsp_dir`` must be +-1, 2 or 3.
+
+    Returns
+    -------
+    ScanData
+
+    Raises
+    ------
+    MeasuredDataError
+        No geometry, a node without data or data without a node, two responses of one
+        node and direction, mixed frequency axes or function types, NaN, a direction
+        that is not given: the message names the file and the dataset.
+    """
+    path = Path(path)
+    uff, types = _open(path)
+    units = _units(uff, types, path)
+    frame = frame or ScanFrame()
+    nodes, coordinates = _geometry(uff, types, path, units["length"], frame.length_unit)
+    if 58 not in types:
+        raise _error(path, "58", "no response function (no dataset 58)",
+                     "one dataset 58 per scan point and direction")
+    records = _functions(uff, types, path, units)
+    first = records[0]
+    for record in records:
+        where = f"58 #{record.dataset} (response node {record.response_node})"
+        if record.function_type not in FUNCTION_TYPES:
+            raise _error(path, where, f"function type {record.function_type}",
+                         "4 (frequency response function) or 12 (spectrum)")
+        if record.function_type != first.function_type:
+            raise _error(path, where, f"function type {record.function_type} beside "
+                         f"{first.function_type} in dataset 58 #{first.dataset}",
+                         "one function type in a scan")
+        if record.abscissa.shape != first.abscissa.shape or not np.allclose(
+                record.abscissa, first.abscissa, rtol=1e-9, atol=0.0):
+            raise _error(path, where, f"a frequency axis of {record.abscissa.size} lines "
+                         f"{record.abscissa[0]:g}..{record.abscissa[-1]:g} Hz unlike dataset "
+                         f"58 #{first.dataset}'s {first.abscissa.size} lines "
+                         f"{first.abscissa[0]:g}..{first.abscissa[-1]:g} Hz (mixed "
+                         "frequency axes)", "one frequency axis for every response")
+        if record.response != first.response:
+            raise _error(path, where, f"a {record.response} response beside a "
+                         f"{first.response} one in dataset 58 #{first.dataset}",
+                         "one response quantity in a scan")
+    frequencies = first.abscissa
+    if frequencies.size < 2 or np.any(np.diff(frequencies) <= 0) or frequencies[0] < 0:
+        raise _error(path, f"58 #{first.dataset}", "frequencies not strictly increasing "
+                     "from >= 0", "a frequency axis of at least two increasing lines")
+    point_of = {int(node): i for i, node in enumerate(nodes)}
+    per_point = _point_directions(directions, point_of, path)
+    channels, seen = [], {}
+    for record in records:
+        where = f"58 #{record.dataset} (response node {record.response_node})"
+        if record.response_node not in point_of:
+            raise _error(path, where, f"node {record.response_node} has no coordinates in "
+                         "the geometry (dataset 2411/15)", "responses of scan points only")
+        point = point_of[record.response_node]
+        if point in per_point:
+            direction = per_point[point]
+        elif abs(record.response_direction) in (1, 2, 3):
+            direction = np.zeros(3)
+            direction[abs(record.response_direction) - 1] = np.sign(record.response_direction)
+        else:
+            raise _error(path, where, f"response direction {record.response_direction} and no "
+                         "direction given for the point", "rsp_dir +-1, +-2, +-3 (global x, "
+                         "y, z) or a 1-D laser's direction in measured.yaml (scan_directions)")
+        key = (point, tuple(np.round(direction, 9)))
+        if key in seen:
+            raise _error(path, where, f"a second response of node {record.response_node} "
+                         f"along {direction.tolist()} (also dataset 58 #{seen[key]})",
+                         "one response per node and direction")
+        seen[key] = record.dataset
+        order = abs(record.response_direction) if point not in per_point else 0
+        channels.append((point, order, record.dataset, direction, record.values))
+    measured = {point for point, *_ in channels}
+    missing = [int(nodes[i]) for i in range(len(nodes)) if i not in measured]
+    if missing:
+        raise _error(path, "2411/15", f"{len(missing)} node(s) without data (first: node "
+                     f"{missing[0]})", "a response (dataset 58) for every scan point")
+    channels.sort(key=lambda c: (c[0], c[1], c[2]))
+    rotation = frame.rotation()
+    origin = np.asarray(frame.origin, float) * (frame.length_unit if frame.length_unit
+                                                is not None else 1.0 / units["length"])
+    positions = (coordinates - origin) @ rotation.T
+    directions_model = np.array([c[3] for c in channels]) @ rotation.T
+    return ScanData(path=path, nodes=nodes, positions=positions,
+                    channel_point=np.array([c[0] for c in channels], int),
+                    channel_direction=directions_model, frequencies=frequencies,
+                    values=np.array([c[4] for c in channels]),
+                    quantity=FUNCTION_TYPES[first.function_type], response=first.response)
+
+
+def _point_directions(directions, point_of: dict, path: Path) -> dict:
+    if directions is None:
+        return {}
+    if isinstance(directions, dict):
+        out = {}
+        for node, value in directions.items():
+            try:
+                point = point_of[int(node)]
+            except (KeyError, TypeError, ValueError):
+                raise MeasuredDataError(f"scan_directions node {preview(node)} is not allowed "
+                                        f"(not a scan point of {preview(path)}); allowed: the "
+                                        "file's node numbers") from None
+            out[point] = _direction_vector(value, f"scan_directions[{node}]")
+        return out
+    vector = _direction_vector(directions, "scan_directions")
+    return {point: vector for point in point_of.values()}
+
+
+# --- dataset 55: identified mode shapes ------------------------------------------------
+
+@dataclass(frozen=True)
+class ModeSet:
+    """One dataset 55 (a mode shape an identification program exported).
+
+    ``frequency_hz`` and ``damping_ratio`` from the complex eigenvalue (record 8:
+    ``s = -zeta w + i w sqrt(1 - zeta^2)``, damped frequency ``|Im s| / 2 pi``) when there is
+    one, else from the text header; ``shape`` (P, 3) complex per node of ``nodes``.
+    """
+
+    dataset: int
+    mode: int
+    frequency_hz: float
+    damping_ratio: float
+    nodes: np.ndarray
+    shape: np.ndarray
+    header: str
+
+
+def read_mode_sets(path) -> tuple[ModeSet, ...]:
+    """Every dataset 55 of a file (LMS Test.Lab, ARTeMIS mode-shape exports), in file order."""
+    path = Path(path)
+    uff, types = _open(path)
+    out = []
+    for index, kind in enumerate(types):
+        if kind != 55:
+            continue
+        record = _read_set(uff, index, path, 55)
+        where = f"55 #{index + 1}"
+        try:
+            nodes = np.asarray(record["node_nums"], int)
+            shape = np.column_stack([np.asarray(record.get(f"r{k}", np.zeros(nodes.size)))
+                                     for k in (1, 2, 3)])
+        except (KeyError, ValueError) as error:
+            raise _error(path, where, f"incomplete record ({error})", "a dataset 55") \
+                from None
+        eigenvalue = record.get("eig")
+        header = str(record.get("id4", ""))
+        if eigenvalue is not None and complex(eigenvalue) != 0:
+            s = complex(eigenvalue)
+            frequency, damping = abs(s.imag) / (2 * math.pi), -s.real / abs(s)
+        elif record.get("freq") is not None:
+            frequency, damping = float(record["freq"]), float(record.get("modal_damp_vis", 0))
+        else:
+            raise _error(path, where, "no eigenvalue or frequency", "a dataset 55 of modes")
+        out.append(ModeSet(index + 1, int(record.get("mode_n", len(out) + 1)), frequency,
+                           damping, nodes, shape, header))
+    return tuple(out)
+
+
+# --- writing --------------------------------------------------------------------------
+
+def write_scan(path, scan: ScanData, *, binary: bool = True) -> Path:
+    """A :class:`ScanData` as a PSV-like UFF export: 164 (SI), 2411 (the points, model
+    frame, m), one 58 (function type 4, velocity per volt) per channel.
+
+    A channel along a global axis gets ``rsp_dir`` +-1..3; any other direction (a 1-D
+    laser) gets ``rsp_dir`` 0 and must be given to :func:`read_scan` again.  Abscissae are
+    written with 6 significant digits (pyuff's ``%13.5e``), values as doubles (binary) or
+    with 12 significant digits (ASCII, pyuff's ``%20.11e``).
+    """
+    import pyuff
+
+    path = Path(path)
+    if scan.quantity != "frf":
+        raise ValueError(f"write_scan: quantity = {scan.quantity!r} is not allowed; "
+                         "allowed: 'frf' (UFF function type 4)")
+    ordinate_unit = {"displacement": "m", "velocity": "m/s",
+                     "acceleration": "m/s^2"}.get(scan.response, "NONE")
+    code = {v: k for k, v in RESPONSE_CODES.items()}.get(scan.response, 0)
+    sets = [pyuff.prepare_164(units_code=1, units_description="SI", temp_mode=1, length=1.0,
+                              force=1.0, temp=1.0, temp_offset=273.15),
+            pyuff.prepare_2411(node_nums=np.asarray(scan.nodes, int),
+                               def_cs=np.zeros(scan.n_points, int),
+                               disp_cs=np.zeros(scan.n_points, int),
+                               color=np.full(scan.n_points, 8, int),
+                               x=scan.positions[:, 0], y=scan.positions[:, 1],
+                               z=scan.positions[:, 2])]
+    frequencies = np.asarray(scan.frequencies, float)
+    for channel in range(scan.n_channels):
+        direction = np.asarray(scan.channel_direction[channel], float)
+        axis = int(np.argmax(np.abs(direction)))
+        along_axis = abs(abs(direction[axis]) - 1.0) < 1e-9
+        rsp_dir = int(np.sign(direction[axis]) * (axis + 1)) if along_axis else 0
+        record = pyuff.prepare_58(
+            binary=int(bool(binary)), id1=f"{scan.response} / voltage", id2="copdea-fem",
+            id4=f"channel {channel + 1}", func_type=4, rsp_ent_name="SCAN",
+            rsp_node=int(scan.nodes[scan.channel_point[channel]]), rsp_dir=rsp_dir,
+            ref_ent_name="DRIVE", ref_node=0, ref_dir=0, ord_data_type=6,
+            num_pts=frequencies.size, abscissa_spacing=1, abscissa_min=float(frequencies[0]),
+            abscissa_inc=float(frequencies[1] - frequencies[0]), abscissa_spec_data_type=18,
+            abscissa_axis_units_lab="Hz", ordinate_spec_data_type=code,
+            ordinate_axis_units_lab=ordinate_unit, orddenom_spec_data_type=0,
+            orddenom_axis_units_lab="V", data=np.asarray(scan.values[channel], complex),
+            x=frequencies)
+        record.update(abscissa_axis_lab="Frequency", ordinate_axis_lab=scan.response.capitalize(),
+                      orddenom_axis_lab="Voltage")
+        sets.append(record)
+    uniform = np.allclose(np.diff(frequencies), frequencies[1] - frequencies[0], rtol=1e-9)
+    if not uniform:
+        for record in sets[2:]:
+            record["abscissa_spacing"] = 0
+    path.unlink(missing_ok=True)
+    with contextlib.redirect_stdout(io.StringIO()):
+        pyuff.UFF(str(path)).write_sets(sets, mode="overwrite")
+    return path
+
+
+__all__ = [
+    "FUNCTION_TYPES",
+    "FunctionRecord",
+    "ModeSet",
+    "UnitLabel",
+    "decode_label",
+    "parse_unit_label",
+    "read_functions",
+    "read_geometry",
+    "read_mode_sets",
+    "read_scan",
+    "read_units",
+    "write_scan",
+]
