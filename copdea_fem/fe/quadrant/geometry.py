@@ -508,7 +508,8 @@ def estimate_size(spec: GeometrySpec, order: int, pressure_order: int) -> tuple[
     with air, tetrahedra graded away from those faces at Netgen's ``grading`` g
     up to ``air_size`` H (size h + g d at distance d: A (1 - h^2/H^2) / (0.236 g
     h^2) regular tetrahedra per side of a face of area A, times 3 as counted on
-    the project's quadrant meshes), plus 0.3 of the air ball filled at size H.  Unknowns:
+    the project's quadrant meshes; an enclosure's walls count as the frame, both sides),
+    plus 0.3 of the air ball filled at size H.  Unknowns:
     3 p^2 / 2 per membrane triangle (order p, three components), q^3 / 6 per
     tetrahedron (pressure order q).  Within a factor ~2 of the real counts on
     the project's meshes; meant to catch sizes that are far out, not to budget.
@@ -522,6 +523,7 @@ def estimate_size(spec: GeometrySpec, order: int, pressure_order: int) -> tuple[
     elif spec.frame == "baffle" and spec.with_air:
         rest += math.pi * (spec.domain_radius**2 - r_o**2)
     rest *= fraction
+    walls = enclosure_wall_area(spec) * fraction if spec.with_air else 0.0
     triangle = math.sqrt(3) / 4
     membrane_triangles = membrane / (triangle * h**2)
     elements = membrane_triangles + rest / (triangle * (2 * h)**2)
@@ -529,7 +531,7 @@ def estimate_size(spec: GeometrySpec, order: int, pressure_order: int) -> tuple[
     if spec.with_air:
         coarse = spec.air_size
         tetrahedra = 0.0
-        for area, size in ((membrane, h), (rest, 2 * h)):
+        for area, size in ((membrane, h), (rest, 2 * h), (walls, 2 * h)):
             size = min(size, coarse)
             tetrahedra += 3 * area / (0.118 * spec.grading * size**2) * (1 - (size / coarse)**2)
         radius = spec.domain_radius + spec.pml_thickness
@@ -537,6 +539,21 @@ def estimate_size(spec: GeometrySpec, order: int, pressure_order: int) -> tuple[
         elements += tetrahedra
         unknowns += tetrahedra * pressure_order**3 / 6
     return elements, unknowns
+
+
+def enclosure_wall_area(spec: GeometrySpec) -> float:
+    """Area [m^2] of an enclosure's walls, both sides counted (air on each): the side and
+    the bottom of a cylinder or box (a bowl as its cylinder: an upper bound), and the top
+    between r_o and the rim; 0 without one."""
+    if spec.enclosure == "none":
+        return 0.0
+    depth = spec.enclosure_depth
+    if spec.enclosure == "box":
+        side = spec.frame_side
+        return 2 * (4 * side * depth + side**2)
+    radius = spec.enclosure_radius
+    top = math.pi * (radius**2 - spec.outer_radius**2)
+    return 2 * (2 * math.pi * radius * depth + math.pi * radius**2) + top
 
 
 def study_mesh(study, with_air=None, cache_dir=None):
