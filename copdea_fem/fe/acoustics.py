@@ -443,19 +443,19 @@ def region_pressures(pressure) -> list:
         half on its own with a third field.
     """
     p, q = pressure[0], pressure[1]
-    present = set(p.space.mesh.GetMaterials())
+    mesh = p.space.mesh
+    if len(pressure) == 2:
+        parts = [(air, pml, p + q if with_q else p)
+                 for air, pml, with_q in pressure_regions(mesh)]
+    else:                      # the third field: the outside halves apart
+        present = set(mesh.GetMaterials())
 
-    def keep(pattern):
-        return "|".join(name for name in pattern.split("|") if name in present)
+        def keep(pattern):
+            return "|".join(name for name in pattern.split("|") if name in present)
 
-    if CAVITY not in present:
-        parts = [("air_upper", "pml_upper", p), ("air_lower", "pml_lower", p + q)]
-    elif len(pressure) == 3:
-        parts = [("air_upper", "pml_upper", p), ("air_lower", "pml_lower", p + pressure[2]),
-                 (CAVITY, "", p + q)]
-    else:
-        parts = [("air_upper|air_lower", PML_REGIONS, p), (CAVITY, "", p + q)]
-    return [(keep(air), keep(pml), value) for air, pml, value in parts if keep(air + "|" + pml)]
+        parts = [(keep("air_upper"), keep("pml_upper"), p),
+                 (keep("air_lower"), keep("pml_lower"), p + pressure[2]), (CAVITY, "", p + q)]
+    return [(air, pml, value) for air, pml, value in parts if air or pml]
 
 
 def outside_pressures(pressure) -> tuple[list, list]:
@@ -497,7 +497,7 @@ def _over_regions(integrand_of, pressure, pressure_test, deformation):
         integrand = integrand_of(value, test)
         if deformation is None:
             term = integrand * dx("|".join(name for name in (air, pml) if name))
-        else:
+        else:                  # a PML only around some air (region_pressures): air set
             term = integrand * dx(air, deformation=deformation)
             if pml:
                 term = term + integrand * dx(pml)
