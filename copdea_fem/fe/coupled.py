@@ -97,12 +97,12 @@ def assemble_coupled(study, mesh, state) -> "CoupledAssembly":
     if geometry["inner_radius"] == 0:
         screens = "|".join(face for face in screens.split("|") if face != "disc")
     logger.info("air mesh follows the membrane (ALE) ...")
-    depth = None
-    if closed:                 # the air inside follows the membrane down to the bottom
-        depth = lambda radius: cavity_depth(  # noqa: E731
-            geometry["enclosure"], geometry["enclosure_depth"], geometry["enclosure_radius"],
-            radius)
-    motion = air_mesh_displacement(state, mesh, air["domain_radius"], cavity_depth=depth)
+    def depth(radius):         # the air inside follows the membrane down to the bottom
+        return cavity_depth(geometry["enclosure"], geometry["enclosure_depth"],
+                            geometry["enclosure_radius"], radius)
+
+    motion = air_mesh_displacement(state, mesh, air["domain_radius"],
+                                   cavity_depth=depth if closed else None)
     # a square frame beyond a cylinder's or bowl's rim separates the outside halves too
     frame_beyond_rim = closed and outside and geometry["frame"] == "square" \
         and geometry["enclosure"] != "box"

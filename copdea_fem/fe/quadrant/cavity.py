@@ -27,13 +27,13 @@ import math
 
 import numpy as np
 
+from copdea_fem.fe.airbox import bowl_sphere_radius
 from copdea_fem.fe.cavity import (
     CAVITY_SHARE,
     circumferential_order,
     real_pattern,
     sign_changes,
 )
-from copdea_fem.fe.airbox import bowl_sphere_radius
 from copdea_fem.fe.quadrant.geometry import GeometrySpec
 
 #: Samples per line (and per side of the search grid).
