@@ -85,6 +85,27 @@ continuous except across the screens: ``q`` only has degrees of freedom that
 ``p`` shares between the halves.  A ``q`` on the whole lower half would repeat
 ``p``'s lower interior DOFs and the system would be singular.
 
+Enclosure (a rigid cavity under the membrane)
+---------------------------------------------
+With an enclosure the air inside it (volume ``cavity``, sealed to the membrane's rim,
+walls ``enclosure`` rigid) is the lower side of the membrane and disc, and the pressure
+jumps across its walls too (a rigid wall of no thickness between the cavity and the
+outside air).  ``q`` then lives in the cavity instead of the lower half and keeps its
+degrees of freedom on the cavity's screens and walls (:func:`enclosure_screen_faces`;
+zero on the ``vent``, where the cavity opens to the outside air)::
+
+    p_outside = p,   p_cavity = p + q,   [p] = -q on membrane, disc
+
+At a DOF on a wall the outside and inside values are ``p`` and ``p + q``: the bijection
+above still holds.  Where a frame reaches beyond the enclosure's rim (a cylinder or bowl
+under the square frame) the frame separates the outside halves too: a third field
+``q_o`` on the lower half keeps its DOFs on those frame faces (``outside_jump``), and
+``p_lower = p + q_o``; its DOFs on the rim circle, where the frame, the wall and the
+three airs meet, make three unknowns for the three values.  Without the outside air
+(``vacuum_above``) ``p = 0`` on the screens (the vacuum above them) and the cavity's
+pressure there is ``q``.  A pressure is a tuple ``(p, q)`` or ``(p, q, q_o)``;
+:func:`region_pressures` says which sum is the pressure of which volume.
+
 Frames: ``square`` and ``none`` leave the plane open outside the frame
 (``aperture`` and ``pml_plane`` continuous).  ``baffle`` makes the frame the
 whole plane inside the air sphere; we continue the baffle through the PML
@@ -96,8 +117,8 @@ add an edge diffraction that the closed form does not have.
 
 from __future__ import annotations
 
-#: The air inside an enclosure (:mod:`copdea_fem.fe.axisymmetric.meridian`); its walls are
-#: the boundary ``enclosure``, its vent ``vent``.
+#: The air inside an enclosure (the 3-D and meridian meshes); its walls are the boundary
+#: ``enclosure``, its vent ``vent``.
 CAVITY = "cavity"
 UPPER = "air_upper|pml_upper"
 LOWER = "air_lower|pml_lower"
@@ -326,7 +347,7 @@ def set_order_in(space, mesh, regions: str, order: int) -> None:
 
 def pressure_space(mesh, order: int, screens: str, pml_order: int | None = None,
                    outer_dirichlet: bool = True, also_dirichlet: str = "",
-                   vacuum_above: bool = False):
+                   vacuum_above: bool = False, outside_jump: bool = False):
     """Complex pressure space ``P x Q`` with a jump across the screens.
 
     Parameters
@@ -349,6 +370,9 @@ def pressure_space(mesh, order: int, screens: str, pml_order: int | None = None,
     vacuum_above : bool
         Only the air of an enclosure is meshed (``air.outside: false``): ``p = 0`` on the
         screens (the vacuum above them), the cavity's pressure there is ``q``.
+    outside_jump : bool
+        With an enclosure: the third field ``q_o`` of the lower half, on the plane's screens
+        beyond the enclosure's rim (module doc, "Enclosure").
 
     With an enclosure (a mesh with the volume :data:`CAVITY`) ``q`` lives in the cavity
     instead of the lower half: ``p`` is the outside air's pressure everywhere, ``p + q``
@@ -360,8 +384,9 @@ def pressure_space(mesh, order: int, screens: str, pml_order: int | None = None,
     -------
     ngsolve.FESpace
         Product space; ``(p, q) = space.TrialFunction()`` etc.  ``p`` [Pa] on
-        all air + PML, ``q`` [Pa] on the lower half, non-zero only next to the
-        screens: ``p_lower = p + q``, ``[p] = -q`` (module doc).
+        all air + PML, ``q`` [Pa] on the lower half (the cavity), non-zero only next to the
+        screens: ``p_lower = p + q``, ``[p] = -q`` (module doc); ``(p, q, q_o)`` with
+        ``outside_jump``.
     """
     from ngsolve import H1, Compress, FESpace
 
@@ -378,65 +403,105 @@ def pressure_space(mesh, order: int, screens: str, pml_order: int | None = None,
                                        if name))
     jump = H1(mesh, order=order, complex=True, definedon=mesh.Materials(jump_side(mesh)),
               dirichlet="|".join(name for name in (open_plane, outer) if name))
-    for space in (continuous, jump):     # same basis in both: the bijection needs it
+    spaces = [continuous, jump]
+    plane_screens = "|".join(face for face in screens.split("|") if face in PLANE_FACES)
+    if outside_jump:
+        if not has_cavity(mesh):
+            raise ValueError("outside_jump = True is for a mesh with an enclosure (volume "
+                             "'cavity'); allowed: False")
+        spaces.append(H1(mesh, order=order, complex=True, definedon=mesh.Materials(LOWER),
+                         dirichlet="|".join(name for name in (
+                             open_plane_faces(plane_screens), "vent", outer) if name)))
+    for space in spaces:                 # same basis in all: the bijection needs it
         if pml_order != order:
             set_order_in(space, mesh, PML_REGIONS, pml_order)
     active = jump.GetDofs(mesh.Boundaries(screens)) & jump.FreeDofs()
     if active.NumSet() == 0:
         raise ValueError(f"screens = {screens!r} match no face of the mesh with air; "
                          "allowed: a pattern of membrane, disc, frame, pml_plane")
-    return FESpace([continuous, Compress(jump, active_dofs=active)])
+    components = [continuous, Compress(jump, active_dofs=active)]
+    if outside_jump:
+        lower_jump = spaces[2]
+        components.append(Compress(lower_jump, active_dofs=lower_jump.GetDofs(
+            mesh.Boundaries(plane_screens)) & lower_jump.FreeDofs()))
+    return FESpace(components)
 
 
-def _split(pressure):
-    """``(p, q)`` from a pressure of :func:`pressure_space`; ``(p, None)`` for a plain H1 field."""
-    if isinstance(pressure, (list, tuple)):
-        continuous, jump = pressure
-        return continuous, jump
-    return pressure, None
+def region_pressures(pressure) -> list:
+    """The pressure of each air volume [Pa] of ``pressure`` (module doc, "Enclosure").
+
+    Parameters
+    ----------
+    pressure : tuple
+        ``(p, q)`` or ``(p, q, q_o)`` of :func:`pressure_space` (trial, test or data).
+
+    Returns
+    -------
+    list of (str, str, CoefficientFunction)
+        ``(air volumes, PML volumes, pressure)``, ``p`` or ``p`` plus a jump field, for the
+        volumes the mesh has ('' = none): :func:`pressure_regions`, the outside air's lower
+        half on its own with a third field.
+    """
+    p, q = pressure[0], pressure[1]
+    mesh = p.space.mesh
+    if len(pressure) == 2:
+        parts = [(air, pml, p + q if with_q else p)
+                 for air, pml, with_q in pressure_regions(mesh)]
+    else:                      # the third field: the outside halves apart
+        present = set(mesh.GetMaterials())
+
+        def keep(pattern):
+            return "|".join(name for name in pattern.split("|") if name in present)
+
+        parts = [(keep("air_upper"), keep("pml_upper"), p),
+                 (keep("air_lower"), keep("pml_lower"), p + pressure[2]), (CAVITY, "", p + q)]
+    return [(air, pml, value) for air, pml, value in parts if air or pml]
+
+
+def outside_pressures(pressure) -> tuple[list, list]:
+    """The fields whose sum is the outside air's pressure [Pa] above and below the plane
+    (module doc): ``[p]`` and ``[p, q]`` without an enclosure; ``[p]`` and ``[p]`` (``[p,
+    q_o]`` with the third field) beside one (``q`` is then the cavity's).  What a sphere
+    around the device samples; lists, so that a caller may take the gradient of each."""
+    p, q = pressure[0], pressure[1]
+    if CAVITY not in p.space.mesh.GetMaterials():
+        return [p], [p, q]
+    return [p], [p, pressure[2]] if len(pressure) == 3 else [p]
 
 
 def upper_pressure(pressure):
-    """Pressure in the upper half [Pa]: ``p`` (``pressure = (p, q)``)."""
+    """Pressure in the upper half [Pa]: ``p`` (``pressure = (p, q[, q_o])``)."""
     return pressure[0]
 
 
 def lower_pressure(pressure):
-    """Pressure in the lower half [Pa]: ``p + q``."""
+    """Pressure in the lower half (an enclosure's cavity) [Pa]: ``p + q``."""
     return pressure[0] + pressure[1]
 
 
 def pressure_jump(pressure):
-    """``[p] = p+ - p- = -q`` [Pa], to be integrated over the screens (``ds``)."""
+    """``[p] = p+ - p- = -q`` [Pa], to be integrated over the screens (``ds``); over an
+    enclosure ``q`` is the cavity's (module doc)."""
     return -pressure[1]
 
 
-def _over_half(integrand, half: str, deformation):
-    """``integrand dx`` over the air and PML of one half; the mesh deformation
-    (ALE, zero in the PML) only on the air: an integral with its own
-    deformation would not see the PML set on the mesh."""
+def _over_regions(integrand_of, pressure, pressure_test, deformation):
+    """``sum integrand_of(p_region, p'_region) dx`` over the regions of
+    :func:`region_pressures`; the mesh deformation (ALE, zero in the PML) only on the air:
+    an integral with its own deformation would not see the PML set on the mesh."""
     from ngsolve import dx
 
-    if deformation is None:
-        return integrand * dx(f"air_{half}|pml_{half}")
-    return integrand * dx(f"air_{half}", deformation=deformation) + integrand * dx(f"pml_{half}")
-
-
-def over_sides(pressure, pressure_test, integrand, deformation=None):
-    """``sum over the sides of integrand(p_side, p'_side) dx``: ``p`` on one side of the
-    screens, ``p + q`` on the other (:func:`pressure_regions`; the cavity's side with an
-    enclosure), the mesh deformation on the air only (as :func:`_over_half`)."""
-    from ngsolve import dx
-
-    p, q = pressure
-    p_test, q_test = pressure_test
-    total = 0
-    for air, pml, with_q in pressure_regions(p.space.mesh):
-        value = integrand(p + q, p_test + q_test) if with_q else integrand(p, p_test)
-        if air:
-            total = total + value * dx(air, deformation=deformation)
-        if pml:
-            total = total + value * dx(pml)
+    total = None
+    for (air, pml, value), (_, _, test) in zip(region_pressures(pressure),
+                                               region_pressures(pressure_test)):
+        integrand = integrand_of(value, test)
+        if deformation is None:
+            term = integrand * dx("|".join(name for name in (air, pml) if name))
+        else:                  # a PML only around some air (region_pressures): air set
+            term = integrand * dx(air, deformation=deformation)
+            if pml:
+                term = term + integrand * dx(pml)
+        total = term if total is None else total + term
     return total
 
 
@@ -459,13 +524,10 @@ def air_stiffness(pressure, pressure_test, density: float, deformation=None):
     """
     from ngsolve import dx, grad
 
-    p, q = _split(pressure)
-    p_test, q_test = _split(pressure_test)
-    if q is None:                  # one continuous field (no screens)
-        return (1.0 / density) * grad(p) * grad(p_test) * dx
-    upper = (1.0 / density) * grad(p) * grad(p_test)
-    lower = (1.0 / density) * grad(p + q) * grad(p_test + q_test)
-    return _over_half(upper, "upper", deformation) + _over_half(lower, "lower", deformation)
+    if not isinstance(pressure, (list, tuple)):      # one continuous field (no screens)
+        return (1.0 / density) * grad(pressure) * grad(pressure_test) * dx
+    return _over_regions(lambda value, test: (1.0 / density) * grad(value) * grad(test),
+                         pressure, pressure_test, deformation)
 
 
 def air_mass(pressure, pressure_test, density: float, sound_speed: float, deformation=None):
@@ -485,14 +547,11 @@ def air_mass(pressure, pressure_test, density: float, sound_speed: float, deform
     """
     from ngsolve import dx
 
-    p, q = _split(pressure)
-    p_test, q_test = _split(pressure_test)
     compressibility = 1.0 / (density * sound_speed**2)      # [1/Pa]
-    if q is None:
-        return compressibility * p * p_test * dx
-    upper = compressibility * p * p_test
-    lower = compressibility * (p + q) * (p_test + q_test)
-    return _over_half(upper, "upper", deformation) + _over_half(lower, "lower", deformation)
+    if not isinstance(pressure, (list, tuple)):
+        return compressibility * pressure * pressure_test * dx
+    return _over_regions(lambda value, test: compressibility * value * test,
+                         pressure, pressure_test, deformation)
 
 
 def screen_coupling(pressure, normal_displacement, screens: str, deformation=None):
@@ -586,10 +645,14 @@ def coupling_forms(pressure, pressure_test, normal_displacement, normal_displace
     return traction, acceleration
 
 
-def pressure_field(gf_continuous, gf_jump, mesh):
-    """Pressure CoefficientFunction [Pa] from the two GridFunction components.
+def pressure_field(gf_continuous, gf_jump, mesh, gf_outside_jump=None):
+    """Pressure CoefficientFunction [Pa] from the GridFunction components.
 
-    Equal to ``p`` in the upper half and ``p + q`` in the lower half.
+    Equal to ``p`` in the upper half and ``p + q`` in the lower half; with an enclosure
+    ``p + q`` in the cavity, ``p`` outside, ``p + q_o`` in the lower half with a third
+    field (``gf_outside_jump``; module doc, "Enclosure").
     """
-    lower = mesh.MaterialCF({jump_side(mesh): 1.0}, default=0.0)
-    return gf_continuous + lower * gf_jump
+    field = gf_continuous + mesh.MaterialCF({jump_side(mesh): 1.0}, default=0.0) * gf_jump
+    if gf_outside_jump is not None:
+        field = field + mesh.MaterialCF({LOWER: 1.0}, default=0.0) * gf_outside_jump
+    return field

@@ -1,4 +1,5 @@
-"""The air box's shared dimension: how high the air mesh follows the membrane.
+"""The air box's shared dimensions: how high the air mesh follows the membrane, and how deep
+an enclosure under it is.
 
 Pure arithmetic without NGSolve, so that the checks before any meshing (the coupled
 solve, the coupled sweeps, the forced response), the 3-D mesh
@@ -38,3 +39,22 @@ def check_air_lift(study: Study) -> None:
                          f"air.domain_radius); allowed: < {limit:g} m = 0.45 L for the coupled "
                          "step, L = the height over which the air mesh follows the membrane "
                          "(copdea_fem.fe.ale)")
+
+
+def bowl_sphere_radius(rim_radius: float, depth: float) -> float:
+    """Radius [m] of the sphere whose cap has the rim radius ``a`` and the depth ``L`` at its
+    centre: ``(a^2 + L^2) / (2 L)`` (the chord-sagitta relation a^2 = L (2 R_s - L))."""
+    return (rim_radius**2 + depth**2) / (2 * depth)
+
+
+def cavity_depth(enclosure: str, depth: float, rim_radius: float, radius):
+    """Depth [m] of the enclosure's bottom below the plane at the radius (a float or an
+    NGSolve CoefficientFunction), for a radius inside the rim: the depth of a cylinder or a
+    box, the spherical cap's ``sqrt(R_s^2 - r^2) - (R_s - L)`` of a bowl."""
+    if enclosure != "bowl":
+        return depth
+    sphere = bowl_sphere_radius(rim_radius, depth)
+    if isinstance(radius, (int, float)):
+        return math.sqrt(sphere**2 - radius**2) - (sphere - depth)
+    from ngsolve import sqrt
+    return sqrt(sphere**2 - radius * radius) - (sphere - depth)

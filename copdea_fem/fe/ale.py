@@ -108,15 +108,30 @@ def follow_membrane(mesh, state, extension, order: int = 2):
     return motion
 
 
-def air_mesh_displacement(state, mesh, domain_radius: float, order: int = 2):
-    """Mesh deformation D (VectorH1 on the whole mesh) for the prestressed state [m]."""
+def air_mesh_displacement(state, mesh, domain_radius: float, order: int = 2,
+                          cavity_depth=None):
+    """Mesh deformation D (VectorH1 on the whole mesh) for the prestressed state [m].
+
+    ``cavity_depth``: over an enclosure, its depth below the plane as a function of the
+    cylindrical radius (``radius -> CoefficientFunction`` [m], for radii up to r_o): below
+    the plane L is that depth, so the motion stops at the cavity's bottom (the transfinite
+    map stays monotone while |w| < L/2 there, which the caller checks); the outside air
+    below lies beyond the bottom or beyond r_o and stays put, and the enclosure's walls are
+    set exactly to 0."""
     length = checked_decay_length(state, domain_radius)
     rho_cf = ngs.sqrt(ngs.x**2 + ngs.y**2 + 1e-30)
     rho, radial, axial = displacement_profile(state) if state.has_disc or state.z else (
         np.array([0.0, state.outer_radius]), np.zeros(2), np.zeros(2))
+    if cavity_depth is not None:
+        column = ngs.IfPos(rho_cf - state.outer_radius, state.outer_radius, rho_cf)
+        length = ngs.IfPos(ngs.z, length, cavity_depth(column))
     u_rho, w, phi = transfinite_factors(rho, radial, axial, state.z, rho_cf, ngs.z, length)
-    return follow_membrane(mesh, state, ngs.CF((u_rho * ngs.x / rho_cf, u_rho * ngs.y / rho_cf,
-                                                w)) * phi, order)
+    motion = follow_membrane(mesh, state, ngs.CF((u_rho * ngs.x / rho_cf,
+                                                  u_rho * ngs.y / rho_cf, w)) * phi, order)
+    if cavity_depth is not None:     # the walls exactly in place (Set projects)
+        walls = np.array(motion.space.GetDofs(mesh.Boundaries("enclosure|vent")))
+        motion.vec.FV().NumPy()[walls] = 0.0
+    return motion
 
 
 def check_jacobian(mesh, motion) -> float:

@@ -35,6 +35,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from copdea_fem.fe import acoustics
+from copdea_fem.fe.airbox import cavity_depth
 from copdea_fem.fe.ale import air_mesh_displacement
 from copdea_fem.fe.eigen import Factorization, NativeShiftedInverse
 from copdea_fem.fe.linearise import MembraneOperators, to_scipy
@@ -89,26 +90,41 @@ def assemble_coupled(study, mesh, state) -> "CoupledAssembly":
     assembly serves every symmetry sector: :meth:`CoupledAssembly.restrict`.
     """
     air, geometry = study["air"], study["geometry"]
-    screens = acoustics.screen_faces(geometry["frame"])
+    closed = geometry["enclosure"] != "none"
+    outside = air["outside"] or not closed
+    screens = acoustics.enclosure_screen_faces(geometry["frame"], outside) if closed else \
+        acoustics.screen_faces(geometry["frame"])
     if geometry["inner_radius"] == 0:
         screens = "|".join(face for face in screens.split("|") if face != "disc")
     logger.info("air mesh follows the membrane (ALE) ...")
-    motion = air_mesh_displacement(state, mesh, air["domain_radius"])
-    pressure_space = acoustics.pressure_space(mesh, study["mesh"]["pressure_order"], screens)
+    def depth(radius):         # the air inside follows the membrane down to the bottom
+        return cavity_depth(geometry["enclosure"], geometry["enclosure_depth"],
+                            geometry["enclosure_radius"], radius)
+
+    motion = air_mesh_displacement(state, mesh, air["domain_radius"],
+                                   cavity_depth=depth if closed else None)
+    # a square frame beyond a cylinder's or bowl's rim separates the outside halves too
+    frame_beyond_rim = closed and outside and geometry["frame"] == "square" \
+        and geometry["enclosure"] != "box"
+    pressure_space = acoustics.pressure_space(mesh, study["mesh"]["pressure_order"], screens,
+                                              vacuum_above=not outside,
+                                              outside_jump=frame_beyond_rim)
     membrane_space = displacement_space(mesh, study["mesh"]["order"], state.has_disc,
                                         complex_=True)
     if membrane_space.ndof != state.space.ndof:
         raise RuntimeError("complex and real membrane spaces differ; cannot couple")
     with_disc = study["disc"]["motion"] == "spring" and state.has_disc
     spaces = [membrane_space, *pressure_space.components]
+    disc_component = len(spaces)       # after (p, q) or (p, q, q_o): acoustics.pressure_space
     if with_disc:
         spaces.append(ngs.NumberSpace(mesh, complex=True))
     space = ngs.FESpace(spaces)
     trial, test = space.TrialFunction(), space.TestFunction()
     lift = state.disc_lift
-    u = trial[0] + trial[3] * lift if with_disc else trial[0]
-    v = test[0] + test[3] * lift if with_disc else test[0]
-    pressure, pressure_test = (trial[1], trial[2]), (test[1], test[2])
+    u = trial[0] + trial[disc_component] * lift if with_disc else trial[0]
+    v = test[0] + test[disc_component] * lift if with_disc else test[0]
+    pressure = tuple(trial[1:disc_component])
+    pressure_test = tuple(test[1:disc_component])
     normal = _pressure_sign_fixed_normal()
     material, measure = state.material, state.measure
     density, sound_speed = air["density"], air["sound_speed"]
@@ -118,7 +134,7 @@ def assemble_coupled(study, mesh, state) -> "CoupledAssembly":
 
     gradient = tangent_gradient(state.displacement) + tangent_gradient(trial[0])
     if with_disc:
-        gradient = gradient + trial[3] * tangent_gradient(lift)
+        gradient = gradient + trial[disc_component] * tangent_gradient(lift)
     stiffness = ngs.BilinearForm(space)
     stiffness += ngs.Variation(energy_density(None, material, state.voltage, gradient=gradient)
                                * measure)
@@ -132,12 +148,13 @@ def assemble_coupled(study, mesh, state) -> "CoupledAssembly":
     mass = ngs.BilinearForm(space)
     mass += membrane_mass_and_air
     if with_disc:
-        stiffness += (study["spring"]["stiffness"] / disc_area) * trial[3] * test[3] * ngs.ds("disc")
+        disc, disc_test = trial[disc_component], test[disc_component]
+        stiffness += (study["spring"]["stiffness"] / disc_area) * disc * disc_test * ngs.ds("disc")
         disc_traction, disc_acceleration = acoustics.coupling_forms(
-            pressure, pressure_test, trial[3] * normal[2], test[3] * normal[2], "disc",
+            pressure, pressure_test, disc * normal[2], disc_test * normal[2], "disc",
             deformation=motion)
         stiffness += disc_traction
-        mass += (disc_mass / disc_area) * trial[3] * test[3] * ngs.ds("disc")
+        mass += (disc_mass / disc_area) * disc * disc_test * ngs.ds("disc")
         mass += disc_acceleration
 
     logger.info(f"assembling the coupled operators ({space.ndof} DOFs) ...")
@@ -145,12 +162,14 @@ def assemble_coupled(study, mesh, state) -> "CoupledAssembly":
     kinetic = ngs.BilinearForm(space)
     kinetic += _physical_air_energy(pressure, pressure_test, density, motion)
     kinetic.Assemble()                   # before the PML: a real energy norm
-    acoustics.set_pml(mesh, air["domain_radius"], air["pml_thickness"])
+    if outside:
+        acoustics.set_pml(mesh, air["domain_radius"], air["pml_thickness"])
     try:
         stiffness.AssembleLinearization(zero.vec)      # Hessian at u0 (E(u0 + u) at u = 0)
         mass.Assemble()
     finally:
-        mesh.UnSetPML(acoustics.PML_REGIONS)
+        if outside:
+            mesh.UnSetPML(acoustics.PML_REGIONS)
     if stiffness.mat.nze != mass.mat.nze:  # A - sigma B is formed entry by entry
         raise RuntimeError("coupled stiffness and mass have different sparsity patterns")
     offsets = np.cumsum([0] + [component.ndof for component in spaces])
@@ -167,7 +186,7 @@ class CoupledAssembly:
     state: object
     space: object                       # the product FESpace
     offsets: np.ndarray                 # first DOF of each component in ``space``
-    with_disc: bool
+    with_disc: bool                     # the disc's NumberSpace is the last component
     stiffness_matrix: object            # NGSolve (complex, PML set at assembly)
     mass_matrix: object
     stiffness: sp.csr_matrix            # the same, SciPy
@@ -197,17 +216,18 @@ class CoupledAssembly:
         free_mask[offsets[0] + membrane_mirror_dofs(state.space, mesh,
                                                     self.study["mesh"]["order"], sector)] = False
         free_mask[offsets[1] + pressure_mirror_dofs(self.pressure_space, mesh, sector)] = False
+        pressure_end = offsets[1] + self.pressure_space.ndof     # the disc DOF, if any
         if self.with_disc and not operators.disc_dof:     # the disc moves in even-even only
-            free_mask[offsets[3]] = False
+            free_mask[pressure_end] = False
         free = np.flatnonzero(free_mask)
         position = -np.ones(self.space.ndof, dtype=int)
         position[free] = np.arange(free.size)
         membrane_index = position[offsets[0] + operators.free_dofs]
         if operators.disc_dof:
-            membrane_index = np.append(membrane_index, position[offsets[3]])
+            membrane_index = np.append(membrane_index, position[pressure_end])
         if np.any(membrane_index < 0) or membrane_index.size != operators.size:
             raise RuntimeError("coupled and membrane free DOFs disagree")
-        pressure_global = np.arange(offsets[1], offsets[3])
+        pressure_global = np.arange(offsets[1], pressure_end)
         pressure_global = pressure_global[free_mask[pressure_global]]
         pressure_index = position[pressure_global]
         pressure_free = pressure_global - offsets[1]
@@ -232,11 +252,15 @@ class CoupledAssembly:
 
 
 def _physical_air_energy(pressure, pressure_test, density, motion):
-    p, q = pressure
-    pt, qt = pressure_test
-    return ((1.0 / density) * ngs.grad(p) * ngs.grad(pt) * ngs.dx("air_upper", deformation=motion)
-            + (1.0 / density) * ngs.grad(p + q) * ngs.grad(pt + qt)
-            * ngs.dx("air_lower", deformation=motion))
+    """``(1/rho_a) int_air grad p . grad p' dx`` over the air of every region (not the PML),
+    on the deformed air: the kinetic energy of the air that classifies modes."""
+    total = None
+    for (air, _, value), (_, _, test) in zip(acoustics.region_pressures(pressure),
+                                             acoustics.region_pressures(pressure_test)):
+        term = (1.0 / density) * ngs.grad(value) * ngs.grad(test) * ngs.dx(
+            air, deformation=motion)
+        total = term if total is None else total + term
+    return total
 
 
 def scaled_pencil(a_full, b_full, is_air):

@@ -98,27 +98,35 @@ def unfold_values(values: np.ndarray, symmetry, sector=None) -> np.ndarray:
 
 class AirHalves:
     """The air's element corners with the lower half (an enclosure's cavity) on its own copy
-    of the mesh vertices (the pressure jumps across the screens; values are taken inside each element), on the
-    mesh moved by ``mesh_motion``; 3-D tetrahedra or meridian triangles (the dimension of
-    ``mesh``).  ``copy[e, k]``: the (doubled) vertex of corner k of element e; ``moved``:
-    the moved coordinates of every doubled vertex; ``used``/``renumber``: the vertices a
-    cell uses and their new numbers.  ``split``: per mesh vertex, whether its lower copy is
-    its own point (where the pressure jumps: :func:`jump_vertices`); None: every lower
-    vertex (the open plane then carries two coincident copies of one pressure)."""
+    of the mesh vertices (the pressure jumps across the screens; values are taken inside each
+    element), on the mesh moved by ``mesh_motion``; 3-D tetrahedra or meridian triangles
+    (the dimension of ``mesh``).  ``copy[e, k]``: the vertex of corner k of element e,
+    ``side * count + vertex`` with side 0 (``p``), 1 (``p + q``: the lower half, or the
+    cavity) and 2 (``p + q_o``: the lower half of an enclosure's mesh with a third field,
+    :func:`copdea_fem.fe.acoustics.pressure_space`); ``moved``: the moved coordinates of
+    every copy; ``used``/``renumber``: the vertices a cell uses and their new numbers.
+    ``split``: per mesh vertex, whether its side-1 copy is its own point (where the pressure
+    jumps: :func:`jump_vertices`); None: every side-1 vertex (the open plane then carries
+    two coincident copies of one pressure); ``outside_split`` the same for side 2 (None:
+    no side 2)."""
 
-    def __init__(self, mesh, points, mesh_motion, split=None):
+    SIDES = 3
+
+    def __init__(self, mesh, points, mesh_motion, split=None, outside_split=None):
         import ngsolve as ngs
 
-        from copdea_fem.fe.acoustics import CAVITY, PML_REGIONS, jump_side
+        from copdea_fem.fe.acoustics import CAVITY, LOWER, PML_REGIONS, jump_side
         dim = mesh.dim
         elements = list(mesh.Elements(ngs.VOL))
         lower, in_pml = mesh.Materials(jump_side(mesh)).Mask(), mesh.Materials(PML_REGIONS).Mask()
-        cavity = mesh.Materials(CAVITY).Mask()
-        self.lower = np.array([lower[el.index] for el in elements])
+        cavity, below = mesh.Materials(CAVITY).Mask(), mesh.Materials(LOWER).Mask()
+        self.lower = np.array([lower[el.index] for el in elements], dtype=bool)
         #: elements of an enclosure's air (:data:`copdea_fem.fe.acoustics.CAVITY`; there
         #: the pressure is ``p + q``, so they are :attr:`lower` too)
         self.cavity = np.array([cavity[el.index] for el in elements], dtype=bool)
-        self.in_pml = np.array([in_pml[el.index] for el in elements])
+        self.in_pml = np.array([in_pml[el.index] for el in elements], dtype=bool)
+        outside_lower = np.array([below[el.index] for el in elements], dtype=bool) \
+            & self.cavity.any()
         reference = np.asarray(ngs.CF((ngs.x, ngs.y, ngs.z)[:dim])(points)).reshape(
             len(elements), -1, dim)
         corners = reference.shape[1]
@@ -129,26 +137,30 @@ class AirHalves:
             distance = np.linalg.norm(reference[:, k:k + 1, :] - coordinates[vertex_ids], axis=2)
             corner_vertex[:, k] = vertex_ids[np.arange(len(elements)), distance.argmin(axis=1)]
         self.count = count = len(coordinates)
-        second = self.lower[:, None] if split is None else \
-            self.lower[:, None] & np.asarray(split, dtype=bool)[corner_vertex]
-        self.copy = np.where(second, count, 0) + corner_vertex      # lower: 2nd copy
+        side = np.where(self.lower[:, None] if split is None else
+                        self.lower[:, None] & np.asarray(split, dtype=bool)[corner_vertex], 1, 0)
+        if outside_split is not None:
+            side = np.where(outside_lower[:, None]
+                            & np.asarray(outside_split, dtype=bool)[corner_vertex], 2, side)
+        self.copy = side * count + corner_vertex
         motion = np.asarray(mesh_motion(points)).reshape(len(elements), corners, dim)
-        self.moved = np.zeros((2 * count, dim))
+        total = self.SIDES * count
+        self.moved = np.zeros((total, dim))
         self.moved[self.copy.ravel()] = (reference + motion).reshape(-1, dim)
-        self.reference = np.zeros((2 * count, dim))
+        self.reference = np.zeros((total, dim))
         self.reference[self.copy.ravel()] = reference.reshape(-1, dim)
         self.used = np.unique(self.copy)
-        self.renumber = -np.ones(2 * count, dtype=int)
+        self.renumber = -np.ones(total, dtype=int)
         self.renumber[self.used] = np.arange(len(self.used))
 
 
-def jump_vertices(pressure_space, vertices: int):
-    """Per mesh vertex: whether the pressure jump ``q`` of
-    :func:`copdea_fem.fe.acoustics.pressure_space`
-    has a free DOF there (a screen vertex; the lower half needs its own copy); None when
-    the space has no jump component (every lower vertex is then split)."""
+def jump_vertices(pressure_space, vertices: int, component: int = 1):
+    """Per mesh vertex: whether the pressure jump ``q`` (``component`` 1; 2: the lower
+    half's ``q_o`` beside an enclosure) of :func:`copdea_fem.fe.acoustics.pressure_space`
+    has a free DOF there (a screen or wall vertex; that side needs its own copy); None when
+    the space has no such component."""
     try:
-        active = pressure_space.components[1].GetActiveDofs()
+        active = pressure_space.components[component].GetActiveDofs()
     except (AttributeError, IndexError):
         return None
     # H1 numbers the vertex DOFs first, one per mesh vertex
@@ -157,8 +169,9 @@ def jump_vertices(pressure_space, vertices: int):
 
 class CornerPressure:
     """The complex pressure [Pa] at the air's element corners of a vector of the pressure
-    space ``P x Q`` (:func:`copdea_fem.fe.acoustics.pressure_space`): ``__call__`` returns
-    what :func:`copdea_fem.fe.acoustics.pressure_field` (``p + lower q``) evaluates to at
+    space ``P x Q`` (:func:`copdea_fem.fe.acoustics.pressure_space`; beside an enclosure
+    maybe ``P x Q x Q_o``): ``__call__`` returns what
+    :func:`copdea_fem.fe.acoustics.pressure_field` (``p + lower q [+ q_o]``) evaluates to at
     ``points`` (every element's corners, :meth:`ngsolve.Mesh.MapToAllElements`), as an
     (n,) array, read from the vector instead of evaluated.
 
@@ -178,11 +191,11 @@ class CornerPressure:
 
         self.size = space.ndof
         self._gf = ngs.GridFunction(space)
-        self._field = pressure_field(self._gf.components[0], self._gf.components[1],
-                                     space.mesh)
+        parts = list(self._gf.components) + [None]      # (p, q[, q_o]): pressure_space
+        self._field = pressure_field(parts[0], parts[1], space.mesh, parts[2])
         self._points = points
-        self._p_dof = self._q_dof = None
-        ranges = [space.Range(k) for k in range(2)]
+        self._dofs = None
+        ranges = [space.Range(k) for k in range(len(self._gf.components))]
         reads = []
         for start, stop in ((r.start, r.stop) for r in ranges):
             probe = np.zeros(self.size)
@@ -194,17 +207,16 @@ class CornerPressure:
             reads.append(np.where(read > 0, start + read - 1, self.size))
         if np.any(reads[0] == self.size):
             return                                       # a corner without a DOF of P
-        p_dof, q_dof = reads
         random = np.random.default_rng(0)
         check = random.standard_normal(self.size) + 1j * random.standard_normal(self.size)
         gathered = np.append(check, 0.0)
-        if np.array_equal(gathered[p_dof] + gathered[q_dof], self._evaluate(check)):
-            self._p_dof, self._q_dof = p_dof, q_dof
+        if np.array_equal(sum(gathered[read] for read in reads), self._evaluate(check)):
+            self._dofs = reads
 
     @property
     def gathered(self) -> bool:
         """Whether vectors are read at the corners' DOFs (else evaluated)."""
-        return self._p_dof is not None
+        return self._dofs is not None
 
     def _evaluate(self, vector) -> np.ndarray:
         """The field of ``vector`` evaluated at the corners, (n,) complex."""
@@ -213,8 +225,8 @@ class CornerPressure:
 
     def __call__(self, vector) -> np.ndarray:
         """The pressure [Pa] at the corners of a full vector of the space, (n,) complex."""
-        if self._p_dof is None:
+        if self._dofs is None:
             return self._evaluate(vector)
         padded = np.zeros(self.size + 1, dtype=complex)
         padded[:-1] = vector
-        return padded[self._p_dof] + padded[self._q_dof]
+        return sum(padded[read] for read in self._dofs)

@@ -18,15 +18,15 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from copdea_fem.fe.bands import BandSolver, coupled_start_modes
+from copdea_fem.fe.cavity import label_cavity_modes, without_static_solution
 from copdea_fem.fe.linearise import linearised_operators, operator_damping
-from copdea_fem.fe.modes import ModeSampler, classify_modes
+from copdea_fem.fe.modes import AIR, ModeSampler, classify_modes, sector_family
 from copdea_fem.fe.prestress import solve_prestress
 from copdea_fem.fe.quadrant.geometry import GeometrySpec, estimate_size, study_mesh
 from copdea_fem.fe.solution import CoupledSolution
 from copdea_fem.progress import Timings, carried, single_threaded_blas, tagged, tagging
 
 logger = logging.getLogger(__name__)
-
 
 def _say(message: str) -> None:
     """A progress line with the thread's prefix (:func:`copdea_fem.progress.tagging`)."""
@@ -75,6 +75,24 @@ def sampled_shapes(state, modes) -> np.ndarray:
     weights = np.sqrt(sampler.radii / state.outer_radius)[None, :, None]
     rows = [(sampler.components(mode.vector, mode.sector) * weights).ravel() for mode in modes]
     return np.array(rows) if rows else np.zeros((0, 3 * sampler.shape[0] * sampler.shape[1]))
+
+
+def label_cavity_orders(sampler, sector, coupled, modes, pressures) -> None:
+    """Give the air modes of one sector that live in the enclosure their orders
+    (:attr:`copdea_fem.fe.modes.Mode.cavity_orders`, :mod:`copdea_fem.fe.quadrant.cavity`):
+    a round enclosure's (m, n, p) with m as the mode's order and its cos/sin member from
+    the mirror class; a box's (i, j, k) (its nodal planes, no pair)."""
+    for mode, pressure in zip(modes, pressures):
+        if mode.kind != AIR:
+            continue
+        mode.cavity_orders = sampler.orders(sector, coupled.pressure_free, pressure)
+        if not mode.cavity_orders:
+            continue
+        if sampler.spec.enclosure == "box":
+            mode.family = ""              # (i, j, k) names the mode whole: no pair letter
+        else:
+            mode.m = mode.cavity_orders[0]
+            mode.family = "" if sector is None else sector_family(mode.m, sector)
 
 
 class QuadrantEngine:
@@ -210,6 +228,8 @@ class QuadrantEngine:
                                     coupled.membrane_index, coupled.stiffness.shape[0]),
                                 max_imag_hz=band.max_imag_hz, initial_shifts=plan,
                                 start_modes=expected)
+            if study["geometry"]["enclosure"] != "none":
+                result = without_static_solution(result, band.f_max)
             return key, dry_result, result
 
         with timings.stage("eigen"), single_threaded_blas():
@@ -222,10 +242,17 @@ class QuadrantEngine:
         modes, pressures, dry, results = [], [], [], {}
         with timings.stage("classify"), task_manager():
             sampler = ModeSampler(state)
+            cavity = None
+            if study["geometry"]["enclosure"] != "none":
+                from copdea_fem.fe.quadrant.cavity import QuadrantCavitySampler
+                cavity = QuadrantCavitySampler(sectors[0][2].pressure_space,
+                                               GeometrySpec.from_study(study))
             for (sector, operators, coupled), (key, dry_result, result) in zip(sectors, solved):
                 dry += classify_modes(operators, dry_result, sampler)
                 sector_modes, sector_pressures = coupled_mode_list(
                     coupled, result, study["air"]["min_membrane_energy"], sampler)
+                if cavity is not None:
+                    label_cavity_orders(cavity, sector, coupled, sector_modes, sector_pressures)
                 modes += sector_modes
                 pressures += sector_pressures
                 results[key] = result
@@ -234,6 +261,7 @@ class QuadrantEngine:
             for index, mode in enumerate(modes):
                 mode.index = index
             assign_labels([mode for mode in modes if mode.kind != "air"])
+            label_cavity_modes(modes)
             assign_labels(dry)
             partners = match_dry(modes, dry, matrices[1])
         return CoupledSolution(state, modes, pressures, dry,

@@ -119,16 +119,18 @@ def write_air_vtus(directory: Path, operators, modes, pressures) -> list[Path]:
 
 def air_meshes(operators, modes, pressures):
     """``(file stem, VtuMesh)`` per mode of the air on the deformed mesh: pressure
-    re/im/abs, PML flag.
+    re/im/abs, PML, lower-half and (with an enclosure) cavity flags.
 
     ``operators``: the :class:`copdea_fem.fe.coupled.CoupledOperators` of each
     sector (one on a whole mesh); a mode's pressure vector is read with its
-    sector's.  The pressure jumps across the screens, so the upper and lower
-    halves get their own copies of the mesh vertices; values are taken inside
-    each element (no ambiguity at the plane); elsewhere, on the open plane too, a vertex
-    is written once.  A quadrant mesh is unfolded into the whole air, the copies of the
-    mirror planes' vertices merged (:class:`PointMerge`; they agree by parity).  Pressures
-    are per unit peak membrane displacement [Pa/m], like the membrane files.
+    sector's.  The pressure jumps across the screens (and an enclosure's walls), so the
+    sides get their own copies of the mesh vertices (:class:`AirHalves`); values are taken
+    inside each element (no ambiguity at the plane); elsewhere, on the open plane and in a
+    vent too, a vertex is written once.  A quadrant mesh is unfolded into the whole air,
+    the copies of the mirror planes' vertices merged (:class:`PointMerge`; they agree by
+    parity).  Pressures are per unit peak membrane displacement [Pa/m], like the membrane
+    files.  The cell data ``cavity`` marks an enclosure's air, which the writer puts into
+    its own ParaView block (:func:`copdea_fem.vtu.split_cells`).
     """
     import ngsolve as ngs
 
@@ -141,27 +143,29 @@ def air_meshes(operators, modes, pressures):
     symmetry = Symmetry.of_mesh(mesh)
     corners = ngs.IntegrationRule([(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)], [0.0] * 4)
     points = mesh.MapToAllElements(corners, ngs.VOL)
-    halves = AirHalves(mesh, points, first.mesh_motion,
-                        split=jump_vertices(space, len(mesh.ngmesh.Coordinates())))
-    lower, in_pml, copy, used, count = (halves.lower, halves.in_pml, halves.copy, halves.used,
-                                        halves.count)
+    vertices = len(mesh.ngmesh.Coordinates())
+    halves = AirHalves(mesh, points, first.mesh_motion, split=jump_vertices(space, vertices),
+                       outside_split=jump_vertices(space, vertices, component=2))
+    copy, used, count = halves.copy, halves.used, halves.count
     moved = unfold_values(halves.moved[used], symmetry)
-    # the copies of the mirror planes' vertices merged (the two sides of a screen kept apart);
-    # found on the reference mesh (the ALE motion leaves ~1e-8 m normal to the planes there),
-    # so the merged point, the mean of the mirror images, lies exactly on the plane
+    # the copies of the mirror planes' vertices merged (the sides of a screen or wall kept
+    # apart); found on the reference mesh (the ALE motion leaves ~1e-8 m normal to the
+    # planes there), so the merged point, the mean of the mirror images, lies exactly on
+    # the plane
     merge = PointMerge.coincident(unfold_values(halves.reference[used], symmetry),
-                                  groups=np.tile(used >= count, symmetry.copies))
+                                  groups=np.tile(used // count, symmetry.copies))
     cells = merge.labels[unfold_cells(halves.renumber[copy], len(used), symmetry)]
     moved = merge.reduce(moved).astype(np.float32)
-    cell_data = {"pml": [np.tile(in_pml.astype(np.int8), symmetry.copies)],
-                 "lower_half": [np.tile(lower.astype(np.int8), symmetry.copies)]}
+    flags = [("pml", halves.in_pml), ("lower_half", halves.lower)]
+    if halves.cavity.any():
+        flags.append(("cavity", halves.cavity))
+    cell_data = {name: [np.tile(flag.astype(np.int8), symmetry.copies)] for name, flag in flags}
     reader = CornerPressure(space, points)      # the corners' DOFs, found once
     for number, (mode, pressure) in enumerate(zip(modes, pressures)):
         vector = np.zeros(space.ndof, dtype=complex)
         vector[by_sector[mode.sector].pressure_free] = pressure
-        values = reader(vector)
-        nodal = np.zeros(2 * count, dtype=complex)
-        nodal[copy.ravel()] = values.ravel()
+        nodal = np.zeros(AirHalves.SIDES * count, dtype=complex)
+        nodal[copy.ravel()] = reader(vector).ravel()
         nodal = merge.reduce(unfold_values(nodal[used], symmetry, mode.sector))
         data = pressure_point_data(nodal)
         yield (f"air_{number:03d}_{safe_name(mode.label)}",

@@ -160,9 +160,14 @@ class QuadrantSphere:
         self.sign = np.where(self.xyz[:, :2] < 0, -1.0, 1.0) if coupled.membrane.sector \
             is not None else np.ones((len(self.xyz), 2))
         self.gf = ngs.GridFunction(coupled.pressure_space)
-        p, q = self.gf.components
-        self._upper = ngs.CF((p, ngs.grad(p)))
-        self._lower = ngs.CF((p + q, ngs.grad(p) + ngs.grad(q)))
+        from copdea_fem.fe.acoustics import outside_pressures
+
+        # the outside air's pressure (an enclosure's cavity lies inside the sphere)
+        upper, lower = outside_pressures(tuple(self.gf.components))
+        self._upper, self._lower = (
+            ngs.CF((sum(parts[1:], parts[0]),
+                    sum((ngs.grad(part) for part in parts[1:]), ngs.grad(parts[0]))))
+            for parts in (upper, lower))
         self.is_upper = self.xyz[:, 2] > 0
         self._upper_points = self.points[self.is_upper]
         self._lower_points = self.points[~self.is_upper]

@@ -28,6 +28,21 @@ cut faces are ``mirror_x`` (x = 0) and ``mirror_y`` (y = 0); the cut edges
 
 Without air only the plane faces are meshed (a surface mesh in 3-D space):
 the membrane field and its forms are the same in both cases.
+
+Enclosure (``enclosure`` cylinder, bowl or box; with air): a rigid closed back on
+z < 0 sealed to the membrane's rim, its inside air the volume ``cavity`` (depth
+``enclosure_depth``; cylinder and bowl of rim radius ``enclosure_radius``, the bowl a
+spherical cap whose depth at the centre is the depth; the box as wide as the square
+frame).  The outside air is the sphere less the enclosure (it reflects off the
+walls); with a baffle the enclosure replaces the lower half-space (no ``air_lower``,
+``pml_lower``); without the outside air (``outside`` False) only the cavity and the
+plane faces over it are meshed.  Its walls are the faces ``enclosure`` (with frame
+none also the top between r_o and the rim; under a frame that top is ``frame``), a
+hole of radius ``enclosure_vent_radius`` in its bottom the face ``vent`` (on the bowl
+cut out by a short cylinder, the internal faces ``vent_guide``).  The walls are meshed
+at twice the membrane's size, as the disc and the frame, the vent at the membrane's size
+or half its radius if finer.  The ``ale_guide`` cylinders run above the plane and, inside
+the cavity, down to its bottom, where the air mesh's motion stops (:mod:`copdea_fem.fe.ale`).
 """
 
 from __future__ import annotations
@@ -42,11 +57,14 @@ import uuid
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
-from copdea_fem.fe.airbox import ale_decay_length
+from copdea_fem.fe.airbox import ale_decay_length, bowl_sphere_radius, cavity_depth
 from copdea_fem.fingerprint import mesh_fingerprint
+from copdea_fem.inputs import preview
+from copdea_fem.study import StudyError
 
 SCREENS = "membrane|disc|frame"
 SYMMETRIES = ("quarter", "none")
+ENCLOSURES = ("none", "cylinder", "bowl", "box")
 
 GEOMETRY_VERSION = 2  # keys the mesh cache with the code fingerprint (GeometrySpec.key)
 CACHE_VARIABLE = "COPDEA_FEM_MESH_CACHE"
@@ -70,11 +88,35 @@ class GeometrySpec:
     air_size: float
     grading: float
     symmetry: str = "none"
+    enclosure: str = "none"
+    enclosure_depth: float = 0.0
+    enclosure_radius: float = 0.0
+    enclosure_vent_radius: float = 0.0
+    outside: bool = True
 
     @classmethod
     def from_study(cls, study, with_air: bool | None = None) -> "GeometrySpec":
         g, a, m = study["geometry"], study["air"], study["mesh"]
-        return cls(outer_radius=g["outer_radius"], inner_radius=g["inner_radius"],
+        air = a["enabled"] if with_air is None else with_air
+        enclosure = g.get("enclosure", "none") if air else "none"
+        if enclosure != "none":
+            # the cavity's depth where the lift is whole (the disc's rim); beyond, the lift
+            # and a bowl's depth both fall towards the rim (the Jacobians are checked)
+            under_disc = cavity_depth(enclosure, g["enclosure_depth"], g["enclosure_radius"],
+                                      g["inner_radius"])
+            if abs(study["load"]["z"]) >= 0.45 * under_disc:
+                raise StudyError(
+                    f"load.z = {preview(study['load']['z'])} is not allowed with geometry."
+                    f"enclosure = {enclosure} on the 3-D engine; allowed: below "
+                    f"{0.45 * under_disc:g} m = 0.45 times the cavity's depth under the "
+                    "disc's rim (the air inside follows the membrane down to the bottom, "
+                    "copdea_fem.fe.ale)")
+        closed = {} if enclosure == "none" else {
+            "enclosure": enclosure, "enclosure_depth": g["enclosure_depth"],
+            "enclosure_radius": 0.5 * g["frame_side"] if enclosure == "box"
+            else g["enclosure_radius"],
+            "enclosure_vent_radius": g["enclosure_vent_radius"], "outside": a["outside"]}
+        return cls(**closed, outer_radius=g["outer_radius"], inner_radius=g["inner_radius"],
                    frame=g["frame"], frame_side=g["frame_side"],
                    with_air=a["enabled"] if with_air is None else with_air,
                    domain_radius=a["domain_radius"], pml_thickness=a["pml_thickness"],
@@ -90,6 +132,10 @@ class GeometrySpec:
                 data.pop(name)
         if self.symmetry == "none":    # full meshes keep the keys they had before the key
             data.pop("symmetry")
+        if self.enclosure == "none":   # open meshes keep the keys they had before the keys
+            for name in ("enclosure", "enclosure_depth", "enclosure_radius",
+                         "enclosure_vent_radius", "outside"):
+                data.pop(name)
         data["version"] = GEOMETRY_VERSION
         # the code that builds and meshes the shapes (copdea_fem.fingerprint): a change
         # there gives new keys, never a stale mesh
@@ -108,6 +154,9 @@ def build_shape(spec: GeometrySpec):
     """OCC shape with every region, face and rim edge named (see module doc)."""
     from netgen.occ import Box, Cylinder, Glue, Pnt, Sphere, WorkPlane, Z
 
+    if spec.enclosure not in ENCLOSURES:
+        raise ValueError(f"enclosure = {spec.enclosure!r} is not allowed; allowed: "
+                         f"{', '.join(ENCLOSURES)}")
     r_o, r_i = spec.outer_radius, spec.inner_radius
     disc_hole = WorkPlane().Circle(r_i).Face() if r_i > 0 else None
     outer_disc = WorkPlane().Circle(r_o).Face()
@@ -115,18 +164,27 @@ def build_shape(spec: GeometrySpec):
     if disc_hole:
         plane.append(disc_hole)
     R, t = spec.domain_radius, spec.pml_thickness
+    closed = spec.with_air and spec.enclosure != "none"
+    outside = spec.outside or not closed
+    rim = _enclosure_top(spec) if closed else None
+    if closed and spec.enclosure != "box" and spec.enclosure_radius > r_o * (1 + 1e-9):
+        plane.append(rim - outer_disc)      # the top between r_o and the enclosure's rim
     if spec.frame == "square":
         square = WorkPlane().RectangleC(spec.frame_side, spec.frame_side).Face()
-        plane.append(square - outer_disc)
+        if not closed or spec.enclosure == "box":
+            plane.append(square - outer_disc)
+        elif outside:                           # the frame around a cylinder's or bowl's rim
+            plane.append(square - rim)
         inner_of_aperture = square
     elif spec.frame == "baffle":
-        plane.append(WorkPlane().Circle(R).Face() - outer_disc if spec.with_air else None)
+        plane.append(WorkPlane().Circle(R).Face() - (rim if closed else outer_disc)
+                     if spec.with_air and outside else None)
         inner_of_aperture = None
     else:
-        inner_of_aperture = outer_disc
+        inner_of_aperture = rim if closed else outer_disc
     plane = [face for face in plane if face is not None]
     parts = list(plane)
-    if spec.with_air:
+    if spec.with_air and outside:
         if inner_of_aperture is not None:
             parts.append(WorkPlane().Circle(R).Face() - inner_of_aperture)
         parts.append(WorkPlane().Circle(R + t).Face() - WorkPlane().Circle(R).Face())
@@ -135,19 +193,28 @@ def build_shape(spec: GeometrySpec):
         big = 2 * (R + t)
         upper = Box(Pnt(-big, -big, 0), Pnt(big, big, big))
         lower = Box(Pnt(-big, -big, -big), Pnt(big, big, 0))
-        for solid, name in ((ball * upper, "air_upper"), (ball * lower, "air_lower"),
-                            (shell * upper, "pml_upper"), (shell * lower, "pml_lower")):
+        lower_half = not (closed and spec.frame == "baffle")  # a baffled enclosure: none
+        lower_air = ball * lower - _enclosure_solid(spec) if closed else ball * lower
+        # (the order of the parts is Netgen's meshing order: kept as without an enclosure)
+        solids = [(ball * upper, "air_upper"), (lower_air, "air_lower") if lower_half else None,
+                  (shell * upper, "pml_upper"), (shell * lower, "pml_lower") if lower_half
+                  else None]
+        for solid, name in filter(None, solids):
             solid.mat(name)
             parts.insert(0, solid)
-        half_height = ale_decay_length(R, r_o)
-        for radius in (r_i, r_o) if r_i > 0 else (r_o,):
-            cylinder = Cylinder(Pnt(0, 0, -half_height), Z, radius, 2 * half_height)
-            parts += [face for face in cylinder.faces if _height(face) > half_height]
+        if not closed:
+            half_height = ale_decay_length(R, r_o)
+            for radius in (r_i, r_o) if r_i > 0 else (r_o,):
+                cylinder = Cylinder(Pnt(0, 0, -half_height), Z, radius, 2 * half_height)
+                parts += [face for face in cylinder.faces if _height(face) > half_height]
+    if closed:
+        parts = _cavity_parts(spec) + parts + _ale_guides(
+            spec, ale_decay_length(R, r_o) if outside else 0.0)
     shape = Glue(parts)
     if spec.symmetry == "quarter":
         if not spec.with_air:
             raise ValueError("symmetry = 'quarter' is for meshes with air; allowed: none")
-        big = 2 * (R + t)
+        big = 2 * (R + t + spec.enclosure_depth)
         shape = shape * Box(Pnt(0, 0, -big), Pnt(big, big, big))
     elif spec.symmetry != "none":
         raise ValueError(f"symmetry = {spec.symmetry!r} is not allowed; allowed: "
@@ -156,14 +223,103 @@ def build_shape(spec: GeometrySpec):
     return shape
 
 
+def _enclosure_top(spec: GeometrySpec):
+    """The enclosure's opening in the plane z = 0: a disc of the rim radius, or the box's
+    square (the frame's)."""
+    from netgen.occ import WorkPlane
+
+    if spec.enclosure == "box":
+        return WorkPlane().RectangleC(spec.frame_side, spec.frame_side).Face()
+    return WorkPlane().Circle(spec.enclosure_radius).Face()
+
+
+def _ale_guides(spec: GeometrySpec, height: float) -> list:
+    """The ``ale_guide`` cylinders r = r_i, r_o: above the plane up to ``height`` (0: no
+    outside air), and over an enclosure down through the cavity to its bottom (where the
+    mesh motion stops, so the mesh conforms to its kinks there too,
+    :mod:`copdea_fem.fe.ale`); none at the enclosure's rim."""
+    from netgen.occ import Cylinder, Pnt, Z
+
+    r_o, r_i = spec.outer_radius, spec.inner_radius
+    faces = []
+    for radius in (r_i, r_o) if r_i > 0 else (r_o,):
+        if height > 0:                                 # the outside air above
+            faces += [face for face in Cylinder(Pnt(0, 0, 0), Z, radius, height).faces
+                      if _height(face) > 0.5 * height]
+        if spec.enclosure != "box" and radius >= spec.enclosure_radius * (1 - 1e-9):
+            continue                                   # the rim is there
+        depth = cavity_depth(spec.enclosure, spec.enclosure_depth, spec.enclosure_radius,
+                             radius)
+        faces += [face for face in Cylinder(Pnt(0, 0, -depth), Z, radius, depth).faces
+                  if _height(face) > 0.5 * depth]
+    return faces
+
+
+def _enclosure_solid(spec: GeometrySpec):
+    """The enclosure's inside (the cavity) as one OCC solid below the plane."""
+    from netgen.occ import Box, Cylinder, Pnt, Sphere, Z
+
+    depth, radius = spec.enclosure_depth, spec.enclosure_radius
+    if spec.enclosure == "cylinder":
+        return Cylinder(Pnt(0, 0, -depth), Z, radius, depth)
+    if spec.enclosure == "box":
+        half = 0.5 * spec.frame_side
+        return Box(Pnt(-half, -half, -depth), Pnt(half, half, 0))
+    sphere_radius = bowl_sphere_radius(radius, depth)
+    big = 2 * (sphere_radius + depth)
+    return (Sphere(Pnt(0, 0, sphere_radius - depth), sphere_radius)
+            * Box(Pnt(-big, -big, -big), Pnt(big, big, 0)))
+
+
+def _cavity_parts(spec: GeometrySpec) -> list:
+    """The cavity solid(s), material ``cavity``, and the vent's outline on its bottom: a
+    flat disc glued into the flat bottom (cylinder, box), or, on the bowl, the cap cut by a
+    short cylinder of the vent radius (the internal faces are ``vent_guide``)."""
+    from netgen.occ import Axes, Cylinder, Pnt, WorkPlane, Z
+
+    cavity = _enclosure_solid(spec)
+    vent, depth = spec.enclosure_vent_radius, spec.enclosure_depth
+    parts = [cavity]
+    if vent > 0 and spec.enclosure == "bowl":
+        sphere_radius = bowl_sphere_radius(spec.enclosure_radius, depth)
+        sagitta = sphere_radius - (sphere_radius**2 - vent**2) ** 0.5
+        height = min(2 * sagitta + 0.05 * depth, 0.5 * depth)
+        lens = cavity * Cylinder(Pnt(0, 0, -depth), Z, vent, height)
+        parts = [cavity - lens, lens]
+    elif vent > 0:
+        parts.append(WorkPlane(Axes((0, 0, -depth), n=Z, h=(1, 0, 0))).Circle(vent).Face())
+    for part in parts:
+        if part.solids:
+            part.mat("cavity")
+    return parts
+
+
 def _height(shape) -> float:
     lo, hi = shape.bounding_box
     return hi[2] - lo[2]
 
 
+def _is_guide(face, spec: GeometrySpec, tol: float) -> bool:
+    """Whether a face below the plane is an ``ale_guide`` cylinder in the cavity: vertical,
+    at r_i or r_o, not the cylinder's wall."""
+    lo, hi = face.bounding_box
+    extent = _extent(face)
+    radii = (spec.inner_radius, spec.outer_radius) if spec.inner_radius > 0 else \
+        (spec.outer_radius,)
+    on_radius = any(abs(extent - radius) < tol + 1e-9 for radius in radii)
+    wall = spec.enclosure == "cylinder" and abs(extent - spec.enclosure_radius) < tol + 1e-9
+    # a guide spans the cavity's depth at its radius; the bowl's cap at r < r_o is lower
+    depth = cavity_depth(spec.enclosure, spec.enclosure_depth, spec.enclosure_radius, extent) \
+        if extent < spec.enclosure_radius else 0.0
+    return on_radius and not wall and abs(hi[2]) < tol and abs(lo[2] + depth) < tol \
+        and hi[2] - lo[2] > tol
+
+
 def _name_faces(shape, spec: GeometrySpec) -> None:
     r_o, r_i, R, t = spec.outer_radius, spec.inner_radius, spec.domain_radius, spec.pml_thickness
     tol = 1e-5 * (R + t)     # OCC pads bounding boxes by ~1e-7 m, more after a cut
+    closed = spec.with_air and spec.enclosure != "none"
+    depth, vent = spec.enclosure_depth, spec.enclosure_vent_radius
 
     def near(value, target):
         return abs(value - target) < tol + 1e-9
@@ -188,6 +344,8 @@ def _name_faces(shape, spec: GeometrySpec) -> None:
                 name = "membrane"
             elif r_i > 0 and near(extent, r_i):
                 name = "disc"
+            elif closed and spec.enclosure != "box" and near(extent, spec.enclosure_radius):
+                name = "enclosure" if spec.frame == "none" else "frame"
             elif spec.frame == "square" and near(extent, spec.frame_side / 2):
                 name = "frame"
             elif near(extent, R):
@@ -199,7 +357,19 @@ def _name_faces(shape, spec: GeometrySpec) -> None:
             face.name = name
             if name == "membrane":
                 face.maxh = spec.membrane_size
-            elif name in ("disc", "frame"):
+            elif name in ("disc", "frame", "enclosure"):
+                face.maxh = 2 * spec.membrane_size
+        elif closed and hi[2] < tol and lo[2] > -depth - tol and _is_guide(face, spec, tol):
+            face.name = "ale_guide"
+        elif closed and hi[2] < tol and lo[2] > -depth - tol \
+                and extent < spec.enclosure_radius + tol:
+            if extent < vent + tol and near(lo[2], -depth):
+                face.name = "vent"        # the air's neck: resolved (its mass is the vent's)
+                face.maxh = min(spec.membrane_size, 0.5 * vent)
+            elif extent < vent + tol:
+                face.name = "vent_guide"
+            else:
+                face.name = "enclosure"
                 face.maxh = 2 * spec.membrane_size
         elif _height(face) < 2 * ale_decay_length(R, r_o) + tol and extent < R - tol:
             face.name = "ale_guide"
@@ -338,7 +508,8 @@ def estimate_size(spec: GeometrySpec, order: int, pressure_order: int) -> tuple[
     with air, tetrahedra graded away from those faces at Netgen's ``grading`` g
     up to ``air_size`` H (size h + g d at distance d: A (1 - h^2/H^2) / (0.236 g
     h^2) regular tetrahedra per side of a face of area A, times 3 as counted on
-    the project's quadrant meshes), plus 0.3 of the air ball filled at size H.  Unknowns:
+    the project's quadrant meshes; an enclosure's walls count as the frame, both sides),
+    plus 0.3 of the air ball filled at size H.  Unknowns:
     3 p^2 / 2 per membrane triangle (order p, three components), q^3 / 6 per
     tetrahedron (pressure order q).  Within a factor ~2 of the real counts on
     the project's meshes; meant to catch sizes that are far out, not to budget.
@@ -352,6 +523,7 @@ def estimate_size(spec: GeometrySpec, order: int, pressure_order: int) -> tuple[
     elif spec.frame == "baffle" and spec.with_air:
         rest += math.pi * (spec.domain_radius**2 - r_o**2)
     rest *= fraction
+    walls = enclosure_wall_area(spec) * fraction if spec.with_air else 0.0
     triangle = math.sqrt(3) / 4
     membrane_triangles = membrane / (triangle * h**2)
     elements = membrane_triangles + rest / (triangle * (2 * h)**2)
@@ -359,7 +531,7 @@ def estimate_size(spec: GeometrySpec, order: int, pressure_order: int) -> tuple[
     if spec.with_air:
         coarse = spec.air_size
         tetrahedra = 0.0
-        for area, size in ((membrane, h), (rest, 2 * h)):
+        for area, size in ((membrane, h), (rest, 2 * h), (walls, 2 * h)):
             size = min(size, coarse)
             tetrahedra += 3 * area / (0.118 * spec.grading * size**2) * (1 - (size / coarse)**2)
         radius = spec.domain_radius + spec.pml_thickness
@@ -367,6 +539,21 @@ def estimate_size(spec: GeometrySpec, order: int, pressure_order: int) -> tuple[
         elements += tetrahedra
         unknowns += tetrahedra * pressure_order**3 / 6
     return elements, unknowns
+
+
+def enclosure_wall_area(spec: GeometrySpec) -> float:
+    """Area [m^2] of an enclosure's walls, both sides counted (air on each): the side and
+    the bottom of a cylinder or box (a bowl as its cylinder: an upper bound), and the top
+    between r_o and the rim; 0 without one."""
+    if spec.enclosure == "none":
+        return 0.0
+    depth = spec.enclosure_depth
+    if spec.enclosure == "box":
+        side = spec.frame_side
+        return 2 * (4 * side * depth + side**2)
+    radius = spec.enclosure_radius
+    top = math.pi * (radius**2 - spec.outer_radius**2)
+    return 2 * (2 * math.pi * radius * depth + math.pi * radius**2) + top
 
 
 def study_mesh(study, with_air=None, cache_dir=None):
