@@ -121,13 +121,15 @@ SCHEMA: dict[str, dict[str, Key]] = {
                          kind=str, choices=ENCLOSURES),
         "enclosure_depth": Key("m", None, "depth L of the enclosure below the membrane plane "
                                "(bowl: the cap's depth at its centre)", minimum=0, maximum=10,
-                               open_min=True, derived="geometry.outer_radius"),
+                               open_min=True, derived="geometry.outer_radius; with frame circle "
+                                "geometry.frame_radius"),
         "enclosure_radius": Key("m", None, "radius of the cylinder (bowl: of the cap's rim) "
                                 "sealed to the membrane plane; >= geometry.outer_radius, the "
                                 "top between r_o and this radius is rigid wall (with frame "
-                                "circle: <= geometry.frame_radius); ignored for box (its side "
+                                "circle: equal to geometry.frame_radius); ignored for box (its side "
                                 "is geometry.frame_side)", minimum=0, maximum=10,
-                                open_min=True, derived="geometry.outer_radius"),
+                                open_min=True, derived="geometry.outer_radius; with frame circle "
+                                "geometry.frame_radius"),
         "enclosure_vent_radius": Key("m", 0.0, "radius of a circular vent in the enclosure's "
                                      "bottom, centred on the axis, open to the outside air "
                                      "(region boundary 'vent'); 0 = sealed", minimum=0,
@@ -670,9 +672,11 @@ def _derived_defaults(v: dict[str, dict[str, Any]], name: str) -> None:
             v[section][key] = factor * r_o
     if v["geometry"]["frame_radius"] is None:
         v["geometry"]["frame_radius"] = 0.5 * v["geometry"]["frame_side"]
-    for key in ("enclosure_depth", "enclosure_radius"):
-        if v["geometry"][key] is None:
-            v["geometry"][key] = r_o
+    g = v["geometry"]
+    if g["enclosure_depth"] is None:
+        g["enclosure_depth"] = r_o
+    if g["enclosure_radius"] is None:   # under a circular frame: the whole ring is its lid
+        g["enclosure_radius"] = g["frame_radius"] if g["frame"] == "circle" else r_o
     if v["output"]["directory"] is None:
         v["output"]["directory"] = f"results/{name}"
 
@@ -785,10 +789,13 @@ def _check_enclosure(v: dict[str, dict[str, Any]]) -> None:
             raise _fail("geometry.enclosure_radius", radius,
                         f">= {r_o:g} m = geometry.outer_radius",
                         "the enclosure's rim is sealed to the membrane's rim")
-        if frame == "circle" and above(radius, g["frame_radius"]):
+        if frame == "circle" and apart(radius, g["frame_radius"]):
             raise _fail("geometry.enclosure_radius", radius,
-                        f"<= {g['frame_radius']:g} m = geometry.frame_radius",
-                        "the enclosure sits under the circular frame")
+                        f"{g['frame_radius']:g} m = geometry.frame_radius (its default with "
+                        "frame circle)", "the enclosure sits under the circular frame, which "
+                        "is its lid: a ring reaching past the enclosure's rim would need a "
+                        "pressure jump outside the cavity, which the axisymmetric engine "
+                        "does not carry")
         if frame == "square" and not above(0.5 * g["frame_side"], radius):
             raise _fail("geometry.enclosure_radius", radius,
                         f"< {0.5 * g['frame_side']:g} m = half geometry.frame_side",
