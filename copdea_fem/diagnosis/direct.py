@@ -11,7 +11,7 @@ modes, frames none/baffle/circle), tens of seconds to minutes on the 3-D quadran
 
 What it can evaluate: the effects the FE represents (:data:`DIRECT_EFFECTS`) --
 the switches ``air_loading``, ``baffle``, ``frame_reflection``, ``open_air`` (geometry and
-air keys) and the parameters ``effects.stiffness_scale`` (uniform_stiffness: the
+air keys), ``enclosure`` (its depth fitted on the grid below) and the parameters ``effects.stiffness_scale`` (uniform_stiffness: the
 membrane's tension) and ``effects.maxwell_scale`` (electrostatic_softening), and
 ``disc_pumping`` where there is a disc.  The parameters the FE does not read
 (``effects.air_mass_scale`` of air_loading: the FE has the real coupled air) are
@@ -37,7 +37,7 @@ from copdea_fem.diagnosis.fe import BAND_MARGIN, FEModel
 from copdea_fem.reduced.rings import ReducedModelError
 
 # The effects the FE evaluates by itself (its study keys: fe.FE_EFFECT_KEYS, geometry, air).
-DIRECT_EFFECTS = ("air_loading", "baffle", "frame_reflection", "open_air",
+DIRECT_EFFECTS = ("air_loading", "baffle", "frame_reflection", "open_air", "enclosure",
                   "uniform_stiffness", "electrostatic_softening", "disc_pumping")
 # Parameters the FE does not read: held at the catalogue's default, not fitted.
 PINNED_KEYS = ("effects.air_mass_scale",)
