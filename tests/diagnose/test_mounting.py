@@ -187,7 +187,7 @@ def test_the_effects_command_documents_the_mounting_signatures(capsys):
     text = capsys.readouterr().out
     assert "| `baffle` |" in text and "(m,1)" in text
     row = next(line for line in text.splitlines() if line.startswith("| `enclosure` |"))
-    assert "depth_ratio `geometry.enclosure_depth` 1 [0.05, 2]" in row
+    assert "depth_ratio `geometry.enclosure_depth` 1 [0.05, 2]" in row and "opt-in" in row
     assert "(0,n) modes" in row and "m >= 1" in row and "cavity(m,n,p)" in row
 
 
@@ -241,6 +241,15 @@ def test_the_enclosure_is_opt_in_and_its_depth_reaches_the_fe():
     dry = parse_study(battery.fe_battery._with(battery.DRUM_ENCLOSED, air={"enabled": False}))
     assert fe_study(dry)["geometry"]["enclosure"] == "none"
 
+
+
+def test_a_disc_less_base_with_the_ring_model_alone_is_refused_with_a_clear_error(tmp_path):
+    from copdea_fem.study import StudyError
+    path = battery.write_measured(battery.CASES["drum_open_null"], "null", 1, tmp_path)
+    measured = load_measured(path)
+    measured = dataclasses.replace(measured, model="reduced")
+    with pytest.raises(StudyError, match="model = 'reduced' is not allowed"):
+        Diagnoser(measured)
 
 @pytest.mark.slow
 def test_the_diagnosis_names_a_hidden_enclosure_and_not_on_its_null(tmp_path, figures):
