@@ -270,8 +270,11 @@ def test_the_diagnosis_names_a_hidden_enclosure_and_not_on_its_null(tmp_path, fi
             lines.append(f"{name}: named {result.missing_effects}, depth_ratio {depth:.3f} "
                          f"(truth {battery.ENCLOSURE_DEPTH_RATIO}), gap "
                          f"{result.gap_before:.3g} -> {result.gap_after:.3g}")
-            # the (0,n) modes set the depth: within 20 % of the truth despite the noise
-            assert depth == pytest.approx(battery.ENCLOSURE_DEPTH_RATIO, rel=0.2)
+            # the (0,n) modes set the depth: d ln f / d ln L = -0.25 ((0,1)), -0.18 ((0,2))
+            # near the truth (FE, L = 0.6 -> 0.72 r_o), so 1 % scatter on ~5 of them gives
+            # sigma(ln L) ~ 0.01 / 0.22 / sqrt(5) = 2 %; 10 % is 5 sigma (measured -4.3 %;
+            # a 5-point grid's spline put it at +20 %)
+            assert depth == pytest.approx(battery.ENCLOSURE_DEPTH_RATIO, rel=0.1)
             assert result.gap_after < result.gap_before
         else:
             lines.append(f"{name}: named {result.missing_effects or 'nothing'}, "
