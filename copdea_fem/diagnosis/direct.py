@@ -11,19 +11,20 @@ modes, frames none/baffle/circle), tens of seconds to minutes on the 3-D quadran
 
 What it can evaluate: the effects the FE represents (:data:`DIRECT_EFFECTS`) --
 the switches ``air_loading``, ``baffle``, ``frame_reflection``, ``open_air`` (geometry and
-air keys), ``enclosure`` (its depth fitted on the grid below) and the parameters ``effects.stiffness_scale`` (uniform_stiffness: the
-membrane's tension) and ``effects.maxwell_scale`` (electrostatic_softening), and
-``disc_pumping`` where there is a disc.  The parameters the FE does not read
+air keys), ``enclosure`` (its depth fitted on the grid below) and the parameters
+``effects.stiffness_scale`` (uniform_stiffness: the membrane's tension) and
+``effects.maxwell_scale`` (electrostatic_softening), and ``disc_pumping`` where
+there is a disc.  The parameters the FE does not read
 (``effects.air_mass_scale`` of air_loading: the FE has the real coupled air) are
 held at their defaults (:data:`PINNED_KEYS`), not fitted.  The effects only the
 ring model has (visco-elasticity, the spring's mass, modal damping) are not
 tested, and the report says why.
 
 Cost.  A parameter is tabulated on :data:`DIRECT_GRID` FE solves per condition
-(enclosure's depth on 9: :data:`DIRECT_GRID_OF`) (5 instead of the ring surrogate's 9: ln f is smooth in ln s, f ~ sqrt(s) for a
-membrane under tension), then interpolated as with the ring surrogate
-(:mod:`copdea_fem.diagnosis.tabulation`); every number reported of a fitted model
-is an FE solve at the fitted values.
+(5 instead of the ring surrogate's 9: ln f is smooth in ln s, f ~ sqrt(s) for a
+membrane under tension; enclosure's depth on 9, :data:`DIRECT_GRID_OF`), then
+interpolated as with the ring surrogate (:mod:`copdea_fem.diagnosis.tabulation`);
+every number reported of a fitted model is an FE solve at the fitted values.
 """
 
 from __future__ import annotations

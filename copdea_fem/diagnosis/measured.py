@@ -14,7 +14,8 @@ Manifest (paths relative to the manifest's folder)::
       quality_relative: 0.25         #   1-sigma relative scatter of quality factors
       missing_probability: 0.1       #   chance that a mode in the band is not identified
       spurious_per_condition: 0.2    #   expected peaks per condition no axisymmetric model has
-    candidates: [air_loading, ...]   # optional: effects the diagnosis may add (default: all but enclosure)
+    candidates: [air_loading, ...]   # optional: effects the diagnosis may add (default: all
+                                     #   but enclosure, which is opt-in)
     model: fe                        # optional: the model of record, fe (default: the FE as
                                      #   the base study is written, the ring model its
                                      #   anchored surrogate) or reduced (the ring model alone)
