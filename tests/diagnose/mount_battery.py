@@ -59,6 +59,9 @@ DRUM_BAND = (30.0, 350.0)         # Hz: (0,1) of the slackest head to (4,1) of t
 
 G1_OPEN = fe_battery._with(fe_battery.DRY, air={"enabled": True}, geometry={"frame": "none"})
 G1_BAFFLED = fe_battery._with(G1_OPEN, geometry={"frame": "baffle"})
+G1_ENCLOSED = fe_battery._with(G1_OPEN, geometry={
+    "enclosure": "cylinder", "enclosure_depth": ENCLOSURE_DEPTH_RATIO * 0.0355,
+    "enclosure_radius": 0.0355})
 
 
 @dataclass(frozen=True)
@@ -95,14 +98,19 @@ REVERSE_CASES = {
     "drum_open_hidden": Case(DRUM_BAFFLED, DRUM, DRUM_TENSIONS, DRUM_BAND, 4, ("open_air",)),
     "drum_baffle_null": Case(DRUM_BAFFLED, DRUM_BAFFLED, DRUM_TENSIONS, DRUM_BAND, 4, ()),
 }
-# The enclosure (opt-in, named in candidates beside a rival mounting and the head's
-# tension): a drum head over a hidden sealed cylinder, and its null set.
+# The enclosure (opt-in, named in candidates beside a rival mounting and the membrane's
+# stiffness): a drum head (the direct FE engine) and G1 (disc held: the anchored engine,
+# the anchor solved at each depth) over a hidden sealed cylinder, and their null sets.
 ENCLOSURE_CANDIDATES = ("enclosure", "baffle", "uniform_stiffness")
 ENCLOSURE_CASES = {
     "drum_enclosure_hidden": Case(DRUM, DRUM_ENCLOSED, DRUM_TENSIONS, DRUM_BAND, 4,
                                   ("enclosure",), candidates=ENCLOSURE_CANDIDATES),
     "drum_enclosure_null": Case(DRUM, DRUM, DRUM_TENSIONS, DRUM_BAND, 4, (),
                                 candidates=ENCLOSURE_CANDIDATES),
+    "g1_enclosure_hidden": Case(G1_OPEN, G1_ENCLOSED, fe_battery.AIR5, fe_battery.BAND, 2,
+                                ("enclosure",), candidates=ENCLOSURE_CANDIDATES),
+    "g1_enclosure_null": Case(G1_OPEN, G1_OPEN, fe_battery.AIR5, fe_battery.BAND, 2, (),
+                              candidates=ENCLOSURE_CANDIDATES),
 }
 # The reproduction of issue 24: the head's tension unknown too (the data 10 % stiffer).
 REPRODUCTION = Case(DRUM, DRUM_STIFFER_BAFFLED, DRUM_TENSIONS, DRUM_BAND, 4,

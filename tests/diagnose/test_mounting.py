@@ -253,10 +253,11 @@ def test_a_disc_less_base_with_the_ring_model_alone_is_refused_with_a_clear_erro
 
 @pytest.mark.slow
 def test_the_diagnosis_names_a_hidden_enclosure_and_not_on_its_null(tmp_path, figures):
-    """A drum head over a hidden sealed cylinder (0.6 r_o deep, the FE made the data; the
-    base open in air), enclosure named in candidates beside a rival mounting (baffle) and
-    the head's tension (uniform_stiffness): enclosure is named, its depth fitted near the
-    truth, the gap falls; the null set (data without it) names nothing."""
+    """A drum head (the direct FE engine) and G1 (disc held, coupled: the anchored engine)
+    over a hidden sealed cylinder (0.6 r_o deep, the FE made the data; the base open in
+    air), enclosure named in candidates beside a rival mounting (baffle) and the
+    membrane's stiffness (uniform_stiffness): enclosure is named, its depth fitted near
+    the truth, the gap falls; the null sets (data without it) name nothing."""
     lines = []
     for name, case in battery.ENCLOSURE_CASES.items():
         result = diagnose(case, name, 1, tmp_path / name)
@@ -270,8 +271,8 @@ def test_the_diagnosis_names_a_hidden_enclosure_and_not_on_its_null(tmp_path, fi
             lines.append(f"{name}: named {result.missing_effects}, depth_ratio {depth:.3f} "
                          f"(truth {battery.ENCLOSURE_DEPTH_RATIO}), gap "
                          f"{result.gap_before:.3g} -> {result.gap_after:.3g}")
-            # the (0,n) modes set the depth: d ln f / d ln L = -0.25 ((0,1)), -0.18 ((0,2))
-            # near the truth (FE, L = 0.6 -> 0.72 r_o), so 1 % scatter on ~5 of them gives
+            # the (0,n) modes set the depth: d ln f / d ln L = -0.25 ((0,1)), -0.18 ((0,2)) of
+            # the drum near the truth (FE, L = 0.6 -> 0.72 r_o), so 1 % scatter on ~5 gives
             # sigma(ln L) ~ 0.01 / 0.22 / sqrt(5) = 2 %; 10 % is 5 sigma (measured -4.3 %;
             # a 5-point grid's spline put it at +20 %)
             assert depth == pytest.approx(battery.ENCLOSURE_DEPTH_RATIO, rel=0.1)
