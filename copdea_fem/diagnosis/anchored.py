@@ -79,11 +79,13 @@ from copdea_fem.reduced.rings import ReducedModelError
 from copdea_fem.study import StudyError
 
 # How the FE represents each effect: "switch" (the ring model cannot: on in the FE whenever
-# on in the state; its parameters, if any, act on the ring surrogate only), "anchored" (the
+# on in the state; its parameters, if any, act on the ring surrogate only, except where the
+# ring model does not read them: enclosure's depth sets the anchor's FE study, one FE solve
+# per depth), "anchored" (the
 # ring model moves it well: in the FE from the step that accepts it, at the accepted
 # values), or absent (ring only).
 FE_ROLES = {"air_loading": "switch", "frame_reflection": "switch", "baffle": "switch",
-            "open_air": "switch",
+            "open_air": "switch", "enclosure": "switch",
             "disc_pumping": "anchored",
             "electrostatic_softening": "anchored", "uniform_stiffness": "anchored",
             "viscoelastic_membrane": "anchored"}

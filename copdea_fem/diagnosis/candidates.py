@@ -111,8 +111,9 @@ def mounting_skipped(effect_id, state, base_study) -> str | None:
     """Why the mounting ``effect_id`` is not a candidate at ``state`` (None: it is).
 
     One mounting at a time: the base study's own (:func:`base_mounting`: open in air,
-    baffled or framed) is the starting point, and every other mounting is a candidate
-    that *replaces* it (its overrides set ``geometry.frame``) -- the search adds
+    baffled, framed or over an enclosure) is the starting point, and every other
+    mounting is a candidate that *replaces* it (its overrides set ``geometry.frame`` and
+    ``geometry.enclosure``: the whole mounting) -- the search adds
     effects, and this is how a base with the wrong mounting is corrected (open-air
     data from a baffled base).  Once a mounting is accepted (or held provisionally)
     no other is tested.  A framed or baffled base without air (``air.enabled: false``,

@@ -20,7 +20,11 @@ with ``model: fe``: ``viscoelastic_membrane``).
 Identifiers are a contract (``diagnosis.json``): ``air_loading,
 electrostatic_softening, spring_mass, disc_pumping, modal_damping,
 frame_reflection, viscoelastic_stiffening, uniform_stiffness``, ``baffle``,
-``open_air`` and ``viscoelastic_membrane``.
+``open_air``, ``viscoelastic_membrane`` and ``enclosure``.
+
+:data:`DEFAULT_CANDIDATES` (what ``measured.yaml`` may add when it lists no
+``candidates``) is every effect but :data:`OPT_IN` (``enclosure``: named in
+``candidates`` to be tested; docs/diagnosis-mounting.md says why).
 """
 
 from __future__ import annotations
@@ -29,7 +33,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Callable
 
-from copdea_fem.study import StudyError
+from copdea_fem.study import ENCLOSURE_AIR_SHARE, StudyError
 
 # Modal damping b/m of Sect. 5.3 [1/s]: the physical default of effect modal_damping.
 PAPER_DAMPING = {"reduced.damping_p1": 45.0, "reduced.damping_01": 245.0,
@@ -250,12 +254,16 @@ _register(Effect(
 FRAME_OVER_DIAMETER = 0.080 / 0.071
 # Mutually exclusive: one mounting at a time.  The base study's own mounting is the starting
 # point; the others are candidates that replace it (candidates.mounting_skipped).
-MOUNTINGS = ("baffle", "frame_reflection", "open_air")
+MOUNTINGS = ("baffle", "frame_reflection", "open_air", "enclosure")
+# A mounting's overrides state the whole mounting (the frame and the closed back), so that
+# one replaces another: the open mountings clear the enclosure, the enclosure the frame.
+NO_ENCLOSURE = {"geometry.enclosure": "none"}
 
 
 def base_mounting(study) -> str | None:
-    """The mounting effect a study states (:data:`MOUNTINGS`): ``open_air`` for
-    ``geometry.frame: none``, ``baffle``, ``frame_reflection`` for a square or circle."""
+    """The mounting effect a study states (:data:`MOUNTINGS`): ``enclosure`` for a
+    ``geometry.enclosure`` other than none, else ``open_air`` for ``geometry.frame: none``,
+    ``baffle``, ``frame_reflection`` for a square or circle."""
     return next((m for m in MOUNTINGS if CATALOGUE[m].is_on(study)), None)
 
 
@@ -271,7 +279,7 @@ def frame_overrides(study, shape=None) -> dict:
     g, air = study["geometry"], study["air"]
     shape = shape or (g["frame"] if g["frame"] in ("square", "circle") else "square")
     r_o, radius = g["outer_radius"], air["domain_radius"]
-    out = {"geometry.frame": shape}
+    out = {"geometry.frame": shape, **NO_ENCLOSURE}
     if shape == "square":
         side = g["frame_side"]
         if side <= 2 * r_o:
@@ -306,7 +314,8 @@ _register(Effect(
               "a/b of m = 2 shifted differently)",
     on_overrides=lambda s, v: frame_overrides(s),
     off_overrides=lambda s: {"geometry.frame": "none"},
-    detect=lambda s: s["geometry"]["frame"] in ("square", "circle")))
+    detect=lambda s: (s["geometry"]["frame"] in ("square", "circle")
+                      and s["geometry"]["enclosure"] == "none")))
 
 _register(Effect(
     id="baffle", title="membrane in an infinite baffle (mounting)",
@@ -320,17 +329,19 @@ _register(Effect(
               "falling with m (0.65 m drum head, coupled FE: (0,1) -12 %, (1,1) -4.4 %, (2,1) "
               "-2.2 %, (3,1) -1.3 %, (0,2) -3.1 %; G1 at z = 11 mm, 2 kV: (0,1) -9 %, (1,1) -3 %); "
               "no split pairs (axisymmetric)",
-    on_overrides=lambda s, v: {"geometry.frame": "baffle"},
+    on_overrides=lambda s, v: {"geometry.frame": "baffle", **NO_ENCLOSURE},
     off_overrides=lambda s: {"geometry.frame": "none"},
-    detect=lambda s: s["geometry"]["frame"] == "baffle"))
+    detect=lambda s: (s["geometry"]["frame"] == "baffle"
+                      and s["geometry"]["enclosure"] == "none")))
 
 _register(Effect(
     id="open_air", title="membrane open in air (the base's mounting removed)",
-    description="The reverse of baffle and frame_reflection: the membrane hangs "
-                "open in air, nothing in its plane around it, so the air flows round the rim "
-                "from one face to the other.  A candidate only for a base that states a "
-                "mounting (geometry.frame: baffle, square or circle, with air): it replaces "
-                "that mounting by geometry.frame: none.  Evaluated with the coupled air/PML "
+    description="The reverse of baffle, frame_reflection and enclosure: the membrane hangs "
+                "open in air, nothing in its plane around it nor behind it, so the air flows "
+                "round the rim from one face to the other.  A candidate only for a base that "
+                "states a mounting (geometry.frame: baffle, square or circle, or an enclosure, "
+                "with air): it replaces that mounting by geometry.frame: none, "
+                "geometry.enclosure: none.  Evaluated with the coupled air/PML "
                 "FE on the axisymmetric engine; the ring model has no mounting.",
     kind="physics", engine="coupled_fe", parameters=(),
     signature="every membrane mode higher than the baffled model predicts, (0,1) most (the "
@@ -340,9 +351,70 @@ _register(Effect(
               "(2,1) +2.2 %, (3,1) +1.4 %, (0,2) +3.2 %; G1 at z = 11 mm, 2 kV, (0,1) "
               "+10.2 %, (1,1) +2.8 %, (2,1) +1.2 %, (0,2) +0.4 %); against a frame, the "
               "same pattern by a few per cent; the split (m,n) pairs of a square frame merge",
-    on_overrides=lambda s, v: {"geometry.frame": "none"},
+    on_overrides=lambda s, v: {"geometry.frame": "none", **NO_ENCLOSURE},
     off_overrides=lambda s: {"geometry.frame": "baffle"},
-    detect=lambda s: s["geometry"]["frame"] == "none"))
+    detect=lambda s: (s["geometry"]["frame"] == "none"
+                      and s["geometry"]["enclosure"] == "none")))
+
+# Fit bounds of enclosure's depth over r_o: from a shallow gap (0.05 r_o, above the
+# schema's 0.02 r_o meshing floor) to a deep can (2 r_o: its far corner, sqrt(5) r_o,
+# inside 0.8 of the default air sphere of 3.5 r_o).
+ENCLOSURE_DEPTH_RATIO = (0.05, 2.0)
+
+
+def enclosure_overrides(study, values) -> dict:
+    """Overrides of :data:`enclosure <CATALOGUE>`: a sealed rigid cylinder of the outer
+    radius r_o and depth ``values[0]`` x r_o under the membrane (volume
+    V = pi r_o^3 values[0]), standing in free air (``geometry.frame: none``: it replaces
+    the base's frame or baffle), the outside air kept (``air.outside: true``); the air
+    sphere grows to keep the cylinder's far corner within
+    :data:`~copdea_fem.study.ENCLOSURE_AIR_SHARE` of its radius (1.1 x the least)."""
+    r_o = study["geometry"]["outer_radius"]
+    depth = float(values[0]) * r_o
+    out = {"geometry.frame": "none", "geometry.enclosure": "cylinder",
+           "geometry.enclosure_depth": depth, "geometry.enclosure_radius": r_o,
+           "geometry.enclosure_vent_radius": 0.0, "air.outside": True}
+    farthest = math.hypot(r_o, depth)
+    if farthest >= ENCLOSURE_AIR_SHARE * study["air"]["domain_radius"]:
+        out["air.domain_radius"] = 1.1 * farthest / ENCLOSURE_AIR_SHARE
+    return out
+
+
+_register(Effect(
+    id="enclosure", title="sealed enclosure under the membrane (mounting: a closed back)",
+    description="A rigid sealed cylinder of the membrane's outer radius under it (a closed "
+                "box, a drum's kettle, a pump's chamber; docs/enclosures.md): the trapped "
+                "air is a spring on every mode that changes its volume, it has acoustic modes "
+                "of its own, and it blocks the back radiation.  The cylinder stands in free "
+                "air (geometry.frame: none, geometry.enclosure: cylinder, sealed), replacing "
+                "the base's frame or baffle; its depth L is fitted (as L / r_o: the volume "
+                "V = pi r_o^2 L).  For a flat membrane of tension T over a shallow cavity "
+                "the air spring's strength is B = rho c^2 pi r_o^4 / (T V).  Evaluated with "
+                "the coupled air/PML FE (the air inside meshed like the outside), directly "
+                "or as the anchor of the ring model, one FE solve per depth; the ring model "
+                "has no enclosure.  Not a default candidate: name it in measured.yaml's "
+                "candidates.",
+    kind="physics", engine="coupled_fe",
+    parameters=(Parameter("depth_ratio", "geometry.enclosure_depth", None, 1.0,
+                          *ENCLOSURE_DEPTH_RATIO, True,
+                          "depth L of the sealed cylinder over the outer radius r_o "
+                          "(1: L = r_o, the study's default depth)"),),
+    signature="the (0,n) modes, which change the trapped volume, measured far above the "
+              "open model, (0,1) most (the air spring: for a flat membrane x^2 J0(x) + "
+              "B J2(x) = 0, x = k r_o, k1 r_o from 2.405 open to 3.020 at B = 5), the (0,2) "
+              "less (its volume change nearly cancels); the m >= 1 modes change no volume: "
+              "not stiffened, only lowered a little by the confined air's added mass, the "
+              "less the higher m (coupled FE, 0.65 m drum head at pre-stretch 1.05 over a "
+              "cylinder 0.6 r_o deep, against open in air: (0,1) +118 %, (0,2) +10.5 %, "
+              "(1,1) -10.3 %, (2,1) -4.0 %, (3,1) -2.3 %, (4,1) -1.5 %; G1 at z = 16 mm, "
+              "2 kV in a baffle over a 20 mm deep cylinder, B ~ 300: (0,1) 378 -> 1022 Hz, "
+              "past the (0,2), (1,1) -2 %); the stiffening grows as the cavity gets "
+              "shallower (B ~ 1/V) and saturates (the (0,1) tends to the first zero of "
+              "J2, k r_o = 5.14); the cavity's own acoustic modes (cavity(m,n,p), kHz for a "
+              "few cm) appear as air modes, not membrane resonances; no split pairs",
+    on_overrides=enclosure_overrides,
+    off_overrides=lambda s: dict(NO_ENCLOSURE),
+    detect=lambda s: s["geometry"]["enclosure"] != "none"))
 
 _register(Effect(
     id="viscoelastic_stiffening", title="visco-elastic stiffening",
@@ -449,6 +521,11 @@ _register(Effect(
     detect=lambda s: s["effects"]["stiffness_scale"] != 1.0))
 
 EFFECT_IDS = tuple(CATALOGUE)
+# Catalogued but tested only when measured.yaml names them in ``candidates``: a sealed back
+# is built, not hidden (the base states it, and then the other mountings are tested in its
+# place), and its fitted depth costs FE solves on a grid per condition.
+OPT_IN = ("enclosure",)
+DEFAULT_CANDIDATES = tuple(e for e in EFFECT_IDS if e not in OPT_IN)
 
 
 def effect(effect_id: str) -> Effect:
@@ -482,5 +559,7 @@ def catalogue_table() -> str:
                            f"{p.shown(p.upper)}]" for p in e.parameters) or "none"
         engine = e.engine + {"coupled_fe": " (FE solves; needs model: fe and air)",
                              "fe": " (FE solves; needs model: fe)"}.get(e.engine, "")
+        if e.id in OPT_IN:
+            engine += "; opt-in: tested only where measured.yaml's candidates name it"
         rows.append(f"| `{e.id}` | {e.kind} | {engine} | {params} | {e.signature} |")
     return "\n".join(rows)

@@ -91,12 +91,13 @@ class FEResult:
 def fe_study(study: Study, f_max: float | None = None) -> Study:
     """The study the FE solves for a diagnosis study.
 
-    In vacuo the frame plays no part (it is a reflector in the air), so dry modes run
-    on the axisymmetric engine with ``frame: none``; coupled ones keep the frame and
-    let ``mesh.engine: auto`` choose.  ``f_max`` [Hz] (default: the study's) is the
-    top of the FE band (``eigen.f_min`` raised where a ``membrane.prony`` relaxation
-    spectrum would reach that band: :func:`~copdea_fem.diagnosis.effects.prony_band_floor`);
-    no result files are written.
+    In vacuo the frame and the enclosure play no part (they act through the air), so dry
+    modes run on the axisymmetric engine with ``frame: none``, ``enclosure: none`` (and
+    ``air.outside: true``, which only an enclosure may turn off); coupled ones keep the
+    frame and the enclosure and let ``mesh.engine: auto`` choose.  ``f_max`` [Hz]
+    (default: the study's) is the top of the FE band (``eigen.f_min`` raised where a
+    ``membrane.prony`` relaxation spectrum would reach that band:
+    :func:`~copdea_fem.diagnosis.effects.prony_band_floor`); no result files are written.
     """
     overrides = {"output.plots": False, "output.paraview": False}
     if f_max is not None:
@@ -106,7 +107,8 @@ def fe_study(study: Study, f_max: float | None = None) -> Study:
         if floor is not None:        # a Prony relaxation spectrum the wider band would reach
             overrides["eigen.f_min"] = floor
     if not study["air"]["enabled"]:
-        overrides.update({"geometry.frame": "none", "mesh.engine": "axisymmetric"})
+        overrides.update({"geometry.frame": "none", "geometry.enclosure": "none",
+                          "air.outside": True, "mesh.engine": "axisymmetric"})
     return study.replace(overrides)
 
 

@@ -14,7 +14,8 @@ Manifest (paths relative to the manifest's folder)::
       quality_relative: 0.25         #   1-sigma relative scatter of quality factors
       missing_probability: 0.1       #   chance that a mode in the band is not identified
       spurious_per_condition: 0.2    #   expected peaks per condition no axisymmetric model has
-    candidates: [air_loading, ...]   # optional: effects the diagnosis may add (default: all)
+    candidates: [air_loading, ...]   # optional: effects the diagnosis may add (default: all
+                                     #   but enclosure, which is opt-in)
     observed: ["(m,1)", "(0,n)"]     # optional: the mode families the measurement can see
                                      #   (default: all); model modes outside them cost
                                      #   nothing when no peak explains them
@@ -68,7 +69,7 @@ from pathlib import Path
 
 import numpy as np
 
-from copdea_fem.diagnosis.effects import EFFECT_IDS, parse_effect_list
+from copdea_fem.diagnosis.effects import DEFAULT_CANDIDATES, parse_effect_list
 from copdea_fem.inputs import preview, read_text, read_yaml
 from copdea_fem.study import Study, StudyError, load_study
 from copdea_fem.vibrometer.scan import MeasuredDataError, ScanData, ScanFrame
@@ -187,7 +188,7 @@ class MeasuredSet:
     base_study: Study
     conditions: tuple
     noise: NoiseModel
-    candidates: tuple = EFFECT_IDS
+    candidates: tuple = DEFAULT_CANDIDATES
     model: str = "fe"
     observed: ObservedFamilies | None = None
     pairing: PairingSettings | None = None
@@ -382,7 +383,7 @@ def parse_measured(raw: dict, folder, name: str = "measured", path=None) -> Meas
         noise_values[key] = float(value)
     noise = NoiseModel(**noise_values)
     candidates = (parse_effect_list(raw["candidates"], "candidates")
-                  if raw.get("candidates") is not None else EFFECT_IDS)
+                  if raw.get("candidates") is not None else DEFAULT_CANDIDATES)
     model = raw.get("model", "fe")
     if model not in MODELS:
         raise _fail("model", model, ", ".join(MODELS) + " (fe: the FE as the base study is "

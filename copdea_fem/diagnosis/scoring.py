@@ -78,7 +78,7 @@ import numpy as np
 import scipy.stats
 
 from copdea_fem.diagnosis.compare import ConditionMatch, DevianceTerms, gap, match_condition
-from copdea_fem.diagnosis.direct import DIRECT_GRID, PINNED_KEYS
+from copdea_fem.diagnosis.direct import PINNED_KEYS, direct_grid
 from copdea_fem.diagnosis.effects import CATALOGUE
 from copdea_fem.diagnosis.engine import Engine, safe_predict
 from copdea_fem.diagnosis.peaks import condition_peaks
@@ -230,7 +230,7 @@ class Scorer:
         parameters = [p for e in group for p in CATALOGUE[e].parameters
                       if p.key not in self.pinned]
         table = Tabulation(self, state, group, parameters, nuisance=True, pinned=self.pinned,
-                           grid=DIRECT_GRID if self.direct else None)
+                           grid=direct_grid(parameters) if self.direct else None)
         names = [c.name for c in self.conditions]
         full_u = table.fit(names)
         values = table.values(full_u)
@@ -305,7 +305,7 @@ class Scorer:
             return state
         rest = state[:index] + state[index + 1:]
         table = Tabulation(self, rest, (effect_id,), parameters, pinned=self.pinned,
-                           grid=DIRECT_GRID if self.direct else None)
+                           grid=direct_grid(parameters) if self.direct else None)
         u = table.fit([c.name for c in self.conditions])
         values = tuple(table.values(u))
         return state[:index] + ((effect_id, values),) + state[index + 1:]

@@ -44,7 +44,12 @@ from dataclasses import dataclass, field
 
 from copdea_fem.diagnosis.candidates import candidate_groups, prefetch_defaults
 from copdea_fem.diagnosis.compare import gap
-from copdea_fem.diagnosis.direct import DIRECT_GRID, DirectFEEngine, ring_can_represent
+from copdea_fem.diagnosis.direct import (
+    DIRECT_GRID,
+    DIRECT_GRID_OF,
+    DirectFEEngine,
+    ring_can_represent,
+)
 from copdea_fem.diagnosis.effects import CATALOGUE, MOUNTINGS
 from copdea_fem.diagnosis.engine import Engine
 from copdea_fem.diagnosis.evidence import describe_evidence, goodness_of_fit, remaining_off, verdict
@@ -263,7 +268,9 @@ class Diagnoser:
             return {"predictions": "FE directly (no ring surrogate: the device has no "
                                    "central disc)",
                     "states": {" + ".join(k) or "base": sorted(v) for k, v in used.items()},
-                    "fitted_grid": f"{DIRECT_GRID} FE solves per condition and parameter"}
+                    "fitted_grid": f"{DIRECT_GRID} FE solves per condition and parameter "
+                                   f"({DIRECT_GRID_OF['geometry.enclosure_depth']} for "
+                                   "enclosure's depth)"}
         return {"predictions": "ring surrogate anchored to the FE (A1)",
                 "fe_switches": "air_loading, baffle, frame_reflection, open_air: FE solves "
                                "(axisymmetric engine for frames none/baffle/circle, 3-D for "

@@ -24,7 +24,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import fe_battery as battery  # noqa: E402
 
 READS_COMMITTED_CACHE = ("battery.write_measured", "battery.FE_CACHE", "check_battery(",
-                         "diagnose(\"", '"fe_cache"')
+                         "diagnose(\"", "diagnose(battery.", "diagnose(case,", '"fe_cache"')
 
 
 @functools.lru_cache(maxsize=1)

@@ -48,11 +48,20 @@ DRUM_STIFFER_BAFFLED = fe_battery._with(DRUM_BAFFLED, effects={"stiffness_scale"
 # the square frame frame_reflection puts round the head: G1's proportion, side 1.13 x 0.65 m
 DRUM_FRAMED = fe_battery._with(DRUM, geometry={"frame": "square",
                                                "frame_side": 0.080 / 0.071 * 0.65})
+# a sealed cylinder of the head's radius under it, 0.6 r_o = 195 mm deep, in free air: what
+# the catalogue's enclosure puts there (geometry.frame none, cylinder, sealed)
+ENCLOSURE_DEPTH_RATIO = 0.6
+DRUM_ENCLOSED = fe_battery._with(DRUM, geometry={
+    "enclosure": "cylinder", "enclosure_depth": ENCLOSURE_DEPTH_RATIO * 0.325,
+    "enclosure_radius": 0.325})
 DRUM_TENSIONS = [{"membrane.prestretch": p} for p in (1.03, 1.05, 1.08)]
 DRUM_BAND = (30.0, 350.0)         # Hz: (0,1) of the slackest head to (4,1) of the tautest
 
 G1_OPEN = fe_battery._with(fe_battery.DRY, air={"enabled": True}, geometry={"frame": "none"})
 G1_BAFFLED = fe_battery._with(G1_OPEN, geometry={"frame": "baffle"})
+G1_ENCLOSED = fe_battery._with(G1_OPEN, geometry={
+    "enclosure": "cylinder", "enclosure_depth": ENCLOSURE_DEPTH_RATIO * 0.0355,
+    "enclosure_radius": 0.0355})
 
 
 @dataclass(frozen=True)
@@ -68,6 +77,7 @@ class Case:
     orders: int
     missing: tuple
     ambiguous_ok: tuple = ()
+    candidates: tuple = ()        # measured.yaml's candidates (empty: the default list)
 
 
 CASES = {
@@ -87,6 +97,20 @@ REVERSE_CASES = {
     "g1_baffle_null": Case(G1_BAFFLED, G1_BAFFLED, fe_battery.AIR5, fe_battery.BAND, 2, ()),
     "drum_open_hidden": Case(DRUM_BAFFLED, DRUM, DRUM_TENSIONS, DRUM_BAND, 4, ("open_air",)),
     "drum_baffle_null": Case(DRUM_BAFFLED, DRUM_BAFFLED, DRUM_TENSIONS, DRUM_BAND, 4, ()),
+}
+# The enclosure (opt-in, named in candidates beside a rival mounting and the membrane's
+# stiffness): a drum head (the direct FE engine) and G1 (disc held: the anchored engine,
+# the anchor solved at each depth) over a hidden sealed cylinder, and their null sets.
+ENCLOSURE_CANDIDATES = ("enclosure", "baffle", "uniform_stiffness")
+ENCLOSURE_CASES = {
+    "drum_enclosure_hidden": Case(DRUM, DRUM_ENCLOSED, DRUM_TENSIONS, DRUM_BAND, 4,
+                                  ("enclosure",), candidates=ENCLOSURE_CANDIDATES),
+    "drum_enclosure_null": Case(DRUM, DRUM, DRUM_TENSIONS, DRUM_BAND, 4, (),
+                                candidates=ENCLOSURE_CANDIDATES),
+    "g1_enclosure_hidden": Case(G1_OPEN, G1_ENCLOSED, fe_battery.AIR5, fe_battery.BAND, 2,
+                                ("enclosure",), candidates=ENCLOSURE_CANDIDATES),
+    "g1_enclosure_null": Case(G1_OPEN, G1_OPEN, fe_battery.AIR5, fe_battery.BAND, 2, (),
+                              candidates=ENCLOSURE_CANDIDATES),
 }
 # The reproduction of issue 24: the head's tension unknown too (the data 10 % stiffer).
 REPRODUCTION = Case(DRUM, DRUM_STIFFER_BAFFLED, DRUM_TENSIONS, DRUM_BAND, 4,
@@ -136,6 +160,7 @@ def write_measured(case: Case, name: str, seed: int, folder: Path,
                 "noise": {"frequency_relative": fe_battery.SCATTER,
                           "missing_probability": fe_battery.P_MISS,
                           "spurious_per_condition": fe_battery.SPURIOUS},
+                **({"candidates": list(case.candidates)} if case.candidates else {}),
                 "conditions": conditions}
     path = folder / "measured.yaml"
     path.write_text(yaml.safe_dump(manifest, sort_keys=False))
@@ -163,7 +188,8 @@ if __name__ == "__main__":       # fill the FE cache of every case (truth and ba
     from copdea_fem.progress import progress_to
     model = FEModel(cache_dir=FE_CACHE)
     with progress_to(print, only_info=True):          # the FE progress lines
-        for case in [*CASES.values(), *REVERSE_CASES.values(), REPRODUCTION]:
+        for case in [*CASES.values(), *REVERSE_CASES.values(), *ENCLOSURE_CASES.values(),
+                     REPRODUCTION]:
             truth_modes(case, model)
             truth_modes(Case(case.base, case.base, case.conditions, case.band, case.orders,
                              ()), model)

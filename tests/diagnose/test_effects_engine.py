@@ -14,7 +14,8 @@ from copdea_fem.study import StudyError, parse_study
 CONTRACT = ("air_loading", "electrostatic_softening", "spring_mass", "disc_pumping",
             "modal_damping", "frame_reflection", "viscoelastic_stiffening", "uniform_stiffness",
             "baffle", "open_air",                                # issue 24: added
-            "viscoelastic_membrane")                             # issue 23: added
+            "viscoelastic_membrane",                             # issue 23: added
+            "enclosure")                                         # issue 34: added
 G1 = {"disc": {"motion": "spring"}, "load": {"z": 0.016, "voltage": 2000.0},
       "output": {"plots": False}}
 
