@@ -279,8 +279,12 @@ def test_fe_worker_counts_are_checked_before_any_work(monkeypatch, capsys):
     assert capsys.readouterr().err.strip() == ("error: --fe-workers = '0' is not allowed; "
                                                "allowed: an integer >= 1 (processes solving "
                                                "FE studies side by side)")
+    import os
+    monkeypatch.setattr(os, "cpu_count", lambda: 8)
     monkeypatch.setenv(WORKERS_VARIABLE, "3")
     assert default_workers() == 3
+    monkeypatch.setattr(os, "cpu_count", lambda: 2)               # capped at the cores
+    assert default_workers() == 2
     monkeypatch.setenv(WORKERS_VARIABLE, "0")
     with pytest.raises(StudyError, match=WORKERS_VARIABLE):
         default_workers()
