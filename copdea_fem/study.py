@@ -121,15 +121,13 @@ SCHEMA: dict[str, dict[str, Key]] = {
                          kind=str, choices=ENCLOSURES),
         "enclosure_depth": Key("m", None, "depth L of the enclosure below the membrane plane "
                                "(bowl: the cap's depth at its centre)", minimum=0, maximum=10,
-                               open_min=True, derived="geometry.outer_radius; with frame circle "
-                                "geometry.frame_radius"),
+                               open_min=True, derived="geometry.outer_radius"),
         "enclosure_radius": Key("m", None, "radius of the cylinder (bowl: of the cap's rim) "
                                 "sealed to the membrane plane; >= geometry.outer_radius, the "
                                 "top between r_o and this radius is rigid wall (with frame "
                                 "circle: equal to geometry.frame_radius); ignored for box (its side "
                                 "is geometry.frame_side)", minimum=0, maximum=10,
-                                open_min=True, derived="geometry.outer_radius; with frame circle "
-                                "geometry.frame_radius"),
+                                open_min=True, derived="geometry.outer_radius"),
         "enclosure_vent_radius": Key("m", 0.0, "radius of a circular vent in the enclosure's "
                                      "bottom, centred on the axis, open to the outside air "
                                      "(region boundary 'vent'); 0 = sealed", minimum=0,
