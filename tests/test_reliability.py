@@ -484,6 +484,20 @@ CASES = [
     Case("--fe-workers 0", 7, "--fe-workers = '0' is not allowed; allowed: an integer >= 1",
          argv=("diagnose", "{work}/data/measured.yaml", "--fe-workers", "0", "--out",
                "{work}/report"), setup=_copy_example),
+    # the options and keys of the vibrometer, the Dask executor and the reduced modal path
+    Case("identify --max-order 0", 3, "identify max_order = 0 is not allowed; allowed: an "
+         "integer in [4, 400]", argv=("identify", "{root}/studies/measured_scan_example/"
+                                      "measured.yaml", "--max-order", "0", "--out", "{work}/i")),
+    Case("--scheduler without dask", 2, "--scheduler = 'tcp://127.0.0.1:1' is not allowed "
+         "with --executor pool", argv=("sweep", "{root}/studies/sweeps/coarse_reduced_grid.yaml",
+                                       "--executor", "pool", "--scheduler", "tcp://127.0.0.1:1",
+                                       "--out", "{work}/s")),
+    Case("--scheduler not an address", 1, "--scheduler = 'notanaddress' is not allowed",
+         argv=("sweep", "{root}/studies/sweeps/coarse_reduced_grid.yaml", "--executor", "dask",
+               "--scheduler", "notanaddress", "--out", "{work}/s")),
+    Case("reduced_modal with a membrane loss", 3, "response.method = 'reduced_modal' is not "
+         "allowed", argv=("check", QUICK, "--set", "response.method=reduced_modal", "--set",
+                          "membrane.loss_factor=0.01")),
 ]
 
 
