@@ -21,9 +21,16 @@ ROOT = Path(__file__).resolve().parent.parent
 EXAMPLE = ROOT / "studies" / "measured_scan_example"
 
 
+def _truth(label: str | None = None) -> dict:
+    """The export's true modes (label -> frequency, damping ratio), or one of them."""
+    modes = json.loads((EXAMPLE / "synth_truth.json").read_text())["conditions"]["z16_v2"][
+        "modes"]
+    return modes if label is None else modes[label]
+
+
 def _truth_label(frequency_hz: float) -> str:
     """The true mode nearest a test frequency (the export's own modes, not the FE's)."""
-    truth = json.loads((EXAMPLE / "synth_truth.json").read_text())["conditions"]["z16_v2"]
+    truth = _truth()
     return min(truth, key=lambda label: abs(truth[label]["freq_hz"] - frequency_hz))
 
 
@@ -46,9 +53,13 @@ def test_correlate_labels_the_example_by_shape(tmp_path, capsys):
     assert list(rows[0]) == ["condition", "test_mode", "test_freq_hz", "test_damping_ratio",
                              "label", "fe_freq_hz", "freq_error", "mac"]
     assert len(rows) >= 3
-    for row in rows:
+    # on this coarse grid a test mode may stay unpaired (below the MAC threshold: the
+    # (1,1) pair next to the broad (0,1), Q = 15); a paired one must be the true mode
+    paired = [row for row in rows if row["label"]]
+    assert len(paired) >= 2
+    for row in paired:
         truth = _truth_label(float(row["test_freq_hz"]))
-        assert row["label"] and _same_unit(row["label"], truth), (row, truth)
+        assert _same_unit(row["label"], truth), (row, truth)
         assert 0.5 <= float(row["mac"]) <= 1.0
         # the dry base is higher than the truth in air: a positive frequency error
         assert float(row["freq_error"]) > 0
@@ -71,11 +82,16 @@ def test_the_scan_becomes_labelled_peaks_with_quality_factors():
     measured, pairings = resonances_from_scans(load_measured(EXAMPLE / "measured.yaml"))
     (condition,) = measured.conditions
     assert condition.resonances and len(pairings) == 1
+    assert sum(bool(resonance.label) for resonance in condition.resonances) >= 2
     for resonance in condition.resonances:
         truth = _truth_label(resonance.frequency_hz)
-        assert resonance.label and _same_unit(resonance.label, truth)
-        # Q = 1 / (2 zeta): the export's damping is 1 % plus the (small) radiation
-        assert 20 < resonance.quality_factor < 55
+        # Q = 1 / (2 zeta) as identified, against the export's truth (the study's modal
+        # b/m and the radiation): within 10 %
+        zeta = _truth(truth)["damping_ratio"]
+        assert resonance.quality_factor == pytest.approx(1 / (2 * zeta), rel=0.1)
+        if not resonance.label:             # unpaired by shape: an unlabelled peak
+            continue
+        assert _same_unit(resonance.label, truth)
         assert resonance.kind == ("axisymmetric" if resonance.label.startswith("(0,")
                                   else "non-axisymmetric")
     text = "\n".join(pairing_report_lines(pairings))
@@ -109,4 +125,5 @@ def test_the_api_gives_the_pairs_it_writes(tmp_path):
     with open(folder / "pairs.csv", newline="") as stream:
         rows = list(csv.DictReader(stream))
     assert [row["label"] for row in rows] == list(table["label"])
-    assert [float(row["mac"]) for row in rows] == pytest.approx(list(table["mac"]), abs=1e-4)
+    written = [float(row["mac"]) if row["mac"] else math.nan for row in rows]
+    assert written == pytest.approx(list(table["mac"]), abs=1e-4, nan_ok=True)
