@@ -63,34 +63,14 @@ from copdea_fem.api.measured_results import (
 )
 from copdea_fem.api.response_results import ResponseSolution, Spectrum, response, spectrum
 from copdea_fem.api.sweep_results import SweepResult, sweep
-from copdea_fem.folders import Claim, OutputFolderError
-from copdea_fem.study import Study, StudyError
+from copdea_fem.folders import Claim as Claim
+from copdea_fem.folders import OutputFolderError
+from copdea_fem.study import Study as Study
+from copdea_fem.study import StudyError
 
-__all__ = [
-    "Claim",
-    "CorrelateResult",
-    "Diagnosis",
-    "ForceCurve",
-    "IdentifyResult",
-    "OutputFolderError",
-    "ResponseSolution",
-    "Solution",
-    "SolveFailed",
-    "Spectrum",
-    "Study",
-    "StudyError",
-    "SweepResult",
-    "check_size",
-    "compute_force",
-    "correlate",
-    "diagnose",
-    "force",
-    "identify",
-    "load_study",
-    "prepare_force",
-    "response",
-    "solve",
-    "solving",
-    "spectrum",
-    "sweep",
-]
+#: The API's names in the order of the API page (autodoc's ``bysource`` follows it).
+__all__ = ["load_study", "solve", "Solution", "response", "ResponseSolution",  # noqa: RUF022
+           "force", "prepare_force", "compute_force", "ForceCurve", "spectrum", "Spectrum",
+           "sweep", "SweepResult", "diagnose", "Diagnosis", "identify", "IdentifyResult",
+           "correlate", "CorrelateResult", "SolveFailed", "StudyError", "OutputFolderError",
+           "solving", "check_size"]
