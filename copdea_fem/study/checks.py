@@ -19,6 +19,10 @@ from copdea_fem.study.schema import (
 
 
 def derived_defaults(v: dict[str, dict[str, Any]], name: str) -> None:
+    """Fill in, in place, the defaults computed from other keys (a
+    :class:`~copdea_fem.study.keys.Key` with ``derived``): the air sphere, PML and air mesh
+    from r_o, the circular frame's radius, the enclosure's depth and radius, the output
+    folder (from the study's ``name``)."""
     r_o = v["geometry"]["outer_radius"]
     for section, key, factor in (("air", "domain_radius", 3.5), ("air", "pml_thickness", 0.5),
                                  ("mesh", "air_size", 0.5)):
@@ -36,20 +40,22 @@ def derived_defaults(v: dict[str, dict[str, Any]], name: str) -> None:
 
 
 def check_across_keys(v: dict[str, dict[str, Any]]) -> None:
+    """The checks that need more than one key, on the values read key by key (SI, defaults
+    filled in); a :class:`~copdea_fem.study.keys.StudyError` names the key to change."""
     g, load = v["geometry"], v["load"]
     r_o, r_i = g["outer_radius"], g["inner_radius"]
     if not above(r_o, r_i):
         raise refusal("geometry.inner_radius", r_i, f"[0, {r_o:g}) m = below geometry.outer_radius")
     if 0 < r_i < 0.02 * r_o:
         raise refusal("geometry.inner_radius", r_i, f"0 or >= {0.02 * r_o:g} m (2 % of r_o)",
-                    "a disc this small cannot be meshed sensibly")
+                      "a disc this small cannot be meshed sensibly")
     if g["frame"] == "square" and not above(g["frame_side"], 2 * r_o):
         raise refusal("geometry.frame_side", g["frame_side"],
-                    f"> {2 * r_o:g} m = the membrane diameter 2 * geometry.outer_radius")
+                      f"> {2 * r_o:g} m = the membrane diameter 2 * geometry.outer_radius")
     R = v["air"]["domain_radius"]
     if g["frame"] == "square" and not above(R, g["frame_side"] / math.sqrt(2)):
         raise refusal("air.domain_radius", R, f"> {g['frame_side'] / math.sqrt(2):g} m",
-                    "the square frame's corners must lie inside the air sphere")
+                      "the square frame's corners must lie inside the air sphere")
     if not above(R, 1.2 * r_o):
         raise refusal("air.domain_radius", R, f"> {1.2 * r_o:g} m = 1.2 * geometry.outer_radius")
     width = r_o - r_i
@@ -57,29 +63,29 @@ def check_across_keys(v: dict[str, dict[str, Any]]) -> None:
     if g["frame"] == "circle" and not (above(g["frame_radius"], r_o)
                                        and above(R, g["frame_radius"])):
         raise refusal("geometry.frame_radius", g["frame_radius"],
-                    f"({r_o:g}, {R:g}) m = between geometry.outer_radius and air.domain_radius")
+                      f"({r_o:g}, {R:g}) m = between geometry.outer_radius and air.domain_radius")
     if g["frame"] == "circle" and g["frame_radius"] - r_o < smallest:
         raise refusal("geometry.frame_radius", g["frame_radius"],
-                    f">= {r_o + smallest:g} m = geometry.outer_radius + (r_o - r_i) / "
-                    f"{MAX_ELEMENTS_ACROSS}", "a frame ring this narrow cannot be meshed")
+                      f">= {r_o + smallest:g} m = geometry.outer_radius + (r_o - r_i) / "
+                      f"{MAX_ELEMENTS_ACROSS}", "a frame ring this narrow cannot be meshed")
     engine = v["mesh"]["engine"]
     if engine == "axisymmetric" and g["frame"] not in AXISYMMETRIC_FRAMES:
         raise refusal("mesh.engine", engine, f"3d or auto with geometry.frame = {g['frame']}",
-                    "the axisymmetric engine needs frame none, baffle or circle")
+                      "the axisymmetric engine needs frame none, baffle or circle")
     if engine == "3d" and g["frame"] == "circle":
         raise refusal("mesh.engine", engine, "axisymmetric or auto with geometry.frame = circle",
-                    "the 3-D mesh has no circular frame")
+                      "the 3-D mesh has no circular frame")
     _check_enclosure(v)
     if r_i == 0:
         if load["z"] != 0:
             raise refusal("load.z", load["z"], "0 m when geometry.inner_radius = 0",
-                        "a full membrane has no disc to displace")
+                          "a full membrane has no disc to displace")
         if v["disc"]["motion"] != "held":
             raise refusal("disc.motion", v["disc"]["motion"], "held when geometry.inner_radius = 0",
-                        "a full membrane has no disc")
+                          "a full membrane has no disc")
     if load["z"] > 2 * (r_o - r_i):
         raise refusal("load.z", load["z"], f"[0, {2 * (r_o - r_i):g}] m = 2 * (r_o - r_i)",
-                    "meridian stretch beyond what the film survives")
+                      "meridian stretch beyond what the film survives")
     e = v["eigen"]
     if not above(e["f_max"], e["f_min"]):
         raise refusal("eigen.f_max", e["f_max"], f"> eigen.f_min = {e['f_min']:g} Hz")
@@ -93,18 +99,18 @@ def check_across_keys(v: dict[str, dict[str, Any]]) -> None:
         height = e["max_damping_ratio"] * e["f_max"]
         if e["f_min"] < 0.5 * lowest and lowest <= 2 * height:
             raise refusal("eigen.f_min", e["f_min"], f">= {0.5 * lowest:.4g} Hz with this "
-                        "membrane.prony", f"the Prony relaxation spectrum (Re f = 0, |Im f| >= "
-                        f"{lowest:.4g} Hz) would reach the band |Im f| <= eigen.max_damping_ratio"
-                        f" * eigen.f_max = {height:.4g} Hz")
+                          "membrane.prony", f"the Prony relaxation spectrum (Re f = 0, |Im f| >= "
+                          f"{lowest:.4g} Hz) would reach the band |Im f| <= eigen.max_damping_ratio"
+                          f" * eigen.f_max = {height:.4g} Hz")
     if v["mesh"]["membrane_size"] > width / 2:
         raise refusal("mesh.membrane_size", v["mesh"]["membrane_size"],
-                    f"<= {width / 2:g} m = half the membrane width",
-                    "fewer than two elements across the membrane")
+                      f"<= {width / 2:g} m = half the membrane width",
+                      "fewer than two elements across the membrane")
     if v["mesh"]["membrane_size"] < smallest:
         raise refusal("mesh.membrane_size", v["mesh"]["membrane_size"],
-                    f">= {smallest:g} m = (r_o - r_i) / {MAX_ELEMENTS_ACROSS}",
-                    f"more than {MAX_ELEMENTS_ACROSS} elements across the membrane: Netgen "
-                    "cannot mesh it")
+                      f">= {smallest:g} m = (r_o - r_i) / {MAX_ELEMENTS_ACROSS}",
+                      f"more than {MAX_ELEMENTS_ACROSS} elements across the membrane: Netgen "
+                      "cannot mesh it")
     _check_reduced_keys(v)
     listed_microphones(v["response"]["microphones"], g["frame"], g["enclosure"])
     m = v["membrane"]
@@ -112,9 +118,9 @@ def check_across_keys(v: dict[str, dict[str, Any]]) -> None:
             m["loss_factor"] > 0 or m["rayleigh_alpha"] > 0 or m["rayleigh_beta"] > 0
             or m["prony"]):
         raise refusal("response.method", "reduced_modal", "auto, modal, direct or reduced with a "
-                    "loss of the membrane's own (membrane.loss_factor, rayleigh_alpha, "
-                    "rayleigh_beta or prony)", "the reduced basis's modes would not "
-                    "diagonalise that loss")
+                      "loss of the membrane's own (membrane.loss_factor, rayleigh_alpha, "
+                      "rayleigh_beta or prony)", "the reduced basis's modes would not "
+                      "diagonalise that loss")
 
 
 def _check_enclosure(v: dict[str, dict[str, Any]]) -> None:
@@ -124,67 +130,67 @@ def _check_enclosure(v: dict[str, dict[str, Any]]) -> None:
     if enclosure == "none":
         if not air["outside"]:
             raise refusal("air.outside", False, "true with geometry.enclosure = none",
-                        "without an enclosure there is no air but the outside air")
+                          "without an enclosure there is no air but the outside air")
         return
     r_o, depth, vent = g["outer_radius"], g["enclosure_depth"], g["enclosure_vent_radius"]
     if above(ENCLOSURE_MIN_DEPTH * r_o, depth):
         raise refusal("geometry.enclosure_depth", depth,
-                    f">= {ENCLOSURE_MIN_DEPTH * r_o:g} m = {ENCLOSURE_MIN_DEPTH:g} * "
-                    "geometry.outer_radius", "a thinner gap cannot be meshed sensibly")
+                      f">= {ENCLOSURE_MIN_DEPTH * r_o:g} m = {ENCLOSURE_MIN_DEPTH:g} * "
+                      "geometry.outer_radius", "a thinner gap cannot be meshed sensibly")
     if enclosure == "box":
         if frame != "square":
             raise refusal("geometry.enclosure", enclosure, "cylinder or bowl with geometry.frame "
-                        f"= {frame}", "a box sits under the square frame (frame: square)")
+                          f"= {frame}", "a box sits under the square frame (frame: square)")
         half_width = 0.5 * g["frame_side"]
         farthest = math.hypot(half_width * math.sqrt(2), depth)
     else:
         radius = g["enclosure_radius"]
         if above(r_o, radius):
             raise refusal("geometry.enclosure_radius", radius,
-                        f">= {r_o:g} m = geometry.outer_radius",
-                        "the enclosure's rim is sealed to the membrane's rim")
+                          f">= {r_o:g} m = geometry.outer_radius",
+                          "the enclosure's rim is sealed to the membrane's rim")
         if frame == "circle" and apart(radius, g["frame_radius"]):
             raise refusal("geometry.enclosure_radius", radius,
-                        f"{g['frame_radius']:g} m = geometry.frame_radius (its default with "
-                        "frame circle)", "the enclosure sits under the circular frame, which "
-                        "is its lid: a ring reaching past the enclosure's rim would need a "
-                        "pressure jump outside the cavity, which the axisymmetric engine "
-                        "does not carry")
+                          f"{g['frame_radius']:g} m = geometry.frame_radius (its default with "
+                          "frame circle)", "the enclosure sits under the circular frame, which "
+                          "is its lid: a ring reaching past the enclosure's rim would need a "
+                          "pressure jump outside the cavity, which the axisymmetric engine "
+                          "does not carry")
         if frame == "square" and not above(0.5 * g["frame_side"], radius):
             raise refusal("geometry.enclosure_radius", radius,
-                        f"< {0.5 * g['frame_side']:g} m = half geometry.frame_side",
-                        "the enclosure sits under the square frame")
+                          f"< {0.5 * g['frame_side']:g} m = half geometry.frame_side",
+                          "the enclosure sits under the square frame")
         if enclosure == "bowl" and above(depth, radius):
             raise refusal("geometry.enclosure_depth", depth,
-                        f"(0, {radius:g}] m = at most geometry.enclosure_radius",
-                        "a bowl is a spherical cap, at most a hemisphere")
+                          f"(0, {radius:g}] m = at most geometry.enclosure_radius",
+                          "a bowl is a spherical cap, at most a hemisphere")
         half_width = radius
         farthest = math.hypot(radius, depth)
     if not above(half_width, vent):
         raise refusal("geometry.enclosure_vent_radius", vent,
-                    f"[0, {half_width:g}) m = narrower than the enclosure's bottom")
+                      f"[0, {half_width:g}) m = narrower than the enclosure's bottom")
     if enclosure != "box":
         _check_enclosure_radii(g, vent, r_o)
     if vent > 0 and frame == "baffle":
         raise refusal("geometry.enclosure_vent_radius", vent, "0 with geometry.frame = baffle",
-                    "with a baffle the enclosure replaces the lower half-space: no outside "
-                    "air for the vent to open to")
+                      "with a baffle the enclosure replaces the lower half-space: no outside "
+                      "air for the vent to open to")
     if vent > 0 and not air["outside"]:
         raise refusal("geometry.enclosure_vent_radius", vent, "0 with air.outside = false",
-                    "a vent opens to the outside air")
+                      "a vent opens to the outside air")
     if not air["outside"] and not air["enabled"]:
         raise refusal("air.outside", False, "true when air.enabled = false",
-                    "there is no air to keep")
+                      "there is no air to keep")
     R = air["domain_radius"]
     if frame == "baffle" and above(half_width, ENCLOSURE_AIR_SHARE * R):
         raise refusal("air.domain_radius", R, f">= {half_width / ENCLOSURE_AIR_SHARE:g} m",
-                    f"the enclosure's top (radius {half_width:g} m) must lie within "
-                    f"{ENCLOSURE_AIR_SHARE:g} of the air sphere's radius")
+                      f"the enclosure's top (radius {half_width:g} m) must lie within "
+                      f"{ENCLOSURE_AIR_SHARE:g} of the air sphere's radius")
     if frame != "baffle" and air["outside"] and above(farthest, ENCLOSURE_AIR_SHARE * R):
         raise refusal("air.domain_radius", R, f">= {farthest / ENCLOSURE_AIR_SHARE:g} m",
-                    f"the enclosure's farthest point ({farthest:g} m from the centre) must lie "
-                    f"within {ENCLOSURE_AIR_SHARE:g} of the air sphere's radius, with outside "
-                    "air around it")
+                      f"the enclosure's farthest point ({farthest:g} m from the centre) must lie "
+                      f"within {ENCLOSURE_AIR_SHARE:g} of the air sphere's radius, with outside "
+                      "air around it")
 
 
 def _check_enclosure_radii(g: dict[str, Any], vent: float, r_o: float) -> None:
@@ -197,20 +203,20 @@ def _check_enclosure_radii(g: dict[str, Any], vent: float, r_o: float) -> None:
         radii["geometry.frame_radius"] = g["frame_radius"]
     if 0 < vent < gap:
         raise refusal("geometry.enclosure_vent_radius", vent,
-                    f"0 or >= {gap:g} m = {ENCLOSURE_MIN_GAP:g} * geometry.outer_radius",
-                    "a smaller vent cannot be meshed")
+                      f"0 or >= {gap:g} m = {ENCLOSURE_MIN_GAP:g} * geometry.outer_radius",
+                      "a smaller vent cannot be meshed")
     for name, radius in radii.items():
         if radius > 0 and vent > 0 and apart(vent, radius) and abs(vent - radius) < gap:
             raise refusal("geometry.enclosure_vent_radius", vent, f"equal to {name} = "
-                        f"{radius:g} m or at least {gap:g} m from it",
-                        "the lines meeting there cannot be meshed")
+                          f"{radius:g} m or at least {gap:g} m from it",
+                          "the lines meeting there cannot be meshed")
     for name in ("geometry.enclosure_radius", "geometry.frame_radius"):
         if name not in radii:
             continue
         for other, radius in radii.items():
             if other != name and apart(radii[name], radius) and abs(radii[name] - radius) < gap:
                 raise refusal(name, radii[name], f"equal to {other} = {radius:g} m or at least "
-                            f"{gap:g} m from it", "the lines meeting there cannot be meshed")
+                              f"{gap:g} m from it", "the lines meeting there cannot be meshed")
 
 
 def reduced_mode_labels(text: str, disc_motion: str) -> tuple[str, ...]:
@@ -232,7 +238,7 @@ def reduced_mode_labels(text: str, disc_motion: str) -> tuple[str, ...]:
         raise refusal("reduced.modes", text, allowed, "empty or repeated labels")
     if "P1" in labels and disc_motion != "spring":
         raise refusal("reduced.modes", text, "labels without P1 when disc.motion = held",
-                    "the pumping mode needs the disc on the spring")
+                      "the pumping mode needs the disc on the spring")
     return tuple(labels)
 
 
@@ -269,19 +275,19 @@ def listed_microphones(text: str, frame: str = "square",
             raise refusal(key, text, MICROPHONES_ALLOWED, f"cannot read {item!r}")
         if name in names:
             raise refusal(key, text, f"{MICROPHONES_ALLOWED} with distinct names",
-                        f"microphone {name!r} repeated")
+                          f"microphone {name!r} repeated")
         position = tuple(convert_quantity(key, _number_or_text(value), "m", -1e4, 1e4)
                          for value in values)
         if not any(position):
             raise refusal(key, text, "a point away from the membrane centre",
-                        f"microphone {name!r} at the origin")
+                          f"microphone {name!r} at the origin")
         if frame == "baffle" and enclosure != "none" and position[2] < 0:
             raise refusal(key, text, "z > 0 with geometry.frame = baffle over an enclosure",
-                        f"microphone {name!r} at z < 0 lies inside the enclosure's "
-                        f"half-space (position {list(position)} m)")
+                          f"microphone {name!r} at z < 0 lies inside the enclosure's "
+                          f"half-space (position {list(position)} m)")
         if frame == "baffle" and position[2] == 0:
             raise refusal(key, text, "z != 0 with geometry.frame = baffle", f"microphone {name!r} "
-                        f"at z = 0 lies on the rigid plane (position {list(position)} m)")
+                          f"at z = 0 lies on the rigid plane (position {list(position)} m)")
         microphones.append((name, position))
         names.add(name)
     return microphones
@@ -302,18 +308,18 @@ def _check_reduced_keys(v: dict[str, dict[str, Any]]) -> None:
     rings = v["reduced"]["rings"]
     if orders and max(orders) > rings - 1:
         raise refusal("reduced.rings", rings, f">= {max(orders) + 1}",
-                    f"(0,{max(orders)}) needs at least {max(orders) + 1} rings")
+                      f"(0,{max(orders)}) needs at least {max(orders) + 1} rings")
     x = v["excitation"]
     if x["f_end"] <= x["f_start"]:
         raise refusal("excitation.f_end", x["f_end"], f"> excitation.f_start = {x['f_start']:g} Hz")
     nyquist = 0.5 / x["sample_time"]
     if x["f_end"] > nyquist:
         raise refusal("excitation.f_end", x["f_end"], f"<= {nyquist:g} Hz = 1 / (2 "
-                    "excitation.sample_time)", "above the Nyquist frequency")
+                      "excitation.sample_time)", "above the Nyquist frequency")
     samples = x["duration"] / x["sample_time"]
     if abs(samples - round(samples)) > 1e-6 * samples or not 4 <= round(samples) <= 10_000_000:
         raise refusal("excitation.duration", x["duration"], "an integer multiple (4 to 1e7) of "
-                    f"excitation.sample_time = {x['sample_time']:g} s")
+                      f"excitation.sample_time = {x['sample_time']:g} s")
     if x["f_end"] * x["duration"] < 1:
         raise refusal("excitation.f_end", x["f_end"], f">= {1 / x['duration']:g} Hz = "
-                    "1 / excitation.duration", "no spectral line in the band")
+                      "1 / excitation.duration", "no spectral line in the band")

@@ -40,7 +40,8 @@ class Key:
 
     ``unit`` is the SI unit the value is converted to (``None`` for a pure
     number, a switch or a choice).  ``default=None`` with ``derived`` set means
-    the default is computed from other keys (see :func:`copdea_fem.study.checks.derived_defaults`).
+    the default is computed from other keys (see
+    :func:`copdea_fem.study.checks.derived_defaults`).
     """
 
     unit: str | None
@@ -158,7 +159,7 @@ def _prony_terms(key: str, value: Any) -> list:
         where = f"{key}[{index}]"
         if not isinstance(item, dict) or set(item) != {"modulus_ratio", "relaxation_time"}:
             raise refusal(where, item, PRONY_ALLOWED, "each term needs exactly the keys "
-                        "modulus_ratio and relaxation_time")
+                          "modulus_ratio and relaxation_time")
         ratio = convert_value(f"{where}.modulus_ratio", Key(None, 0.0, "", minimum=0, maximum=1e3,
                                                        open_min=True), item["modulus_ratio"])
         tau = convert_value(f"{where}.relaxation_time", Key("s", 0.0, "", minimum=0, maximum=1e3,
@@ -192,11 +193,11 @@ def _to_si(key: str, spec: Key, value: Any) -> float:
         except OverflowError:                   # an integer of more than 308 digits
             return math.inf
     if not isinstance(value, str):
-        raise refusal(key, value, spec.allowed(), "expected a number"
-                    + (f" or a quantity like '1.5 {_example_unit(spec.unit)}'" if spec.unit else ""))
+        example = f" or a quantity like '1.5 {_example_unit(spec.unit)}'" if spec.unit else ""
+        raise refusal(key, value, spec.allowed(), "expected a number" + example)
     if len(value) > MAX_QUANTITY_CHARACTERS:    # pint takes minutes on 100 000 digits
         raise refusal(key, value, spec.allowed(), f"longer than {MAX_QUANTITY_CHARACTERS} "
-                    "characters, not a quantity")
+                      "characters, not a quantity")
     text = value.strip()
     if _NOT_FINITE.fullmatch(text):
         raise refusal(key, value, spec.allowed(), "not a finite number")

@@ -105,7 +105,7 @@ def parse_study(raw: dict[str, Any], overrides: dict[str, Any] | None = None,
     for key in raw:
         if key not in SCHEMA and key not in META_KEYS:
             raise refusal(key, "...", "sections " + ", ".join(SCHEMA) + " (and name, description)",
-                        "unknown section")
+                          "unknown section")
     if overrides is not None and not isinstance(overrides, dict):
         raise refusal("overrides", overrides, OVERRIDES_ALLOWED)
     for dotted, value in (overrides or {}).items():
