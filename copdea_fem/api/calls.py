@@ -140,7 +140,6 @@ def check_size(study: Study, allow_large: bool = False, engine: Engine | None = 
         guard(study, engine=engine)
 
 
-
 def data_frame(rows: list[dict], columns) -> pandas.DataFrame:  # noqa: F821
     import pandas as pd
     return pd.DataFrame(rows, columns=list(columns))

@@ -257,7 +257,6 @@ class Solution:
         return target
 
 
-
 def _quantity_list(values, key: str, unit: str) -> list[float]:
     from copdea_fem.study import Key, convert_value
     spec = Key(unit, 0.0, key, minimum=0)

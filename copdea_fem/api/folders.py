@@ -22,7 +22,6 @@ def claimed(folder: str | Path | Claim, command: str, inputs) -> Path:
         yield record.target
 
 
-
 @dataclass
 class RunFolder:
     """A command's result folder: the one asked for, or a private temporary one."""
@@ -31,6 +30,8 @@ class RunFolder:
     temporary: Any = None
 
     def copy_to(self, folder, command: str, inputs) -> Path:
+        """The result copied into ``folder`` claimed for ``command`` (nothing to copy when it
+        is the folder the command ran in)."""
         from copdea_fem.folders import result_directory
         with claimed(folder, command, inputs) as target:
             if target.resolve() == self.path.resolve():
@@ -47,6 +48,8 @@ class RunFolder:
 
 
 def run_folder(command: str, out) -> RunFolder:
+    """Where ``command`` runs: ``out`` (a path, or the target of a held :class:`Claim`) or,
+    without it, a private temporary folder removed with the :class:`RunFolder`."""
     if isinstance(out, Claim):
         return RunFolder(out.target)
     if out is not None:

@@ -126,7 +126,6 @@ class Diagnosis:
         return target
 
 
-
 def identify(measured: str | Path, *, progress: Callable[[str], None] | None = None,
              **options) -> IdentifyResult:
     """The modes of every scan of a measured.yaml (``copdea-fem identify``, nothing written).

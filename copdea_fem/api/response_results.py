@@ -162,7 +162,6 @@ class ResponseSolution:
         return target
 
 
-
 def spectrum(study: Study | str | Path, modes_json: str | Path | None = None) -> Spectrum:
     """Reduced-model velocity spectra under the study's chirp (Sect. 3.2, eq. 19;
     ``copdea-fem spectrum``, nothing written).
