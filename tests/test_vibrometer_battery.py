@@ -5,7 +5,7 @@ electrode imperfection, frequency scatter and noise) of G1 at z = 16 mm, 2 kV on
 84-point grid (80 membrane points on 5 rings, 4 on the disc; Fig. 5d), 150-850 Hz at 2.5 Hz
 lines; the truth is coupled with the air, the base model dry.  The diagnosis reads the
 export, identifies its modes, labels them by shape and must name ``air_loading`` (>= 95 %
-of the seeds, never a wrong effect); on null exports (the truth is the base model itself:
+of 20 seeds, never a wrong effect); on null exports (the truth is the base model itself:
 both coupled with the air) it must name nothing.
 
 Why the full grid: on the coarse 34-point grid of studies/measured_scan_example (6.25 Hz
@@ -13,8 +13,8 @@ lines) three modes are identified, too few to tell air_loading from uniform_stif
 time.  (A dry null is no test either: the dry (m,1) family is so dense - (0,1), (1,1), (2,1)
 within 5 % - that the identification finds one or two modes there.)
 
-Slow (a few seconds a seed: identification, the FE at the scan points, the diagnosis with
-one FE cache shared by the seeds); run with ``pytest -m slow``.
+Slow (about 20 s a seed on two cores: identification, the FE at the scan points, the
+diagnosis with one FE cache shared by the seeds); run with ``pytest -m slow``.
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from copdea_fem.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
 BASE = ROOT / "studies" / "measured_scan_example" / "base_study.yaml"
-SEEDS = range(10)
+SEEDS = range(20)
 NULL_SEEDS = range(5)
 
 
