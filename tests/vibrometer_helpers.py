@@ -111,3 +111,13 @@ def mac(a, b) -> float:
     """Modal assurance criterion of two complex vectors."""
     a, b = np.asarray(a).ravel(), np.asarray(b).ravel()
     return float(abs(np.vdot(a, b)) ** 2 / (np.vdot(a, a).real * np.vdot(b, b).real))
+
+
+def add_noise(scan: ScanData, snr_db: float, rng) -> ScanData:
+    """``scan`` plus complex Gaussian noise per channel and line, ``snr_db`` below the
+    largest |FRF| value of the scan (inf: the scan itself)."""
+    if not math.isfinite(snr_db):
+        return scan
+    size = 10 ** (-snr_db / 20) * np.abs(scan.values).max()
+    noise = size * (rng.normal(size=scan.values.shape) + 1j * rng.normal(size=scan.values.shape))
+    return ScanData(**{**scan.__dict__, "values": scan.values + noise / math.sqrt(2)})
