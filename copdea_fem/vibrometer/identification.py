@@ -220,6 +220,8 @@ def _identify(scan: ScanData, options: dict) -> Identification:
     diagram_poles = _physical_poles(model.all_poles, options)
     tracks, status = _tracks(diagram_poles, options)
     chosen = _choose(tracks, options)
+    chosen = _refined(chosen, principal[:, frequencies[frequencies <= f_high] >= f_low].T,
+                      band_frequencies, power, keep, scan.n_channels, frf_form, options)
     if chosen.size:
         try:
             constants, *_ = LSFD(chosen, values[:, in_band], band_frequencies, True, True, 0,
@@ -247,6 +249,26 @@ def _identify(scan: ScanData, options: dict) -> Identification:
         * scale, band_frequencies=band_frequencies)
     logger.info("identified %d modes in %.1f s", len(modes), time.perf_counter() - started)
     return Identification(tuple(modes), diagram)
+
+
+def _refined(chosen, data, band_frequencies, channel_power, keep, n_channels, frf_form, options):
+    """The chosen poles refined and the missed ones added (:mod:`pole_refinement`)."""
+    from copdea_fem.vibrometer.pole_refinement import add_missing
+
+    f_low, f_high = options["band"]
+    # the noise per complex value: the FRF matrix's power outside the principal functions
+    # (noise only, when the modes' shapes span fewer than ``keep`` directions)
+    outside = n_channels - keep
+    noise = (float(np.sum(channel_power[keep:])) / (band_frequencies.size * outside)
+             if outside >= keep else None)
+    scale = 2 * math.pi * f_high
+    poles, added = add_missing(band_frequencies / f_high, data, chosen / scale,
+                               {"receptance": 0, "mobility": 1, "accelerance": 2}[frf_form],
+                               (f_low / f_high, 1.0), options["max_damping"], noise)
+    poles = poles * scale
+    zeta = -poles.real / np.abs(poles)
+    logger.info("poles refined, %d added", added)
+    return poles[(zeta > 0) & (zeta <= options["max_damping"])]
 
 
 def _options(scan, f_min, f_max, max_order, components, frequency_tolerance,
@@ -315,34 +337,30 @@ def _physical_poles(all_poles, options) -> list:
 
 
 def _tracks(diagram_poles, options):
-    """Chain stable poles over the orders (module notes); returns the tracks (lists of
-    (order index, pole)) and every pole's status."""
+    """Chain poles over the orders by frequency (module notes); returns the tracks (lists of
+    (order index, frequency, damping, pole, stable)) and every pole's status."""
     f_tol, d_tol = options["frequency_tolerance"], options["damping_tolerance"]
     tracks, active, status = [], [], []
     for k, (frequency, damping, poles) in enumerate(diagram_poles):
         state = np.full(frequency.size, NEW, int)
         pairs = []
         for t, track in enumerate(active):
-            last_k, last_f, last_d = track[-1][0], track[-1][1], track[-1][2]
-            if last_k < k - 2:
-                continue
+            last_f, last_d = track[-1][1], track[-1][2]
             df = np.abs(frequency - last_f) / last_f
             for i in np.flatnonzero(df < f_tol):
-                pairs.append((df[i], t, i, abs(damping[i] - last_d) / last_d < d_tol))
+                damping_ok = abs(damping[i] - last_d) / last_d < d_tol
+                pairs.append((not damping_ok, df[i], t, i, damping_ok))
         used_tracks, used_poles = set(), set()
-        for _, t, i, damping_ok in sorted(pairs, key=lambda p: p[0]):
+        for *_, t, i, damping_ok in sorted(pairs, key=lambda p: p[:2]):
             if t in used_tracks or i in used_poles:
-                continue
-            if not damping_ok:
-                state[i] = max(state[i], FREQUENCY_STABLE)
                 continue
             used_tracks.add(t)
             used_poles.add(i)
-            state[i] = STABLE
-            active[t].append((k, frequency[i], damping[i], poles[i]))
+            state[i] = STABLE if damping_ok else FREQUENCY_STABLE
+            active[t].append((k, frequency[i], damping[i], poles[i], damping_ok))
         for i in range(frequency.size):
             if i not in used_poles:
-                track = [(k, frequency[i], damping[i], poles[i])]
+                track = [(k, frequency[i], damping[i], poles[i], False)]
                 active.append(track)
                 tracks.append(track)
         active = [track for track in active if track[-1][0] >= k - 1]
@@ -353,7 +371,8 @@ def _tracks(diagram_poles, options):
 def _choose(tracks, options) -> np.ndarray:
     """The poles of the tracks stable over ``min_stable_orders`` orders (module notes)."""
     chosen = []
-    for track in sorted(tracks, key=len, reverse=True):
+    stable_tracks = [[p for p in track if p[4]] for track in tracks]
+    for track in sorted(stable_tracks, key=len, reverse=True):
         if len(track) < options["min_stable_orders"]:
             break
         upper = track[len(track) // 2:]
