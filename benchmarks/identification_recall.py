@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from vibrometer_helpers import add_noise, make_scan, membrane_shapes, paper_grid, pole  # noqa: E402
+from vibrometer_helpers import membrane_scan
 
 CASES = ("cluster3", "cluster4", "pairs", "membrane")
 SPACINGS = (1.25, 2.5)      # Hz: the paper's chirp, and half its lines
@@ -101,17 +101,13 @@ def case_scan(case: str, seed: int, spacing: float, snr_db: float):
     """(scan, true frequencies [Hz], true damping ratios) of ``case`` for ``seed``."""
     rng = np.random.default_rng(seed)
     modes = sorted(case_modes(case, rng), key=lambda mode: mode[1])
-    positions = paper_grid()
-    shapes = membrane_shapes(positions, [family for family, _, _ in modes])
     # the modal participation: a uniform drive moves the axisymmetric modes (m = 0) fully,
     # the others by a device's imperfections only (as synth_scan's exports: a third, scattered)
-    participation = np.array([1.0 if m == 0 else 0.3 * math.exp(rng.normal(0, 0.5))
-                              for (m, _, _), _, _ in modes])
-    axis = F_MIN + spacing * np.arange(int(round((F_MAX - F_MIN) / spacing)) + 1)
-    scan = make_scan(axis, [pole(f, zeta) for _, f, zeta in modes],
-                     shapes * participation[:, None, None], positions)
-    return (add_noise(scan, snr_db, rng), np.array([f for _, f, _ in modes]),
-            np.array([zeta for _, _, zeta in modes]))
+    modes = [(family, f, zeta, 1.0 if family[0] == 0 else 0.3 * math.exp(rng.normal(0, 0.5)))
+             for family, f, zeta in modes]
+    axis = F_MIN + spacing * np.arange(round((F_MAX - F_MIN) / spacing) + 1)
+    return (membrane_scan(modes, axis, snr_db, rng), np.array([mode[1] for mode in modes]),
+            np.array([mode[2] for mode in modes]))
 
 
 def match(true_frequencies, true_dampings, found_frequencies):
