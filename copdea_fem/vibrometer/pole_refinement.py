@@ -85,7 +85,7 @@ def _cost(omega, data, poles, power) -> float:
     return float(np.sum(np.abs(_residual(omega, data, poles, power)) ** 2))
 
 
-def refine(omega, data, poles, power, band, max_damping):
+def refine(omega, data, poles, power, band, max_damping, free=None):
     """Poles minimising J (module notes), started from ``poles``.
 
     Parameters
@@ -102,6 +102,8 @@ def refine(omega, data, poles, power, band, max_damping):
         Bounds of the damped frequencies, in the unit of ``omega``.
     max_damping : float
         Upper bound of the damping ratio.
+    free : (n,) bool array, optional
+        The poles fitted (default: all); the others stay as given.
 
     Returns
     -------
@@ -114,23 +116,64 @@ def refine(omega, data, poles, power, band, max_damping):
     if poles.size == 0:
         return poles
 
+    free = np.ones(poles.size, bool) if free is None else np.asarray(free, bool)
+    fixed = _parameters(poles)
+    mask = np.repeat(free, 2)
+
+    def full(parameters):
+        out = fixed.copy()
+        out[mask] = parameters
+        return out
+
     def residual(parameters):
-        value = _residual(omega, data, _poles(parameters), power)
+        value = _residual(omega, data, _poles(full(parameters)), power)
         return np.concatenate([value.real.ravel(), value.imag.ravel()])
 
-    start = _parameters(poles)
+    def jacobian(parameters):
+        return _jacobian(full(parameters))[:, mask]
+
+    def _jacobian(parameters):
+        # Kaufman's approximation of the variable-projection Jacobian: d r / d theta =
+        # -(I - P) (d Phi / d theta) A, A = Phi^+ Y the residues at theta (the term with
+        # d Phi^+ / d theta dropped: it vanishes at a zero residual and costs as much again)
+        current = _poles(parameters)
+        n = current.size
+        left, singular, right_h = np.linalg.svd(_basis(omega, current, power),
+                                                full_matrices=False)
+        rank = singular > 1e-10 * singular[0]
+        left, singular, right_h = left[:, rank], singular[rank], right_h[rank]
+        residues = right_h.conj().T @ ((left.conj().T @ data) / singular[:, None])
+        iw = 1j * omega[:, None]
+        d_upper = iw ** power / (iw - current[None, :]) ** 2        # d column / d s
+        d_lower = iw ** power / (iw - np.conj(current)[None, :]) ** 2  # ... / d conj(s)
+        d_upper = d_upper - left @ (left.conj().T @ d_upper)
+        d_lower = d_lower - left @ (left.conj().T @ d_lower)
+        decay = np.exp(parameters[1::2])
+        out = np.empty((2 * data.size, 2 * n))
+        for j in range(n):
+            upper = d_upper[:, j, None] * residues[j][None, :]
+            lower = d_lower[:, j, None] * residues[n + j][None, :]
+            # s = -exp(log decay) + i omega_d: ds/d omega_d = i, ds/d log decay = -decay
+            for column, (ds_upper, ds_lower) in ((2 * j, (1j, -1j)),
+                                                 (2 * j + 1, (-decay[j], -decay[j]))):
+                value = -(ds_upper * upper + ds_lower * lower)
+                out[:, column] = np.concatenate([value.real.ravel(), value.imag.ravel()])
+        return out
+
+    start = fixed
     low = np.column_stack([np.full(poles.size, band[0]),
                            np.log(1e-5 * np.abs(poles))]).ravel()
     high = np.column_stack([np.full(poles.size, band[1]),
                             np.log(max_damping * np.abs(poles) * 1.5)]).ravel()
-    start = np.clip(start, low + 1e-9 * np.abs(low), high - 1e-9 * np.abs(high))
+    start = np.clip(start, low + 1e-9 * np.abs(low), high - 1e-9 * np.abs(high))[mask]
+    low, high = low[mask], high[mask]
     try:
-        result = least_squares(residual, start, bounds=(low, high), x_scale="jac",
+        result = least_squares(residual, start, jac=jacobian, bounds=(low, high), x_scale="jac",
                                max_nfev=30, method="trf")
     except (ValueError, np.linalg.LinAlgError) as error:
         logger.info("pole refinement failed (%s): the LSCF poles kept", error)
         return poles
-    return _poles(result.x)
+    return _poles(full(result.x))
 
 
 def add_missing(omega, data, poles, power, band, max_damping, noise_variance):
@@ -167,7 +210,11 @@ def add_missing(omega, data, poles, power, band, max_damping, noise_variance):
         best = int(np.argmax(gains))
         if gains[best] <= threshold:
             break
-        trial = refine(omega, data, np.append(poles, grid[best]), power, band, max_damping)
+        # the new pole and its neighbours within 10 % fitted (the others barely move: a
+        # resonance's column is small away from it), all of them once at the end
+        trial = np.append(poles, grid[best])
+        trial = refine(omega, data, trial, power, band, max_damping,
+                       free=np.abs(trial.imag / grid[best].imag - 1) < 0.1)
         trial_cost = _cost(omega, data, trial, power)
         zeta = -trial.real / np.abs(trial)
         if cost - trial_cost <= threshold or np.any(zeta > max_damping):
@@ -175,4 +222,23 @@ def add_missing(omega, data, poles, power, band, max_damping, noise_variance):
         logger.info("pole added at %.4g (damping %.3g): cost %.3g -> %.3g (threshold %.3g)",
                     trial[-1].imag, zeta[-1], cost, trial_cost, threshold)
         poles, cost, added = trial, trial_cost, added + 1
-    return poles, added
+    if added:
+        poles = refine(omega, data, poles, power, band, max_damping)
+    return _pruned(omega, data, poles, power, threshold), added
+
+
+def _pruned(omega, data, poles, power, threshold):
+    """``poles`` without those whose removal raises the cost by less than ``threshold``
+    (the residues refitted; the least needed one first, one at a time)."""
+    cost = _cost(omega, data, poles, power)
+    while poles.size:
+        increases = [_cost(omega, data, np.delete(poles, r), power) - cost
+                     for r in range(poles.size)]
+        weakest = int(np.argmin(increases))
+        if increases[weakest] > threshold:
+            break
+        logger.info("pole at %.4g removed: the cost rises by %.3g only (threshold %.3g)",
+                    poles[weakest].imag, increases[weakest], threshold)
+        poles = np.delete(poles, weakest)
+        cost += increases[weakest]
+    return poles
