@@ -21,10 +21,14 @@ ROOT = Path(__file__).resolve().parent.parent
 EXAMPLE = ROOT / "studies" / "measured_scan_example"
 
 
-def _truth_label(frequency_hz: float) -> str:
-    """The true mode nearest a test frequency (the export's own modes, not the FE's)."""
+def _truth_labels(frequency_hz: float, damping_ratio: float) -> list[str]:
+    """The true modes (the export's own, not the FE's) that a test mode may be: the nearest
+    and those within its half-power half-width ``zeta f`` (where modes merge into one pole,
+    as the four in-plane modes of 708-716 Hz at 6.25 Hz lines)."""
     truth = json.loads((EXAMPLE / "synth_truth.json").read_text())["conditions"]["z16_v2"]
-    return min(truth, key=lambda label: abs(truth[label]["freq_hz"] - frequency_hz))
+    nearest = min(truth, key=lambda label: abs(truth[label]["freq_hz"] - frequency_hz))
+    return [nearest] + [label for label, mode in truth.items()
+                        if abs(mode["freq_hz"] - frequency_hz) <= damping_ratio * frequency_hz]
 
 
 def _same_unit(first: str, second: str) -> bool:
@@ -47,11 +51,16 @@ def test_correlate_labels_the_example_by_shape(tmp_path, capsys):
                              "label", "fe_freq_hz", "freq_error", "mac"]
     assert len(rows) >= 3
     for row in rows:
-        truth = _truth_label(float(row["test_freq_hz"]))
-        assert row["label"] and _same_unit(row["label"], truth), (row, truth)
+        truth = _truth_labels(float(row["test_freq_hz"]), float(row["test_damping_ratio"]))
+        assert row["label"] and any(_same_unit(row["label"], t) for t in truth), (row, truth)
         assert 0.5 <= float(row["mac"]) <= 1.0
-        # the dry base is higher than the truth in air: a positive frequency error
-        assert float(row["freq_error"]) > 0
+        # the dry base is higher than the truth in air: a positive frequency error for an
+        # out-of-plane mode; the air barely moves an in-plane one (ip...), whose error is the
+        # export's frequency scatter (1-sigma 1 % of ln f: within 4 sigma)
+        if row["label"].startswith("ip"):
+            assert abs(float(row["freq_error"])) < 0.04
+        else:
+            assert float(row["freq_error"]) > 0
         assert 0 < float(row["test_damping_ratio"]) < 0.05
     first = rows[0]
     assert first["label"] == "(0,1)" and float(first["freq_error"]) > 0.1
@@ -72,8 +81,8 @@ def test_the_scan_becomes_labelled_peaks_with_quality_factors():
     (condition,) = measured.conditions
     assert condition.resonances and len(pairings) == 1
     for resonance in condition.resonances:
-        truth = _truth_label(resonance.frequency_hz)
-        assert resonance.label and _same_unit(resonance.label, truth)
+        truth = _truth_labels(resonance.frequency_hz, 0.5 / resonance.quality_factor)
+        assert resonance.label and any(_same_unit(resonance.label, t) for t in truth)
         # Q = 1 / (2 zeta): the export's damping is 1 % plus the (small) radiation
         assert 20 < resonance.quality_factor < 55
         assert resonance.kind == ("axisymmetric" if resonance.label.startswith("(0,")

@@ -28,7 +28,10 @@ all poles refined again, and the mode kept when it lowers the cost by more than 
 would: ``dJ > ADD_SIGNIFICANCE x q x sigma^2`` with ``sigma^2`` the noise variance per
 complex value, estimated from the channel space outside the q principal functions (the
 singular values of the FRF matrix past the q-th hold noise only), and by more than
-``ENERGY_FLOOR`` of the data's energy (clean data: no mode fitted to round-off).
+``ENERGY_FLOOR`` of the data's energy (clean data: no mode fitted to round-off).  The
+new pole and its neighbours within 10 % are fitted at each step, all poles once at the
+end.  Last, a pole is dropped when removing it (the residues refitted) raises the cost by
+less than the same threshold: a pole the noise would hide is not a mode.
 """
 
 from __future__ import annotations
