@@ -52,7 +52,7 @@ ENERGY_FLOOR = 1e-6
 #: Damping ratios of the candidate poles of the search (the membrane's 0.5-2 %).
 CANDIDATE_DAMPINGS = (0.003, 0.007, 0.015, 0.03)
 #: Modes added to one scan at most.
-MAX_ADDED = 12
+MAX_ADDED = 24
 
 
 def _basis(omega, poles, power):
@@ -133,35 +133,33 @@ def refine(omega, data, poles, power, band, max_damping, free=None):
         return np.concatenate([value.real.ravel(), value.imag.ravel()])
 
     def jacobian(parameters):
-        return _jacobian(full(parameters))[:, mask]
-
-    def _jacobian(parameters):
         # Kaufman's approximation of the variable-projection Jacobian: d r / d theta =
         # -(I - P) (d Phi / d theta) A, A = Phi^+ Y the residues at theta (the term with
         # d Phi^+ / d theta dropped: it vanishes at a zero residual and costs as much again)
-        current = _poles(parameters)
+        current = _poles(full(parameters))
         n = current.size
         left, singular, right_h = np.linalg.svd(_basis(omega, current, power),
                                                 full_matrices=False)
         rank = singular > 1e-10 * singular[0]
         left, singular, right_h = left[:, rank], singular[rank], right_h[rank]
         residues = right_h.conj().T @ ((left.conj().T @ data) / singular[:, None])
+        index = np.flatnonzero(free)
         iw = 1j * omega[:, None]
-        d_upper = iw ** power / (iw - current[None, :]) ** 2        # d column / d s
-        d_lower = iw ** power / (iw - np.conj(current)[None, :]) ** 2  # ... / d conj(s)
+        d_upper = iw ** power / (iw - current[None, index]) ** 2             # d column / d s
+        d_lower = iw ** power / (iw - np.conj(current)[None, index]) ** 2    # ... d conj(s)
         d_upper = d_upper - left @ (left.conj().T @ d_upper)
         d_lower = d_lower - left @ (left.conj().T @ d_lower)
-        decay = np.exp(parameters[1::2])
-        out = np.empty((2 * data.size, 2 * n))
-        for j in range(n):
-            upper = d_upper[:, j, None] * residues[j][None, :]
-            lower = d_lower[:, j, None] * residues[n + j][None, :]
-            # s = -exp(log decay) + i omega_d: ds/d omega_d = i, ds/d log decay = -decay
-            for column, (ds_upper, ds_lower) in ((2 * j, (1j, -1j)),
-                                                 (2 * j + 1, (-decay[j], -decay[j]))):
-                value = -(ds_upper * upper + ds_lower * lower)
-                out[:, column] = np.concatenate([value.real.ravel(), value.imag.ravel()])
-        return out
+        # (F, q, free poles): each pole's two columns times their residues
+        upper = d_upper[:, None, :] * residues[index].T[None, :, :]
+        lower = d_lower[:, None, :] * residues[n + index].T[None, :, :]
+        # s = -exp(log decay) + i omega_d: ds/d omega_d = i, ds/d log decay = -decay
+        decay = np.exp(full(parameters)[1::2][index])
+        by_frequency = -(1j * upper - 1j * lower)
+        by_decay = decay * (upper + lower)
+        out = np.empty((2, data.shape[0], data.shape[1], index.size, 2))
+        out[0, ..., 0], out[1, ..., 0] = by_frequency.real, by_frequency.imag
+        out[0, ..., 1], out[1, ..., 1] = by_decay.real, by_decay.imag
+        return out.reshape(2 * data.size, 2 * index.size)
 
     start = fixed
     low = np.column_stack([np.full(poles.size, band[0]),
