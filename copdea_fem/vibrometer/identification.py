@@ -280,8 +280,12 @@ def _refined(chosen, data, band_frequencies, channel_power, keep, n_channels, fr
                                (f_low / f_high, 1.0), options["max_damping"], noise)
     poles = poles * scale
     zeta = -poles.real / np.abs(poles)
-    logger.info("poles refined, %d added", added)
-    return poles[(zeta > 0) & (zeta <= options["max_damping"])]
+    frequency = poles.imag / (2 * math.pi)
+    # a pole the fit pressed against a band edge is an out-of-band mode's tail, not a mode
+    inside = (frequency > f_low * (1 + 1e-6)) & (frequency < f_high * (1 - 1e-6))
+    logger.info("poles refined, %d added, %d at a band edge dropped", added,
+                int(np.sum(~inside)))
+    return poles[(zeta > 0) & (zeta <= options["max_damping"]) & inside]
 
 
 def _options(scan, f_min, f_max, max_order, components, frequency_tolerance,
