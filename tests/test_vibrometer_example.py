@@ -21,14 +21,17 @@ ROOT = Path(__file__).resolve().parent.parent
 EXAMPLE = ROOT / "studies" / "measured_scan_example"
 
 
-def _truth_labels(frequency_hz: float, damping_ratio: float) -> list[str]:
-    """The true modes (the export's own, not the FE's) that a test mode may be: the nearest
-    and those within its half-power half-width ``zeta f`` (where modes merge into one pole,
-    as the four in-plane modes of 708-716 Hz at 6.25 Hz lines)."""
-    truth = json.loads((EXAMPLE / "synth_truth.json").read_text())["conditions"]["z16_v2"]
-    nearest = min(truth, key=lambda label: abs(truth[label]["freq_hz"] - frequency_hz))
-    return [nearest] + [label for label, mode in truth.items()
-                        if abs(mode["freq_hz"] - frequency_hz) <= damping_ratio * frequency_hz]
+def _truth(label: str | None = None) -> dict:
+    """The export's true modes (label -> frequency, damping ratio), or one of them."""
+    modes = json.loads((EXAMPLE / "synth_truth.json").read_text())["conditions"]["z16_v2"][
+        "modes"]
+    return modes if label is None else modes[label]
+
+
+def _truth_label(frequency_hz: float) -> str:
+    """The true mode nearest a test frequency (the export's own modes, not the FE's)."""
+    truth = _truth()
+    return min(truth, key=lambda label: abs(truth[label]["freq_hz"] - frequency_hz))
 
 
 def _same_unit(first: str, second: str) -> bool:
@@ -50,22 +53,16 @@ def test_correlate_labels_the_example_by_shape(tmp_path, capsys):
     assert list(rows[0]) == ["condition", "test_mode", "test_freq_hz", "test_damping_ratio",
                              "label", "fe_freq_hz", "freq_error", "mac"]
     assert len(rows) >= 3
-    # a test mode may stay unpaired (its MAC below pairing.mac_min with every FE mode
-    # left: one of 24 here, an in-plane mode 1.5 Hz from its pair partner at 6.25 Hz
-    # lines); every one paired is paired right
-    labelled = [row for row in rows if row["label"]]
-    assert len(labelled) >= 0.9 * len(rows)
-    for row in labelled:
-        truth = _truth_labels(float(row["test_freq_hz"]), float(row["test_damping_ratio"]))
-        assert any(_same_unit(row["label"], t) for t in truth), (row, truth)
+    # on this coarse grid a test mode may stay unpaired (below the MAC threshold: the
+    # (1,1) pair next to the broad (0,1), Q = 15); a paired one must be the true mode
+    paired = [row for row in rows if row["label"]]
+    assert len(paired) >= 2
+    for row in paired:
+        truth = _truth_label(float(row["test_freq_hz"]))
+        assert _same_unit(row["label"], truth), (row, truth)
         assert 0.5 <= float(row["mac"]) <= 1.0
-        # the dry base is higher than the truth in air: a positive frequency error for an
-        # out-of-plane mode; the air barely moves an in-plane one (ip...), whose error is the
-        # export's frequency scatter (1-sigma 1 % of ln f: within 4 sigma)
-        if row["label"].startswith("ip"):
-            assert abs(float(row["freq_error"])) < 0.04
-        else:
-            assert float(row["freq_error"]) > 0
+        # the dry base is higher than the truth in air: a positive frequency error
+        assert float(row["freq_error"]) > 0
         assert 0 < float(row["test_damping_ratio"]) < 0.05
     first = rows[0]
     assert first["label"] == "(0,1)" and float(first["freq_error"]) > 0.1
@@ -85,14 +82,16 @@ def test_the_scan_becomes_labelled_peaks_with_quality_factors():
     measured, pairings = resonances_from_scans(load_measured(EXAMPLE / "measured.yaml"))
     (condition,) = measured.conditions
     assert condition.resonances and len(pairings) == 1
-    labelled = [resonance for resonance in condition.resonances if resonance.label]
-    # at most the one test mode that correlate leaves unpaired (above) goes unlabelled
-    assert len(labelled) >= len(condition.resonances) - 1
-    for resonance in labelled:
-        truth = _truth_labels(resonance.frequency_hz, 0.5 / resonance.quality_factor)
-        assert any(_same_unit(resonance.label, t) for t in truth)
-        # Q = 1 / (2 zeta): the export's damping is 1 % plus the (small) radiation
-        assert 20 < resonance.quality_factor < 55
+    assert sum(bool(resonance.label) for resonance in condition.resonances) >= 2
+    for resonance in condition.resonances:
+        truth = _truth_label(resonance.frequency_hz)
+        # Q = 1 / (2 zeta) as identified, against the export's truth (the study's modal
+        # b/m and the radiation): within 10 %
+        zeta = _truth(truth)["damping_ratio"]
+        assert resonance.quality_factor == pytest.approx(1 / (2 * zeta), rel=0.1)
+        if not resonance.label:             # unpaired by shape: an unlabelled peak
+            continue
+        assert _same_unit(resonance.label, truth)
         assert resonance.kind == ("axisymmetric" if resonance.label.startswith("(0,")
                                   else "non-axisymmetric")
     text = "\n".join(pairing_report_lines(pairings))
@@ -126,6 +125,5 @@ def test_the_api_gives_the_pairs_it_writes(tmp_path):
     with open(folder / "pairs.csv", newline="") as stream:
         rows = list(csv.DictReader(stream))
     assert [row["label"] for row in rows] == list(table["label"])
-    # an unpaired test mode: no MAC in the file, NaN in the table
-    assert [float(row["mac"] or "nan") for row in rows] == pytest.approx(
-        list(table["mac"]), abs=1e-4, nan_ok=True)
+    written = [float(row["mac"]) if row["mac"] else math.nan for row in rows]
+    assert written == pytest.approx(list(table["mac"]), abs=1e-4, nan_ok=True)

@@ -113,27 +113,27 @@ class ScanSampler:
         self._points = state.mesh(xs, ys, np.zeros_like(xs), ngs.BND)
         self._gf = ngs.GridFunction(state.space)
 
-    def _quadrant_displacement(self, mode) -> np.ndarray:
-        """Cartesian displacement (P, 3) of a 3-D engine's mode at the scan points."""
+    def _quadrant_displacement(self, vector, sector, disc) -> np.ndarray:
+        """Cartesian displacement (P, 3) of a 3-D engine's field at the scan points."""
         out = np.zeros((len(self.positions), 3), dtype=complex)
         membrane = ~self.on_disc
         if np.any(membrane):
             parts = []
-            for part in (np.real(mode.vector), np.imag(mode.vector)):
+            for part in (np.real(vector), np.imag(vector)):
                 self._gf.vec.FV().NumPy()[:] = part
                 parts.append(np.asarray(self._gf(self._points)).reshape(-1, 3))
             values = parts[0] + 1j * parts[1]
-            if mode.sector is not None:
-                sign = mode.sector.sign(self._qx, self._qy)
+            if sector is not None:
+                sign = sector.sign(self._qx, self._qy)
                 values = values * (sign[:, None] * np.column_stack(
                     [self._qx, self._qy, np.ones_like(self._qx)]))
             out[membrane] = values
-        out[self.on_disc, 2] = complex(mode.disc_displacement)
+        out[self.on_disc, 2] = complex(disc)
         return out
 
     # ---------------------------------------------------------------- axisymmetric
-    def _order_displacement(self, mode) -> np.ndarray:
-        """Cartesian displacement (P, 3) of an axisymmetric engine's order-m mode."""
+    def _order_displacement(self, vector, operators, m, family, disc) -> np.ndarray:
+        """Cartesian displacement (P, 3) of an axisymmetric engine's order-m field."""
         import ngsolve as ngs
 
         from copdea_fem.fe.axisymmetric.modes import order_harmonics
@@ -141,20 +141,19 @@ class ScanSampler:
         out = np.zeros((len(self.positions), 3), dtype=complex)
         membrane = ~self.on_disc
         if np.any(membrane):
-            operators = mode.operators
             gf = ngs.GridFunction(operators.space)
             amplitudes = []
-            for part in (np.real(mode.vector), np.imag(mode.vector)):
+            for part in (np.real(vector), np.imag(vector)):
                 gf.vec.FV().NumPy()[:] = part
                 amplitudes.append(self.state.line().at(ngs.CF(tuple(operators.amplitudes(gf))),
                                                        self._reference_radius[membrane]))
             a, b, c = (amplitudes[0] + 1j * amplitudes[1]).T
-            theta, m = self.angle[membrane], int(mode.m)
-            main, cross = order_harmonics(m, mode.family, theta)
+            theta = self.angle[membrane]
+            main, cross = order_harmonics(int(m), family, theta)
             u_r, u_t, u_z = a * main, b * cross, c * main
             out[membrane] = np.column_stack([u_r * np.cos(theta) - u_t * np.sin(theta),
                                              u_r * np.sin(theta) + u_t * np.cos(theta), u_z])
-        out[self.on_disc, 2] = complex(mode.disc_displacement)
+        out[self.on_disc, 2] = complex(disc)
         return out
 
     # ---------------------------------------------------------------- public
@@ -162,8 +161,20 @@ class ScanSampler:
         """Cartesian displacement (P, 3) of ``mode`` at the scan points [units of the mode
         vector: peak |u| = 1 for a normalised mode]."""
         if self.axisymmetric:
-            return self._order_displacement(mode)
-        return self._quadrant_displacement(mode)
+            return self._order_displacement(mode.vector, mode.operators, mode.m, mode.family,
+                                            mode.disc_displacement)
+        return self._quadrant_displacement(mode.vector, mode.sector, mode.disc_displacement)
+
+    def field_displacement(self, vector, disc=0.0, *, sector=None, operators=None, m=0,
+                           family="cos") -> np.ndarray:
+        """Cartesian displacement (P, 3) of any membrane field at the scan points [units of
+        ``vector``]: ``vector`` on the membrane space's DOFs (``operators.to_full``), ``disc``
+        the disc's axial displacement; 3-D: ``sector`` the field's symmetry sector (None on a
+        whole mesh); axisymmetric: ``operators`` (the order's), ``m`` and ``family``
+        (``"cos"`` or ``"sin"``, :func:`copdea_fem.fe.axisymmetric.modes.order_harmonics`)."""
+        if self.axisymmetric:
+            return self._order_displacement(vector, operators, m, family, disc)
+        return self._quadrant_displacement(vector, sector, disc)
 
     def velocities(self, modes) -> np.ndarray:
         """Cartesian velocity ``-i omega u`` (P, 3, K) of each mode at the scan points

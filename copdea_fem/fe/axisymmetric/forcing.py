@@ -36,12 +36,13 @@ def forced_order(state, coupled, backend="superlu") -> ForcedOrder:
                                   backend)
 
 
-def _energy_form(state, space, voltage, axis_m1=False):
-    """Variation form of the order-0 membrane energy E(u0 + u; V) of the whole device."""
+def _energy_form(state, space, voltage, axis_m1=False, m=0):
+    """Variation form of the order-m membrane energy E(u0 + u; V) of the whole device
+    (:func:`copdea_fem.fe.axisymmetric.membrane.order_energy`)."""
     at_voltage = types.SimpleNamespace(material=state.material, displacement=state.displacement,
                                        voltage=voltage, measure=state.measure)
     trial, test = space.TnT()
-    energy, _ = membrane_forms(at_voltage, 0, trial, test, axis_m1)
+    energy, _ = membrane_forms(at_voltage, int(m), trial, test, axis_m1)
     form = ngs.BilinearForm(space, symmetric=False)
     form += ngs.Variation(energy)
     return form
@@ -63,6 +64,29 @@ def voltage_forcing(state, dry) -> tuple[np.ndarray, float]:
     force, balance = forcing_from_energy(form, voltage, state.voltage,
                                      ngs.GridFunction(dry.space).vec, dry.free_dofs)
     return reduce_vector(force, dry.free_dofs, _order_lift(dry)), balance
+
+
+def order_forcing(state, dry) -> np.ndarray:
+    """The forcing [N/V] on the order-m unknowns of the drive weight ``cos(m theta)`` on the
+    co-energy (:mod:`copdea_fem.fe.forced.electrode`), for the cos family of ``dry``'s order;
+    the uniform electrode's (:func:`voltage_forcing`) for m = 0.
+
+    For m >= 1 the order's energy is ``pi int [W(G0 + G_c) + W(G0 + G_s)] R dR``
+    (:mod:`.membrane`), so its gradient at u = 0 is ``pi int W'(G0) : (G_c + G_s) R dR``.
+    The weighted device's virtual work on the cos-family field
+    ``(a cos, b sin, c cos)(m theta)`` is ``int_0^2pi cos(m theta) W_e'(G0) : (G_c cos m theta
+    + G_s sin m theta) R dR dtheta = pi int W_e'(G0) : G_c R dR`` (W_e the co-energy part), and
+    ``W_e'(G0) : G_s = 0``: at the axisymmetric prestress the stress of an isotropic energy
+    has no entry where G_s has one ((1,2), (2,1), (3,2) of :mod:`.membrane`).  So the
+    difference quotient of :func:`copdea_fem.fe.forced.harmonic.forcing_from_energy` on
+    the order-m energy is this forcing, exactly."""
+    if dry.m == 0:
+        return voltage_forcing(state, dry)[0]
+    voltage = ngs.Parameter(float(state.voltage))
+    form = _energy_form(state, dry.space, voltage, dry.axis_m1, dry.m)
+    force, _ = forcing_from_energy(form, voltage, state.voltage,
+                                   ngs.GridFunction(dry.space).vec, dry.free_dofs)
+    return reduce_vector(force, dry.free_dofs, _order_lift(dry))
 
 
 def elastic_stiffness(state, dry) -> sp.csr_matrix:

@@ -188,6 +188,34 @@ def damping_matrix(terms, omega: float) -> sp.csr_matrix:
 
 
 @dataclass
+class DryPencil:
+    """A membrane's own pencil ``K_s u = omega^2 M_s u`` (either engine's dry operators) in
+    the shape of coupled operators without air: :class:`ForcedOrder` and :class:`ModalBasis`
+    then drive it as they drive a coupled one (the left eigenvector ``(lambda u)`` of the
+    coupled pencil is a right one here, the pencil being symmetric)."""
+
+    membrane: object                 # dry operators: stiffness, mass, size, to_full
+
+    @property
+    def stiffness(self):
+        return self.membrane.stiffness
+
+    @property
+    def mass(self):
+        return self.membrane.mass
+
+    @property
+    def membrane_index(self) -> np.ndarray:
+        return np.arange(self.membrane.stiffness.shape[0])
+
+    @property
+    def pressure_index(self) -> np.ndarray:
+        return np.zeros(0, dtype=int)
+
+    pressure_scale = 1.0
+
+
+@dataclass
 class ForcedOrder:
     """The m = 0 coupled pencil with its forcing: everything both paths need.
 
@@ -195,7 +223,7 @@ class ForcedOrder:
     ``alpha`` is the air row scale of the scaled pencil (module doc).
     """
 
-    coupled: object                 # axisymmetric CoupledOrderOperators (m = 0)
+    coupled: object                 # either engine's coupled operators, or a DryPencil
     forcing: np.ndarray
     elastic: sp.csr_matrix
     alpha: float
@@ -205,7 +233,7 @@ class ForcedOrder:
     damping: object = None
 
     @classmethod
-    def from_parts(cls, coupled, force, k_el, balance, backend="superlu") -> "ForcedOrder":
+    def from_parts(cls, coupled, force, k_el, balance, backend="superlu") -> ForcedOrder:
         """From f and K_el on the membrane unknowns (either engine's coupled operators)."""
         n = coupled.stiffness.shape[0]
         index = np.asarray(coupled.membrane_index)
@@ -216,9 +244,11 @@ class ForcedOrder:
                                 shape=(n, n))
         # alpha from the coupling blocks: B^[p, u] = -alpha C, A^[u, p] = beta C^T
         pressure = coupled.pressure_index
-        b_pu = coupled.mass[pressure][:, index]
-        a_up = coupled.stiffness[index][:, pressure]
-        alpha = float(coupled.pressure_scale * abs(b_pu).max() / abs(a_up).max())
+        alpha = 1.0                                        # a dry pencil has no air rows
+        if len(pressure):
+            b_pu = coupled.mass[pressure][:, index]
+            a_up = coupled.stiffness[index][:, pressure]
+            alpha = float(coupled.pressure_scale * abs(b_pu).max() / abs(a_up).max())
         return cls(coupled, forcing, elastic, alpha, balance, backend)
 
     @property
@@ -234,7 +264,7 @@ class ForcedOrder:
             matrix = matrix + damping_matrix(self.damping, omega)
         return matrix.tocsc()
 
-    def with_damping(self, terms) -> "ForcedOrder":
+    def with_damping(self, terms) -> ForcedOrder:
         """The same, with the membrane's damping terms (on its unknowns) in the pencil."""
         if terms is not None and not terms.empty:
             self.damping = terms.embedded(np.asarray(self.coupled.membrane_index), self.size)

@@ -7,8 +7,8 @@ Below the engines, so that the engines' builders (:mod:`copdea_fem.fe.quadrant.f
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 
 @dataclass(frozen=True)

@@ -46,19 +46,31 @@ OBSERVATION_ANGLES = np.radians([11.25, 33.75, 56.25, 78.75])
 logger = logging.getLogger(__name__)
 
 
-def _energy_form(state, voltage):
+def _energy_form(state, voltage, weight=None):
+    """Variation form of the quadrant's membrane energy; ``weight``: a coefficient function
+    multiplying the density (its electrostatic part is what the forcing reads)."""
     from copdea_fem.fe.membrane import energy_density
     u = state.space.TrialFunction()
+    density = energy_density(u, state.material, voltage)
     form = ngs.BilinearForm(state.space, symmetric=False)
-    form += ngs.Variation(energy_density(u, state.material, voltage) * state.measure)
+    form += ngs.Variation((density if weight is None else weight * density) * state.measure)
     return form
 
 
-def quadrant_forcing(state, operators):
-    """f [N/V] on the sector's unknowns and the equilibrium residual (:mod:`.harmonic`)."""
+def quadrant_forcing(state, operators, imperfection=None):
+    """f [N/V] on the sector's unknowns and the equilibrium residual (:mod:`.harmonic`).
+
+    ``imperfection``: an :class:`copdea_fem.fe.forced.electrode.ElectrodeImperfection`; the
+    forcing is then the imperfect electrode's on the operators' sector (the weight W_s of
+    its eq. 2 on the co-energy; the residual is the weighted energy's, 0 only for the
+    uniform electrode)."""
     voltage = ngs.Parameter(float(state.voltage))
-    force, balance = forcing_from_energy(_energy_form(state, voltage), voltage, state.voltage,
-                                     state.displacement.vec, operators.free_dofs)
+    weight = None
+    if imperfection is not None:
+        weight = imperfection.sector_weight(operators.sector, ngs.x, ngs.y)
+    force, balance = forcing_from_energy(_energy_form(state, voltage, weight), voltage,
+                                         state.voltage, state.displacement.vec,
+                                         operators.free_dofs)
     return reduce_vector_3d(force, operators), balance
 
 
