@@ -120,7 +120,11 @@ def test_diagnose_names_air_loading_from_the_example_scan(tmp_path, capsys):
                  "--fe-cache", str(tmp_path / "cache"), "--fe-workers", "1"]) == 0
     document = json.loads((out / "diagnosis.json").read_text())
     assert document["missing_effects"] == ["air_loading"]
-    assert document["gap_before"] > 5 * document["gap_after"]
+    # the deviance, not the gap: the gap carries a count penalty for the identified peaks
+    # that no FE mode pairs with by shape on this coarse grid (two of 20: weak modes of
+    # pairs, MAC < 0.5), the same before and after the step (measured: gap 13.8 % ->
+    # 10.3 %, deviance 87.8 -> 0.61, paired RMS error 9.5 % -> 0.4 %)
+    assert document["deviance_before"] > 20 * document["deviance_after"]
     report = (out / "report.md").read_text()
     assert "## Shape pairing (vibrometer scans)" in report and "paired RMS error" in report
     assert math.isfinite(document["gap_after"])

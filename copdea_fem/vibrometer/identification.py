@@ -67,6 +67,10 @@ logger = logging.getLogger(__name__)
 DEFAULTS = {"max_order": 120, "components": 24, "frequency_tolerance": 0.01,
             "damping_tolerance": 0.05, "max_damping": 0.2, "min_stable_orders": None}
 
+#: A mode's least modal phase collinearity (module notes): below it, its residues are not
+#: a shape (0.5: phases spread over half the circle; a normal mode's is 1).
+MPC_MIN = 0.5
+
 #: The options of :func:`identify_scan`.
 OPTIONS = ("f_min", "f_max", *DEFAULTS)
 
@@ -235,15 +239,24 @@ def _identify(scan: ScanData, options: dict) -> Identification:
     chosen = _choose(tracks, options)
     chosen = _refined(chosen, principal[:, frequencies[frequencies <= f_high] >= f_low].T,
                       band_frequencies, power, keep, scan.n_channels, frf_form, options)
-    if chosen.size:
+    constants = np.zeros((scan.n_channels, 0), complex)
+    while chosen.size:
         try:
             constants, *_ = LSFD(chosen, values[:, in_band], band_frequencies, True, True, 0,
                                  band_frequencies.size, frf_form)
         except (ValueError, np.linalg.LinAlgError) as error:
             raise IdentificationFailed(f"scan file {scan.path}: LSFD failed ({error})") \
                 from None
-        constants = constants * scale
-    else:
+        constants = constants[:, :chosen.size] * scale
+        # a mode whose residues scatter in phase is not determined by the data (two poles
+        # sharing one resonance): the least collinear one dropped, the rest refitted
+        collinearity = [modal_phase_collinearity(constants[:, r]) for r in range(chosen.size)]
+        worst = int(np.argmin(collinearity))
+        if collinearity[worst] >= MPC_MIN:
+            break
+        logger.info("mode at %.1f Hz dropped: MPC %.2f", chosen[worst].imag / (2 * math.pi),
+                    collinearity[worst])
+        chosen = np.delete(chosen, worst)
         constants = np.zeros((scan.n_channels, 0), complex)
     modes = []
     for index in np.argsort(np.abs(chosen.imag)):
