@@ -54,7 +54,7 @@ def test_correlate_labels_the_example_by_shape(tmp_path, capsys):
                              "label", "fe_freq_hz", "freq_error", "mac"]
     assert len(rows) >= 3
     # on this coarse grid a test mode may stay unpaired (below the MAC threshold); a paired
-    # out-of-plane mode must be the true mode.  In-plane ones (ip..., 12 of the 22 modes
+    # out-of-plane mode must be the true mode.  In-plane ones (ip..., 11 of the 20 modes
     # identified) are told apart by 34 points less well: one of them, ip(2,1)d at 765.6 Hz,
     # is paired with ip(5,1)b (MAC 0.72, 15 % away) - a limit of the pairing, not of the
     # identification, which finds each within 0.3 Hz of the truth
