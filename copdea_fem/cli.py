@@ -514,7 +514,8 @@ def _add_diagnose_commands(commands, with_study) -> None:
                        help="csv (default): resonance and spectrum CSVs from the ring model; "
                        "uff: a scanning vibrometer's export per condition (UFF, FRFs of the "
                        "velocity per volt on the paper's 84-point grid, three components) "
-                       "made by the FE, for diagnose and correlate")
+                       "made by the FE forced response of an imperfect electrode, for "
+                       "identify, correlate and diagnose")
     synth.add_argument("--out", help="output directory (default: results/synth_<study>_seed<N>)")
     synth.set_defaults(handler=cmd_synth)
     commands.add_parser("effects", help="print the effect catalogue of diagnose").set_defaults(

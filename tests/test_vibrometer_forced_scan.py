@@ -147,3 +147,38 @@ def test_the_modal_scan_response_is_the_direct_forced_response():
     # measured: 3e-5 .. 6e-4 (the static correction's O(omega^4 / lambda^2) of the modes
     # above the band)
     assert np.all(_relative(direct, response.velocity) < 2e-3)
+
+
+def test_the_sectors_weights_unfold_to_the_electrodes_weight():
+    # eq. (2) of copdea_fem.fe.forced.electrode inverted: w(q x) = sum_s s(q) W_s(x)
+    from copdea_fem.fe.symmetry import QUADRANTS, SECTORS
+
+    imperfection = _imperfection()
+    rng = np.random.default_rng(3)
+    x, y = rng.uniform(0.001, 0.03, 20), rng.uniform(0.001, 0.03, 20)
+    for qx, qy in QUADRANTS:
+        unfolded = sum(float(sector.sign(qx, qy)) * imperfection.sector_weight(sector, x, y)
+                       for sector in SECTORS)
+        assert np.allclose(unfolded, imperfection.weight(qx * x, qy * y), atol=1e-14)
+    # the uniform electrode: 1 in the even-even sector, 0 in the others
+    from copdea_fem.fe.forced.electrode import ElectrodeImperfection
+    uniform = ElectrodeImperfection()
+    assert np.allclose(uniform.sector_weight(SECTORS[0], x, y), 1.0)
+    for sector in SECTORS[1:]:
+        assert np.allclose(uniform.sector_weight(sector, x, y), 0.0)
+
+
+def test_an_imperfection_refuses_what_is_not_one():
+    from copdea_fem.fe.forced.electrode import ElectrodeImperfection
+
+    with pytest.raises(ValueError, match="order m = 0 is not allowed"):
+        ElectrodeImperfection((0,), (0.1,), (0.0,))
+    with pytest.raises(ValueError, match="same length"):
+        ElectrodeImperfection((1, 2), (0.1,), (0.0,))
+    with pytest.raises(ValueError, match="order m = 1.5 is not allowed"):
+        ElectrodeImperfection((1.5,), (0.1,), (0.0,))
+    imperfection = ElectrodeImperfection.random((1, 2, 3), 0.1, np.random.default_rng(0))
+    assert imperfection.family_weights(0) == (1.0, 0.0)
+    assert imperfection.family_weights(7) == (0.0, 0.0)
+    cos_part, sin_part = imperfection.family_weights(2)
+    assert math.hypot(cos_part, sin_part) == pytest.approx(imperfection.amplitudes[1])

@@ -42,7 +42,12 @@ per mode label (clipped at 0), zeta_FE the FE's complex frequency's
 ``viscoelastic_membrane`` is anchored) and zeta_ring the ring model's (modal b/m
 and the Prony term's loss, :mod:`copdea_fem.diagnosis.engine`).  At the anchor it
 is the FE's; a ring-only damping (modal b/m) adds to it.  Modes the ring model
-lacks take the change of their proxy's zeta; modes the FE lacks the ring's.
+lacks take the change of their proxy's zeta scaled to their own modal damping: the
+ring's zeta of a mode is ``(b/m) / (2 omega)`` times its membrane share (eq. 19), so a
+mode L given the proxy p's share takes ``Delta zeta_p (b/m)_L omega_p / ((b/m)_p omega_L)``
+(the state's ``(b/m)`` by label: a (m,1) mode gets ``reduced.damping_higher``, not the
+(0,1)'s b/m that its proxy carries; nothing where the proxy has none).  Modes the FE
+lacks take the ring's.
 
 The Prony term (``viscoelastic_membrane``).  The ring model does not
 model ``membrane.prony`` (:mod:`copdea_fem.diagnosis.engine`: its elastic stiffness
@@ -69,11 +74,12 @@ P2, P3; modes past the FE's band) is left as it is.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field, replace
 
 from copdea_fem.diagnosis.effects import CATALOGUE
-from copdea_fem.diagnosis.engine import Engine, ModelMode
+from copdea_fem.diagnosis.engine import Engine, ModelMode, damping_per_mass
 from copdea_fem.diagnosis.fe import BAND_MARGIN, FEModel
 from copdea_fem.reduced.rings import ReducedModelError
 from copdea_fem.study import StudyError
@@ -241,8 +247,10 @@ class Anchor:
             proxies.append((fe_mode, proxy))
         object.__setattr__(self, "proxies", tuple(proxies))
 
-    def apply(self, modes) -> tuple:
-        """(A1) on the ring modes of a state, plus the FE modes the ring model lacks."""
+    def apply(self, modes, damping_per_mass=None) -> tuple:
+        """(A1) on the ring modes of a state, plus the FE modes the ring model lacks;
+        ``damping_per_mass``: the state's ``label -> (b/m)`` [1/s] (module notes; None: the
+        proxies' zeta changes as they are)."""
         now = {m.label: m for m in modes}
         out = []
         for mode in modes:
@@ -260,7 +268,12 @@ class Anchor:
                 continue
             current = now.get(proxy.label)
             change = current.frequency_hz / proxy.frequency_hz if current is not None else 1.0
-            quality = quality_factor(fe_mode.damping_ratio + (
+            scale = 1.0
+            if damping_per_mass is not None:
+                theirs = damping_per_mass(proxy.label)
+                scale = (damping_per_mass(fe_mode.label) * proxy.frequency_hz
+                         / (theirs * fe_mode.frequency_hz)) if theirs > 0 else 0.0
+            quality = quality_factor(fe_mode.damping_ratio + scale * (
                 damping_ratio(current.quality_factor) - self.ring_zeta[proxy.label]
                 if current is not None else 0.0))
             optional = fe_mode.kind == "non-axisymmetric"
@@ -354,7 +367,8 @@ class AnchoredEngine(Engine):
     def predict(self, condition, state=(), perturbation=None):
         prediction = self.ring_predict(condition, state, perturbation)
         anchor = self.anchor(condition, state)
-        modes = anchor.apply(prediction.modes)
+        modes = anchor.apply(prediction.modes, functools.partial(damping_per_mass,
+                                                                 prediction.cheap))
         now, then = self.prony_of(condition, state), self.prony_of(
             condition, self.anchor_state(state))
         if now != then:

@@ -324,7 +324,9 @@ def _cheap_values(study, overrides=None) -> dict:
                         for label in ("P1", "(0,1)", "(0,2)", "(0,3)")}}
 
 
-def _damping_per_mass(cheap, label) -> float:
+def damping_per_mass(cheap, label) -> float:
+    """The modal b/m [1/s] of a mode label (eq. 19) among a state's cheap values: P1's,
+    (0,1)'s, (0,2)'s, ``reduced.damping_higher`` for every other mode."""
     return cheap["damping"]["P1" if label == "P1" else
                             label if label in ("(0,1)", "(0,2)") else "(0,3)"]
 
@@ -344,7 +346,7 @@ class _ModeEquation:
         self.mass = float(reference.modal_mass[index] + added)
         self.strength = cheap["viscoelastic_strength"]
         self.time = cheap["viscoelastic_time"]
-        self.damping = float(_damping_per_mass(cheap, label) * reference.modal_mass[index])
+        self.damping = float(damping_per_mass(cheap, label) * reference.modal_mass[index])
         self.spring = None
         if label == "P1" and cheap["spring_mass"] > 0 and cheap["spring_stiffness"] > 0:
             speed = (perturbation or {}).get("spring", 1.0)

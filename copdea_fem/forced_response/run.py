@@ -358,7 +358,7 @@ def forced_response(problem: OrderZero, frequency_hz=None,
     radius = KIRCHHOFF_FRACTION * study["air"]["domain_radius"]
     baffle = study["geometry"]["frame"] == "baffle"
     sphere = problem.sector.sphere
-    # a baffle over an enclosure has no air below it (microphones there refused: study.py)
+    # a baffle over an enclosure has no air below it (microphones there refused: study/checks.py)
     below = () if study["geometry"]["enclosure"] != "none" else ("lower",)
     samplers = ({"upper": sphere(coupled, radius, ("upper",)),
                  **{side: sphere(coupled, radius, (side,)) for side in below}} if baffle else
@@ -366,7 +366,7 @@ def forced_response(problem: OrderZero, frequency_hz=None,
     pressure_vectors = forced.pressure(vectors)
     sampled = {name: sampler.sample(pressure_vectors) for name, sampler in samplers.items()}
     pressure = np.zeros((frequency_hz.size, len(microphones)), complex)
-    for j, (_, position) in enumerate(microphones):      # z != 0 in a baffle: study.py
+    for j, (_, position) in enumerate(microphones):      # z != 0 in a baffle: study/checks.py
         side = ("upper" if position[2] > 0 else "lower") if baffle else "all"
         sampler, (p_values, dp_values) = samplers[side], sampled[side]
         field_p, field_dp = weights @ p_values.T, weights @ dp_values.T     # (lines, points)

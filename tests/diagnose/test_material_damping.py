@@ -149,6 +149,26 @@ def test_the_fe_damping_ratio_is_the_model_quality_factor_at_the_anchor():
     assert modes["(1,1)"].quality_factor == pytest.approx(1 / (2 * 0.028), rel=1e-12)
 
 
+def test_a_mode_the_ring_lacks_takes_its_own_modal_damping_not_its_proxys():
+    """A (m,1) mode's b/m is ``reduced.damping_higher`` (eq. 19), not the (0,1)'s 245 1/s
+    that its proxy carries: the proxy's zeta change scaled by (b/m)_L w_p / ((b/m)_p w_L)."""
+    fe = FEResult((FEMode("(0,1)", "axisymmetric", 500.0, 0.001),
+                   FEMode("(3,1)", "non-axisymmetric", 560.0, 0.0005)), "3d", True, 0.0,
+                  "key")
+    ring = (ModelMode("(0,1)", "axisymmetric", 510.0, math.inf, 0.0, True),)
+    anchor = Anchor(fe, ring, {"(0,1)": 500.0 / 510.0})
+    proxy_zeta = 0.03                                   # the (0,1)'s b/m, share 0.8 say
+    damped = (ModelMode("(0,1)", "axisymmetric", 510.0, 1 / (2 * proxy_zeta), 0.0, True),)
+    bm = {"(0,1)": 245.0, "(3,1)": 57.0}
+    modes = {m.label: m for m in anchor.apply(damped, bm.get)}
+    zeta = 0.0005 + proxy_zeta * 57.0 * 510.0 / (245.0 * 560.0)
+    assert modes["(3,1)"].quality_factor == pytest.approx(1 / (2 * zeta), rel=1e-12)
+    assert modes["(0,1)"].quality_factor == pytest.approx(1 / (2 * 0.031), rel=1e-12)
+    # a proxy without modal damping passes none on
+    modes = {m.label: m for m in anchor.apply(damped, {"(0,1)": 0.0, "(3,1)": 57.0}.get)}
+    assert modes["(3,1)"].quality_factor == pytest.approx(1 / (2 * 0.0005), rel=1e-12)
+
+
 # -- the effect and its competition ---------------------------------------------------------
 def test_the_effect_sets_one_prony_term_replaces_modal_damping_and_keeps_the_band_clear():
     effect = CATALOGUE["viscoelastic_membrane"]

@@ -1,0 +1,76 @@
+"""Python API: the commands of ``copdea-fem`` as functions that return their results.
+
+::
+
+    import copdea_fem as cf
+    study = cf.load_study("studies/g1_z16_v2.yaml", {"load.voltage": "1 kV"})  # validated, SI
+    sol = cf.solve(study)          # nothing written unless asked
+    sol.modes                      # pandas.DataFrame: the columns of modes.csv, one row per mode
+    sol.membrane("(0,1)")          # pyvista grid of the whole membrane with that mode's fields
+    sol.air("(0,1)")               # pyvista grid of the air with its pressure fields (coupled)
+    sol.write("results/g1")        # the files and folder rules of `copdea-fem solve --out`
+
+:func:`response`, :func:`force`, :func:`spectrum`, :func:`sweep` and :func:`diagnose`
+have the same shape: a result object with its tables as :class:`pandas.DataFrame` and a
+``write(folder)`` that writes the command's files under the rules of
+:mod:`copdea_fem.folders`.  The command line (:mod:`copdea_fem.cli`) calls these.
+
+Progress messages go to the :mod:`logging` loggers ``"copdea_fem.*"`` at level INFO, so
+nothing is printed unless asked (``logging.basicConfig(level=logging.INFO)``); a callable
+passed as ``progress`` receives each message (a handler forwards them to it while the call
+runs, and nothing is printed).  Errors are the command line's, with the same messages:
+:class:`~copdea_fem.study.StudyError` (bad input; the CLI's exit 2),
+:class:`~copdea_fem.folders.OutputFolderError` (a folder that may not be written; exit 2),
+:class:`SolveFailed` and :class:`~copdea_fem.fe.prestress.PrestressError` (a solve that
+failed for a physical or numerical reason; exit 3), and
+:class:`~copdea_fem.reduced.rings.ReducedModelError` (the reduced model, or the diagnosis's
+model, cannot be built or evaluated for these inputs; exit 3).  Each function's *Raises*
+section says which it can raise.
+
+A :class:`~copdea_fem.study.Study` given to a function is validated again first
+(:meth:`~copdea_fem.study.Study.checked`): a study changed by hand after :func:`load_study`
+is checked like a file (an unknown key, a wrong type or a value out of range is a
+:class:`~copdea_fem.study.StudyError`; a deleted key takes its default), so no hand edit
+reaches the solver unchecked.  A Netgen failure while meshing is a :class:`SolveFailed`
+naming the mesh keys.
+
+The modules: :mod:`~copdea_fem.api.calls` (what every function shares: the study given,
+the resource guard, progress, :class:`SolveFailed`), :mod:`~copdea_fem.api.folders` (the
+result folders of ``write``), then the functions with their results:
+:mod:`~copdea_fem.api.fe_results` (:func:`solve`, :func:`force`),
+:mod:`~copdea_fem.api.response_results` (:func:`response`, :func:`spectrum`),
+:mod:`~copdea_fem.api.sweep_results` (:func:`sweep`) and
+:mod:`~copdea_fem.api.measured_results` (:func:`diagnose`, :func:`identify`,
+:func:`correlate`).  Their public names are imported from here.
+"""
+
+from copdea_fem.api.calls import SolveFailed, check_size, load_study, solving
+from copdea_fem.api.fe_results import (
+    ForceCurve,
+    Solution,
+    compute_force,
+    force,
+    prepare_force,
+    solve,
+)
+from copdea_fem.api.measured_results import (
+    CorrelateResult,
+    Diagnosis,
+    IdentifyResult,
+    correlate,
+    diagnose,
+    identify,
+)
+from copdea_fem.api.response_results import ResponseSolution, Spectrum, response, spectrum
+from copdea_fem.api.sweep_results import SweepResult, sweep
+from copdea_fem.folders import Claim as Claim
+from copdea_fem.folders import OutputFolderError
+from copdea_fem.study import Study as Study
+from copdea_fem.study import StudyError
+
+#: The API's names in the order of the API page (autodoc's ``bysource`` follows it).
+__all__ = ["load_study", "solve", "Solution", "response", "ResponseSolution",  # noqa: RUF022
+           "force", "prepare_force", "compute_force", "ForceCurve", "spectrum", "Spectrum",
+           "sweep", "SweepResult", "diagnose", "Diagnosis", "identify", "IdentifyResult",
+           "correlate", "CorrelateResult", "SolveFailed", "StudyError", "OutputFolderError",
+           "solving", "check_size"]

@@ -1,0 +1,324 @@
+"""What measured data say: the missing effects (:func:`diagnose`, :class:`Diagnosis`), the
+modes of vibrometer scans (:func:`identify`, :class:`IdentifyResult`) and their pairing
+with the FE's by shape (:func:`correlate`, :class:`CorrelateResult`)."""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from copdea_fem.api.calls import data_frame, reporting_to
+from copdea_fem.api.folders import claimed
+from copdea_fem.folders import Claim
+from copdea_fem.study import StudyError
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from copdea_fem.diagnosis.select import DiagnosisResult
+    from copdea_fem.vibrometer.scan import IdentifiedSet
+
+logger = logging.getLogger("copdea_fem")
+
+
+def diagnose(measured: str | Path, *, alpha: float = 0.05, model: str | None = None,
+             fe_cache: str | Path | None = None, fe_workers: int | None = None,
+             executor: str | None = None, scheduler: str | Any | None = None,
+             progress: Callable[[str], None] | None = None) -> Diagnosis:
+    """Which catalogued effects the model lacks, from measured resonances and spectra
+    (``copdea-fem diagnose``, nothing written).
+
+    Parameters
+    ----------
+    measured : str or Path
+        A measured.yaml: the base study, the conditions and their measured files.
+    alpha : float, default 0.05
+        Significance level of each step (false-alarm probability), in (0, 1).
+    model : str, optional
+        ``"fe"`` or ``"reduced"``: the model of record, in place of measured.yaml's
+        ``model``.
+    fe_cache : str or Path, optional
+        Cache folder of the FE solves (``model: fe``; default as the CLI's
+        ``--fe-cache``).
+    fe_workers : int, optional
+        Processes solving FE studies side by side (``model: fe``; default as the CLI's
+        ``--fe-workers``); with ``executor="dask"`` and no ``scheduler``, the local
+        cluster's workers.
+    executor : str, optional
+        Where the FE studies are solved side by side (``model: fe``): ``"local"``
+        (default), processes of this machine; ``"dask"``, a Dask cluster.
+    scheduler : str or distributed.Client, optional
+        With ``executor="dask"``: a running Dask scheduler's address or a connected client;
+        without it a local cluster is started for the diagnosis and closed at its end.
+    progress : callable(str), optional
+        As :func:`solve`'s.
+
+    Returns
+    -------
+    Diagnosis
+        The verdict, the missing effects and the report's content;
+        :meth:`Diagnosis.write` writes the report.
+
+    Raises
+    ------
+    StudyError
+        ``alpha`` outside (0, 1), an unknown executor, a scheduler without
+        ``executor="dask"`` or one that does not answer, a bad measured.yaml, measured
+        file or base study (a
+        :class:`~copdea_fem.diagnosis.measured.MeasuredDataError`), or conditions the
+        base model cannot evaluate.
+    ReducedModelError
+        The model cannot be built or evaluated (with ``model: fe``, an FE that cannot be
+        solved: :class:`~copdea_fem.diagnosis.anchored.FEFailure`; the CLI's exit 3).
+    """
+    from copdea_fem.diagnosis import diagnose_measured
+
+    with reporting_to(progress):
+        result = diagnose_measured(measured, alpha=alpha, model=model, fe_cache=fe_cache,
+                                   fe_workers=fe_workers, executor=executor,
+                                   scheduler=scheduler)
+    return Diagnosis(result, Path(measured))
+
+
+@dataclass
+class Diagnosis:
+    """The result of :func:`diagnose`: ``result`` (the diagnosis), ``document`` (the
+    content of diagnosis.json), ``write``.
+
+    Parameters
+    ----------
+    result : copdea_fem.diagnosis.select.DiagnosisResult
+        Everything the report and diagnosis.json need.
+    source : Path, optional
+        The measured.yaml (an input the folder checks of ``write`` protect).
+    """
+
+    result: DiagnosisResult
+    source: Path | None = None
+
+    @property
+    def verdict(self) -> str:
+        return self.result.verdict
+
+    @property
+    def missing_effects(self) -> list[str]:
+        return list(self.result.missing_effects)
+
+    @property
+    def document(self) -> dict:
+        from copdea_fem.diagnosis.report import diagnosis_document
+        return diagnosis_document(self.result)
+
+    def write(self, folder: str | Path | Claim) -> Path:
+        """Write report.md, diagnosis.json, figures and final_study.yaml in ``folder``; or
+        into a held :class:`~copdea_fem.folders.Claim`.  Parameters, return and errors as
+        :meth:`Solution.write`."""
+        from copdea_fem.diagnosis.report import write_report
+        from copdea_fem.folders import result_directory
+        inputs = [self.source] + [path for condition in self.result.measured.conditions
+                                  for path in condition.files.values()]
+        with claimed(folder, "diagnose", inputs) as target:
+            with result_directory(target, "diagnose") as staging:
+                write_report(self.result, staging)
+        return target
+
+
+def identify(measured: str | Path, *, progress: Callable[[str], None] | None = None,
+             **options) -> IdentifyResult:
+    """The modes of every scan of a measured.yaml (``copdea-fem identify``, nothing written).
+
+    Each condition with ``scan: FILE`` is read (:func:`copdea_fem.vibrometer.uff.read_scan`,
+    checked on the device) and identified automatically in its ``band`` (default: the
+    scan's lines above 0 Hz): LSCF poles stable over the model orders, LSFD residues as
+    shapes (:mod:`copdea_fem.vibrometer.identification`; nothing from the FE).
+
+    Parameters
+    ----------
+    measured : str or Path
+        A measured.yaml with at least one condition with a ``scan``.
+    progress : callable(str), optional
+        As :func:`solve`'s.
+    **options
+        Passed to :func:`copdea_fem.vibrometer.identification.identify_scan` (``f_min``,
+        ``f_max`` [Hz] in place of the conditions' bands, ``max_order``, ``components``, ``frequency_tolerance``,
+        ``damping_tolerance``, ``max_damping``, ``min_stable_orders``).
+
+    Returns
+    -------
+    IdentifyResult
+
+    Raises
+    ------
+    StudyError
+        A bad measured.yaml, scan file or option, or no condition with a scan (a
+        :class:`~copdea_fem.diagnosis.measured.MeasuredDataError`).
+    """
+    from copdea_fem.diagnosis.measured import MeasuredDataError, load_measured
+    from copdea_fem.vibrometer.identification import OPTIONS, identify_scan
+    from copdea_fem.vibrometer.scan import IdentifiedSet
+
+    for name in options:
+        if name not in OPTIONS:
+            raise StudyError(f"identify option {name!r} is not allowed (unknown option); "
+                             f"allowed: {', '.join(OPTIONS)}")
+    measured_set = load_measured(measured)
+    scanned = [c for c in measured_set.conditions if c.scan is not None]
+    if not scanned:
+        raise MeasuredDataError(f"measured file {measured}: no condition has a scan; "
+                                "allowed: at least one condition with scan: FILE (.uff/.unv)")
+    sets = []
+    with reporting_to(progress):
+        for condition in scanned:
+            logger.info("identifying %s (%d channels, %d lines, largest distance off the "
+                        "device %.2f mm)", condition.name, condition.scan.n_channels,
+                        condition.scan.frequencies.size, 1e3 * condition.scan_distance)
+            frequencies = condition.scan.frequencies
+            band = {"f_min": max(condition.band[0], float(frequencies[frequencies > 0][0])),
+                    "f_max": min(condition.band[1], float(frequencies[-1]))}
+            found = identify_scan(condition.scan, **{**band, **options})
+            sets.append(IdentifiedSet(condition.name, condition.scan, found.modes,
+                                      found.diagram))
+    return IdentifyResult(tuple(sets), Path(measured),
+                          [p for c in measured_set.conditions for p in c.files.values()])
+
+
+@dataclass
+class IdentifyResult:
+    """The result of :func:`identify`: ``sets`` (one
+    :class:`~copdea_fem.vibrometer.scan.IdentifiedSet` per scanned condition), ``table``,
+    ``write``."""
+
+    sets: tuple[IdentifiedSet, ...]
+    source: Path | None = None
+    files: list = field(default_factory=list)
+
+    @property
+    def table(self) -> pd.DataFrame:
+        """identified.csv as a DataFrame (condition, test_mode, freq_hz, damping_ratio, mpc)."""
+        from copdea_fem.vibrometer.identification import IDENTIFIED_COLUMNS, identified_rows
+        return data_frame(identified_rows(self.sets), IDENTIFIED_COLUMNS)
+
+    def write(self, folder: str | Path | Claim) -> Path:
+        """Write identified.csv, stabilisation_<condition>.png and shapes_<condition>/
+        (VTU per mode, shapes.pvd) in ``folder``; or into a held
+        :class:`~copdea_fem.folders.Claim`.  Parameters, return and errors as
+        :meth:`Solution.write`."""
+        from copdea_fem.folders import result_directory
+        from copdea_fem.vibrometer.identification import write_identified
+        with claimed(folder, "identify", [self.source, *self.files]) as target:
+            with result_directory(target, "identify") as staging:
+                write_identified(staging, self.sets)
+        return target
+
+
+def correlate(measured: str | Path, *,
+              progress: Callable[[str], None] | None = None) -> CorrelateResult:
+    """Pair the modes identified in each condition's scan with the FE's by shape
+    (``copdea-fem correlate``, nothing written).
+
+    For each condition of ``measured`` with a ``scan:``: the modes are identified
+    (:func:`copdea_fem.vibrometer.identification.identify`, in the condition's band), the base
+    study at the condition is solved (the FE band reaching the pairing window past the
+    condition's), its structural modes sampled at the scan points along the measured
+    directions (:mod:`copdea_fem.vibrometer.sampling`) and paired one-to-one by shape
+    (:func:`copdea_fem.vibrometer.pairing.correlate_shapes`, measured.yaml's
+    ``pairing:`` window and smallest MAC).
+
+    Parameters
+    ----------
+    measured : str or Path
+        A measured.yaml with at least one condition that names a scan file.
+    progress : callable(str), optional
+        As :func:`solve`'s.
+
+    Returns
+    -------
+    CorrelateResult
+        The correlation of each scanned condition; :meth:`CorrelateResult.write` writes
+        pairs.csv, comac.csv, mac.png and report.md.
+
+    Raises
+    ------
+    StudyError
+        A bad measured.yaml, scan file or base study
+        (:class:`~copdea_fem.diagnosis.measured.MeasuredDataError`), or no condition with
+        a scan.
+    """
+    from copdea_fem.diagnosis.measured import MeasuredDataError, load_measured
+    from copdea_fem.vibrometer.identification import identify
+    from copdea_fem.vibrometer.model_shapes import correlate_identified, fe_shapes
+
+    measured = load_measured(measured)
+    scanned = [c for c in measured.conditions if c.scan is not None]
+    if not scanned:
+        raise MeasuredDataError(f"{measured.path or measured.name}: no condition names a "
+                                "scan; allowed: conditions with scan: FILE.uff")
+    settings = measured.pairing
+    correlations, scans = [], []
+    with reporting_to(progress):
+        for condition in scanned:
+            logger.info("correlate %s: identify the scan's modes", condition.name)
+            modes = identify(condition.scan, f_min=condition.band[0], f_max=condition.band[1])
+            study = measured.study_of(condition).replace(
+                {"eigen.f_max": condition.band[1] * (1 + settings.window)})
+            logger.info("correlate %s: %d modes identified; FE modes at the scan points",
+                        condition.name, len(modes))
+            model = fe_shapes(study, condition.scan)
+            correlations.append(correlate_identified(condition.name, modes, model,
+                                                     window=settings.window,
+                                                     mac_min=settings.mac_min))
+            scans.append(condition.scan)
+    return CorrelateResult(measured, tuple(correlations), tuple(scans))
+
+
+@dataclass
+class CorrelateResult:
+    """The result of :func:`correlate`: one
+    :class:`~copdea_fem.vibrometer.pairing.Correlation` per scanned condition.
+
+    Attributes
+    ----------
+    measured : copdea_fem.diagnosis.measured.MeasuredSet
+    correlations : tuple of Correlation
+    scans : tuple of ScanData
+        Each correlation's scan (its channels: comac.csv).
+    """
+
+    measured: Any
+    correlations: tuple
+    scans: tuple
+
+    @property
+    def pairs(self) -> pd.DataFrame:
+        """pairs.csv as a DataFrame (one row per identified test mode)."""
+        from copdea_fem.vibrometer.correlation_files import PAIR_COLUMNS
+        rows = [{"condition": c.condition, "test_mode": p.test_mode,
+                 "test_freq_hz": p.test_freq_hz, "test_damping_ratio": p.test_damping_ratio,
+                 "label": p.label, "fe_freq_hz": p.fe_freq_hz, "freq_error": p.freq_error,
+                 "mac": p.mac} for c in self.correlations for p in c.pairs]
+        return data_frame(rows, PAIR_COLUMNS)
+
+    def write(self, folder: str | Path | Claim) -> Path:
+        """Write pairs.csv, comac.csv, mac.png and report.md in ``folder``; or into a held
+        :class:`~copdea_fem.folders.Claim`.  Parameters, return and errors as
+        :meth:`Solution.write`."""
+        from copdea_fem.folders import result_directory
+        from copdea_fem.vibrometer.correlation_files import (
+            plot_mac,
+            report_markdown,
+            write_comac_csv,
+            write_pairs_csv,
+        )
+        inputs = [self.measured.path] + [path for condition in self.measured.conditions
+                                         for path in condition.files.values()]
+        with claimed(folder, "correlate", [i for i in inputs if i]) as target, \
+                result_directory(target, "correlate") as staging:
+            write_pairs_csv(staging / "pairs.csv", self.correlations)
+            write_comac_csv(staging / "comac.csv", self.correlations, self.scans)
+            plot_mac(staging / "mac.png", self.correlations)
+            (staging / "report.md").write_text(
+                report_markdown(self.measured.name, self.correlations), encoding="utf-8")
+        return target
