@@ -111,3 +111,25 @@ def mac(a, b) -> float:
     """Modal assurance criterion of two complex vectors."""
     a, b = np.asarray(a).ravel(), np.asarray(b).ravel()
     return float(abs(np.vdot(a, b)) ** 2 / (np.vdot(a, a).real * np.vdot(b, b).real))
+
+
+def add_noise(scan: ScanData, snr_db: float, rng) -> ScanData:
+    """``scan`` plus complex Gaussian noise per channel and line, ``snr_db`` below the
+    largest |FRF| value of the scan (inf: the scan itself)."""
+    if not math.isfinite(snr_db):
+        return scan
+    size = 10 ** (-snr_db / 20) * np.abs(scan.values).max()
+    noise = size * (rng.normal(size=scan.values.shape) + 1j * rng.normal(size=scan.values.shape))
+    return ScanData(**{**scan.__dict__, "values": scan.values + noise / math.sqrt(2)})
+
+
+def membrane_scan(modes, axis, snr_db, rng) -> ScanData:
+    """A three-component scan on :func:`paper_grid` of ``modes`` - ((m, n, orientation),
+    frequency [Hz], damping ratio, participation) - with :func:`membrane_shapes` scaled by
+    their participation, on the frequency ``axis`` [Hz], with :func:`add_noise`."""
+    positions = paper_grid()
+    shapes = membrane_shapes(positions, [family for family, *_ in modes])
+    participation = np.array([mode[3] for mode in modes])
+    scan = make_scan(axis, [pole(f, zeta) for _, f, zeta, _ in modes],
+                     shapes * participation[:, None, None], positions)
+    return add_noise(scan, snr_db, rng)
