@@ -11,6 +11,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import re
 from pathlib import Path
 
 import pytest
@@ -128,6 +129,9 @@ def test_diagnose_names_air_loading_from_the_example_scan(tmp_path, capsys):
     report = (out / "report.md").read_text()
     assert "## Shape pairing (vibrometer scans)" in report and "paired RMS error" in report
     assert math.isfinite(document["gap_after"])
+    # the gap's paired part: "paired RMS error: 9.49 % -> 0.40 % over the pairs"
+    found = re.search(r"paired RMS error: ([\d.]+) % -> ([\d.]+) %", report)
+    assert found and float(found[1]) > 5 * float(found[2]), found
 
 
 def test_the_api_gives_the_pairs_it_writes(tmp_path):
