@@ -54,7 +54,7 @@ def _diagnose(tmp_path, measured: Path, cache: Path) -> dict:
 
 
 @pytest.mark.slow
-def test_the_diagnosis_names_the_hidden_effect_of_fe_made_exports(tmp_path, capsys):
+def test_the_diagnosis_names_the_hidden_effect_of_fe_made_exports(tmp_path, figures):
     cache = tmp_path / "fe_cache"
     named, ambiguous = [], []
     for seed in SEEDS:
@@ -62,8 +62,9 @@ def test_the_diagnosis_names_the_hidden_effect_of_fe_made_exports(tmp_path, caps
         named.append(document["missing_effects"])
         ambiguous.append(document["ambiguous"])
     right = sum(effects == ["air_loading"] for effects in named)
-    print(f"air_loading named alone in {right} of {len(named)} exports: {named}; "
-          f"ambiguous: {ambiguous}")
+    undecided = [group for groups in ambiguous for group in groups]
+    figures(f"vibrometer battery: air_loading named alone in {right} of {len(named)} "
+            f"FE-made exports" + (f"; undecided: {undecided}" if undecided else ""))
     # never a wrong effect named: a seed either names air_loading alone or stays undecided
     # with air_loading among the effects it cannot tell apart
     for effects, undecided in zip(named, ambiguous):
@@ -72,5 +73,6 @@ def test_the_diagnosis_names_the_hidden_effect_of_fe_made_exports(tmp_path, caps
     assert right >= math.ceil(0.95 * len(named))
     nulls = [_diagnose(tmp_path, _export(tmp_path, "", seed, {"air.enabled": True}),
                        cache)["missing_effects"] for seed in NULL_SEEDS]
-    print(f"null exports: {nulls}")
+    figures(f"vibrometer battery: nothing named on {sum(not e for e in nulls)} of "
+            f"{len(nulls)} null exports")
     assert all(effects == [] for effects in nulls)
