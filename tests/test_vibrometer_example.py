@@ -54,25 +54,19 @@ def test_correlate_labels_the_example_by_shape(tmp_path, capsys):
     assert list(rows[0]) == ["condition", "test_mode", "test_freq_hz", "test_damping_ratio",
                              "label", "fe_freq_hz", "freq_error", "mac"]
     assert len(rows) >= 3
-    # on this coarse grid a test mode may stay unpaired (below the MAC threshold); a paired
-    # out-of-plane mode must be the true mode.  In-plane ones (ip..., 11 of the 20 modes
-    # identified) are told apart by 34 points less well: one of them, ip(2,1)d at 765.6 Hz,
-    # is paired with ip(5,1)b (MAC 0.72, 15 % away) - a limit of the pairing, not of the
-    # identification, which finds each within 0.3 Hz of the truth
+    # a test mode may stay unpaired (below the MAC threshold on this coarse grid); a paired
+    # one must be the true mode (measured: 16 of 16 paired, all right)
     paired = [row for row in rows if row["label"]]
-    assert len(paired) >= 2
-    right = [_same_unit(row["label"], _truth_label(float(row["test_freq_hz"])))
-             for row in paired]
-    assert sum(right) >= 0.9 * len(paired)
-    for row, is_right in zip(paired, right):
+    assert len(paired) >= 0.8 * len(rows)
+    for row in paired:
+        truth = _truth_label(float(row["test_freq_hz"]))
+        assert _same_unit(row["label"], truth), (row, truth)
         assert 0.5 <= float(row["mac"]) <= 1.0
         assert 0 < float(row["test_damping_ratio"]) < 0.05
-        if row["label"].startswith("ip"):
-            continue
-        assert is_right, row
         # the dry base is higher than the truth in air: a positive frequency error (the air
         # barely moves an in-plane mode: its error is either sign)
-        assert float(row["freq_error"]) > 0
+        if not row["label"].startswith("ip"):
+            assert float(row["freq_error"]) > 0
     first = rows[0]
     assert first["label"] == "(0,1)" and float(first["freq_error"]) > 0.1
     for name in ("comac.csv", "mac.png", "report.md"):
@@ -95,14 +89,9 @@ def test_the_scan_becomes_labelled_peaks_with_quality_factors():
     for resonance in condition.resonances:
         truth = _truth_label(resonance.frequency_hz)
         # Q = 1 / (2 zeta) as identified, against the export's truth (the study's modal
-        # b/m and the radiation): within 10 %, 20 % where another true mode lies within the
-        # half-power width 2 zeta f (ip(2,1)a/b 1.7 Hz apart at 6.25 Hz lines: 12 % seen)
+        # b/m and the radiation): within 10 % (measured: 4 % at most)
         zeta = _truth(truth)["damping_ratio"]
-        frequency = _truth(truth)["freq_hz"]
-        crowded = any(0 < abs(mode["freq_hz"] - frequency) < 2 * zeta * frequency
-                      for mode in _truth().values())
-        assert resonance.quality_factor == pytest.approx(1 / (2 * zeta),
-                                                         rel=0.2 if crowded else 0.1)
+        assert resonance.quality_factor == pytest.approx(1 / (2 * zeta), rel=0.1)
         if not resonance.label:             # unpaired by shape: an unlabelled peak
             continue
         assert _same_unit(resonance.label, truth)
@@ -121,15 +110,11 @@ def test_diagnose_names_air_loading_from_the_example_scan(tmp_path, capsys):
                  "--fe-cache", str(tmp_path / "cache"), "--fe-workers", "1"]) == 0
     document = json.loads((out / "diagnosis.json").read_text())
     assert document["missing_effects"] == ["air_loading"]
-    # the deviance, not the gap: the gap carries a count penalty for the identified peaks
-    # that no FE mode pairs with by shape on this coarse grid (two of 20: weak modes of
-    # pairs, MAC < 0.5), the same before and after the step (measured: gap 13.8 % ->
-    # 10.3 %, deviance 87.8 -> 0.61, paired RMS error 9.5 % -> 0.4 %)
-    assert document["deviance_before"] > 20 * document["deviance_after"]
+    assert document["gap_before"] > 5 * document["gap_after"]      # measured: 10.1 -> 0.66 %
     report = (out / "report.md").read_text()
     assert "## Shape pairing (vibrometer scans)" in report and "paired RMS error" in report
     assert math.isfinite(document["gap_after"])
-    # the gap's paired part: "paired RMS error: 9.49 % -> 0.40 % over the pairs"
+    # the gap's paired part: "paired RMS error: 10.11 % -> 0.66 % over the pairs"
     found = re.search(r"paired RMS error: ([\d.]+) % -> ([\d.]+) %", report)
     assert found and float(found[1]) > 5 * float(found[2]), found
 

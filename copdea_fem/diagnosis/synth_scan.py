@@ -54,9 +54,6 @@ from copdea_fem.study import Study, StudyError, dump_resolved
 
 logger = logging.getLogger(__name__)
 
-#: The FE band reaches this factor above the last line (modes just above it shape the
-#: top lines; the rest enter through the static correction).
-BAND_MARGIN = 1.1
 #: ``noise.quality_relative`` of a synthetic set: the bound of
 #: :data:`copdea_fem.diagnosis.measured.NOISE_BOUNDS`, a 1-sigma scatter of ln Q of 5 (a
 #: factor e^5): the quality factors carry no weight (module notes).
@@ -149,14 +146,15 @@ def psv_reference_grid(outer_radius: float, inner_radius: float, options: ScanOp
 
 
 def modal_damping(study: Study, damping_ratio: float = 0.0):
-    """``mode -> (b/m)`` [1/s] of the export: the study's own modal damping
-    (``reduced.damping_*`` by label, eq. 19: what the model's quality factors hold), plus
-    ``2 damping_ratio omega`` at the mode's FE frequency (a damping the model lacks)."""
-    from copdea_fem.reduced.model import damping_key
+    """``mode -> (b/m)`` [1/s] of the export: the study's own modal damping by label
+    (:func:`copdea_fem.forced_response.run.modal_damping`, eq. 19: what the model's quality
+    factors hold), plus ``2 damping_ratio omega`` at the mode's FE frequency (a damping the
+    model lacks)."""
+    from copdea_fem.forced_response.run import modal_damping as by_label
 
     def damping(mode) -> float:
-        section, key = damping_key(mode.label).split(".")
-        return float(study[section][key]) + 4 * math.pi * damping_ratio * mode.freq_hz
+        return (float(by_label([mode.label], [mode.kind], study)[0])
+                + 4 * math.pi * damping_ratio * mode.freq_hz)
 
     return damping
 
@@ -172,7 +170,7 @@ def synthesise_scan(study: Study, options: ScanOptions, rng, name: str = "scan")
         imperfection and, per FE label, the frequency [Hz] and damping ratio as driven and
         the mode's quasi-static displacement per volt at the points [m/V].
     """
-    from copdea_fem.diagnosis.fe import fe_study
+    from copdea_fem.diagnosis.fe import BAND_MARGIN, fe_study
     from copdea_fem.fe.forced.electrode import ElectrodeImperfection
     from copdea_fem.fe.pipeline import run_solve
     from copdea_fem.vibrometer.forced_scan import scan_response
@@ -284,5 +282,5 @@ def write_scan_set(study: Study, effects: dict, conditions: list[tuple[str, dict
     return files
 
 
-__all__ = ["BAND_MARGIN", "QUALITY_UNINFORMATIVE", "ScanOptions", "modal_damping",
+__all__ = ["QUALITY_UNINFORMATIVE", "ScanOptions", "modal_damping",
            "psv_reference_grid", "synthesise_scan", "write_scan_set"]

@@ -151,7 +151,6 @@ def scan_response(solution, study, positions, frequencies, imperfection, *,
     omega = 2 * np.pi * frequencies
     sampler = ScanSampler(state, positions)
     displacement = np.zeros((len(sampler.positions), 3, frequencies.size), dtype=complex)
-    minimum = study["air"]["min_membrane_energy"] if study["air"]["enabled"] else 0.0
     truth = {}
     for part in driven_parts(solution, study):
         families = [("cos", 1.0)] if part.m is None else [
@@ -167,13 +166,11 @@ def scan_response(solution, study, positions, frequencies, imperfection, *,
         eigenvalues = np.asarray(band.eigenvalues, complex)
         shares = (np.asarray(membrane_energy_fractions(part.pencil, band))
                   if len(part.pencil.pressure_index) else np.ones(eigenvalues.size))
-        structural = shares >= minimum
-        columns = _part_modes(part, solution.modes)
+        columns = _part_modes(part, solution.modes)          # structural, labelled
         # the paper's modal b/m (eq. 19) per label, in the modal path's denominator
         damping = np.zeros(eigenvalues.size)
         for column, modes in columns.items():
-            if structural[column]:
-                damping[column] = float(damping_per_mass(modes[0]))
+            damping[column] = float(damping_per_mass(modes[0]))
         basis = ModalBasis.build(forced, eigenvalues, band.vectors,
                                  [columns[k][0].label if k in columns else ""
                                   for k in range(eigenvalues.size)], damping)
@@ -211,10 +208,12 @@ def scan_response(solution, study, positions, frequencies, imperfection, *,
 def _part_modes(part: DrivenPart, modes) -> dict:
     """Column of the part's band -> the labelled structural modes of that column (the
     axisymmetric cos and sin twins share one), matched by their complex frequency."""
+    from copdea_fem.fe.modes import AIR
+
     freq = _column_frequencies(part.band.eigenvalues)
     found: dict[int, list] = {}
     for mode in modes:
-        if mode.kind == "air" or not mode.label:
+        if mode.kind == AIR or not mode.label:
             continue
         if part.m is not None and mode.m != part.m:
             continue
