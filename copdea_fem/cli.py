@@ -291,7 +291,7 @@ def cmd_sweep(args) -> int:
     from copdea_fem import api
     from copdea_fem.study import parse_overrides
     from copdea_fem.sweeps import format_summary, load_sweep
-    from copdea_fem.sweeps.cluster import check_scheduler
+    from copdea_fem.parallel import check_scheduler
 
     sweep = load_sweep(args.sweep, overrides=parse_overrides(args.set))
     check_scheduler(args.executor or sweep.execution.executor, args.scheduler)
@@ -315,7 +315,7 @@ def _add_sweep_command(commands) -> None:
     sweep.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE",
                        help="override a key of the base study, with units")
     sweep.add_argument("--out", help="result directory (default: output.directory of the file)")
-    sweep.add_argument("--executor", choices=("local", "pool", "dask"),
+    sweep.add_argument("--executor", choices=("inline", "processes", "dask", "local", "pool"),
                        help="local (default), a pool of worker processes, or a Dask cluster "
                        "(the one at --scheduler, else a local one started for the sweep)")
     sweep.add_argument("--workers", type=int, help="worker processes of --executor pool, or "
@@ -340,9 +340,9 @@ def cmd_diagnose(args) -> int:
         from copdea_fem.diagnosis.fe import check_cache_dir
         check_cache_dir(args.fe_cache, "--fe-cache")    # a file: exit 2 before any work
     if args.fe_workers is not None:
-        from copdea_fem.diagnosis.fe import check_workers
+        from copdea_fem.parallel import check_workers
         check_workers(args.fe_workers, "--fe-workers")
-    from copdea_fem.sweeps.cluster import check_scheduler
+    from copdea_fem.parallel import check_scheduler
     check_scheduler(args.executor, args.scheduler)      # exit 2 before any work
     measured = load_measured(args.measured)
     out_dir = Path(args.out) if args.out else diagnose_out_dir(measured)
@@ -456,7 +456,7 @@ def _add_diagnose_commands(commands, with_study) -> None:
                           help="processes solving FE studies side by side (default: "
                                "$COPDEA_FEM_FE_WORKERS, else the cores, at most 4; 1: one at "
                                "a time); with --executor dask, the local cluster's workers")
-    diagnose.add_argument("--executor", choices=("local", "dask"),
+    diagnose.add_argument("--executor", choices=("inline", "processes", "dask", "local"),
                           help="where the FE studies are solved side by side: local "
                                "processes (default) or a Dask cluster (the one at "
                                "--scheduler, else a local one started for the run)")

@@ -1,5 +1,5 @@
 """``--executor dask`` without a scheduler: a local Dask cluster for the sweeps and the
-diagnosis's FE solves (copdea_fem.sweeps.cluster).
+diagnosis's FE solves (copdea_fem.parallel).
 
 A sweep runs on the local executor and on a local cluster of two worker processes started
 by the code under test, and the tables are compared; the cluster is closed at the end, also
@@ -39,8 +39,8 @@ def no_children_left(before=(), seconds: float = 10.0) -> bool:
 
 @pytest.fixture
 def quick_timeout(monkeypatch):
-    from copdea_fem.sweeps import cluster
-    monkeypatch.setattr(cluster, "SCHEDULER_TIMEOUT_SECONDS", 0.5)
+    from copdea_fem import parallel
+    monkeypatch.setattr(parallel, "SCHEDULER_TIMEOUT_SECONDS", 0.5)
 
 
 def test_sweep_on_a_local_cluster_gives_the_table_of_the_local_executor(tmp_path):
@@ -76,7 +76,7 @@ def test_an_interrupted_dask_sweep_closes_its_cluster_and_resumes(tmp_path):
 def test_executor_and_scheduler_are_checked_before_any_work(quick_timeout, tmp_path, capsys):
     from copdea_fem.diagnosis.fe import FEModel
     with pytest.raises(StudyError, match="--executor = 'slurm' is not allowed; allowed: one "
-                                         "of local, dask"):
+                                         "of inline, processes, dask"):
         FEModel(cache_dir=False, executor="slurm")
     with pytest.raises(StudyError, match="not allowed with --executor local"):
         FEModel(cache_dir=False, scheduler=UNREACHABLE)

@@ -191,8 +191,8 @@ def _append(name, text):
 
 
 def _workers(value):
-    from copdea_fem.diagnosis.fe import check_workers
-    return lambda work: f"workers = {check_workers(value)}"
+    from copdea_fem.parallel import check_workers
+    return lambda work: f"workers = {check_workers(value, '--fe-workers')}"
 
 
 def _resonances(work):

@@ -72,9 +72,10 @@ def diagnose_measured(measured_path, alpha: float = 0.05, model: str | None = No
         Processes solving FE studies side by side (default
         :func:`copdea_fem.diagnosis.fe.default_workers`); with ``executor="dask"`` and
         no ``scheduler``, the local cluster's workers.
-    executor : {"local", "dask"}, optional
-        Where the FE studies are solved side by side: ``"local"`` (default), processes of
-        this machine; ``"dask"``, a Dask cluster (:class:`copdea_fem.diagnosis.fe.FEModel`).
+    executor : {"processes", "inline", "dask"}, optional
+        Where the FE studies are solved (:class:`copdea_fem.diagnosis.fe.FEModel`):
+        ``"processes"`` (default), side by side in processes of this machine; ``"inline"``,
+        in this process, one at a time; ``"dask"``, a Dask cluster.
     scheduler : str or distributed.Client, optional
         With ``executor="dask"``: a running scheduler's address (or a client); without it a
         local cluster is started for the run and closed at its end.
@@ -99,10 +100,10 @@ def diagnose_measured(measured_path, alpha: float = 0.05, model: str | None = No
         from copdea_fem.diagnosis.fe import check_cache_dir
         check_cache_dir(fe_cache, "--fe-cache")
     if fe_workers is not None:
-        from copdea_fem.diagnosis.fe import check_workers
+        from copdea_fem.parallel import check_workers
         fe_workers = check_workers(fe_workers, "--fe-workers")
-    from copdea_fem.diagnosis.fe import check_executor
-    executor, scheduler = check_executor(executor, scheduler)
+    from copdea_fem.parallel import DIAGNOSIS_SPELLINGS, check_executor
+    executor = check_executor(executor, scheduler, DIAGNOSIS_SPELLINGS, "processes")
     measured = load_measured(measured_path)
     if model is not None:
         measured = dataclasses.replace(measured, model=model)

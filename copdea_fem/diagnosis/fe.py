@@ -20,10 +20,12 @@ those act through the anchored ring surrogate (:mod:`copdea_fem.diagnosis.anchor
 Side by side.  A cold diagnosis needs tens of independent FE solves (every
 condition at every switch state, the grid of a fitted parameter on the direct engine):
 the search hands each batch to :meth:`FEModel.solve_many` first, which solves what the
-cache lacks in spawned worker processes (``workers``, ``--fe-workers``), or on a Dask
-cluster (``executor="dask"``, ``--executor dask``: the cluster at ``--scheduler``, else a local
-one of ``workers`` processes started for the run), each worker writing its entry under the
-per-entry lock, so runs and workers share one cache folder safely.
+cache lacks in spawned worker processes (``executor="processes"``, the default, ``workers``
+of them: ``--workers``), or on a Dask cluster (``executor="dask"``, ``--executor dask``: the
+cluster at ``--scheduler``, else a local one of ``workers`` processes started for the run;
+:mod:`copdea_fem.parallel`), each worker writing its entry under the per-entry lock, so runs
+and workers share one cache folder safely; ``executor="inline"`` solves them here, one at a
+time.
 
 Modes.  Frequencies are the real parts of the (coupled) eigenfrequencies [Hz].
 A split pair ``(m,n)a``/``(m,n)b`` that a vibrometer cannot resolve (relative
@@ -47,6 +49,14 @@ from pathlib import Path
 
 from copdea_fem.fingerprint import fe_fingerprint
 from copdea_fem.folders import LockHeld, exclusive_lock
+from copdea_fem.parallel import (
+    DIAGNOSIS_SPELLINGS,
+    check_executor,
+    check_workers,
+    dask_client,
+    one_thread_per_worker,
+    process_pool,
+)
 from copdea_fem.study import Study, StudyError
 
 logger = logging.getLogger(__name__)
@@ -259,14 +269,16 @@ class FEModel:
         Processes that solve a batch of FE studies side by side (:meth:`solve_many`);
         default :func:`default_workers`; 1: every solve in this process, one at a time.
         With ``executor="dask"`` and no ``scheduler``: the local cluster's workers.
-    executor : {"local", "dask"}
-        Where :meth:`solve_many` solves: ``"local"`` (default), spawned processes of this
-        machine; ``"dask"``, a Dask cluster (:func:`copdea_fem.sweeps.cluster.dask_client`),
-        started at the first batch and closed by :meth:`close`.
+    executor : {"processes", "inline", "dask"}, optional
+        Where :meth:`solve_many` solves (:mod:`copdea_fem.parallel`): ``"processes"``
+        (default), spawned processes of this machine; ``"inline"``, here, one at a time;
+        ``"dask"``, a Dask cluster (:func:`copdea_fem.parallel.dask_client`), started at the
+        first batch and closed by :meth:`close`.  The old ``"local"`` is ``"processes"``
+        (with a deprecation warning).
     scheduler : str or distributed.Client, optional
         With ``executor="dask"``: the address of a running scheduler (connected here, so a
         wrong address fails at once with a :class:`StudyError`) or a client the caller
-        holds; None: a local cluster.  Refused with ``executor="local"``.
+        holds; None: a local cluster.  Refused with another executor.
 
     The cache never fails a diagnosis.  An entry is read only when it follows the
     schema of :func:`entry_problem`; a damaged one (not JSON, a wrong type, a
@@ -279,8 +291,8 @@ class FEModel:
     """
 
     def __init__(self, cache_dir=None, lock_wait: float = LOCK_WAIT_SECONDS,
-                 workers: int | None = None, executor: str = "local", scheduler=None):
-        executor, scheduler = check_executor(executor, scheduler)
+                 workers: int | None = None, executor: str | None = None, scheduler=None):
+        executor = check_executor(executor, scheduler, DIAGNOSIS_SPELLINGS, "processes")
         if cache_dir is None:
             cache_dir = fe_cache_dir()
         self.cache_dir = Path(cache_dir).expanduser() if cache_dir else None
@@ -299,7 +311,6 @@ class FEModel:
         self._cluster = contextlib.ExitStack()    # the Dask client (and local cluster), if any
         self._client = None
         if executor == "dask" and scheduler is not None:
-            from copdea_fem.sweeps.cluster import dask_client
             self._client = self._cluster.enter_context(dask_client(scheduler))
         self.solves = 0
         self.seconds = 0.0
@@ -330,13 +341,14 @@ class FEModel:
         workers, or two runs, never solve the same entry at once, and a worker that
         finds an entry another run wrote reads it.  A study a worker cannot solve is
         left out (the caller's :meth:`modes` solves it again and raises its error).
-        Returns the number of studies solved here (0 with one local worker or < 2 to solve).
+        Returns the number of studies solved here (0 inline, with one worker process or
+        with < 2 to solve).
 
         With ``executor="dask"`` the batch goes to the Dask cluster instead, as the same
         tasks (one :class:`FEModel` per task on the cache folder); an entry a remote worker
         solved that this machine's folder lacks is written there too.
         """
-        if self.workers < 2 and self.executor == "local":
+        if self.executor == "inline" or (self.executor == "processes" and self.workers < 2):
             return 0
         todo = {}
         for study, f_max in requests:
@@ -356,9 +368,6 @@ class FEModel:
                  f"{self.workers} processes side by side")
         self.progress(f"FE: {len(todo)} solves on {where} ...")
         folder = str(self.cache_dir) if self.cache_dir is not None else None
-        saved = {name: os.environ.get(name) for name in THREAD_VARIABLES}
-        for name in saved:                   # read by the workers as they start
-            os.environ[name] = "1"
         solved, broken = 0, None
         start = time.perf_counter()
         futures = {}
@@ -373,10 +382,11 @@ class FEModel:
                            for key, (study, f_max) in todo.items()}
                 completed = as_completed(list(futures))
             else:
-                pool = self._worker_pool()
-                futures = {pool.submit(_solve_in_worker, study, f_max, folder,
-                                       self.lock_wait): key
-                           for key, (study, f_max) in todo.items()}
+                with one_thread_per_worker():     # read by the workers as they start
+                    pool = self._worker_pool()
+                    futures = {pool.submit(_solve_in_worker, study, f_max, folder,
+                                           self.lock_wait): key
+                               for key, (study, f_max) in todo.items()}
                 completed = concurrent.futures.as_completed(futures)
             for future in completed:
                 try:
@@ -401,15 +411,9 @@ class FEModel:
             for future in futures:
                 future.cancel()
             raise
-        finally:
-            for name, value in saved.items():
-                if value is None:
-                    os.environ.pop(name, None)
-                else:
-                    os.environ[name] = value
         if broken is not None:             # do not try again: one at a time from now on
             self.close()
-            self.workers, self.executor = 1, "local"
+            self.workers, self.executor = 1, "inline"
             logger.warning(f"FE worker processes failed ({broken!r}); the remaining FE "
                            "studies are solved here, one at a time")
         self.progress(f"FE: {solved} solves in {time.perf_counter() - start:.1f} s "
@@ -421,14 +425,8 @@ class FEModel:
         and kept for the next ones (a worker's start -- Python, NGSolve -- costs seconds);
         ended by :meth:`close`, or when this model is collected or the process exits."""
         if self._pool is None:
-            import concurrent.futures
-            import multiprocessing
             import weakref
-
-            from copdea_fem.sweeps.executors import tie_to_parent
-            self._pool = concurrent.futures.ProcessPoolExecutor(
-                max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"),
-                initializer=tie_to_parent, initargs=(os.getpid(),))
+            self._pool = process_pool(self.workers)
             self._finalizer = weakref.finalize(self, self._pool.shutdown, wait=True,
                                                cancel_futures=True)
         return self._pool
@@ -438,7 +436,6 @@ class FEModel:
         local cluster of :attr:`workers` processes started at the first batch and kept for
         the next ones; closed by :meth:`close`."""
         if self._client is None:
-            from copdea_fem.sweeps.cluster import dask_client
             self._client = self._cluster.enter_context(dask_client(None, self.workers))
         return self._client
 
@@ -543,51 +540,8 @@ class FEModel:
                 staging.unlink(missing_ok=True)
 
 
-#: Thread counts of the BLAS and OpenMP libraries, set to 1 in the worker processes of
-#: :meth:`FEModel.solve_many` (one solve per core, no oversubscription).
-THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 WORKERS_VARIABLE = "COPDEA_FEM_FE_WORKERS"
 MAX_DEFAULT_WORKERS = 4
-
-
-def check_workers(value, option: str = "--fe-workers") -> int:
-    """``value`` as a worker count (an integer >= 1), or :class:`StudyError` naming
-    ``option`` (called before any work).  A count above the machine's cores is capped at
-    them with a warning: each worker is one NGSolve process, and more than one a core
-    only share the cores (and multiply the memory)."""
-    try:
-        count = int(value)
-    except (TypeError, ValueError):
-        count = None
-    if count is None or isinstance(value, bool) or count < 1 or str(count) != str(value).strip():
-        raise StudyError(f"{option} = {value!r} is not allowed; allowed: an integer >= 1 "
-                         "(processes solving FE studies side by side)")
-    cores = os.cpu_count() or 1
-    if count > cores:
-        logger.warning(f"{option} = {count} is more than the {cores} cores of this machine: "
-                       f"{cores} worker(s) used")
-        count = cores
-    return count
-
-
-EXECUTORS = ("local", "dask")
-
-
-def check_executor(executor, scheduler, option: str = "--executor") -> tuple:
-    """``(executor, scheduler)`` checked: ``executor`` one of :data:`EXECUTORS`, a
-    ``scheduler`` only with ``"dask"`` (:func:`copdea_fem.sweeps.cluster.check_scheduler`),
-    else :class:`StudyError` naming the option (called before any work)."""
-    from copdea_fem.inputs import preview
-    from copdea_fem.sweeps.cluster import check_scheduler
-    executor = "local" if executor is None else executor
-    if executor not in EXECUTORS:
-        raise StudyError(f"{option} = {preview(executor)} is not allowed; allowed: one of "
-                         + ", ".join(EXECUTORS))
-    check_scheduler(executor, scheduler)
-    if executor == "dask":
-        from copdea_fem.sweeps.cluster import require_distributed
-        require_distributed()
-    return executor, scheduler
 
 
 def default_workers() -> int:

@@ -20,8 +20,8 @@ SWEEP.yaml
                                         # [0 mm, 6 mm, 12 mm] or {start, stop, points|step}
     tracking: {mac_min: 0.3, label_weight: 0.25, frequency_weight: 0.5, pair_tolerance: 0.01}
     execution:                          # optional; CLI options override
-      executor: local                   # local | pool | dask
-      workers: 2                        # pool processes
+      executor: inline                  # inline | processes | dask
+      workers: 2                        # worker processes of processes
       scheduler: null                   # dask scheduler address; null: a local cluster
       chain_length: auto                # points per continuation chain (auto or >= 1)
       reuse: true                       # or false, or {mesh, prestress, shifts}
@@ -63,7 +63,9 @@ ARPACK's ~190 solves per point; docs/benchmarks.md).
 
 Execution
 ---------
-``local`` runs the chains one after the other in this process; ``pool`` runs
+The executors are those of :mod:`copdea_fem.parallel` (the old ``local`` and ``pool``
+still work, with a deprecation warning).
+``inline`` runs the chains one after the other in this process; ``processes`` runs
 chains in worker processes (spawned; each writes its points); ``dask`` sends
 each point to an existing Dask cluster as a task that depends on its chain
 predecessor and prefers the same worker, which keeps the chain's solver in a
@@ -88,8 +90,8 @@ with its error and does not stop the sweep.
 The package follows the pipeline of a sweep: :mod:`.spec` (the sweep file) and
 :mod:`.axes` (its axes), :mod:`.grid` (points and their keys), :mod:`.models` (one point
 through the dry, coupled or reduced model), :mod:`.store` (point folders),
-:mod:`.executors` (local, pool, dask) with :mod:`.cluster` (the Dask cluster: a running
-one, or a local one for the run; the diagnosis's FE solves use it too), :mod:`.gather`
+:mod:`.executors` (inline, processes, dask: the worker processes and the Dask cluster
+are :mod:`copdea_fem.parallel`'s, shared with the diagnosis's FE solves), :mod:`.gather`
 (tracking, tables) with
 :mod:`.tracking` (the mode tracking itself) and :mod:`.plots`.  The reuse benchmark is
 ``python -m benchmarks.sweep benchmark SWEEP.yaml`` (``benchmarks/sweep.py``, outside the

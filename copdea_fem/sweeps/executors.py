@@ -1,27 +1,32 @@
-"""Running the chains of a sweep: in this process, in worker processes, or on Dask."""
+"""Running the chains of a sweep: in this process, in worker processes, or on Dask
+(:mod:`copdea_fem.parallel`)."""
 
 from __future__ import annotations
 
 import itertools
 import logging
 import os
-import signal
-import sys
 import threading
 import time
 from pathlib import Path
 from typing import Callable
 
 from copdea_fem.folders import Claim, held, write_manifest
-from copdea_fem.sweeps.cluster import check_scheduler, dask_client, require_distributed
+from copdea_fem.parallel import (
+    SWEEP_SPELLINGS,
+    check_executor,
+    dask_client,
+    one_thread_per_worker,
+    process_pool,
+)
 from copdea_fem.sweeps.gather import SweepOutcome, finish_sweep, write_summary
 from copdea_fem.sweeps.grid import content_hash
 from copdea_fem.sweeps.models import MODEL_CLASSES, ChainState, PointResult, solve_point
 from copdea_fem.sweeps.spec import (
-    EXECUTORS,
     SWEEP_FILES,
     ReuseSettings,
     Sweep,
+    SweepError,
     SweepPoint,
     check_chain_length,
     sweep_error,
@@ -80,42 +85,6 @@ def _pool_chain_task(sweep: Sweep, chain_ids: list[str], reuse: ReuseSettings,
     return chain_ids
 
 
-#: How often a pool worker checks that the sweep that started it is still there [s].
-PARENT_POLL_SECONDS = 0.25
-_PR_SET_PDEATHSIG = 1              # <linux/prctl.h>
-
-
-def tie_to_parent(parent_pid: int) -> None:
-    """Pool worker initializer: the worker dies with the sweep process that started it.
-
-    A worker outliving its parent (killed with SIGKILL, or crashed) would go on
-    writing point folders into a sweep folder whose lock is gone.  On Linux the
-    kernel sends the worker SIGKILL when its parent dies (``prctl(PR_SET_PDEATHSIG)``);
-    everywhere a daemon thread checks every :data:`PARENT_POLL_SECONDS` that the
-    parent is still the one that started it (``os.getppid``: a dead parent's
-    children are handed to another process) and ends the worker at once if not.
-    A point being written when the worker stops is a staging folder, which the
-    next run into the sweep folder removes (:mod:`copdea_fem.folders`).
-    """
-    if sys.platform.startswith("linux"):
-        try:
-            import ctypes
-            libc = ctypes.CDLL(None, use_errno=True)
-            libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
-        except (OSError, AttributeError):    # no prctl: the watchdog below still acts
-            pass
-    if os.getppid() != parent_pid:          # the parent died before prctl took effect
-        os._exit(1)
-    threading.Thread(target=_watch_parent, args=(parent_pid,), name="copdea-parent-watch",
-                     daemon=True).start()
-
-
-def _watch_parent(parent_pid: int) -> None:
-    while os.getppid() == parent_pid:
-        time.sleep(PARENT_POLL_SECONDS)
-    os._exit(1)
-
-
 _WORKER_CHAINS: dict = {}          # dask worker-local chain states, by chain key
 _WORKER_CHAINS_LOCK = threading.Lock()
 
@@ -152,16 +121,17 @@ def run_sweep(sweep: Sweep, out_dir: str | Path | Claim | None = None, executor:
     out_dir : path or Claim, optional
         Result directory (default ``output.directory`` of the sweep file), or the
         :class:`copdea_fem.folders.Claim` of it the caller holds.
-    executor : {"local", "pool", "dask"}, optional
-        Default ``execution.executor``.
+    executor : {"inline", "processes", "dask"}, optional
+        Default ``execution.executor``, else inline (:mod:`copdea_fem.parallel`; the old
+        ``"local"`` and ``"pool"`` with a deprecation warning).
     workers : int, optional
-        Processes of the ``pool`` executor (default ``execution.workers``), or of the
+        Processes of the ``processes`` executor (default ``execution.workers``), or of the
         local Dask cluster.
     scheduler : str or distributed.Client, optional
         Dask scheduler address (or a connected client) for ``executor="dask"`` (default
         ``execution.scheduler``); without one, a local cluster of ``workers`` processes
         (when given, else one per core) runs the sweep and is closed at its end
-        (:func:`copdea_fem.sweeps.cluster.dask_client`).  Refused with another executor.
+        (:func:`copdea_fem.parallel.dask_client`).  Refused with another executor.
     chain_length : "auto" or int, optional
         Points per continuation chain (default ``execution.chain_length``).
     reuse : ReuseSettings, optional
@@ -175,20 +145,17 @@ def run_sweep(sweep: Sweep, out_dir: str | Path | Claim | None = None, executor:
     """
     start = time.perf_counter()
     progress = logger.info     # one line per point (and a few more), at INFO
-    executor = executor or sweep.execution.executor
-    if executor not in EXECUTORS:
-        raise sweep_error("--executor", executor, "one of " + ", ".join(EXECUTORS))
+    given = executor or sweep.execution.executor
+    executor = check_executor(given, scheduler, SWEEP_SPELLINGS, error=SweepError)
     explicit_workers = workers is not None
     workers = sweep.execution.workers if workers is None else workers
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise sweep_error("--workers", workers, "an integer >= 1")
     chain_length = check_chain_length(sweep.execution.chain_length if chain_length is None
                                       else chain_length)
-    check_scheduler(executor, scheduler)
     if executor == "dask" and scheduler is None:
         scheduler = sweep.execution.scheduler      # None: a local cluster for the run
     if executor == "dask":
-        require_distributed()
         if isinstance(scheduler, str):             # a wrong address stops before any folder
             with dask_client(scheduler) as client:
                 return run_sweep(sweep, out_dir, executor, workers if explicit_workers else None,
@@ -223,10 +190,10 @@ def run_sweep(sweep: Sweep, out_dir: str | Path | Claim | None = None, executor:
                       for chain in sweep.chains(chain_length, parallel)]
             return [chain for chain in chains if chain]
 
-        if executor == "local":
+        if executor == "inline":
             for chain in chains_for(1):
                 _run_chain(sweep, chain, reuse, sink)
-        elif executor == "pool":
+        elif executor == "processes":
             _run_pool(sweep, chains_for(workers), reuse, directory, workers, store, sink)
         elif todo:
             with dask_client(scheduler, workers if explicit_workers else None) as client:
@@ -239,16 +206,11 @@ def run_sweep(sweep: Sweep, out_dir: str | Path | Claim | None = None, executor:
 
 
 def _run_pool(sweep, chains, reuse, directory, workers, store, sink) -> None:
-    """Chains in spawned worker processes; points are reported as they land in the store."""
+    """Chains in spawned worker processes (:func:`copdea_fem.parallel.process_pool`); points
+    are reported as they land in the store."""
     import concurrent.futures
-    import multiprocessing
     # one BLAS thread per process and a share of the cores for NGSolve: no oversubscription
-    saved = {name: os.environ.get(name) for name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS",
-                                                      "MKL_NUM_THREADS")}
-    for name in saved:
-        os.environ.setdefault(name, "1")
     threads = max(1, (os.cpu_count() or 1) // workers)
-    context = multiprocessing.get_context("spawn")   # NGSolve's threads do not survive fork
     reported: set[str] = set()
 
     def report_new(chain_ids):
@@ -259,42 +221,32 @@ def _run_pool(sweep, chains, reuse, directory, workers, store, sink) -> None:
                     reported.add(point_id)
                     sink(PointResult(point_id, record["status"], record), write=False)
 
-    try:
-        with concurrent.futures.ProcessPoolExecutor(max_workers=min(workers, len(chains) or 1),
-                                                    mp_context=context,
-                                                    initializer=tie_to_parent,
-                                                    initargs=(os.getpid(),)) as pool:
-            futures = {pool.submit(_pool_chain_task, sweep, chain, reuse, str(directory),
-                                   threads): chain for chain in chains}
-            pending = set(futures)
-            try:
-                while pending:
-                    done, pending = concurrent.futures.wait(
-                        pending, timeout=1.0, return_when=concurrent.futures.FIRST_COMPLETED)
-                    for future in pending:
-                        report_new(futures[future])
-                    for future in done:
-                        report_new(futures[future])
-                        error = future.exception()
-                        for point_id in futures[future]:
-                            if error is not None and point_id not in reported:
-                                # a crashed worker process: its unfinished points fail
-                                record = {"point": point_id, "status": "failed",
-                                          "study_hash": sweep.point(point_id).study_hash,
-                                          "error": f"worker process failed: {error!r}",
-                                          "parameters": sweep.point(point_id).overrides}
-                                reported.add(point_id)
-                                sink(PointResult(point_id, "failed", record))
-            except BaseException:
-                for future in futures:
-                    future.cancel()
-                raise
-    finally:
-        for name, value in saved.items():
-            if value is None:
-                os.environ.pop(name, None)
-            else:
-                os.environ[name] = value
+    with one_thread_per_worker(), process_pool(min(workers, len(chains) or 1)) as pool:
+        futures = {pool.submit(_pool_chain_task, sweep, chain, reuse, str(directory),
+                               threads): chain for chain in chains}
+        pending = set(futures)
+        try:
+            while pending:
+                done, pending = concurrent.futures.wait(
+                    pending, timeout=1.0, return_when=concurrent.futures.FIRST_COMPLETED)
+                for future in pending:
+                    report_new(futures[future])
+                for future in done:
+                    report_new(futures[future])
+                    error = future.exception()
+                    for point_id in futures[future]:
+                        if error is not None and point_id not in reported:
+                            # a crashed worker process: its unfinished points fail
+                            record = {"point": point_id, "status": "failed",
+                                      "study_hash": sweep.point(point_id).study_hash,
+                                      "error": f"worker process failed: {error!r}",
+                                      "parameters": sweep.point(point_id).overrides}
+                            reported.add(point_id)
+                            sink(PointResult(point_id, "failed", record))
+        except BaseException:
+            for future in futures:
+                future.cancel()
+            raise
 
 
 def _run_dask(sweep, chains_for, reuse, client, sink) -> None:

@@ -13,6 +13,7 @@ import numpy as np
 
 from copdea_fem.folders import package_versions
 from copdea_fem.inputs import read_yaml
+from copdea_fem.parallel import SWEEP_SPELLINGS, executor_name
 from copdea_fem.study import SCHEMA, Study, StudyError, convert_value, load_study
 from copdea_fem.sweeps.axes import (
     MAX_POINTS,
@@ -25,7 +26,6 @@ from copdea_fem.sweeps.grid import continuation_path, expand_grid
 from copdea_fem.sweeps.tracking import TrackingInputError, TrackingSettings
 
 MODELS = ("dry", "reduced", "coupled")
-EXECUTORS = ("local", "pool", "dask")
 TOP_KEYS = ("name", "description", "study", "set", "model", "axes", "tracking", "execution",
             "output")
 #: What a sweep folder holds (its manifest lists these; each point folder has its own).
@@ -46,7 +46,7 @@ class ReuseSettings:
 
 @dataclass(frozen=True)
 class ExecutionSettings:
-    executor: str = "local"
+    executor: str | None = None       # None: inline (copdea_fem.parallel.EXECUTORS)
     workers: int = 2
     scheduler: str | None = None
     chain_length: int | str = "auto"
@@ -103,7 +103,8 @@ class Sweep:
         return {"name": self.name, "description": self.description, "model": self.model,
                 "axes": {a.key: {"unit": a.unit, "values": list(a.values)} for a in self.axes},
                 "tracking": dataclasses.asdict(self.tracking),
-                "execution": {**dataclasses.asdict(self.execution)},
+                "execution": {**dataclasses.asdict(self.execution),
+                              "executor": self.execution.executor or "inline"},
                 "points": {p.point_id: p.overrides for p in self.points},
                 "path": list(self.path),
                 "base_study": self.base.as_dict(), "provenance": package_versions()}
@@ -308,9 +309,8 @@ def _execution_settings(raw: dict) -> ExecutionSettings:
         if key not in allowed:
             raise sweep_error(f"execution.{key}", raw[key], "keys " + ", ".join(
                 f"execution.{k}" for k in allowed), "unknown key")
-    executor = raw.get("executor", "local")
-    if executor not in EXECUTORS:
-        raise sweep_error("execution.executor", executor, "one of " + ", ".join(EXECUTORS))
+    executor = executor_name(raw.get("executor"), SWEEP_SPELLINGS, "execution.executor",
+                             SweepError)
     workers = raw.get("workers", 2)
     if isinstance(workers, bool) or not isinstance(workers, int) or not 1 <= workers <= 1024:
         raise sweep_error("execution.workers", workers, "an integer in [1, 1024]")
