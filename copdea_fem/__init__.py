@@ -16,10 +16,11 @@ stays light (NGSolve, pyvista and pandas load on first use)::
 __version__ = "0.1.0"
 
 #: The names of :mod:`copdea_fem.api` exported here, imported on first access (PEP 562).
-__all__ = ["load_study", "solve", "response", "force", "spectrum", "sweep", "diagnose",
-           "correlate", "identify", "Solution", "ResponseSolution", "ForceCurve", "Spectrum",
-           "SweepResult", "Diagnosis", "CorrelateResult", "IdentifyResult", "SolveFailed",
-           "StudyError", "OutputFolderError"]
+__all__ = ["load_study", "solve", "response", "force", "spectrum", "fit_material",
+           "calibrate_damping", "sweep", "diagnose", "correlate", "identify", "synthesise",
+           "Solution", "ResponseSolution", "ForceCurve", "Spectrum", "MaterialFitResult",
+           "DampingCalibrationResult", "SweepResult", "Diagnosis", "CorrelateResult",
+           "IdentifyResult", "SyntheticData", "SolveFailed", "StudyError", "OutputFolderError"]
 
 
 def __getattr__(name):

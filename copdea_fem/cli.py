@@ -1,16 +1,19 @@
 """Command line: ``copdea-fem solve|check|force|schema ...`` (thin: parse, call, print).
 
-Every command has one shape: read and check its inputs, claim the output folder once
-(:func:`_output`, before any expensive work), call the Python API (:mod:`copdea_fem.api`;
-``fit-material``, ``calibrate-damping`` and ``synth``: their action), hand the claim to the
-result's ``write`` (the only writer of its files), print a summary.
+Every command has one shape: one call of the Python API (:mod:`copdea_fem.api`, the only
+module of the package imported here), given the command line's options and an
+:class:`~copdea_fem.api.Output` for ``--out``; the API function checks its inputs and
+options, claims the output folder (before any expensive work), runs and writes its result
+(the result's ``write``, the only writer of its files); the command prints the result's
+summary.
 
 Exit codes: 0 success; 2 bad input (study, --set, options, input files, an
 output folder that may not be written, a problem too large), before any
 meshing; 3 a solve that failed for a physical or numerical reason (the message
 says what, at which load, and which study key to change); 130 Ctrl-C and 143
 SIGTERM (one line, no traceback; a result is either complete or not written);
-1 otherwise.
+1 otherwise.  A deprecated spelling (``--executor local``, ``--fe-workers``) still works
+for one release, with one line on stderr naming the new one.
 """
 
 from __future__ import annotations
@@ -18,15 +21,14 @@ from __future__ import annotations
 import argparse
 import contextlib
 import gc
+import logging
 import os
 import signal
 import sys
 import threading
-from pathlib import Path
+import warnings
 
-from copdea_fem.api import SolveFailed, solving
-from copdea_fem.folders import OutputFolderError, claim
-from copdea_fem.study import StudyError, load_study, parse_overrides
+from copdea_fem import api
 
 
 class Terminated(KeyboardInterrupt):
@@ -42,205 +44,91 @@ def _progress(args):
     """The messages of the ``copdea_fem`` loggers on stderr while a command runs: INFO and
     above, WARNING and above with ``--quiet``; a command without ``--quiet`` shows only
     the output folder's messages (:mod:`copdea_fem.folders`) and warnings."""
-    import logging
-
-    from copdea_fem.progress import progress_to
-
     quiet = getattr(args, "quiet", None)
-    with progress_to(_print_progress, logging.WARNING if quiet else logging.INFO) as handler:
+    with api.progress_to(_print_progress, logging.WARNING if quiet else logging.INFO) \
+            as handler:
         if quiet is None:
             handler.addFilter(lambda record: record.levelno > logging.INFO
                               or record.name == "copdea_fem.folders")
         yield
 
 
+def _one_line(message, category, filename, lineno, line=None) -> str:
+    """A warning (a deprecated spelling) as one line on stderr: its message."""
+    return f"{message}\n"
+
+
 def _study(args):
-    return load_study(args.study, overrides=parse_overrides(args.set))
+    return api.load_study(args.study, args.set or None)
 
 
-def _out_dir(args, study) -> Path:
-    return Path(args.out) if args.out else Path(study["output"]["directory"])
+def _output(args) -> api.Output:
+    """``--out`` (None: the command's default folder), claimed by the API call; kept on
+    ``args`` for :func:`main`'s interrupt message."""
+    args.output = api.Output(args.out)
+    return args.output
 
 
-@contextlib.contextmanager
-def _output(args, out_dir, command: str, inputs):
-    """Check and lock the output folder before any work (:func:`copdea_fem.folders.claim`).
-
-    Without ``--out`` the folder comes from the first input file, so it must stay
-    inside the working folder.  The claim is kept on ``args`` for :func:`main`'s
-    interrupt message.
-    """
-    inputs = [item for item in inputs if item]
-    with claim(out_dir, command, inputs=inputs,
-               from_file=None if args.out else inputs[0]) as record:
-        args.claim = record
-        yield record
-
-
-def _check_size(args, *studies) -> None:
-    """The resource guard (:func:`copdea_fem.fe.engines.check_size`) unless --allow-large."""
-    from copdea_fem.api import check_size
-    for study in studies:
-        check_size(study, args.allow_large)
+def _print(lines) -> None:
+    print("\n".join(lines))
 
 
 def cmd_check(args) -> int:
     study = _study(args)
-    _check_size(args, study)
+    api.check_size(study, args.allow_large)
     print(f"{args.study}: valid study '{study.name}'")
     return 0
 
 
 def cmd_schema(args) -> int:
-    from copdea_fem.study import reference_table
-    print(reference_table())
+    print(api.reference_table())
     return 0
 
 
 def cmd_solve(args) -> int:
-    from copdea_fem import api
-    from copdea_fem.output.tables import frequency_table
-
-    study = _study(args)
-    _check_size(args, study)
-    out_dir = _out_dir(args, study)
-    with _output(args, out_dir, "solve", [args.study]) as folder:
-        solution = api.solve(study, allow_large=True)
-        solution.write(folder)
-    result = solution.result
-    print(frequency_table(solution.rows))
-    state = result.state
-    print(f"prestress: z = {state.z * 1e3:g} mm, V_b = {state.voltage:g} V, disc force "
-          f"{state.disc_force:.4g} N, {state.newton_iterations} Newton iterations")
-    print(f"results in {out_dir}")
+    out = _output(args)
+    solution = api.solve(_study(args), allow_large=args.allow_large, out=out)
+    _print(solution.summary_lines(out.path))
     return 0
 
 
 def cmd_response(args) -> int:
     """Forced response of the coupled FE under the chirp, with radiated sound."""
-    from copdea_fem import api
-    from copdea_fem.forced_response.run import summary_lines
-
-    study = _study(args)
-    _check_size(args, study)
-    out_dir = _out_dir(args, study)
-    with _output(args, out_dir, "response", [args.study]) as folder:
-        solution = api.response(study, allow_large=True)
-        solution.write(folder)
-    print("\n".join(summary_lines(solution.result)))
+    solution = api.response(_study(args), allow_large=args.allow_large, out=_output(args))
+    _print(solution.summary_lines())
     return 0
 
 
 def cmd_force(args) -> int:
-    from copdea_fem import api
-
-    study = _study(args)
-    study, z_values, voltages = api.prepare_force(study, args.voltages, args.z_max or None,
-                                                  args.points, args.allow_large)
-    out_dir = _out_dir(args, study)
-    with _output(args, out_dir, "force", [args.study]) as folder:
-        curve = api.compute_force(study, z_values, voltages)
-        curve.write(folder)
-    forces = curve.forces
-    print(f"{'z [mm]':>8}" + "".join(f"{f'F @ {v / 1e3:g} kV [N]':>16}" for v in voltages))
-    for j, z in enumerate(z_values):
-        print(f"{z * 1e3:8.3f}" + "".join(f"{forces[i, j]:16.5f}" for i in range(len(voltages))))
-    print(f"results in {out_dir}")
+    out = _output(args)
+    curve = api.force(_study(args), args.voltages, args.z_max or None, args.points,
+                      allow_large=args.allow_large, out=out)
+    _print(curve.summary_lines(out.path))
     return 0
 
 
 # -- reduced model (Sect. 3.2, Annex I): spectrum, fit-material, calibrate-damping ---------------
-def _reduced_action(action) -> int:
-    """Run a :mod:`copdea_fem.reduced.io` action and print its summary lines.
-
-    Its physical/numerical failures (ReducedModelError) exit with 3 like a
-    failed solve; study and input errors (StudyError) reach :func:`main` (2).
-    """
-    from copdea_fem.reduced.rings import ReducedModelError
-    try:
-        summary = action()
-    except ReducedModelError as error:
-        print(f"error: {error}", file=sys.stderr)
-        return 3
-    print("\n".join(summary["lines"]))
+def cmd_spectrum(args) -> int:
+    out = _output(args)
+    spectrum = api.spectrum(_study(args), modes_json=args.modes_json, out=out)
+    _print(spectrum.summary_lines(out.path))
     return 0
 
 
-def _existing(path, what: str):
-    """An input file named on the command line, checked before the output folder."""
-    from copdea_fem.inputs import read_text
-    if path is not None:
-        read_text(path, what, error=StudyError)
-    return path
-
-
-def _modes_json(args, study):
-    if args.modes_json:
-        return _existing(args.modes_json, "--modes-json")
-    return _existing(study["reduced"]["modes_json"], "reduced.modes_json")
-
-
-def cmd_spectrum(args) -> int:
-    from copdea_fem import api
-    study = _study(args)
-    out_dir = _out_dir(args, study)
-    modes_json = _modes_json(args, study)
-    with _output(args, out_dir, "spectrum", [args.study, modes_json]) as folder:
-        def action():
-            spectrum = api.spectrum(study, modes_json=args.modes_json)
-            spectrum.write(folder)
-            return {"lines": spectrum.summary["lines"] + [f"results in {out_dir}"]}
-        return _reduced_action(action)
-
-
 def cmd_fit_material(args) -> int:
-    from copdea_fem.reduced.io import fit_material_cli
-    study = _study(args)
-    out_dir = _out_dir(args, study)
-    with _output(args, out_dir, "fit-material", [args.study, _existing(args.data, "data file")]):
-        return _reduced_action(lambda: fit_material_cli(study, args.data, out_dir))
+    fit = api.fit_material(_study(args), args.data, out=_output(args))
+    _print(fit.summary_lines())
+    return 0
 
 
 def cmd_calibrate_damping(args) -> int:
-    from copdea_fem.reduced.io import calibrate_damping_cli
-    study = _study(args)
-    out_dir = _out_dir(args, study)
-    modes_json = _modes_json(args, study)
-    inputs = [args.study, _existing(args.spectrum, "spectrum file"), modes_json,
-              _existing(args.quality_factors, "--quality-factors")]
-    relaxation_time = None
-    if args.relaxation_time is not None and args.fit != "prony":
-        raise StudyError(f"--relaxation-time is not allowed with --fit {args.fit}; allowed: "
-                         "with --fit prony")
-    if args.relaxation_time is not None:
-        from copdea_fem.study import convert_quantity
-        relaxation_time = convert_quantity("--relaxation-time", args.relaxation_time, "s",
-                                           minimum=1e-12, maximum=1e3)
-    if args.fit == "modal" and (args.spectrum is None or args.quality_factors):
-        raise StudyError("--fit modal (the reduced model's b/m) needs SPECTRUM.csv and no "
-                         "--quality-factors; allowed: a spectrum CSV, or --fit rayleigh|prony "
-                         "with --quality-factors Q.csv or a spectrum CSV")
-    if args.fit != "modal":
-        if args.quality_factors is not None:     # every row checked before any work
-            from copdea_fem.damping_fit import check_measured, read_quality_csv
-            check_measured(read_quality_csv(args.quality_factors))
-        if args.spectrum is None and args.quality_factors is None:
-            raise StudyError(f"--fit {args.fit} needs measured damping; allowed: "
-                             "--quality-factors Q.csv or a SPECTRUM.csv")
-        _check_size(args, study)
-    if args.fit == "modal":
-        def action():
-            return calibrate_damping_cli(study, args.spectrum, out_dir,
-                                         modes_json=args.modes_json, window=args.window)
-    else:
-        from copdea_fem.damping_fit import calibrate_structural_damping
-
-        def action():
-            return calibrate_structural_damping(
-                study, args.spectrum, out_dir, args.fit, args.quality_factors,
-                modes_json=args.modes_json, window=args.window, relaxation_time=relaxation_time)
-    with _output(args, out_dir, "calibrate-damping", inputs), solving(study):
-        return _reduced_action(action)
+    out = _output(args)
+    calibration = api.calibrate_damping(
+        _study(args), args.spectrum, fit=args.fit, quality_factors=args.quality_factors,
+        relaxation_time=args.relaxation_time, modes_json=args.modes_json, window=args.window,
+        allow_large=args.allow_large, out=out)
+    _print(calibration.summary_lines(out.path))
+    return 0
 
 
 def _add_reduced_commands(commands, with_study) -> None:
@@ -288,24 +176,12 @@ def _add_reduced_commands(commands, with_study) -> None:
 # -- parameter sweeps: sweep SWEEP.yaml ---------------------------------------------------------
 def cmd_sweep(args) -> int:
     """Run or resume a sweep; exit 3 if no point produced a result."""
-    from copdea_fem import api
-    from copdea_fem.study import parse_overrides
-    from copdea_fem.sweeps import format_summary, load_sweep
-    from copdea_fem.parallel import check_scheduler
-
-    sweep = load_sweep(args.sweep, overrides=parse_overrides(args.set))
-    check_scheduler(args.executor or sweep.execution.executor, args.scheduler)
-    if sweep.model != "reduced":
-        _check_size(args, *(point.study for point in sweep.points))
-    out_dir = Path(args.out or sweep.output_directory)
-    with _output(args, out_dir, "sweep", [args.sweep]) as folder:
-        result = api.sweep(args.sweep, args.set or None, out=folder, executor=args.executor,
-                           workers=args.workers, scheduler=args.scheduler,
-                           chain_length=args.chain_length,
-                           reuse=False if args.no_reuse else None, allow_large=True)
-    outcome = result.outcome                  # run in the claimed folder: nothing to copy
-    print(format_summary(sweep, outcome))
-    return 3 if len(outcome.failed) == len(sweep.points) else 0
+    result = api.sweep(args.sweep, args.set or None, out=_output(args), executor=args.executor,
+                       workers=args.workers, scheduler=args.scheduler,
+                       chain_length=args.chain_length,
+                       reuse=False if args.no_reuse else None, allow_large=args.allow_large)
+    _print(result.summary_lines())                # run in the claimed folder: nothing to copy
+    return 3 if result.all_failed else 0
 
 
 def _add_sweep_command(commands) -> None:
@@ -315,11 +191,14 @@ def _add_sweep_command(commands) -> None:
     sweep.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE",
                        help="override a key of the base study, with units")
     sweep.add_argument("--out", help="result directory (default: output.directory of the file)")
-    sweep.add_argument("--executor", choices=("inline", "processes", "dask", "local", "pool"),
-                       help="local (default), a pool of worker processes, or a Dask cluster "
-                       "(the one at --scheduler, else a local one started for the sweep)")
-    sweep.add_argument("--workers", type=int, help="worker processes of --executor pool, or "
-                       "of the local cluster of --executor dask (default: one per core)")
+    sweep.add_argument("--executor", metavar="{inline,processes,dask}",
+                       help="inline: in this process (default); processes: worker processes "
+                       "of this machine; dask: a Dask cluster (the one at --scheduler, else "
+                       "a local one started for the sweep).  The old local and pool: inline "
+                       "and processes (deprecated)")
+    sweep.add_argument("--workers", type=int, help="worker processes of --executor processes, "
+                       "or of the local cluster of --executor dask (default: the file's "
+                       "execution.workers for processes, one per core for dask)")
     sweep.add_argument("--scheduler", metavar="ADDRESS",
                        help="a running Dask scheduler for --executor dask, e.g. "
                        "tcp://host:8786 (default: a local cluster for the sweep)")
@@ -334,104 +213,46 @@ def _add_sweep_command(commands) -> None:
 # -- diagnosis: diagnose MEASURED.yaml, synth STUDY.yaml, effects ---------------------------------
 def cmd_diagnose(args) -> int:
     """Which catalogued effect the model lacks; report.md, diagnosis.json, PNGs."""
-    from copdea_fem import api
-    from copdea_fem.diagnosis import diagnose_out_dir, load_measured, summary_lines
-    if args.fe_cache:
-        from copdea_fem.diagnosis.fe import check_cache_dir
-        check_cache_dir(args.fe_cache, "--fe-cache")    # a file: exit 2 before any work
-    if args.fe_workers is not None:
-        from copdea_fem.parallel import check_workers
-        check_workers(args.fe_workers, "--fe-workers")
-    from copdea_fem.parallel import check_scheduler
-    check_scheduler(args.executor, args.scheduler)      # exit 2 before any work
-    measured = load_measured(args.measured)
-    out_dir = Path(args.out) if args.out else diagnose_out_dir(measured)
-    inputs = [args.measured, *(path for condition in measured.conditions
-                               for path in condition.files.values())]
-    with _output(args, out_dir, "diagnose", inputs) as folder:
-        def action():
-            diagnosis = api.diagnose(args.measured, alpha=args.alpha, model=args.model,
-                                     fe_cache=args.fe_cache, fe_workers=args.fe_workers,
-                                     executor=args.executor, scheduler=args.scheduler)
-            diagnosis.write(folder)
-            return {"lines": summary_lines(diagnosis.result, out_dir)}
-        return _reduced_action(action)
+    out = _output(args)
+    diagnosis = api.diagnose(args.measured, alpha=args.alpha, model=args.model,
+                             fe_cache=args.fe_cache, workers=args.workers,
+                             fe_workers=args.fe_workers, executor=args.executor,
+                             scheduler=args.scheduler, out=out)
+    _print(diagnosis.summary_lines(out.path))
+    return 0
 
 
 def cmd_correlate(args) -> int:
     """Pair each scanned condition's identified modes with the FE's by shape."""
-    from copdea_fem import api
-    from copdea_fem.diagnosis import load_measured
-    measured = load_measured(args.measured)
-    if not any(condition.scan is not None for condition in measured.conditions):
-        raise StudyError(f"{args.measured}: no condition names a scan; allowed: conditions "
-                         "with scan: FILE.uff")
-    out_dir = Path(args.out) if args.out else Path("results") / f"correlate_{measured.name}"
-    inputs = [args.measured, *(path for condition in measured.conditions
-                               for path in condition.files.values())]
-    with _output(args, out_dir, "correlate", inputs) as folder:
-        result = api.correlate(args.measured)
-        result.write(folder)
-    for correlation in result.correlations:
-        paired = sum(1 for pair in correlation.pairs if pair.label)
-        print(f"{correlation.condition}: {paired} of {len(correlation.pairs)} test modes "
-              "paired by shape")
-    print(f"wrote pairs.csv, comac.csv, mac.png and report.md to {out_dir}")
+    out = _output(args)
+    result = api.correlate(args.measured, out=out)
+    _print(result.summary_lines(out.path))
     return 0
 
 
 def cmd_identify(args) -> int:
     """The modes of every scan of a measured.yaml: identified.csv, stabilisation PNGs, VTU."""
-    from copdea_fem import api
-    from copdea_fem.diagnosis import load_measured
-    measured = load_measured(args.measured)
-    if not any(condition.scan is not None for condition in measured.conditions):
-        raise StudyError(f"measured file {args.measured}: no condition has a scan; allowed: "
-                         "at least one condition with scan: FILE (.uff/.unv)")
-    out_dir = Path(args.out) if args.out else Path("results") / f"identify_{measured.name}"
-    inputs = [args.measured, *(path for condition in measured.conditions
-                               for path in condition.files.values())]
+    out = _output(args)
     options = {} if args.max_order is None else {"max_order": args.max_order}
-    if options:
-        from copdea_fem.vibrometer.identification import check_options
-        check_options(options)                       # exit 2 before any work
-    with _output(args, out_dir, "identify", inputs) as folder:
-        result = api.identify(args.measured, **options)
-        result.write(folder)
-    for item in result.sets:
-        modes = ", ".join(f"{m.freq_hz:.1f}" for m in item.modes)
-        print(f"{item.condition}: {len(item.modes)} modes [Hz]: {modes}")
-    print(f"wrote {out_dir}")
+    result = api.identify(args.measured, out=out, **options)
+    _print(result.summary_lines(out.path))
     return 0
 
 
 def cmd_synth(args) -> int:
     """Synthetic measured.yaml set from the model with chosen effects on."""
-    from copdea_fem.diagnosis import run_synth, synth_out_dir
-    from copdea_fem.diagnosis.synth import SynthOptions
-    study = _study(args)
-    out_dir = Path(args.out) if args.out else synth_out_dir(study, args.seed)
-    options = SynthOptions(frequency_noise=args.frequency_noise, quality_noise=args.quality_noise,
-                           amplitude_noise=args.amplitude_noise,
-                           missing_probability=args.missing, spurious=args.spurious,
-                           label_fraction=args.label_fraction, spectra=not args.no_spectra,
-                           seed=args.seed)
-    if args.format == "uff":
-        from copdea_fem.diagnosis import run_synth_scan
-        from copdea_fem.diagnosis.synth_scan import ScanOptions
-        options = ScanOptions(frequency_noise=args.frequency_noise, seed=args.seed)
-        options.check()
-        with _output(args, out_dir, "synth", [args.study]):
-            return _reduced_action(lambda: run_synth_scan(study, args.effects, args.conditions,
-                                                          args.param, options, out_dir))
-    with _output(args, out_dir, "synth", [args.study]):
-        return _reduced_action(lambda: run_synth(study, args.effects, args.conditions,
-                                                 args.param, options, out_dir))
+    out = _output(args)
+    synthetic = api.synthesise(
+        _study(args), args.effects, args.conditions, args.param, file_format=args.format,
+        seed=args.seed, frequency_noise=args.frequency_noise, quality_noise=args.quality_noise,
+        amplitude_noise=args.amplitude_noise, missing=args.missing, spurious=args.spurious,
+        label_fraction=args.label_fraction, spectra=not args.no_spectra, out=out)
+    _print(synthetic.summary_lines(out.path))
+    return 0
 
 
 def cmd_effects(args) -> int:
-    from copdea_fem.diagnosis import catalogue_table
-    print(catalogue_table())
+    print(api.catalogue_table())
     return 0
 
 
@@ -452,14 +273,18 @@ def _add_diagnose_commands(commands, with_study) -> None:
                           help="folder of cached FE solves (default: $COPDEA_FEM_FE_CACHE, else "
                                "the user cache folder; a $COPDEA_FEM_FE_CACHE that names a "
                                "file is ignored with a warning)")
-    diagnose.add_argument("--fe-workers", metavar="N",
+    diagnose.add_argument("--workers", metavar="N",
                           help="processes solving FE studies side by side (default: "
                                "$COPDEA_FEM_FE_WORKERS, else the cores, at most 4; 1: one at "
                                "a time); with --executor dask, the local cluster's workers")
-    diagnose.add_argument("--executor", choices=("inline", "processes", "dask", "local"),
-                          help="where the FE studies are solved side by side: local "
-                               "processes (default) or a Dask cluster (the one at "
-                               "--scheduler, else a local one started for the run)")
+    diagnose.add_argument("--fe-workers", metavar="N",
+                          help="the old name of --workers (deprecated)")
+    diagnose.add_argument("--executor", metavar="{processes,inline,dask}",
+                          help="where the FE studies are solved: processes: side by side in "
+                               "worker processes of this machine (default); inline: in this "
+                               "process, one at a time; dask: a Dask cluster (the one at "
+                               "--scheduler, else a local one started for the run).  The old "
+                               "local: processes (deprecated)")
     diagnose.add_argument("--scheduler", metavar="ADDRESS",
                           help="a running Dask scheduler for --executor dask, e.g. "
                                "tcp://host:8786 (the workers must reach the --fe-cache folder "
@@ -523,14 +348,12 @@ def _add_diagnose_commands(commands, with_study) -> None:
 
 
 def _add_mesh_options(command) -> None:
-    from copdea_fem.fe.engines import MAX_UNKNOWNS
-    from copdea_fem.fe.quadrant.geometry import CACHE_VARIABLE
     command.add_argument("--mesh-cache", metavar="DIR",
-                         help=f"mesh cache folder (default: ${CACHE_VARIABLE}, else the source "
-                         "checkout's meshes/, else the user cache folder)")
+                         help=f"mesh cache folder (default: ${api.MESH_CACHE_VARIABLE}, else "
+                         "the source checkout's meshes/, else the user cache folder)")
     command.add_argument("--allow-large", action="store_true",
-                         help=f"start even when the problem is estimated above {MAX_UNKNOWNS:.0e} "
-                         "unknowns")
+                         help=f"start even when the problem is estimated above "
+                         f"{api.MAX_UNKNOWNS:.0e} unknowns")
 
 
 def _version() -> str:
@@ -605,7 +428,8 @@ def _terminate(signum, frame):
 
 
 def _interrupted(args) -> str:
-    record = getattr(args, "claim", None)
+    output = getattr(args, "output", None)
+    record = output.claim if output is not None else None
     if record is not None and record.command == "sweep":
         return f"interrupted; the points finished so far are kept in {record.target}; run " \
                "the sweep again to resume"
@@ -615,38 +439,40 @@ def _interrupted(args) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from copdea_fem.fe.quadrant.geometry import CACHE_VARIABLE
-
     args = build_parser().parse_args(argv)
-    saved_cache = os.environ.get(CACHE_VARIABLE)
+    cache_variable = api.MESH_CACHE_VARIABLE
+    saved_cache = os.environ.get(cache_variable)
     if getattr(args, "mesh_cache", None):
-        os.environ[CACHE_VARIABLE] = args.mesh_cache   # reaches sweep worker processes too
+        os.environ[cache_variable] = args.mesh_cache   # reaches sweep worker processes too
     main_thread = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGTERM, _terminate) if main_thread else None
+    saved_format, warnings.formatwarning = warnings.formatwarning, _one_line
     try:
         with _progress(args):
             return _run(args)
     finally:
+        warnings.formatwarning = saved_format
         if main_thread:
             signal.signal(signal.SIGTERM, previous)
         if saved_cache is None:
-            os.environ.pop(CACHE_VARIABLE, None)
+            os.environ.pop(cache_variable, None)
         else:
-            os.environ[CACHE_VARIABLE] = saved_cache
+            os.environ[cache_variable] = saved_cache
 
 
 def _run(args) -> int:
-    from copdea_fem.fe.prestress import PrestressError
-
+    """The command, its errors mapped to exit codes (module notes); an error class that
+    lives in a heavy module is looked up only when an error arrives."""
     try:
         return args.handler(args)
     except KeyboardInterrupt as interruption:
         print(_interrupted(args), file=sys.stderr)
         return 143 if isinstance(interruption, Terminated) else 130
-    except (StudyError, OutputFolderError) as error:
+    except (api.StudyError, api.OutputFolderError) as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
-    except (SolveFailed, PrestressError, NotImplementedError) as error:
+    except (api.SolveFailed, api.PrestressError, api.ReducedModelError,
+            NotImplementedError) as error:
         print(f"error: {error}", file=sys.stderr)
         return 3
     except RuntimeError as error:

@@ -359,7 +359,8 @@ def fe_modes(study) -> dict:
     """``{label: (freq_hz, damping_ratio)}`` of an FE solve of ``study`` (first of a label).
 
     :func:`copdea_fem.fe.pipeline.run_solve`, nothing written (not :mod:`copdea_fem.api`, which
-    imports this module's callers: the CLI wraps the fit in :func:`copdea_fem.api.solving`).
+    imports this module: :func:`copdea_fem.api.calibrate_damping` wraps the fit in
+    :func:`copdea_fem.api.solving`).
     """
     from copdea_fem.fe.pipeline import run_solve
     result = run_solve(study)
@@ -554,21 +555,16 @@ FIT_COLUMNS = ("label", "freq_hz", "measured_quality_factor", "measured_damping_
                "residual", "strain_energy_fraction", "used")
 
 
-def calibrate_structural_damping(study, spectrum_csv, out_dir, fit: str, quality_csv=None,
-                                 modes_json=None, window: float = 0.15,
-                                 relaxation_time=None) -> dict:
-    """Fit ``membrane.rayleigh_alpha/beta`` or one Prony term (:mod:`copdea_fem.damping_fit`).
+def measured_damping(study, spectrum_csv=None, quality_csv=None, modes_json=None,
+                     window: float = 0.15) -> MeasuredDamping:
+    """The measured damping a structural fit is made to, checked (:func:`check_measured`).
 
-    Measured damping: ``quality_csv`` (label, quality_factor [, freq_hz]), else the b/m
-    calibrated on ``spectrum_csv`` (zeta = (b/m) / (2 omega)).  Writes ``damping_fit.csv``
-    (``FIT_COLUMNS``: FE frequency [Hz], measured and fitted damping ratio and quality
-    factor [-], the FE radiation damping ratio [-], residual = fitted / measured - 1 [-],
-    the material strain-energy share of a Prony fit [-], whether the mode was fitted)
-    and prints the table and the ``--set`` options.
+    ``quality_csv`` (:func:`read_quality_csv`: label, quality_factor [, freq_hz]), else the
+    b/m of the reduced model calibrated on ``spectrum_csv``
+    (:func:`copdea_fem.reduced.io.calibrate_on_spectrum`; zeta = (b/m) / (2 omega),
+    :func:`measured_from_spectrum`).
     """
-    from copdea_fem.folders import result_directory
-    from copdea_fem.reduced.io import calibrate_on_spectrum, write_csv
-    from copdea_fem.reduced.rings import ReducedModelError
+    from copdea_fem.reduced.io import calibrate_on_spectrum
     if quality_csv is not None:
         measured = read_quality_csv(quality_csv)
     elif spectrum_csv is not None:
@@ -576,26 +572,50 @@ def calibrate_structural_damping(study, spectrum_csv, out_dir, fit: str, quality
         measured = measured_from_spectrum(calibration.labels, calibration.damping_per_mass,
                                           setup.reduced.frequency_hz, source=str(spectrum_csv))
     else:
-        raise StudyError(f"--fit {fit} needs measured damping; allowed: --quality-factors "
-                         "Q.csv or a SPECTRUM.csv")
+        raise StudyError("measured damping is required; allowed: --quality-factors Q.csv or "
+                         "a SPECTRUM.csv")
     check_measured(measured)
+    return measured
+
+
+def calibrate_structural_damping(study, measured: MeasuredDamping, fit: str,
+                                 relaxation_time=None) -> DampingFit:
+    """Fit ``membrane.rayleigh_alpha/beta`` or one Prony term (module docstring) to
+    ``measured`` with the FE of ``study`` (:func:`fit_damping`); measured damping that
+    cannot be fitted is a :class:`~copdea_fem.reduced.rings.ReducedModelError` (the CLI's
+    exit 3)."""
+    from copdea_fem.reduced.rings import ReducedModelError
     try:
-        result = fit_damping(study, measured, fit, relaxation_time=relaxation_time)
+        return fit_damping(study, measured, fit, relaxation_time=relaxation_time)
     except DampingFitError as error:
         raise ReducedModelError(str(error)) from None
+
+
+def write_damping_fit(out, result: DampingFit) -> list:
+    """``damping_fit.csv`` in ``out`` (a staging folder): :data:`FIT_COLUMNS` (FE frequency
+    [Hz], measured and fitted damping ratio and quality factor [-], the FE radiation damping
+    ratio [-], residual = fitted / measured - 1 [-], the material strain-energy share of a
+    Prony fit [-], whether the mode was fitted); its path in a list."""
+    from copdea_fem.reduced.io import write_csv
+    return [write_csv(out / "damping_fit.csv", FIT_COLUMNS, damping_fit_columns(result))]
+
+
+def damping_fit_columns(result: DampingFit) -> tuple:
+    """The columns of ``damping_fit.csv``, in the order of :data:`FIT_COLUMNS`."""
     strain = result.strain_fraction if result.strain_fraction is not None \
         else np.full(len(result.labels), math.nan)
-    out = Path(out_dir)
-    with result_directory(out, "calibrate-damping") as staging:
-        files = [write_csv(staging / "damping_fit.csv", FIT_COLUMNS,
-                           (result.labels, result.freq_hz, 1 / (2 * result.measured),
-                            result.measured, result.radiation, result.fitted,
-                            1 / (2 * result.fitted), result.residual, strain,
-                            ["yes" if used else "no" for used in result.used]))]
-    files = [out / path.name for path in files]
-    source = "FE with the fitted keys" if result.verified else "formula (not FE-verified)"
-    lines = [f"{fit} fit to {len(result.labels)} measured mode(s) from {measured.source}; "
-             f"fitted = {source}",
+    return (result.labels, result.freq_hz, 1 / (2 * result.measured), result.measured,
+            result.radiation, result.fitted, 1 / (2 * result.fitted), result.residual, strain,
+            ["yes" if used else "no" for used in result.used])
+
+
+def damping_fit_lines(result: DampingFit, source: str) -> list[str]:
+    """What ``copdea-fem calibrate-damping --fit rayleigh|prony`` prints: the table of the
+    fitted modes, the rms residual, the notes and the ``--set`` options (``source``: where
+    the measured damping came from)."""
+    verified = "FE with the fitted keys" if result.verified else "formula (not FE-verified)"
+    lines = [f"{result.kind} fit to {len(result.labels)} measured mode(s) from {source}; "
+             f"fitted = {verified}",
              f"{'mode':>8} {'FE Hz':>9} {'Q meas':>9} {'zeta meas':>10} {'zeta rad':>10} "
              f"{'zeta fit':>10} {'residual':>9}  fitted"]
     for j, label in enumerate(result.labels):
@@ -606,10 +626,4 @@ def calibrate_structural_damping(study, spectrum_csv, out_dir, fit: str, quality
     lines.append(f"  rms residual of the fitted modes: {100 * result.rms_residual:.2f} %")
     lines.extend(f"  note: {note}" for note in result.notes)
     lines.append("  use: " + result.options())
-    lines.append(f"wrote {len(files)} files to {out}")
-    return {"fit": fit, "keys": result.keys, "labels": list(result.labels),
-            "measured_damping_ratio": result.measured.tolist(),
-            "fitted_damping_ratio": result.fitted.tolist(),
-            "residual": result.residual.tolist(), "used": result.used.tolist(),
-            "rms_residual": result.rms_residual, "notes": list(result.notes),
-            "files": [str(f) for f in files], "lines": lines}
+    return lines

@@ -125,3 +125,34 @@ def test_the_package_carries_no_history_and_no_benchmark():
                 if "bench" in path.stem or (path.name == "__main__.py"
                                             and path != PACKAGE / "study" / "__main__.py")]
     assert HISTORY.search("see Issue 25 for the timings") and not HISTORY.search("tissue 3")
+
+
+def cli_imports(path: Path = PACKAGE / "cli.py") -> list[str]:
+    """Every module the command line imports (``ast`` over the whole module: the imports
+    inside functions too), ``from copdea_fem import api`` read as ``copdea_fem.api``."""
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            found += [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            module = "." * node.level + (node.module or "")
+            found += ([f"{module}.{alias.name}" for alias in node.names]
+                      if module == "copdea_fem" else [module])
+    return found
+
+
+def test_the_cli_imports_the_api_and_the_standard_library_only():
+    """The command line is thin: each command one call of :mod:`copdea_fem.api`, which
+    holds the checks; it imports nothing else of the package (nor a third-party module)."""
+    others = [name for name in cli_imports()
+              if name != "copdea_fem.api" and name.split(".")[0] not in sys.stdlib_module_names]
+    assert others == []
+    assert "copdea_fem.api" in cli_imports()
+
+
+def test_a_cli_import_of_another_module_is_found(tmp_path):
+    source = tmp_path / "cli.py"
+    source.write_text("import os\nfrom copdea_fem import api\n\ndef f():\n"
+                      "    from copdea_fem.study import load_study\n    import numpy\n"
+                      "    from . import folders\n")
+    assert cli_imports(source) == ["os", "copdea_fem.api", "copdea_fem.study", "numpy", "."]

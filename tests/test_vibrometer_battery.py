@@ -34,15 +34,15 @@ NULL_SEEDS = range(5)
 
 
 def _export(tmp_path, effects: str, seed: int, overrides=None) -> Path:
-    from copdea_fem.diagnosis import run_synth_scan
+    from copdea_fem.api import synthesise
     from copdea_fem.diagnosis.synth_scan import ScanOptions
     from copdea_fem.study import load_study
 
     options = ScanOptions(rings=5, per_ring=16, disc_points=4, f_min=150, f_max=850,
                           resolution=2.5, seed=seed)
     out = tmp_path / f"export_{effects or 'null'}_{seed}"
-    run_synth_scan(load_study(BASE, overrides=overrides), effects,
-                   "load.z=16 mm, load.voltage=2 kV", None, options, out)
+    synthesise(load_study(BASE, overrides=overrides), effects,
+               "load.z=16 mm, load.voltage=2 kV", file_format="uff", options=options, out=out)
     return out / "measured.yaml"
 
 

@@ -10,10 +10,16 @@
     sol.air("(0,1)")               # pyvista grid of the air with its pressure fields (coupled)
     sol.write("results/g1")        # the files and folder rules of `copdea-fem solve --out`
 
-:func:`response`, :func:`force`, :func:`spectrum`, :func:`sweep` and :func:`diagnose`
-have the same shape: a result object with its tables as :class:`pandas.DataFrame` and a
-``write(folder)`` that writes the command's files under the rules of
-:mod:`copdea_fem.folders`.  The command line (:mod:`copdea_fem.cli`) calls these.
+Every command has this shape (:func:`response`, :func:`force`, :func:`spectrum`,
+:func:`fit_material`, :func:`calibrate_damping`, :func:`sweep`, :func:`diagnose`,
+:func:`identify`, :func:`correlate`, :func:`synthesise`): a function that checks its inputs
+and options before any work and returns a result object with its tables as
+:class:`pandas.DataFrame`, its printed summary (``summary_lines``) and a ``write(folder)``
+that writes the command's files under the rules of :mod:`copdea_fem.folders` (the only
+writer of those files).  Given ``out`` (a folder, or an :class:`Output` as the command line
+asks for one), the function claims that folder after its checks and before any work and
+writes the result there itself.  The command line (:mod:`copdea_fem.cli`) is one call of
+these per command, and imports nothing else of the package.
 
 Progress messages go to the :mod:`logging` loggers ``"copdea_fem.*"`` at level INFO, so
 nothing is printed unless asked (``logging.basicConfig(level=logging.INFO)``); a callable
@@ -24,7 +30,11 @@ runs, and nothing is printed).  Errors are the command line's, with the same mes
 :class:`SolveFailed` and :class:`~copdea_fem.fe.prestress.PrestressError` (a solve that
 failed for a physical or numerical reason; exit 3), and
 :class:`~copdea_fem.reduced.rings.ReducedModelError` (the reduced model, or the diagnosis's
-model, cannot be built or evaluated for these inputs; exit 3).  Each function's *Raises*
+model, cannot be built or evaluated for these inputs; exit 3).  ``PrestressError`` and
+``ReducedModelError`` are importable from here too (loaded on first access, as are
+:data:`MAX_UNKNOWNS` and :data:`MESH_CACHE_VARIABLE`, so that ``import copdea_fem.api``
+stays light).  A name of an old spelling (``executor="local"``, ``fe_workers``) still works
+for one release, with a :class:`FutureWarning`.  Each function's *Raises*
 section says which it can raise.
 
 A :class:`~copdea_fem.study.Study` given to a function is validated again first
@@ -36,14 +46,22 @@ naming the mesh keys.
 
 The modules: :mod:`~copdea_fem.api.calls` (what every function shares: the study given,
 the resource guard, progress, :class:`SolveFailed`), :mod:`~copdea_fem.api.folders` (the
-result folders of ``write``), then the functions with their results:
+result folders of ``write`` and of ``out``), then the functions with their results:
 :mod:`~copdea_fem.api.fe_results` (:func:`solve`, :func:`force`),
 :mod:`~copdea_fem.api.response_results` (:func:`response`, :func:`spectrum`),
-:mod:`~copdea_fem.api.sweep_results` (:func:`sweep`) and
+:mod:`~copdea_fem.api.calibration_results` (:func:`fit_material`,
+:func:`calibrate_damping`), :mod:`~copdea_fem.api.sweep_results` (:func:`sweep`),
 :mod:`~copdea_fem.api.measured_results` (:func:`diagnose`, :func:`identify`,
-:func:`correlate`).  Their public names are imported from here.
+:func:`correlate`) and :mod:`~copdea_fem.api.synthetic_results` (:func:`synthesise`,
+:func:`catalogue_table`).  Their public names are imported from here.
 """
 
+from copdea_fem.api.calibration_results import (
+    DampingCalibrationResult,
+    MaterialFitResult,
+    calibrate_damping,
+    fit_material,
+)
 from copdea_fem.api.calls import SolveFailed, check_size, load_study, solving
 from copdea_fem.api.fe_results import (
     ForceCurve,
@@ -62,15 +80,35 @@ from copdea_fem.api.measured_results import (
     identify,
 )
 from copdea_fem.api.response_results import ResponseSolution, Spectrum, response, spectrum
+from copdea_fem.api.folders import Output
 from copdea_fem.api.sweep_results import SweepResult, sweep
+from copdea_fem.api.synthetic_results import SyntheticData, catalogue_table, synthesise
 from copdea_fem.folders import Claim as Claim
 from copdea_fem.folders import OutputFolderError
+from copdea_fem.progress import progress_to
 from copdea_fem.study import Study as Study
-from copdea_fem.study import StudyError
+from copdea_fem.study import StudyError, reference_table
 
 #: The API's names in the order of the API page (autodoc's ``bysource`` follows it).
 __all__ = ["load_study", "solve", "Solution", "response", "ResponseSolution",  # noqa: RUF022
            "force", "prepare_force", "compute_force", "ForceCurve", "spectrum", "Spectrum",
-           "sweep", "SweepResult", "diagnose", "Diagnosis", "identify", "IdentifyResult",
-           "correlate", "CorrelateResult", "SolveFailed", "StudyError", "OutputFolderError",
-           "solving", "check_size"]
+           "fit_material", "MaterialFitResult", "calibrate_damping",
+           "DampingCalibrationResult", "sweep", "SweepResult", "diagnose", "Diagnosis",
+           "identify", "IdentifyResult", "correlate", "CorrelateResult", "synthesise",
+           "SyntheticData", "catalogue_table", "reference_table", "Output", "SolveFailed",
+           "StudyError", "OutputFolderError", "PrestressError", "ReducedModelError",
+           "solving", "check_size", "progress_to"]
+
+#: Names loaded on first access (PEP 562): they live in modules that import NumPy or NGSolve.
+_LAZY = {"PrestressError": ("copdea_fem.fe.prestress", "PrestressError"),
+         "ReducedModelError": ("copdea_fem.reduced.rings", "ReducedModelError"),
+         "MAX_UNKNOWNS": ("copdea_fem.fe.engines", "MAX_UNKNOWNS"),
+         "MESH_CACHE_VARIABLE": ("copdea_fem.fe.quadrant.geometry", "CACHE_VARIABLE")}
+
+
+def __getattr__(name):
+    if name in _LAZY:
+        import importlib
+        module, attribute = _LAZY[name]
+        return getattr(importlib.import_module(module), attribute)
+    raise AttributeError(f"module 'copdea_fem.api' has no attribute {name!r}")

@@ -17,7 +17,7 @@ from copdea_fem.api.calls import (
     reporting_to,
     solving,
 )
-from copdea_fem.api.folders import claimed
+from copdea_fem.api.folders import Output, claimed, claiming
 from copdea_fem.folders import Claim
 from copdea_fem.study import Study, StudyError
 
@@ -34,7 +34,8 @@ logger = logging.getLogger("copdea_fem")
 
 def solve(study: Study | str | Path, *, allow_large: bool = False,
           mesh_cache: str | Path | None = None,
-          progress: Callable[[str], None] | None = None) -> Solution:
+          progress: Callable[[str], None] | None = None,
+          out: str | Path | Claim | Output | None = None) -> Solution:
     """Prestress and modes of a study (``copdea-fem solve``, nothing written).
 
     Parameters
@@ -48,6 +49,10 @@ def solve(study: Study | str | Path, *, allow_large: bool = False,
     progress : callable(str), optional
         Receives each progress message while the call runs (default: the ``copdea_fem``
         logger at INFO only, nothing printed unless logging is configured).
+    out : str, Path, Claim or Output, optional
+        Where to write the result too (:meth:`Solution.write`), claimed after the inputs
+        are checked and before any work (an :class:`Output` without a folder: the study's
+        ``output.directory``); default: nothing written.
 
     Returns
     -------
@@ -67,6 +72,8 @@ def solve(study: Study | str | Path, *, allow_large: bool = False,
     PrestressError
         The prestress (Newton) solve fails: a loss of tension (the membrane would
         wrinkle), pull-in, or no convergence after ``prestress.max_cuts`` step halvings.
+    OutputFolderError
+        ``out`` may not be written (as in :meth:`Solution.write`).
     """
     from copdea_fem.fe.engines import engine_for
     from copdea_fem.fe.pipeline import run_solve
@@ -74,9 +81,13 @@ def solve(study: Study | str | Path, *, allow_large: bool = False,
     study = as_study(study)
     engine = engine_for(study)
     check_size(study, allow_large, engine)
-    with solving(study), reporting_to(progress):
-        result = run_solve(study, cache_dir=mesh_cache, engine=engine)
-    return Solution(result)
+    with claiming(out, "solve", input_files(study), study["output"]["directory"]) as folder:
+        with solving(study), reporting_to(progress):
+            result = run_solve(study, cache_dir=mesh_cache, engine=engine)
+        solution = Solution(result)
+        if folder is not None:
+            solution.write(folder, progress)
+    return solution
 
 
 class Solution:
@@ -113,6 +124,18 @@ class Solution:
             self._rows = mode_rows(self.result.modes,
                                    None if coupled is None else coupled.dry_partner_hz)
         return self._rows
+
+    def summary_lines(self, folder: str | Path | None = None) -> list[str]:
+        """What ``copdea-fem solve`` prints: the frequency table, the prestress and
+        (``folder``: where the result was written) the folder."""
+        from copdea_fem.output.tables import frequency_table
+        state = self.result.state
+        lines = [frequency_table(self.rows),
+                 f"prestress: z = {state.z * 1e3:g} mm, V_b = {state.voltage:g} V, disc force "
+                 f"{state.disc_force:.4g} N, {state.newton_iterations} Newton iterations"]
+        if folder is not None:
+            lines.append(f"results in {folder}")
+        return lines
 
     @property
     def prestress(self) -> dict:
@@ -312,7 +335,8 @@ def prepare_force(study: Study, voltages: str | Sequence[str | float] = "0 kV, 3
 def force(study: Study | str | Path, voltages: str | Sequence[str | float] = "0 kV, 3 kV",
           z_max: str | float | None = None, points: int = 10, *, allow_large: bool = False,
           mesh_cache: str | Path | None = None,
-          progress: Callable[[str], None] | None = None) -> ForceCurve:
+          progress: Callable[[str], None] | None = None,
+          out: str | Path | Claim | Output | None = None) -> ForceCurve:
     """Static disc force F(z) at each voltage (Fig. 4b; ``copdea-fem force``, nothing
     written).
 
@@ -333,6 +357,8 @@ def force(study: Study | str | Path, voltages: str | Sequence[str | float] = "0 
         As :func:`solve`'s.
     progress : callable(str), optional
         As :func:`solve`'s.
+    out : str, Path, Claim or Output, optional
+        As :func:`solve`'s (:meth:`ForceCurve.write`).
 
     Returns
     -------
@@ -345,11 +371,17 @@ def force(study: Study | str | Path, voltages: str | Sequence[str | float] = "0 
         A bad study file or key, or a bad input of :func:`prepare_force`.
     PrestressError
         The prestress (Newton) solve fails at one of the loads (as in :func:`solve`).
+    OutputFolderError
+        ``out`` may not be written (as in :meth:`Solution.write`).
     """
     study, z_values, voltage_list = prepare_force(as_study(study), voltages, z_max, points,
                                                   allow_large)
-    return compute_force(study, z_values, voltage_list, mesh_cache=mesh_cache,
-                         progress=progress)
+    with claiming(out, "force", input_files(study), study["output"]["directory"]) as folder:
+        curve = compute_force(study, z_values, voltage_list, mesh_cache=mesh_cache,
+                              progress=progress)
+        if folder is not None:
+            curve.write(folder)
+    return curve
 
 
 def compute_force(study: Study, z_values: Sequence[float] | np.ndarray,
@@ -405,6 +437,18 @@ class ForceCurve:
     z_values: np.ndarray
     voltages: list[float]
     forces: np.ndarray
+
+    def summary_lines(self, folder: str | Path | None = None) -> list[str]:
+        """What ``copdea-fem force`` prints: F [N] at each z [mm] (rows) and voltage
+        (columns), and (``folder``: where the result was written) the folder."""
+        lines = [f"{'z [mm]':>8}" + "".join(f"{f'F @ {v / 1e3:g} kV [N]':>16}"
+                                            for v in self.voltages)]
+        for j, z in enumerate(self.z_values):
+            lines.append(f"{z * 1e3:8.3f}" + "".join(f"{self.forces[i, j]:16.5f}"
+                                                     for i in range(len(self.voltages))))
+        if folder is not None:
+            lines.append(f"results in {folder}")
+        return lines
 
     @property
     def table(self) -> pd.DataFrame:

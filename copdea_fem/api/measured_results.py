@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from copdea_fem.api.calls import data_frame, reporting_to
-from copdea_fem.api.folders import claimed
+from copdea_fem.api.folders import Output, claimed, claiming
 from copdea_fem.folders import Claim
 from copdea_fem.study import StudyError
 
@@ -25,9 +25,11 @@ logger = logging.getLogger("copdea_fem")
 
 
 def diagnose(measured: str | Path, *, alpha: float = 0.05, model: str | None = None,
-             fe_cache: str | Path | None = None, fe_workers: int | None = None,
+             fe_cache: str | Path | None = None, workers: int | None = None,
              executor: str | None = None, scheduler: str | Any | None = None,
-             progress: Callable[[str], None] | None = None) -> Diagnosis:
+             progress: Callable[[str], None] | None = None,
+             out: str | Path | Claim | Output | None = None,
+             fe_workers: int | None = None) -> Diagnosis:
     """Which catalogued effects the model lacks, from measured resonances and spectra
     (``copdea-fem diagnose``, nothing written).
 
@@ -43,18 +45,25 @@ def diagnose(measured: str | Path, *, alpha: float = 0.05, model: str | None = N
     fe_cache : str or Path, optional
         Cache folder of the FE solves (``model: fe``; default as the CLI's
         ``--fe-cache``).
-    fe_workers : int, optional
+    workers : int, optional
         Processes solving FE studies side by side (``model: fe``; default as the CLI's
-        ``--fe-workers``); with ``executor="dask"`` and no ``scheduler``, the local
+        ``--workers``); with ``executor="dask"`` and no ``scheduler``, the local
         cluster's workers.
     executor : str, optional
-        Where the FE studies are solved side by side (``model: fe``): ``"local"``
-        (default), processes of this machine; ``"dask"``, a Dask cluster.
+        Where the FE studies are solved (``model: fe``; :mod:`copdea_fem.parallel`):
+        ``"processes"`` (default), side by side in processes of this machine;
+        ``"inline"``, in this process, one at a time; ``"dask"``, a Dask cluster.  The old
+        ``"local"`` is ``"processes"`` (with a deprecation warning).
     scheduler : str or distributed.Client, optional
         With ``executor="dask"``: a running Dask scheduler's address or a connected client;
         without it a local cluster is started for the diagnosis and closed at its end.
     progress : callable(str), optional
         As :func:`solve`'s.
+    out : str, Path, Claim or Output, optional
+        As :func:`solve`'s (:meth:`Diagnosis.write`; an :class:`Output` without a folder:
+        ``results/diagnose_<name>``).
+    fe_workers : int, optional
+        The old name of ``workers`` (with a deprecation warning).
 
     Returns
     -------
@@ -65,22 +74,41 @@ def diagnose(measured: str | Path, *, alpha: float = 0.05, model: str | None = N
     Raises
     ------
     StudyError
-        ``alpha`` outside (0, 1), an unknown executor, a scheduler without
-        ``executor="dask"`` or one that does not answer, a bad measured.yaml, measured
-        file or base study (a
+        ``alpha`` outside (0, 1), a bad worker count or cache folder, an unknown executor,
+        a scheduler without ``executor="dask"`` or one that does not answer (all before the
+        measured file is read), a bad measured.yaml, measured file or base study (a
         :class:`~copdea_fem.diagnosis.measured.MeasuredDataError`), or conditions the
         base model cannot evaluate.
     ReducedModelError
         The model cannot be built or evaluated (with ``model: fe``, an FE that cannot be
         solved: :class:`~copdea_fem.diagnosis.anchored.FEFailure`; the CLI's exit 3).
+    OutputFolderError
+        ``out`` may not be written (as in :meth:`Solution.write`).
     """
-    from copdea_fem.diagnosis import diagnose_measured
+    from copdea_fem.diagnosis import check_options, diagnose_measured, diagnose_out_dir
+    from copdea_fem.diagnosis.measured import load_measured
 
-    with reporting_to(progress):
-        result = diagnose_measured(measured, alpha=alpha, model=model, fe_cache=fe_cache,
-                                   fe_workers=fe_workers, executor=executor,
-                                   scheduler=scheduler)
-    return Diagnosis(result, Path(measured))
+    option = "--workers"
+    if fe_workers is not None:
+        if workers is not None:
+            raise StudyError(f"--fe-workers = {fe_workers!r} is not allowed with --workers; "
+                             "allowed: --workers alone (--fe-workers is its old name)")
+        from copdea_fem.parallel import deprecated
+        deprecated("--fe-workers", "--workers")
+        workers, option = fe_workers, "--fe-workers"
+    workers, executor = check_options(alpha, fe_cache, workers, executor, scheduler, option)
+    measured_set = load_measured(measured)
+    inputs = [measured, *(path for condition in measured_set.conditions
+                          for path in condition.files.values())]
+    with claiming(out, "diagnose", inputs, diagnose_out_dir(measured_set)) as folder:
+        with reporting_to(progress):
+            result = diagnose_measured(measured_set, alpha=alpha, model=model,
+                                       fe_cache=fe_cache, fe_workers=workers,
+                                       executor=executor, scheduler=scheduler)
+        diagnosis = Diagnosis(result, Path(measured))
+        if folder is not None:
+            diagnosis.write(folder)
+    return diagnosis
 
 
 @dataclass
@@ -112,6 +140,12 @@ class Diagnosis:
         from copdea_fem.diagnosis.report import diagnosis_document
         return diagnosis_document(self.result)
 
+    def summary_lines(self, folder: str | Path) -> list[str]:
+        """What ``copdea-fem diagnose`` prints: the verdict, the gap, where the report is
+        (``folder``, where it was written)."""
+        from copdea_fem.diagnosis import summary_lines
+        return summary_lines(self.result, Path(folder))
+
     def write(self, folder: str | Path | Claim) -> Path:
         """Write report.md, diagnosis.json, figures and final_study.yaml in ``folder``; or
         into a held :class:`~copdea_fem.folders.Claim`.  Parameters, return and errors as
@@ -127,7 +161,7 @@ class Diagnosis:
 
 
 def identify(measured: str | Path, *, progress: Callable[[str], None] | None = None,
-             **options) -> IdentifyResult:
+             out: str | Path | Claim | Output | None = None, **options) -> IdentifyResult:
     """The modes of every scan of a measured.yaml (``copdea-fem identify``, nothing written).
 
     Each condition with ``scan: FILE`` is read (:func:`copdea_fem.vibrometer.uff.read_scan`,
@@ -141,6 +175,9 @@ def identify(measured: str | Path, *, progress: Callable[[str], None] | None = N
         A measured.yaml with at least one condition with a ``scan``.
     progress : callable(str), optional
         As :func:`solve`'s.
+    out : str, Path, Claim or Output, optional
+        As :func:`solve`'s (:meth:`IdentifyResult.write`; an :class:`Output` without a
+        folder: ``results/identify_<name>``).
     **options
         Passed to :func:`copdea_fem.vibrometer.identification.identify_scan` (``f_min``,
         ``f_max`` [Hz] in place of the conditions' bands, ``max_order``, ``components``, ``frequency_tolerance``,
@@ -157,20 +194,25 @@ def identify(measured: str | Path, *, progress: Callable[[str], None] | None = N
         :class:`~copdea_fem.diagnosis.measured.MeasuredDataError`).
     """
     from copdea_fem.diagnosis.measured import MeasuredDataError, load_measured
-    from copdea_fem.vibrometer.identification import OPTIONS, identify_scan
+    from copdea_fem.vibrometer.identification import OPTIONS, check_options, identify_scan
     from copdea_fem.vibrometer.scan import IdentifiedSet
 
     for name in options:
         if name not in OPTIONS:
             raise StudyError(f"identify option {name!r} is not allowed (unknown option); "
                              f"allowed: {', '.join(OPTIONS)}")
+    check_options({name: value for name, value in options.items()
+                   if name not in ("f_min", "f_max")})
     measured_set = load_measured(measured)
     scanned = [c for c in measured_set.conditions if c.scan is not None]
     if not scanned:
         raise MeasuredDataError(f"measured file {measured}: no condition has a scan; "
                                 "allowed: at least one condition with scan: FILE (.uff/.unv)")
+    files = [p for c in measured_set.conditions for p in c.files.values()]
     sets = []
-    with reporting_to(progress):
+    with claiming(out, "identify", [measured, *files],
+                  Path("results") / f"identify_{measured_set.name}") as folder, \
+            reporting_to(progress):
         for condition in scanned:
             logger.info("identifying %s (%d channels, %d lines, largest distance off the "
                         "device %.2f mm)", condition.name, condition.scan.n_channels,
@@ -181,8 +223,10 @@ def identify(measured: str | Path, *, progress: Callable[[str], None] | None = N
             found = identify_scan(condition.scan, **{**band, **options})
             sets.append(IdentifiedSet(condition.name, condition.scan, found.modes,
                                       found.diagram))
-    return IdentifyResult(tuple(sets), Path(measured),
-                          [p for c in measured_set.conditions for p in c.files.values()])
+        result = IdentifyResult(tuple(sets), Path(measured), files)
+        if folder is not None:
+            result.write(folder)
+    return result
 
 
 @dataclass
@@ -194,6 +238,16 @@ class IdentifyResult:
     sets: tuple[IdentifiedSet, ...]
     source: Path | None = None
     files: list = field(default_factory=list)
+
+    def summary_lines(self, folder: str | Path) -> list[str]:
+        """What ``copdea-fem identify`` prints: the modes of each condition [Hz] and the
+        folder written."""
+        lines = []
+        for item in self.sets:
+            modes = ", ".join(f"{m.freq_hz:.1f}" for m in item.modes)
+            lines.append(f"{item.condition}: {len(item.modes)} modes [Hz]: {modes}")
+        lines.append(f"wrote {folder}")
+        return lines
 
     @property
     def table(self) -> pd.DataFrame:
@@ -215,7 +269,8 @@ class IdentifyResult:
 
 
 def correlate(measured: str | Path, *,
-              progress: Callable[[str], None] | None = None) -> CorrelateResult:
+              progress: Callable[[str], None] | None = None,
+              out: str | Path | Claim | Output | None = None) -> CorrelateResult:
     """Pair the modes identified in each condition's scan with the FE's by shape
     (``copdea-fem correlate``, nothing written).
 
@@ -233,6 +288,9 @@ def correlate(measured: str | Path, *,
         A measured.yaml with at least one condition that names a scan file.
     progress : callable(str), optional
         As :func:`solve`'s.
+    out : str, Path, Claim or Output, optional
+        As :func:`solve`'s (:meth:`CorrelateResult.write`; an :class:`Output` without a
+        folder: ``results/correlate_<name>``).
 
     Returns
     -------
@@ -258,7 +316,10 @@ def correlate(measured: str | Path, *,
                                 "scan; allowed: conditions with scan: FILE.uff")
     settings = measured.pairing
     correlations, scans = [], []
-    with reporting_to(progress):
+    inputs = [measured.path, *(path for condition in measured.conditions
+                               for path in condition.files.values())]
+    with claiming(out, "correlate", inputs, Path("results") / f"correlate_{measured.name}") \
+            as folder, reporting_to(progress):
         for condition in scanned:
             logger.info("correlate %s: identify the scan's modes", condition.name)
             modes = identify(condition.scan, f_min=condition.band[0], f_max=condition.band[1])
@@ -271,7 +332,10 @@ def correlate(measured: str | Path, *,
                                                      window=settings.window,
                                                      mac_min=settings.mac_min))
             scans.append(condition.scan)
-    return CorrelateResult(measured, tuple(correlations), tuple(scans))
+        result = CorrelateResult(measured, tuple(correlations), tuple(scans))
+        if folder is not None:
+            result.write(folder)
+    return result
 
 
 @dataclass
@@ -290,6 +354,17 @@ class CorrelateResult:
     measured: Any
     correlations: tuple
     scans: tuple
+
+    def summary_lines(self, folder: str | Path) -> list[str]:
+        """What ``copdea-fem correlate`` prints: how many test modes of each condition were
+        paired by shape, and the files written in ``folder``."""
+        lines = []
+        for correlation in self.correlations:
+            paired = sum(1 for pair in correlation.pairs if pair.label)
+            lines.append(f"{correlation.condition}: {paired} of {len(correlation.pairs)} test "
+                         "modes paired by shape")
+        lines.append(f"wrote pairs.csv, comac.csv, mac.png and report.md to {folder}")
+        return lines
 
     @property
     def pairs(self) -> pd.DataFrame:

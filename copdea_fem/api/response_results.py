@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from copdea_fem.api.calls import as_study, check_size, input_files, reporting_to, solving
-from copdea_fem.api.folders import claimed
+from copdea_fem.api.folders import Output, claimed, claiming
 from copdea_fem.folders import Claim
 from copdea_fem.study import Study, StudyError
 
@@ -26,7 +26,8 @@ logger = logging.getLogger("copdea_fem")
 
 
 def response(study: Study | str | Path, *, allow_large: bool = False,
-             progress: Callable[[str], None] | None = None) -> ResponseSolution:
+             progress: Callable[[str], None] | None = None,
+             out: str | Path | Claim | Output | None = None) -> ResponseSolution:
     """Forced response of the coupled FE under the study's chirp, with radiated sound
     (``copdea-fem response``, nothing written).
 
@@ -39,6 +40,8 @@ def response(study: Study | str | Path, *, allow_large: bool = False,
         Start even when the problem is estimated above the size limit.
     progress : callable(str), optional
         As :func:`solve`'s.
+    out : str, Path, Claim or Output, optional
+        As :func:`solve`'s (:meth:`ResponseSolution.write`).
 
     Returns
     -------
@@ -55,6 +58,8 @@ def response(study: Study | str | Path, *, allow_large: bool = False,
         The air mesh cannot follow the membrane, or the modal basis's eigen solve fails.
     PrestressError
         The prestress (Newton) solve fails (as in :func:`solve`).
+    OutputFolderError
+        ``out`` may not be written (as in :meth:`Solution.write`).
     """
     from copdea_fem.fe.engines import engine_for
     from copdea_fem.forced_response.run import forced_response, prepare_order_zero
@@ -62,10 +67,15 @@ def response(study: Study | str | Path, *, allow_large: bool = False,
     study = as_study(study)
     engine = engine_for(study)
     check_size(study, allow_large, engine)
-    with solving(study), reporting_to(progress):
-        problem = prepare_order_zero(study, engine)
-        result = forced_response(problem)
-    return ResponseSolution(result)
+    with claiming(out, "response", input_files(study), study["output"]["directory"]) \
+            as folder:
+        with solving(study), reporting_to(progress):
+            problem = prepare_order_zero(study, engine)
+            result = forced_response(problem)
+        solution = ResponseSolution(result)
+        if folder is not None:
+            solution.write(folder, progress)
+    return solution
 
 
 def _average_table(result):
@@ -141,6 +151,13 @@ class ResponseSolution:
     def peaks_hz(self) -> list[float]:
         return list(self.result.peaks_hz)
 
+    def summary_lines(self) -> list[str]:
+        """What ``copdea-fem response`` prints: the modal basis, the peaks with their
+        velocities and SPL, the timings
+        (:func:`copdea_fem.forced_response.run.summary_lines`)."""
+        from copdea_fem.forced_response.run import summary_lines
+        return summary_lines(self.result)
+
     def write(self, folder: str | Path | Claim,
               progress: Callable[[str], None] | None = None) -> Path:
         """Write every file of ``copdea-fem response --out folder``; or into a held
@@ -162,7 +179,8 @@ class ResponseSolution:
         return target
 
 
-def spectrum(study: Study | str | Path, modes_json: str | Path | None = None) -> Spectrum:
+def spectrum(study: Study | str | Path, modes_json: str | Path | None = None, *,
+             out: str | Path | Claim | Output | None = None) -> Spectrum:
     """Reduced-model velocity spectra under the study's chirp (Sect. 3.2, eq. 19;
     ``copdea-fem spectrum``, nothing written).
 
@@ -174,6 +192,8 @@ def spectrum(study: Study | str | Path, modes_json: str | Path | None = None) ->
         An FE modes.json whose coupled frequencies set the added masses (default
         ``reduced.modes_json``; without one the ``reduced.*`` and ``effects.*`` keys set
         them, :mod:`copdea_fem.reduced.model`).
+    out : str, Path, Claim or Output, optional
+        As :func:`solve`'s (:meth:`Spectrum.write`).
 
     Returns
     -------
@@ -187,6 +207,8 @@ def spectrum(study: Study | str | Path, modes_json: str | Path | None = None) ->
         or not one.
     ReducedModelError
         The reduced model cannot be built or solved for these inputs (the CLI's exit 3).
+    OutputFolderError
+        ``out`` may not be written (as in :meth:`Solution.write`).
     """
     from copdea_fem.inputs import read_text
     from copdea_fem.reduced.io import fe_frequencies
@@ -197,9 +219,14 @@ def spectrum(study: Study | str | Path, modes_json: str | Path | None = None) ->
         read_text(modes_json, "--modes-json", error=StudyError)
     elif study["reduced"]["modes_json"]:
         read_text(study["reduced"]["modes_json"], "reduced.modes_json", error=StudyError)
-    fe, fe_path = fe_frequencies(study, modes_json)
-    setup = build_reduced(study, fe)
-    return Spectrum(study, setup, spectra_of(setup), modes_json, fe_path)
+    inputs = [*input_files(study), modes_json or study["reduced"]["modes_json"]]
+    with claiming(out, "spectrum", inputs, study["output"]["directory"]) as folder:
+        fe, fe_path = fe_frequencies(study, modes_json)
+        setup = build_reduced(study, fe)
+        result = Spectrum(study, setup, spectra_of(setup), modes_json, fe_path)
+        if folder is not None:
+            result.write(folder)
+    return result
 
 
 @dataclass
@@ -233,6 +260,11 @@ class Spectrum:
         the source of each added mass (``modes``) and Annex I's P1-P3 (``pumping_hz``)."""
         from copdea_fem.reduced.io import spectrum_summary
         return spectrum_summary(self.study, self.setup, self.fe_path)
+
+    def summary_lines(self, folder: str | Path | None = None) -> list[str]:
+        """What ``copdea-fem spectrum`` prints: :attr:`summary`'s lines and (``folder``:
+        where the result was written) the folder."""
+        return self.summary["lines"] + ([f"results in {folder}"] if folder is not None else [])
 
     @property
     def average(self) -> pd.DataFrame:

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from copdea_fem.api.calls import check_size, reporting_to
-from copdea_fem.api.folders import RunFolder, run_folder
+from copdea_fem.api.folders import Output, RunFolder, claiming, run_folder
 from copdea_fem.folders import Claim
 
 if TYPE_CHECKING:
@@ -20,7 +20,7 @@ if TYPE_CHECKING:
 
 
 def sweep(sweep_file: str | Path, overrides: dict[str, Any] | list[str] | None = None, *,
-          out: str | Path | Claim | None = None, executor: str | None = None,
+          out: str | Path | Claim | Output | None = None, executor: str | None = None,
           workers: int | None = None, scheduler: str | Any | None = None,
           chain_length: int | str | None = None, reuse: bool | dict | None = None,
           allow_large: bool = False,
@@ -33,17 +33,21 @@ def sweep(sweep_file: str | Path, overrides: dict[str, Any] | list[str] | None =
         A sweep YAML file: the base study, the axes over study keys, the model.
     overrides : dict or list of str, optional
         Overrides of the base study's keys, as :func:`load_study`'s.
-    out : str, Path or Claim, optional
-        The result folder (resumable: a second call continues), or the
-        :class:`~copdea_fem.folders.Claim` of one the caller holds (the CLI's); without it
-        the sweep runs in a private temporary folder, kept while the result lives
-        (``write`` copies it).
+    out : str, Path, Claim or Output, optional
+        The result folder (resumable: a second call continues), the
+        :class:`~copdea_fem.folders.Claim` of one the caller holds, or an :class:`Output`
+        (claimed here after the checks; without a folder, the file's
+        ``output.directory``); without it the sweep runs in a private temporary folder,
+        kept while the result lives (``write`` copies it).
     executor : str, optional
-        ``"local"``, ``"pool"`` (worker processes) or ``"dask"`` (a Dask cluster); default
-        the file's ``execution.executor``, else local.
+        ``"inline"`` (in this process), ``"processes"`` (worker processes) or ``"dask"`` (a
+        Dask cluster; :mod:`copdea_fem.parallel`); default the file's
+        ``execution.executor``, else inline.  The old ``"local"`` and ``"pool"`` work with a
+        deprecation warning.
     workers : int, optional
-        Worker processes of the ``pool`` executor, or of the local Dask cluster (default:
-        the file's ``execution.workers`` for ``pool``, one per core for ``dask``).
+        Worker processes of the ``processes`` executor, or of the local Dask cluster
+        (default: the file's ``execution.workers`` for ``processes``, one per core for
+        ``dask``).
     scheduler : str or distributed.Client, optional
         With ``executor="dask"``: a running Dask scheduler's address (``tcp://HOST:PORT``)
         or a connected client; without it (and no ``execution.scheduler``) a local cluster
@@ -74,25 +78,27 @@ def sweep(sweep_file: str | Path, overrides: dict[str, Any] | list[str] | None =
     OutputFolderError
         ``out`` may not be written (as in :meth:`Solution.write`).
     """
+    from copdea_fem.parallel import check_scheduler
     from copdea_fem.study import parse_overrides
     from copdea_fem.sweeps import load_sweep, parse_reuse, run_sweep
 
     if isinstance(overrides, (list, tuple)):
         overrides = parse_overrides(list(overrides))
     spec = load_sweep(sweep_file, overrides=overrides)
+    check_scheduler(executor or spec.execution.executor, scheduler)
     if spec.model != "reduced":
         for point in spec.points:
             check_size(point.study, allow_large)
     settings = {"executor": executor, "workers": workers, "scheduler": scheduler,
                 "chain_length": chain_length,
                 "reuse": None if reuse is None else parse_reuse(reuse)}
-    folder = run_folder("sweep", out)
     with reporting_to(progress):
         if out is not None:
-            from copdea_fem.folders import held
-            with held(out, "sweep", [sweep_file]) as record:
+            with claiming(out, "sweep", [sweep_file], spec.output_directory) as record:
+                folder = run_folder("sweep", record)
                 outcome = run_sweep(spec, out_dir=record, **settings)
         else:
+            folder = run_folder("sweep", out)
             outcome = run_sweep(spec, out_dir=folder.path, **settings)
     return SweepResult(spec, outcome, folder, Path(sweep_file))
 
@@ -127,6 +133,17 @@ class SweepResult:
     @property
     def failed(self) -> dict:
         return dict(self.outcome.failed)
+
+    @property
+    def all_failed(self) -> bool:
+        """No point produced a result (the CLI's exit 3)."""
+        return len(self.outcome.failed) == len(self.spec.points)
+
+    def summary_lines(self) -> list[str]:
+        """What ``copdea-fem sweep`` prints: points computed, resumed and failed, the
+        tracked modes, the files (:func:`copdea_fem.sweeps.format_summary`)."""
+        from copdea_fem.sweeps import format_summary
+        return format_summary(self.spec, self.outcome).splitlines()
 
     def write(self, folder: str | Path | Claim) -> Path:
         """Write the sweep's files (sweep.csv/json/png, the point store) in ``folder``; or

@@ -23,13 +23,15 @@ entry points below):
 The wall time of an FE diagnosis is benchmarked by ``python -m benchmarks.diagnose``
 (``benchmarks/diagnose.py``, outside the package).
 
-Entry points of ``copdea-fem diagnose`` and ``copdea-fem synth`` (outputs are staged and
-moved into place only when complete):
+Entry points of ``copdea-fem diagnose`` and ``copdea-fem synth`` (nothing written: the
+results of :mod:`copdea_fem.api` write their files):
 
 - :func:`diagnose_measured` (MEASURED.yaml -> DiagnosisResult; the report is written by
   :meth:`copdea_fem.api.Diagnosis.write`)
-- :func:`run_synth` (STUDY + effects + conditions -> measured data set; a summary dict
-  with ``files`` and ``lines`` to print)
+- :func:`synthesise_set` (STUDY + effects + conditions -> a synthetic measured data set
+  from the ring model) and :func:`check_scan_truth` with
+  :func:`copdea_fem.diagnosis.synth_scan.synthesise_scan_set` (vibrometer exports made by
+  the FE); written by :meth:`copdea_fem.api.SyntheticData.write`
 """
 
 from __future__ import annotations
@@ -48,8 +50,35 @@ def diagnose_out_dir(measured: MeasuredSet) -> Path:
 
 
 def synth_out_dir(study, seed: int) -> Path:
-    """Default folder of :func:`run_synth`: ``results/synth_<study name>_seed<N>``."""
+    """Default folder of ``copdea-fem synth``: ``results/synth_<study name>_seed<N>``."""
     return Path("results") / f"synth_{study.name}_seed{seed}"
+
+
+def check_options(alpha: float = 0.05, fe_cache=None, fe_workers=None, executor=None,
+                  scheduler=None, workers_option: str = "--fe-workers") -> tuple:
+    """The options of :func:`diagnose_measured` checked before any work (its parameters;
+    ``workers_option``: the name of ``fe_workers`` in messages); ``(fe_workers, executor)``
+    as it uses them (the worker count capped at the cores, the executor's name;
+    :mod:`copdea_fem.parallel`).
+
+    Raises
+    ------
+    StudyError
+        A bad option, naming it.
+    """
+    import numbers
+
+    from copdea_fem.parallel import DIAGNOSIS_SPELLINGS, check_executor, check_workers
+    from copdea_fem.study import StudyError
+    if isinstance(alpha, bool) or not isinstance(alpha, numbers.Real) or not 0 < alpha < 1:
+        raise StudyError(f"--alpha = {alpha!r} is not allowed; allowed: a number in (0, 1)")
+    if fe_cache:
+        from copdea_fem.diagnosis.fe import check_cache_dir
+        check_cache_dir(fe_cache, "--fe-cache")
+    if fe_workers is not None:
+        fe_workers = check_workers(fe_workers, workers_option)
+    executor = check_executor(executor, scheduler, DIAGNOSIS_SPELLINGS, "processes")
+    return fe_workers, executor
 
 
 def diagnose_measured(measured_path, alpha: float = 0.05, model: str | None = None,
@@ -60,8 +89,8 @@ def diagnose_measured(measured_path, alpha: float = 0.05, model: str | None = No
 
     Parameters
     ----------
-    measured_path : path
-        ``measured.yaml`` (:mod:`copdea_fem.diagnosis.measured`).
+    measured_path : path or MeasuredSet
+        ``measured.yaml`` (:mod:`copdea_fem.diagnosis.measured`), or the set read from it.
     alpha : float
         False-alarm probability per step (:mod:`copdea_fem.diagnosis.scoring`), in (0, 1).
     model : str, optional
@@ -91,20 +120,9 @@ def diagnose_measured(measured_path, alpha: float = 0.05, model: str | None = No
     ReducedModelError
         The ring model failed at a condition.
     """
-    import numbers
-
-    from copdea_fem.study import StudyError
-    if isinstance(alpha, bool) or not isinstance(alpha, numbers.Real) or not 0 < alpha < 1:
-        raise StudyError(f"--alpha = {alpha!r} is not allowed; allowed: a number in (0, 1)")
-    if fe_cache:
-        from copdea_fem.diagnosis.fe import check_cache_dir
-        check_cache_dir(fe_cache, "--fe-cache")
-    if fe_workers is not None:
-        from copdea_fem.parallel import check_workers
-        fe_workers = check_workers(fe_workers, "--fe-workers")
-    from copdea_fem.parallel import DIAGNOSIS_SPELLINGS, check_executor
-    executor = check_executor(executor, scheduler, DIAGNOSIS_SPELLINGS, "processes")
-    measured = load_measured(measured_path)
+    fe_workers, executor = check_options(alpha, fe_cache, fe_workers, executor, scheduler)
+    measured = (measured_path if isinstance(measured_path, MeasuredSet)
+                else load_measured(measured_path))
     if model is not None:
         measured = dataclasses.replace(measured, model=model)
     pairings = ()
@@ -143,9 +161,10 @@ def summary_lines(result: DiagnosisResult, out: Path) -> list[str]:
             f"wrote the report to {out} (report.md, diagnosis.json)"]
 
 
-def run_synth(study, effects_text, conditions_text=None, parameters=None, options=None,
-              out_dir=None) -> dict:
-    """Synthetic measurement set (``copdea-fem synth``), see :mod:`copdea_fem.diagnosis.synth`.
+def synthesise_set(study, effects_text, conditions_text=None, parameters=None,
+                   options=None) -> tuple[dict, list]:
+    """Synthetic measurement set (``copdea-fem synth``), see :mod:`copdea_fem.diagnosis.synth`;
+    nothing written (:func:`copdea_fem.diagnosis.synth.write_synthetic`).
 
     Parameters
     ----------
@@ -159,8 +178,11 @@ def run_synth(study, effects_text, conditions_text=None, parameters=None, option
     parameters : list of str, optional
         ``["air_loading.scale=1.2", ...]``.
     options : SynthOptions, optional
-    out_dir : path, optional
-        Default ``results/synth_<study name>_seed<N>``.
+
+    Returns
+    -------
+    (dict, list of SynthCondition)
+        ``{effect id: parameter values}`` switched on in the truth, and each condition's data.
     """
     from copdea_fem.diagnosis.effects import parse_effect_list
     from copdea_fem.diagnosis.synth import (
@@ -168,9 +190,7 @@ def run_synth(study, effects_text, conditions_text=None, parameters=None, option
         parse_conditions,
         parse_parameters,
         synthesise,
-        write_synthetic,
     )
-    from copdea_fem.folders import result_directory
     from copdea_fem.study import StudyError
     options = options or SynthOptions()
     options.check()
@@ -186,21 +206,13 @@ def run_synth(study, effects_text, conditions_text=None, parameters=None, option
         values = given.get(effect_id, {})
         effects[effect_id] = tuple(values.get(p.name, p.default) for p in entry.parameters)
     conditions = parse_conditions(conditions_text)
-    items = synthesise(study, effects, conditions, options)
-    out = Path(out_dir) if out_dir else synth_out_dir(study, options.seed)
-    with result_directory(out, "synth") as staging:
-        files = write_synthetic(study, effects, items, options, staging)
-    files = [out / f.name for f in files]
-    truth = ", ".join(f"{e} ({CATALOGUE[e].describe_values(v)})" if v else e
-                      for e, v in effects.items()) or "no effect added"
-    lines = [f"{len(items)} conditions: " + ", ".join(
-        f"{i.name} ({len(i.resonances)} peaks{', spectrum' if i.spectrum is not None else ''})"
-        for i in items),
-        f"truth: {truth}; seed {options.seed}",
-        f"wrote {len(files)} files to {out}; diagnose with: copdea-fem diagnose "
-        f"{out / 'measured.yaml'}"]
-    return {"files": [str(f) for f in files], "out": str(out), "lines": lines,
-            "conditions": [i.name for i in items]}
+    return effects, synthesise(study, effects, conditions, options)
+
+
+def describe_truth(effects: dict) -> str:
+    """The effects of a synthetic set's truth, with their parameters (``synth``'s summary)."""
+    return ", ".join(f"{e} ({CATALOGUE[e].describe_values(v)})" if v else e
+                     for e, v in effects.items()) or "no effect added"
 
 
 #: Effects a synthetic vibrometer export can hide: those the FE honours (air, frame, disc
@@ -210,18 +222,21 @@ SCAN_EFFECTS = ("air_loading", "frame_reflection", "baffle", "open_air", "disc_p
                 "uniform_stiffness", "viscoelastic_membrane")
 
 
-def run_synth_scan(study, effects_text, conditions_text=None, parameters=None, options=None,
-                   out_dir=None) -> dict:
-    """Synthetic vibrometer exports made by the FE (``copdea-fem synth --format uff``), see
-    :mod:`copdea_fem.diagnosis.synth_scan`.  Parameters as :func:`run_synth`'s; ``options``
-    a :class:`~copdea_fem.diagnosis.synth_scan.ScanOptions`."""
+def check_scan_truth(study, effects_text, conditions_text=None,
+                     parameters=None) -> tuple[dict, list]:
+    """The effects and conditions of a synthetic set of vibrometer exports (``copdea-fem
+    synth --format uff``, :mod:`copdea_fem.diagnosis.synth_scan`), checked before any
+    solve.  Parameters as :func:`synthesise_set`'s.
+
+    Returns
+    -------
+    (dict, list of (str, dict))
+        ``{effect id: parameter values}`` switched on in the truth, and each condition's
+        name and study overrides.
+    """
     from copdea_fem.diagnosis.effects import parse_effect_list
     from copdea_fem.diagnosis.synth import condition_name, parse_conditions, parse_parameters
-    from copdea_fem.diagnosis.synth_scan import ScanOptions, write_scan_set
-    from copdea_fem.folders import result_directory
     from copdea_fem.study import StudyError
-    options = options or ScanOptions()
-    options.check()
     names = parse_effect_list(effects_text or "")
     for effect_id in names:
         if effect_id not in SCAN_EFFECTS:
@@ -244,21 +259,10 @@ def run_synth_scan(study, effects_text, conditions_text=None, parameters=None, o
             raise StudyError(f"--conditions #{index + 1}: {error}") from None
         conditions.append((condition_name(condition_study, overrides, index, taken),
                            overrides))
-    out = Path(out_dir) if out_dir else synth_out_dir(study, options.seed)
-    with result_directory(out, "synth") as staging:
-        files = write_scan_set(study, effects, conditions, options, staging)
-    files = [out / f.name for f in files]
-    truth = ", ".join(f"{e} ({CATALOGUE[e].describe_values(v)})" if v else e
-                      for e, v in effects.items()) or "no effect added"
-    lines = [f"{len(conditions)} scanned conditions: "
-             + ", ".join(name for name, _ in conditions),
-             f"truth: {truth}; seed {options.seed}",
-             f"wrote {len(files)} files to {out}; diagnose with: copdea-fem diagnose "
-             f"{out / 'measured.yaml'}"]
-    return {"files": [str(f) for f in files], "out": str(out), "lines": lines,
-            "conditions": [name for name, _ in conditions]}
+    return effects, conditions
 
 
 __all__ = ["CATALOGUE", "EFFECT_IDS", "Effect", "Parameter", "catalogue_table",
            "MeasuredDataError", "MeasuredSet", "load_measured", "Diagnoser", "DiagnosisResult",
-           "diagnose_measured", "run_synth", "run_synth_scan", "summary_lines", "diagnose_out_dir", "synth_out_dir"]
+           "diagnose_measured", "synthesise_set", "check_scan_truth", "describe_truth",
+           "summary_lines", "diagnose_out_dir", "synth_out_dir", "SCAN_EFFECTS"]

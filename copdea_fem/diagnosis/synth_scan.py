@@ -213,11 +213,22 @@ def synthesise_scan(study: Study, options: ScanOptions, rng, name: str = "scan")
     return scan, truth
 
 
-def write_scan_set(study: Study, effects: dict, conditions: list[tuple[str, dict]],
-                   options: ScanOptions, out_dir, *, observed=None) -> list[Path]:
-    """Solve, export and write a measured set of scans into ``out_dir``: measured.yaml
-    (``model: fe``, one ``scan:`` per condition), base_study.yaml, ``<condition>.uff`` and
-    synth_truth.json.
+@dataclass
+class ScannedCondition:
+    """One condition of a synthetic scan set: its name, its study overrides, the export
+    (:class:`~copdea_fem.vibrometer.scan.ScanData`, not yet written) and its truth
+    (:func:`synthesise_scan`)."""
+
+    name: str
+    overrides: dict
+    scan: object
+    truth: dict
+
+
+def synthesise_scan_set(study: Study, effects: dict, conditions: list[tuple[str, dict]],
+                        options: ScanOptions) -> list[ScannedCondition]:
+    """Solve and export every condition of a set of scans (:func:`synthesise_scan` with the
+    effects switched on in the truth); nothing written (:func:`write_scan_set`).
 
     Parameters
     ----------
@@ -227,18 +238,12 @@ def write_scan_set(study: Study, effects: dict, conditions: list[tuple[str, dict
         ``{effect id: parameter values}`` switched on in the truth.
     conditions : list of (name, overrides)
     options : ScanOptions
-    out_dir : path
-        An existing (staging) folder.
-    observed : list of str, optional
-        ``observed:`` of the written measured.yaml.
     """
     from copdea_fem.diagnosis.effects import CATALOGUE
     from copdea_fem.diagnosis.engine import state_overrides
-    from copdea_fem.vibrometer.uff import write_scan
 
     options.check()
     rng = np.random.default_rng(options.seed)
-    out = Path(out_dir)
     state = []
     for effect_id, values in effects.items():
         entry = CATALOGUE[effect_id]
@@ -246,20 +251,48 @@ def write_scan_set(study: Study, effects: dict, conditions: list[tuple[str, dict
             if required not in effects and not CATALOGUE[required].is_on(study):
                 state.append((required, CATALOGUE[required].defaults))
         state.append((effect_id, tuple(values) if values is not None else entry.defaults))
-    files = [out / "measured.yaml", out / "base_study.yaml"]
-    dump_resolved(study, out / "base_study.yaml")
-    entries, truths = [], {}
+    scanned = []
     for name, overrides in conditions:
         condition_study = study.replace(overrides)
         truth_study = (condition_study.replace(state_overrides(condition_study, state))
                        if state else condition_study)
         scan, truth = synthesise_scan(truth_study, options, rng, name)
-        path = write_scan(out / f"{name}.uff", scan, binary=True)
+        scanned.append(ScannedCondition(name, dict(overrides), scan, truth))
+    return scanned
+
+
+def write_scan_set(study: Study, effects: dict, scanned: list[ScannedCondition],
+                   options: ScanOptions, out_dir, *, observed=None) -> list[Path]:
+    """Write a measured set of scans (:func:`synthesise_scan_set`) into ``out_dir``:
+    measured.yaml (``model: fe``, one ``scan:`` per condition), base_study.yaml,
+    ``<condition>.uff`` and synth_truth.json.
+
+    Parameters
+    ----------
+    study : Study
+        The base study (the model that will be diagnosed).
+    effects : dict
+        ``{effect id: parameter values}`` switched on in the truth.
+    scanned : list of ScannedCondition
+    options : ScanOptions
+    out_dir : path
+        An existing (staging) folder.
+    observed : list of str, optional
+        ``observed:`` of the written measured.yaml.
+    """
+    from copdea_fem.vibrometer.uff import write_scan
+
+    out = Path(out_dir)
+    files = [out / "measured.yaml", out / "base_study.yaml"]
+    dump_resolved(study, out / "base_study.yaml")
+    entries, truths = [], {}
+    for item in scanned:
+        path = write_scan(out / f"{item.name}.uff", item.scan, binary=True)
         files.append(path)
         low = max(options.f_min, 2 * options.resolution)
-        entries.append({"name": name, "set": dict(overrides), "scan": path.name,
-                        "band": [f"{low:g} Hz", f"{float(scan.frequencies[-1]):g} Hz"]})
-        truths[name] = truth
+        entries.append({"name": item.name, "set": dict(item.overrides), "scan": path.name,
+                        "band": [f"{low:g} Hz", f"{float(item.scan.frequencies[-1]):g} Hz"]})
+        truths[item.name] = item.truth
     manifest = {
         "name": f"synth_scan_{'_'.join(effects) or 'nothing'}_seed{options.seed}",
         "description": "synthetic vibrometer export (copdea-fem synth --format uff): FE "
@@ -282,5 +315,5 @@ def write_scan_set(study: Study, effects: dict, conditions: list[tuple[str, dict
     return files
 
 
-__all__ = ["QUALITY_UNINFORMATIVE", "ScanOptions", "modal_damping",
-           "psv_reference_grid", "synthesise_scan", "write_scan_set"]
+__all__ = ["QUALITY_UNINFORMATIVE", "ScanOptions", "ScannedCondition", "modal_damping",
+           "psv_reference_grid", "synthesise_scan", "synthesise_scan_set", "write_scan_set"]

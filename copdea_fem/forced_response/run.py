@@ -48,7 +48,6 @@ from __future__ import annotations
 import logging
 import time
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -285,7 +284,6 @@ class ResponseResult:
     problem: OrderZero
     timings: dict
     peaks_hz: list = field(default_factory=list)
-    out_dir: Path | None = None
 
     def solution(self, line: int) -> np.ndarray:
         """Scaled solution vector of one line (chirp amplitude applied)."""
@@ -404,20 +402,6 @@ def reduced_spectrum(study, result: ResponseResult):
     return setup, spectra_of(setup)
 
 
-def run_response(study, out_dir=None) -> ResponseResult:
-    """The whole ``copdea-fem response``: solve, then the result files (module doc)."""
-    problem = prepare_order_zero(study)
-    result = forced_response(problem)
-    if out_dir is not None:
-        from copdea_fem.forced_response.files import write_response
-        logger.info("writing results ...")
-        start = time.perf_counter()
-        write_response(result, Path(out_dir), reduced_spectrum(study, result))
-        result.timings["output"] = time.perf_counter() - start
-        result.out_dir = Path(out_dir)
-    return result
-
-
 def summary_lines(result: ResponseResult) -> list[str]:
     study = result.problem.study
     g, load = study["geometry"], study["load"]
@@ -440,6 +424,4 @@ def summary_lines(result: ResponseResult) -> list[str]:
                      + ", ".join(f"{name} {result.spl_db[k, j]:.1f} dB"
                                  for j, (name, _) in enumerate(result.microphones)))
     lines.append("timings: " + ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items()))
-    if result.out_dir is not None:
-        lines.append(f"results in {result.out_dir}")
     return lines

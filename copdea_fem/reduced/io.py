@@ -1,14 +1,18 @@
-"""File glue of the reduced model: modes.json, CSV in and out, PNG plots, CLI actions.
+"""File glue of the reduced model: modes.json, CSV in and out, PNG plots, summaries.
 
 The physics lives in the other modules of :mod:`copdea_fem.reduced`; this
-module only reads and writes: the files of ``copdea-fem spectrum``
-(:func:`write_spectrum_files`, written by :meth:`copdea_fem.api.Spectrum.write`) and its
-summary (:func:`spectrum_summary`), and two CLI actions, plain functions returning a
-summary dict (``files`` written, ``lines`` to print):
+module only reads and writes, for the results of :mod:`copdea_fem.api` (each written by
+its ``write``):
 
-- :func:`fit_material_cli` -- ``copdea-fem fit-material STUDY.yaml DATA.csv``
-- :func:`calibrate_damping_cli` -- ``copdea-fem calibrate-damping STUDY.yaml SPECTRUM.csv``
-  (``--fit rayleigh|prony``: :func:`copdea_fem.damping_fit.calibrate_structural_damping`)
+- ``copdea-fem spectrum``: :func:`write_spectrum_files` and :func:`spectrum_summary`
+  (:class:`copdea_fem.api.Spectrum`);
+- ``copdea-fem fit-material STUDY.yaml DATA.csv``: :func:`read_force_csv`,
+  :func:`fit_force_data`, :func:`write_material_fit` and :func:`material_fit_lines`
+  (:class:`copdea_fem.api.MaterialFitResult`);
+- ``copdea-fem calibrate-damping STUDY.yaml SPECTRUM.csv``: :func:`calibrate_on_spectrum`,
+  :func:`write_damping_calibration` and :func:`damping_calibration_lines`
+  (:class:`copdea_fem.api.DampingCalibrationResult`; ``--fit rayleigh|prony`` fits the FE's
+  keys: :mod:`copdea_fem.damping_fit`, above the FE pipeline).
 
 Output files (column names are a contract):
 
@@ -28,19 +32,20 @@ from pathlib import Path
 
 import numpy as np
 
-from copdea_fem.folders import result_directory
 from copdea_fem.inputs import read_text
 from copdea_fem.reduced.chirp_response import calibrate_damping
 from copdea_fem.reduced.fit import PARAMETERS, fit_material
 from copdea_fem.reduced.modal import mode_profile
 from copdea_fem.reduced.model import build_reduced, damping_key, spectra_of
-from copdea_fem.reduced.rings import ReducedModelError, RingModel
+from copdea_fem.reduced.rings import RingModel
 from copdea_fem.study import StudyError, dump_resolved
 
 AVERAGE_COLUMNS = ("freq_hz", "v_axial", "v_radial")
 POINT_COLUMNS = ("freq_hz",) + tuple(f"v_{component}_q{i}" for i in (1, 2, 3)
                                      for component in ("axial", "radial"))
 MODE_COLUMNS = ("label", "freq_hz", "modal_mass", "added_mass", "damping")
+CALIBRATION_COLUMNS = ("label", "freq_hz", "measured_peak", "model_peak", "damping_per_mass")
+MATERIAL_FIT_COLUMNS = ("parameter", "value_pa", "standard_error_pa")
 FORCE_COLUMNS = ("z_m", "force_n")
 FORCE_OPTIONAL = ("voltage_v", "prestretch", "inner_radius_m", "force_std_n")
 _COMPARED_SECTIONS = ("geometry", "membrane", "load")
@@ -316,29 +321,42 @@ def spectrum_summary(study, setup, fe_path) -> dict:
     return {"modes": rows, "pumping_hz": [float(f) for f in setup.pumping_frequency_hz], "lines": lines}
 
 
-def fit_material_cli(study, data_csv, out_dir) -> dict:
-    """Fit c10, c20, c01 to a force-displacement CSV (Sect. 5.1); write material_fit.csv.
+def fit_force_data(study, data: dict):
+    """Fit c10, c20, c01 to force-displacement data (Sect. 5.1; :func:`read_force_csv`'s
+    columns).
 
     Missing ``voltage_v``/``prestretch``/``inner_radius_m`` columns default
     to the study's load.voltage, membrane.prestretch, geometry.inner_radius.
     The study's c10, c20, c01 are the start values.
+
+    Returns
+    -------
+    (RingModel, MaterialFit, numpy.ndarray)
+        The ring model of the study, the fit, and each row's voltage [V].
     """
-    data = read_force_csv(data_csv)
     model = RingModel.from_study(study)
     count = data["z_m"].size
     voltage = data.get("voltage_v", np.full(count, study["load"]["voltage"]))
     fit = fit_material(model, data["z_m"], data["force_n"], voltage,
                        prestretch=data.get("prestretch"), inner_radius=data.get("inner_radius_m"),
                        force_std=data.get("force_std_n"))
-    out = Path(out_dir)
-    with result_directory(out, "fit-material") as staging:
-        files = [write_csv(staging / "material_fit.csv",
-                           ("parameter", "value_pa", "standard_error_pa"),
-                           (PARAMETERS, fit.values, fit.standard_error))]
-        if study["output"]["plots"]:
-            files.append(_plot_force_fit(staging / "material_fit.png", study, model, fit, data,
-                                         voltage))
-    files = [out / path.name for path in files]
+    return model, fit, voltage
+
+
+def write_material_fit(out, study, model, fit, data, voltage) -> list:
+    """The files of ``fit-material`` in ``out`` (a staging folder): material_fit.csv
+    (``parameter, value_pa, standard_error_pa``) and, with ``output.plots``, the fitted
+    curves over the data (material_fit.png); their paths."""
+    files = [write_csv(out / "material_fit.csv", MATERIAL_FIT_COLUMNS,
+                       (PARAMETERS, fit.values, fit.standard_error))]
+    if study["output"]["plots"]:
+        files.append(_plot_force_fit(out / "material_fit.png", study, model, fit, data, voltage))
+    return files
+
+
+def material_fit_lines(fit) -> list[str]:
+    """What ``copdea-fem fit-material`` prints of a fit: the values, their 1-sigma errors,
+    a note when c10 and c01 are not separated, the ``--set`` options to reuse."""
     lines = [f"fitted eq. (20) on {fit.point_count} points, rms residual "
              f"{fit.residual_rms:.4g} N"]
     for name, value, error in zip(PARAMETERS, fit.values, fit.standard_error):
@@ -349,9 +367,7 @@ def fit_material_cli(study, data_csv, out_dir) -> dict:
                      "c10 + lambda_p^2 c01; add a sample at another pre-stretch to separate them")
     lines.append("  use: " + " ".join(f"--set membrane.{name}='{value / 1e3:.4g} kPa'"
                                       for name, value in zip(PARAMETERS, fit.values)))
-    return {"values": fit.as_dict(),
-            "standard_error": dict(zip(PARAMETERS, map(float, fit.standard_error))),
-            "files": [str(f) for f in files], "lines": lines}
+    return lines
 
 
 def _plot_force_fit(path, study, model, fit, data, voltage):
@@ -382,48 +398,31 @@ def _plot_force_fit(path, study, model, fit, data, voltage):
     return path
 
 
-def calibrate_damping_cli(study, spectrum_csv, out_dir, modes_json=None,
-                          window: float = 0.15, fit: str = "modal", quality_csv=None,
-                          relaxation_time=None) -> dict:
-    """Calibrate b/m of each kept mode on a measured average spectrum (Sect. 5.3).
+def damping_calibration_columns(calibration, setup) -> tuple:
+    """The columns of ``damping_calibration.csv`` (:data:`CALIBRATION_COLUMNS`: label, the
+    mode's frequency in air [Hz], the measured and model peaks [m/s], b/m [1/s])."""
+    return (calibration.labels, setup.reduced.frequency_hz, calibration.measured_peak,
+            calibration.model_peak, calibration.damping_per_mass)
 
-    The CSV has the columns of ``spectrum_average.csv``; it must come from the
-    same chirp as the study's ``excitation`` keys.  Writes
-    ``damping_calibration.csv`` (label, freq_hz, measured_peak, model_peak,
-    damping_per_mass [1/s]) and prints the ``--set`` options to reuse.
 
-    ``fit = "rayleigh"`` or ``"prony"`` (the FE's ``membrane.rayleigh_alpha/beta`` or one
-    ``membrane.prony`` term, fitted by FE solves) is
-    :func:`copdea_fem.damping_fit.calibrate_structural_damping`, above the FE pipeline
-    (the reduced model sits below it and does not import it).
-    """
-    if fit != "modal":
-        raise StudyError(f"fit = {fit!r} is not allowed in the reduced model's calibration; "
-                         "allowed: 'modal' (rayleigh, prony: "
-                         "copdea_fem.damping_fit.calibrate_structural_damping)")
-    if spectrum_csv is None:
-        raise StudyError("SPECTRUM.csv is required by --fit modal (the b/m of the reduced "
-                         "model); allowed: a spectrum CSV, or --fit rayleigh|prony with "
-                         "--quality-factors")
-    if quality_csv is not None:
-        raise StudyError("--quality-factors is not allowed with --fit modal; allowed: with "
-                         "--fit rayleigh or --fit prony")
-    calibration, setup, measured = calibrate_on_spectrum(study, spectrum_csv, modes_json,
-                                                          window)
-    out = Path(out_dir)
-    with result_directory(out, "calibrate-damping") as staging:
-        files = [write_csv(staging / "damping_calibration.csv",
-                           ("label", "freq_hz", "measured_peak", "model_peak",
-                            "damping_per_mass"),
-                           (calibration.labels, setup.reduced.frequency_hz,
-                            calibration.measured_peak, calibration.model_peak,
-                            calibration.damping_per_mass))]
-        if study["output"]["plots"]:
-            calibrated = setup.reduced.with_damping_per_mass(calibration.damping_per_mass)
-            plot_average(staging / "damping_calibration.png", spectra_of(setup, calibrated),
-                         calibrated, _title(study) + " (damping calibrated)", measured=measured)
-            files.append(staging / "damping_calibration.png")
-    files = [out / path.name for path in files]
+def write_damping_calibration(out, study, calibration, setup, measured) -> list:
+    """The files of ``calibrate-damping`` (``--fit modal``) in ``out`` (a staging folder):
+    ``damping_calibration.csv`` (:func:`damping_calibration_columns`) and, with
+    ``output.plots``, the calibrated model's average spectrum over the measured one
+    (damping_calibration.png); their paths."""
+    files = [write_csv(out / "damping_calibration.csv", CALIBRATION_COLUMNS,
+                       damping_calibration_columns(calibration, setup))]
+    if study["output"]["plots"]:
+        calibrated = setup.reduced.with_damping_per_mass(calibration.damping_per_mass)
+        plot_average(out / "damping_calibration.png", spectra_of(setup, calibrated),
+                     calibrated, _title(study) + " (damping calibrated)", measured=measured)
+        files.append(out / "damping_calibration.png")
+    return files
+
+
+def damping_calibration_lines(calibration, setup) -> list[str]:
+    """What ``copdea-fem calibrate-damping`` (``--fit modal``) prints: per mode the measured
+    and model peaks and b/m, and the ``--set`` options to reuse."""
     lines = [f"{'mode':>6} {'air Hz':>9} {'measured':>10} {'model':>10} {'b/m 1/s':>9}"]
     options, shared = {}, []
     for j, label in enumerate(calibration.labels):
@@ -439,25 +438,29 @@ def calibrate_damping_cli(study, spectrum_csv, out_dir, modes_json=None,
     if shared:
         lines.append(f"  note: {', '.join(shared)} share reduced.damping_higher with a lower mode; "
                      "the value above is the lowest one's")
-    return {"damping_per_mass": dict(zip(calibration.labels,
-                                         map(float, calibration.damping_per_mass))),
-            "files": [str(f) for f in files], "lines": lines}
+    return lines
+
+
+def check_window(window: float) -> None:
+    """The relative half-width of the peak search around each mode: in (0, 1), else a
+    :class:`StudyError` naming ``--window``."""
+    if not 0 < window < 1:
+        raise StudyError(f"--window = {window!r} is not allowed; allowed: (0, 1), a relative "
+                         "half-width around each mode")
 
 
 def calibrate_on_spectrum(study, spectrum_csv, modes_json, window):
     """b/m of each kept mode calibrated on a measured average spectrum (Sect. 5.3):
-    (calibration, reduced setup, measured columns)."""
-    if not 0 < window < 1:
-        raise StudyError(f"--window = {window!r} is not allowed; allowed: (0, 1), a relative "
-                         "half-width around each mode")
+    (calibration, reduced setup, measured columns).
+
+    The CSV has the columns of ``spectrum_average.csv``; it must come from the same chirp
+    as the study's ``excitation`` keys.  ``modes_json`` (default ``reduced.modes_json``)
+    sets the added masses; ``window`` is the relative half-width of the peak search around
+    each mode."""
+    check_window(window)
     measured = read_spectrum_csv(spectrum_csv)
     fe, _ = fe_frequencies(study, modes_json)
     setup = build_reduced(study, fe)
     calibration = calibrate_damping(setup.reduced, setup.chirp, measured["freq_hz"],
                                     measured["v_axial"], measured["v_radial"], window)
     return calibration, setup, measured
-
-
-def bad_input(exc: Exception) -> bool:
-    """True for the errors a CLI should report as a message (both subclass ValueError)."""
-    return isinstance(exc, (StudyError, ReducedModelError))

@@ -8,12 +8,7 @@ import pytest
 from reduced_helpers import DATA, paper_study
 
 import copdea_fem as cf
-from copdea_fem.reduced.io import (
-    calibrate_damping_cli,
-    fit_material_cli,
-    read_modes_json,
-    write_csv,
-)
+from copdea_fem.reduced.io import read_modes_json, write_csv
 from copdea_fem.reduced.model import build_reduced
 from copdea_fem.study import StudyError, load_study, parse_study, reduced_mode_labels
 
@@ -23,6 +18,18 @@ def run_spectrum(study, folder):
     spectrum = cf.spectrum(study)
     spectrum.write(folder)
     return spectrum.summary
+
+
+def fit_material_cli(study, data, folder):
+    """``copdea-fem fit-material --out folder`` through the API: the fit and its lines."""
+    result = cf.fit_material(study, data, out=folder)
+    return {"values": result.values, "lines": result.summary_lines()}
+
+
+def calibrate_damping_cli(study, spectrum, folder, **options):
+    """``copdea-fem calibrate-damping --out folder`` through the API: b/m and the lines."""
+    result = cf.calibrate_damping(study, spectrum, out=folder, **options)
+    return {"damping_per_mass": result.damping_per_mass, "lines": result.summary_lines()}
 
 
 def read_rows(path):
@@ -130,11 +137,12 @@ def test_calibrate_damping_cli_round_trip(tmp_path):
                               tmp_path / "cal", window=1.5)
 
 
-def test_calibrate_damping_cli_names_where_the_fe_fits_are(tmp_path):
+def test_calibrate_damping_fe_fits_need_measured_damping_before_any_work(tmp_path):
     """The reduced model sits below the FE pipeline (issue 21): ``--fit rayleigh|prony``
-    runs FE solves, from :func:`copdea_fem.damping_fit.calibrate_structural_damping`."""
-    with pytest.raises(StudyError, match=r"fit = 'rayleigh' is not allowed.*allowed: 'modal'"
-                                         r".*damping_fit\.calibrate_structural_damping"):
+    runs FE solves, from :mod:`copdea_fem.damping_fit` (the API's ``calibrate_damping``);
+    without measured damping it is refused before any work, naming what is allowed."""
+    with pytest.raises(StudyError, match=r"--fit rayleigh needs measured damping; allowed: "
+                                         r"--quality-factors Q\.csv or a SPECTRUM\.csv"):
         calibrate_damping_cli(paper_study(), None, tmp_path / "cal", fit="rayleigh")
     assert not (tmp_path / "cal").exists()
 
