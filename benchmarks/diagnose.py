@@ -4,9 +4,10 @@ Each repetition runs ``copdea-fem diagnose`` in-process in a fresh subprocess
 with an empty FE cache (cold: every FE solve is paid) or, with ``--warm``, with
 the cache the first repetition filled.  ``--executors serial,local,dask`` runs each listed
 way of solving the cold FE studies side by side, interleaved (one run of each per
-repetition): ``serial`` one at a time in the process (``fe_workers=1``), ``local`` the
-default spawned processes (``--workers``, default 2), ``dask`` a local Dask cluster of as
-many worker processes (``executor="dask"``, no scheduler), and reports the medians, their
+repetition): ``serial`` one at a time in the process (``executor="inline"``), ``local``
+the default spawned processes (``executor="processes"``, ``--workers``, default 2),
+``dask`` a local Dask cluster of as many worker processes (``executor="dask"``, no
+scheduler), and reports the medians, their
 ratios to ``serial`` and ``local``, and whether every variant reached the same diagnosis
 (missing effects, gaps, the FE frequencies of every condition).  Default data set:
 ``studies/measured_fe_example`` (G1, 5 conditions, coupled 3-D FE data with the
@@ -31,7 +32,7 @@ EXAMPLE = ROOT / "studies" / "measured_fe_example" / "measured.yaml"
 
 
 #: variant -> (executor, workers or None for --workers)
-VARIANTS = {"serial": ("local", 1), "local": ("local", None), "dask": ("dask", None)}
+VARIANTS = {"serial": ("inline", 1), "local": ("processes", None), "dask": ("dask", None)}
 
 
 def _once(measured: str, cache: str, variant: str = "local", workers: int | None = None) -> dict:
@@ -40,7 +41,7 @@ def _once(measured: str, cache: str, variant: str = "local", workers: int | None
     with tempfile.TemporaryDirectory() as out:
         start = time.perf_counter()
         diagnosis = cf.diagnose(measured, fe_cache=cache, executor=executor,
-                                fe_workers=fixed or workers)
+                                workers=fixed or workers)
         diagnosis.write(Path(out) / "report")
         seconds = time.perf_counter() - start
     result = diagnosis.result

@@ -96,7 +96,7 @@ def _once(argv: list[str]) -> int:
     sweep = load_sweep(sweep_path, overrides=parse_overrides(sets))
     from copdea_fem.progress import progress_to
     with progress_to(lambda message: print(message, file=sys.stderr, flush=True)):
-        run_sweep(sweep, out_dir=directory, executor="local",
+        run_sweep(sweep, out_dir=directory, executor="inline",
                   reuse=parse_reuse(json.loads(reuse_text)))
     # what symbolic-analysis reuse could buy: NGSolve's own UMFPACK timers [s]
     import ngsolve
@@ -110,8 +110,9 @@ def _executors(argv: list[str]) -> int:
     """``python -m benchmarks.sweep executors SWEEP.yaml [--repeat N] [--workers 2]
     [--executors local,pool,dask] [--set K=V]``.
 
-    Runs the sweep on the local executor (one process, one chain per context), the pool
-    (``--workers`` spawned processes) and with ``--executor dask`` and no scheduler (a local
+    Runs the sweep on the local executor (``--executor inline``: one process, one chain per
+    context), the pool (``--executor processes``: ``--workers`` spawned processes) and with
+    ``--executor dask`` and no scheduler (a local
     cluster of ``--workers`` processes started for the run, its start counted), interleaved,
     each run a fresh process with an empty result folder; reports the median wall time of
     the sweep (``sweep.json``'s ``wall_s``) and of the whole process, the CPU seconds of the
@@ -184,15 +185,20 @@ def _executors(argv: list[str]) -> int:
     return 0
 
 
+#: The variants of ``executors`` (the names of their reports) -> the executors they run.
+EXECUTORS = {"local": "inline", "pool": "processes", "dask": "dask"}
+
+
 def _run(argv: list[str]) -> int:
-    sweep_path, directory, executor, workers, *sets = argv
+    sweep_path, directory, variant, workers, *sets = argv
+    executor = EXECUTORS[variant]
     from copdea_fem.progress import progress_to
     from copdea_fem.study import parse_overrides
     sweep = load_sweep(sweep_path, overrides=parse_overrides(sets))
     sweep.plots = False
     with progress_to(lambda message: print(message, file=sys.stderr, flush=True)):
         run_sweep(sweep, out_dir=directory, executor=executor,
-                  workers=None if executor == "local" else int(workers))
+                  workers=None if executor == "inline" else int(workers))
     return 0
 
 
