@@ -5,7 +5,6 @@ a measured spectrum or measured quality factors (:func:`calibrate_damping`,
 
 from __future__ import annotations
 
-import logging
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -32,8 +31,6 @@ if TYPE_CHECKING:
     from copdea_fem.reduced.fit import MaterialFit
     from copdea_fem.reduced.model import ReducedSetup
     from copdea_fem.reduced.rings import RingModel
-
-logger = logging.getLogger("copdea_fem")
 
 #: The fits of :func:`calibrate_damping`: the reduced model's b/m, the FE's Rayleigh keys,
 #: one Prony term of the FE's membrane.
