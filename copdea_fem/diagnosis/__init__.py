@@ -215,13 +215,6 @@ def describe_truth(effects: dict) -> str:
                      for e, v in effects.items()) or "no effect added"
 
 
-#: Effects a synthetic vibrometer export can hide: those the FE honours (air, frame, disc
-#: motion, stiffness scale, the membrane's relaxation spectrum); the others act only through
-#: the ring model.
-SCAN_EFFECTS = ("air_loading", "frame_reflection", "baffle", "open_air", "disc_pumping",
-                "uniform_stiffness", "viscoelastic_membrane")
-
-
 def check_scan_truth(study, effects_text, conditions_text=None,
                      parameters=None) -> tuple[dict, list]:
     """The effects and conditions of a synthetic set of vibrometer exports (``copdea-fem
@@ -234,7 +227,7 @@ def check_scan_truth(study, effects_text, conditions_text=None,
         ``{effect id: parameter values}`` switched on in the truth, and each condition's
         name and study overrides.
     """
-    from copdea_fem.diagnosis.effects import parse_effect_list
+    from copdea_fem.diagnosis.effects import SCAN_EFFECTS, parse_effect_list
     from copdea_fem.diagnosis.synth import condition_name, parse_conditions, parse_parameters
     from copdea_fem.study import StudyError
     names = parse_effect_list(effects_text or "")
@@ -265,4 +258,4 @@ def check_scan_truth(study, effects_text, conditions_text=None,
 __all__ = ["CATALOGUE", "EFFECT_IDS", "Effect", "Parameter", "catalogue_table",
            "MeasuredDataError", "MeasuredSet", "load_measured", "Diagnoser", "DiagnosisResult",
            "diagnose_measured", "synthesise_set", "check_scan_truth", "describe_truth",
-           "summary_lines", "diagnose_out_dir", "synth_out_dir", "SCAN_EFFECTS"]
+           "summary_lines", "diagnose_out_dir", "synth_out_dir"]

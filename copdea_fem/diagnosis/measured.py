@@ -69,7 +69,7 @@ from pathlib import Path
 
 import numpy as np
 
-from copdea_fem.diagnosis.effects import DEFAULT_CANDIDATES, parse_effect_list
+from copdea_fem.diagnosis.effects import DEFAULT_CANDIDATES, SWITCHED_KEYS, parse_effect_list
 from copdea_fem.inputs import preview, read_text, read_yaml
 from copdea_fem.study import Study, StudyError, load_study
 from copdea_fem.vibrometer.scan import MeasuredDataError, ScanData, ScanFrame
@@ -84,13 +84,8 @@ CONDITION_KEYS = ("name", "set", "resonances", "spectrum", "spectrum_point", "ba
 SCAN_FRAME_KEYS = ("origin", "x_axis", "z_axis", "length_unit")
 RESONANCE_COLUMNS = ("freq_hz", "label", "quality_factor", "kind")
 
-# Keys a condition may not set: the effects switch them (see effects.CATALOGUE).
-EFFECT_KEYS = {"effects.": "the effects", "disc.motion": "disc_pumping",
-               "spring.mass": "spring_mass", "reduced.damping_": "modal_damping",
-               "reduced.modes_json": "air_loading", "reduced.coupled_freq_0": "air_loading",
-               "air.enabled": "air_loading", "geometry.frame": "frame_reflection",
-               "reduced.pumping_added_mass": "spring_mass",
-               "membrane.prony": "viscoelastic_membrane"}
+# Keys a condition may not set: the effects switch them (their ``switched_keys``).
+EFFECT_KEYS = {"effects.": "the effects", **SWITCHED_KEYS}
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,6 @@ from copdea_fem.diagnosis.compare import (
     gap_parts,
     match_condition,
 )
-from copdea_fem.diagnosis.engine import ModelMode
 from copdea_fem.diagnosis.measured import (
     MeasuredDataError,
     NoiseModel,
@@ -22,6 +21,7 @@ from copdea_fem.diagnosis.measured import (
     parse_observed,
     parse_pairing,
 )
+from copdea_fem.diagnosis.ring_predictor import ModelMode
 
 BASE = "geometry:\n  inner_radius: 17 mm\ndisc:\n  motion: spring\n"
 RESONANCES = "freq_hz,label\n388,(0,1)\n"
