@@ -19,7 +19,7 @@ __version__ = "0.1.0"
 __all__ = ["load_study", "solve", "response", "force", "spectrum", "sweep", "diagnose",
            "correlate", "identify", "Solution", "ResponseSolution", "ForceCurve", "Spectrum",
            "SweepResult", "Diagnosis", "CorrelateResult", "IdentifyResult", "SolveFailed",
-           "StudyError", "OutputFolderError"]
+           "StudyError", "OutputFolderError", "load_measured"]
 
 
 def __getattr__(name):

@@ -335,7 +335,7 @@ def _add_sweep_command(commands) -> None:
 def cmd_diagnose(args) -> int:
     """Which catalogued effect the model lacks; report.md, diagnosis.json, PNGs."""
     from copdea_fem import api
-    from copdea_fem.diagnosis import diagnose_out_dir, load_measured, summary_lines
+    from copdea_fem.diagnosis import diagnose_out_dir, summary_lines
     if args.fe_cache:
         from copdea_fem.diagnosis.fe import check_cache_dir
         check_cache_dir(args.fe_cache, "--fe-cache")    # a file: exit 2 before any work
@@ -344,13 +344,13 @@ def cmd_diagnose(args) -> int:
         check_workers(args.fe_workers, "--fe-workers")
     from copdea_fem.sweeps.cluster import check_scheduler
     check_scheduler(args.executor, args.scheduler)      # exit 2 before any work
-    measured = load_measured(args.measured)
+    measured = api.load_measured(args.measured)
     out_dir = Path(args.out) if args.out else diagnose_out_dir(measured)
     inputs = [args.measured, *(path for condition in measured.conditions
                                for path in condition.files.values())]
     with _output(args, out_dir, "diagnose", inputs) as folder:
         def action():
-            diagnosis = api.diagnose(args.measured, alpha=args.alpha, model=args.model,
+            diagnosis = api.diagnose(measured, alpha=args.alpha, model=args.model,
                                      fe_cache=args.fe_cache, fe_workers=args.fe_workers,
                                      executor=args.executor, scheduler=args.scheduler)
             diagnosis.write(folder)
@@ -361,8 +361,7 @@ def cmd_diagnose(args) -> int:
 def cmd_correlate(args) -> int:
     """Pair each scanned condition's identified modes with the FE's by shape."""
     from copdea_fem import api
-    from copdea_fem.diagnosis import load_measured
-    measured = load_measured(args.measured)
+    measured = api.load_measured(args.measured)
     if not any(condition.scan is not None for condition in measured.conditions):
         raise StudyError(f"{args.measured}: no condition names a scan; allowed: conditions "
                          "with scan: FILE.uff")
@@ -370,7 +369,7 @@ def cmd_correlate(args) -> int:
     inputs = [args.measured, *(path for condition in measured.conditions
                                for path in condition.files.values())]
     with _output(args, out_dir, "correlate", inputs) as folder:
-        result = api.correlate(args.measured)
+        result = api.correlate(measured, allow_large=args.allow_large)
         result.write(folder)
     for correlation in result.correlations:
         paired = sum(1 for pair in correlation.pairs if pair.label)
@@ -383,8 +382,7 @@ def cmd_correlate(args) -> int:
 def cmd_identify(args) -> int:
     """The modes of every scan of a measured.yaml: identified.csv, stabilisation PNGs, VTU."""
     from copdea_fem import api
-    from copdea_fem.diagnosis import load_measured
-    measured = load_measured(args.measured)
+    measured = api.load_measured(args.measured)
     if not any(condition.scan is not None for condition in measured.conditions):
         raise StudyError(f"measured file {args.measured}: no condition has a scan; allowed: "
                          "at least one condition with scan: FILE (.uff/.unv)")
@@ -396,7 +394,7 @@ def cmd_identify(args) -> int:
         from copdea_fem.vibrometer.identification import check_options
         check_options(options)                       # exit 2 before any work
     with _output(args, out_dir, "identify", inputs) as folder:
-        result = api.identify(args.measured, **options)
+        result = api.identify(measured, **options)
         result.write(folder)
     for item in result.sets:
         modes = ", ".join(f"{m.freq_hz:.1f}" for m in item.modes)
@@ -474,6 +472,9 @@ def _add_diagnose_commands(commands, with_study) -> None:
                            "(scan: FILE.uff)")
     correlate.add_argument("--out", help="result directory (default: "
                            "results/correlate_<name>)")
+    correlate.add_argument("--allow-large", action="store_true",
+                           help="solve a condition even when its FE problem is estimated "
+                                "above the size limit")
     correlate.add_argument("--quiet", action="store_true", help="no progress messages")
     correlate.set_defaults(handler=cmd_correlate)
 

@@ -79,7 +79,7 @@ def test_correlate_labels_the_example_by_shape(tmp_path, capsys):
 
 
 def test_the_scan_becomes_labelled_peaks_with_quality_factors():
-    from copdea_fem.diagnosis.measured import load_measured
+    from copdea_fem.diagnosis import load_measured
     from copdea_fem.diagnosis.scanned import pairing_report_lines, resonances_from_scans
 
     measured, pairings = resonances_from_scans(load_measured(EXAMPLE / "measured.yaml"))

@@ -19,10 +19,10 @@ from vibrometer_helpers import (
 
 from copdea_fem import api
 from copdea_fem.cli import main
+from copdea_fem.measured import MeasuredDataError, ScanData, write_scan
+from copdea_fem.measured.uff import read_functions
 from copdea_fem.study import StudyError
 from copdea_fem.vibrometer.identification import identify, identify_scan, modal_phase_collinearity
-from copdea_fem.vibrometer.scan import MeasuredDataError, ScanData
-from copdea_fem.vibrometer.uff import read_functions, write_scan
 
 #: (m, n, orientation) families and their (frequency [Hz], damping ratio): the (1,1) pair
 #: split by 1 % with damping 1 % - a half-power width of 2 % - so that the sum of the FRFs

@@ -16,17 +16,11 @@ from vibrometer_helpers import (
     write_measured,
 )
 
-from copdea_fem.diagnosis.measured import MeasuredDataError, load_measured
-from copdea_fem.vibrometer.geometry import device_distances
-from copdea_fem.vibrometer.scan import ScanData, ScanFrame
-from copdea_fem.vibrometer.uff import (
-    parse_unit_label,
-    read_functions,
-    read_geometry,
-    read_mode_sets,
-    read_scan,
-    write_scan,
-)
+from copdea_fem.diagnosis import load_measured
+from copdea_fem.measured import MeasuredDataError, ScanData, ScanFrame, read_scan, write_scan
+from copdea_fem.measured.geometry import device_distances
+from copdea_fem.measured.uff import read_functions, read_geometry, read_mode_sets
+from copdea_fem.measured.uff_units import parse_unit_label
 
 LMS = REALDATA / "gvt_xhale_lms_testlab"
 SAMPLES = REALDATA / "pyuff_format_samples"

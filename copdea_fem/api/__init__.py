@@ -27,6 +27,10 @@ failed for a physical or numerical reason; exit 3), and
 model, cannot be built or evaluated for these inputs; exit 3).  Each function's *Raises*
 section says which it can raise.
 
+:func:`diagnose`, :func:`identify` and :func:`correlate` take a measured.yaml's path or the
+:class:`~copdea_fem.measured.MeasuredSet` :func:`load_measured` read from it, as the others
+take a study file or a :class:`~copdea_fem.study.Study`: each file is then read once.
+
 A :class:`~copdea_fem.study.Study` given to a function is validated again first
 (:meth:`~copdea_fem.study.Study.checked`): a study changed by hand after :func:`load_study`
 is checked like a file (an unknown key, a wrong type or a value out of range is a
@@ -40,8 +44,8 @@ result folders of ``write``), then the functions with their results:
 :mod:`~copdea_fem.api.fe_results` (:func:`solve`, :func:`force`),
 :mod:`~copdea_fem.api.response_results` (:func:`response`, :func:`spectrum`),
 :mod:`~copdea_fem.api.sweep_results` (:func:`sweep`) and
-:mod:`~copdea_fem.api.measured_results` (:func:`diagnose`, :func:`identify`,
-:func:`correlate`).  Their public names are imported from here.
+:mod:`~copdea_fem.api.measured_results` (:func:`load_measured`, :func:`diagnose`,
+:func:`identify`, :func:`correlate`).  Their public names are imported from here.
 """
 
 from copdea_fem.api.calls import SolveFailed, check_size, load_study, solving
@@ -60,6 +64,7 @@ from copdea_fem.api.measured_results import (
     correlate,
     diagnose,
     identify,
+    load_measured,
 )
 from copdea_fem.api.response_results import ResponseSolution, Spectrum, response, spectrum
 from copdea_fem.api.sweep_results import SweepResult, sweep
@@ -71,6 +76,7 @@ from copdea_fem.study import StudyError
 #: The API's names in the order of the API page (autodoc's ``bysource`` follows it).
 __all__ = ["load_study", "solve", "Solution", "response", "ResponseSolution",  # noqa: RUF022
            "force", "prepare_force", "compute_force", "ForceCurve", "spectrum", "Spectrum",
-           "sweep", "SweepResult", "diagnose", "Diagnosis", "identify", "IdentifyResult",
+           "sweep", "SweepResult", "load_measured", "diagnose", "Diagnosis", "identify",
+           "IdentifyResult",
            "correlate", "CorrelateResult", "SolveFailed", "StudyError", "OutputFolderError",
            "solving", "check_size"]

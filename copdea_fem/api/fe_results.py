@@ -15,6 +15,7 @@ from copdea_fem.api.calls import (
     data_frame,
     input_files,
     reporting_to,
+    solve_checked,
     solving,
 )
 from copdea_fem.api.folders import claimed
@@ -68,14 +69,9 @@ def solve(study: Study | str | Path, *, allow_large: bool = False,
         The prestress (Newton) solve fails: a loss of tension (the membrane would
         wrinkle), pull-in, or no convergence after ``prestress.max_cuts`` step halvings.
     """
-    from copdea_fem.fe.engines import engine_for
-    from copdea_fem.fe.pipeline import run_solve
-
     study = as_study(study)
-    engine = engine_for(study)
-    check_size(study, allow_large, engine)
-    with solving(study), reporting_to(progress):
-        result = run_solve(study, cache_dir=mesh_cache, engine=engine)
+    with reporting_to(progress):
+        result = solve_checked(study, allow_large=allow_large, mesh_cache=mesh_cache)
     return Solution(result)
 
 

@@ -33,6 +33,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Callable
 
+from copdea_fem.measured import EffectRules
 from copdea_fem.study import ENCLOSURE_AIR_SHARE, StudyError
 
 # Modal damping b/m of Sect. 5.3 [1/s]: the physical default of effect modal_damping.
@@ -563,3 +564,20 @@ def catalogue_table() -> str:
             engine += "; opt-in: tested only where measured.yaml's candidates name it"
         rows.append(f"| `{e.id}` | {e.kind} | {engine} | {params} | {e.signature} |")
     return "\n".join(rows)
+
+
+#: Study keys a measured condition's ``set:`` may not name, by prefix: the effect that
+#: switches each (a condition sets the operating point, geometry and material only).
+SWITCHED_KEYS = {"effects.": "the effects", "disc.motion": "disc_pumping",
+                 "spring.mass": "spring_mass", "reduced.damping_": "modal_damping",
+                 "reduced.modes_json": "air_loading", "reduced.coupled_freq_0": "air_loading",
+                 "air.enabled": "air_loading", "geometry.frame": "frame_reflection",
+                 "reduced.pumping_added_mass": "spring_mass",
+                 "membrane.prony": "viscoelastic_membrane"}
+
+#: What ``measured.yaml`` may say of the effects, for its reader
+#: (:func:`copdea_fem.measured.load_measured`): ``candidates:`` read by
+#: :func:`parse_effect_list`, :data:`DEFAULT_CANDIDATES` without it, :data:`SWITCHED_KEYS`.
+MANIFEST_RULES = EffectRules(parse_candidates=parse_effect_list,
+                             default_candidates=DEFAULT_CANDIDATES,
+                             switched_keys=SWITCHED_KEYS)

@@ -164,7 +164,7 @@ def state_overrides(study, state) -> dict:
 
 
 class Engine:
-    """Predictions for the conditions of a :class:`~copdea_fem.diagnosis.measured.MeasuredSet`.
+    """Predictions for the conditions of a :class:`~copdea_fem.measured.MeasuredSet`.
 
     Parameters
     ----------

@@ -17,7 +17,7 @@ import math
 
 from copdea_fem.diagnosis.effects import MOUNTINGS
 from copdea_fem.diagnosis.engine import safe_predict
-from copdea_fem.diagnosis.measured import Condition
+from copdea_fem.measured import Condition
 from copdea_fem.diagnosis.scoring import CandidateScore
 
 PROBE_VOLTAGES = (0.0, 1000.0, 2000.0, 3000.0)     # V_b of the probes [V]

@@ -47,7 +47,7 @@ import yaml
 
 from copdea_fem.diagnosis.effects import CATALOGUE, effect
 from copdea_fem.diagnosis.engine import Engine
-from copdea_fem.diagnosis.measured import Condition, MeasuredSet, NoiseModel
+from copdea_fem.measured import Condition, MeasuredSet, NoiseModel
 from copdea_fem.inputs import parse_yaml
 from copdea_fem.study import Study, StudyError, dump_resolved
 

@@ -9,7 +9,7 @@ import pytest
 import yaml
 
 from copdea_fem.cli import main
-from copdea_fem.diagnosis.measured import load_measured
+from copdea_fem.diagnosis import load_measured
 from copdea_fem.study import load_study
 
 ROOT = Path(__file__).resolve().parents[2]
