@@ -177,6 +177,21 @@ def test_identify_command_without_scan_exit_2(tmp_path, capsys):
     assert "no condition has a scan" in capsys.readouterr().err
 
 
+def test_identify_reads_the_manifest_and_each_scan_once(tmp_path, counted):
+    """The command loads measured.yaml once and gives the API the loaded set: no file is
+    read twice (the manifest once, each condition's scan once)."""
+    from copdea_fem.measured import manifest
+    path = _measured(tmp_path, ("a", "b"))
+    counted(manifest, "read_yaml")
+    counted(manifest, "read_scan")
+    assert main(["identify", str(path), "--out", str(tmp_path / "out"), "--quiet"]) == 0
+    assert counted.calls == {"read_yaml": 1, "read_scan": 2}
+    counted.calls.clear()
+    loaded = api.load_measured(path)
+    assert list(api.identify(loaded).table["condition"].unique()) == ["a", "b"]
+    assert counted.calls == {"read_yaml": 1, "read_scan": 2}       # by load_measured alone
+
+
 def test_api_identify(tmp_path):
     result = api.identify(_measured(tmp_path, ("a", "b")))
     assert list(result.table["condition"].unique()) == ["a", "b"]

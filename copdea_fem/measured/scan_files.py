@@ -46,8 +46,7 @@ def read_scan(path, *, frame: ScanFrame | None = None, directions=None) -> ScanD
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in SCAN_READERS:
-        raise refusal(f"scan file {preview(path)} suffix", path.suffix,
-                      ", ".join(SCAN_READERS) + " (a Universal File Format export)")
+        raise refusal(f"scan file {preview(path)} suffix", path.suffix, ", ".join(SCAN_READERS))
     return SCAN_READERS[suffix](path, frame=frame, directions=directions)
 
 
