@@ -229,19 +229,12 @@ def run_synth(study, effects_text, conditions_text=None, parameters=None, option
             "conditions": [i.name for i in items]}
 
 
-#: Effects a synthetic vibrometer export can hide: those the FE honours (air, frame, disc
-#: motion, stiffness scale, the membrane's relaxation spectrum); the others act only through
-#: the ring model.
-SCAN_EFFECTS = ("air_loading", "frame_reflection", "baffle", "open_air", "disc_pumping",
-                "uniform_stiffness", "viscoelastic_membrane")
-
-
 def run_synth_scan(study, effects_text, conditions_text=None, parameters=None, options=None,
                    out_dir=None) -> dict:
     """Synthetic vibrometer exports made by the FE (``copdea-fem synth --format uff``), see
     :mod:`copdea_fem.diagnosis.synth_scan`.  Parameters as :func:`run_synth`'s; ``options``
     a :class:`~copdea_fem.diagnosis.synth_scan.ScanOptions`."""
-    from copdea_fem.diagnosis.effects import parse_effect_list
+    from copdea_fem.diagnosis.effects import SCAN_EFFECTS, parse_effect_list
     from copdea_fem.diagnosis.synth import condition_name, parse_conditions, parse_parameters
     from copdea_fem.diagnosis.synth_scan import ScanOptions, write_scan_set
     from copdea_fem.folders import result_directory

@@ -8,7 +8,8 @@ interpolates between FE solves:
     f(state) = f_ring(state) * f_FE(anchor) / f_ring(anchor)            (A1)
 
 per mode label, where ``anchor`` is the state's *anchor state*: its effects
-that the FE represents (:data:`FE_ROLES`) -- the ones the ring model cannot
+that the FE represents (their ``fe_role``, :data:`~copdea_fem.diagnosis.effects.FE_ROLES`)
+-- the ones the ring model cannot
 (air on: the real coupled added mass, square frame) whenever they are in the
 state; the ones it moves well (Maxwell and stiffness scale, disc on its
 spring) once accepted, at the accepted values (:meth:`AnchoredEngine.set_anchor`,
@@ -40,7 +41,7 @@ zeta = 1/(2Q) follows (A1) additively:
 per mode label (clipped at 0), zeta_FE the FE's complex frequency's
 ``|Im f| / |f|`` (radiation with air; the Prony term's loss once
 ``viscoelastic_membrane`` is anchored) and zeta_ring the ring model's (modal b/m
-and the Prony term's loss, :mod:`copdea_fem.diagnosis.engine`).  At the anchor it
+and the Prony term's loss, :mod:`copdea_fem.diagnosis.ring_predictor`).  At the anchor it
 is the FE's; a ring-only damping (modal b/m) adds to it.  Modes the ring model
 lacks take the change of their proxy's zeta scaled to their own modal damping: the
 ring's zeta of a mode is ``(b/m) / (2 omega)`` times its membrane share (eq. 19), so a
@@ -50,7 +51,7 @@ mode L given the proxy p's share takes ``Delta zeta_p (b/m)_L omega_p / ((b/m)_p
 lacks take the ring's.
 
 The Prony term (``viscoelastic_membrane``).  The ring model does not
-model ``membrane.prony`` (:mod:`copdea_fem.diagnosis.engine`: its elastic stiffness
+model ``membrane.prony`` (:mod:`copdea_fem.diagnosis.ring_predictor`: its elastic stiffness
 is not the FE's material tangent), so between FE solves a *modal* surrogate moves
 it, calibrated on the FE.  A mode's stiffness splits into the material part
 ``s k`` (``s``: its material share of the strain energy, relaxed) and the rest
@@ -78,25 +79,18 @@ import functools
 import math
 from dataclasses import dataclass, field, replace
 
-from copdea_fem.diagnosis.effects import CATALOGUE
-from copdea_fem.diagnosis.engine import Engine, ModelMode, damping_per_mass
+from copdea_fem.diagnosis.effects import AIR_EFFECT, CATALOGUE, FE_ROLES
 from copdea_fem.diagnosis.fe import BAND_MARGIN, FEModel
+from copdea_fem.diagnosis.ring_predictor import ModelMode, RingPredictor, damping_per_mass
 from copdea_fem.reduced.rings import ReducedModelError
 from copdea_fem.study import StudyError
 
-# How the FE represents each effect: "switch" (the ring model cannot: on in the FE whenever
-# on in the state; its parameters, if any, act on the ring surrogate only, except where the
-# ring model does not read them: enclosure's depth sets the anchor's FE study, one FE solve
-# per depth), "anchored" (the
-# ring model moves it well: in the FE from the step that accepts it, at the accepted
+# How the FE represents each effect (FE_ROLES, the effects' ``fe_role``): "switch" (the ring
+# model cannot: on in the FE whenever on in the state; its surrogate-only parameters, if
+# any, act on the ring surrogate only and sit at their defaults in the anchor state, the
+# others set the anchor's FE study: enclosure's depth, one FE solve per depth), "anchored"
+# (the ring model moves it well: in the FE from the step that accepts it, at the accepted
 # values), or absent (ring only).
-FE_ROLES = {"air_loading": "switch", "frame_reflection": "switch", "baffle": "switch",
-            "open_air": "switch", "enclosure": "switch",
-            "disc_pumping": "anchored",
-            "electrostatic_softening": "anchored", "uniform_stiffness": "anchored",
-            "viscoelastic_membrane": "anchored"}
-# Parameter values of a switch in the anchor state (the ring side of the ratio).
-SWITCH_VALUES = {"air_loading": (1.0,)}
 MAX_RINGS = 48         # the largest ring count the convergence check suggests
 
 
@@ -290,8 +284,8 @@ class Anchor:
         return 1.0
 
 
-class AnchoredEngine(Engine):
-    """:class:`Engine` whose predictions are the FE's, interpolated by the ring model (A1).
+class AnchoredEngine(RingPredictor):
+    """:class:`RingPredictor` whose predictions are the FE's, interpolated by the ring model (A1).
 
     Parameters
     ----------
@@ -322,7 +316,7 @@ class AnchoredEngine(Engine):
         for effect_id, values in state:
             role = FE_ROLES.get(effect_id)
             if role == "switch":
-                out.append((effect_id, SWITCH_VALUES.get(effect_id, tuple(values))))
+                out.append((effect_id, CATALOGUE[effect_id].anchor_values(values)))
             elif role == "anchored" and effect_id in self.anchored and not testing:
                 out.append((effect_id, self.anchored[effect_id]))
         return tuple(out)
@@ -376,10 +370,11 @@ class AnchoredEngine(Engine):
         return replace(prediction, modes=modes)
 
     def prony_of(self, condition, state) -> tuple:
-        """The Prony terms of a state: ``viscoelastic_membrane``'s values where it is in
-        the state, else the base study's ``membrane.prony``."""
+        """The Prony terms of a state: the values of its Prony-term effect
+        (``viscoelastic_membrane``) where it is in the state, else the base study's
+        ``membrane.prony``."""
         for effect_id, values in state:
-            if effect_id == "viscoelastic_membrane":
+            if CATALOGUE[effect_id].prony_term:
                 return ((float(values[0]), float(values[1])),)
         return prony_terms(self.condition_study(condition)["membrane"]["prony"])
 
@@ -435,7 +430,7 @@ class AnchoredEngine(Engine):
             out = (0.0, "", "")
             for c in self.measured.conditions:
                 study = self.condition_study(c)
-                study = ring_only_off(study.replace(CATALOGUE["air_loading"].off(study)))
+                study = ring_only_off(study.replace(AIR_EFFECT.off(study)))
                 fe = self.fe.modes(study, f_max=BAND_MARGIN * c.band[1]).frequencies()
                 if ring_count != rings:
                     study = study.replace({"reduced.rings": ring_count})

@@ -7,17 +7,18 @@ with it as one group (``disc_pumping + spring_mass``), so a candidate is a
 tuple of effects, requirements first, the tested effect last.  An effect
 that is not a candidate gets the reason the report prints: it needs the FE
 as the model of record, air in the model, quality factors, a bias voltage
-or a preload; another mounting or material-damping cause is in the model
-(one at a time: :func:`mounting_skipped`, :func:`material_skipped`); or its
-requirement is not a candidate of ``measured.yaml``.
+or a preload (:meth:`~copdea_fem.diagnosis.effects.Effect.applies_to`); another
+mounting or material-damping cause is in the model (one at a time:
+:func:`mounting_skipped`, :func:`material_skipped`); or its requirement is not a
+candidate of ``measured.yaml``.  Every rule reads the fields of the effects
+(:class:`~copdea_fem.diagnosis.effects.Effect`), never their names.
 """
 
 from __future__ import annotations
 
 import math
 
-from copdea_fem.diagnosis.direct import DIRECT_EFFECTS
-from copdea_fem.diagnosis.effects import CATALOGUE, MATERIAL_DAMPING, MOUNTINGS, base_mounting
+from copdea_fem.diagnosis.effects import AIR_EFFECT, CATALOGUE, MOUNTINGS, base_mounting
 
 
 def candidate_groups(scorer, state, base_study) -> tuple[list, dict]:
@@ -45,8 +46,7 @@ def candidate_groups(scorer, state, base_study) -> tuple[list, dict]:
                                   if entry.is_on(base_study)}
     has_quality = any(math.isfinite(p.quality_factor) for peaks in scorer.peaks.values()
                       for p in peaks)
-    any_voltage = any(m["voltage"] > 0 for m in scorer.meta.values())
-    any_z = any(m["z"] > 0 for m in scorer.meta.values())
+    operating_points = tuple(scorer.meta.values())
     allowed = scorer.measured.candidates
     groups, skipped = [], {}
     for effect_id in allowed:
@@ -61,43 +61,24 @@ def candidate_groups(scorer, state, base_study) -> tuple[list, dict]:
             continue
         if effect_id in on:
             continue
-        if scorer.direct and effect_id == "viscoelastic_membrane":
-            skipped[effect_id] = ("needs the ring surrogate to fit its two parameters "
-                                  "(the direct FE engine would tabulate them on a grid "
-                                  "of damped FE solves per condition), which cannot "
-                                  "represent this membrane (no central disc)")
+        if scorer.direct and not entry.direct:
+            skipped[effect_id] = entry.not_direct or (
+                "needs the ring surrogate, which cannot represent this membrane (no central "
+                "disc), and the FE does not model it")
             continue
-        if scorer.direct and effect_id not in DIRECT_EFFECTS:
-            skipped[effect_id] = ("needs the ring surrogate, which cannot represent this "
-                                  "membrane (no central disc), and the FE does not model "
-                                  "it")
+        why = (entry.why_not_applicable(base_study, operating_points)
+               or mounting_skipped(effect_id, state, base_study)
+               or material_skipped(effect_id, state, base_study))
+        if why:
+            skipped[effect_id] = why
             continue
-        if effect_id == "disc_pumping" and base_study["geometry"]["inner_radius"] == 0:
-            skipped[effect_id] = "a membrane without a disc has no disc to pump"
-            continue
-        if effect_id in MOUNTINGS:
-            why = mounting_skipped(effect_id, state, base_study)
-            if why:
-                skipped[effect_id] = why
-                continue
-        if effect_id in MATERIAL_DAMPING:
-            why = material_skipped(effect_id, state, base_study)
-            if why:
-                skipped[effect_id] = why
-                continue
-        if entry.engine == "coupled_fe" and "air_loading" not in on:
+        if entry.engine == "coupled_fe" and AIR_EFFECT.id not in on:
             skipped[effect_id] = ("needs air in the model (the frame reflects sound): "
-                                  "tested once air_loading is on")
+                                  f"tested once {AIR_EFFECT.id} is on")
             continue
         if entry.needs == "quality_factors" and not has_quality:
             skipped[effect_id] = ("needs quality factors (a quality_factor column or "
                                   "spectra with resolved peaks)")
-            continue
-        if effect_id == "electrostatic_softening" and not any_voltage:
-            skipped[effect_id] = "every condition has V_b = 0: nothing to soften"
-            continue
-        if effect_id in ("disc_pumping", "spring_mass") and not any_z:
-            skipped[effect_id] = "every condition has z = 0: the pumping modes are not driven"
             continue
         group = tuple(r for r in entry.requires if r not in on) + (effect_id,)
         if any(g not in allowed for g in group):
@@ -118,47 +99,51 @@ def mounting_skipped(effect_id, state, base_study) -> str | None:
     data from a baffled base).  Once a mounting is accepted (or held provisionally)
     no other is tested.  A framed or baffled base without air (``air.enabled: false``,
     the frame inert) keeps its stated mounting: only a base that models the air states
-    a mounting to replace.
+    a mounting to replace.  None for an effect that is not a mounting.
     """
+    if CATALOGUE[effect_id].mounting is None:
+        return None
     added = next((e for e, _ in state if e in MOUNTINGS and e != effect_id), None)
     if added:
         return f"another mounting ({added}) is in the model: one mounting at a time"
     stated = base_mounting(base_study)
-    if stated not in (None, "open_air") and not base_study["air"]["enabled"]:
+    if (stated is not None and CATALOGUE[stated].mounting == "built"
+            and not base_study["air"]["enabled"]):
         return (f"another mounting ({stated}) is in the model: one mounting at a time "
                 "(the base study states it without air, air.enabled: false)")
     return None
 
 
 def material_skipped(effect_id, state, base_study) -> str | None:
-    """Why the material-damping effect ``effect_id`` is not a candidate at ``state``
-    (None: it is).
+    """Why the effect ``effect_id`` is not a candidate at ``state`` because of an
+    exclusion (:attr:`~copdea_fem.diagnosis.effects.Effect.exclusion`; None: it is).
 
-    One material cause at a time (:data:`~copdea_fem.diagnosis.effects.MATERIAL_DAMPING`):
-    the FE's Prony term (``viscoelastic_membrane``) stiffens AND damps, so it is the
-    cause that the ring model's storage factor (``viscoelastic_stiffening``) and the
-    paper's modal b/m (``modal_damping``) each describe a part of.  It is never tested
-    beside either: not once one of them is in the model (added, or
-    ``viscoelastic_stiffening`` on in the base), nor either once it is.  The base
-    study's modal b/m (on by default, Sect. 5.3) is no obstacle: the Prony term replaces
-    it (its overrides set ``reduced.damping_*`` to 0), as a mounting replaces another.
-    At one step all three may be tested; the best is named (or the group reported as
-    ambiguous) by the search's usual rule.
+    One material-damping cause at a time: the FE's Prony term (``viscoelastic_membrane``)
+    stiffens AND damps, so it is the cause that the ring model's storage factor
+    (``viscoelastic_stiffening``) and the paper's modal b/m (``modal_damping``) each
+    describe a part of.  It is never tested beside either: not once one of them is in the
+    model (added, or on in the base), nor either once it is.  An effect it replaces (the
+    base study's modal b/m, on by default, Sect. 5.3) is no obstacle: the Prony term
+    replaces it (its overrides set ``reduced.damping_*`` to 0), as a mounting replaces
+    another.  At one step all three may be tested; the best is named (or the group
+    reported as ambiguous) by the search's usual rule.
     """
+    entry = CATALOGUE[effect_id]
     added = {e for e, _ in state}
-    if effect_id == "viscoelastic_membrane":
-        other = next((e for e in ("viscoelastic_stiffening", "modal_damping")
-                      if e in added), None)
-        if other is None and CATALOGUE["viscoelastic_stiffening"].is_on(base_study):
-            other = "viscoelastic_stiffening"
+    if entry.exclusion is not None:
+        rule = entry.exclusion
+        other = next((e for e in rule.effects if e in added), None)
+        if other is None:
+            other = next((e for e in rule.effects if not entry.replaces_effect(CATALOGUE[e])
+                          and CATALOGUE[e].is_on(base_study)), None)
         if other:
-            return (f"one material-damping cause at a time: {other} is in the model "
-                    "(the Prony term would explain the same stiffening or widths)")
-        return None
-    if "viscoelastic_membrane" in added or CATALOGUE["viscoelastic_membrane"].is_on(
-            base_study):
-        return ("one material-damping cause at a time: viscoelastic_membrane (the FE's "
-                "Prony term, which stiffens and damps) is in the model")
+            return f"{rule.rule}: {other} is in the model ({rule.why})"
+    for holder in CATALOGUE.values():
+        if (holder.exclusion is not None and effect_id in holder.exclusion.effects
+                and (holder.id in added or (holder.is_on(base_study)
+                                            and not entry.replaces_effect(holder)))):
+            return (f"{holder.exclusion.rule}: {holder.id} ({holder.exclusion.what}) is in "
+                    "the model")
     return None
 
 

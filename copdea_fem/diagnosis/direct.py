@@ -9,14 +9,16 @@ state (no anchor, no ratio (A1)): seconds a solve on the axisymmetric engine (dr
 modes, frames none/baffle/circle), tens of seconds to minutes on the 3-D quadrant
 (square frame).
 
-What it can evaluate: the effects the FE represents (:data:`DIRECT_EFFECTS`) --
+What it can evaluate: the effects the FE represents (their ``direct`` field,
+:data:`~copdea_fem.diagnosis.effects.DIRECT_EFFECTS`) --
 the switches ``air_loading``, ``baffle``, ``frame_reflection``, ``open_air`` (geometry and
 air keys), ``enclosure`` (its depth fitted on the grid below) and the parameters
 ``effects.stiffness_scale`` (uniform_stiffness: the membrane's tension) and
 ``effects.maxwell_scale`` (electrostatic_softening), and ``disc_pumping`` where
 there is a disc.  The parameters the FE does not read
 (``effects.air_mass_scale`` of air_loading: the FE has the real coupled air) are
-held at their defaults (:data:`PINNED_KEYS`), not fitted.  The effects only the
+held at their defaults (the catalogue's surrogate-only parameters,
+:data:`~copdea_fem.diagnosis.effects.SURROGATE_ONLY_KEYS`), not fitted.  The effects only the
 ring model has (visco-elasticity, the spring's mass, modal damping) are not
 tested, and the report says why.
 
@@ -33,15 +35,11 @@ import math
 from dataclasses import dataclass
 
 from copdea_fem.diagnosis.anchored import FEFailure, quality_factor
-from copdea_fem.diagnosis.engine import Engine, ModelMode
+from copdea_fem.diagnosis.effects import DIRECT_EFFECTS
 from copdea_fem.diagnosis.fe import BAND_MARGIN, FEModel
+from copdea_fem.diagnosis.ring_predictor import ModelMode, RingPredictor
 from copdea_fem.reduced.rings import ReducedModelError
 
-# The effects the FE evaluates by itself (its study keys: fe.FE_EFFECT_KEYS, geometry, air).
-DIRECT_EFFECTS = ("air_loading", "baffle", "frame_reflection", "open_air", "enclosure",
-                  "uniform_stiffness", "electrostatic_softening", "disc_pumping")
-# Parameters the FE does not read: held at the catalogue's default, not fitted.
-PINNED_KEYS = ("effects.air_mass_scale",)
 DIRECT_GRID = 5            # FE solves per condition tabulating one parameter
 # Parameters that need a finer grid: enclosure's depth spans a factor 40 (log), over which
 # the (0,n) frequencies follow a sigmoid in ln L (the air spring B ~ 1/L switching on and
@@ -77,8 +75,8 @@ class DirectPrediction:
         return None
 
 
-class DirectFEEngine(Engine):
-    """:class:`Engine` whose every prediction is an FE solve (module notes).
+class DirectFEEngine(RingPredictor):
+    """:class:`RingPredictor` whose every prediction is an FE solve (module notes).
 
     Parameters
     ----------

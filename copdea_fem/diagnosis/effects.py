@@ -17,6 +17,16 @@ FE can (tested only with the FE as the model of record and air in the model)
 and ``"fe"`` when the FE is its model of record in vacuo or with air (tested only
 with ``model: fe``: ``viscoelastic_membrane``).
 
+An :class:`Effect` is the single description of its effect: besides what it does to
+a study, its fields say how the FE represents it (``fe_role``), whether the FE
+evaluates it alone (``direct``), whether a synthetic vibrometer export can hide it
+(``visible_in_scan``), whether it is a mounting and what it replaces, which effects
+it excludes, when it applies to the data (:meth:`Effect.applies_to`) and which
+study keys a condition may not set because it switches them.  The rest of the
+diagnosis reads these fields and never names an effect; the catalogue-level sets
+below (:data:`MOUNTINGS`, :data:`DEFAULT_CANDIDATES`, ...) are derived from them.
+Adding an effect is adding one :class:`Effect` to the catalogue.
+
 Identifiers are a contract (``diagnosis.json``): ``air_loading,
 electrostatic_softening, spring_mass, disc_pumping, modal_damping,
 frame_reflection, viscoelastic_stiffening, uniform_stiffness``, ``baffle``,
@@ -60,6 +70,10 @@ class Parameter:
     log : bool
         Fit in log space (positive scale factors, masses, times).
     description : str
+    surrogate_only : bool
+        Only the ring surrogate reads it, although the FE represents the effect
+        (air_loading's scale: the FE has the real coupled air).  The direct FE engine
+        holds it at its default (not fitted), and an FE anchor takes the default.
     """
 
     name: str
@@ -70,6 +84,7 @@ class Parameter:
     upper: float
     log: bool
     description: str
+    surrogate_only: bool = False
 
     def __post_init__(self):
         if not self.lower <= self.default <= self.upper or (self.log and self.lower <= 0):
@@ -86,6 +101,58 @@ class Parameter:
 
 
 @dataclass(frozen=True)
+class Requirement:
+    """A condition an effect needs in the base study or the data to be tested.
+
+    Attributes
+    ----------
+    holds : callable
+        ``(study, conditions) -> bool``: ``study`` the base study, ``conditions`` the
+        operating points of the measured conditions, mappings with ``voltage`` [V] and
+        ``z`` [m].
+    reason : str
+        Why the effect is not tested where it does not hold (the report prints it).
+    """
+
+    holds: Callable = field(repr=False)
+    reason: str = ""
+
+
+HAS_DISC = Requirement(lambda study, conditions: study["geometry"]["inner_radius"] != 0,
+                       "a membrane without a disc has no disc to pump")
+BIASED = Requirement(lambda study, conditions: any(c["voltage"] > 0 for c in conditions),
+                     "every condition has V_b = 0: nothing to soften")
+RAISED = Requirement(lambda study, conditions: any(c["z"] > 0 for c in conditions),
+                     "every condition has z = 0: the pumping modes are not driven")
+
+
+@dataclass(frozen=True)
+class Exclusion:
+    """Effects never in the model beside the effect that declares the exclusion.
+
+    Attributes
+    ----------
+    effects : tuple of str
+        The effects it excludes, in the order a reason names them.
+    rule : str
+        The rule as the report states it (``"one material-damping cause at a time"``).
+    why : str
+        Why the declaring effect is not tested beside one of ``effects``.
+    what : str
+        What the declaring effect is, said where it keeps one of ``effects`` out.
+    """
+
+    effects: tuple
+    rule: str
+    why: str
+    what: str
+
+
+FE_ROLES_ALLOWED = (None, "switch", "anchored")
+MOUNTING_KINDS = (None, "built", "open")
+
+
+@dataclass(frozen=True)
 class Effect:
     """One physical effect: what it is, its parameters, its signature, how to apply it.
 
@@ -99,7 +166,7 @@ class Effect:
     kind : str
         ``"physics"`` or ``"parameter"``.
     engine : str
-        ``"reduced"`` or ``"coupled_fe"``.
+        ``"reduced"``, ``"coupled_fe"`` or ``"fe"`` (module notes).
     parameters : tuple of Parameter
     signature : str
         The residual pattern it explains (what a reader should see in the data).
@@ -110,6 +177,47 @@ class Effect:
         ``"quality_factors"`` (peak widths from resonances or spectra).
     on_overrides, off_overrides, detect : callables
         ``(study, values) -> overrides``, ``(study) -> overrides``, ``(study) -> bool``.
+    fe_role : str or None
+        How the FE model of record represents it (:mod:`copdea_fem.diagnosis.anchored`):
+        ``"switch"`` (the ring model cannot: on in the FE whenever on in the state),
+        ``"anchored"`` (the ring model moves it well: in the FE from the step that
+        accepts it, at the accepted values) or None (the ring model alone).
+    direct : bool
+        The FE evaluates it by itself (its study keys: geometry, air,
+        ``diagnosis.fe.FE_EFFECT_KEYS``), so the direct FE engine can test it.
+    not_direct : str
+        Why the direct FE engine does not test it, where the general reason (it needs
+        the ring surrogate and the FE does not model it) is not the one.
+    visible_in_scan : bool
+        The FE honours it, so a synthetic vibrometer export (made by the FE) can hide it.
+    mounting : str or None
+        A mounting (one at a time; each replaces the base's own): ``"built"`` (a part
+        built around or behind the membrane, kept by a base that states it without air)
+        or ``"open"`` (nothing around the membrane); None: not a mounting.
+    replaces : tuple of str
+        Effects its overrides switch off where the base has them on (besides the other
+        mountings, which a mounting always replaces).
+    exclusion : Exclusion or None
+        Effects never tested beside this one, nor this one beside them.
+    applies_when : tuple of Requirement
+        What the base study and the data must offer for it to be tested
+        (:meth:`applies_to`).
+    adds_air : bool
+        It puts the air in the model: the coupled-FE effects are tested once it is on,
+        and it is what a measurement in vacuo lacks.
+    changes_prestress : bool
+        Its parameters change the static (prestressed) state: the ring surrogate solves
+        it again at every value, so its tabulation is coarser.
+    prony_term : bool
+        Its values are one Prony term ``(g, tau [s])`` of ``membrane.prony``, which the FE
+        anchor moves by a modal surrogate.
+    switched_keys : tuple of str
+        Study keys (or key prefixes) it switches, which a condition of
+        ``measured.yaml`` may therefore not set.
+    opt_in : bool
+        Tested only where ``measured.yaml``'s ``candidates`` name it.
+    not_tested_note : str
+        A line the report adds when it was not tested.
     """
 
     id: str
@@ -124,6 +232,27 @@ class Effect:
     detect: Callable = field(repr=False)
     requires: tuple = ()
     needs: str = "frequencies"
+    fe_role: str | None = None
+    direct: bool = False
+    not_direct: str = ""
+    visible_in_scan: bool = False
+    mounting: str | None = None
+    replaces: tuple = ()
+    exclusion: Exclusion | None = None
+    applies_when: tuple = ()
+    adds_air: bool = False
+    changes_prestress: bool = False
+    prony_term: bool = False
+    switched_keys: tuple = ()
+    opt_in: bool = False
+    not_tested_note: str = ""
+
+    def __post_init__(self):
+        for name, value, allowed in (("fe_role", self.fe_role, FE_ROLES_ALLOWED),
+                                     ("mounting", self.mounting, MOUNTING_KINDS)):
+            if value not in allowed:
+                raise ValueError(f"effect {self.id}: {name} = {value!r} is not allowed; "
+                                 f"allowed: {', '.join(map(str, allowed))}")
 
     @property
     def defaults(self) -> tuple:
@@ -150,6 +279,36 @@ class Effect:
 
     def describe_values(self, values) -> str:
         return ", ".join(f"{p.name} = {p.shown(v)}" for p, v in zip(self.parameters, values))
+
+    def anchor_values(self, values) -> tuple:
+        """``values`` as an FE anchor takes them: the surrogate-only parameters at
+        their defaults (:attr:`Parameter.surrogate_only`)."""
+        return tuple(p.default if p.surrogate_only else v
+                     for p, v in zip(self.parameters, values))
+
+    def why_not_applicable(self, study, conditions) -> str | None:
+        """The reason of the first requirement (:attr:`applies_when`) that ``study`` (the
+        base study) and ``conditions`` (mappings with ``voltage`` [V] and ``z`` [m], one
+        per measured condition) do not meet; None: it applies."""
+        return next((r.reason for r in self.applies_when if not r.holds(study, conditions)),
+                    None)
+
+    def applies_to(self, study, conditions) -> bool:
+        """Whether the effect can be tested on the base ``study`` with these ``conditions``
+        (:meth:`why_not_applicable`)."""
+        return self.why_not_applicable(study, conditions) is None
+
+    @property
+    def acts_through_air(self) -> bool:
+        """The air loading or a mounting: an effect that acts through the air only."""
+        return self.adds_air or self.mounting is not None
+
+    def replaces_effect(self, other: "Effect") -> bool:
+        """Whether switching this effect on replaces ``other`` where the base has it on:
+        a mounting replaces every other mounting, and any effect those in :attr:`replaces`."""
+        return other.id in self.replaces or (self.mounting is not None
+                                             and other.mounting is not None
+                                             and other.id != self.id)
 
 
 def _air_on(study, values):
@@ -187,11 +346,13 @@ _register(Effect(
     kind="physics", engine="reduced",
     parameters=(Parameter("scale", "effects.air_mass_scale", None, 1.0, 0.25, 4.0, True,
                           "factor on the added masses (1 = the baffled incompressible "
-                          "estimate or the FE's coupled frequencies)"),),
+                          "estimate or the FE's coupled frequencies)", surrogate_only=True),),
     signature="every axisymmetric membrane mode measured below the dry model, (0,1) most "
               "(added mass 45-80 % of its modal mass in Sect. 5.1) and (0,2) less (25-30 %), "
               "the pumping modes hardly at all; the added mass grows with z",
-    on_overrides=_air_on, off_overrides=_air_off, detect=_air_detect))
+    on_overrides=_air_on, off_overrides=_air_off, detect=_air_detect,
+    fe_role="switch", direct=True, visible_in_scan=True, adds_air=True,
+    switched_keys=("reduced.modes_json", "reduced.coupled_freq_0", "air.enabled")))
 
 _register(Effect(
     id="electrostatic_softening", title="electrostatic (Maxwell) softening",
@@ -207,7 +368,8 @@ _register(Effect(
               "for every membrane mode; P1 (k_DE) shifts a little too",
     on_overrides=lambda s, v: {"effects.maxwell_scale": v[0]},
     off_overrides=lambda s: {"effects.maxwell_scale": 0.0},
-    detect=lambda s: s["effects"]["maxwell_scale"] > 0))
+    detect=lambda s: s["effects"]["maxwell_scale"] > 0,
+    fe_role="anchored", direct=True, changes_prestress=True, applies_when=(BIASED,)))
 
 _register(Effect(
     id="spring_mass", title="biasing-spring distributed mass (pumping modes P2, P3, ...)",
@@ -222,7 +384,8 @@ _register(Effect(
     on_overrides=lambda s, v: {"spring.mass": v[0], "reduced.pumping_added_mass": "spring"},
     off_overrides=lambda s: {"spring.mass": 0.0},
     detect=lambda s: s["spring"]["mass"] > 0,
-    requires=("disc_pumping",)))
+    requires=("disc_pumping",), applies_when=(RAISED,),
+    switched_keys=("spring.mass", "reduced.pumping_added_mass")))
 
 _register(Effect(
     id="disc_pumping", title="disc pumping mode P1 (disc on the spring)",
@@ -234,7 +397,9 @@ _register(Effect(
               "from a model with the disc held",
     on_overrides=lambda s, v: {"disc.motion": "spring"},
     off_overrides=lambda s: {"disc.motion": "held"},
-    detect=lambda s: s["disc"]["motion"] == "spring"))
+    detect=lambda s: s["disc"]["motion"] == "spring",
+    fe_role="anchored", direct=True, visible_in_scan=True, applies_when=(HAS_DISC, RAISED),
+    switched_keys=("disc.motion",)))
 
 _register(Effect(
     id="modal_damping", title="modal damping",
@@ -248,24 +413,14 @@ _register(Effect(
     on_overrides=lambda s, v: {key: v[0] * value for key, value in PAPER_DAMPING.items()},
     off_overrides=lambda s: {key: 0.0 for key in PAPER_DAMPING},
     detect=lambda s: any(s.get(key) > 0 for key in PAPER_DAMPING),
-    needs="quality_factors"))
+    needs="quality_factors", switched_keys=("reduced.damping_",)))
 
 # G1's frame over its membrane diameter (Sect. 5.1: an 80 mm square around r_o = 35.5 mm):
 # the size of a frame the base study does not state validly for its membrane.
 FRAME_OVER_DIAMETER = 0.080 / 0.071
-# Mutually exclusive: one mounting at a time.  The base study's own mounting is the starting
-# point; the others are candidates that replace it (candidates.mounting_skipped).
-MOUNTINGS = ("baffle", "frame_reflection", "open_air", "enclosure")
 # A mounting's overrides state the whole mounting (the frame and the closed back), so that
 # one replaces another: the open mountings clear the enclosure, the enclosure the frame.
 NO_ENCLOSURE = {"geometry.enclosure": "none"}
-
-
-def base_mounting(study) -> str | None:
-    """The mounting effect a study states (:data:`MOUNTINGS`): ``enclosure`` for a
-    ``geometry.enclosure`` other than none, else ``open_air`` for ``geometry.frame: none``,
-    ``baffle``, ``frame_reflection`` for a square or circle."""
-    return next((m for m in MOUNTINGS if CATALOGUE[m].is_on(study)), None)
 
 
 def frame_overrides(study, shape=None) -> dict:
@@ -316,7 +471,11 @@ _register(Effect(
     on_overrides=lambda s, v: frame_overrides(s),
     off_overrides=lambda s: {"geometry.frame": "none"},
     detect=lambda s: (s["geometry"]["frame"] in ("square", "circle")
-                      and s["geometry"]["enclosure"] == "none")))
+                      and s["geometry"]["enclosure"] == "none"),
+    fe_role="switch", direct=True, visible_in_scan=True, mounting="built",
+    switched_keys=("geometry.frame",),
+    not_tested_note="frame_reflection needs the fully-coupled air/PML FE (model: fe) with air "
+                    "in the model; it was skipped, not rejected."))
 
 _register(Effect(
     id="baffle", title="membrane in an infinite baffle (mounting)",
@@ -333,7 +492,8 @@ _register(Effect(
     on_overrides=lambda s, v: {"geometry.frame": "baffle", **NO_ENCLOSURE},
     off_overrides=lambda s: {"geometry.frame": "none"},
     detect=lambda s: (s["geometry"]["frame"] == "baffle"
-                      and s["geometry"]["enclosure"] == "none")))
+                      and s["geometry"]["enclosure"] == "none"),
+    fe_role="switch", direct=True, visible_in_scan=True, mounting="built"))
 
 _register(Effect(
     id="open_air", title="membrane open in air (the base's mounting removed)",
@@ -355,7 +515,8 @@ _register(Effect(
     on_overrides=lambda s, v: {"geometry.frame": "none", **NO_ENCLOSURE},
     off_overrides=lambda s: {"geometry.frame": "baffle"},
     detect=lambda s: (s["geometry"]["frame"] == "none"
-                      and s["geometry"]["enclosure"] == "none")))
+                      and s["geometry"]["enclosure"] == "none"),
+    fe_role="switch", direct=True, visible_in_scan=True, mounting="open"))
 
 # Fit bounds of enclosure's depth over r_o: from a shallow gap (0.05 r_o, above the
 # schema's 0.02 r_o meshing floor) to a deep can (2 r_o: its far corner, sqrt(5) r_o,
@@ -415,7 +576,11 @@ _register(Effect(
               "few cm) appear as air modes, not membrane resonances; no split pairs",
     on_overrides=enclosure_overrides,
     off_overrides=lambda s: dict(NO_ENCLOSURE),
-    detect=lambda s: s["geometry"]["enclosure"] != "none"))
+    detect=lambda s: s["geometry"]["enclosure"] != "none",
+    # opt-in: a sealed back is built, not hidden (the base states it, and then the other
+    # mountings are tested in its place), and its fitted depth costs FE solves on a grid
+    # per condition
+    fe_role="switch", direct=True, mounting="built", opt_in=True))
 
 _register(Effect(
     id="viscoelastic_stiffening", title="visco-elastic stiffening",
@@ -435,14 +600,6 @@ _register(Effect(
                                "effects.viscoelastic_time": v[1]},
     off_overrides=lambda s: {"effects.viscoelastic_strength": 0.0},
     detect=lambda s: s["effects"]["viscoelastic_strength"] > 0))
-
-# One material-damping cause at a time: the membrane's Prony term (FE) both
-# stiffens and damps, so it stands for the ring model's storage factor
-# (viscoelastic_stiffening) and the paper's hand-calibrated modal b/m (modal_damping)
-# together; :func:`copdea_fem.diagnosis.candidates.material_skipped` never lets it be
-# tested beside either, nor either beside it.
-MATERIAL_DAMPING = ("viscoelastic_membrane", "viscoelastic_stiffening", "modal_damping")
-
 
 def prony_overrides(study, values) -> dict:
     """Overrides of :data:`viscoelastic_membrane <CATALOGUE>`: one Prony term
@@ -505,7 +662,21 @@ _register(Effect(
     on_overrides=prony_overrides,
     off_overrides=lambda s: {"membrane.prony": []},
     detect=lambda s: bool(s["membrane"]["prony"]),
-    needs="quality_factors"))
+    needs="quality_factors", fe_role="anchored", visible_in_scan=True, prony_term=True,
+    not_direct=("needs the ring surrogate to fit its two parameters (the direct FE engine "
+                "would tabulate them on a grid of damped FE solves per condition), which "
+                "cannot represent this membrane (no central disc)"),
+    # one material-damping cause at a time: the membrane's Prony term (FE) both stiffens and
+    # damps, so it stands for the ring model's storage factor (viscoelastic_stiffening) and
+    # the paper's hand-calibrated modal b/m (modal_damping) together; it is never tested
+    # beside either, nor either beside it (candidates.material_skipped), and it replaces
+    # the base's modal b/m (its overrides set reduced.damping_* to 0)
+    replaces=("modal_damping",),
+    exclusion=Exclusion(("viscoelastic_stiffening", "modal_damping"),
+                        rule="one material-damping cause at a time",
+                        why="the Prony term would explain the same stiffening or widths",
+                        what="the FE's Prony term, which stiffens and damps"),
+    switched_keys=("membrane.prony",)))
 
 _register(Effect(
     id="uniform_stiffness", title="uniform membrane stiffening/softening (a parameter effect)",
@@ -519,14 +690,63 @@ _register(Effect(
               "every z, V_b and mode; P1 less (the spring k_d is not scaled)",
     on_overrides=lambda s, v: {"effects.stiffness_scale": v[0]},
     off_overrides=lambda s: {"effects.stiffness_scale": 1.0},
-    detect=lambda s: s["effects"]["stiffness_scale"] != 1.0))
+    detect=lambda s: s["effects"]["stiffness_scale"] != 1.0,
+    fe_role="anchored", direct=True, visible_in_scan=True, changes_prestress=True))
 
 EFFECT_IDS = tuple(CATALOGUE)
-# Catalogued but tested only when measured.yaml names them in ``candidates``: a sealed back
-# is built, not hidden (the base states it, and then the other mountings are tested in its
-# place), and its fitted depth costs FE solves on a grid per condition.
-OPT_IN = ("enclosure",)
+
+# The catalogue-level sets, derived from the fields (in catalogue order).
+#: Catalogued but tested only when measured.yaml names them in ``candidates``.
+OPT_IN = tuple(e.id for e in CATALOGUE.values() if e.opt_in)
+#: What measured.yaml may add when it lists no ``candidates``.
 DEFAULT_CANDIDATES = tuple(e for e in EFFECT_IDS if e not in OPT_IN)
+#: Mutually exclusive: one mounting at a time.  The base study's own mounting is the
+#: starting point; the others are candidates that replace it (candidates.mounting_skipped).
+MOUNTINGS = tuple(e.id for e in CATALOGUE.values() if e.mounting is not None)
+#: How the FE represents each effect it represents (:attr:`Effect.fe_role`).
+FE_ROLES = {e.id: e.fe_role for e in CATALOGUE.values() if e.fe_role is not None}
+#: The effects the FE evaluates by itself (:attr:`Effect.direct`).
+DIRECT_EFFECTS = tuple(e.id for e in CATALOGUE.values() if e.direct)
+#: The effects a synthetic vibrometer export can hide (:attr:`Effect.visible_in_scan`).
+SCAN_EFFECTS = tuple(e.id for e in CATALOGUE.values() if e.visible_in_scan)
+#: Parameters an FE engine does not read (:attr:`Parameter.surrogate_only`).
+SURROGATE_ONLY_KEYS = tuple(p.key for e in CATALOGUE.values() for p in e.parameters
+                            if p.surrogate_only)
+#: Study keys (or key prefixes) a measured.yaml condition may not set -> the effect that
+#: switches them (:attr:`Effect.switched_keys`).
+SWITCHED_KEYS = {key: e.id for e in CATALOGUE.values() for key in e.switched_keys}
+
+
+def _the_air_effect() -> Effect:
+    air = [e for e in CATALOGUE.values() if e.adds_air]
+    if len(air) != 1:
+        raise ValueError(f"adds_air = {[e.id for e in air]!r} is not allowed; allowed: "
+                         "exactly one effect of the catalogue")
+    return air[0]
+
+
+#: The effect that puts the air in the model (:attr:`Effect.adds_air`).
+AIR_EFFECT = _the_air_effect()
+
+
+def _check_references() -> None:
+    """Every effect an effect names (requires, replaces, excludes) is catalogued."""
+    for e in CATALOGUE.values():
+        named = e.requires + e.replaces + (e.exclusion.effects if e.exclusion else ())
+        unknown = [n for n in named if n not in CATALOGUE]
+        if unknown:
+            raise ValueError(f"effect {e.id}: {', '.join(unknown)} is not allowed (unknown "
+                             f"effect); allowed: {', '.join(EFFECT_IDS)}")
+
+
+_check_references()
+
+
+def base_mounting(study) -> str | None:
+    """The mounting effect a study states (:data:`MOUNTINGS`): ``enclosure`` for a
+    ``geometry.enclosure`` other than none, else ``open_air`` for ``geometry.frame: none``,
+    ``baffle``, ``frame_reflection`` for a square or circle."""
+    return next((m for m in MOUNTINGS if CATALOGUE[m].is_on(study)), None)
 
 
 def effect(effect_id: str) -> Effect:
@@ -560,24 +780,16 @@ def catalogue_table() -> str:
                            f"{p.shown(p.upper)}]" for p in e.parameters) or "none"
         engine = e.engine + {"coupled_fe": " (FE solves; needs model: fe and air)",
                              "fe": " (FE solves; needs model: fe)"}.get(e.engine, "")
-        if e.id in OPT_IN:
+        if e.opt_in:
             engine += "; opt-in: tested only where measured.yaml's candidates name it"
         rows.append(f"| `{e.id}` | {e.kind} | {engine} | {params} | {e.signature} |")
     return "\n".join(rows)
 
 
-#: Study keys a measured condition's ``set:`` may not name, by prefix: the effect that
-#: switches each (a condition sets the operating point, geometry and material only).
-SWITCHED_KEYS = {"effects.": "the effects", "disc.motion": "disc_pumping",
-                 "spring.mass": "spring_mass", "reduced.damping_": "modal_damping",
-                 "reduced.modes_json": "air_loading", "reduced.coupled_freq_0": "air_loading",
-                 "air.enabled": "air_loading", "geometry.frame": "frame_reflection",
-                 "reduced.pumping_added_mass": "spring_mass",
-                 "membrane.prony": "viscoelastic_membrane"}
-
 #: What ``measured.yaml`` may say of the effects, for its reader
 #: (:func:`copdea_fem.measured.load_measured`): ``candidates:`` read by
-#: :func:`parse_effect_list`, :data:`DEFAULT_CANDIDATES` without it, :data:`SWITCHED_KEYS`.
+#: :func:`parse_effect_list`, :data:`DEFAULT_CANDIDATES` without it; a condition may not set
+#: the ``effects.`` section nor a key of :data:`SWITCHED_KEYS`.
 MANIFEST_RULES = EffectRules(parse_candidates=parse_effect_list,
                              default_candidates=DEFAULT_CANDIDATES,
-                             switched_keys=SWITCHED_KEYS)
+                             switched_keys={"effects.": "the effects", **SWITCHED_KEYS})

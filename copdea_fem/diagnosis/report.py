@@ -23,9 +23,9 @@ import yaml
 
 from copdea_fem.diagnosis.compare import GATE, gap_parts
 from copdea_fem.diagnosis.effects import CATALOGUE, catalogue_table
-from copdea_fem.diagnosis.engine import state_overrides
 from copdea_fem.diagnosis.evidence import explained
 from copdea_fem.diagnosis.peaks import peak_height, peak_width
+from copdea_fem.diagnosis.ring_predictor import state_overrides
 from copdea_fem.diagnosis.scanned import base_shape_macs, pairing_report_lines, step_mac_lines
 from copdea_fem.folders import package_versions
 
@@ -440,9 +440,9 @@ def report_markdown(result, document: dict, figures: list) -> str:
         lines.append(f"| `{effect_id}` | {entry.kind} | {entry.engine} | "
                      f"{result.status[effect_id]} |")
     lines += [""]
-    if "frame_reflection" in result.not_tested:
-        lines += ["frame_reflection needs the fully-coupled air/PML FE (model: fe) with air in "
-                  "the model; it was skipped, not rejected.", ""]
+    for effect_id, entry in CATALOGUE.items():
+        if entry.not_tested_note and effect_id in result.not_tested:
+            lines += [entry.not_tested_note, ""]
     lines += ["## Model vs measured", "", "![frequencies](frequencies.png)", ""]
     for c in measured.conditions:
         lines += [f"### {c.name}", "",

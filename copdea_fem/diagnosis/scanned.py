@@ -136,7 +136,7 @@ class ShapeCheck:
     """The shape pairing of a model state: an accepted step must keep it (module notes).
 
     For a state of the diagnosis (effects and values), every scanned condition's FE is solved
-    with the state's effects on (:func:`copdea_fem.diagnosis.engine.state_overrides`), its
+    with the state's effects on (:func:`copdea_fem.diagnosis.ring_predictor.state_overrides`), its
     modes sampled at the scan points and paired with the identified modes again.  The step
     is refused when a test mode that the base model paired by shape with one mode (unit)
     now pairs with a mode of another shape, or with none: an effect that brings frequencies
@@ -154,7 +154,7 @@ class ShapeCheck:
 
     def correlations(self, state) -> dict:
         """``{condition: Correlation}`` of the model ``state`` (FE solved once per state)."""
-        from copdea_fem.diagnosis.engine import state_overrides
+        from copdea_fem.diagnosis.ring_predictor import state_overrides
         from copdea_fem.diagnosis.fe import fe_study
         from copdea_fem.vibrometer.model_shapes import correlate_identified, fe_shapes
 

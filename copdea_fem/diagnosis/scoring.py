@@ -78,10 +78,10 @@ import numpy as np
 import scipy.stats
 
 from copdea_fem.diagnosis.compare import ConditionMatch, DevianceTerms, gap, match_condition
-from copdea_fem.diagnosis.direct import PINNED_KEYS, direct_grid
-from copdea_fem.diagnosis.effects import CATALOGUE
-from copdea_fem.diagnosis.engine import Engine, safe_predict
+from copdea_fem.diagnosis.direct import direct_grid
+from copdea_fem.diagnosis.effects import CATALOGUE, SURROGATE_ONLY_KEYS
 from copdea_fem.diagnosis.peaks import condition_peaks
+from copdea_fem.diagnosis.ring_predictor import RingPredictor, safe_predict
 from copdea_fem.diagnosis.tabulation import INVALID, Tabulation
 
 ALPHA = 0.05
@@ -157,7 +157,7 @@ class Scorer:
     ----------
     measured : MeasuredSet
         The data: conditions, their peaks, the noise model.
-    engine : Engine
+    engine : RingPredictor
         What predicts the modes of a condition under an effect state: the ring model,
         the ring model anchored to the FE (it has ``anchor``: :attr:`uses_fe`), or the
         FE directly (``direct``: parameters tabulated on a grid of FE solves, the keys
@@ -166,13 +166,13 @@ class Scorer:
         False-alarm probability per step.
     """
 
-    def __init__(self, measured, engine: Engine, alpha: float = ALPHA):
+    def __init__(self, measured, engine: RingPredictor, alpha: float = ALPHA):
         self.measured = measured
         self.engine = engine
         self.alpha = alpha
         self.uses_fe = hasattr(engine, "anchor")
         self.direct = bool(getattr(engine, "direct", False))
-        self.pinned = PINNED_KEYS if self.direct else ()
+        self.pinned = SURROGATE_ONLY_KEYS if self.direct else ()
         self.conditions = measured.conditions
         self.peaks = {c.name: condition_peaks(c) for c in self.conditions}
         self._terms: dict = {}

@@ -50,9 +50,9 @@ from copdea_fem.diagnosis.direct import (
     DirectFEEngine,
     ring_can_represent,
 )
-from copdea_fem.diagnosis.effects import CATALOGUE, MOUNTINGS
-from copdea_fem.diagnosis.engine import Engine
+from copdea_fem.diagnosis.effects import CATALOGUE
 from copdea_fem.diagnosis.evidence import describe_evidence, goodness_of_fit, remaining_off, verdict
+from copdea_fem.diagnosis.ring_predictor import RingPredictor
 from copdea_fem.diagnosis.scoring import ALPHA, CandidateScore, Scorer, refusal
 from copdea_fem.diagnosis.separation import separation
 from copdea_fem.reduced.rings import ReducedModelError
@@ -125,13 +125,13 @@ class Diagnoser:
         The data and the base study.
     alpha : float
         False-alarm probability per step.
-    engine : Engine, optional
+    engine : RingPredictor, optional
         What evaluates the model.  Default: with ``model: fe`` the ring model anchored
         to the FE, or the FE directly for a membrane without a disc (which the ring
         model cannot represent); else the ring model.
     """
 
-    def __init__(self, measured, alpha: float = ALPHA, engine: Engine | None = None,
+    def __init__(self, measured, alpha: float = ALPHA, engine: RingPredictor | None = None,
                  shape_check=None):
         self.measured = measured
         self.alpha = alpha
@@ -147,7 +147,7 @@ class Diagnoser:
             raise StudyError(f"model = {measured.model!r} is not allowed for a membrane without "
                              "a disc (geometry.inner_radius = 0: the ring model of Sect. 3.2.1 "
                              "needs the central disc); allowed: fe (the FE evaluated directly)")
-        self.engine = engine or Engine(measured)
+        self.engine = engine or RingPredictor(measured)
         self.scorer = Scorer(measured, self.engine, alpha)
 
     def run(self) -> DiagnosisResult:
@@ -297,8 +297,8 @@ def _effect_status(added, missing, ambiguous, not_tested, base_on, candidates,
     """The status text of every catalogued effect at the end of the search."""
     status = {}
     ambiguous_ids = {e for group in ambiguous for e in group}
-    replaced_by = next((e for e in added if e in MOUNTINGS), None)
-    for effect_id in CATALOGUE:
+    for effect_id, entry in CATALOGUE.items():
+        replaced_by = next((e for e in added if CATALOGUE[e].replaces_effect(entry)), None)
         if effect_id in missing:
             status[effect_id] = "missing: added"
         elif effect_id in ambiguous_ids:
@@ -306,11 +306,8 @@ def _effect_status(added, missing, ambiguous, not_tested, base_on, candidates,
                                  else "ambiguous")
         elif effect_id in not_tested:
             status[effect_id] = "not tested: " + not_tested[effect_id]
-        elif effect_id in base_on and effect_id in MOUNTINGS and replaced_by:
+        elif effect_id in base_on and replaced_by:
             status[effect_id] = f"on in the base model: replaced by {replaced_by}"
-        elif (effect_id == "modal_damping" and effect_id in base_on
-              and "viscoelastic_membrane" in added):
-            status[effect_id] = "on in the base model: replaced by viscoelastic_membrane"
         elif effect_id in base_on:
             status[effect_id] = "on in the base model"
         elif effect_id not in candidates:

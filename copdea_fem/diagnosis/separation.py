@@ -15,10 +15,10 @@ from __future__ import annotations
 
 import math
 
-from copdea_fem.diagnosis.effects import MOUNTINGS
-from copdea_fem.diagnosis.engine import safe_predict
-from copdea_fem.measured import Condition
+from copdea_fem.diagnosis.effects import CATALOGUE
+from copdea_fem.diagnosis.ring_predictor import safe_predict
 from copdea_fem.diagnosis.scoring import CandidateScore
+from copdea_fem.measured import Condition
 
 PROBE_VOLTAGES = (0.0, 1000.0, 2000.0, 3000.0)     # V_b of the probes [V]
 PROBE_Z = (0.0, 0.011, 0.016, 0.018)                # z of the probes besides the data's [m]
@@ -116,8 +116,8 @@ def mode_separation(scorer, first: CandidateScore, second: CandidateScore) -> di
 def in_vacuo_separates(first: CandidateScore, second: CandidateScore) -> bool:
     """Whether a measurement in vacuo separates the two: one is an effect of the air (the
     air loading or a mounting, which act through the air only), the other not."""
-    airy = {"air_loading", *MOUNTINGS}
-    return (first.effects[-1] in airy) != (second.effects[-1] in airy)
+    return (CATALOGUE[first.effects[-1]].acts_through_air
+            != CATALOGUE[second.effects[-1]].acts_through_air)
 
 
 def _probe(template, overrides):

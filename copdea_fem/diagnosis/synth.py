@@ -46,9 +46,9 @@ import numpy as np
 import yaml
 
 from copdea_fem.diagnosis.effects import CATALOGUE, effect
-from copdea_fem.diagnosis.engine import Engine
-from copdea_fem.measured import Condition, MeasuredSet, NoiseModel
+from copdea_fem.diagnosis.ring_predictor import RingPredictor
 from copdea_fem.inputs import parse_yaml
+from copdea_fem.measured import Condition, MeasuredSet, NoiseModel
 from copdea_fem.study import Study, StudyError, dump_resolved
 
 DEFAULT_CONDITIONS = ({"load.z": "11 mm", "load.voltage": "2 kV"},
@@ -203,7 +203,7 @@ def synthesise(study: Study, effects: dict, conditions: list[dict],
                                   spectrum=None, band=band))
     measured = MeasuredSet(name="synth", description="", path=None, base_study=study,
                            conditions=tuple(prepared), noise=NoiseModel())
-    engine = Engine(measured)
+    engine = RingPredictor(measured)
     out = []
     for condition in prepared:
         truth_study = engine.study(condition, tuple(state))

@@ -1,7 +1,7 @@
 r"""Synthetic vibrometer exports made by the FE (``copdea-fem synth --format uff``).
 
 The *truth* is the FE of the study with the chosen effects switched on (as the diagnosis
-switches them, :func:`copdea_fem.diagnosis.engine.state_overrides`; solved as the diagnosis
+switches them, :func:`copdea_fem.diagnosis.ring_predictor.state_overrides`; solved as the diagnosis
 solves its model of record, :func:`copdea_fem.diagnosis.fe.fe_study`); the written
 ``measured.yaml`` names the study *without* them as its base, so diagnosing it should find
 them.  What the export holds, per condition, is what a PSV-type scanning vibrometer exports:
@@ -233,7 +233,7 @@ def write_scan_set(study: Study, effects: dict, conditions: list[tuple[str, dict
         ``observed:`` of the written measured.yaml.
     """
     from copdea_fem.diagnosis.effects import CATALOGUE
-    from copdea_fem.diagnosis.engine import state_overrides
+    from copdea_fem.diagnosis.ring_predictor import state_overrides
     from copdea_fem.measured import write_scan
 
     options.check()

@@ -24,9 +24,8 @@ import scipy.interpolate
 import scipy.optimize
 
 from copdea_fem.diagnosis.effects import CATALOGUE, Parameter
-from copdea_fem.diagnosis.engine import safe_predict
+from copdea_fem.diagnosis.ring_predictor import safe_predict
 
-EXPENSIVE = ("electrostatic_softening", "uniform_stiffness")   # need a new static solve
 INVALID = math.inf
 
 
@@ -59,7 +58,7 @@ class Tabulation:
         self.parameters = [p for p in parameters if p.key not in self.pinned]
         self.k = len(self.parameters)
         parameters = self.parameters
-        expensive = any(e in EXPENSIVE for e in group)
+        expensive = any(CATALOGUE[e].changes_prestress for e in group)   # a new static solve
         count = grid or ((9 if expensive else 17) if self.k == 1 else 9)
         self.axes = [np.linspace(0, 1, count) for _ in range(self.k)]
         self.default_u = np.array([self._to_u(p, p.default) for p in parameters])

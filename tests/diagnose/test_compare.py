@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from copdea_fem.diagnosis.compare import GATE, DevianceTerms, MeasuredPeak, gap, match_condition
-from copdea_fem.diagnosis.engine import ModelMode
 from copdea_fem.diagnosis.peaks import find_spectrum_peaks
+from copdea_fem.diagnosis.ring_predictor import ModelMode
 from copdea_fem.measured import NoiseModel
 
 BAND = (1.25, 1000.0)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from copdea_fem.diagnosis.effects import CATALOGUE, EFFECT_IDS, catalogue_table, parse_effect_list
-from copdea_fem.diagnosis.engine import Engine
+from copdea_fem.diagnosis.ring_predictor import RingPredictor
 from copdea_fem.measured import Condition, MeasuredSet, NoiseModel
 from copdea_fem.reduced import build_reduced, dry_frequencies
 from copdea_fem.study import StudyError, parse_study
@@ -104,7 +104,7 @@ def test_air_estimate_lowers_every_membrane_mode_by_a_positive_added_mass():
 
 def _engine(study, **band):
     condition = Condition("c", {}, None, None, (1.25, 1000.0))
-    return Engine(MeasuredSet("x", "", None, study, (condition,), NoiseModel())), condition
+    return RingPredictor(MeasuredSet("x", "", None, study, (condition,), NoiseModel())), condition
 
 
 @pytest.mark.parametrize("state", [
@@ -172,7 +172,8 @@ def test_interpolated_modes_are_far_more_accurate_than_the_measurement(tmp_path)
                        in (("a", {"load.voltage": 3000.0}), ("b", {"load.z": 0.011})))
     measured = MeasuredSet("x", "", None, study, conditions, NoiseModel())
     scorer = Scorer.__new__(Scorer)          # no peaks needed for the modes
-    scorer.measured, scorer.engine, scorer.conditions = measured, Engine(measured), conditions
+    scorer.measured, scorer.conditions = measured, conditions
+    scorer.engine = RingPredictor(measured)
     for effect in ("electrostatic_softening", "air_loading", "spring_mass"):
         table = Tabulation(scorer, (), (effect,), list(CATALOGUE[effect].parameters))
         for condition in conditions:

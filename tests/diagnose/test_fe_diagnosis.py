@@ -23,8 +23,8 @@ import fe_battery as battery  # noqa: E402
 from copdea_fem.diagnosis import load_measured  # noqa: E402
 from copdea_fem.diagnosis.anchored import AnchoredEngine  # noqa: E402
 from copdea_fem.diagnosis.compare import MeasuredPeak, gap, match_condition  # noqa: E402
-from copdea_fem.diagnosis.engine import Engine, ModelMode  # noqa: E402
 from copdea_fem.diagnosis.fe import FEModel, fe_key, fe_study  # noqa: E402
+from copdea_fem.diagnosis.ring_predictor import ModelMode, RingPredictor  # noqa: E402
 from copdea_fem.diagnosis.scoring import refusal  # noqa: E402
 from copdea_fem.diagnosis.select import Diagnoser  # noqa: E402
 from copdea_fem.measured import NoiseModel  # noqa: E402
@@ -98,7 +98,7 @@ def test_at_the_anchor_the_prediction_is_the_fe(tmp_path):
         modes = {m.label: m for m in engine.predict(condition).modes}
         reference = fe.modes(engine.condition_study(condition),
                              f_max=1.25 * condition.band[1]).frequencies()
-        ring = {m.label: m.frequency_hz for m in Engine.predict(engine, condition).modes}
+        ring = {m.label: m.frequency_hz for m in RingPredictor.predict(engine, condition).modes}
         assert abs(ring["(0,2)"] / reference["(0,2)"] - 1) > 0.02      # what the anchor removes
         for label, frequency in reference.items():
             assert modes[label].frequency_hz == pytest.approx(frequency, rel=1e-12)
@@ -111,8 +111,8 @@ def test_a_base_written_with_air_is_coupled_in_the_fe_and_carries_air_in_the_rin
     measured = load_measured(battery.write_measured("air_base", 1, tmp_path))
     condition = measured.conditions[0]
     dry = parse_study(battery.DRY, name="dry").replace(condition.overrides)
-    ring = Engine(measured).predict(condition)
-    ring_dry = Engine(measured).predict_study(dry, condition)
+    ring = RingPredictor(measured).predict(condition)
+    ring_dry = RingPredictor(measured).predict_study(dry, condition)
     assert ring.mode("(0,1)").frequency_hz < 0.85 * ring_dry.mode("(0,1)").frequency_hz
     study = measured.study_of(condition)
     assert fe_study(study)["air"]["enabled"] and fe_key(study) != fe_key(dry)
@@ -174,7 +174,7 @@ def test_mode_lists_that_change_with_a_parameter_keep_scores_finite(tmp_path):
     from copdea_fem.diagnosis.tabulation import Tabulation
     measured = load_measured(battery.write_measured("electrostatic_hidden", 1, tmp_path))
 
-    class CutOff(Engine):
+    class CutOff(RingPredictor):
         def predict(self, condition, state=(), perturbation=None):
             prediction = super().predict(condition, state, perturbation)
             scale = dict(state).get("electrostatic_softening", (0.0,))[0]
@@ -310,7 +310,7 @@ def test_ring_only_physics_of_the_base_acts_through_the_ring_ratio(tmp_path):
     anchored = engine.predict(condition).mode("P1").frequency_hz
     fe = engine.anchor(condition).fe.frequencies()["P1"]
     study = engine.condition_study(condition)
-    with_mass = Engine.predict(engine, condition).mode("P1").frequency_hz
+    with_mass = RingPredictor.predict(engine, condition).mode("P1").frequency_hz
     without = engine.ring_predict_study(study.replace({"spring.mass": 0.0}),
                                         condition).mode("P1").frequency_hz
     assert with_mass < 0.97 * without                      # the mass matters

@@ -30,8 +30,8 @@ from copdea_fem.diagnosis.anchored import (
 )
 from copdea_fem.diagnosis.candidates import material_skipped  # noqa: E402
 from copdea_fem.diagnosis.effects import CATALOGUE, catalogue_table  # noqa: E402
-from copdea_fem.diagnosis.engine import ModelMode  # noqa: E402
 from copdea_fem.diagnosis.fe import FEMode, FEModel, FEResult, fe_study  # noqa: E402
+from copdea_fem.diagnosis.ring_predictor import ModelMode  # noqa: E402
 from copdea_fem.diagnosis.select import Diagnoser  # noqa: E402
 from copdea_fem.study import parse_study  # noqa: E402
 

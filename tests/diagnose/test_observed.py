@@ -15,7 +15,7 @@ from copdea_fem.diagnosis.compare import (
     gap_parts,
     match_condition,
 )
-from copdea_fem.diagnosis.engine import ModelMode
+from copdea_fem.diagnosis.ring_predictor import ModelMode
 from copdea_fem.measured import MeasuredDataError, NoiseModel
 from copdea_fem.measured.observation import parse_observed, parse_pairing
 

@@ -138,7 +138,7 @@ def test_the_acceptance_boundary_a_gap_rising_by_one_percent_is_refused():
     """Pinned: a step that raises the gap by 1 % (relative) is refused, one that lowers it
     by 1 % with a lower deviance is accepted (the old test tried only a 20-fold rise)."""
     from copdea_fem.diagnosis.compare import MeasuredPeak, match_condition
-    from copdea_fem.diagnosis.engine import ModelMode
+    from copdea_fem.diagnosis.ring_predictor import ModelMode
     from copdea_fem.measured import NoiseModel
     peaks = [MeasuredPeak(400.0, "(0,1)"), MeasuredPeak(900.0, "(0,2)")]
     noise, band = NoiseModel(frequency_relative=0.01), (20.0, 1000.0)

@@ -1,9 +1,9 @@
-"""The diagnosis engine: model modes and spectra of a condition under an effect state.
+"""The ring-model predictor: model modes and spectra of a condition under an effect state.
 
-The reduced model (Sect. 3.2, Annex I) is the engine: milliseconds per
+The reduced model (Sect. 3.2, Annex I) predicts: milliseconds per
 condition.  An *effect state* is a tuple of ``(effect id, parameter values)``
 switched on, in order, on top of the base study and the condition's
-overrides (:meth:`Engine.study`).  The result is an ordinary study that
+overrides (:meth:`RingPredictor.study`).  The result is an ordinary study that
 :func:`copdea_fem.reduced.build_reduced` honours.
 
 Speed.  Only the static solve and the dry modes are expensive; they
@@ -50,7 +50,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.optimize
 
-from copdea_fem.diagnosis.effects import CATALOGUE
+from copdea_fem.diagnosis.effects import AIR_EFFECT, CATALOGUE
 from copdea_fem.reduced.chirp_response import Chirp, SpectrumResult
 from copdea_fem.reduced.model import build_reduced, damping_key, operating_point, ring_model_of
 from copdea_fem.reduced.rings import ReducedModelError
@@ -163,8 +163,10 @@ def state_overrides(study, state) -> dict:
     return overrides
 
 
-class Engine:
-    """Predictions for the conditions of a :class:`~copdea_fem.measured.MeasuredSet`.
+class RingPredictor:
+    """Predictions for the conditions of a :class:`~copdea_fem.measured.MeasuredSet` by the
+    ring model (the FE-anchored and direct-FE predictors of the diagnosis derive from it;
+    not an FE engine, :class:`copdea_fem.fe.engines.Engine`).
 
     Parameters
     ----------
@@ -230,11 +232,11 @@ class Engine:
 
     def ring_predict(self, condition, state=(), perturbation=None) -> Prediction:
         """The ring model alone (the same as :meth:`predict` here)."""
-        return Engine.predict(self, condition, state, perturbation)
+        return RingPredictor.predict(self, condition, state, perturbation)
 
     def ring_predict_study(self, study, condition, perturbation=None) -> Prediction:
         """The ring model alone for a full study."""
-        return Engine.predict_study(self, study, condition, perturbation)
+        return RingPredictor.predict_study(self, study, condition, perturbation)
 
     def predict_study(self, study, condition, perturbation=None) -> Prediction:
         """Prediction for a full study (already holding any effect keys)."""
@@ -248,7 +250,7 @@ class Engine:
 
     # -- reference builds --------------------------------------------------------------------
     def _reference(self, study, condition) -> _Reference:
-        air_on = CATALOGUE["air_loading"].is_on(study)
+        air_on = AIR_EFFECT.is_on(study)
         fe = condition.fe_frequencies if (air_on and condition.fe_frequencies) else None
         key = (condition.name, _frozen(study, exclude=CHEAP_KEYS), condition.band,
                tuple(sorted((fe or {}).items())))
@@ -318,7 +320,8 @@ def _cheap_values(study, overrides=None) -> dict:
     return {"air_mass_scale": get("effects.air_mass_scale"),
             "viscoelastic_strength": get("effects.viscoelastic_strength"),
             "viscoelastic_time": get("effects.viscoelastic_time"),
-            "spring_mass": get("spring.mass"), "spring_stiffness": study["spring"]["stiffness"],
+            "spring_own_mass": get("spring.mass"),
+            "spring_stiffness": study["spring"]["stiffness"],
             "spring_length": study["spring"]["length"],
             "damping": {label: get(damping_key(label))
                         for label in ("P1", "(0,1)", "(0,2)", "(0,3)")}}
@@ -348,10 +351,11 @@ class _ModeEquation:
         self.time = cheap["viscoelastic_time"]
         self.damping = float(damping_per_mass(cheap, label) * reference.modal_mass[index])
         self.spring = None
-        if label == "P1" and cheap["spring_mass"] > 0 and cheap["spring_stiffness"] > 0:
+        if label == "P1" and cheap["spring_own_mass"] > 0 and cheap["spring_stiffness"] > 0:
             speed = (perturbation or {}).get("spring", 1.0)
             self.spring = (cheap["spring_stiffness"],
-                           math.sqrt(cheap["spring_mass"] / cheap["spring_stiffness"]) / speed,
+                           math.sqrt(cheap["spring_own_mass"] / cheap["spring_stiffness"])
+                           / speed,
                            float(reference.disc_amplitude ** 2))
 
     def stiffness_at(self, omega):
@@ -472,8 +476,8 @@ def _spectra(reference: _Reference, cheap: dict, frequency_hz, lines, perturbati
         point_radial=np.abs(velocity @ pick(reference.point_radial).T))
 
 
-def safe_predict(engine: Engine, condition, state, perturbation=None, ring_only=False):
-    """:meth:`Engine.predict` (``ring_only``: the ring model even where the engine is
+def safe_predict(engine: RingPredictor, condition, state, perturbation=None, ring_only=False):
+    """:meth:`RingPredictor.predict` (``ring_only``: the ring model even where the engine is
     anchored to the FE), or None where the model cannot be evaluated there."""
     from copdea_fem.study import StudyError
     predict = engine.ring_predict if ring_only else engine.predict
