@@ -115,22 +115,32 @@ def test_the_command_process_collects_rarely_and_freezes_what_is_left():
     assert completed.stdout.strip().splitlines()[-1] == f"0 {COMMAND_GC_THRESHOLD} True"
 
 
-def test_bare_peer_case_does_not_import_scipy_optimize(tmp_path):
+def test_bare_peer_case_runs_on_one_blas_thread_without_scipy_optimize(tmp_path):
     """The FreeFEM peer's case without files (``benchmarks/command.py`` ``command-peer``,
-    bare): each coupled mode's dry partner is evident, so the command never imports
-    scipy.optimize (:func:`copdea_fem.fe.axisymmetric.engine.largest_mac_assignment`)."""
+    bare) as the ``copdea-fem`` command runs it (``console_main``): each coupled mode's dry
+    partner is evident, so scipy.optimize is never imported
+    (:func:`copdea_fem.fe.axisymmetric.engine.largest_mac_assignment`), and the OpenBLAS
+    libraries loaded with one thread (:data:`copdea_fem.cli.COMMAND_BLAS_THREADS`)."""
+    import os
+
     code = (
         "import sys\n"
-        "from copdea_fem.cli import main\n"
-        f"code = main(['solve', {str(ROOT / 'studies' / 'g1_z00_v2.yaml')!r}, "
+        "from copdea_fem import cli\n"
+        f"sys.argv = ['copdea-fem', 'solve', {str(ROOT / 'studies' / 'g1_z00_v2.yaml')!r}, "
         "'--set', 'geometry.frame=baffle', '--set', 'load.voltage=0 V', "
         "'--set', 'eigen.f_max=400 Hz', '--set', 'output.paraview=false', "
-        f"'--set', 'output.plots=false', '--out', {str(tmp_path / 'out')!r}])\n"
-        "print(code, 'scipy.optimize' in sys.modules)\n")
+        f"'--set', 'output.plots=false', '--out', {str(tmp_path / 'out')!r}]\n"
+        "code = cli.console_main()\n"
+        "from threadpoolctl import threadpool_info\n"
+        "threads = sorted({pool['num_threads'] for pool in threadpool_info() "
+        "if pool['internal_api'] == 'openblas'})\n"
+        "print(code, 'scipy.optimize' in sys.modules, threads)\n")
+    environment = {name: value for name, value in os.environ.items()
+                   if name != "OPENBLAS_NUM_THREADS"}
     completed = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                               cwd=ROOT)
+                               cwd=ROOT, env=environment)
     assert completed.returncode == 0, completed.stderr[-2000:]
-    assert completed.stdout.strip().splitlines()[-1] == "0 False"
+    assert completed.stdout.strip().splitlines()[-1] == "0 False [1]"
     with open(tmp_path / "out" / "modes.csv", newline="") as table:
         labels = [row["label"] for row in csv.DictReader(table)]
     assert labels == ["(0,1)", "(1,1)a", "(1,1)b"]
