@@ -6,6 +6,7 @@ the command writes its files without them.  matplotlib draws the PNGs on its Agg
 ``python -m benchmarks.command command``."""
 
 import csv
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -121,8 +122,6 @@ def test_bare_peer_case_runs_on_one_blas_thread_without_scipy_optimize(tmp_path)
     partner is evident, so scipy.optimize is never imported
     (:func:`copdea_fem.fe.axisymmetric.engine.largest_mac_assignment`), and the OpenBLAS
     libraries loaded with one thread (:data:`copdea_fem.cli.COMMAND_BLAS_THREADS`)."""
-    import os
-
     code = (
         "import sys\n"
         "from copdea_fem import cli\n"
