@@ -145,11 +145,37 @@ def number_from_dry(modes, dry_modes, mass) -> None:
     number_out_of_plane(modes)
     if not wet or not dry:
         return
-    from scipy.optimize import linear_sum_assignment
     macs = np.array([[mac(w.vector, d.vector, mass) for d in dry] for w in wet])
-    rows, columns = linear_sum_assignment(macs, maximize=True)
+    rows, columns = largest_mac_assignment(macs)
     for row, column in zip(rows, columns):
         wet[row].n = dry[column].n
+
+
+def largest_mac_assignment(macs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rows and columns of the one-to-one assignment of largest total MAC in ``macs``
+    (wet x dry, MAC [-]), as :func:`scipy.optimize.linear_sum_assignment` with
+    ``maximize=True`` gives them (rows ascending).
+
+    Where every mode of the smaller side has its own strictly largest MAC (no two sharing
+    a partner), pairing each with it reaches the sum of those maxima, which any other
+    assignment falls short of: it is the only optimum and is read off.  This is the usual
+    case (each wet mode near its dry partner, MAC close to 1, the others close to 0), and
+    it spares the command the import of all of :mod:`scipy.optimize`; otherwise the
+    assignment problem is solved.
+    """
+    transposed = macs.shape[0] > macs.shape[1]
+    table = macs.T if transposed else macs          # rows: the smaller side
+    best = np.argmax(table, axis=1)
+    ordered = np.sort(table, axis=1)
+    strict = table.shape[1] == 1 or bool(np.all(ordered[:, -1] > ordered[:, -2]))
+    if strict and np.unique(best).size == best.size:
+        smaller = np.arange(table.shape[0])
+        if not transposed:
+            return smaller, best
+        order = np.argsort(best)
+        return best[order], smaller[order]
+    from scipy.optimize import linear_sum_assignment
+    return linear_sum_assignment(macs, maximize=True)
 
 
 def axisymmetric_coupled_modes(study, mesh=None, timings=None, solver=None,
