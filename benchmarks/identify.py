@@ -6,7 +6,7 @@ A PSV-sized scan - 84 points x 3 velocity components x 800 lines (1.25 ... 1000 
 a split pair 1 % apart), with complex Gaussian noise 60 dB below the largest value.
 Timed: :func:`copdea_fem.vibrometer.identification.identify` on it (LSCF up to order 120 on the
 principal response functions, the automatic choice, LSFD on all 252 channels), and reading
-the same scan from a binary UFF export (:func:`~copdea_fem.vibrometer.uff.read_scan`).
+the same scan from a binary UFF export (:func:`~copdea_fem.measured.read_scan`).
 Each repetition runs in process after one warm-up; reported: median and range, and the
 largest frequency error of the identified modes.  Target: <= 10 s for the identification.
 """
@@ -30,7 +30,7 @@ TARGET_SECONDS = 10.0
 
 def make_scan(seed: int = 0):
     """The synthetic 84 x 3 x 800 scan (module notes)."""
-    from copdea_fem.vibrometer.scan import ScanData
+    from copdea_fem.measured import ScanData
 
     rng = np.random.default_rng(seed)
     n_points = 84
@@ -59,7 +59,7 @@ def make_scan(seed: int = 0):
 
 def main(argv=None) -> int:
     from copdea_fem.vibrometer.identification import identify
-    from copdea_fem.vibrometer.uff import read_scan, write_scan
+    from copdea_fem.measured import read_scan, write_scan
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5)

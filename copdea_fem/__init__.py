@@ -20,7 +20,8 @@ __all__ = ["load_study", "solve", "response", "force", "spectrum", "fit_material
            "calibrate_damping", "sweep", "diagnose", "correlate", "identify", "synthesise",
            "Solution", "ResponseSolution", "ForceCurve", "Spectrum", "MaterialFitResult",
            "DampingCalibrationResult", "SweepResult", "Diagnosis", "CorrelateResult",
-           "IdentifyResult", "SyntheticData", "SolveFailed", "StudyError", "OutputFolderError"]
+           "IdentifyResult", "SyntheticData", "SolveFailed", "StudyError", "OutputFolderError",
+           "load_measured"]
 
 
 def __getattr__(name):

@@ -225,7 +225,7 @@ def cmd_diagnose(args) -> int:
 def cmd_correlate(args) -> int:
     """Pair each scanned condition's identified modes with the FE's by shape."""
     out = _output(args)
-    result = api.correlate(args.measured, out=out)
+    result = api.correlate(args.measured, allow_large=args.allow_large, out=out)
     _print(result.summary_lines(out.path))
     return 0
 
@@ -299,6 +299,9 @@ def _add_diagnose_commands(commands, with_study) -> None:
                            "(scan: FILE.uff)")
     correlate.add_argument("--out", help="result directory (default: "
                            "results/correlate_<name>)")
+    correlate.add_argument("--allow-large", action="store_true",
+                           help="solve a condition even when its FE problem is estimated "
+                                "above the size limit")
     correlate.add_argument("--quiet", action="store_true", help="no progress messages")
     correlate.set_defaults(handler=cmd_correlate)
 
@@ -486,14 +489,25 @@ def _run(args) -> int:
 #: every 100 000 container allocations still collect what cycles a long run leaves.
 COMMAND_GC_THRESHOLD = 100_000
 
+#: OpenBLAS thread count of a command's process where the environment sets none: one.  The
+#: eigen stages run on one BLAS thread anyway (:func:`copdea_fem.progress.single_threaded_blas`);
+#: each further thread an OpenBLAS library (NumPy's, SciPy's, NGSolve's) starts when it loads
+#: spins a while, CPU time taken from the command's own thread on a busy machine.  (MKL is
+#: left alone: a study may choose its PARDISO.)
+COMMAND_BLAS_THREADS = {"OPENBLAS_NUM_THREADS": "1"}
+
 
 def console_main() -> int:
     """The ``copdea-fem`` command (and ``python -m copdea_fem.cli``): :func:`main` in a
-    process that ends with it.  The garbage collector runs less often
-    (:data:`COMMAND_GC_THRESHOLD`), and the objects still alive when the command returns
-    are frozen (:func:`gc.freeze`) so that the interpreter's last collection does not walk
-    them all (many objects after a solve); the operating system frees the process's memory
-    anyway, and every file is closed and every result folder in place by then."""
+    process that ends with it.  The BLAS libraries load with :data:`COMMAND_BLAS_THREADS`
+    (unless the environment says otherwise; NumPy is not imported before this).  The garbage
+    collector runs less often (:data:`COMMAND_GC_THRESHOLD`), and the objects still alive
+    when the command returns are frozen (:func:`gc.freeze`) so that the interpreter's last
+    collection does not walk them all (many objects after a solve); the operating system
+    frees the process's memory anyway, and every file is closed and every result folder in
+    place by then."""
+    for name, threads in COMMAND_BLAS_THREADS.items():
+        os.environ.setdefault(name, threads)
     gc.set_threshold(COMMAND_GC_THRESHOLD, *gc.get_threshold()[1:])
     code = main()
     gc.freeze()

@@ -38,6 +38,27 @@ def figures(request):
     return record
 
 
+@pytest.fixture
+def counted(monkeypatch):
+    """``counted(module, "name")`` wraps ``module.name`` so that its calls are counted in
+    ``counted.calls`` (a Counter by name) while the test runs: how often a file is read."""
+    import collections
+
+    calls = collections.Counter()
+
+    def wrap(module, name):
+        original = getattr(module, name)
+
+        def counting(*args, **kwargs):
+            calls[name] += 1
+            return original(*args, **kwargs)
+        monkeypatch.setattr(module, name, counting)
+        return counting
+
+    wrap.calls = calls
+    return wrap
+
+
 def pytest_terminal_summary(terminalreporter):
     texts = [content for outcome in ("passed", "failed")
              for report in terminalreporter.stats.get(outcome, [])

@@ -5,6 +5,8 @@ the command writes its files without them.  matplotlib draws the PNGs on its Agg
 (never pyplot), and a solve without plots does not import it.  Speed itself is measured by
 ``python -m benchmarks.command command``."""
 
+import csv
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -112,3 +114,32 @@ def test_the_command_process_collects_rarely_and_freezes_what_is_left():
     assert completed.returncode == 0, completed.stderr[-2000:]
     from copdea_fem.cli import COMMAND_GC_THRESHOLD
     assert completed.stdout.strip().splitlines()[-1] == f"0 {COMMAND_GC_THRESHOLD} True"
+
+
+def test_bare_peer_case_runs_on_one_blas_thread_without_scipy_optimize(tmp_path):
+    """The FreeFEM peer's case without files (``benchmarks/command.py`` ``command-peer``,
+    bare) as the ``copdea-fem`` command runs it (``console_main``): each coupled mode's dry
+    partner is evident, so scipy.optimize is never imported
+    (:func:`copdea_fem.fe.axisymmetric.engine.largest_mac_assignment`), and the OpenBLAS
+    libraries loaded with one thread (:data:`copdea_fem.cli.COMMAND_BLAS_THREADS`)."""
+    code = (
+        "import sys\n"
+        "from copdea_fem import cli\n"
+        f"sys.argv = ['copdea-fem', 'solve', {str(ROOT / 'studies' / 'g1_z00_v2.yaml')!r}, "
+        "'--set', 'geometry.frame=baffle', '--set', 'load.voltage=0 V', "
+        "'--set', 'eigen.f_max=400 Hz', '--set', 'output.paraview=false', "
+        f"'--set', 'output.plots=false', '--out', {str(tmp_path / 'out')!r}]\n"
+        "code = cli.console_main()\n"
+        "from threadpoolctl import threadpool_info\n"
+        "threads = sorted({pool['num_threads'] for pool in threadpool_info() "
+        "if pool['internal_api'] == 'openblas'})\n"
+        "print(code, 'scipy.optimize' in sys.modules, threads)\n")
+    environment = {name: value for name, value in os.environ.items()
+                   if name != "OPENBLAS_NUM_THREADS"}
+    completed = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                               cwd=ROOT, env=environment)
+    assert completed.returncode == 0, completed.stderr[-2000:]
+    assert completed.stdout.strip().splitlines()[-1] == "0 False [1]"
+    with open(tmp_path / "out" / "modes.csv", newline="") as table:
+        labels = [row["label"] for row in csv.DictReader(table)]
+    assert labels == ["(0,1)", "(1,1)a", "(1,1)b"]

@@ -196,7 +196,7 @@ def _workers(value):
 
 
 def _resonances(work):
-    from copdea_fem.diagnosis.measured import read_resonances
+    from copdea_fem.measured import read_resonances
     path = work / "peaks.csv"
     path.write_text("freq_hz,quality_factor\n340,20\n512,30\n340,20\n")
     return f"{len(read_resonances(path))} peaks"

@@ -79,7 +79,7 @@ def test_correlate_labels_the_example_by_shape(tmp_path, capsys):
 
 
 def test_the_scan_becomes_labelled_peaks_with_quality_factors():
-    from copdea_fem.diagnosis.measured import load_measured
+    from copdea_fem.diagnosis import load_measured
     from copdea_fem.diagnosis.scanned import pairing_report_lines, resonances_from_scans
 
     measured, pairings = resonances_from_scans(load_measured(EXAMPLE / "measured.yaml"))
@@ -99,6 +99,53 @@ def test_the_scan_becomes_labelled_peaks_with_quality_factors():
                                   else "non-axisymmetric")
     text = "\n".join(pairing_report_lines(pairings))
     assert "## Shape pairing (vibrometer scans)" in text and "| MAC |" in text
+
+
+def test_correlate_refuses_a_problem_above_the_size_limit_before_any_work(tmp_path,
+                                                                        monkeypatch, capsys):
+    """correlate guards the size of each condition's FE problem as solve does (exit 2
+    naming --allow-large), before identifying anything."""
+    import copdea_fem.fe.engines as engines
+    import copdea_fem.vibrometer.identification as identification
+
+    def not_reached(*args, **kwargs):
+        raise AssertionError("identified before the size check")
+    monkeypatch.setattr(engines, "MAX_UNKNOWNS", 10.0)
+    monkeypatch.setattr(identification, "identify", not_reached)
+    out = tmp_path / "pairs"
+    assert main(["correlate", str(EXAMPLE / "measured.yaml"), "--out", str(out),
+                 "--quiet"]) == 2
+    assert "more than the limit of 10; allowed:" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_a_failed_fe_solve_in_correlate_exits_3_with_one_line(tmp_path, monkeypatch, capsys,
+                                                              counted):
+    """correlate solves the FE as solve does: an eigen solve that fails is a SolveFailed
+    (exit 3, one line: what failed, at which load, which keys to change), nothing written;
+    --allow-large reaches the solve; measured.yaml and the scan are read once."""
+    import copdea_fem.fe.engines as engines
+    import copdea_fem.fe.pipeline as pipeline
+    import copdea_fem.vibrometer.identification as identification
+    from copdea_fem.fe.eigen.errors import EigenSolverError
+    from copdea_fem.measured import manifest
+
+    def fail(study, **options):
+        raise EigenSolverError("the Krylov run did not converge")
+    monkeypatch.setattr(engines, "MAX_UNKNOWNS", 10.0)
+    monkeypatch.setattr(identification, "identify", lambda scan, **options: ())
+    monkeypatch.setattr(pipeline, "run_solve", fail)
+    counted(manifest, "read_yaml")
+    counted(manifest, "read_scan")
+    out = tmp_path / "pairs"
+    assert main(["correlate", str(EXAMPLE / "measured.yaml"), "--out", str(out), "--quiet",
+                 "--allow-large"]) == 3
+    assert capsys.readouterr().err.splitlines() == [
+        "error: the eigen solve failed at load.z = 16 mm, load.voltage = 2000 V: the Krylov "
+        "run did not converge; change the band eigen.f_min..eigen.f_max, "
+        "eigen.max_damping_ratio or eigen.backend"]
+    assert not out.exists()
+    assert counted.calls == {"read_yaml": 1, "read_scan": 1}
 
 
 @pytest.mark.slow

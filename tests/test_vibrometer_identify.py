@@ -19,10 +19,10 @@ from vibrometer_helpers import (
 
 from copdea_fem import api
 from copdea_fem.cli import main
+from copdea_fem.measured import MeasuredDataError, ScanData, write_scan
+from copdea_fem.measured.uff import read_functions
 from copdea_fem.study import StudyError
 from copdea_fem.vibrometer.identification import identify, identify_scan, modal_phase_collinearity
-from copdea_fem.vibrometer.scan import MeasuredDataError, ScanData
-from copdea_fem.vibrometer.uff import read_functions, write_scan
 
 #: (m, n, orientation) families and their (frequency [Hz], damping ratio): the (1,1) pair
 #: split by 1 % with damping 1 % - a half-power width of 2 % - so that the sum of the FRFs
@@ -175,6 +175,21 @@ def test_identify_command_without_scan_exit_2(tmp_path, capsys):
     path.write_text(f"base_study: {BASE_STUDY}\nconditions:\n- name: a\n  resonances: r.csv\n")
     assert main(["identify", str(path), "--out", str(tmp_path / "o")]) == 2
     assert "no condition has a scan" in capsys.readouterr().err
+
+
+def test_identify_reads_the_manifest_and_each_scan_once(tmp_path, counted):
+    """The command loads measured.yaml once and gives the API the loaded set: no file is
+    read twice (the manifest once, each condition's scan once)."""
+    from copdea_fem.measured import manifest
+    path = _measured(tmp_path, ("a", "b"))
+    counted(manifest, "read_yaml")
+    counted(manifest, "read_scan")
+    assert main(["identify", str(path), "--out", str(tmp_path / "out"), "--quiet"]) == 0
+    assert counted.calls == {"read_yaml": 1, "read_scan": 2}
+    counted.calls.clear()
+    loaded = api.load_measured(path)
+    assert list(api.identify(loaded).table["condition"].unique()) == ["a", "b"]
+    assert counted.calls == {"read_yaml": 1, "read_scan": 2}       # by load_measured alone
 
 
 def test_api_identify(tmp_path):

@@ -16,17 +16,11 @@ from vibrometer_helpers import (
     write_measured,
 )
 
-from copdea_fem.diagnosis.measured import MeasuredDataError, load_measured
-from copdea_fem.vibrometer.geometry import device_distances
-from copdea_fem.vibrometer.scan import ScanData, ScanFrame
-from copdea_fem.vibrometer.uff import (
-    parse_unit_label,
-    read_functions,
-    read_geometry,
-    read_mode_sets,
-    read_scan,
-    write_scan,
-)
+from copdea_fem.diagnosis import load_measured
+from copdea_fem.measured import MeasuredDataError, ScanData, ScanFrame, read_scan, write_scan
+from copdea_fem.measured.geometry import device_distances
+from copdea_fem.measured.uff import read_functions, read_geometry, read_mode_sets
+from copdea_fem.measured.uff_units import parse_unit_label
 
 LMS = REALDATA / "gvt_xhale_lms_testlab"
 SAMPLES = REALDATA / "pyuff_format_samples"
@@ -360,6 +354,9 @@ CARELESS = {
                         r"scan_directions = 'z'"),
     "frame without scan": ({"resonances": "r.csv", "scan_frame": {}}, {"r.csv": b"freq_hz\n9\n"},
                            r"scan_frame = \{\} is not allowed; allowed: only beside scan"),
+    "suffix": ({"scan": "scan.txt"}, {"scan.txt": b"    -1\n"},
+               r"conditions\[0\]\.scan: scan file '.*scan\.txt'.* suffix = '\.txt' is not allowed; "
+               r"allowed: \.uff, \.unv"),
 }
 
 
@@ -379,6 +376,21 @@ def test_careless_scan_input(tmp_path, case):
         {"name": "c", "set": {"load.z": "16 mm"}, **keys}]}))
     with pytest.raises(ValueError, match=message):
         load_measured(path)
+
+
+def test_a_scan_file_is_read_by_the_reader_of_its_suffix(tmp_path, monkeypatch):
+    """read_scan dispatches on the suffix, in any case, through one table; a new format is
+    one line of it; an unknown suffix names the file, the suffix and the ones allowed."""
+    from copdea_fem.measured import scan_files
+
+    scan = _scan(n_lines=21)
+    upper = write_scan(tmp_path / "SCAN.UNV", scan, binary=False)
+    assert np.allclose(read_scan(upper).values, scan.values)
+    monkeypatch.setitem(scan_files.SCAN_READERS, ".psv", lambda path, **options: scan)
+    assert read_scan(tmp_path / "other.psv") is scan
+    with pytest.raises(MeasuredDataError, match=r"^scan file '.*scan'.* suffix = '' is not "
+                       r"allowed; allowed: \.uff, \.unv, \.psv$"):
+        read_scan(tmp_path / "scan")
 
 
 def test_units_from_164_and_labels(tmp_path):

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from copdea_fem.vibrometer.scan import ScanData
+from copdea_fem.measured import ScanData
 
 ROOT = Path(__file__).resolve().parents[1]
 REALDATA = Path(os.environ.get("COPDEA_FEM_REALDATA", ROOT.parent / "shared" / "realdata"))
@@ -47,7 +47,7 @@ def modal_frfs(frequencies, poles, shapes, response="velocity"):
 def paper_grid(outer_radius=0.0355, inner_radius=0.017, disc_z=0.016):
     """84 points as Fig. 5d: 80 on the membrane (5 rings x 16), 4 on the disc; z on the
     device's meridian (the package's geometric model, so the points lie on it)."""
-    from copdea_fem.vibrometer.geometry import device_meridian
+    from copdea_fem.measured.geometry import device_meridian
 
     meridian = device_meridian(outer_radius, inner_radius, disc_z)
     radii = inner_radius + (outer_radius - inner_radius) * np.array([0.1, 0.3, 0.5, 0.7, 0.9])

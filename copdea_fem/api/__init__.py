@@ -37,6 +37,10 @@ stays light).  A name of an old spelling (``executor="local"``, ``fe_workers``) 
 for one release, with a :class:`FutureWarning`.  Each function's *Raises*
 section says which it can raise.
 
+:func:`diagnose`, :func:`identify` and :func:`correlate` take a measured.yaml's path or the
+:class:`~copdea_fem.measured.MeasuredSet` :func:`load_measured` read from it, as the others
+take a study file or a :class:`~copdea_fem.study.Study`: each file is then read once.
+
 A :class:`~copdea_fem.study.Study` given to a function is validated again first
 (:meth:`~copdea_fem.study.Study.checked`): a study changed by hand after :func:`load_study`
 is checked like a file (an unknown key, a wrong type or a value out of range is a
@@ -51,9 +55,9 @@ result folders of ``write`` and of ``out``), then the functions with their resul
 :mod:`~copdea_fem.api.response_results` (:func:`response`, :func:`spectrum`),
 :mod:`~copdea_fem.api.calibration_results` (:func:`fit_material`,
 :func:`calibrate_damping`), :mod:`~copdea_fem.api.sweep_results` (:func:`sweep`),
-:mod:`~copdea_fem.api.measured_results` (:func:`diagnose`, :func:`identify`,
-:func:`correlate`) and :mod:`~copdea_fem.api.synthetic_results` (:func:`synthesise`,
-:func:`catalogue_table`).  Their public names are imported from here.
+:mod:`~copdea_fem.api.measured_results` (:func:`load_measured`, :func:`diagnose`,
+:func:`identify`, :func:`correlate`) and :mod:`~copdea_fem.api.synthetic_results`
+(:func:`synthesise`, :func:`catalogue_table`).  Their public names are imported from here.
 """
 
 from copdea_fem.api.calibration_results import (
@@ -78,6 +82,7 @@ from copdea_fem.api.measured_results import (
     correlate,
     diagnose,
     identify,
+    load_measured,
 )
 from copdea_fem.api.response_results import ResponseSolution, Spectrum, response, spectrum
 from copdea_fem.api.folders import Output
@@ -93,7 +98,8 @@ from copdea_fem.study import StudyError, reference_table
 __all__ = ["load_study", "solve", "Solution", "response", "ResponseSolution",  # noqa: RUF022
            "force", "prepare_force", "compute_force", "ForceCurve", "spectrum", "Spectrum",
            "fit_material", "MaterialFitResult", "calibrate_damping",
-           "DampingCalibrationResult", "sweep", "SweepResult", "diagnose", "Diagnosis",
+           "DampingCalibrationResult", "sweep", "SweepResult", "load_measured", "diagnose",
+           "Diagnosis",
            "identify", "IdentifyResult", "correlate", "CorrelateResult", "synthesise",
            "SyntheticData", "catalogue_table", "reference_table", "Output", "SolveFailed",
            "StudyError", "OutputFolderError", "PrestressError", "ReducedModelError",

@@ -1,6 +1,7 @@
 """What every function of the API shares: the study it is given (:func:`load_study`, a
 study checked again, the file each came from), the resource guard, the progress callable,
-the solver's failures as :class:`SolveFailed`, and tables as DataFrames.
+the solver's failures as :class:`SolveFailed`, the FE solve behind both
+(:func:`solve_checked`), and tables as DataFrames.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from copdea_fem.study import Study, StudyError
 
 if TYPE_CHECKING:
     from copdea_fem.fe.engines import Engine
+    from copdea_fem.fe.pipeline import SolveResult
 
 #: Study -> the file it was read from (the folder checks of ``write`` need it).
 _SOURCES: weakref.WeakKeyDictionary[Study, Path] = weakref.WeakKeyDictionary()
@@ -23,9 +25,9 @@ class SolveFailed(RuntimeError):
     """A solver failure, described for the user: what failed, at which load, which key to
     change (the CLI's exit 3).
 
-    Raised by :func:`solve` and :func:`response` in place of the FE's own errors (the air
-    mesh that cannot follow the membrane, an eigen solve that fails or finds too many
-    modes); a failed prestress is a :class:`~copdea_fem.fe.prestress.PrestressError`.
+    Raised by :func:`solve`, :func:`correlate` and :func:`response` in place of the FE's own
+    errors (the air mesh that cannot follow the membrane, an eigen solve that fails or finds
+    too many modes); a failed prestress is a :class:`~copdea_fem.fe.prestress.PrestressError`.
 
     Parameters
     ----------
@@ -138,6 +140,22 @@ def check_size(study: Study, allow_large: bool = False, engine: Engine | None = 
     if not allow_large:
         from copdea_fem.fe.engines import check_size as guard
         guard(study, engine=engine)
+
+
+def solve_checked(study: Study, *, allow_large: bool = False,
+                  mesh_cache: str | Path | None = None) -> SolveResult:
+    """The FE solve of every API function that solves one (:func:`copdea_fem.api.solve`,
+    :func:`copdea_fem.api.correlate`): the resource guard unless ``allow_large``
+    (:func:`check_size`, a :class:`StudyError` before meshing), then
+    :func:`copdea_fem.fe.pipeline.run_solve` with the solver's failures as
+    :class:`SolveFailed` (:func:`solving`)."""
+    from copdea_fem.fe.engines import engine_for
+    from copdea_fem.fe.pipeline import run_solve
+
+    engine = engine_for(study)
+    check_size(study, allow_large, engine)
+    with solving(study):
+        return run_solve(study, cache_dir=mesh_cache, engine=engine)
 
 
 def data_frame(rows: list[dict], columns) -> pandas.DataFrame:  # noqa: F821

@@ -15,6 +15,7 @@ from copdea_fem.api.calls import (
     data_frame,
     input_files,
     reporting_to,
+    solve_checked,
     solving,
 )
 from copdea_fem.api.folders import Output, claimed, claiming
@@ -75,15 +76,11 @@ def solve(study: Study | str | Path, *, allow_large: bool = False,
     OutputFolderError
         ``out`` may not be written (as in :meth:`Solution.write`).
     """
-    from copdea_fem.fe.engines import engine_for
-    from copdea_fem.fe.pipeline import run_solve
-
     study = as_study(study)
-    engine = engine_for(study)
-    check_size(study, allow_large, engine)
+    check_size(study, allow_large)        # before the folder is claimed
     with claiming(out, "solve", input_files(study), study["output"]["directory"]) as folder:
-        with solving(study), reporting_to(progress):
-            result = run_solve(study, cache_dir=mesh_cache, engine=engine)
+        with reporting_to(progress):
+            result = solve_checked(study, allow_large=True, mesh_cache=mesh_cache)
         solution = Solution(result)
         if folder is not None:
             solution.write(folder, progress)

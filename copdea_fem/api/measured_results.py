@@ -1,16 +1,19 @@
 """What measured data say: the missing effects (:func:`diagnose`, :class:`Diagnosis`), the
 modes of vibrometer scans (:func:`identify`, :class:`IdentifyResult`) and their pairing
-with the FE's by shape (:func:`correlate`, :class:`CorrelateResult`)."""
+with the FE's by shape (:func:`correlate`, :class:`CorrelateResult`).  Each takes a
+measured.yaml's path or the :class:`~copdea_fem.measured.MeasuredSet` that
+:func:`load_measured` read from it (then no file is read again)."""
 
 from __future__ import annotations
 
+import functools
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from copdea_fem.api.calls import data_frame, reporting_to
+from copdea_fem.api.calls import check_size, data_frame, reporting_to, solve_checked
 from copdea_fem.api.folders import Output, claimed, claiming
 from copdea_fem.folders import Claim
 from copdea_fem.study import StudyError
@@ -19,13 +22,54 @@ if TYPE_CHECKING:
     import pandas as pd
 
     from copdea_fem.diagnosis.select import DiagnosisResult
-    from copdea_fem.vibrometer.scan import IdentifiedSet
+    from copdea_fem.measured import MeasuredSet
+    from copdea_fem.vibrometer.identified import IdentifiedSet
 
 logger = logging.getLogger("copdea_fem")
 
 
-def diagnose(measured: str | Path, *, alpha: float = 0.05, model: str | None = None,
-             fe_cache: str | Path | None = None, workers: int | None = None,
+def load_measured(path: str | Path) -> MeasuredSet:
+    """Read and check a measured.yaml and every file it names (the base study, the resonance
+    and spectrum CSVs, the scans), as :func:`diagnose`, :func:`identify` and
+    :func:`correlate` do; give them the result to read each file once.
+
+    Parameters
+    ----------
+    path : str or Path
+        A measured.yaml (docs/diagnosis.md, docs/vibrometer.md).
+
+    Returns
+    -------
+    copdea_fem.measured.MeasuredSet
+        The base study, the conditions with their data (scans in SI and in the model's
+        frame), the noise model, the candidate effects.
+
+    Raises
+    ------
+    StudyError
+        A missing or bad manifest, measured file or base study (a
+        :class:`~copdea_fem.measured.MeasuredDataError`), or an unknown effect in
+        ``candidates``.
+    """
+    from copdea_fem.diagnosis import load_measured as load
+    return load(path)
+
+
+def as_measured(measured: MeasuredSet | str | Path) -> MeasuredSet:
+    """A measured.yaml read (:func:`load_measured`), or a
+    :class:`~copdea_fem.measured.MeasuredSet` as it is."""
+    from copdea_fem.measured import MeasuredSet
+    if isinstance(measured, MeasuredSet):
+        return measured
+    if not isinstance(measured, (str, Path)):
+        raise StudyError(f"measured = {type(measured).__name__} is not allowed; allowed: a "
+                         "MeasuredSet from load_measured or a measured.yaml's path")
+    return load_measured(measured)
+
+
+def diagnose(measured: MeasuredSet | str | Path, *, alpha: float = 0.05,
+             model: str | None = None, fe_cache: str | Path | None = None,
+             workers: int | None = None,
              executor: str | None = None, scheduler: str | Any | None = None,
              progress: Callable[[str], None] | None = None,
              out: str | Path | Claim | Output | None = None,
@@ -35,8 +79,9 @@ def diagnose(measured: str | Path, *, alpha: float = 0.05, model: str | None = N
 
     Parameters
     ----------
-    measured : str or Path
-        A measured.yaml: the base study, the conditions and their measured files.
+    measured : MeasuredSet, str or Path
+        From :func:`load_measured`, or a measured.yaml: the base study, the conditions and
+        their measured files.
     alpha : float, default 0.05
         Significance level of each step (false-alarm probability), in (0, 1).
     model : str, optional
@@ -77,7 +122,7 @@ def diagnose(measured: str | Path, *, alpha: float = 0.05, model: str | None = N
         ``alpha`` outside (0, 1), a bad worker count or cache folder, an unknown executor,
         a scheduler without ``executor="dask"`` or one that does not answer (all before the
         measured file is read), a bad measured.yaml, measured file or base study (a
-        :class:`~copdea_fem.diagnosis.measured.MeasuredDataError`), or conditions the
+        :class:`~copdea_fem.measured.MeasuredDataError`), or conditions the
         base model cannot evaluate.
     ReducedModelError
         The model cannot be built or evaluated (with ``model: fe``, an FE that cannot be
@@ -86,7 +131,6 @@ def diagnose(measured: str | Path, *, alpha: float = 0.05, model: str | None = N
         ``out`` may not be written (as in :meth:`Solution.write`).
     """
     from copdea_fem.diagnosis import check_options, diagnose_measured, diagnose_out_dir
-    from copdea_fem.diagnosis.measured import load_measured
 
     option = "--workers"
     if fe_workers is not None:
@@ -97,15 +141,15 @@ def diagnose(measured: str | Path, *, alpha: float = 0.05, model: str | None = N
         deprecated("--fe-workers", "--workers")
         workers, option = fe_workers, "--fe-workers"
     workers, executor = check_options(alpha, fe_cache, workers, executor, scheduler, option)
-    measured_set = load_measured(measured)
-    inputs = [measured, *(path for condition in measured_set.conditions
-                          for path in condition.files.values())]
-    with claiming(out, "diagnose", inputs, diagnose_out_dir(measured_set)) as folder:
+    measured = as_measured(measured)
+    inputs = [measured.path, *(path for condition in measured.conditions
+                               for path in condition.files.values())]
+    with claiming(out, "diagnose", inputs, diagnose_out_dir(measured)) as folder:
         with reporting_to(progress):
-            result = diagnose_measured(measured_set, alpha=alpha, model=model,
-                                       fe_cache=fe_cache, fe_workers=workers,
-                                       executor=executor, scheduler=scheduler)
-        diagnosis = Diagnosis(result, Path(measured))
+            result = diagnose_measured(measured, alpha=alpha, model=model, fe_cache=fe_cache,
+                                       fe_workers=workers, executor=executor,
+                                       scheduler=scheduler)
+        diagnosis = Diagnosis(result, measured.path)
         if folder is not None:
             diagnosis.write(folder)
     return diagnosis
@@ -160,19 +204,21 @@ class Diagnosis:
         return target
 
 
-def identify(measured: str | Path, *, progress: Callable[[str], None] | None = None,
+def identify(measured: MeasuredSet | str | Path, *,
+             progress: Callable[[str], None] | None = None,
              out: str | Path | Claim | Output | None = None, **options) -> IdentifyResult:
     """The modes of every scan of a measured.yaml (``copdea-fem identify``, nothing written).
 
-    Each condition with ``scan: FILE`` is read (:func:`copdea_fem.vibrometer.uff.read_scan`,
+    Each condition with ``scan: FILE`` is read (:func:`copdea_fem.measured.read_scan`,
     checked on the device) and identified automatically in its ``band`` (default: the
     scan's lines above 0 Hz): LSCF poles stable over the model orders, LSFD residues as
     shapes (:mod:`copdea_fem.vibrometer.identification`; nothing from the FE).
 
     Parameters
     ----------
-    measured : str or Path
-        A measured.yaml with at least one condition with a ``scan``.
+    measured : MeasuredSet, str or Path
+        From :func:`load_measured`, or a measured.yaml; at least one condition with a
+        ``scan``.
     progress : callable(str), optional
         As :func:`solve`'s.
     out : str, Path, Claim or Output, optional
@@ -191,11 +237,11 @@ def identify(measured: str | Path, *, progress: Callable[[str], None] | None = N
     ------
     StudyError
         A bad measured.yaml, scan file or option, or no condition with a scan (a
-        :class:`~copdea_fem.diagnosis.measured.MeasuredDataError`).
+        :class:`~copdea_fem.measured.MeasuredDataError`).
     """
-    from copdea_fem.diagnosis.measured import MeasuredDataError, load_measured
+    from copdea_fem.measured import MeasuredDataError
     from copdea_fem.vibrometer.identification import OPTIONS, check_options, identify_scan
-    from copdea_fem.vibrometer.scan import IdentifiedSet
+    from copdea_fem.vibrometer.identified import IdentifiedSet
 
     for name in options:
         if name not in OPTIONS:
@@ -203,14 +249,16 @@ def identify(measured: str | Path, *, progress: Callable[[str], None] | None = N
                              f"allowed: {', '.join(OPTIONS)}")
     check_options({name: value for name, value in options.items()
                    if name not in ("f_min", "f_max")})
-    measured_set = load_measured(measured)
+    measured_set = as_measured(measured)
     scanned = [c for c in measured_set.conditions if c.scan is not None]
     if not scanned:
-        raise MeasuredDataError(f"measured file {measured}: no condition has a scan; "
+        source = measured_set.path or measured_set.name if measured is measured_set \
+            else measured
+        raise MeasuredDataError(f"measured file {source}: no condition has a scan; "
                                 "allowed: at least one condition with scan: FILE (.uff/.unv)")
     files = [p for c in measured_set.conditions for p in c.files.values()]
     sets = []
-    with claiming(out, "identify", [measured, *files],
+    with claiming(out, "identify", [measured_set.path, *files],
                   Path("results") / f"identify_{measured_set.name}") as folder, \
             reporting_to(progress):
         for condition in scanned:
@@ -223,7 +271,7 @@ def identify(measured: str | Path, *, progress: Callable[[str], None] | None = N
             found = identify_scan(condition.scan, **{**band, **options})
             sets.append(IdentifiedSet(condition.name, condition.scan, found.modes,
                                       found.diagram))
-        result = IdentifyResult(tuple(sets), Path(measured), files)
+        result = IdentifyResult(tuple(sets), measured_set.path, files)
         if folder is not None:
             result.write(folder)
     return result
@@ -232,7 +280,7 @@ def identify(measured: str | Path, *, progress: Callable[[str], None] | None = N
 @dataclass
 class IdentifyResult:
     """The result of :func:`identify`: ``sets`` (one
-    :class:`~copdea_fem.vibrometer.scan.IdentifiedSet` per scanned condition), ``table``,
+    :class:`~copdea_fem.vibrometer.identified.IdentifiedSet` per scanned condition), ``table``,
     ``write``."""
 
     sets: tuple[IdentifiedSet, ...]
@@ -268,7 +316,7 @@ class IdentifyResult:
         return target
 
 
-def correlate(measured: str | Path, *,
+def correlate(measured: MeasuredSet | str | Path, *, allow_large: bool = False,
               progress: Callable[[str], None] | None = None,
               out: str | Path | Claim | Output | None = None) -> CorrelateResult:
     """Pair the modes identified in each condition's scan with the FE's by shape
@@ -277,15 +325,19 @@ def correlate(measured: str | Path, *,
     For each condition of ``measured`` with a ``scan:``: the modes are identified
     (:func:`copdea_fem.vibrometer.identification.identify`, in the condition's band), the base
     study at the condition is solved (the FE band reaching the pairing window past the
-    condition's), its structural modes sampled at the scan points along the measured
+    condition's, as :func:`solve` solves: the resource guard first, a failed solve a
+    :class:`SolveFailed`), its structural modes sampled at the scan points along the measured
     directions (:mod:`copdea_fem.vibrometer.sampling`) and paired one-to-one by shape
     (:func:`copdea_fem.vibrometer.pairing.correlate_shapes`, measured.yaml's
     ``pairing:`` window and smallest MAC).
 
     Parameters
     ----------
-    measured : str or Path
-        A measured.yaml with at least one condition that names a scan file.
+    measured : MeasuredSet, str or Path
+        From :func:`load_measured`, or a measured.yaml; at least one condition that names a
+        scan file.
+    allow_large : bool, default False
+        Start even when a condition's FE problem is estimated above the size limit.
     progress : callable(str), optional
         As :func:`solve`'s.
     out : str, Path, Claim or Output, optional
@@ -302,32 +354,40 @@ def correlate(measured: str | Path, *,
     ------
     StudyError
         A bad measured.yaml, scan file or base study
-        (:class:`~copdea_fem.diagnosis.measured.MeasuredDataError`), or no condition with
-        a scan.
+        (:class:`~copdea_fem.measured.MeasuredDataError`), no condition with a scan, or a
+        condition's problem above the size limit (without ``allow_large``; before any
+        work).
+    SolveFailed
+        A condition's FE solve failed (as :func:`solve`'s).
+    PrestressError
+        A condition's prestress (Newton) solve failed.
     """
-    from copdea_fem.diagnosis.measured import MeasuredDataError, load_measured
+    from copdea_fem.measured import MeasuredDataError
     from copdea_fem.vibrometer.identification import identify
     from copdea_fem.vibrometer.model_shapes import correlate_identified, fe_shapes
 
-    measured = load_measured(measured)
+    measured = as_measured(measured)
     scanned = [c for c in measured.conditions if c.scan is not None]
     if not scanned:
         raise MeasuredDataError(f"{measured.path or measured.name}: no condition names a "
                                 "scan; allowed: conditions with scan: FILE.uff")
     settings = measured.pairing
+    studies = [measured.study_of(condition).replace(
+        {"eigen.f_max": condition.band[1] * (1 + settings.window)}) for condition in scanned]
+    for study in studies:
+        check_size(study, allow_large)                 # every condition's, before any work
     correlations, scans = [], []
     inputs = [measured.path, *(path for condition in measured.conditions
                                for path in condition.files.values())]
     with claiming(out, "correlate", inputs, Path("results") / f"correlate_{measured.name}") \
             as folder, reporting_to(progress):
-        for condition in scanned:
+        for condition, study in zip(scanned, studies):
             logger.info("correlate %s: identify the scan's modes", condition.name)
             modes = identify(condition.scan, f_min=condition.band[0], f_max=condition.band[1])
-            study = measured.study_of(condition).replace(
-                {"eigen.f_max": condition.band[1] * (1 + settings.window)})
             logger.info("correlate %s: %d modes identified; FE modes at the scan points",
                         condition.name, len(modes))
-            model = fe_shapes(study, condition.scan)
+            model = fe_shapes(study, condition.scan,
+                              solve=functools.partial(solve_checked, allow_large=allow_large))
             correlations.append(correlate_identified(condition.name, modes, model,
                                                      window=settings.window,
                                                      mac_min=settings.mac_min))
@@ -345,7 +405,7 @@ class CorrelateResult:
 
     Attributes
     ----------
-    measured : copdea_fem.diagnosis.measured.MeasuredSet
+    measured : copdea_fem.measured.MeasuredSet
     correlations : tuple of Correlation
     scans : tuple of ScanData
         Each correlation's scan (its channels: comac.csv).

@@ -3,8 +3,8 @@
 Pipeline (data flows one way; each module pure except ``report`` and the
 entry points below):
 
-``measured``  ``measured.yaml`` + resonance/spectrum CSVs -> :class:`MeasuredSet` (checked)
-``effects``   the catalogue: effects, parameters, signatures, study overrides
+``effects``   the catalogue: effects, parameters, signatures, study overrides; what
+              ``measured.yaml`` may say of them (the set itself: :mod:`copdea_fem.measured`)
 ``engine``    ring-model modes and spectra of a condition under an effect state
 ``fe``        the FE model of record: study -> structural modes, cached
 ``anchored``  the ring model anchored to the FE: the surrogate the fits run on
@@ -26,8 +26,10 @@ The wall time of an FE diagnosis is benchmarked by ``python -m benchmarks.diagno
 Entry points of ``copdea-fem diagnose`` and ``copdea-fem synth`` (nothing written: the
 results of :mod:`copdea_fem.api` write their files):
 
-- :func:`diagnose_measured` (MEASURED.yaml -> DiagnosisResult; the report is written by
-  :meth:`copdea_fem.api.Diagnosis.write`)
+- :func:`load_measured` (MEASURED.yaml -> :class:`MeasuredSet`, checked with the
+  catalogue's effects)
+- :func:`diagnose_measured` (MEASURED.yaml or a MeasuredSet -> DiagnosisResult; the report
+  is written by :meth:`copdea_fem.api.Diagnosis.write`)
 - :func:`synthesise_set` (STUDY + effects + conditions -> a synthetic measured data set
   from the ring model) and :func:`check_scan_truth` with
   :func:`copdea_fem.diagnosis.synth_scan.synthesise_scan_set` (vibrometer exports made by
@@ -39,9 +41,33 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
-from copdea_fem.diagnosis.effects import CATALOGUE, EFFECT_IDS, Effect, Parameter, catalogue_table
-from copdea_fem.diagnosis.measured import MeasuredDataError, MeasuredSet, load_measured
+from copdea_fem.diagnosis.effects import (
+    CATALOGUE,
+    EFFECT_IDS,
+    MANIFEST_RULES,
+    Effect,
+    Parameter,
+    catalogue_table,
+)
 from copdea_fem.diagnosis.select import Diagnoser, DiagnosisResult
+from copdea_fem.measured import MeasuredDataError, MeasuredSet, manifest
+
+
+def load_measured(measured) -> MeasuredSet:
+    """A ``measured.yaml`` read and checked with the catalogue's effects
+    (:func:`copdea_fem.measured.load_measured` with
+    :data:`~copdea_fem.diagnosis.effects.MANIFEST_RULES`); a :class:`MeasuredSet` given is
+    returned as it is (each file is read once).
+
+    Raises
+    ------
+    MeasuredDataError
+        A bad manifest or measured file (a :class:`~copdea_fem.study.StudyError`; an unknown
+        effect in ``candidates:`` too).
+    """
+    if isinstance(measured, MeasuredSet):
+        return measured
+    return manifest.load_measured(measured, effects=MANIFEST_RULES)
 
 
 def diagnose_out_dir(measured: MeasuredSet) -> Path:
@@ -81,7 +107,7 @@ def check_options(alpha: float = 0.05, fe_cache=None, fe_workers=None, executor=
     return fe_workers, executor
 
 
-def diagnose_measured(measured_path, alpha: float = 0.05, model: str | None = None,
+def diagnose_measured(measured, alpha: float = 0.05, model: str | None = None,
                       fe_cache=None, fe_workers=None, executor=None,
                       scheduler=None) -> DiagnosisResult:
     """Diagnose a measured data set (nothing written: :func:`copdea_fem.api.diagnose` and its
@@ -89,8 +115,9 @@ def diagnose_measured(measured_path, alpha: float = 0.05, model: str | None = No
 
     Parameters
     ----------
-    measured_path : path or MeasuredSet
-        ``measured.yaml`` (:mod:`copdea_fem.diagnosis.measured`), or the set read from it.
+    measured : path or MeasuredSet
+        ``measured.yaml`` (:mod:`copdea_fem.measured.manifest`), or the set
+        :func:`load_measured` read from it.
     alpha : float
         False-alarm probability per step (:mod:`copdea_fem.diagnosis.scoring`), in (0, 1).
     model : str, optional
@@ -121,8 +148,7 @@ def diagnose_measured(measured_path, alpha: float = 0.05, model: str | None = No
         The ring model failed at a condition.
     """
     fe_workers, executor = check_options(alpha, fe_cache, fe_workers, executor, scheduler)
-    measured = (measured_path if isinstance(measured_path, MeasuredSet)
-                else load_measured(measured_path))
+    measured = load_measured(measured)
     if model is not None:
         measured = dataclasses.replace(measured, model=model)
     pairings = ()

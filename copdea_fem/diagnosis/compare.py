@@ -76,7 +76,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.optimize
 
-from copdea_fem.diagnosis.measured import NoiseModel
+from copdea_fem.measured import NoiseModel
 
 GATE = 0.50
 _Q_RANGE = math.log(1e4)
@@ -219,7 +219,7 @@ def match_condition(name, model_modes, peaks, band, noise: NoiseModel,
     """Pair model modes and measured peaks of one condition and score them (module notes).
 
     ``terms`` (optional) are the condition's :class:`DevianceTerms`, to save rebuilding them.
-    ``observed`` (:class:`copdea_fem.diagnosis.measured.ObservedFamilies`, optional): the
+    ``observed`` (:class:`copdea_fem.measured.ObservedFamilies`, optional): the
     families the measurement can see; a model mode outside them may explain a peak, but
     no peak for it costs nothing (like an optional mode).
     """

@@ -43,6 +43,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Callable
 
+from copdea_fem.measured import EffectRules
 from copdea_fem.study import ENCLOSURE_AIR_SHARE, StudyError
 
 # Modal damping b/m of Sect. 5.3 [1/s]: the physical default of effect modal_damping.
@@ -783,3 +784,12 @@ def catalogue_table() -> str:
             engine += "; opt-in: tested only where measured.yaml's candidates name it"
         rows.append(f"| `{e.id}` | {e.kind} | {engine} | {params} | {e.signature} |")
     return "\n".join(rows)
+
+
+#: What ``measured.yaml`` may say of the effects, for its reader
+#: (:func:`copdea_fem.measured.load_measured`): ``candidates:`` read by
+#: :func:`parse_effect_list`, :data:`DEFAULT_CANDIDATES` without it; a condition may not set
+#: the ``effects.`` section nor a key of :data:`SWITCHED_KEYS`.
+MANIFEST_RULES = EffectRules(parse_candidates=parse_effect_list,
+                             default_candidates=DEFAULT_CANDIDATES,
+                             switched_keys={"effects.": "the effects", **SWITCHED_KEYS})

@@ -164,9 +164,9 @@ def state_overrides(study, state) -> dict:
 
 
 class RingPredictor:
-    """Predictions for the conditions of a :class:`~copdea_fem.diagnosis.measured.MeasuredSet`
-    by the ring model (the FE-anchored and direct-FE predictors of the diagnosis derive
-    from it; not an FE engine, :class:`copdea_fem.fe.engines.Engine`).
+    """Predictions for the conditions of a :class:`~copdea_fem.measured.MeasuredSet` by the
+    ring model (the FE-anchored and direct-FE predictors of the diagnosis derive from it;
+    not an FE engine, :class:`copdea_fem.fe.engines.Engine`).
 
     Parameters
     ----------

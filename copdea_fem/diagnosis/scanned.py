@@ -30,7 +30,7 @@ import dataclasses
 import logging
 import math
 
-from copdea_fem.diagnosis.measured import MeasuredSet, Resonance, normalise_label
+from copdea_fem.measured import MeasuredSet, Resonance, normalise_label
 
 logger = logging.getLogger(__name__)
 
@@ -124,7 +124,7 @@ def resonances_from_scans(measured: MeasuredSet) -> tuple[MeasuredSet, tuple]:
                                     condition.scan, high * (1 + window)))
         conditions.append(dataclasses.replace(condition, resonances=resonances or None))
         if not resonances and condition.spectrum is None:
-            from copdea_fem.diagnosis.measured import MeasuredDataError
+            from copdea_fem.measured import MeasuredDataError
             raise MeasuredDataError(f"{condition.name}: scan {condition.files.get('scan')}: "
                                     "no mode identified in the band "
                                     f"[{low:g} Hz, {high:g} Hz]; allowed: a scan with at "

@@ -16,9 +16,9 @@ from __future__ import annotations
 import math
 
 from copdea_fem.diagnosis.effects import CATALOGUE
-from copdea_fem.diagnosis.measured import Condition
 from copdea_fem.diagnosis.ring_predictor import safe_predict
 from copdea_fem.diagnosis.scoring import CandidateScore
+from copdea_fem.measured import Condition
 
 PROBE_VOLTAGES = (0.0, 1000.0, 2000.0, 3000.0)     # V_b of the probes [V]
 PROBE_Z = (0.0, 0.011, 0.016, 0.018)                # z of the probes besides the data's [m]

@@ -46,9 +46,9 @@ import numpy as np
 import yaml
 
 from copdea_fem.diagnosis.effects import CATALOGUE, effect
-from copdea_fem.diagnosis.measured import Condition, MeasuredSet, NoiseModel
 from copdea_fem.diagnosis.ring_predictor import RingPredictor
 from copdea_fem.inputs import parse_yaml
+from copdea_fem.measured import Condition, MeasuredSet, NoiseModel
 from copdea_fem.study import Study, StudyError, dump_resolved
 
 DEFAULT_CONDITIONS = ({"load.z": "11 mm", "load.voltage": "2 kV"},

@@ -55,7 +55,7 @@ from copdea_fem.study import Study, StudyError, dump_resolved
 logger = logging.getLogger(__name__)
 
 #: ``noise.quality_relative`` of a synthetic set: the bound of
-#: :data:`copdea_fem.diagnosis.measured.NOISE_BOUNDS`, a 1-sigma scatter of ln Q of 5 (a
+#: :data:`copdea_fem.measured.manifest.NOISE_BOUNDS`, a 1-sigma scatter of ln Q of 5 (a
 #: factor e^5): the quality factors carry no weight (module notes).
 QUALITY_UNINFORMATIVE = 5.0
 
@@ -175,7 +175,7 @@ def synthesise_scan(study: Study, options: ScanOptions, rng, name: str = "scan")
     from copdea_fem.fe.pipeline import run_solve
     from copdea_fem.vibrometer.forced_scan import scan_response
     from copdea_fem.vibrometer.sampling import prestressed_positions
-    from copdea_fem.vibrometer.scan import ScanData
+    from copdea_fem.measured import ScanData
 
     frequencies = options.frequencies()
     solved_study = fe_study(study, f_max=float(frequencies[-1]) * BAND_MARGIN)
@@ -280,7 +280,7 @@ def write_scan_set(study: Study, effects: dict, scanned: list[ScannedCondition],
     observed : list of str, optional
         ``observed:`` of the written measured.yaml.
     """
-    from copdea_fem.vibrometer.uff import write_scan
+    from copdea_fem.measured import write_scan
 
     out = Path(out_dir)
     files = [out / "measured.yaml", out / "base_study.yaml"]

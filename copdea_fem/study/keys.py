@@ -25,7 +25,7 @@ class StudyError(ValueError):
     Raised for every bad input, before any work where it can be found then: a study file
     or key, a command's argument, an input file (the CLI's exit 2).  Subclasses:
     :class:`copdea_fem.sweeps.axes.SweepError` (a sweep file) and
-    :class:`copdea_fem.diagnosis.measured.MeasuredDataError` (a measured data set).
+    :class:`copdea_fem.measured.MeasuredDataError` (a measured data set).
 
     Parameters
     ----------

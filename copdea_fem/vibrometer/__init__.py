@@ -1,5 +1,7 @@
-"""Scanning-vibrometer data: read a UFF export, identify its modes, pair them with the FE.
+"""Scanning-vibrometer scans: identify their modes, pair them with the FE's by shape.
 
-``scan`` holds the data a UFF export carries, in SI and in the model's frame; the reader,
-the identification and the correlation with the FE work on these objects.
+The scans arrive read, in SI and in the model's frame (:class:`copdea_fem.measured.ScanData`,
+from :func:`copdea_fem.measured.read_scan`); ``identification`` finds their modes
+(``identified``: the modes and their shapes as a surface), ``sampling`` and
+``model_shapes`` put the FE's modes on the scan's channels, ``pairing`` pairs the two.
 """

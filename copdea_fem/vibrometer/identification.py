@@ -62,7 +62,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from copdea_fem.vibrometer.scan import RESPONSES, IdentifiedMode, MeasuredDataError, ScanData
+from copdea_fem.measured import MeasuredDataError, ScanData
+from copdea_fem.measured.scan import RESPONSES
+from copdea_fem.vibrometer.identified import IdentifiedMode
 
 logger = logging.getLogger(__name__)
 
@@ -441,7 +443,7 @@ def write_identified(folder, sets) -> None:
     import csv
     from pathlib import Path
 
-    from copdea_fem.vibrometer.geometry import shape_meshes
+    from copdea_fem.vibrometer.identified import shape_meshes
     from copdea_fem.vtu import write_all, write_pvd
 
     folder = Path(folder)

@@ -31,7 +31,7 @@ def fe_shapes(study, scan, *, solve=None) -> FEShapes:
     study : copdea_fem.study.Study
         The model at the scan's operating point (coupled with the air when
         ``air.enabled``; the band ``eigen.f_min..f_max`` should cover the scan's).
-    scan : copdea_fem.vibrometer.scan.ScanData
+    scan : copdea_fem.measured.ScanData
     solve : callable, optional
         ``solve(study) -> SolveResult`` (:func:`copdea_fem.fe.pipeline.run_solve`, the
         default).
@@ -54,7 +54,7 @@ def fe_shapes(study, scan, *, solve=None) -> FEShapes:
 def correlate_identified(condition: str, identified, fe: FEShapes, *,
                          window: float = DEFAULT_WINDOW,
                          mac_min: float = DEFAULT_MAC_MIN) -> Correlation:
-    """Pair identified modes (:class:`copdea_fem.vibrometer.scan.IdentifiedMode`) with the
+    """Pair identified modes (:class:`copdea_fem.vibrometer.identified.IdentifiedMode`) with the
     FE's sampled shapes (:func:`copdea_fem.vibrometer.pairing.correlate_shapes`)."""
     identified = tuple(identified)
     shapes = (np.column_stack([mode.shape for mode in identified]) if identified

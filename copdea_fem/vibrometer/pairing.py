@@ -2,7 +2,8 @@ r"""Measured mode shapes against the FE's: MAC matrix, pairing by shape, COMAC.
 
 Pure functions on arrays: the FE side arrives as :class:`FEShapes` (the FE modes sampled
 along the scan's channels, :mod:`copdea_fem.vibrometer.sampling`), the measured side as
-frequencies, damping ratios and complex shapes (:class:`copdea_fem.vibrometer.scan.IdentifiedMode`).
+frequencies, damping ratios and complex shapes
+(:class:`copdea_fem.vibrometer.identified.IdentifiedMode`).
 
 Units.  A circular membrane's ``cos m theta`` / ``sin m theta`` modes ((m,n)a and (m,n)b;
 in-plane ip(m,n)a/b and ip(m,n)c/d) are one two-dimensional eigenspace, split a little by a

@@ -1,6 +1,6 @@
 r"""FE fields sampled where a vibrometer measured: the scan points and their directions.
 
-A scan point lies on the *prestressed* device (:mod:`copdea_fem.vibrometer.scan`: the
+A scan point lies on the *prestressed* device (:mod:`copdea_fem.measured.scan`: the
 membrane's outer rim in the plane z = 0, the disc at z = +load.z).  The FE fields live on
 the *reference* (flat) membrane, so each point is first mapped back to the material point
 that the prestress carried there: in the plane, the deformed position is
@@ -262,7 +262,7 @@ def mode_shapes_at_scan(state, modes, scan) -> np.ndarray:
     state : copdea_fem.fe.prestress.PrestressedState
     modes : sequence of copdea_fem.fe.modes.Mode
         Structural modes of ``state`` (either engine).
-    scan : copdea_fem.vibrometer.scan.ScanData
+    scan : copdea_fem.measured.ScanData
     """
     sampler = ScanSampler(state, scan.positions)
     return project_channels(sampler.velocities(modes), scan.channel_point,

@@ -12,7 +12,7 @@ from __future__ import annotations
 import copy
 from dataclasses import dataclass
 
-from copdea_fem.diagnosis.measured import load_measured
+from copdea_fem.diagnosis import load_measured
 from copdea_fem.diagnosis.select import Diagnoser
 from copdea_fem.diagnosis.synth import SynthOptions, synthesise, write_synthetic
 from copdea_fem.study import parse_study

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from copdea_fem.diagnosis.compare import GATE, DevianceTerms, MeasuredPeak, gap, match_condition
-from copdea_fem.diagnosis.measured import NoiseModel
 from copdea_fem.diagnosis.peaks import find_spectrum_peaks
 from copdea_fem.diagnosis.ring_predictor import ModelMode
+from copdea_fem.measured import NoiseModel
 
 BAND = (1.25, 1000.0)
 NOISE = NoiseModel(frequency_relative=0.015, missing_probability=0.1,

@@ -9,7 +9,7 @@ import pytest
 import yaml
 
 from copdea_fem.cli import main
-from copdea_fem.diagnosis.measured import load_measured
+from copdea_fem.diagnosis import load_measured
 from copdea_fem.study import load_study
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -43,6 +43,26 @@ def test_diagnose_the_bundled_example_writes_the_contract(tmp_path, capsys):
     assert final["effects"]["air_added_mass"] == "incompressible"
     assert main(["spectrum", str(out / "final_study.yaml"), "--set", "load.z=11 mm",
                  "--out", str(tmp_path / "rerun")]) == 0
+
+
+def test_diagnose_reads_each_measured_file_once(tmp_path, monkeypatch, capsys, counted):
+    """The command loads measured.yaml once and gives the API the loaded set: the manifest
+    and every CSV it names are read once (the run stops where the search would start)."""
+    from copdea_fem.diagnosis.select import Diagnoser
+    from copdea_fem.measured import manifest
+    from copdea_fem.reduced.rings import ReducedModelError
+
+    def stop(self):
+        raise ReducedModelError("stopped after loading")
+    monkeypatch.setattr(Diagnoser, "run", stop)
+    for name in ("read_yaml", "read_resonances", "read_spectrum"):
+        counted(manifest, name)
+    conditions = yaml.safe_load(EXAMPLE.read_text())["conditions"]
+    assert main(["diagnose", str(EXAMPLE), "--out", str(tmp_path / "report"), "--quiet"]) == 3
+    assert "stopped after loading" in capsys.readouterr().err
+    assert counted.calls == {"read_yaml": 1,
+                             "read_resonances": sum("resonances" in c for c in conditions),
+                             "read_spectrum": sum("spectrum" in c for c in conditions)}
 
 
 def test_the_example_files_follow_the_documented_formats():

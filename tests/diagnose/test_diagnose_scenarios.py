@@ -113,7 +113,7 @@ def test_spectra_alone_are_enough_peaks_are_picked(tmp_path):
     import yaml
     from diagnose_helpers import make_data
 
-    from copdea_fem.diagnosis.measured import load_measured
+    from copdea_fem.diagnosis import load_measured
     from copdea_fem.diagnosis.select import Diagnoser
     path = make_data("air_loading", FAST_SEEDS[0], tmp_path)
     manifest = yaml.safe_load(path.read_text())
@@ -132,7 +132,7 @@ def test_a_single_condition_falls_back_to_the_in_sample_test(tmp_path):
     import yaml
     from diagnose_helpers import make_data
 
-    from copdea_fem.diagnosis.measured import load_measured
+    from copdea_fem.diagnosis import load_measured
     from copdea_fem.diagnosis.select import Diagnoser
     for name, missing in (("air_loading", ["air_loading"]), ("nothing", [])):
         path = make_data(name, FAST_SEEDS[0], tmp_path / name)

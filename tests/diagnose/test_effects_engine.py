@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from copdea_fem.diagnosis.effects import CATALOGUE, EFFECT_IDS, catalogue_table, parse_effect_list
-from copdea_fem.diagnosis.measured import Condition, MeasuredSet, NoiseModel
 from copdea_fem.diagnosis.ring_predictor import RingPredictor
+from copdea_fem.measured import Condition, MeasuredSet, NoiseModel
 from copdea_fem.reduced import build_reduced, dry_frequencies
 from copdea_fem.study import StudyError, parse_study
 

@@ -20,13 +20,14 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import fe_battery as battery  # noqa: E402
 
+from copdea_fem.diagnosis import load_measured  # noqa: E402
 from copdea_fem.diagnosis.anchored import AnchoredEngine  # noqa: E402
 from copdea_fem.diagnosis.compare import MeasuredPeak, gap, match_condition  # noqa: E402
 from copdea_fem.diagnosis.fe import FEModel, fe_key, fe_study  # noqa: E402
-from copdea_fem.diagnosis.measured import NoiseModel, load_measured  # noqa: E402
 from copdea_fem.diagnosis.ring_predictor import ModelMode, RingPredictor  # noqa: E402
 from copdea_fem.diagnosis.scoring import refusal  # noqa: E402
 from copdea_fem.diagnosis.select import Diagnoser  # noqa: E402
+from copdea_fem.measured import NoiseModel  # noqa: E402
 from copdea_fem.study import parse_study  # noqa: E402
 
 FAST_SEEDS = (1, 2)
@@ -293,7 +294,8 @@ def test_fe_worker_counts_are_checked_before_any_work(monkeypatch, capsys):
 def test_ring_only_physics_of_the_base_acts_through_the_ring_ratio(tmp_path):
     """A base with the spring's mass on (ring-only physics: the FE's spring is massless):
     the anchored P1 is the FE's P1 times ring(with mass)/ring(without), not the FE's P1."""
-    from copdea_fem.diagnosis.measured import parse_measured
+    from copdea_fem.diagnosis.effects import MANIFEST_RULES
+    from copdea_fem.measured import parse_measured
     (tmp_path / "r.csv").write_text("freq_hz,label\n40,P1\n380,(0,1)\n")
     base = dict(battery.DRY, disc={"mass": "3.0 g", "motion": "spring"},
                 spring={"stiffness": "52 N/m", "mass": "1.8 g", "length": "30 mm"})
@@ -301,7 +303,8 @@ def test_ring_only_physics_of_the_base_acts_through_the_ring_ratio(tmp_path):
     (tmp_path / "base.yaml").write_text(yaml.safe_dump(base))
     measured = parse_measured({"base_study": "base.yaml", "conditions": [
         {"name": "z16", "set": {"load.z": "16 mm", "load.voltage": "2 kV"},
-         "resonances": "r.csv", "band": ["20 Hz", "1000 Hz"]}]}, tmp_path)
+         "resonances": "r.csv", "band": ["20 Hz", "1000 Hz"]}]}, tmp_path,
+        effects=MANIFEST_RULES)
     condition = measured.conditions[0]
     engine = AnchoredEngine(measured, FEModel(cache_dir=tmp_path / "fe"))
     anchored = engine.predict(condition).mode("P1").frequency_hz

@@ -18,6 +18,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import fe_battery as battery  # noqa: E402
 
+from copdea_fem.diagnosis import load_measured  # noqa: E402
 from copdea_fem.diagnosis.anchored import (
     PROBE,
     STRONG_PROBE,
@@ -30,7 +31,6 @@ from copdea_fem.diagnosis.anchored import (
 from copdea_fem.diagnosis.candidates import material_skipped  # noqa: E402
 from copdea_fem.diagnosis.effects import CATALOGUE, catalogue_table  # noqa: E402
 from copdea_fem.diagnosis.fe import FEMode, FEModel, FEResult, fe_study  # noqa: E402
-from copdea_fem.diagnosis.measured import load_measured  # noqa: E402
 from copdea_fem.diagnosis.ring_predictor import ModelMode  # noqa: E402
 from copdea_fem.diagnosis.select import Diagnoser  # noqa: E402
 from copdea_fem.study import parse_study  # noqa: E402
@@ -208,7 +208,7 @@ def test_a_condition_may_not_set_the_prony_series(tmp_path):
     """membrane.prony is the effect's key: a condition setting it is refused by name."""
     import yaml
 
-    from copdea_fem.diagnosis.measured import MeasuredDataError
+    from copdea_fem.measured import MeasuredDataError
     path = battery.write_measured("damping_known", 1, tmp_path)
     manifest = yaml.safe_load(path.read_text())
     manifest["conditions"][0]["set"]["membrane.prony"] = [VISCO]

@@ -6,12 +6,8 @@ import numpy as np
 import pytest
 import yaml
 
-from copdea_fem.diagnosis.measured import (
-    MeasuredDataError,
-    load_measured,
-    normalise_label,
-    read_spectrum,
-)
+from copdea_fem.diagnosis import load_measured
+from copdea_fem.measured import MeasuredDataError, normalise_label, read_spectrum
 from copdea_fem.study import StudyError
 
 BASE = "geometry:\n  inner_radius: 17 mm\ndisc:\n  motion: spring\n"

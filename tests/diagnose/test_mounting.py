@@ -18,6 +18,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import mount_battery as battery  # noqa: E402
 
+from copdea_fem.diagnosis import load_measured  # noqa: E402
 from copdea_fem.diagnosis.anchored import FE_ROLES, AnchoredEngine  # noqa: E402
 from copdea_fem.diagnosis.candidates import mounting_skipped  # noqa: E402
 from copdea_fem.diagnosis.direct import (  # noqa: E402
@@ -33,7 +34,6 @@ from copdea_fem.diagnosis.effects import (  # noqa: E402
     base_mounting,
 )
 from copdea_fem.diagnosis.fe import FEModel, fe_study  # noqa: E402
-from copdea_fem.diagnosis.measured import load_measured  # noqa: E402
 from copdea_fem.diagnosis.report import write_report  # noqa: E402
 from copdea_fem.diagnosis.select import Diagnoser  # noqa: E402
 from copdea_fem.study import parse_study  # noqa: E402

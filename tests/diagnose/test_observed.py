@@ -7,6 +7,7 @@ import re
 import pytest
 import yaml
 
+from copdea_fem.diagnosis import load_measured
 from copdea_fem.diagnosis.compare import (
     GATE,
     MeasuredPeak,
@@ -14,14 +15,9 @@ from copdea_fem.diagnosis.compare import (
     gap_parts,
     match_condition,
 )
-from copdea_fem.diagnosis.measured import (
-    MeasuredDataError,
-    NoiseModel,
-    load_measured,
-    parse_observed,
-    parse_pairing,
-)
 from copdea_fem.diagnosis.ring_predictor import ModelMode
+from copdea_fem.measured import MeasuredDataError, NoiseModel
+from copdea_fem.measured.observation import parse_observed, parse_pairing
 
 BASE = "geometry:\n  inner_radius: 17 mm\ndisc:\n  motion: spring\n"
 RESONANCES = "freq_hz,label\n388,(0,1)\n"

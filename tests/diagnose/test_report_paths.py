@@ -19,7 +19,7 @@ import pytest
 import yaml
 from diagnose_helpers import make_data
 
-from copdea_fem.diagnosis.measured import load_measured
+from copdea_fem.diagnosis import load_measured
 from copdea_fem.diagnosis.report import write_report
 from copdea_fem.diagnosis.scoring import refusal
 from copdea_fem.diagnosis.select import Diagnoser
@@ -139,7 +139,7 @@ def test_the_acceptance_boundary_a_gap_rising_by_one_percent_is_refused():
     by 1 % with a lower deviance is accepted (the old test tried only a 20-fold rise)."""
     from copdea_fem.diagnosis.compare import MeasuredPeak, match_condition
     from copdea_fem.diagnosis.ring_predictor import ModelMode
-    from copdea_fem.diagnosis.measured import NoiseModel
+    from copdea_fem.measured import NoiseModel
     peaks = [MeasuredPeak(400.0, "(0,1)"), MeasuredPeak(900.0, "(0,2)")]
     noise, band = NoiseModel(frequency_relative=0.01), (20.0, 1000.0)
 

@@ -145,11 +145,33 @@ def number_from_dry(modes, dry_modes, mass) -> None:
     number_out_of_plane(modes)
     if not wet or not dry:
         return
-    from scipy.optimize import linear_sum_assignment
     macs = np.array([[mac(w.vector, d.vector, mass) for d in dry] for w in wet])
-    rows, columns = linear_sum_assignment(macs, maximize=True)
+    rows, columns = largest_mac_assignment(macs)
     for row, column in zip(rows, columns):
         wet[row].n = dry[column].n
+
+
+def largest_mac_assignment(macs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rows and columns of the one-to-one assignment of largest total MAC in ``macs``
+    (wet x dry, MAC [-]; rows ascending).
+
+    SciPy's sparse bipartite matching
+    (:func:`scipy.sparse.csgraph.min_weight_full_bipartite_matching`, LAPJVsp) on the dense
+    table: the same optimum as :func:`scipy.optimize.linear_sum_assignment` with
+    ``maximize=True``, without importing all of :mod:`scipy.optimize` into a solve (0.1-0.2 s
+    of a small command).  Every MAC is shifted by 1, so that a MAC of exactly 0 stays an
+    edge of the graph (a zero is no edge there); every full matching holds min(rows,
+    columns) edges, so the shift moves every total alike and keeps the optimum.
+    """
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import min_weight_full_bipartite_matching
+    transposed = macs.shape[0] > macs.shape[1]
+    table = macs.T if transposed else macs          # rows: the smaller side
+    rows, columns = min_weight_full_bipartite_matching(csr_matrix(table + 1.0), maximize=True)
+    if not transposed:
+        return rows, columns
+    order = np.argsort(columns)
+    return columns[order], rows[order]
 
 
 def axisymmetric_coupled_modes(study, mesh=None, timings=None, solver=None,

@@ -1,4 +1,4 @@
-"""Where the scan points lie on the device, and the identified shapes as a ParaView surface.
+"""Where the scan points lie on the device: the prestressed surface, and the on-device check.
 
 On-device check.  The prestressed device is axisymmetric: the disc (radius r_i) at
 z = z_d = ``load.z``, the membrane from the disc's rim to the clamped outer rim (r_o,
@@ -25,7 +25,8 @@ import math
 
 import numpy as np
 
-from copdea_fem.vibrometer.scan import IdentifiedMode, MeasuredDataError, ScanData
+from copdea_fem.measured.errors import MeasuredDataError
+from copdea_fem.measured.scan import ScanData
 
 #: Default on-device tolerance as a fraction of the outer radius (module notes).
 TOLERANCE_OF_OUTER_RADIUS = 0.1
@@ -106,47 +107,5 @@ def check_on_device(scan: ScanData, study, tolerance: float | None = None,
     return float(distances[worst])
 
 
-def point_vectors(scan: ScanData, shape: np.ndarray) -> np.ndarray:
-    """(P, 3) complex vector per point of a channel-wise shape: the least-squares (minimum
-    norm) solution of ``d_c . v = shape_c`` over the point's channels (one channel of a
-    1-D laser gives ``shape_c d_c``)."""
-    vectors = np.zeros((scan.n_points, 3), complex)
-    for point in range(scan.n_points):
-        channels = np.flatnonzero(scan.channel_point == point)
-        directions = np.asarray(scan.channel_direction[channels], float)
-        vectors[point] = np.linalg.lstsq(directions, shape[channels], rcond=None)[0]
-    return vectors
-
-
-def scan_surface(scan: ScanData) -> np.ndarray:
-    """Triangles (T, 3) over the scan points: Delaunay in the membrane plane (x, y)."""
-    from scipy.spatial import Delaunay
-
-    if scan.n_points < 3:
-        return np.zeros((0, 3), int)
-    try:
-        return np.asarray(Delaunay(scan.positions[:, :2]).simplices, int)
-    except Exception:  # noqa: BLE001 -- qhull's error for collinear points: no surface
-        return np.zeros((0, 3), int)
-
-
-def shape_meshes(scan: ScanData, modes: tuple[IdentifiedMode, ...]):
-    """``(name, VtuMesh)`` per mode on the scan grid: point data ``shape_real``,
-    ``shape_imag`` (P, 3) [residue units], ``shape_abs`` and ``normal_real`` (z)."""
-    from copdea_fem.vtu import VtuMesh
-
-    triangles = scan_surface(scan)
-    cells = [("triangle", triangles)]
-    out = []
-    for mode in modes:
-        vectors = point_vectors(scan, mode.shape)
-        data = {"shape_real": vectors.real, "shape_imag": vectors.imag,
-                "shape_abs": np.linalg.norm(np.abs(vectors), axis=1),
-                "normal_real": vectors[:, 2].real}
-        out.append((f"mode_{mode.test_mode:02d}_{mode.freq_hz:.1f}Hz".replace(".", "p"),
-                    VtuMesh(scan.positions, cells, point_data=data)))
-    return out
-
-
 __all__ = ["TOLERANCE_OF_OUTER_RADIUS", "check_on_device", "device_distances",
-           "device_meridian", "point_vectors", "scan_surface", "shape_meshes"]
+           "device_meridian"]

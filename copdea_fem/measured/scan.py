@@ -1,4 +1,5 @@
-"""The data of one scan, as every part of :mod:`copdea_fem.vibrometer` sees it.
+"""The data of one scan, as every reader makes it (:func:`copdea_fem.measured.read_scan`) and
+every part of :mod:`copdea_fem.vibrometer` sees it.
 
 A scan is a set of points on the device (membrane or disc), each measured along one or
 more directions (channels).  Positions are in the model's frame: the membrane's outer rim
@@ -14,20 +15,10 @@ from pathlib import Path
 
 import numpy as np
 
-from copdea_fem.study import StudyError
-
 #: What a channel's response is, and the FRF form of the modal model for it
 #: (``H = sum A / (i w - s)`` times 1, ``i w`` or ``-w^2``: receptance, mobility, accelerance).
 RESPONSES = {"displacement": "receptance", "velocity": "mobility",
              "acceleration": "accelerance"}
-
-
-class MeasuredDataError(StudyError):
-    """Bad measured data: the message names the file or key, the value and what is allowed.
-
-    Defined here, below the diagnosis, so that the scan reader raises the error the
-    ``measured.yaml`` reader raises (:mod:`copdea_fem.diagnosis.measured` re-exports it).
-    """
 
 
 @dataclass(frozen=True)
@@ -108,38 +99,4 @@ class ScanData:
         return len(self.channel_point)
 
 
-@dataclass(frozen=True)
-class IdentifiedMode:
-    """One mode identified from a scan (LSCF pole, LSFD residues).
-
-    Attributes
-    ----------
-    test_mode : int
-        1-based number in order of frequency within its condition.
-    freq_hz : float
-        Damped natural frequency [Hz] (``|Im s| / 2 pi`` of the pole).
-    damping_ratio : float
-        ``-Re s / |s|`` [-].
-    shape : (C,) complex array
-        Residue per channel of the scan (the channel order of :class:`ScanData`).
-    mpc : float
-        Modal phase collinearity of ``shape`` in [0, 1].
-    """
-
-    test_mode: int
-    freq_hz: float
-    damping_ratio: float
-    shape: np.ndarray
-    mpc: float
-
-
-@dataclass(frozen=True)
-class IdentifiedSet:
-    """The modes identified in one condition's scan (``diagram``: the
-    :class:`~copdea_fem.vibrometer.identification.StabilisationDiagram` they were chosen from,
-    None when not kept)."""
-
-    condition: str
-    scan: ScanData
-    modes: tuple[IdentifiedMode, ...] = field(default_factory=tuple)
-    diagram: object = None
+__all__ = ["RESPONSES", "ScanData", "ScanFrame"]

@@ -1,4 +1,5 @@
-"""Universal File Format (UFF/UNV) exports of a scanning vibrometer: read and write.
+"""Universal File Format (UFF/UNV) exports of a scanning vibrometer, read (written by
+:func:`copdea_fem.measured.uff_writer.write_scan`).
 
 A PSV-type export holds the scan points (dataset 2411, or the older 15), the units
 (164) and one function per point and direction (58, ASCII or binary "58b"): FRFs of
@@ -7,15 +8,8 @@ the velocity per volt of drive (function type 4) or velocity spectra (type 12).
 and in the model's frame, and refuses a file it cannot trust with a
 :class:`MeasuredDataError` naming the file and the dataset.
 
-Units.  Dataset 164 gives factors that convert the file's units to SI by division
-(``SI = value / factor``: length, force, temperature).  A dataset 58 says its axes'
-units twice: as exponents of those base units (records 8-11) and as free-text labels
-(``m/s``, ``(1/N)*(m/s²)``, ``g²/Hz``).  A label that names a unit wins (the exponents are
-often left at zero); a label that names none (``NONE``, empty) falls back to 164 and the
-exponents.  Labels are decoded from the file's bytes, UTF-8 and else Latin-1 (a
-shaker controller's ``g²/Hz`` is the Latin-1 byte 0xB2), and read with pint, ``g``
-taken as standard gravity (no mass appears on these axes).  An FRF's ordinate label
-that already holds the denominator (``m/s/V``) is not divided by it again.
+Units.  Dataset 164's factors and each dataset 58's unit labels and exponents give the
+factor to SI of every function (:mod:`copdea_fem.measured.uff_units`).
 
 Points and channels.  Every response is put on its point by its response node
 (``rsp_node``), never by its place in the file; a node without coordinates, a point
@@ -28,7 +22,6 @@ geometry's order) and then by direction, whatever the file's order.
 from __future__ import annotations
 
 import contextlib
-import functools
 import io
 import logging
 import math
@@ -40,32 +33,20 @@ from pathlib import Path
 import numpy as np
 
 from copdea_fem.inputs import preview
-from copdea_fem.vibrometer.scan import MeasuredDataError, ScanData, ScanFrame
+from copdea_fem.measured.errors import MeasuredDataError
+from copdea_fem.measured.scan import ScanData, ScanFrame
+from copdea_fem.measured.uff_units import (
+    already_divided,
+    decode_label,
+    exponent_factor,
+    parse_unit_label,
+    response_of,
+)
 
 logger = logging.getLogger(__name__)
 
 #: UFF function types read as scans: 4 = frequency response function, 12 = spectrum.
 FUNCTION_TYPES = {4: "frf", 12: "spectrum"}
-#: UFF specific data types of a 58 ordinate (record 9) that say what the response is.
-RESPONSE_CODES = {8: "displacement", 11: "velocity", 12: "acceleration"}
-#: Labels that name no unit.
-_NO_UNIT = {"", "none", "unknown", "n/a", "-", "nounit", "no unit"}
-#: SI dimensions (pint's) of the responses, to tell a response from its label.
-_RESPONSE_DIMENSIONS = {"displacement": {"[length]": 1},
-                        "velocity": {"[length]": 1, "[time]": -1},
-                        "acceleration": {"[length]": 1, "[time]": -2}}
-#: ... and of the excitations an FRF's ordinate label may already divide by: none, N, V.
-_EXCITATION_DIMENSIONS = ({}, {"[mass]": 1, "[length]": 1, "[time]": -2},
-                          {"[mass]": 1, "[length]": 2, "[time]": -3, "[current]": -1})
-
-
-@dataclass(frozen=True)
-class UnitLabel:
-    """A unit label read: the text, the factor to SI, the SI dimensions (pint's)."""
-
-    text: str
-    factor: float
-    dimensions: dict
 
 
 @dataclass(frozen=True)
@@ -113,67 +94,6 @@ def _where(path: Path, dataset: str) -> str:
 def _error(path: Path, dataset: str, problem: str, allowed: str) -> MeasuredDataError:
     return MeasuredDataError(f"{_where(path, dataset)}: {problem}; allowed: {allowed}")
 
-
-# --- labels and units ------------------------------------------------------------------
-
-def decode_label(raw: bytes) -> str:
-    """A header field's text: UTF-8 when it is, else Latin-1 (every byte a character)."""
-    try:
-        return raw.decode("utf-8").strip()
-    except UnicodeDecodeError:
-        return raw.decode("latin-1").strip()
-
-
-@functools.lru_cache(maxsize=256)
-def parse_unit_label(text: str) -> UnitLabel | None:
-    """A UFF unit label (``m/s``, ``(1/N)*(m/s²)``, ``g²/Hz``, ``µm/s``) in SI, or None
-    when it names no unit pint can read.  ``g`` is standard gravity (9.80665 m/s^2)."""
-    cleaned = text.strip()
-    if cleaned.lower() in _NO_UNIT:
-        return None
-    cleaned = (cleaned.replace("²", "**2").replace("³", "**3").replace("µ", "u")
-               .replace("μ", "u").replace("^", "**").replace("Ohm", "ohm"))
-    cleaned = re.sub(r"(?<![A-Za-z_])g(?![A-Za-z_])", "g_n", cleaned)
-    cleaned = re.sub(r"\brms\b|\bRMS\b|\bpk\b|\bpeak\b", "", cleaned).strip()
-    from copdea_fem.study import unit_registry
-
-    registry = unit_registry()
-    try:
-        quantity = registry.parse_expression(cleaned)
-        base = (1.0 * quantity).to_base_units()
-    except Exception:  # noqa: BLE001 -- pint raises many types on text it cannot read
-        return None
-    if not hasattr(base, "dimensionality") or not math.isfinite(float(base.magnitude)):
-        return None
-    return UnitLabel(text, float(base.magnitude), dict(base.dimensionality))
-
-
-def _exponent_factor(units: dict, record: dict, axis: str) -> float:
-    """Factor to SI from dataset 164 and the axis' unit exponents (``SI = value / f``)."""
-    length = record.get(f"{axis}_len_unit_exp", 0) or 0
-    force = record.get(f"{axis}_force_unit_exp", 0) or 0
-    return 1.0 / (units["length"] ** length * units["force"] ** force)
-
-
-def _response_of(dimensions: dict | None, code: int) -> str:
-    """The response a label's dimensions name, alone or per newton or volt
-    (``(1/N)*(m/s²)`` is an acceleration per force), else the specific data type's."""
-    if dimensions is not None:
-        for excitation in _EXCITATION_DIMENSIONS:
-            times = {k: dimensions.get(k, 0) + excitation.get(k, 0)
-                     for k in set(dimensions) | set(excitation)}
-            times = {k: v for k, v in times.items() if v}
-            for name, wanted in _RESPONSE_DIMENSIONS.items():
-                if times == wanted:
-                    return name
-    return RESPONSE_CODES.get(code, "unknown")
-
-
-def _contains(outer: dict, inner: dict) -> bool:
-    """Whether a label's dimensions already hold ``1 / inner`` (``m/s/V`` holds ``V``)."""
-    with_inner = {k: outer.get(k, 0) + inner.get(k, 0) for k in set(outer) | set(inner)}
-    size = lambda dims: sum(abs(v) for v in dims.values())
-    return size(with_inner) < size(outer)
 
 
 def _raw_58_headers(data: bytes) -> list[list[bytes]]:
@@ -374,22 +294,22 @@ def _function(path, index, record, header, units) -> FunctionRecord:
     abscissa_text = _label(record, header, 9, "abscissa_axis_units_lab")
     ordinate = parse_unit_label(ordinate_text)
     denominator = parse_unit_label(denominator_text) if function_type == 4 else None
-    factor = ordinate.factor if ordinate else _exponent_factor(units, record, "ordinate")
+    factor = ordinate.factor if ordinate else exponent_factor(units, record, "ordinate")
     dimensions = ordinate.dimensions if ordinate else None
     if function_type == 4:
         if denominator is not None:
-            if dimensions is not None and _contains(dimensions, denominator.dimensions):
+            if dimensions is not None and already_divided(dimensions, denominator.dimensions):
                 dimensions = {k: dimensions.get(k, 0) + denominator.dimensions.get(k, 0)
                               for k in set(dimensions) | set(denominator.dimensions)}
                 dimensions = {k: v for k, v in dimensions.items() if v}
             else:
                 factor /= denominator.factor
         else:
-            factor /= _exponent_factor(units, record, "orddenom")
+            factor /= exponent_factor(units, record, "orddenom")
     abscissa_unit = parse_unit_label(abscissa_text)
     if abscissa_unit is not None and abscissa_unit.dimensions == {"[time]": -1}:
         abscissa = abscissa * abscissa_unit.factor
-    response = _response_of(dimensions, int(record.get("ordinate_spec_data_type", 0)))
+    response = response_of(dimensions, int(record.get("ordinate_spec_data_type", 0)))
     return FunctionRecord(
         dataset=index + 1, function_type=function_type, response_node=node,
         response_direction=int(record.get("rsp_dir", 0)),
@@ -585,75 +505,13 @@ def read_mode_sets(path) -> tuple[ModeSet, ...]:
     return tuple(out)
 
 
-# --- writing --------------------------------------------------------------------------
-
-def write_scan(path, scan: ScanData, *, binary: bool = True) -> Path:
-    """A :class:`ScanData` as a PSV-like UFF export: 164 (SI), 2411 (the points, model
-    frame, m), one 58 (function type 4, velocity per volt) per channel.
-
-    A channel along a global axis gets ``rsp_dir`` +-1..3; any other direction (a 1-D
-    laser) gets ``rsp_dir`` 0 and must be given to :func:`read_scan` again.  Abscissae are
-    written with 6 significant digits (pyuff's ``%13.5e``), values as doubles (binary) or
-    with 12 significant digits (ASCII, pyuff's ``%20.11e``).
-    """
-    import pyuff
-
-    path = Path(path)
-    if scan.quantity != "frf":
-        raise ValueError(f"write_scan: quantity = {scan.quantity!r} is not allowed; "
-                         "allowed: 'frf' (UFF function type 4)")
-    ordinate_unit = {"displacement": "m", "velocity": "m/s",
-                     "acceleration": "m/s^2"}.get(scan.response, "NONE")
-    code = {v: k for k, v in RESPONSE_CODES.items()}.get(scan.response, 0)
-    sets = [pyuff.prepare_164(units_code=1, units_description="SI", temp_mode=1, length=1.0,
-                              force=1.0, temp=1.0, temp_offset=273.15),
-            pyuff.prepare_2411(node_nums=np.asarray(scan.nodes, int),
-                               def_cs=np.zeros(scan.n_points, int),
-                               disp_cs=np.zeros(scan.n_points, int),
-                               color=np.full(scan.n_points, 8, int),
-                               x=scan.positions[:, 0], y=scan.positions[:, 1],
-                               z=scan.positions[:, 2])]
-    frequencies = np.asarray(scan.frequencies, float)
-    for channel in range(scan.n_channels):
-        direction = np.asarray(scan.channel_direction[channel], float)
-        axis = int(np.argmax(np.abs(direction)))
-        along_axis = abs(abs(direction[axis]) - 1.0) < 1e-9
-        rsp_dir = int(np.sign(direction[axis]) * (axis + 1)) if along_axis else 0
-        record = pyuff.prepare_58(
-            binary=int(bool(binary)), id1=f"{scan.response} / voltage", id2="copdea-fem",
-            id4=f"channel {channel + 1}", func_type=4, rsp_ent_name="SCAN",
-            rsp_node=int(scan.nodes[scan.channel_point[channel]]), rsp_dir=rsp_dir,
-            ref_ent_name="DRIVE", ref_node=0, ref_dir=0, ord_data_type=6,
-            num_pts=frequencies.size, abscissa_spacing=1, abscissa_min=float(frequencies[0]),
-            abscissa_inc=float(frequencies[1] - frequencies[0]), abscissa_spec_data_type=18,
-            abscissa_axis_units_lab="Hz", ordinate_spec_data_type=code,
-            ordinate_axis_units_lab=ordinate_unit, orddenom_spec_data_type=0,
-            orddenom_axis_units_lab="V", data=np.asarray(scan.values[channel], complex),
-            x=frequencies)
-        record.update(abscissa_axis_lab="Frequency", ordinate_axis_lab=scan.response.capitalize(),
-                      orddenom_axis_lab="Voltage")
-        sets.append(record)
-    uniform = np.allclose(np.diff(frequencies), frequencies[1] - frequencies[0], rtol=1e-9)
-    if not uniform:
-        for record in sets[2:]:
-            record["abscissa_spacing"] = 0
-    path.unlink(missing_ok=True)
-    with contextlib.redirect_stdout(io.StringIO()):
-        pyuff.UFF(str(path)).write_sets(sets, mode="overwrite")
-    return path
-
-
 __all__ = [
     "FUNCTION_TYPES",
     "FunctionRecord",
     "ModeSet",
-    "UnitLabel",
-    "decode_label",
-    "parse_unit_label",
     "read_functions",
     "read_geometry",
     "read_mode_sets",
     "read_scan",
     "read_units",
-    "write_scan",
 ]
