@@ -72,10 +72,10 @@ __all__ = sorted(_HOMES)
 
 
 def __getattr__(name):
+    # looked up in its module on every access (not kept here): one definition, which a
+    # test's monkeypatch of that module reaches too
     if name in _HOMES:
-        value = getattr(importlib.import_module(f"{__name__}.{_HOMES[name]}"), name)
-        globals()[name] = value
-        return value
+        return getattr(importlib.import_module(f"{__name__}.{_HOMES[name]}"), name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
