@@ -2,9 +2,10 @@
 
 The engine of the study (``mesh.engine``) is resolved once by the caller
 (:func:`copdea_fem.fe.engines.engine_for`: the API, a sweep's point, the diagnosis's FE
-solve) and passed in: ``engine`` is a required argument of every function here.  Its band solves are configured once from
-``study["eigen"]`` (:class:`copdea_fem.fe.bands.BandSolver`).  Nothing here writes a file:
-the result objects of :mod:`copdea_fem.api` do (:meth:`copdea_fem.api.Solution.write`).
+solve) and passed in: ``engine`` is a required argument of every function here.  Its band
+solves are configured once from ``study["eigen"]`` (:class:`copdea_fem.fe.bands.BandSolver`).
+Nothing here writes a file: the result objects of :mod:`copdea_fem.api` do
+(:meth:`copdea_fem.api.Solution.write`).
 
 Entry points used by the API, the sweeps, the diagnosis, the benchmarks and the tests:
 :func:`prepare_mesh`, :func:`make_prestress_solver`, :func:`dry_modes`,

@@ -15,7 +15,8 @@ included) -- the voltage forcing (:mod:`copdea_fem.fe.forced.harmonic`), then ei
   path's cost (refused with ``membrane.loss_factor``, Rayleigh or Prony);
 - ``response.method: modal``: the coupled modes with ``Re f <= modal_band f_end``
   and ``|Im f| <= modal_band f_end``, the paper's modal damping ``reduced.damping_*`` and
-  ``membrane.loss_factor`` projected per mode, residual correction (:mod:`copdea_fem.fe.forced.harmonic`);
+  ``membrane.loss_factor`` projected per mode, residual correction
+  (:mod:`copdea_fem.fe.forced.harmonic`);
 - ``response.method: direct``: one sparse solve per line with ``membrane.loss_factor``
   (the modal b/m has no meaning there and is not applied);
 - ``response.method: reduced``: the direct path's model (loss factor, Rayleigh, Prony)

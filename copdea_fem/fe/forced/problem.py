@@ -66,8 +66,8 @@ class DrivenPart:
     def families(self, electrode) -> list[tuple[str, float]]:
         """``(family, factor)`` of each field of the part that ``electrode`` (an
         :class:`copdea_fem.fe.forced.electrode.ElectrodeImperfection`) drives: an order's
-        cos and sin families by :meth:`~copdea_fem.fe.forced.electrode.ElectrodeImperfection.family_weights`
-        (those not zero), a 3-D part whole (its forcing holds the folded weight)."""
+        cos and sin families by the electrode's ``family_weights`` (those not zero), a 3-D
+        part whole (its forcing holds the folded weight)."""
         if self.m is None:
             return [("cos", 1.0)]
         return [(family, factor) for family, factor in zip(
