@@ -58,7 +58,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from copdea_fem.fe.airbox import check_air_lift
+from copdea_fem.fe import check_air_lift
 from copdea_fem.forced_response.files import AVERAGE_COLUMNS, MODE_COLUMNS, POINT_COLUMNS  # noqa: F401
 from copdea_fem.forced_response.observers import LineResponse, Microphones
 from copdea_fem.study import DEFAULT_MICROPHONE, StudyError, listed_microphones
@@ -138,7 +138,7 @@ def _band_modes(problem: OrderZero, eigenvalues, vectors, residuals):
     |Im f| <= eigen.max_damping_ratio f_max; PML modes reach zeta ~ 1) get kind AIR."""
     import types
 
-    from copdea_fem.fe.modes import AIR
+    from copdea_fem.fe import AIR
 
     study = problem.study
     eigen = study["eigen"]
@@ -220,7 +220,7 @@ def reduced_modal_solution(problem: OrderZero, frequency_hz):
 def modal_damping(labels, kinds, study) -> np.ndarray:
     """(b/m)_j [1/s] per mode: ``reduced.damping_*`` by label (the reduced model's key of
     the label, :func:`copdea_fem.reduced.model.damping_key`), 0 for air/PML modes."""
-    from copdea_fem.fe.modes import AIR
+    from copdea_fem.fe import AIR
     from copdea_fem.reduced.model import damping_key
     values = []
     for label, kind in zip(labels, kinds):

@@ -154,7 +154,7 @@ def scan_response(solution, study, positions, frequencies, electrode, *,
 def part_modes(part, modes) -> dict:
     """Column of the part's band -> the labelled structural modes of that column (the
     axisymmetric cos and sin twins share one), matched by their complex frequency."""
-    from copdea_fem.fe.modes import AIR
+    from copdea_fem.fe import AIR
 
     freq = column_frequencies(part.band.eigenvalues)
     found: dict[int, list] = {}
