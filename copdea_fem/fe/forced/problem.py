@@ -76,8 +76,9 @@ class DrivenPart:
 
 def band_parts(eigen) -> dict:
     """The band result of each part of a solve: ``{part key: band result}`` (one part
-    ``"all"`` where the solve had one band)."""
-    return getattr(eigen, "by_sector", None) or {"all": eigen}
+    ``"all"`` where the solve had one band; none where its parts found no mode)."""
+    by_sector = getattr(eigen, "by_sector", None)
+    return {"all": eigen} if by_sector is None else by_sector
 
 
 @dataclass
