@@ -73,10 +73,11 @@ __all__ = ["load_study", "solve", "Solution", "response", "ResponseSolution",  #
            "force", "prepare_force", "compute_force", "ForceCurve", "spectrum", "Spectrum",
            "sweep", "SweepResult", "diagnose", "Diagnosis", "identify", "IdentifyResult",
            "correlate", "CorrelateResult", "SolveFailed", "StudyError", "OutputFolderError",
-           "solving", "check_size", "MAX_UNKNOWNS", "MESH_CACHE_VARIABLE"]
+           "solving", "check_size"]
 
 #: The FE's settings the command line names (the resource guard's limit of unknowns, the
-#: environment variable of the mesh cache folder: :mod:`copdea_fem.fe`), loaded on first use.
+#: environment variable of the mesh cache folder: :mod:`copdea_fem.fe`), loaded on first use
+#: (``from copdea_fem.api import MAX_UNKNOWNS``).
 _FE_SETTINGS = ("MAX_UNKNOWNS", "MESH_CACHE_VARIABLE")
 
 
