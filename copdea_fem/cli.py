@@ -524,11 +524,10 @@ def _add_diagnose_commands(commands, with_study) -> None:
 
 
 def _add_mesh_options(command) -> None:
-    from copdea_fem.fe.engines import MAX_UNKNOWNS
-    from copdea_fem.fe.quadrant.geometry import CACHE_VARIABLE
+    from copdea_fem.api import MAX_UNKNOWNS, MESH_CACHE_VARIABLE
     command.add_argument("--mesh-cache", metavar="DIR",
-                         help=f"mesh cache folder (default: ${CACHE_VARIABLE}, else the source "
-                         "checkout's meshes/, else the user cache folder)")
+                         help=f"mesh cache folder (default: ${MESH_CACHE_VARIABLE}, else the "
+                         "source checkout's meshes/, else the user cache folder)")
     command.add_argument("--allow-large", action="store_true",
                          help=f"start even when the problem is estimated above {MAX_UNKNOWNS:.0e} "
                          "unknowns")
@@ -616,7 +615,7 @@ def _interrupted(args) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from copdea_fem.fe.quadrant.geometry import CACHE_VARIABLE
+    from copdea_fem.api import MESH_CACHE_VARIABLE as CACHE_VARIABLE
 
     args = build_parser().parse_args(argv)
     saved_cache = os.environ.get(CACHE_VARIABLE)

@@ -80,3 +80,15 @@ __all__ = ["load_study", "solve", "Solution", "response", "ResponseSolution",  #
            "IdentifyResult",
            "correlate", "CorrelateResult", "SolveFailed", "StudyError", "OutputFolderError",
            "solving", "check_size"]
+
+#: The FE's settings the command line names (the resource guard's limit of unknowns, the
+#: environment variable of the mesh cache folder: :mod:`copdea_fem.fe`), loaded on first use
+#: (``from copdea_fem.api import MAX_UNKNOWNS``).
+_FE_SETTINGS = ("MAX_UNKNOWNS", "MESH_CACHE_VARIABLE")
+
+
+def __getattr__(name):
+    if name in _FE_SETTINGS:
+        import copdea_fem.fe
+        return getattr(copdea_fem.fe, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -56,14 +56,14 @@ def response(study: Study | str | Path, *, allow_large: bool = False,
     PrestressError
         The prestress (Newton) solve fails (as in :func:`solve`).
     """
-    from copdea_fem.fe.engines import engine_for
+    from copdea_fem.fe import engine_for
     from copdea_fem.forced_response.run import forced_response, prepare_order_zero
 
     study = as_study(study)
     engine = engine_for(study)
     check_size(study, allow_large, engine)
     with solving(study), reporting_to(progress):
-        problem = prepare_order_zero(study, engine)
+        problem = prepare_order_zero(study, engine=engine)
         result = forced_response(problem)
     return ResponseSolution(result)
 
