@@ -116,6 +116,7 @@ PAIRS = {"engines": ("axisymmetric", "axisymmetric-3d"),
 
 
 def _once(case: str, overrides: list[str]) -> dict:
+    from copdea_fem.fe import engine_for
     from copdea_fem.fe.pipeline import Timings, dry_modes, prepare_mesh
     from copdea_fem.study import load_study, parse_overrides
 
@@ -127,11 +128,12 @@ def _once(case: str, overrides: list[str]) -> dict:
         return _once_response(study)
     if not case.startswith("dry"):
         return _once_coupled(study)
+    engine = engine_for(study)
     timings = Timings()
     start = time.perf_counter()
     with timings.stage("mesh"):
-        mesh = prepare_mesh(study, with_air=False)
-    state, modes, result = dry_modes(study, mesh=mesh, timings=timings)
+        mesh = prepare_mesh(study, with_air=False, engine=engine)
+    state, modes, result = dry_modes(study, mesh=mesh, timings=timings, engine=engine)
     total = time.perf_counter() - start
     return {"seconds": {**timings.seconds, "total": total},
             "unknowns": int(result.vectors.shape[0]),
@@ -146,12 +148,12 @@ def _once_coupled(study) -> dict:
     import tempfile
 
     from copdea_fem.api import Solution
-    from copdea_fem.fe.pipeline import run_solve
+    from copdea_fem.fe import engine_for, run_solve
 
     study = study.replace({"air.enabled": True, "output.plots": False})
     start = time.perf_counter()
     with tempfile.TemporaryDirectory() as directory:
-        result = run_solve(study)
+        result = run_solve(study, engine=engine_for(study))
         Solution(result).write(Path(directory) / "out")
     total = time.perf_counter() - start
     seconds = dict(result.timings.seconds)
@@ -197,11 +199,12 @@ def _once_coupled(study) -> dict:
 def _once_response(study) -> dict:
     import numpy as np
 
+    from copdea_fem.fe import engine_for
     from copdea_fem.forced_response.run import forced_response, prepare_order_zero
     from copdea_fem.reduced.chirp_response import Chirp
 
     start = time.perf_counter()
-    problem = prepare_order_zero(study)
+    problem = prepare_order_zero(study, engine=engine_for(study))
     prepared = time.perf_counter()
     result = forced_response(problem)
     done = time.perf_counter()
@@ -228,6 +231,7 @@ def _once_response_reduced(study, overrides) -> dict:
 
     import numpy as np
 
+    from copdea_fem.fe import engine_for
     from copdea_fem.forced_response.run import forced_response, prepare_order_zero, resolved_method
     from copdea_fem.progress import single_threaded_blas
 
@@ -243,7 +247,7 @@ def _once_response_reduced(study, overrides) -> dict:
         command_wall = time.perf_counter() - started
         document = json.loads((Path(directory) / "out" / "response.json").read_text())
     start = time.perf_counter()
-    problem = prepare_order_zero(study)
+    problem = prepare_order_zero(study, engine=engine_for(study))
     prepared = time.perf_counter()
     result = forced_response(problem)
     done = time.perf_counter()

@@ -113,11 +113,12 @@ def run_accuracy(overrides: list[str]) -> dict:
     """The default method against the modal path on one prepared problem (module doc)."""
     from scipy.signal import find_peaks
 
+    from copdea_fem.fe import engine_for
     from copdea_fem.forced_response.run import forced_response, prepare_order_zero
     from copdea_fem.study import load_study, parse_overrides
 
     study = load_study(STUDY, overrides=parse_overrides(FILES_OFF + overrides))
-    problem = prepare_order_zero(study)
+    problem = prepare_order_zero(study, engine=engine_for(study))
     results, seconds = {}, {}
     for name, method in (("default", study["response"]["method"]), ("modal", "modal")):
         variant = type(problem)(study.replace({"response.method": method}), problem.state,

@@ -358,12 +358,12 @@ def _undamped(study):
 def fe_modes(study) -> dict:
     """``{label: (freq_hz, damping_ratio)}`` of an FE solve of ``study`` (first of a label).
 
-    :func:`copdea_fem.fe.pipeline.run_solve`, nothing written (not :mod:`copdea_fem.api`, which
-    imports this module: :func:`copdea_fem.api.calibrate_damping` wraps the fit in
-    :func:`copdea_fem.api.solving`).
+    :func:`copdea_fem.fe.run_solve` on the study's engine (resolved here: each fitted study
+    is solved once), nothing written (not :mod:`copdea_fem.api`, which imports this module:
+    :func:`copdea_fem.api.calibrate_damping` wraps the fit in :func:`copdea_fem.api.solving`).
     """
-    from copdea_fem.fe.pipeline import run_solve
-    result = run_solve(study)
+    from copdea_fem.fe import engine_for, run_solve
+    result = run_solve(study, engine=engine_for(study))
     modes = {}
     for mode in result.modes:
         modes.setdefault(mode.label, (float(np.hypot(mode.freq_hz, mode.freq_im_hz)),

@@ -21,11 +21,13 @@ PACKAGE = Path(__file__).resolve().parent
 MESH_SOURCES = ("fe/quadrant/geometry.py", "fe/airbox.py")
 
 #: What in the FE core computes no modes: the orchestration and its result type, the forced
-#: response and the ParaView fields.  Left out of :data:`FE_SOURCES`, so an edit there keeps
-#: the FE cache.
+#: response, the ParaView fields and the fields at points.  Left out of :data:`FE_SOURCES`,
+#: so an edit there keeps the FE cache.
 NOT_FE_SOURCES = ("fe/pipeline.py", "fe/solution.py", "fe/engines.py", "fe/fields.py",
-                  "fe/forced", "fe/axisymmetric/forced.py", "fe/axisymmetric/forcing.py",
-                  "fe/axisymmetric/fields.py", "fe/quadrant/forced.py", "fe/quadrant/fields.py")
+                  "fe/points.py", "fe/forced", "fe/axisymmetric/forced.py",
+                  "fe/axisymmetric/forcing.py", "fe/axisymmetric/fields.py",
+                  "fe/axisymmetric/points.py", "fe/quadrant/forced.py", "fe/quadrant/fields.py",
+                  "fe/quadrant/points.py")
 
 
 def _modules_of(folder: str, left_out: tuple[str, ...]) -> tuple[str, ...]:

@@ -6,6 +6,7 @@ import numpy as np
 from scipy.optimize import brentq
 from scipy.special import jn_zeros, jv, yv
 
+from copdea_fem.fe import engine_for
 from copdea_fem.fe.materials import Membrane
 from copdea_fem.study import parse_study
 
@@ -19,6 +20,13 @@ def coupled_study(**sections):
     for section, values in sections.items():
         raw.setdefault(section, {}).update(values)
     return parse_study(raw, name="coupled-test")
+
+
+def on_its_engine(solve, study, **keywords):
+    """``solve(study, engine=<the study's engine>, **keywords)``: the FE pipeline's functions
+    take the engine their caller resolved (:func:`copdea_fem.fe.engine_for`), as the API
+    resolves it once per call."""
+    return solve(study, engine=engine_for(study), **keywords)
 
 
 def annulus_roots(m: int, a: float, b: float, k_max: float) -> list[float]:

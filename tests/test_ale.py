@@ -6,6 +6,7 @@ import ngsolve as ngs
 import numpy as np
 import pytest
 
+from copdea_fem.fe import engine_for
 from copdea_fem.fe.ale import MIN_JACOBIAN, MeshMotionError, air_mesh_displacement, check_jacobian
 from copdea_fem.fe.pipeline import prepare_mesh
 from copdea_fem.fe.prestress import solve_prestress
@@ -19,7 +20,7 @@ COARSE_AIR = {"membrane_size": "9 mm", "order": 2, "pressure_order": 1, "air_siz
 def moved():
     study = parse_study({"air": {"enabled": True}, "mesh": dict(COARSE_AIR),
                          "load": {"z": Z, "voltage": "2 kV"}}, name="ale-test")
-    mesh = prepare_mesh(study, with_air=True)
+    mesh = prepare_mesh(study, with_air=True, engine=engine_for(study))
     state = solve_prestress(study, mesh)
     return mesh, state, air_mesh_displacement(state, mesh, study["air"]["domain_radius"])
 
@@ -68,7 +69,7 @@ def test_lift_beyond_the_decay_height_is_rejected_before_meshing(tmp_path, capsy
     from copdea_fem.fe.pipeline import coupled_modes
     study = parse_study({"air": {"enabled": True}, "load": {"z": "30 mm"}})
     with pytest.raises(StudyError, match=r"load.z = 0.03 is not allowed \(raise air.domain_radius"):
-        coupled_modes(study, mesh=object())     # never reaches the mesh
+        coupled_modes(study, mesh=object(), engine=engine_for(study))     # never reaches the mesh
     out = tmp_path / "run"
     quick = Path(__file__).resolve().parent.parent / "studies" / "g1_z16_v2_quick.yaml"
     assert main(["solve", str(quick), "--set", "load.z=30 mm",

@@ -10,6 +10,7 @@ import pytest
 import yaml
 
 from copdea_fem.cli import main
+from copdea_fem.fe import engine_for
 
 ROOT = Path(__file__).resolve().parent.parent
 COARSE = ["--set", "mesh.membrane_size=6 mm", "--set", "mesh.order=2", "--quiet"]
@@ -50,7 +51,7 @@ def test_vtu_round_trip_matches_what_was_written(tmp_path):
     from copdea_fem.vtu import write_membrane_vtu
 
     study = parse_study({"mesh": {"membrane_size": "6 mm"}})
-    mesh = prepare_mesh(study, with_air=False)
+    mesh = prepare_mesh(study, with_air=False, engine=engine_for(study))
     sampler = MembraneSampler(mesh, subdivision=2)
     radial = ngs.sqrt(ngs.x**2 + ngs.y**2)
     path = write_membrane_vtu(tmp_path / "f", sampler,

@@ -6,16 +6,17 @@ from pathlib import Path
 import meshio
 import numpy as np
 import pytest
-from helpers import COARSE_AIR, coupled_study
+from helpers import COARSE_AIR, coupled_study, on_its_engine
 
 from copdea_fem.cli import main
+from copdea_fem.fe import engine_for
 from copdea_fem.fe.pipeline import coupled_modes
 from copdea_fem.progress import progress_to
 
 ROOT = Path(__file__).resolve().parent.parent
 @pytest.fixture(scope="module")
 def flat():
-    return coupled_modes(coupled_study(eigen={"f_max": "450 Hz"}))
+    return on_its_engine(coupled_modes, coupled_study(eigen={"f_max": "450 Hz"}))
 
 
 def test_air_loading_lowers_every_structural_frequency(flat):
@@ -60,7 +61,8 @@ def test_factorisation_backend_is_a_setting_of_the_coupled_solve(flat, backend, 
             used.append(kwargs.get("backend", args[-1]))
             return factorisation
         monkeypatch.setattr(coupled, name, spy)
-    other = coupled_modes(coupled_study(eigen={"f_max": "450 Hz", "backend": backend}))
+    other = on_its_engine(coupled_modes,
+                          coupled_study(eigen={"f_max": "450 Hz", "backend": backend}))
     assert used and set(used) == {backend}
     assert [m.label for m in other.modes] == [m.label for m in flat.modes]
     np.testing.assert_allclose([m.freq_hz for m in other.modes],
@@ -125,7 +127,8 @@ def test_air_radius_does_not_move_the_modes(figures):
     """(0,1), (0,2): < 0.5 % from 3.5 r_o to 5 r_o (issue 3)."""
     results = []
     for radius in ("124.25 mm", "177.5 mm"):
-        solution = coupled_modes(coupled_study(air={"enabled": True, "domain_radius": radius},
+        solution = on_its_engine(coupled_modes,
+                                 coupled_study(air={"enabled": True, "domain_radius": radius},
                                                eigen={"f_max": "900 Hz"},
                                                mesh={"membrane_size": "6 mm"}))
         results.append({m.label: m.freq_hz for m in solution.modes})
@@ -153,7 +156,8 @@ def test_mesh_convergence_of_coupled_modes(figures):
     sizes = np.array([4.0, 3.0, 2.5])
     frequencies = []
     for size in sizes:
-        solution = coupled_modes(coupled_study(eigen={"f_max": "900 Hz"},
+        solution = on_its_engine(coupled_modes,
+                                 coupled_study(eigen={"f_max": "900 Hz"},
                                                mesh={"membrane_size": f"{size} mm", "order": 3,
                                                      "pressure_order": 2}))
         found = {m.label: m.freq_hz for m in solution.modes}
@@ -184,7 +188,8 @@ def test_mesh_convergence_of_coupled_modes(figures):
 @pytest.mark.slow
 def test_m1_pair_stays_degenerate_under_the_square_frame(figures):
     """C4v symmetry: m = 1 stays a degenerate pair, m = 2 splits."""
-    solution = coupled_modes(coupled_study(eigen={"f_max": "480 Hz"},
+    solution = on_its_engine(coupled_modes,
+                             coupled_study(eigen={"f_max": "480 Hz"},
                                            mesh={"membrane_size": "4 mm", "order": 3,
                                                  "pressure_order": 2}))
     found = {m.label: m.freq_hz for m in solution.modes}
@@ -209,7 +214,7 @@ def test_crowded_air_sphere_krylov_schur_finds_every_mode_with_fewer_solves():
 
     study = coupled_study(air={"enabled": True, "domain_radius": "0.5 m"},
                           mesh={"air_size": "50 mm"}, eigen={"f_max": "1000 Hz"})
-    mesh = prepare_mesh(study, with_air=True)
+    mesh = prepare_mesh(study, with_air=True, engine=engine_for(study))
     state = solve_prestress(study, mesh)
     sector = state.symmetry.sectors[0]
     coupled = assemble_coupled(study, mesh, state).restrict(

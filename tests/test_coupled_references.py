@@ -21,7 +21,7 @@ from pathlib import Path
 
 import baffled
 import pytest
-from helpers import COARSE_AIR, coupled_study
+from helpers import COARSE_AIR, coupled_study, on_its_engine
 
 from copdea_fem.fe.materials import Membrane
 from copdea_fem.fe.pipeline import coupled_modes
@@ -50,7 +50,7 @@ class Baffled:
         mesh = {**MESH, "engine": engine, **(AXISYMMETRIC_AIR if engine == "axisymmetric" else {})}
         self.study = coupled_study(geometry={"frame": "baffle"}, mesh=mesh,
                                    load={"z": z, "voltage": "2 kV"}, eigen={"f_max": f_max})
-        self.solution = coupled_modes(self.study)
+        self.solution = on_its_engine(coupled_modes, self.study)
         self.rows = {row["label"]: row for row in mode_rows(self.solution.modes,
                                                             self.solution.dry_partner_hz)}
         self.dry = {mode.label: mode for mode in self.solution.dry_modes}
@@ -241,7 +241,8 @@ def spring_study(symmetry="quarter"):
 def spring_pair():
     """G1 at z = 16 mm, 2 kV, the disc on its spring, square frame (9 mm mesh, pressure
     order 1): quadrant and whole mesh; and the ring model's P1 (disc M_d, no M_s/3)."""
-    solutions = {symmetry: coupled_modes(spring_study(symmetry)) for symmetry in ("quarter", "none")}
+    solutions = {symmetry: on_its_engine(coupled_modes, spring_study(symmetry))
+                 for symmetry in ("quarter", "none")}
     study = spring_study()
     ring_model = ring_model_of(study, ring_count=RINGS)
     _, basis, _ = operating_point(ring_model, study["load"]["z"], study["load"]["voltage"])

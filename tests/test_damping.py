@@ -9,7 +9,9 @@ relaxed modes, with ``tau -> inf`` the glassy ones of ``K_s + sum g_j K_mat``.
 import numpy as np
 import pytest
 import scipy.linalg
+from helpers import on_its_engine
 
+from copdea_fem.fe import engine_for
 from copdea_fem.fe.eigen import TWO_PI, solve_band
 from copdea_fem.fe.eigen.damped import (
     DampingTerms,
@@ -56,7 +58,7 @@ def prepared_order0(**mesh):
     from copdea_fem.fe.axisymmetric.operators import OrderForms
     from copdea_fem.fe.pipeline import dry_modes
     study = coarse_study(**{**AXISYMMETRIC, "mesh": {"engine": "axisymmetric", **mesh}})
-    state, modes, result = dry_modes(study)
+    state, modes, result = dry_modes(study, engine=engine_for(study))
     forms = OrderForms(state, study)
     return study, state, forms, forms.operators(0), result
 
@@ -78,7 +80,7 @@ def test_rayleigh_matches_closed_form_axisymmetric(axisymmetric_order0):
     alpha, beta = 40.0, 4e-6
     damped_study = coarse_study(**AXISYMMETRIC,
                                 membrane={"rayleigh_alpha": alpha, "rayleigh_beta": beta})
-    _, modes, damped = dry_modes(damped_study)
+    _, modes, damped = dry_modes(damped_study, engine=engine_for(damped_study))
     check_closed_form(undamped.freq_hz, damped, alpha, beta)
     assert [mode.label for mode in modes][:3] == ["(0,1)", "(1,1)a", "(1,1)b"]
     assert np.all(np.array([mode.damping_ratio for mode in modes]) > 0)
@@ -89,7 +91,7 @@ def test_rayleigh_matches_closed_form_3d():
     from copdea_fem.fe.pipeline import dry_modes
     raw = dict(mesh={"engine": "3d"}, geometry={"frame": "baffle"}, eigen={"f_max": 500})
     study = coarse_study(**raw)
-    state, _, undamped = dry_modes(study)
+    state, _, undamped = dry_modes(study, engine=engine_for(study))
     alpha, beta = 25.0, 6e-6
     damped_study = coarse_study(**raw, membrane={"rayleigh_alpha": alpha,
                                                  "rayleigh_beta": beta})
@@ -164,7 +166,7 @@ def test_flat_membrane_material_tangent_misses_out_of_plane():
     from copdea_fem.fe.pipeline import dry_modes
     flat = dict(AXISYMMETRIC, load={"z": 0.0, "voltage": "2 kV"})
     study = coarse_study(**flat)
-    state, _, _ = dry_modes(study)
+    state, _, _ = dry_modes(study, engine=engine_for(study))
     forms = OrderForms(state, study)
     operators = forms.operators(0)
     material = forms.material_tangent(operators).toarray()
@@ -181,7 +183,7 @@ def test_coupled_beta_changes_im_f_by_minus_pi_beta_f2():
     raw = dict(AXISYMMETRIC, air={"enabled": True}, eigen={"f_max": 600})
 
     def mode_01(**membrane):
-        solution = coupled_modes(coarse_study(**raw, membrane=membrane))
+        solution = on_its_engine(coupled_modes, coarse_study(**raw, membrane=membrane))
         return next(mode for mode in solution.modes if mode.label == "(0,1)")
 
     beta = 1e-6
@@ -231,11 +233,11 @@ def test_response_half_power_width_is_twice_im_f():
                 "prony": [{"modulus_ratio": 0.5, "relaxation_time": "0.3 ms"}]}
     study = coarse_study(**dict(AXISYMMETRIC, air={"enabled": True}, eigen={"f_max": 500}),
                          membrane=membrane)
-    solution = coupled_modes(study)
+    solution = coupled_modes(study, engine=engine_for(study))
     mode = next(m for m in solution.modes if m.label == "(0,1)")
     # radiation alone gives this mesh's (0,1) a damping ratio of 2.3e-2 (8.5 Hz at 364 Hz)
     assert mode.damping_ratio > 0.03
-    problem = prepare_order_zero(study)
+    problem = prepare_order_zero(study, engine=engine_for(study))
     lines = mode.freq_hz + np.linspace(-3, 3, 61) * abs(mode.freq_im_hz)
     membrane_response = problem.forced.membrane(problem.forced.direct(lines))
     peak_dof = np.argmax(np.abs(membrane_response).max(axis=1))
@@ -257,7 +259,7 @@ def _modal_errors(**membrane):
     the (0,1) peak and 450 Hz: coarse G1 cone with air, b/m = 0 (radiation + the keys)."""
     from copdea_fem.forced_response.run import modal_solution, prepare_order_zero
     raw = dict(AXISYMMETRIC, air={"enabled": True}, eigen={"f_max": 500})
-    problem = prepare_order_zero(coarse_study(**raw, membrane=membrane))
+    problem = on_its_engine(prepare_order_zero, coarse_study(**raw, membrane=membrane))
     basis, modes = modal_solution(problem, 500.0)
     basis.damping_per_mass[:] = 0.0
     assert (basis.viscous_modal is not None) == ("rayleigh_alpha" in membrane)

@@ -22,6 +22,7 @@ from copdea_fem.damping_fit import (
     rayleigh_ratio,
     read_quality_csv,
 )
+from copdea_fem.fe import engine_for
 from copdea_fem.study import StudyError, parse_study
 
 FREQ = np.geomspace(150.0, 1500.0, 6)           # Hz
@@ -220,7 +221,7 @@ def test_overdamped_roots_are_left_out_of_the_modes(caplog):
     study = coarse_study(air={"enabled": False}, membrane={"rayleigh_alpha": alpha},
                          eigen={"f_min": 0, "f_max": 600, "max_damping_ratio": 1})
     with caplog.at_level(logging.WARNING, logger="copdea_fem"):
-        modes = run_solve(study).modes
+        modes = run_solve(study, engine=engine_for(study)).modes
     dropped = [record.getMessage() for record in caplog.records
                if "overdamped root(s) left out" in record.getMessage()]
     assert len(dropped) == 1 and int(dropped[0].split()[0]) > 0, dropped

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from helpers import bessel_frequency
 
+from copdea_fem.fe import engine_for
 from copdea_fem.fe.pipeline import dry_modes, prepare_mesh
 from copdea_fem.fe.prestress import solve_prestress
 from copdea_fem.study import parse_study
@@ -17,7 +18,7 @@ from copdea_fem.study import parse_study
 def test_flat_out_of_plane_modes_match_bessel_roots_on_default_mesh(inner_radius, voltage):
     study = parse_study({"geometry": {"inner_radius": inner_radius},
                          "load": {"voltage": voltage}})
-    _, modes, result = dry_modes(study)
+    _, modes, result = dry_modes(study, engine=engine_for(study))
     out_of_plane = [mode for mode in modes if mode.kind == "out-of-plane"]
     assert len(out_of_plane) >= 20
     counts = {}
@@ -40,7 +41,7 @@ def test_flat_out_of_plane_modes_match_bessel_roots_on_default_mesh(inner_radius
 def test_full_circular_membrane_matches_bessel_zeros():
     study = parse_study({"geometry": {"inner_radius": 0, "frame": "none"},
                          "mesh": {"membrane_size": "4 mm"}, "eigen": {"f_max": "500 Hz"}})
-    _, modes, _ = dry_modes(study)
+    _, modes, _ = dry_modes(study, engine=engine_for(study))
     out_of_plane = [mode for mode in modes if mode.kind == "out-of-plane"]
     assert [mode.label for mode in out_of_plane[:3]] == ["(0,1)", "(1,1)a", "(1,1)b"]
     for mode in out_of_plane:
@@ -55,11 +56,11 @@ def test_convergence_order_is_2p(order):
     for size in sizes:
         study = parse_study({"mesh": {"membrane_size": size, "order": order, "curve_order": 3},
                              "eigen": {"f_max": "600 Hz"}})
-        _, modes, _ = dry_modes(study)
+        _, modes, _ = dry_modes(study, engine=engine_for(study))
         picked = {mode.label: mode.freq_hz for mode in modes}
         errors.append(max(abs(picked[label] / bessel_frequency(study, m, 1) - 1)
                           for label, m in (("(0,1)", 0), ("(1,1)a", 1), ("(2,1)a", 2))))
-        mesh = prepare_mesh(study, with_air=False)
+        mesh = prepare_mesh(study, with_air=False, engine=engine_for(study))
         count = sum(1 for el in mesh.Elements(ngs.BND) if el.mat == "membrane")
         widths.append(math.sqrt(math.pi * (0.0355**2 - 0.017**2) / count))
     slope = np.polyfit(np.log(widths), np.log(errors), 1)[0]
@@ -67,7 +68,7 @@ def test_convergence_order_is_2p(order):
 
 
 def modes_of(study, labels):
-    _, modes, _ = dry_modes(study)
+    _, modes, _ = dry_modes(study, engine=engine_for(study))
     found = {mode.label: mode.freq_hz for mode in modes}
     return np.array([found[label] for label in labels])
 
@@ -93,10 +94,10 @@ def test_pumping_mode_matches_lumped_spring_mass(make_study):
     """P1 ~ sqrt((k_DE + k_d) / (M_d + M_s/3)) / 2 pi with k_DE = dF/dz of the prestress."""
     study = make_study(load={"z": "16 mm", "voltage": "2 kV"}, disc={"motion": "spring"},
                          eigen={"f_max": "300 Hz"})
-    _, modes, _ = dry_modes(study)
+    _, modes, _ = dry_modes(study, engine=engine_for(study))
     pumping = [mode for mode in modes if mode.kind == "pumping"]
     assert [mode.label for mode in pumping] == ["P1"]
-    mesh = prepare_mesh(study, with_air=False)
+    mesh = prepare_mesh(study, with_air=False, engine=engine_for(study))
     dz = 1e-5
     forces = [solve_prestress(study.replace({"load.z": 16e-3 + s * dz}), mesh).disc_force
               for s in (-1, 1)]

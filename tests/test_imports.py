@@ -64,6 +64,23 @@ def test_a_lazy_upward_import_breaks_the_contracts(tmp_path):
                       "No import circle between the modules or sub-packages of any package"]
 
 
+def test_an_engines_folder_imported_from_outside_the_fe_core_breaks_its_contract(tmp_path):
+    """The rest of the package asks an engine through :mod:`copdea_fem.fe`; a sweep module
+    importing the 3-D engine's geometry breaks that contract alone."""
+    shutil.copytree(PACKAGE, tmp_path / "copdea_fem",
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    grid = tmp_path / "copdea_fem" / "sweeps" / "grid.py"
+    grid.write_text(grid.read_text(encoding="utf-8")
+                    + "\n\ndef _planted():\n    import copdea_fem.fe.quadrant.geometry\n",
+                    encoding="utf-8")
+    run = lint_imports(tmp_path)
+    assert run.returncode == 1, run.stdout + run.stderr
+    broken = [line.removesuffix(" BROKEN") for line in run.stdout.splitlines()
+              if line.endswith(" BROKEN")]
+    assert broken == ["Only the FE core imports an engine's folder"], run.stdout
+    assert "copdea_fem.sweeps.grid -> copdea_fem.fe.quadrant.geometry" in run.stdout
+
+
 #: Where the engine's name may still be read: where it is chosen, the study's
 #: checks (which frames an engine allows) and the API's ``Solution.axisymmetric`` (a public
 #: property that reports it; no branch).

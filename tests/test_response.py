@@ -13,10 +13,11 @@ import math
 import ngsolve
 import numpy as np
 import pytest
+from helpers import on_its_engine
 from scipy.special import j1
 
 from copdea_fem.cli import main
-from copdea_fem.fe import acoustics
+from copdea_fem.fe import acoustics, engine_for
 from copdea_fem.fe.axisymmetric.air import air_forms, screen_coupling
 from copdea_fem.fe.axisymmetric.engine import prepare_meridian, solve_axisymmetric_prestress
 from copdea_fem.fe.forced.radiation import (
@@ -51,13 +52,13 @@ def study_of(**sections):
 @pytest.fixture(scope="module")
 def held():
     """G1, z = 16 mm, 2 kV, disc held, baffle, default mesh (2332 unknowns)."""
-    return prepare_order_zero(study_of())
+    return on_its_engine(prepare_order_zero, study_of())
 
 
 @pytest.fixture(scope="module")
 def spring():
     """The same with the disc on the spring (P1), as the paper's forced response."""
-    return prepare_order_zero(study_of(disc={"motion": "spring"}))
+    return on_its_engine(prepare_order_zero, study_of(disc={"motion": "spring"}))
 
 
 def _undamped(problem):
@@ -73,7 +74,7 @@ def test_static_response_is_the_prestress_derivative_in_voltage():
     (exact for the quadratic co-energy up to the Newton tolerance) within 1e-6 (measured
     2e-8 on 60 radii; the Newton tolerance 1e-10 of each prestress over dV = 1 V bounds it)."""
     study = study_of()
-    problem = prepare_order_zero(study)
+    problem = prepare_order_zero(study, engine=engine_for(study))
     static = problem.forced.direct([1e-3])[:, 0]
     u_static = problem.forced.membrane(static).real
     profiles = []
@@ -102,7 +103,7 @@ def test_static_disc_displacement_on_the_spring_matches_the_force_derivatives():
     F(z, V) the prestress's disc force (central differences, dV = 1 V, dz = 1 um): checks
     the disc's share lift . f of the forcing.  Within 1e-6 (measured 6e-10)."""
     study = study_of(disc={"motion": "spring"})
-    problem = prepare_order_zero(study)
+    problem = prepare_order_zero(study, engine=engine_for(study))
     disc = problem.forced.membrane(problem.forced.direct([1e-3])[:, 0])[-1].real
 
     def force(key, value):
@@ -336,7 +337,7 @@ def test_quadrant_engine_matches_the_axisymmetric_response():
     from copdea_fem.fe.quadrant.forced import QuadrantObserver, QuadrantSphere, prepare_quadrant
     from copdea_fem.reduced.chirp_response import scan_fractions
     quadrant = prepare_quadrant(study_of(mesh={"engine": "3d"}))
-    meridian = prepare_order_zero(study_of())
+    meridian = on_its_engine(prepare_order_zero, study_of())
     frequencies = [100.0, 383.0, 700.0]
     results = []
     for problem, observer, sphere in ((quadrant, QuadrantObserver, QuadrantSphere),

@@ -14,6 +14,7 @@ import math
 
 import numpy as np
 import pytest
+from helpers import on_its_engine
 
 from copdea_fem.fe.forced.radiation import KIRCHHOFF_FRACTION, pressure_parts
 from copdea_fem.forced_response.run import forced_response, prepare_order_zero
@@ -46,8 +47,8 @@ def _study(engine):
 @pytest.fixture(scope="module")
 def engines():
     """(3-D problem, 3-D result, axisymmetric result) at :data:`LINES_HZ`, 1 V each."""
-    quadrant = prepare_order_zero(_study("3d"))
-    meridian = prepare_order_zero(_study("axisymmetric"))
+    quadrant = on_its_engine(prepare_order_zero, _study("3d"))
+    meridian = on_its_engine(prepare_order_zero, _study("axisymmetric"))
     assert (quadrant.engine, meridian.engine) == ("3d", "axisymmetric")
     volts = np.ones(LINES_HZ.size, complex)
     return (quadrant, forced_response(quadrant, LINES_HZ, volts),

@@ -15,6 +15,7 @@ import types
 
 import numpy as np
 import pytest
+from helpers import on_its_engine
 
 from copdea_fem.cli import main
 from copdea_fem.forced_response.reduced_basis import build_reduced_basis, ritz_modes
@@ -49,12 +50,12 @@ def membrane_errors(problem, reference, approximation):
 
 @pytest.fixture(scope="module")
 def meridian():
-    return prepare_order_zero(coarse("axisymmetric", **DAMPED))
+    return on_its_engine(prepare_order_zero, coarse("axisymmetric", **DAMPED))
 
 
 @pytest.fixture(scope="module")
 def quadrant():
-    return prepare_order_zero(coarse("3d", **DAMPED))
+    return on_its_engine(prepare_order_zero, coarse("3d", **DAMPED))
 
 
 LINES = np.arange(4, 401) * 1.25          # 5 .. 500 Hz, the chirp's spacing
@@ -167,7 +168,7 @@ def with_method(problem, method):
 @pytest.fixture(scope="module")
 def plain_meridian():
     """The cone on the meridian with the paper's modal b/m only (no loss of its own)."""
-    return prepare_order_zero(coarse("axisymmetric"))
+    return on_its_engine(prepare_order_zero, coarse("axisymmetric"))
 
 
 def test_reduced_modal_without_bm_is_the_reduced_path(plain_meridian):
@@ -231,7 +232,7 @@ def test_reduced_modal_matches_the_modal_path_on_the_square_frame():
     reduced_modal: the structural modes below the last line as the modal path labels them,
     velocity spectra within 1 % on every line (measured <= 0.33 %) and the (0,1) peak within
     1e-4 (measured 3e-6); the modal path costs minutes here, the reduced one seconds."""
-    problem = prepare_order_zero(coarse("3d").replace({"geometry.frame": "square"}))
+    problem = on_its_engine(prepare_order_zero, coarse("3d").replace({"geometry.frame": "square"}))
     volts = np.ones(LINES.size, complex)
     mine = forced_response(problem, LINES, volts)
     modal = forced_response(with_method(problem, "modal"), LINES, volts)

@@ -12,9 +12,10 @@ import json
 import meshio
 import numpy as np
 import pytest
-from helpers import coupled_study
+from helpers import coupled_study, on_its_engine
 
 from copdea_fem.api import Solution
+from copdea_fem.fe import engine_for
 from copdea_fem.fe.pipeline import coupled_modes, prepare_mesh, run_solve
 from copdea_fem.fe.prestress import solve_prestress
 from copdea_fem.fe.quadrant.geometry import GeometrySpec
@@ -32,8 +33,9 @@ def test_sectors_are_the_four_characters_of_the_two_mirrors():
 @pytest.fixture(scope="module")
 def pair():
     """Coarse flat G1 at 2 kV, square frame, modes below 450 Hz: quadrant and whole mesh."""
-    quarter = coupled_modes(coupled_study(eigen={"f_max": "450 Hz"}))
-    whole = coupled_modes(coupled_study(eigen={"f_max": "450 Hz"}, mesh={"symmetry": "none"}))
+    quarter = on_its_engine(coupled_modes, coupled_study(eigen={"f_max": "450 Hz"}))
+    whole = on_its_engine(coupled_modes, coupled_study(eigen={"f_max": "450 Hz"},
+                                                       mesh={"symmetry": "none"}))
     return quarter, whole
 
 
@@ -73,8 +75,8 @@ def test_quarter_mesh_gives_the_modes_of_the_whole_mesh(pair):
 def test_quarter_and_whole_mesh_converge_together(figures):
     """6 mm, order 3, pressure order 2: the quarter-whole gap shrinks tenfold (< 0.1 %)."""
     mesh = {"membrane_size": "6 mm", "order": 3, "pressure_order": 2}
-    solutions = [coupled_modes(coupled_study(eigen={"f_max": "450 Hz"},
-                                             mesh={**mesh, "symmetry": symmetry}))
+    solutions = [on_its_engine(coupled_modes, coupled_study(eigen={"f_max": "450 Hz"},
+                                                            mesh={**mesh, "symmetry": symmetry}))
                  for symmetry in ("quarter", "none")]
     pairs = _compare(*solutions, frequency_tol=1e-3)
     figures("quarter vs whole mesh (6 mm, order 3, pressure order 2), f [Hz]:",
@@ -115,7 +117,7 @@ def test_samples_on_the_mirror_lines_see_the_membrane(pair):
 
 def test_quarter_mesh_is_a_quadrant_with_named_mirror_faces():
     study = coupled_study()
-    mesh = prepare_mesh(study, with_air=True)
+    mesh = prepare_mesh(study, with_air=True, engine=engine_for(study))
     assert {"mirror_x", "mirror_y"} <= set(mesh.GetBoundaries())
     assert {"mirror_x_edge", "mirror_y_edge"} <= set(mesh.GetBBoundaries())
     assert Symmetry.of_mesh(mesh).copies == 4
@@ -129,15 +131,15 @@ def test_quarter_mesh_is_a_quadrant_with_named_mirror_faces():
 
 def test_quadrant_prestress_carries_the_whole_disc_force():
     study = coupled_study(load={"z": "10 mm", "voltage": "2 kV"})
-    quarter = solve_prestress(study, prepare_mesh(study, with_air=True))
-    whole = solve_prestress(study, prepare_mesh(study, with_air=False))
+    quarter = solve_prestress(study, prepare_mesh(study, with_air=True, engine=engine_for(study)))
+    whole = solve_prestress(study, prepare_mesh(study, with_air=False, engine=engine_for(study)))
     assert quarter.symmetry.quarter
     assert quarter.disc_force == pytest.approx(whole.disc_force, rel=2e-3)
 
 
 def test_written_fields_are_unfolded_with_the_sector_parity(tmp_path):
     study = coupled_study(eigen={"f_max": "450 Hz"}, output={"plots": False})
-    result = run_solve(study)
+    result = run_solve(study, engine=engine_for(study))
     Solution(result).write(tmp_path / "run")
     rows = {row["label"]: row for row in csv.DictReader(open(tmp_path / "run" / "modes.csv"))}
     assert rows["(0,1)"]["symmetry"] == "even-even"
@@ -178,7 +180,7 @@ def test_mirror_conditions_fix_the_right_components():
     from copdea_fem.fe.acoustics import pressure_space, screen_faces
     from copdea_fem.fe.membrane import displacement_space
     from copdea_fem.fe.symmetry import membrane_mirror_dofs, pressure_mirror_dofs
-    mesh = prepare_mesh(coupled_study(), with_air=True)
+    mesh = on_its_engine(prepare_mesh, coupled_study(), with_air=True)
     space = displacement_space(mesh, 2, True)
     counts = {sector.name: membrane_mirror_dofs(space, mesh, 2, sector).size for sector in SECTORS}
     # per edge: one component fixed when even, two when odd (n_x, n_y DOFs per component)

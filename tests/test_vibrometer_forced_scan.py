@@ -1,4 +1,4 @@
-"""The FE forced response at scan points (copdea_fem.vibrometer.forced_scan), checked against
+"""The FE forced response at scan points (copdea_fem.forced_response.scan), checked against
 what it did not make.
 
 - **Both engines.**  An imperfect electrode (orders 1-3) drives the same device on the
@@ -36,15 +36,15 @@ def _imperfection():
 def _response(study, imperfection, damping_per_mass=30.0, lines=LINES):
     """(velocity at the scan points, the solve) of ``study`` on a 3 x 8 + 2 point grid."""
     from copdea_fem.diagnosis.synth_scan import ScanOptions, psv_reference_grid
-    from copdea_fem.fe.pipeline import run_solve
-    from copdea_fem.vibrometer.forced_scan import scan_response
-    from copdea_fem.vibrometer.sampling import prestressed_positions
+    from copdea_fem.fe import engine_for, run_solve
+    from copdea_fem.forced_response.scan import scan_response
 
-    solution = run_solve(study)
+    solution = run_solve(study, engine=engine_for(study))
     reference, _ = psv_reference_grid(solution.state.outer_radius,
                                       solution.state.inner_radius,
                                       ScanOptions(rings=3, per_ring=8, disc_points=2))
-    positions = prestressed_positions(solution.state, reference, study["load"]["z"])
+    positions = solution.engine.prestressed_positions(solution.state, reference,
+                                                      study["load"]["z"])
     response = scan_response(solution, study, positions, lines, imperfection,
                              damping_per_mass=lambda mode: damping_per_mass)
     return response, positions
@@ -125,23 +125,24 @@ def test_the_quadrants_sectors_fold_the_imperfection_as_the_orders_do():
 
 
 def test_the_modal_scan_response_is_the_direct_forced_response():
+    from copdea_fem.fe import engine_for
     from copdea_fem.fe.forced.electrode import ElectrodeImperfection
     from copdea_fem.forced_response.run import prepare_order_zero
     from copdea_fem.study import load_study
-    from copdea_fem.vibrometer.sampling import ScanSampler
 
     study = load_study(QUICK, {"geometry.frame": "circle", "eigen.f_max": "900 Hz"})
     lines = np.array([150.0, 300.0, 400.0, 450.0])
     response, positions = _response(study, ElectrodeImperfection(), damping_per_mass=0.0,
                                     lines=lines)
-    problem = prepare_order_zero(study)
+    engine = engine_for(study)
+    problem = prepare_order_zero(study, engine=engine)
     solutions = problem.forced.direct(lines)
     membrane = problem.forced.membrane(solutions)
     operators = problem.coupled.membrane
     full = operators.to_full(membrane)
-    sampler = ScanSampler(problem.state, positions)
+    sampler = engine.point_sampler(problem.state, positions)
     displacement = np.stack([sampler.field_displacement(
-        full[:, k], membrane[-1, k] if operators.disc_dof else 0.0, operators=operators, m=0)
+        full[:, k], membrane[-1, k] if operators.disc_dof else 0.0, operators=operators)
         for k in range(lines.size)], axis=-1)
     direct = np.conj(-1j * 2 * np.pi * lines * displacement)       # e^{+i omega t}
     # measured: 3e-5 .. 6e-4 (the static correction's O(omega^4 / lambda^2) of the modes

@@ -1,4 +1,5 @@
-"""FE mode shapes sampled at scan points (copdea_fem.vibrometer.sampling), both engines.
+"""FE mode shapes sampled at scan points (the engines' point samplers, copdea_fem.fe.points),
+both engines.
 
 The same device (G1 at z = 16 mm, 2 kV, no frame, in vacuo, coarse mesh) solved by the 3-D
 engine on the whole mesh and by the axisymmetric engine: two discretisations that share no
@@ -15,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import on_its_engine
 
 from copdea_fem.mac import subspace_mac
 from copdea_fem.vibrometer.pairing import unit_key
@@ -32,8 +34,8 @@ def _solve(engine: str, air: bool):
     overrides = dict(DRY_FRAMELESS, **{"mesh.engine": engine})
     if air:
         overrides = {"air.enabled": True, "eigen.f_max": "800 Hz", "mesh.engine": engine}
-    result = run_solve(load_study(QUICK, overrides))
-    return result.state, [m for m in result.modes if m.kind != "air" and m.label]
+    result = on_its_engine(run_solve, load_study(QUICK, overrides))
+    return result.engine, result.state, [m for m in result.modes if m.kind != "air" and m.label]
 
 
 def _scan_points(state, count=60, seed=1):
@@ -46,11 +48,9 @@ def _scan_points(state, count=60, seed=1):
     return np.vstack([reference, disc])
 
 
-def _shapes(state, modes, reference):
-    from copdea_fem.vibrometer.sampling import ScanSampler, prestressed_positions
-
-    positions = prestressed_positions(state, reference, 0.016)
-    velocities = ScanSampler(state, positions).velocities(modes)        # (P, 3, K)
+def _shapes(fe_engine, state, modes, reference):
+    positions = fe_engine.prestressed_positions(state, reference, 0.016)
+    velocities = fe_engine.point_sampler(state, positions).velocities(modes)  # (P, 3, K)
     return velocities.reshape(-1, len(modes))
 
 
@@ -63,10 +63,10 @@ def _units(modes):
 
 def _compare(first, second):
     """Subspace MAC of each unit (label) the two mode sets share."""
-    (state_a, modes_a), (state_b, modes_b) = first, second
+    (engine_a, state_a, modes_a), (engine_b, state_b, modes_b) = first, second
     reference = _scan_points(state_a)
-    shapes_a, shapes_b = _shapes(state_a, modes_a, reference), _shapes(state_b, modes_b,
-                                                                      reference)
+    shapes_a = _shapes(engine_a, state_a, modes_a, reference)
+    shapes_b = _shapes(engine_b, state_b, modes_b, reference)
     units_a, units_b = _units(modes_a), _units(modes_b)
     return {key: subspace_mac(shapes_a[:, units_a[key]], shapes_b[:, units_b[key]])
             for key in units_a if key in units_b and len(units_a[key]) == len(units_b[key])}
@@ -80,8 +80,8 @@ def test_both_engines_give_one_shape_at_the_scan_points():
     assert min(macs.values()) > 0.99, macs
     # and different modes are told apart at the same points (orthogonal on the device, not
     # on 63 random points: 0.055 here; far below the 0.99 of one mode on two engines)
-    (state, modes) = _solve("axisymmetric", False)
-    shapes = _shapes(state, modes, _scan_points(state))
+    (fe_engine, state, modes) = _solve("axisymmetric", False)
+    shapes = _shapes(fe_engine, state, modes, _scan_points(state))
     labels = [m.label for m in modes]
     first, second = labels.index("(0,1)"), labels.index("(2,1)a")
     assert subspace_mac(shapes[:, first], shapes[:, second]) < 0.2
@@ -99,13 +99,11 @@ def test_the_quadrant_is_unfolded_by_each_sectors_parities():
 
 
 def test_a_scan_point_maps_back_to_its_material_point():
-    from copdea_fem.vibrometer.sampling import ScanSampler, prestressed_positions
-
     for engine in ("3d", "axisymmetric"):
-        state, _ = _solve(engine, False)
+        fe_engine, state, _ = _solve(engine, False)
         reference = _scan_points(state)
-        positions = prestressed_positions(state, reference, 0.016)
-        sampler = ScanSampler(state, positions)
+        positions = fe_engine.prestressed_positions(state, reference, 0.016)
+        sampler = fe_engine.point_sampler(state, positions)
         np.testing.assert_allclose(sampler.reference, reference, atol=1e-9 * state.outer_radius)
         assert sampler.on_disc.sum() == 3
         # the prestressed membrane rises towards the disc: z between 0 and load.z
@@ -116,10 +114,11 @@ def test_a_scan_point_maps_back_to_its_material_point():
 
 @pytest.mark.parametrize("engine", ["3d", "axisymmetric"])
 def test_channels_project_the_velocity_on_their_directions(engine):
-    from copdea_fem.vibrometer.sampling import ScanSampler, project_channels
+    from copdea_fem.vibrometer.sampling import project_channels
 
-    state, modes = _solve(engine, False)
-    sampler = ScanSampler(state, np.column_stack([_scan_points(state), np.zeros(63)]))
+    fe_engine, state, modes = _solve(engine, False)
+    sampler = fe_engine.point_sampler(state, np.column_stack([_scan_points(state),
+                                                              np.zeros(63)]))
     velocities = sampler.velocities(modes[:3])
     direction = np.array([[0.6, 0.0, 0.8], [0.0, 0.0, 1.0]])
     projected = project_channels(velocities, [5, 5], direction)

@@ -99,17 +99,19 @@ __all__ = ["load_study", "solve", "Solution", "response", "ResponseSolution",  #
            "force", "prepare_force", "compute_force", "ForceCurve", "spectrum", "Spectrum",
            "fit_material", "MaterialFitResult", "calibrate_damping",
            "DampingCalibrationResult", "sweep", "SweepResult", "load_measured", "diagnose",
-           "Diagnosis",
-           "identify", "IdentifyResult", "correlate", "CorrelateResult", "synthesise",
-           "SyntheticData", "catalogue_table", "reference_table", "Output", "SolveFailed",
-           "StudyError", "OutputFolderError", "PrestressError", "ReducedModelError",
-           "solving", "check_size", "progress_to"]
+           "Diagnosis", "identify", "IdentifyResult", "correlate", "CorrelateResult",
+           "synthesise", "SyntheticData", "catalogue_table", "reference_table", "Output",
+           "SolveFailed", "StudyError", "OutputFolderError", "PrestressError",
+           "ReducedModelError", "solving", "check_size", "progress_to"]
 
-#: Names loaded on first access (PEP 562): they live in modules that import NumPy or NGSolve.
-_LAZY = {"PrestressError": ("copdea_fem.fe.prestress", "PrestressError"),
+#: Names loaded on first access (PEP 562), from modules that import NumPy or NGSolve: the
+#: errors of a failed solve, and the FE's settings the command line names (the resource
+#: guard's limit of unknowns, the environment variable of the mesh cache folder:
+#: :mod:`copdea_fem.fe`).
+_LAZY = {"PrestressError": ("copdea_fem.fe", "PrestressError"),
          "ReducedModelError": ("copdea_fem.reduced.rings", "ReducedModelError"),
-         "MAX_UNKNOWNS": ("copdea_fem.fe.engines", "MAX_UNKNOWNS"),
-         "MESH_CACHE_VARIABLE": ("copdea_fem.fe.quadrant.geometry", "CACHE_VARIABLE")}
+         "MAX_UNKNOWNS": ("copdea_fem.fe", "MAX_UNKNOWNS"),
+         "MESH_CACHE_VARIABLE": ("copdea_fem.fe", "MESH_CACHE_VARIABLE")}
 
 
 def __getattr__(name):
@@ -117,4 +119,4 @@ def __getattr__(name):
         import importlib
         module, attribute = _LAZY[name]
         return getattr(importlib.import_module(module), attribute)
-    raise AttributeError(f"module 'copdea_fem.api' has no attribute {name!r}")
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -14,8 +14,7 @@ from typing import TYPE_CHECKING, Any
 from copdea_fem.study import Study, StudyError
 
 if TYPE_CHECKING:
-    from copdea_fem.fe.engines import Engine
-    from copdea_fem.fe.pipeline import SolveResult
+    from copdea_fem.fe import Engine, SolveResult
 
 #: Study -> the file it was read from (the folder checks of ``write`` need it).
 _SOURCES: weakref.WeakKeyDictionary[Study, Path] = weakref.WeakKeyDictionary()
@@ -108,8 +107,12 @@ def _load_text(study) -> str:
 def solving(study):
     """Solver failures -> :class:`SolveFailed`: what failed, at which load, which key to change
     (a Netgen failure, ``NgException``: the mesh keys)."""
-    from copdea_fem.fe.ale import MeshMotionError
-    from copdea_fem.fe.eigen import EigenResidualError, EigenSolverError, TooManyModesError
+    from copdea_fem.fe import (
+        EigenResidualError,
+        EigenSolverError,
+        MeshMotionError,
+        TooManyModesError,
+    )
     eigen = study["eigen"]
     advice = {
         MeshMotionError: ("the air mesh motion", "air.domain_radius, mesh.membrane_size or "
@@ -136,10 +139,15 @@ def solving(study):
 
 
 def check_size(study: Study, allow_large: bool = False, engine: Engine | None = None) -> None:
-    """The resource guard (:func:`copdea_fem.fe.engines.check_size`) unless ``allow_large``."""
+    """The resource guard (:func:`copdea_fem.fe.check_size`) unless ``allow_large``.
+
+    ``engine``: the study's engine where the caller has resolved it (the API's functions
+    resolve it once and pass it here and down); else it is resolved here
+    (:func:`copdea_fem.fe.engine_for`), and only when the guard runs."""
     if not allow_large:
-        from copdea_fem.fe.engines import check_size as guard
-        guard(study, engine=engine)
+        from copdea_fem.fe import check_size as guard
+        from copdea_fem.fe import engine_for
+        guard(study, engine=engine if engine is not None else engine_for(study))
 
 
 def solve_checked(study: Study, *, allow_large: bool = False,
@@ -149,8 +157,7 @@ def solve_checked(study: Study, *, allow_large: bool = False,
     (:func:`check_size`, a :class:`StudyError` before meshing), then
     :func:`copdea_fem.fe.pipeline.run_solve` with the solver's failures as
     :class:`SolveFailed` (:func:`solving`)."""
-    from copdea_fem.fe.engines import engine_for
-    from copdea_fem.fe.pipeline import run_solve
+    from copdea_fem.fe import engine_for, run_solve
 
     engine = engine_for(study)
     check_size(study, allow_large, engine)

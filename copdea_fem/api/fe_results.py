@@ -27,8 +27,7 @@ if TYPE_CHECKING:
     import pandas as pd
     import pyvista as pv
 
-    from copdea_fem.fe.engines import Engine
-    from copdea_fem.fe.pipeline import SolveResult
+    from copdea_fem.fe import Engine, SolveResult
 
 logger = logging.getLogger("copdea_fem")
 
@@ -166,7 +165,7 @@ class Solution:
         return self._fields
 
     def _structural(self) -> list:
-        from copdea_fem.fe.modes import IN_PLANE, OUT_OF_PLANE, PUMPING
+        from copdea_fem.fe import IN_PLANE, OUT_OF_PLANE, PUMPING
         return [mode for mode in self.result.modes
                 if mode.kind in (OUT_OF_PLANE, PUMPING, IN_PLANE)]
 
@@ -406,10 +405,11 @@ def compute_force(study: Study, z_values: Sequence[float] | np.ndarray,
     PrestressError
         The prestress (Newton) solve fails at one of the loads.
     """
-    from copdea_fem.fe.pipeline import run_force
+    from copdea_fem.fe import engine_for, run_force
 
+    engine = engine_for(study)
     with solving(study), reporting_to(progress):
-        forces = run_force(study, z_values, voltages, cache_dir=mesh_cache)
+        forces = run_force(study, z_values, voltages, cache_dir=mesh_cache, engine=engine)
     return ForceCurve(study, z_values, list(voltages), forces)
 
 

@@ -61,7 +61,7 @@ def response(study: Study | str | Path, *, allow_large: bool = False,
     OutputFolderError
         ``out`` may not be written (as in :meth:`Solution.write`).
     """
-    from copdea_fem.fe.engines import engine_for
+    from copdea_fem.fe import engine_for
     from copdea_fem.forced_response.run import forced_response, prepare_order_zero
 
     study = as_study(study)
@@ -70,7 +70,7 @@ def response(study: Study | str | Path, *, allow_large: bool = False,
     with claiming(out, "response", input_files(study), study["output"]["directory"]) \
             as folder:
         with solving(study), reporting_to(progress):
-            problem = prepare_order_zero(study, engine)
+            problem = prepare_order_zero(study, engine=engine)
             result = forced_response(problem)
         solution = ResponseSolution(result)
         if folder is not None:

@@ -88,7 +88,7 @@ def sweep(sweep_file: str | Path, overrides: dict[str, Any] | list[str] | None =
     check_scheduler(executor or spec.execution.executor, scheduler)
     if spec.model != "reduced":
         for point in spec.points:
-            check_size(point.study, allow_large)
+            check_size(point.study, allow_large, point.engine)
     settings = {"executor": executor, "workers": workers, "scheduler": scheduler,
                 "chain_length": chain_length,
                 "reuse": None if reuse is None else parse_reuse(reuse)}

@@ -449,8 +449,7 @@ class FEModel:
         self._cluster.close()
 
     def _solve(self, run: Study, key: str) -> FEResult:
-        from copdea_fem.fe.engines import engine_for
-        from copdea_fem.fe.pipeline import coupled_modes, dry_modes
+        from copdea_fem.fe import coupled_modes, dry_modes, engine_for
         from copdea_fem.progress import quiet_progress
         engine = engine_for(run)
         coupled = bool(run["air"]["enabled"])

@@ -8,10 +8,10 @@ them.  What the export holds, per condition, is what a PSV-type scanning vibrome
 
 - the scan grid of the paper (Fig. 5d): points on rings of the membrane and a few on the
   disc (default 5 rings x 16 = 80 on the membrane, 4 on the disc), at their places on the
-  *prestressed* device (:func:`copdea_fem.vibrometer.sampling.prestressed_positions`),
+  *prestressed* device (:meth:`copdea_fem.fe.engines.Engine.prestressed_positions`),
   three velocity components each;
 - FRFs of velocity per volt of drive made by the FE forced response
-  (:func:`copdea_fem.vibrometer.forced_scan.scan_response`: the modal path of
+  (:func:`copdea_fem.forced_response.scan.scan_response`: the modal path of
   :mod:`copdea_fem.fe.forced.harmonic` with its static correction, standard
   ``e^{+i omega t}`` convention, mobility) of an *imperfect electrode*
   (:class:`copdea_fem.fe.forced.electrode.ElectrodeImperfection`): a drive weight
@@ -171,15 +171,13 @@ def synthesise_scan(study: Study, options: ScanOptions, rng, name: str = "scan")
         the mode's quasi-static displacement per volt at the points [m/V].
     """
     from copdea_fem.diagnosis.fe import BAND_MARGIN, fe_study
-    from copdea_fem.fe.forced.electrode import ElectrodeImperfection
-    from copdea_fem.fe.pipeline import run_solve
-    from copdea_fem.vibrometer.forced_scan import scan_response
-    from copdea_fem.vibrometer.sampling import prestressed_positions
+    from copdea_fem.fe import ElectrodeImperfection, engine_for, run_solve
+    from copdea_fem.forced_response.scan import scan_response
     from copdea_fem.measured import ScanData
 
     frequencies = options.frequencies()
     solved_study = fe_study(study, f_max=float(frequencies[-1]) * BAND_MARGIN)
-    result = run_solve(solved_study)
+    result = run_solve(solved_study, engine=engine_for(solved_study))
     state = result.state
     orders = sorted({int(mode.m) for mode in result.modes if mode.kind != "air" and mode.m})
     imperfection = ElectrodeImperfection.random(orders, options.imperfection, rng)
@@ -189,7 +187,7 @@ def synthesise_scan(study: Study, options: ScanOptions, rng, name: str = "scan")
         return scatter.setdefault(label, math.exp(rng.normal(0, options.frequency_noise)))
 
     reference, _ = psv_reference_grid(state.outer_radius, state.inner_radius, options)
-    positions = prestressed_positions(state, reference, study["load"]["z"])
+    positions = result.engine.prestressed_positions(state, reference, study["load"]["z"])
     response = scan_response(result, solved_study, positions, frequencies, imperfection,
                              damping_per_mass=modal_damping(study, options.damping_ratio),
                              frequency_factors=factor)

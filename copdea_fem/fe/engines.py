@@ -1,15 +1,23 @@
-"""The FE engines behind one interface, resolved once per solve from ``mesh.engine``.
+"""The FE engine interface: everything the rest of the package asks of an engine.
 
-:class:`Engine` is what the pipeline (:mod:`copdea_fem.fe.pipeline`), the forced response,
-the sweeps, the output and the resource guard ask of an engine; :func:`engine_for` picks the
-implementation of a study (:func:`copdea_fem.study.engine_of`): the 3-D quadrant
+:class:`Engine` is what the pipeline (:mod:`copdea_fem.fe.pipeline`), the forced response
+(:mod:`copdea_fem.forced_response`: the driven problem, the parts an electrode drives, their
+forcing, the fields at scan points), the sweeps (the mesh and FE-space keys, the tracking
+arrays), the output (the result fields) and the resource guard (:func:`check_size`) ask of
+an engine.  :func:`engine_for` picks the implementation of a study
+(:func:`copdea_fem.study.engine_of`): the 3-D quadrant
 (:class:`copdea_fem.fe.quadrant.engine.QuadrantEngine`) or the axisymmetric one
-(:class:`copdea_fem.fe.axisymmetric.engine.AxisymmetricEngine`).  The caller resolves it once
-and passes it down (a :class:`copdea_fem.fe.pipeline.SolveResult` carries it).  The band
-solves of a study are configured once (:class:`copdea_fem.fe.bands.BandSolver`) and handed to
-the engine; the rules both engines share (dry partner band, coupled start count, order stop
-rule) live in :mod:`copdea_fem.fe.bands`, the labels in :mod:`copdea_fem.fe.modes`.  No module
-but this one and the study's schema tests the engine's name.
+(:class:`copdea_fem.fe.axisymmetric.engine.AxisymmetricEngine`).  An engine is one folder
+of :mod:`copdea_fem.fe` whose engine class implements every method of :class:`Engine`; no
+module outside :mod:`copdea_fem.fe` imports an engine's folder (an import-linter contract).
+
+The API's functions, the sweeps' points and the diagnosis's FE solves resolve the engine
+once (:func:`engine_for`) and pass it down: below them ``engine`` is a required argument
+(a :class:`copdea_fem.fe.pipeline.SolveResult` carries it).  The band solves of a study are
+configured once (:class:`copdea_fem.fe.bands.BandSolver`) and handed to the engine; the
+rules both engines share (dry partner band, coupled start count, order stop rule) live in
+:mod:`copdea_fem.fe.bands`, the labels in :mod:`copdea_fem.fe.modes`.  No module but this
+one and the study's schema tests the engine's name.
 """
 
 from __future__ import annotations
@@ -17,12 +25,17 @@ from __future__ import annotations
 from contextlib import AbstractContextManager
 from typing import TYPE_CHECKING, Any, Protocol
 
+from copdea_fem.fe.quadrant.geometry import CACHE_VARIABLE
 from copdea_fem.study import Study, StudyError, engine_of
 
 if TYPE_CHECKING:
+    import numpy as np
+
     from copdea_fem.fe.bands import BandSolver
-    from copdea_fem.fe.forced.problem import OrderZero
+    from copdea_fem.fe.forced.electrode import ElectrodeImperfection
+    from copdea_fem.fe.forced.problem import DrivenPart, OrderZero
     from copdea_fem.fe.modes import Mode
+    from copdea_fem.fe.points import PointSampler
     from copdea_fem.fe.prestress import MembraneSolver, PrestressedState
     from copdea_fem.fe.solution import CoupledSolution
     from copdea_fem.progress import Timings
@@ -35,6 +48,10 @@ class Engine(Protocol):
 
     def mesh_key(self, study: Study, with_air: bool) -> tuple:
         """A hashable key of what the mesh depends on (the sweeps' mesh reuse)."""
+
+    def space_key(self, study: Study, with_air: bool) -> str:
+        """The FE space the modes' vectors live in: points of a sweep with equal keys
+        compare their vectors directly (:mod:`copdea_fem.sweeps.tracking`)."""
 
     def prepare_mesh(self, study: Study, with_air: bool | None = None, cache_dir=None) -> Any:
         """The mesh of the study (``cache_dir``: the 3-D mesh cache)."""
@@ -64,6 +81,27 @@ class Engine(Protocol):
         uniform electrode drives; its ``sector``
         (:class:`copdea_fem.fe.forced.problem.DrivenSector`) describes it."""
 
+    def driven_parts(self, solution, study: Study) -> list[DrivenPart]:
+        """The independently solved parts of ``solution`` (a
+        :class:`copdea_fem.fe.pipeline.SolveResult`: sectors, orders or the whole mesh) with
+        their pencils and band results, in solve order: what an electrode drives
+        (:mod:`copdea_fem.forced_response.scan`)."""
+
+    def electrode_forcing(self, state: PrestressedState, part: DrivenPart,
+                          electrode: ElectrodeImperfection) -> np.ndarray:
+        """The forcing [N/V] of ``electrode``'s drive weight on ``part``'s membrane unknowns
+        (:mod:`copdea_fem.fe.forced.electrode`; the factors of an order's families:
+        :meth:`copdea_fem.fe.forced.problem.DrivenPart.families`)."""
+
+    def point_sampler(self, state: PrestressedState, positions) -> PointSampler:
+        """The fields of ``state`` at points (P, 3) [m] of the prestressed device
+        (:class:`copdea_fem.fe.points.PointSampler`)."""
+
+    def prestressed_positions(self, state: PrestressedState, reference_xy,
+                              disc_z: float) -> np.ndarray:
+        """Where points (P, 2) [m] of the flat reference device lie on the prestressed one:
+        (P, 3) [m] (:meth:`copdea_fem.fe.points.PointSampler.prestressed_positions`)."""
+
     def tracking_arrays(self, state: PrestressedState, modes: list[Mode],
                         needs_sampling: bool) -> dict:
         """What the sweeps track a point's modes by (:mod:`copdea_fem.sweeps.tracking`)."""
@@ -88,12 +126,16 @@ def engine_for(study: Study) -> Engine:
 #: membrane plus, with air, the pressure (the default coupled G1 study: ~16 000 per sector).
 MAX_UNKNOWNS = 2_000_000
 
+#: The environment variable naming the folder of the engines' mesh cache (the CLI's
+#: ``--mesh-cache`` sets it, so that worker processes see it too;
+#: :func:`copdea_fem.fe.quadrant.geometry.mesh_cache_dir`).
+MESH_CACHE_VARIABLE = CACHE_VARIABLE
 
-def check_size(study: Study, limit: float | None = None,
-               engine: Engine | None = None) -> None:
+
+def check_size(study: Study, limit: float | None = None, *, engine: Engine) -> None:
     """The resource guard: refuse (StudyError) a study whose engine estimates more unknowns
     than ``limit`` (default :data:`MAX_UNKNOWNS`), before meshing."""
-    elements, unknowns = (engine or engine_for(study)).estimate_size(study)
+    elements, unknowns = engine.estimate_size(study)
     refuse_size(study, elements, unknowns, MAX_UNKNOWNS if limit is None else limit)
 
 

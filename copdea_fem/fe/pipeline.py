@@ -1,11 +1,11 @@
 """The FE pipeline of a study: mesh -> prestress -> (dry | coupled) modes.
 
-The engine of the study (``mesh.engine``) is resolved once, by the caller or here
-(:func:`copdea_fem.fe.engines.engine_for`), and passed down: the 3-D quadrant
-(:mod:`copdea_fem.fe.quadrant.engine`) or the axisymmetric engine
-(:mod:`copdea_fem.fe.axisymmetric.engine`).  Its band solves are configured once from
-``study["eigen"]`` (:class:`copdea_fem.fe.bands.BandSolver`).  Nothing here writes a file:
-the result objects of :mod:`copdea_fem.api` do (:meth:`copdea_fem.api.Solution.write`).
+The engine of the study (``mesh.engine``) is resolved once by the caller
+(:func:`copdea_fem.fe.engines.engine_for`: the API, a sweep's point, the diagnosis's FE
+solve) and passed in: ``engine`` is a required argument of every function here.  Its band
+solves are configured once from ``study["eigen"]`` (:class:`copdea_fem.fe.bands.BandSolver`).
+Nothing here writes a file: the result objects of :mod:`copdea_fem.api` do
+(:meth:`copdea_fem.api.Solution.write`).
 
 Entry points used by the API, the sweeps, the diagnosis, the benchmarks and the tests:
 :func:`prepare_mesh`, :func:`make_prestress_solver`, :func:`dry_modes`,
@@ -23,7 +23,7 @@ import numpy as np
 
 from copdea_fem.fe.airbox import check_air_lift
 from copdea_fem.fe.bands import BandSolver
-from copdea_fem.fe.engines import Engine, engine_for
+from copdea_fem.fe.engines import Engine
 from copdea_fem.fe.solution import CoupledSolution
 from copdea_fem.progress import Timings
 from copdea_fem.study import Study, StudyError
@@ -61,18 +61,17 @@ def require_backend(study: Study) -> None:
                          f"{', '.join(available_backends())}")
 
 
-def prepare_mesh(study: Study, with_air: bool | None = None, cache_dir=None,
-                 engine: Engine | None = None):
+def prepare_mesh(study: Study, with_air: bool | None = None, cache_dir=None, *,
+                 engine: Engine):
     """The mesh of the study's engine: the meridian (r, z) mesh of the axisymmetric engine
     (it always holds the air; not cached), else the (cached) 3-D mesh; ``cache_dir=None``:
-    :func:`copdea_fem.fe.quadrant.geometry.mesh_cache_dir`."""
-    engine = engine or engine_for(study)
+    the default mesh cache (:data:`copdea_fem.fe.engines.MESH_CACHE_VARIABLE`)."""
     return engine.prepare_mesh(study, with_air=with_air, cache_dir=cache_dir)
 
 
-def make_prestress_solver(study: Study, mesh, engine: Engine | None = None):
+def make_prestress_solver(study: Study, mesh, *, engine: Engine):
     """The Newton solver of the study's engine on ``mesh`` (:func:`prepare_mesh`)."""
-    return (engine or engine_for(study)).prestress_solver(study, mesh)
+    return engine.prestress_solver(study, mesh)
 
 
 def _meshed(study, mesh, with_air, timings, cache_dir, engine):
@@ -108,7 +107,7 @@ def _oscillating(modes: list) -> list[int]:
 
 
 def dry_modes(study: Study, mesh=None, timings: Timings | None = None, cache_dir=None,
-              solver=None, initial_shifts=None, engine: Engine | None = None):
+              solver=None, initial_shifts=None, *, engine: Engine):
     """Prestress and dry (in-vacuo) modes in the study's band: (state, modes, eigen result).
 
     Sweeps pass ``solver`` (a :class:`copdea_fem.fe.prestress.MembraneSolver` on
@@ -118,7 +117,6 @@ def dry_modes(study: Study, mesh=None, timings: Timings | None = None, cache_dir
     """
     timings = timings or Timings()
     require_backend(study)
-    engine = engine or engine_for(study)
     mesh = _meshed(study, mesh, study["air"]["enabled"], timings, cache_dir, engine)
     state, modes, result = engine.dry_modes(study, mesh, timings, solver, initial_shifts,
                                             BandSolver.from_study(study))
@@ -126,8 +124,8 @@ def dry_modes(study: Study, mesh=None, timings: Timings | None = None, cache_dir
 
 
 def coupled_modes(study: Study, mesh=None, timings: Timings | None = None, cache_dir=None,
-                  solver=None, initial_shifts=None,
-                  engine: Engine | None = None) -> CoupledSolution:
+                  solver=None, initial_shifts=None, *,
+                  engine: Engine) -> CoupledSolution:
     """Prestress, dry modes and fully-coupled membrane-air modes (Sect. 3.1.3).
 
     On a quadrant mesh (``mesh.symmetry: quarter``, :mod:`copdea_fem.fe.symmetry`)
@@ -141,7 +139,6 @@ def coupled_modes(study: Study, mesh=None, timings: Timings | None = None, cache
     timings = timings or Timings()
     require_backend(study)
     check_air_lift(study)
-    engine = engine or engine_for(study)
     mesh = _meshed(study, mesh, True, timings, cache_dir, engine)
     solution = engine.coupled_modes(study, mesh, timings, solver, initial_shifts,
                                     BandSolver.from_study(study))
@@ -156,10 +153,9 @@ def coupled_modes(study: Study, mesh=None, timings: Timings | None = None, cache
                         if k in position})
 
 
-def run_solve(study: Study, *, cache_dir=None, engine: Engine | None = None) -> SolveResult:
+def run_solve(study: Study, *, cache_dir=None, engine: Engine) -> SolveResult:
     """Prestress and modes of ``copdea-fem solve`` (coupled when ``air.enabled``)."""
     timings = Timings()
-    engine = engine or engine_for(study)
     coupled = None
     if study["air"]["enabled"]:
         coupled = coupled_modes(study, timings=timings, cache_dir=cache_dir, engine=engine)
@@ -171,12 +167,11 @@ def run_solve(study: Study, *, cache_dir=None, engine: Engine | None = None) -> 
 
 
 def run_force(study: Study, z_values, voltages, *, cache_dir=None,
-              engine: Engine | None = None) -> np.ndarray:
+              engine: Engine) -> np.ndarray:
     """Static disc force F(z) [N] at each voltage [V] and z [m] (Fig. 4b):
     ``forces[i, j]`` at ``voltages[i]``, ``z_values[j]``."""
     from copdea_fem.fe.prestress import force_displacement
 
-    engine = engine or engine_for(study)
     with engine.threads():
         mesh = engine.prepare_mesh(study, with_air=False, cache_dir=cache_dir)
         return force_displacement(study, mesh, z_values, voltages,

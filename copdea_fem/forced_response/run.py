@@ -1,10 +1,10 @@
 """``copdea-fem response``: study -> prestress -> m = 0 pencil -> forced response -> files.
 
 Pipeline: mesh, prestress (as ``solve``), the ALE air and the one coupled pencil a uniform
-electrode drives -- the order m = 0 on the axisymmetric engine
-(:func:`copdea_fem.fe.axisymmetric.operators.coupled_order_operators`), the even-even symmetry
-sector on the 3-D quadrant (:mod:`.quadrant`, any frame, the square one included) -- the
-voltage forcing (:mod:`.harmonic`), then either
+electrode drives -- the engine's forced problem
+(:meth:`copdea_fem.fe.engines.Engine.forced_problem`): the order m = 0 on the axisymmetric
+engine, the even-even symmetry sector on the 3-D quadrant (any frame, the square one
+included) -- the voltage forcing (:mod:`copdea_fem.fe.forced.harmonic`), then either
 
 - ``response.method: auto`` (default): on the 3-D engine ``reduced_modal`` where the
   damping is the paper's modal b/m, ``reduced`` where the membrane states its own loss;
@@ -15,7 +15,8 @@ voltage forcing (:mod:`.harmonic`), then either
   path's cost (refused with ``membrane.loss_factor``, Rayleigh or Prony);
 - ``response.method: modal``: the coupled modes with ``Re f <= modal_band f_end``
   and ``|Im f| <= modal_band f_end``, the paper's modal damping ``reduced.damping_*`` and
-  ``membrane.loss_factor`` projected per mode, residual correction (:mod:`.harmonic`);
+  ``membrane.loss_factor`` projected per mode, residual correction
+  (:mod:`copdea_fem.fe.forced.harmonic`);
 - ``response.method: direct``: one sparse solve per line with ``membrane.loss_factor``
   (the modal b/m has no meaning there and is not applied);
 - ``response.method: reduced``: the direct path's model (loss factor, Rayleigh, Prony)
@@ -26,11 +27,15 @@ Lines: the chirp's (``excitation.*``, :class:`copdea_fem.reduced.chirp_response.
 response line ``H(omega_k) V~_k`` with the chirp's line values (|FFT|/N), so the spectra
 compare with ``spectrum``'s line for line.
 
+The response on the lines (:class:`.observers.LineResponse`) is observed twice: the membrane
+velocity at the scan radii (the driven sector's observer) and the sound at the microphones
+(:class:`.observers.Microphones`).
+
 Files (column names are a contract):
 
 - ``response_average.csv``: ``freq_hz, v_axial, v_radial`` [Hz, m/s, m/s] -- the mean of
   |v| over ``reduced.scan_radii`` projected radii, as ``spectrum_average.csv`` (3-D: also
-  over the four angles of :data:`.quadrant.OBSERVATION_ANGLES`)
+  over the four angles of the driven sector's observer, :class:`copdea_fem.fe.OrderZero`)
 - ``response_points.csv``: ``freq_hz, v_axial_q1, v_radial_q1, ..., v_radial_q3`` (3-D: |v|
   averaged over those angles)
 - ``spl.csv``: ``freq_hz, spl_<microphone>...`` [Hz, dB re 20 uPa]
@@ -52,13 +57,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from copdea_fem.fe.airbox import check_air_lift
-from copdea_fem.fe.forced.problem import OrderZero
+from copdea_fem.fe import check_air_lift
 from copdea_fem.forced_response.files import AVERAGE_COLUMNS, MODE_COLUMNS, POINT_COLUMNS  # noqa: F401
+from copdea_fem.forced_response.observers import LineResponse, Microphones
 from copdea_fem.study import DEFAULT_MICROPHONE, StudyError, listed_microphones
 
 if TYPE_CHECKING:
-    from copdea_fem.fe.engines import Engine
+    from copdea_fem.fe import Engine, OrderZero
 
 logger = logging.getLogger(__name__)
 
@@ -76,13 +81,11 @@ def parse_microphones(study) -> list[tuple[str, np.ndarray]]:
             for name, position in [(DEFAULT_MICROPHONE, axis), *listed]]
 
 
-def prepare_order_zero(study, engine: Engine | None = None) -> OrderZero:
+def prepare_order_zero(study, *, engine: Engine) -> OrderZero:
     """Mesh, prestress, ALE air and the forced pencil of the driven part of the problem (the
     order m = 0 or the even-even sector: the engine's
     :meth:`copdea_fem.fe.engines.Engine.forced_problem`; ``engine``: the study's, resolved
-    by the caller or here)."""
-    from copdea_fem.fe.engines import engine_for
-
+    by the caller)."""
     if study["load"]["voltage"] <= 0:
         raise StudyError("load.voltage = 0 is not allowed for `response`; allowed: > 0 V (the "
                          "linear forcing V_b dC/du vanishes without a bias)")
@@ -96,7 +99,7 @@ def prepare_order_zero(study, engine: Engine | None = None) -> OrderZero:
         raise StudyError("air.outside = false is not allowed for `response`; allowed: true "
                          "(the sound at the microphones needs the outside air)")
     check_air_lift(study)
-    return (engine or engine_for(study)).forced_problem(study)
+    return engine.forced_problem(study)
 
 
 def modal_solution(problem: OrderZero, f_end: float):
@@ -134,7 +137,7 @@ def _band_modes(problem: OrderZero, eigenvalues, vectors, residuals):
     |Im f| <= eigen.max_damping_ratio f_max; PML modes reach zeta ~ 1) get kind AIR."""
     import types
 
-    from copdea_fem.fe.modes import AIR
+    from copdea_fem.fe import AIR
 
     study = problem.study
     eigen = study["eigen"]
@@ -216,7 +219,7 @@ def reduced_modal_solution(problem: OrderZero, frequency_hz):
 def modal_damping(labels, kinds, study) -> np.ndarray:
     """(b/m)_j [1/s] per mode: ``reduced.damping_*`` by label (the reduced model's key of
     the label, :func:`copdea_fem.reduced.model.damping_key`), 0 for air/PML modes."""
-    from copdea_fem.fe.modes import AIR
+    from copdea_fem.fe import AIR
     from copdea_fem.reduced.model import damping_key
     values = []
     for label, kind in zip(labels, kinds):
@@ -338,10 +341,11 @@ def forced_response(problem: OrderZero, frequency_hz=None,
         vectors = forced.direct(frequency_hz, eta)
         weights = np.diag(voltage_lines)
     timings["solve"] = time.perf_counter() - start
+    response = LineResponse(forced, vectors, weights)
     start = time.perf_counter()
     omega = 2 * np.pi * frequency_hz
     observer_type, angles = problem.sector.observer, problem.sector.angles
-    membrane = forced.membrane(vectors)
+    membrane = response.membrane()
     spectra = []
     for fractions in (scan_fractions(study["reduced"]["scan_radii"]), QUARTER_POINTS):
         obs = observer_type(problem.state, coupled.membrane, fractions)
@@ -353,24 +357,12 @@ def forced_response(problem: OrderZero, frequency_hz=None,
     timings["velocity"] = time.perf_counter() - start
     start = time.perf_counter()
     microphones = parse_microphones(study)
-    radius = KIRCHHOFF_FRACTION * study["air"]["domain_radius"]
-    baffle = study["geometry"]["frame"] == "baffle"
-    sphere = problem.sector.sphere
-    # a baffle over an enclosure has no air below it (microphones there refused: study/checks.py)
-    below = () if study["geometry"]["enclosure"] != "none" else ("lower",)
-    samplers = ({"upper": sphere(coupled, radius, ("upper",)),
-                 **{side: sphere(coupled, radius, (side,)) for side in below}} if baffle else
-                {"all": sphere(coupled, radius)})
-    pressure_vectors = forced.pressure(vectors)
-    sampled = {name: sampler.sample(pressure_vectors) for name, sampler in samplers.items()}
-    pressure = np.zeros((frequency_hz.size, len(microphones)), complex)
-    for j, (_, position) in enumerate(microphones):      # z != 0 in a baffle: study/checks.py
-        side = ("upper" if position[2] > 0 else "lower") if baffle else "all"
-        sampler, (p_values, dp_values) = samplers[side], sampled[side]
-        field_p, field_dp = weights @ p_values.T, weights @ dp_values.T     # (lines, points)
-        for line, w in enumerate(omega):
-            kp, kg = sampler.kernels(position, w / study["air"]["sound_speed"], baffle)
-            pressure[line, j] = kp @ field_p[line] - kg @ field_dp[line]
+    observer = Microphones(problem.sector.sphere, coupled, microphones,
+                           KIRCHHOFF_FRACTION * study["air"]["domain_radius"],
+                           baffle=study["geometry"]["frame"] == "baffle",
+                           enclosed=study["geometry"]["enclosure"] != "none",
+                           sound_speed=study["air"]["sound_speed"])
+    pressure = observer.observe(response, frequency_hz)
     timings["sound"] = time.perf_counter() - start
     result = ResponseResult(frequency_hz, scan_axial.mean(axis=1), scan_radial.mean(axis=1),
                             point_axial, point_radial, microphones, pressure, spl_db(pressure),

@@ -9,6 +9,7 @@ everything is written, so a failed run leaves no half-finished results behind.
 - :mod:`~copdea_fem.output.plots`: PNG figures (matplotlib; imported only when
   ``output.plots`` is on).
 
-The engines sample their own fields (:mod:`copdea_fem.fe.quadrant.fields`,
-:mod:`copdea_fem.fe.axisymmetric.fields`) into the meshes of :mod:`copdea_fem.vtu`.
+The fields themselves are the engine's: :meth:`copdea_fem.fe.engines.Engine.output` samples
+the prestress, the modes and the air into the meshes of :mod:`copdea_fem.vtu` (the API's
+:class:`copdea_fem.api.Solution` asks it); the writers here are the same for every engine.
 """

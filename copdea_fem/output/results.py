@@ -14,9 +14,7 @@ from copdea_fem.study import Study, dump_resolved
 from copdea_fem.vtu import split_cells, write_all, write_pvd, write_vtu
 
 if TYPE_CHECKING:
-    from copdea_fem.fe.modes import Mode
-    from copdea_fem.fe.pipeline import SolveResult
-    from copdea_fem.fe.prestress import PrestressedState
+    from copdea_fem.fe import Mode, PrestressedState, SolveResult
 
 
 def prestress_summary(state) -> dict:
@@ -32,7 +30,7 @@ def write_solve_files(staging: Path, result: SolveResult, rows: list[dict]) -> N
     engine) into ``staging``: modes.csv/json with ``rows``
     (:func:`copdea_fem.output.tables.mode_rows`), the resolved study, ParaView files and plots
     as ``output.*`` asks."""
-    from copdea_fem.fe.modes import IN_PLANE, OUT_OF_PLANE, PUMPING
+    from copdea_fem.fe import IN_PLANE, OUT_OF_PLANE, PUMPING
 
     study = result.study
     structural = [mode for mode in result.modes if mode.kind in (OUT_OF_PLANE, PUMPING, IN_PLANE)]

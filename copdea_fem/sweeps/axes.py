@@ -83,7 +83,9 @@ class Axis:
 
 @dataclass(frozen=True)
 class SweepPoint:
-    """One grid point: its id, grid index, overrides and validated study."""
+    """One grid point: its id, grid index, overrides and validated study; ``engine``: the
+    FE engine of its study (:func:`copdea_fem.fe.engine_for`, resolved once; None for the
+    ring model)."""
 
     point_id: str
     index: tuple
@@ -92,3 +94,4 @@ class SweepPoint:
     context_key: str
     space_key: str
     study_hash: str
+    engine: object = None

@@ -8,7 +8,7 @@ import json
 
 import numpy as np
 
-from copdea_fem.fe.airbox import check_air_lift
+from copdea_fem.fe import check_air_lift, engine_for
 from copdea_fem.fingerprint import model_fingerprint
 from copdea_fem.study import Study, StudyError
 from copdea_fem.sweeps.axes import (
@@ -33,13 +33,13 @@ def _context_key(study: Study, model: str) -> str:
     return content_hash({"model": model, **values})
 
 
-def _space_key(study: Study, model: str) -> str:
-    """Points with equal keys have shape vectors in the same basis (MAC by mass matrix)."""
+def _space_key(study: Study, model: str, engine) -> str:
+    """Points with equal keys have shape vectors in the same basis (MAC by mass matrix):
+    the ring model's, or the FE space of the point's engine
+    (:meth:`copdea_fem.fe.engines.Engine.space_key`)."""
     if model == "reduced":
         return f"rings:{study['reduced']['rings']}:{study['disc']['motion']}"
-    from copdea_fem.fe.quadrant.geometry import GeometrySpec
-    spec = GeometrySpec.from_study(study, with_air=model == "coupled")
-    return f"fe:{spec.key()}:order{study['mesh']['order']}:curve{study['mesh']['curve_order']}"
+    return engine.space_key(study, with_air=model == "coupled")
 
 
 def expand_grid(base: Study, axes: list[Axis], model: str) -> list[SweepPoint]:
@@ -65,14 +65,16 @@ def expand_grid(base: Study, axes: list[Axis], model: str) -> list[SweepPoint]:
             raise sweep_error("air.enabled", True, "false with model: dry (model: coupled couples "
                               "the air)", f"grid point p{number:0{width}d}")
         study.name = f"{base.name}/p{number:0{width}d}"
+        engine = None if model == "reduced" else engine_for(study)
         hashed = {s: v for s, v in study.values.items() if s != "output"}
         # a finished point is resumed only under the code that computed it
         hashed["code"] = model_fingerprint(model)
         points.append(SweepPoint(point_id=f"p{number:0{width}d}", index=tuple(index),
                                  overrides=overrides, study=study,
                                  context_key=_context_key(study, model),
-                                 space_key=_space_key(study, model),
-                                 study_hash=content_hash({"model": model, **hashed})))
+                                 space_key=_space_key(study, model, engine),
+                                 study_hash=content_hash({"model": model, **hashed}),
+                                 engine=engine))
     return points
 
 

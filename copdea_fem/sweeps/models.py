@@ -17,7 +17,7 @@ from copdea_fem.study import Study
 from copdea_fem.sweeps.spec import ReuseSettings, SweepPoint
 
 if TYPE_CHECKING:
-    from copdea_fem.fe.engines import Engine
+    from copdea_fem.fe import Engine
 
 
 @dataclass
@@ -93,22 +93,20 @@ class _FEModel:
     with_air = False
 
     def modes(self, study, **reuse):
-        """(state, modes, eigen result) of one point: :func:`copdea_fem.fe.pipeline.dry_modes`."""
-        from copdea_fem.fe.pipeline import dry_modes
+        """(state, modes, eigen result) of one point: :func:`copdea_fem.fe.dry_modes`."""
+        from copdea_fem.fe import dry_modes
         return dry_modes(study, **reuse)
 
     def check_available(self, sweep) -> None:
         """Refuse a factorisation back-end this machine lacks before any point runs."""
-        from copdea_fem.fe.pipeline import require_backend
+        from copdea_fem.fe import require_backend
         for point in sweep.points:
             require_backend(point.study)
 
     def solve(self, point: SweepPoint, chain: ChainState, reuse: ReuseSettings,
               needs_sampling: bool) -> PointResult:
-        from copdea_fem.fe.engines import engine_for
         from copdea_fem.progress import Timings
-        study = point.study
-        engine = engine_for(study)          # resolved once for the point, passed down
+        study, engine = point.study, point.engine     # resolved once for the point
         timings = Timings()
         start = time.perf_counter()
         mesh, mesh_reused = _mesh_for(study, engine, self.with_air, reuse.mesh, timings)
@@ -176,8 +174,8 @@ class _CoupledModel(_FEModel):
 
     def modes(self, study, **reuse):
         """(state, modes, eigen result) of one point:
-        :func:`copdea_fem.fe.pipeline.coupled_modes`."""
-        from copdea_fem.fe.pipeline import coupled_modes
+        :func:`copdea_fem.fe.coupled_modes`."""
+        from copdea_fem.fe import coupled_modes
         solution = coupled_modes(study, **reuse)
         return solution.state, solution.modes, solution.eigen
 

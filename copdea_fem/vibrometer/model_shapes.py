@@ -33,22 +33,24 @@ def fe_shapes(study, scan, *, solve=None) -> FEShapes:
         ``air.enabled``; the band ``eigen.f_min..f_max`` should cover the scan's).
     scan : copdea_fem.measured.ScanData
     solve : callable, optional
-        ``solve(study) -> SolveResult`` (:func:`copdea_fem.fe.pipeline.run_solve`, the
-        default).
+        ``solve(study) -> SolveResult``; default :func:`copdea_fem.fe.run_solve` on the
+        study's engine (:func:`copdea_fem.fe.engine_for`, resolved here once).
 
     Returns
     -------
     FEShapes
         Labels, frequencies [Hz] and velocity shapes (C, K) of the structural modes.
     """
-    from copdea_fem.fe.pipeline import run_solve
-
-    result = (solve or run_solve)(study.replace({"output.plots": False,
-                                                 "output.paraview": False}))
+    study = study.replace({"output.plots": False, "output.paraview": False})
+    if solve is None:
+        from copdea_fem.fe import engine_for, run_solve
+        result = run_solve(study, engine=engine_for(study))
+    else:
+        result = solve(study)
     modes = [mode for mode in result.modes if mode.kind in STRUCTURAL_KINDS and mode.label]
     logger.info("FE: %d structural modes sampled at %d scan points", len(modes),
                 scan.n_points)
-    return FEShapes.from_modes(modes, mode_shapes_at_scan(result.state, modes, scan))
+    return FEShapes.from_modes(modes, mode_shapes_at_scan(result, modes, scan))
 
 
 def correlate_identified(condition: str, identified, fe: FEShapes, *,

@@ -17,6 +17,9 @@ n of a coupled out-of-plane mode is its dry partner's (best MAC).
 from __future__ import annotations
 
 import contextlib
+import dataclasses
+import hashlib
+import json
 import logging
 
 import numpy as np
@@ -37,6 +40,7 @@ from copdea_fem.fe.axisymmetric.prestress import make_axisymmetric_solver
 from copdea_fem.fe.bands import BandSolver, OrderStop, coupled_start_modes, lowest_frequency_hz
 from copdea_fem.fe.cavity import lowest_order_frequency, without_static_solution
 from copdea_fem.fe.eigen import SectorBandResults
+from copdea_fem.fe.forced.problem import DrivenPart, band_parts
 from copdea_fem.fe.modes import AIR, OUT_OF_PLANE, mac, match_dry, membrane_energy_fractions
 from copdea_fem.fe.solution import CoupledSolution
 from copdea_fem.progress import Timings, single_threaded_blas, tagging
@@ -286,6 +290,15 @@ class AxisymmetricEngine:
         """What the meridian mesh depends on (it always holds the air)."""
         return MeridianSpec.from_study(study), study["mesh"]["curve_order"]
 
+    def space_key(self, study, with_air: bool) -> str:
+        """The FE space of the modes' vectors: the meridian mesh's spec (it always holds the
+        air), order and curving."""
+        spec = json.dumps(dataclasses.asdict(MeridianSpec.from_study(study)), sort_keys=True,
+                          default=str)
+        digest = hashlib.sha1(spec.encode()).hexdigest()[:16]
+        return (f"axisymmetric:{digest}:order{study['mesh']['order']}:"
+                f"curve{study['mesh']['curve_order']}")
+
     def prepare_mesh(self, study, with_air=None, cache_dir=None):
         return prepare_meridian(study)
 
@@ -328,6 +341,39 @@ class AxisymmetricEngine:
         state = solve_axisymmetric_prestress(study, mesh)
         timings["prestress"] = time.perf_counter() - start
         return order_zero_problem(study, mesh, state, timings)
+
+    def driven_parts(self, solution, study) -> list[DrivenPart]:
+        """The orders m of a solve with their pencils: the coupled operators the solve kept
+        (with air), else each order's dry operators rebuilt."""
+        from copdea_fem.fe.forced.harmonic import DryPencil
+
+        bands = band_parts(solution.eigen)
+        if solution.coupled is not None:
+            pencils = list(solution.coupled.operators)
+        else:
+            forms = OrderForms(solution.state, study)
+            pencils = [DryPencil(forms.operators(int(key.split("=")[1]))) for key in bands]
+        return [DrivenPart(key, pencil, band, m=int(pencil.membrane.m))
+                for (key, band), pencil in zip(bands.items(), pencils)]
+
+    def electrode_forcing(self, state, part: DrivenPart, electrode) -> np.ndarray:
+        """The forcing [N/V] of the weight ``cos(m theta)`` on the order's cos family
+        (:func:`copdea_fem.fe.axisymmetric.forcing.order_forcing`; ``electrode``'s factors of
+        the order's families: :meth:`copdea_fem.fe.forced.problem.DrivenPart.families`)."""
+        from copdea_fem.fe.axisymmetric.forcing import order_forcing
+        return order_forcing(state, part.pencil.membrane)
+
+    def point_sampler(self, state, positions):
+        """The fields of ``state`` at points of the prestressed device
+        (:class:`copdea_fem.fe.axisymmetric.points.MeridianPoints`)."""
+        from copdea_fem.fe.axisymmetric.points import MeridianPoints
+        return MeridianPoints(state, positions)
+
+    def prestressed_positions(self, state, reference_xy, disc_z: float) -> np.ndarray:
+        """Where reference points lie on the prestressed device
+        (:meth:`copdea_fem.fe.points.PointSampler.prestressed_positions`)."""
+        from copdea_fem.fe.axisymmetric.points import MeridianPoints
+        return MeridianPoints.prestressed_positions(state, reference_xy, disc_z)
 
     def tracking_arrays(self, state, modes, needs_sampling: bool) -> dict:
         """Orders have spaces of their own: the sweeps compare shapes on the polar grid

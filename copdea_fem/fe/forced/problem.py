@@ -1,8 +1,10 @@
-"""The prestressed problem that ``copdea-fem response`` drives (either engine).
+"""What an engine hands the forced response (either engine): the prestressed problem that
+``copdea-fem response`` drives (:class:`OrderZero`, :class:`DrivenSector`) and the parts of a
+solve that an electrode drives (:class:`DrivenPart`).
 
 Below the engines, so that the engines' builders (:mod:`copdea_fem.fe.quadrant.forced`,
-:mod:`copdea_fem.fe.axisymmetric.forced`) and the pipeline above them
-(:mod:`copdea_fem.forced_response.run`) share it without an import running back up.
+:mod:`copdea_fem.fe.axisymmetric.forced`) and the driver above them
+(:mod:`copdea_fem.forced_response`) share them without an import running back up.
 """
 
 from __future__ import annotations
@@ -32,6 +34,51 @@ class DrivenSector:
     write_shapes: Callable          # (staging, state, coupled, shapes, pressures) -> (files, air)
     default_method: str = "modal"   # what ``response.method: auto`` means here
     modal_method: str = "modal"     # ... and where the damping is the paper's modal b/m
+
+
+@dataclass
+class DrivenPart:
+    """One independently solved part of a solve (a symmetry sector, an order m or the whole
+    mesh) with its band result: what an electrode drives
+    (:meth:`copdea_fem.fe.engines.Engine.driven_parts`).
+
+    Attributes
+    ----------
+    key : str
+        The part's name in the solve's band results (``"all"``, a sector's, ``"m=<m>"``).
+    pencil : object
+        The part's coupled operators, or a :class:`copdea_fem.fe.forced.harmonic.DryPencil`
+        in vacuo; ``pencil.membrane`` its membrane operators.
+    band : object
+        Its eigen result (eigenvalues, vectors on the pencil's unknowns).
+    sector : Sector or None
+        The 3-D symmetry sector (None on a whole mesh and on the axisymmetric engine).
+    m : int or None
+        The axisymmetric order (None on the 3-D engine).
+    """
+
+    key: str
+    pencil: object
+    band: object
+    sector: object = None
+    m: int | None = None
+
+    def families(self, electrode) -> list[tuple[str, float]]:
+        """``(family, factor)`` of each field of the part that ``electrode`` (an
+        :class:`copdea_fem.fe.forced.electrode.ElectrodeImperfection`) drives: an order's
+        cos and sin families by the electrode's ``family_weights`` (those not zero), a 3-D
+        part whole (its forcing holds the folded weight)."""
+        if self.m is None:
+            return [("cos", 1.0)]
+        return [(family, factor) for family, factor in zip(
+            ("cos", "sin"), electrode.family_weights(self.m)) if factor != 0.0]
+
+
+def band_parts(eigen) -> dict:
+    """The band result of each part of a solve: ``{part key: band result}`` (one part
+    ``"all"`` where the solve had one band; none where its parts found no mode)."""
+    by_sector = getattr(eigen, "by_sector", None)
+    return {"all": eigen} if by_sector is None else by_sector
 
 
 @dataclass

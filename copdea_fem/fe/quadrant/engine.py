@@ -19,6 +19,7 @@ import numpy as np
 
 from copdea_fem.fe.bands import BandSolver, coupled_start_modes
 from copdea_fem.fe.cavity import label_cavity_modes, without_static_solution
+from copdea_fem.fe.forced.problem import DrivenPart, band_parts
 from copdea_fem.fe.linearise import linearised_operators, operator_damping
 from copdea_fem.fe.modes import AIR, ModeSampler, classify_modes, sector_family
 from copdea_fem.fe.prestress import solve_prestress
@@ -105,6 +106,11 @@ class QuadrantEngine:
         return GeometrySpec.from_study(study, with_air=with_air).key(), \
             study["mesh"]["curve_order"]
 
+    def space_key(self, study, with_air: bool) -> str:
+        """The FE space of the modes' vectors: its mesh's geometry key, order and curving."""
+        spec = GeometrySpec.from_study(study, with_air=with_air)
+        return f"fe:{spec.key()}:order{study['mesh']['order']}:curve{study['mesh']['curve_order']}"
+
     def prepare_mesh(self, study, with_air=None, cache_dir=None):
         """The (cached) 3-D mesh; ``cache_dir=None``:
         :func:`copdea_fem.fe.quadrant.geometry.mesh_cache_dir`."""
@@ -121,6 +127,38 @@ class QuadrantEngine:
         """The even-even symmetry sector, forced (:mod:`copdea_fem.fe.quadrant.forced`)."""
         from copdea_fem.fe.quadrant.forced import prepare_quadrant
         return prepare_quadrant(study)
+
+    def driven_parts(self, solution, study) -> list[DrivenPart]:
+        """The symmetry sectors of a solve (or its whole mesh) with their pencils: the coupled
+        operators the solve kept (with air), else the whole plane's dry operators."""
+        from copdea_fem.fe.forced.harmonic import DryPencil
+        from copdea_fem.fe.linearise import linearised_operators
+
+        bands = band_parts(solution.eigen)
+        if solution.coupled is not None:
+            pencils = list(solution.coupled.operators)
+        else:
+            pencils = [DryPencil(linearised_operators(solution.state, study))]
+        return [DrivenPart(key, pencil, band, sector=pencil.membrane.sector)
+                for (key, band), pencil in zip(bands.items(), pencils)]
+
+    def electrode_forcing(self, state, part: DrivenPart, electrode) -> np.ndarray:
+        """The forcing [N/V] of ``electrode`` on the part's membrane unknowns: the sector's
+        of the folded weight (:func:`copdea_fem.fe.quadrant.forced.quadrant_forcing`)."""
+        from copdea_fem.fe.quadrant.forced import quadrant_forcing
+        return quadrant_forcing(state, part.pencil.membrane, electrode)[0]
+
+    def point_sampler(self, state, positions):
+        """The fields of ``state`` at points of the prestressed device
+        (:class:`copdea_fem.fe.quadrant.points.QuadrantPoints`)."""
+        from copdea_fem.fe.quadrant.points import QuadrantPoints
+        return QuadrantPoints(state, positions)
+
+    def prestressed_positions(self, state, reference_xy, disc_z: float) -> np.ndarray:
+        """Where reference points lie on the prestressed device
+        (:meth:`copdea_fem.fe.points.PointSampler.prestressed_positions`)."""
+        from copdea_fem.fe.quadrant.points import QuadrantPoints
+        return QuadrantPoints.prestressed_positions(state, reference_xy, disc_z)
 
     def tracking_arrays(self, state, modes, needs_sampling: bool) -> dict:
         """Membrane vectors of the device and M times them (M the pipeline's own,
