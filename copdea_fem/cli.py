@@ -59,7 +59,7 @@ def _study(args):
 
 
 def _out_dir(args, study) -> Path:
-    return Path(args.out) if args.out else Path(study["output"]["directory"])
+    return Path(args.out) if args.out else Path(study.output.directory)
 
 
 @contextlib.contextmanager
@@ -177,7 +177,7 @@ def _existing(path, what: str):
 def _modes_json(args, study):
     if args.modes_json:
         return _existing(args.modes_json, "--modes-json")
-    return _existing(study["reduced"]["modes_json"], "reduced.modes_json")
+    return _existing(study.reduced.modes_json, "reduced.modes_json")
 
 
 def cmd_spectrum(args) -> int:

@@ -213,7 +213,8 @@ def test_prony_and_rayleigh_keys_are_validated():
 def test_without_damping_keys_the_linear_path_runs():
     """The one branch point: no terms -> solve_band itself (Hermitian, Lanczos)."""
     from copdea_fem.fe.linearise import damping_terms
-    keys = {"rayleigh_alpha": 0.0, "rayleigh_beta": 0.0, "prony": []}
+    from copdea_fem.study import SECTION_CLASSES
+    keys = SECTION_CLASSES["membrane"](rayleigh_alpha=0.0, rayleigh_beta=0.0, prony=())
     assert damping_terms(None, None, keys) is None
     import scipy.sparse as sp
     stiffness = sp.diags(np.arange(1.0, 200.0) ** 2 * 1e4).tocsr()

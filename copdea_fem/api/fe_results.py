@@ -291,12 +291,12 @@ def prepare_force(study: Study, voltages: str | Sequence[str | float] = "0 kV, 3
     """
     import numpy as np
 
-    if study["geometry"]["inner_radius"] == 0:
+    if study.geometry.inner_radius == 0:
         raise StudyError("geometry.inner_radius = 0 is not allowed for `force`; allowed: > 0 "
                          "(a full membrane has no disc to pull)")
     voltage_list = _quantity_list(voltages, "--voltages", "V")
     if z_max is None:
-        z_max = max(study["load"]["z"], 0.018)
+        z_max = max(study.load.z, 0.018)
     else:
         z_max = _quantity_list(z_max if isinstance(z_max, str) else [z_max], "--z-max", "m")[0]
     if points < 2:

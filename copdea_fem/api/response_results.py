@@ -195,8 +195,8 @@ def spectrum(study: Study | str | Path, modes_json: str | Path | None = None) ->
     study = as_study(study)
     if modes_json is not None:
         read_text(modes_json, "--modes-json", error=StudyError)
-    elif study["reduced"]["modes_json"]:
-        read_text(study["reduced"]["modes_json"], "reduced.modes_json", error=StudyError)
+    elif study.reduced.modes_json:
+        read_text(study.reduced.modes_json, "reduced.modes_json", error=StudyError)
     fe, fe_path = fe_frequencies(study, modes_json)
     setup = build_reduced(study, fe)
     return Spectrum(study, setup, spectra_of(setup), modes_json, fe_path)

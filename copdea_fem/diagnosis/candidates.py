@@ -72,7 +72,7 @@ def candidate_groups(scorer, state, base_study) -> tuple[list, dict]:
                                   "membrane (no central disc), and the FE does not model "
                                   "it")
             continue
-        if effect_id == "disc_pumping" and base_study["geometry"]["inner_radius"] == 0:
+        if effect_id == "disc_pumping" and base_study.geometry.inner_radius == 0:
             skipped[effect_id] = "a membrane without a disc has no disc to pump"
             continue
         if effect_id in MOUNTINGS:
@@ -124,7 +124,7 @@ def mounting_skipped(effect_id, state, base_study) -> str | None:
     if added:
         return f"another mounting ({added}) is in the model: one mounting at a time"
     stated = base_mounting(base_study)
-    if stated not in (None, "open_air") and not base_study["air"]["enabled"]:
+    if stated not in (None, "open_air") and not base_study.air.enabled:
         return (f"another mounting ({stated}) is in the model: one mounting at a time "
                 "(the base study states it without air, air.enabled: false)")
     return None

@@ -68,9 +68,10 @@ def read_modes_json(path, study=None) -> dict:
                          'allowed: {"study": {...}, "modes": [{"label": ..., "freq_hz": ...}]}') \
             from None
     if study is not None and isinstance(data.get("study"), dict):
+        values = study.values
         for section in _COMPARED_SECTIONS:
             theirs = data["study"].get(section) or {}
-            for key, mine in study[section].items():
+            for key, mine in values[section].items():
                 other = theirs.get(key)
                 if isinstance(mine, (int, float)) and isinstance(other, (int, float)) and not (
                         math.isclose(mine, other, rel_tol=1e-9, abs_tol=1e-15)):
@@ -224,14 +225,14 @@ def plot_mode_shapes(path, setup):
 
 # -- CLI actions --------------------------------------------------------------------------------
 def fe_frequencies(study, modes_json):
-    path = modes_json or study["reduced"]["modes_json"]
+    path = modes_json or study.reduced.modes_json
     return (read_modes_json(path, study) if path else {}), path
 
 
 def _title(study):
-    g, load = study["geometry"], study["load"]
-    return (f"{study.name}: r_i = {1e3 * g['inner_radius']:g} mm, z = {1e3 * load['z']:g} mm, "
-            f"V_b = {load['voltage'] / 1e3:g} kV, {study['reduced']['rings']} rings")
+    g, load = study.geometry, study.load
+    return (f"{study.name}: r_i = {1e3 * g.inner_radius:g} mm, z = {1e3 * load.z:g} mm, "
+            f"V_b = {load.voltage / 1e3:g} kV, {study.reduced.rings} rings")
 
 
 def write_spectrum_files(out, study, setup, result) -> list:
@@ -258,7 +259,7 @@ def write_spectrum_files(out, study, setup, result) -> list:
            for key in ("reference_radius", "radius", "height", "radial", "axial")))))
     dump_resolved(study, out / "reduced_study.resolved.yaml")
     files.append(out / "reduced_study.resolved.yaml")
-    if study["output"]["plots"]:
+    if study.output.plots:
         title = _title(study)
         for name, plot in (("spectrum_average.png", plot_average),
                            ("spectrum_points.png", plot_points)):
@@ -302,10 +303,10 @@ def spectrum_summary(study, setup, fe_path) -> dict:
     if len(setup.pumping_frequency_hz):
         lines.append("Annex I pumping modes (eq. 22): " + ", ".join(
             f"P{k + 1} {f:.2f} Hz" for k, f in enumerate(setup.pumping_frequency_hz)))
-    if study["load"]["voltage"] == 0:
+    if study.load.voltage == 0:
         lines.append("note: load.voltage = 0: eq. (14) has no forcing (V_b V~ dC/dq = 0; the "
                      "true response is quadratic in V~), so the spectra are zero")
-    elif study["excitation"]["amplitude"] > 0.1 * study["load"]["voltage"]:
+    elif study.excitation.amplitude > 0.1 * study.load.voltage:
         lines.append("note: excitation.amplitude > 10 % of load.voltage: the linearisation of "
                      "Sect. 3.2 assumes |V~| << V_b; expect distortion the model does not show")
     if fe_path:
@@ -326,7 +327,7 @@ def fit_material_cli(study, data_csv, out_dir) -> dict:
     data = read_force_csv(data_csv)
     model = RingModel.from_study(study)
     count = data["z_m"].size
-    voltage = data.get("voltage_v", np.full(count, study["load"]["voltage"]))
+    voltage = data.get("voltage_v", np.full(count, study.load.voltage))
     fit = fit_material(model, data["z_m"], data["force_n"], voltage,
                        prestretch=data.get("prestretch"), inner_radius=data.get("inner_radius_m"),
                        force_std=data.get("force_std_n"))
@@ -335,7 +336,7 @@ def fit_material_cli(study, data_csv, out_dir) -> dict:
         files = [write_csv(staging / "material_fit.csv",
                            ("parameter", "value_pa", "standard_error_pa"),
                            (PARAMETERS, fit.values, fit.standard_error))]
-        if study["output"]["plots"]:
+        if study.output.plots:
             files.append(_plot_force_fit(staging / "material_fit.png", study, model, fit, data,
                                          voltage))
     files = [out / path.name for path in files]
@@ -418,7 +419,7 @@ def calibrate_damping_cli(study, spectrum_csv, out_dir, modes_json=None,
                            (calibration.labels, setup.reduced.frequency_hz,
                             calibration.measured_peak, calibration.model_peak,
                             calibration.damping_per_mass))]
-        if study["output"]["plots"]:
+        if study.output.plots:
             calibrated = setup.reduced.with_damping_per_mass(calibration.damping_per_mass)
             plot_average(staging / "damping_calibration.png", spectra_of(setup, calibrated),
                          calibrated, _title(study) + " (damping calibrated)", measured=measured)

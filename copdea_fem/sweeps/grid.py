@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import itertools
 import json
@@ -36,10 +37,10 @@ def _context_key(study: Study, model: str) -> str:
 def _space_key(study: Study, model: str) -> str:
     """Points with equal keys have shape vectors in the same basis (MAC by mass matrix)."""
     if model == "reduced":
-        return f"rings:{study['reduced']['rings']}:{study['disc']['motion']}"
+        return f"rings:{study.reduced.rings}:{study.disc.motion}"
     from copdea_fem.fe.quadrant.geometry import GeometrySpec
     spec = GeometrySpec.from_study(study, with_air=model == "coupled")
-    return f"fe:{spec.key()}:order{study['mesh']['order']}:curve{study['mesh']['curve_order']}"
+    return f"fe:{spec.key()}:order{study.mesh.order}:curve{study.mesh.curve_order}"
 
 
 def expand_grid(base: Study, axes: list[Axis], model: str) -> list[SweepPoint]:
@@ -61,10 +62,10 @@ def expand_grid(base: Study, axes: list[Axis], model: str) -> list[SweepPoint]:
         except StudyError as error:
             where = ", ".join(f"{a.key} = {a.values[i]!r}" for a, i in zip(axes, index))
             raise SweepError(f"grid point p{number:0{width}d} ({where}): {error}") from None
-        if model == "dry" and study["air"]["enabled"]:
+        if model == "dry" and study.air.enabled:
             raise sweep_error("air.enabled", True, "false with model: dry (model: coupled couples "
                               "the air)", f"grid point p{number:0{width}d}")
-        study.name = f"{base.name}/p{number:0{width}d}"
+        study = dataclasses.replace(study, name=f"{base.name}/p{number:0{width}d}")
         hashed = {s: v for s, v in study.values.items() if s != "output"}
         # a finished point is resumed only under the code that computed it
         hashed["code"] = model_fingerprint(model)

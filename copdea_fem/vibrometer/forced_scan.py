@@ -162,7 +162,7 @@ def scan_response(solution, study, positions, frequencies, imperfection, *,
         force = part_forcing(state, part, imperfection)
         size = part.pencil.membrane.stiffness.shape[0]
         forced = ForcedOrder.from_parts(part.pencil, force, sp.csr_matrix((size, size)), 0.0,
-                                        study["eigen"]["backend"])
+                                        study.eigen.backend)
         eigenvalues = np.asarray(band.eigenvalues, complex)
         shares = (np.asarray(membrane_energy_fractions(part.pencil, band))
                   if len(part.pencil.pressure_index) else np.ones(eigenvalues.size))
