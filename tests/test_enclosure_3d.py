@@ -330,9 +330,8 @@ def test_both_engines_agree_on_the_same_cylinder(case, tmp_path, monkeypatch, fi
     monkeypatch.setenv("COPDEA_FEM_MESH_CACHE", str(tmp_path))
     if case == "dry-stiff":
         def study_of(engine):
-            study = cavity_study("cylinder", "8 mm", f_max="5 kHz")
-            study["mesh"]["engine"] = engine
-            return study
+            return cavity_study("cylinder", "8 mm", f_max="5 kHz").replace(
+                {"mesh.engine": engine})
         expected = {"cavity(1,0,0)a", "cavity(0,0,1)", "cavity(1,0,1)a", "cavity(2,0,0)a"}
     else:
         overrides = dict(BOTH_ENGINES)

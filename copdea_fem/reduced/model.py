@@ -152,7 +152,7 @@ def build_reduced(study, fe_frequencies: Mapping[str, float] | None = None) -> R
     ratios, sources, damping = [], [], []
     for mode in modes:
         key = _COUPLED_KEYS.get(mode.label)
-        given = study.reduced[key] if key else None
+        given = study.get(f"reduced.{key}") if key else None
         if given is not None:
             ratio, source = added_mass_ratio_from_frequency(mode.frequency_hz, given,
                                                             mode.label), f"reduced.{key}"
