@@ -60,6 +60,9 @@ from copdea_fem.study import DEFAULT_MICROPHONE, StudyError, listed_microphones
 
 if TYPE_CHECKING:
     from copdea_fem.fe.engines import Engine
+    from copdea_fem.fe.forced.harmonic import ModalBasis
+    from copdea_fem.fe.modes import Mode
+    from copdea_fem.forced_response.reduced_basis import ReducedBasis
 
 logger = logging.getLogger(__name__)
 
@@ -272,13 +275,13 @@ class ResponseResult:
     average_radial: np.ndarray
     point_axial: np.ndarray           # (lines, 3) m/s
     point_radial: np.ndarray
-    microphones: list                 # [(name, position [m])]
+    microphones: list[tuple[str, np.ndarray]]   # (name, position (x, y, z) [m])
     pressure: np.ndarray              # (lines, microphones) complex amplitude [Pa]
     spl_db: np.ndarray                # (lines, microphones)
     method: str
     far_field: str
-    modes: list
-    basis: object                     # ModalBasis (modal), ReducedBasis (reduced) or None
+    modes: list[Mode]
+    basis: ModalBasis | ReducedBasis | None     # modal, reduced, or None (direct)
     vectors: np.ndarray               # (n, K) basis vectors
     weights: np.ndarray               # (lines, K): x(line) = vectors @ weights[line]
     problem: OrderZero
