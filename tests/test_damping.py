@@ -17,7 +17,7 @@ from copdea_fem.fe.eigen.damped import (
     solve_damped_band,
     solve_structural_band,
 )
-from copdea_fem.study import StudyError, parse_study
+from copdea_fem.study import PronyTerm, StudyError, parse_study
 
 
 def coarse_study(**sections):
@@ -194,8 +194,8 @@ def test_coupled_beta_changes_im_f_by_minus_pi_beta_f2():
 def test_prony_and_rayleigh_keys_are_validated():
     study = coarse_study(membrane={"prony": [{"modulus_ratio": 0.5, "relaxation_time": "1 ms"}],
                                    "rayleigh_beta": "2 us"}, eigen={"f_min": 10})
-    assert study["membrane"]["prony"] == [{"modulus_ratio": 0.5, "relaxation_time": 1e-3}]
-    assert study["membrane"]["rayleigh_beta"] == pytest.approx(2e-6)
+    assert study.membrane.prony == (PronyTerm(0.5, 1e-3),)
+    assert study.membrane.rayleigh_beta == pytest.approx(2e-6)
     for bad, key in (([{"modulus_ratio": 0.5}], "membrane.prony[0]"),
                      ("fast", "membrane.prony"),
                      ([{"modulus_ratio": 0, "relaxation_time": 1}],

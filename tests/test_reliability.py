@@ -1139,7 +1139,7 @@ def is_new(out: Path) -> bool:
     """``out`` holds the complete result of the run at load.voltage = 1 kV."""
     from copdea_fem.study import load_study
     saved = load_study(out / "reduced_study.resolved.yaml")
-    return saved["load"]["voltage"] == 1000.0 and set(folders.read_manifest(out)["files"]) == {
+    return saved.load.voltage == 1000.0 and set(folders.read_manifest(out)["files"]) == {
         p.name for p in out.iterdir() if p.name != folders.MANIFEST}
 
 

@@ -23,30 +23,30 @@ def test_units_are_converted_to_si():
                          "membrane": {"c10": "228.5 kPa", "thickness": "100 um",
                                       "density": "1.49 g/cm^3"},
                          "disc": {"mass": "1.9 g"}})
-    assert study["geometry"]["outer_radius"] == pytest.approx(0.0355)
-    assert study["geometry"]["inner_radius"] == 0.012
-    assert study["load"]["voltage"] == pytest.approx(2000.0)
-    assert study["load"]["z"] == pytest.approx(0.016)
-    assert study["membrane"]["c10"] == pytest.approx(228.5e3)
-    assert study["membrane"]["thickness"] == pytest.approx(100e-6)
-    assert study["membrane"]["density"] == pytest.approx(1490.0)
-    assert study["disc"]["mass"] == pytest.approx(1.9e-3)
+    assert study.geometry.outer_radius == pytest.approx(0.0355)
+    assert study.geometry.inner_radius == 0.012
+    assert study.load.voltage == pytest.approx(2000.0)
+    assert study.load.z == pytest.approx(0.016)
+    assert study.membrane.c10 == pytest.approx(228.5e3)
+    assert study.membrane.thickness == pytest.approx(100e-6)
+    assert study.membrane.density == pytest.approx(1490.0)
+    assert study.disc.mass == pytest.approx(1.9e-3)
 
 
 def test_defaults_are_table_1_and_derived_defaults_follow_r_o():
     study = parse_study({"geometry": {"outer_radius": "40 mm", "inner_radius": "10 mm",
                                        "frame": "none"}})
-    assert study["membrane"]["prestretch"] == 1.2
-    assert study["air"]["domain_radius"] == pytest.approx(3.5 * 0.040)
-    assert study["air"]["pml_thickness"] == pytest.approx(0.5 * 0.040)
-    assert study["output"]["directory"] == "results/study"
+    assert study.membrane.prestretch == 1.2
+    assert study.air.domain_radius == pytest.approx(3.5 * 0.040)
+    assert study.air.pml_thickness == pytest.approx(0.5 * 0.040)
+    assert study.output.directory == "results/study"
 
 
 def test_overrides_are_yaml_typed_and_validated():
     overrides = parse_overrides(["load.voltage=3 kV", "air.enabled=false", "mesh.order=2"])
     assert overrides == {"load.voltage": "3 kV", "air.enabled": False, "mesh.order": 2}
     study = parse_study({}, overrides=overrides)
-    assert study["load"]["voltage"] == 3000.0 and study["mesh"]["order"] == 2
+    assert study.load.voltage == 3000.0 and study.mesh.order == 2
 
 
 def test_resolved_study_round_trips(tmp_path):

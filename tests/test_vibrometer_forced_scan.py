@@ -44,7 +44,7 @@ def _response(study, imperfection, damping_per_mass=30.0, lines=LINES):
     reference, _ = psv_reference_grid(solution.state.outer_radius,
                                       solution.state.inner_radius,
                                       ScanOptions(rings=3, per_ring=8, disc_points=2))
-    positions = prestressed_positions(solution.state, reference, study["load"]["z"])
+    positions = prestressed_positions(solution.state, reference, study.load.z)
     response = scan_response(solution, study, positions, lines, imperfection,
                              damping_per_mass=lambda mode: damping_per_mass)
     return response, positions
