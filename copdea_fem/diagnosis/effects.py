@@ -460,11 +460,11 @@ def prony_overrides(study, values) -> dict:
 
 
 def prony_band_floor(terms, eigen, f_max: float | None = None) -> float | None:
-    """The ``eigen.f_min`` [Hz] that keeps the Prony ``terms``' (:class:`PronyTerm`) relaxation spectrum
-    (Re f = 0, |Im f| >= 1 / (2 pi tau_max (1 + sum g))) out of the FE's band, where the
-    study's check (:func:`copdea_fem.study.parse_study`) would refuse ``eigen`` (with
-    ``f_max`` [Hz] in place of its own, the diagnosis's FE band; ``eigen``: the study's
-    section ``study.eigen``); None: no change."""
+    """The ``eigen.f_min`` [Hz] that keeps the relaxation spectrum of the Prony ``terms``
+    (:class:`PronyTerm`; Re f = 0, |Im f| >= 1 / (2 pi tau_max (1 + sum g))) out of the FE's
+    band, where the study's check (:func:`copdea_fem.study.parse_study`) would refuse
+    ``eigen`` (the study's section ``study.eigen``; ``f_max`` [Hz] in place of its own, the
+    diagnosis's FE band); None: no change."""
     if not terms:
         return None
     lowest = 1.0 / (2 * math.pi * max(t.relaxation_time for t in terms)
