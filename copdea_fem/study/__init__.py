@@ -65,6 +65,6 @@ __all__ = ["AXISYMMETRIC_ENCLOSURES", "AXISYMMETRIC_FRAMES", "DEFAULT_MICROPHONE
            "MAX_ELEMENTS_ACROSS", "MAX_PRONY_TERMS", "MAX_QUANTITY_CHARACTERS", "META_KEYS",
            "MICROPHONES_ALLOWED", "OVERRIDES_ALLOWED", "PRONY_ALLOWED", "ROUND_OFF_ULPS",
            "SCHEMA", "SECTION_CLASSES", "Enclosure", "Key", "PronyTerm", "Study", "StudyError",
-           "above", "apart", "convert_quantity", "convert_value", "dump_resolved", "engine_of", "listed_microphones", "load_study",
-           "parse_overrides", "parse_study", "reduced_mode_labels", "reference_table",
-           "unit_registry"]
+           "above", "apart", "convert_quantity", "convert_value", "dump_resolved", "engine_of",
+           "listed_microphones", "load_study", "parse_overrides", "parse_study",
+           "reduced_mode_labels", "reference_table", "unit_registry"]
