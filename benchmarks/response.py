@@ -120,7 +120,7 @@ def run_accuracy(overrides: list[str]) -> dict:
     study = load_study(STUDY, overrides=parse_overrides(FILES_OFF + overrides))
     problem = prepare_order_zero(study, engine=engine_for(study))
     results, seconds = {}, {}
-    for name, method in (("default", study["response"]["method"]), ("modal", "modal")):
+    for name, method in (("default", study.response.method), ("modal", "modal")):
         variant = type(problem)(study.replace({"response.method": method}), problem.state,
                                 problem.coupled, problem.forced, dict(problem.timings),
                                 problem.sector)

@@ -391,8 +391,8 @@ def _with_keys(study, keys: dict, lowest_hz: float):
 def _probe_time(study, freq_hz) -> float:
     """tau_0 of the probe: near omega tau = 1 in the band, its relaxation spectrum
     (|Im f| >= 1 / (2 pi tau_0 (1 + g_0))) kept above the band's height (study check)."""
-    eigen = study["eigen"]
-    height = eigen["max_damping_ratio"] * eigen["f_max"]
+    eigen = study.eigen
+    height = eigen.max_damping_ratio * eigen.f_max
     centre = math.exp(np.mean(np.log(freq_hz)))
     return min(1 / (TWO_PI * centre), 1 / (TWO_PI * 2.2 * height * (1 + max(PROBE_RATIOS))))
 
@@ -420,8 +420,8 @@ def fit_damping(study, measured: MeasuredDamping, kind: str, relaxation_time=Non
     notes = []
     if missing and len(missing) < len(measured.labels):
         notes.append(f"measured mode(s) {', '.join(missing)} are not in the FE band "
-                     f"[eigen.f_min, eigen.f_max] = [{study['eigen']['f_min']:g}, "
-                     f"{study['eigen']['f_max']:g}] Hz: left out")
+                     f"[eigen.f_min, eigen.f_max] = [{study.eigen.f_min:g}, "
+                     f"{study.eigen.f_max:g}] Hz: left out")
         kept = [j for j, label in enumerate(measured.labels) if label in undamped]
         measured = MeasuredDamping([measured.labels[j] for j in kept],
                                    measured.damping_ratio[kept], None, measured.source)
@@ -429,8 +429,8 @@ def fit_damping(study, measured: MeasuredDamping, kind: str, relaxation_time=Non
         raise StudyError(
             f"measured mode(s) {', '.join(missing)} are not in the FE band of the study "
             f"(its modes: {', '.join(undamped)}); allowed: labels of the FE modes in "
-            f"[eigen.f_min, eigen.f_max] = [{study['eigen']['f_min']:g}, "
-            f"{study['eigen']['f_max']:g}] Hz")
+            f"[eigen.f_min, eigen.f_max] = [{study.eigen.f_min:g}, "
+            f"{study.eigen.f_max:g}] Hz")
     labels = list(measured.labels)
     freq = np.array([undamped[label][0] for label in labels])
     radiation = np.maximum([undamped[label][1] for label in labels], 0.0)   # dry: -0.0
@@ -442,7 +442,7 @@ def fit_damping(study, measured: MeasuredDamping, kind: str, relaxation_time=Non
                          f"damping {rad:.4g}: no structural damping to fit (left out)")
     strain = softening = None
     sensitivity = (np.ones(len(labels)), np.ones(len(labels)))
-    if kind == "rayleigh" and study["air"]["enabled"]:
+    if kind == "rayleigh" and study.air.enabled:
         # with the air the closed form holds for the membrane's share only: each term's
         # share per mode from one probe solve each (zeta ~ 1e-3, first order)
         centre = TWO_PI * math.exp(np.mean(np.log(freq)))

@@ -42,8 +42,8 @@ def annulus_roots(m: int, a: float, b: float, k_max: float) -> list[float]:
 
 def bessel_frequency(study, m, n) -> float:
     material = Membrane.from_study(study)
-    speed = math.sqrt(material.equibiaxial_tension(study["load"]["voltage"])
+    speed = math.sqrt(material.equibiaxial_tension(study.load.voltage)
                       / material.areal_density)       # m/s, c = sqrt(T / (rho h))
-    a, b = study["geometry"]["inner_radius"], study["geometry"]["outer_radius"]
-    k_max = 2 * math.pi * 1.5 * study["eigen"]["f_max"] / speed
+    a, b = study.geometry.inner_radius, study.geometry.outer_radius
+    k_max = 2 * math.pi * 1.5 * study.eigen.f_max / speed
     return annulus_roots(m, a, b, k_max)[n - 1] * speed / (2 * math.pi)

@@ -21,9 +21,9 @@ from copdea_fem.study import parse_study
 ngsolve = pytest.importorskip("ngsolve")
 
 DEFAULTS = parse_study({})
-DENSITY = DEFAULTS["air"]["density"]          # rho_a [kg/m^3]
-SOUND_SPEED = DEFAULTS["air"]["sound_speed"]  # c_a [m/s]
-OUTER_RADIUS = DEFAULTS["geometry"]["outer_radius"]  # r_o [m]
+DENSITY = DEFAULTS.air.density          # rho_a [kg/m^3]
+SOUND_SPEED = DEFAULTS.air.sound_speed  # c_a [m/s]
+OUTER_RADIUS = DEFAULTS.geometry.outer_radius  # r_o [m]
 FREQUENCIES = (200.0, 500.0, 1000.0)          # [Hz], the band of the coupled (0,1), (0,2) modes
 PRESSURE_ORDER = 2
 
@@ -189,7 +189,7 @@ def _air_mesh(mesh_cache, frame, domain_factor, membrane_size=0.009, symmetry="q
                          "mesh": {"membrane_size": membrane_size, "symmetry": symmetry}})
     spec = GeometrySpec.from_study(study)
     mesh = load_mesh(spec, curve_order=3, cache_dir=mesh_cache)
-    acoustics.set_pml(mesh, study["air"]["domain_radius"], study["air"]["pml_thickness"])
+    acoustics.set_pml(mesh, study.air.domain_radius, study.air.pml_thickness)
     space = acoustics.pressure_space(mesh, PRESSURE_ORDER, acoustics.screen_faces(frame))
     return mesh, space
 

@@ -22,7 +22,7 @@ def moved():
                          "load": {"z": Z, "voltage": "2 kV"}}, name="ale-test")
     mesh = prepare_mesh(study, with_air=True, engine=engine_for(study))
     state = solve_prestress(study, mesh)
-    return mesh, state, air_mesh_displacement(state, mesh, study["air"]["domain_radius"])
+    return mesh, state, air_mesh_displacement(state, mesh, study.air.domain_radius)
 
 
 def _on_plane(mesh, radii, angles=(0.2, 0.8, 1.4)):     # the default air mesh is a quadrant

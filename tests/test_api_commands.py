@@ -39,10 +39,10 @@ def test_fit_material_returns_the_fit_and_writes_it_into_the_default_folder(tmp_
     data = force_data(tmp_path / "force.csv", study)
     out = api.Output()
     result = cf.fit_material(study, data, out=out)
-    assert result.values["c10"] == pytest.approx(study["membrane"]["c10"], rel=1e-6)
+    assert result.values["c10"] == pytest.approx(study.membrane.c10, rel=1e-6)
     assert list(result.table.columns) == ["parameter", "value_pa", "standard_error_pa"]
     assert list(result.table["parameter"]) == ["c10", "c20", "c01"]
-    assert out.path == Path(study["output"]["directory"]) and out.claim.written
+    assert out.path == Path(study.output.directory) and out.claim.written
     written = sorted(p.name for p in (tmp_path / out.path).iterdir())
     assert "material_fit.csv" in written and "material_fit.png" not in written
     assert any("--set membrane.c10=" in line for line in result.summary_lines())
@@ -75,7 +75,7 @@ def test_calibrate_damping_gives_b_over_m_as_keys_and_a_table(tmp_path):
     result = cf.calibrate_damping(start, tmp_path / "measured" / "spectrum_average.csv")
     assert result.fit == "modal" and result.structural is None
     assert result.keys["reduced.damping_01"] == pytest.approx(
-        study["reduced"]["damping_01"], rel=1e-5)
+        study.reduced.damping_01, rel=1e-5)
     assert list(result.table.columns) == ["label", "freq_hz", "measured_peak", "model_peak",
                                           "damping_per_mass"]
     assert list(result.table["label"]) == list(result.damping_per_mass)

@@ -81,9 +81,9 @@ def test_flat_modes_match_bessel_roots(inner_radius, voltage):
                 exact = bessel_frequency(study, m, n)
             except IndexError:
                 break
-            if exact < study["eigen"]["f_max"] * (1 - 1e-3):
+            if exact < study.eigen.f_max * (1 - 1e-3):
                 assert counts.get((m, n)) == (1 if m == 0 else 2), (m, n)
-    assert np.all(result.residuals < study["eigen"]["residual_tol"])
+    assert np.all(result.residuals < study.eigen.residual_tol)
 
 
 def test_full_membrane_axis_conditions():
@@ -138,7 +138,7 @@ def test_order_stiffness_interpolated_in_m_equals_its_assembly(inner_radius, z):
         tangent = forms.material_tangent(operators)
         if m < 5:
             continue                                   # the assembled orders
-        space = order_space(state.mesh, study["mesh"]["order"], m, state.has_disc)
+        space = order_space(state.mesh, study.mesh.order, m, state.has_disc)
         trial, test = space.TnT()
         free = operators.free_dofs
         for material_only, interpolated in ((False, operators.stiffness), (True, tangent)):
@@ -161,14 +161,14 @@ def test_small_z_disc_stiffness_matches_closed_form():
     mesh = prepare_meridian(study)
     state = solve_axisymmetric_prestress(study, mesh)
     tension = Membrane.from_study(study).equibiaxial_tension(0.0)
-    g = study["geometry"]
-    exact = 2 * math.pi * tension / math.log(g["outer_radius"] / g["inner_radius"])
+    g = study.geometry
+    exact = 2 * math.pi * tension / math.log(g.outer_radius / g.inner_radius)
     assert state.disc_force / state.z == pytest.approx(exact, rel=1e-4)
 
 
 # ------------------------------------------------------------------ rung 4: meridian PML
-SOUND_SPEED = parse_study({})["air"]["sound_speed"]
-DENSITY = parse_study({})["air"]["density"]
+SOUND_SPEED = parse_study({}).air.sound_speed
+DENSITY = parse_study({}).air.density
 
 
 def _meridian_piston_impedance(frequency, domain_factor=3.5):
@@ -181,7 +181,7 @@ def _meridian_piston_impedance(frequency, domain_factor=3.5):
     trial, test = space.TnT()
     omega = 2 * math.pi * frequency
     stiffness, mass = air_forms(0, trial, test, DENSITY, SOUND_SPEED,
-                                study["air"]["domain_radius"], study["air"]["pml_thickness"])
+                                study.air.domain_radius, study.air.pml_thickness)
     system = ngsolve.BilinearForm(space)
     system += stiffness - omega**2 * mass
     system.Assemble()
@@ -325,7 +325,7 @@ def test_solve_writes_revolved_paraview_files(tmp_path):
     assert {"displacement_real", "normal_displacement_real", "normal_velocity_abs"} <= set(
         membrane.point_data)
     radii = np.hypot(membrane.points[:, 0], membrane.points[:, 1])
-    assert radii.max() <= study["geometry"]["outer_radius"] * (1 + 1e-6)
+    assert radii.max() <= study.geometry.outer_radius * (1 + 1e-6)
     air = meshio.read(next(out.glob("air_000_*.vtu")))
     assert "pressure_abs" in air.point_data and air.cells[0].type == "wedge"
     assert (out / "prestress.vtu").is_file() and (out / "modes.csv").is_file()

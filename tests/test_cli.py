@@ -114,7 +114,7 @@ COARSE_AIR = ["--set", "mesh.membrane_size=9 mm", "--set", "mesh.pressure_order=
 @pytest.mark.parametrize("path", sorted((ROOT / "studies").glob("*.yaml")), ids=lambda p: p.name)
 def test_every_bundled_study_solves_on_a_coarse_mesh(path, tmp_path):
     from copdea_fem.study import load_study
-    coarse = COARSE_AIR if load_study(path)["air"]["enabled"] else []
+    coarse = COARSE_AIR if load_study(path).air.enabled else []
     code = main(["solve", str(path), "--out", str(tmp_path / "r"), "--set", "eigen.f_max=450 Hz",
                  "--set", "output.paraview=false", "--set", "output.plots=false", *COARSE,
                  *coarse])

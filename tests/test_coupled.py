@@ -219,16 +219,16 @@ def test_crowded_air_sphere_krylov_schur_finds_every_mode_with_fewer_solves():
     sector = state.symmetry.sectors[0]
     coupled = assemble_coupled(study, mesh, state).restrict(
         linearised_operators(state, study, sector, membrane_matrices(state)))
-    eigen = study["eigen"]
+    eigen = study.eigen
     messages = {"arpack": [], "krylov-schur": []}
     results = {}
     for method in messages:
         with progress_to(messages[method].append):
             results[method] = solve_band(
-                coupled.stiffness, coupled.mass, eigen["f_min"], eigen["f_max"],
+                coupled.stiffness, coupled.mass, eigen.f_min, eigen.f_max,
                 hermitian=False, factorize=coupled.factorize,
-                max_imag_hz=eigen["max_damping_ratio"] * eigen["f_max"],
-                backend=eigen["backend"], krylov=method)
+                max_imag_hz=eigen.max_damping_ratio * eigen.f_max,
+                backend=eigen.backend, krylov=method)
     old, new = results["arpack"], results["krylov-schur"]
     known = max(int(line.split(" known")[0].split()[-1]) for line in messages["krylov-schur"]
                 if " known" in line)

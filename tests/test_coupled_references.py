@@ -54,17 +54,17 @@ class Baffled:
         self.rows = {row["label"]: row for row in mode_rows(self.solution.modes,
                                                             self.solution.dry_partner_hz)}
         self.dry = {mode.label: mode for mode in self.solution.dry_modes}
-        air = self.study["air"]
-        self.air = (air["density"], air["sound_speed"])
+        air = self.study.air
+        self.air = (air.density, air.sound_speed)
         self.material = Membrane.from_study(self.study)
 
 
 def _bessel_reference(case, m, n):
     """The flat annulus's mode (m, n) in the baffle (baffled.py)."""
-    geometry = case.study["geometry"]
-    tension = case.material.equibiaxial_tension(case.study["load"]["voltage"])
+    geometry = case.study.geometry
+    tension = case.material.equibiaxial_tension(case.study.load.voltage)
     speed = math.sqrt(tension / case.material.areal_density)
-    k, shape = baffled.bessel_shape(m, n, geometry["inner_radius"], geometry["outer_radius"])
+    k, shape = baffled.bessel_shape(m, n, geometry.inner_radius, geometry.outer_radius)
     reference = baffled.baffled_mode(shape, k * speed / (2 * math.pi),
                                      case.material.areal_density, *case.air)
     return reference
@@ -74,8 +74,8 @@ def _ring_reference(case, label):
     """A ring-model mode (RINGS rings) as the flat source of equal flux, in the baffle."""
     study = case.study
     ring_model = ring_model_of(study, ring_count=RINGS)
-    linearisation, basis, _ = operating_point(ring_model, study["load"]["z"],
-                                              study["load"]["voltage"])
+    linearisation, basis, _ = operating_point(ring_model, study.load.z,
+                                              study.load.voltage)
     mode, equilibrium = basis[label], linearisation.equilibrium
     shape = baffled.piecewise_linear_shape(ring_sources(equilibrium.radii, equilibrium.heights,
                                                         mode.radial, mode.axial))
@@ -200,7 +200,7 @@ def test_modal_mass_matches_the_bessel_annulus_integral(flat_baffle, label, dry_
                                                         tolerance):
     """M = c_m 2 pi rho_s int W^2 r dr / max W^2 with W the J_m, Y_m cross product."""
     reference = flat_baffle.reference[label].modal_mass
-    if flat_baffle.study["mesh"]["engine"] == "axisymmetric":
+    if flat_baffle.study.mesh.engine == "axisymmetric":
         dry_tolerance = DRY_TOLERANCE_AXISYMMETRIC.get(label, dry_tolerance)
     assert flat_baffle.dry[label].modal_mass == pytest.approx(reference, rel=dry_tolerance)
     assert flat_baffle.rows[label]["modal_mass"] == pytest.approx(reference, rel=tolerance)
@@ -245,7 +245,7 @@ def spring_pair():
                  for symmetry in ("quarter", "none")}
     study = spring_study()
     ring_model = ring_model_of(study, ring_count=RINGS)
-    _, basis, _ = operating_point(ring_model, study["load"]["z"], study["load"]["voltage"])
+    _, basis, _ = operating_point(ring_model, study.load.z, study.load.voltage)
     return study, solutions, ring_model, basis["P1"]
 
 
@@ -261,16 +261,16 @@ def test_coupled_pumping_mode_sits_just_below_the_dry_one(spring_pair):
     membrane and disc in a baffle (the square frame's open aperture only lowers it, Kelvin's
     minimum energy), 0.030 from the ring model's P1; measured 0.021 (quadrant and whole)."""
     study, solutions, ring_model, ring_p1 = spring_pair
-    equilibrium = operating_point(ring_model, study["load"]["z"],
-                                  study["load"]["voltage"])[0].equilibrium
+    equilibrium = operating_point(ring_model, study.load.z,
+                                  study.load.voltage)[0].equilibrium
     disc = ring_p1.axial[-1]
     shape = baffled.piecewise_linear_shape(ring_sources(
         equilibrium.radii, equilibrium.heights, ring_p1.radial / disc, ring_p1.axial / disc,
         disc_axial=1.0))
     membrane_share = 1 / disc**2 - ring_model.disc_mass          # per unit disc displacement
-    lumped = study["disc"]["mass"] + study["spring"]["mass"] / 3
-    air = study["air"]
-    baffled_ratio = 2 * baffled.face_impedance(shape, air["density"])[0] / (lumped +
+    lumped = study.disc.mass + study.spring.mass / 3
+    air = study.air
+    baffled_ratio = 2 * baffled.face_impedance(shape, air.density)[0] / (lumped +
                                                                              membrane_share)
     assert 0.02 < baffled_ratio < 0.04
     for symmetry, solution in solutions.items():
@@ -289,7 +289,7 @@ def test_pumping_mode_against_the_ring_model_and_the_lumped_disc(spring_pair):
     (2 pi f)^2 / u_disc^2.  Measured (9 mm): modal mass +1.3e-4, dry P1 +1.6e-4."""
     study, solutions, ring_model, ring_p1 = spring_pair
     disc = ring_p1.axial[-1]
-    lumped = study["disc"]["mass"] + study["spring"]["mass"] / 3
+    lumped = study.disc.mass + study.spring.mass / 3
     modal_mass = lumped + 1 / disc**2 - ring_model.disc_mass
     stiffness = (2 * math.pi * ring_p1.frequency_hz) ** 2 / disc**2
     dry_p1 = math.sqrt(stiffness / modal_mass) / (2 * math.pi)

@@ -19,7 +19,7 @@ from copdea_fem.fe.eigen.damped import (
     solve_damped_band,
     solve_structural_band,
 )
-from copdea_fem.study import StudyError, parse_study
+from copdea_fem.study import PronyTerm, StudyError, parse_study
 
 
 def coarse_study(**sections):
@@ -196,8 +196,8 @@ def test_coupled_beta_changes_im_f_by_minus_pi_beta_f2():
 def test_prony_and_rayleigh_keys_are_validated():
     study = coarse_study(membrane={"prony": [{"modulus_ratio": 0.5, "relaxation_time": "1 ms"}],
                                    "rayleigh_beta": "2 us"}, eigen={"f_min": 10})
-    assert study["membrane"]["prony"] == [{"modulus_ratio": 0.5, "relaxation_time": 1e-3}]
-    assert study["membrane"]["rayleigh_beta"] == pytest.approx(2e-6)
+    assert study.membrane.prony == (PronyTerm(0.5, 1e-3),)
+    assert study.membrane.rayleigh_beta == pytest.approx(2e-6)
     for bad, key in (([{"modulus_ratio": 0.5}], "membrane.prony[0]"),
                      ("fast", "membrane.prony"),
                      ([{"modulus_ratio": 0, "relaxation_time": 1}],
@@ -215,7 +215,8 @@ def test_prony_and_rayleigh_keys_are_validated():
 def test_without_damping_keys_the_linear_path_runs():
     """The one branch point: no terms -> solve_band itself (Hermitian, Lanczos)."""
     from copdea_fem.fe.linearise import damping_terms
-    keys = {"rayleigh_alpha": 0.0, "rayleigh_beta": 0.0, "prony": []}
+    from copdea_fem.study import SECTION_CLASSES
+    keys = SECTION_CLASSES["membrane"](rayleigh_alpha=0.0, rayleigh_beta=0.0, prony=())
     assert damping_terms(None, None, keys) is None
     import scipy.sparse as sp
     stiffness = sp.diags(np.arange(1.0, 200.0) ** 2 * 1e4).tocsr()

@@ -33,9 +33,9 @@ def test_flat_out_of_plane_modes_match_bessel_roots_on_default_mesh(inner_radius
                 exact = bessel_frequency(study, m, n)
             except IndexError:
                 break
-            if exact < study["eigen"]["f_max"] * (1 - 1e-3):
+            if exact < study.eigen.f_max * (1 - 1e-3):
                 assert counts.get((m, n)) == (1 if m == 0 else 2), (m, n)
-    assert np.all(result.residuals < study["eigen"]["residual_tol"])
+    assert np.all(result.residuals < study.eigen.residual_tol)
 
 
 def test_full_circular_membrane_matches_bessel_zeros():
@@ -102,8 +102,8 @@ def test_pumping_mode_matches_lumped_spring_mass(make_study):
     forces = [solve_prestress(study.replace({"load.z": 16e-3 + s * dz}), mesh).disc_force
               for s in (-1, 1)]
     k_de = (forces[1] - forces[0]) / (2 * dz)
-    mass = study["disc"]["mass"] + study["spring"]["mass"] / 3
-    lumped = math.sqrt((k_de + study["spring"]["stiffness"]) / mass) / (2 * math.pi)
+    mass = study.disc.mass + study.spring.mass / 3
+    lumped = math.sqrt((k_de + study.spring.stiffness) / mass) / (2 * math.pi)
     # the membrane's own inertia (~0.1 g vs 3.6 g) lowers P1 by about 1 %
     assert pumping[0].freq_hz < lumped
     assert pumping[0].freq_hz == pytest.approx(lumped, rel=0.03)

@@ -85,11 +85,11 @@ def test_bad_enclosures_are_refused_naming_key_value_and_allowed(raw, key, fragm
 
 def test_enclosure_defaults_follow_the_outer_radius_and_pick_the_engine():
     plain = parse_study({})
-    assert plain["geometry"]["enclosure"] == "none" and plain["air"]["outside"] is True
+    assert plain.geometry.enclosure == "none" and plain.air.outside is True
     boxed = parse_study({"geometry": {"outer_radius": "20 mm", "inner_radius": 0,
                                       "frame": "none", "enclosure": "cylinder"}})
-    g = boxed["geometry"]
-    assert g["enclosure_depth"] == g["enclosure_radius"] == 0.02 and g["enclosure_vent_radius"] == 0
+    g = boxed.geometry
+    assert g.enclosure_depth == g.enclosure_radius == 0.02 and g.enclosure_vent_radius == 0
     assert engine_of(boxed) == "axisymmetric"
     for frame, enclosure, engine in (("baffle", "bowl", "axisymmetric"),
                                      ("circle", "cylinder", "axisymmetric"),
@@ -103,7 +103,7 @@ def test_the_enclosure_may_reach_just_inside_its_share_of_the_air_sphere():
     radius = 3.5 * r_o * ENCLOSURE_AIR_SHARE                      # the default air sphere
     depth = math.sqrt(radius ** 2 - r_o ** 2)
     ok = {"frame": "none", "enclosure": "cylinder", "enclosure_depth": 0.999 * depth}
-    assert parse_study({"geometry": ok})["geometry"]["enclosure_depth"] == 0.999 * depth
+    assert parse_study({"geometry": ok}).geometry.enclosure_depth == 0.999 * depth
     with pytest.raises(StudyError, match="air.domain_radius"):
         parse_study({"geometry": {**ok, "enclosure_depth": 1.001 * depth}})
     # with a baffle the enclosure replaces the lower half-space: no outside air around it
@@ -342,7 +342,7 @@ def test_every_meridian_enclosure_solves_coupled(geometry):
                          "eigen": {"f_max": 1500}})
     modes = coupled_modes(study, engine=engine_for(study)).modes
     assert {"(0,1)", "(1,1)a"} <= {mode.label for mode in modes}
-    assert max(mode.residual for mode in modes) <= study["eigen"]["residual_tol"]
+    assert max(mode.residual for mode in modes) <= study.eigen.residual_tol
 
 
 def test_response_refusals_over_an_enclosure(tmp_path):
@@ -415,7 +415,7 @@ def test_radii_written_with_units_meet_where_they_are_equal():
                                       "enclosure_radius": "35.5 mm",
                                       "enclosure_vent_radius": "5 mm"},
                          "air": {"enabled": True}})
-    assert study["geometry"]["enclosure_radius"] != study["geometry"]["outer_radius"]
+    assert study.geometry.enclosure_radius != study.geometry.outer_radius
     spec = MeridianSpec.from_study(study)
     assert spec.enclosure_radius == spec.outer_radius
     assert meridian_mesh(spec, 2).ne > 0

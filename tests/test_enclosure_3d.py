@@ -61,10 +61,10 @@ def band_errors(study) -> np.ndarray:
     from copdea_fem.fe.pipeline import coupled_modes
 
     modes = coupled_modes(study, engine=engine_for(study)).modes
-    enclosure, sound_speed = study["geometry"]["enclosure"], study["air"]["sound_speed"]
+    enclosure, sound_speed = study.geometry.enclosure, study.air.sound_speed
     assert all(mode.cavity_orders and mode.label.startswith("cavity(") for mode in modes)
-    assert len(modes) == expected_count(enclosure, sound_speed, study["eigen"]["f_min"],
-                                        study["eigen"]["f_max"])
+    assert len(modes) == expected_count(enclosure, sound_speed, study.eigen.f_min,
+                                        study.eigen.f_max)
     return np.array([mode.freq_hz / closed_form(enclosure, mode.cavity_orders, sound_speed) - 1
                      for mode in modes])
 
@@ -155,9 +155,9 @@ def test_membrane_over_a_shallow_sealed_cylinder_meets_the_lumped_cavity_roots(
            "eigen": {"f_max": "300 Hz"}}
     material = Membrane.from_study(parse_study(raw, name="lumped"))
     tension = material.equibiaxial_tension(0.0)
-    air = parse_study(raw, name="lumped")["air"]
+    air = parse_study(raw, name="lumped").air
     # B = rho c^2 pi a^4 / (T pi a^2 L)  ->  L = rho c^2 a^2 / (B T)
-    depth = air["density"] * air["sound_speed"]**2 * A**2 / (b_parameter * tension)
+    depth = air.density * air.sound_speed**2 * A**2 / (b_parameter * tension)
     raw["geometry"]["enclosure_depth"] = depth
     study = parse_study(raw, name="lumped")
     to_hz = math.sqrt(tension / material.areal_density) / (2 * math.pi * A)    # f per x = k a
@@ -334,9 +334,8 @@ def test_both_engines_agree_on_the_same_cylinder(case, tmp_path, monkeypatch, fi
     monkeypatch.setenv("COPDEA_FEM_MESH_CACHE", str(tmp_path))
     if case == "dry-stiff":
         def study_of(engine):
-            study = cavity_study("cylinder", "8 mm", f_max="5 kHz")
-            study["mesh"]["engine"] = engine
-            return study
+            return cavity_study("cylinder", "8 mm", f_max="5 kHz").replace(
+                {"mesh.engine": engine})
         expected = {"cavity(1,0,0)a", "cavity(0,0,1)", "cavity(1,0,1)a", "cavity(2,0,0)a"}
     else:
         overrides = dict(BOTH_ENGINES)

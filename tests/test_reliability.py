@@ -121,14 +121,33 @@ class Case:
 
 
 def _edited(section, key, value, path=QUICK, overrides=None):
-    """A study loaded through the API and then changed by hand (``value`` None: deleted)."""
+    """A study loaded through the API and then changed: a typed copy
+    (:func:`dataclasses.replace` of one section), checked as a file is."""
+    import dataclasses
+
     import copdea_fem as cf
     study = cf.load_study(path, overrides or {"geometry.frame": "baffle"})
-    if value is None:
-        del study[section][key]
-    else:
-        study[section][key] = value
-    return study
+    changed = dataclasses.replace(getattr(study, section), **{key: value})
+    return dataclasses.replace(study, **{section: changed})
+
+
+def _assigned(how):
+    """The error of a hand edit of a loaded study: frozen, so Python refuses it."""
+    import dataclasses
+    import warnings
+
+    import copdea_fem as cf
+    study = cf.load_study(QUICK)
+    try:
+        if how == "item":
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", DeprecationWarning)
+                study.load.voltage = 5.0
+        else:
+            study.load.voltage = 5.0
+    except (TypeError, dataclasses.FrozenInstanceError) as error:
+        return f"{type(error).__name__}: {error}"
+    return "changed"
 
 
 def _solve(study):
@@ -270,19 +289,21 @@ CASES = [
     Case("a list of overrides holding a number", 2, "overrides = 42 is not allowed",
          api=_load([42]), expect=StudyError),
     Case("hand edit: a misspelled key", 2, "load.voltag = 5000.0 is not allowed (unknown key)",
-         api=lambda work: _solve(_edited("load", "voltag", 5000.0)), expect=StudyError),
+         api=lambda work: _solve(_edited("load", "z", 0.016).replace({"load.voltag": 5000.0})),
+         expect=StudyError),
     Case("hand edit: text with a unit", 2, "load.voltage = 2000.0",
          api=lambda work: "load.voltage = "
-         f"{_edited('load', 'voltage', '2 kV').checked().get('load.voltage')!r}", expect=None),
+         f"{_edited('load', 'voltage', '2 kV').load.voltage!r}", expect=None),
     Case("hand edit: a negative thickness", 2, "membrane.thickness = -1e-06 is not allowed",
          api=lambda work: _solve(_edited("membrane", "thickness", -1e-6)), expect=StudyError),
     Case("hand edit: order 2.5", 2, "mesh.order = 2.5 is not allowed",
          api=lambda work: _solve(_edited("mesh", "order", 2.5)), expect=StudyError),
     Case("hand edit: f_max NaN", 2, "eigen.f_max = nan is not allowed (not a finite number)",
          api=lambda work: _solve(_edited("eigen", "f_max", math.nan)), expect=StudyError),
-    Case("hand edit: a deleted key takes its default", 2, "load.voltage = 0.0",
-         api=lambda work: "load.voltage = "
-         f"{_edited('load', 'voltage', None).checked().get('load.voltage')!r}", expect=None),
+    Case("hand edit: a key assigned", 2, "FrozenInstanceError: cannot assign to field "
+         "'voltage'", api=lambda work: _assigned("attribute"), expect=None),
+    Case("hand edit: an item assigned", 2, "TypeError: 'mappingproxy' object does not support "
+         "item assignment", api=lambda work: _assigned("item"), expect=None),
     Case("hand edit: a section replaced", 2, "load = 5 is not allowed; allowed: a mapping",
          api=lambda work: _solve(_section_replaced()), expect=StudyError),
     Case("a study that is a dict", 2, "study = dict is not allowed",
@@ -502,9 +523,8 @@ CASES = [
 
 
 def _section_replaced():
-    study = _edited("load", "z", 0.016)
-    study.values["load"] = 5
-    return study
+    import dataclasses
+    return dataclasses.replace(_edited("load", "z", 0.016), load=5)
 
 
 #: Scenario tests (real processes, threads, signals, permissions) that the table cannot
@@ -1120,7 +1140,7 @@ def is_new(out: Path) -> bool:
     """``out`` holds the complete result of the run at load.voltage = 1 kV."""
     from copdea_fem.study import load_study
     saved = load_study(out / "reduced_study.resolved.yaml")
-    return saved["load"]["voltage"] == 1000.0 and set(folders.read_manifest(out)["files"]) == {
+    return saved.load.voltage == 1000.0 and set(folders.read_manifest(out)["files"]) == {
         p.name for p in out.iterdir() if p.name != folders.MANIFEST}
 
 

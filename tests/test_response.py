@@ -112,7 +112,7 @@ def test_static_disc_displacement_on_the_spring_matches_the_force_derivatives():
 
     d_voltage = (force("load.voltage", 2001.0) - force("load.voltage", 1999.0)) / 2.0
     d_z = (force("load.z", 0.016 + 1e-6) - force("load.z", 0.016 - 1e-6)) / 2e-6
-    expected = -d_voltage / (d_z + study["spring"]["stiffness"])
+    expected = -d_voltage / (d_z + study.spring.stiffness)
     assert disc == pytest.approx(expected, rel=1e-6)
 
 
@@ -126,9 +126,9 @@ def _piston(frequency):
     space = acoustics.pressure_space(mesh, 2, acoustics.screen_faces("baffle"))
     trial, test = space.TnT()
     omega = 2 * math.pi * frequency
-    air = study["air"]
-    stiffness, mass = air_forms(0, trial, test, air["density"], air["sound_speed"],
-                                air["domain_radius"], air["pml_thickness"])
+    air = study.air
+    stiffness, mass = air_forms(0, trial, test, air.density, air.sound_speed,
+                                air.domain_radius, air.pml_thickness)
     system = ngsolve.BilinearForm(space)
     system += stiffness - omega ** 2 * mass
     system.Assemble()
@@ -152,11 +152,11 @@ def test_baffled_piston_far_field_and_power_match_the_closed_form(frequency):
     0.70 % at 200 Hz, 0.13 % at 1 kHz, the PML's error as in test_axisymmetric's impedance),
     and the exterior representation vanishing inside the sphere (extinction, < 1 %)."""
     study, solution, record = _piston(frequency)
-    air = study["air"]
-    radius_sphere = KIRCHHOFF_FRACTION * air["domain_radius"]
+    air = study.air
+    radius_sphere = KIRCHHOFF_FRACTION * air.domain_radius
     upper = SphereSampler(record, radius_sphere, ("upper",))
     p, dp = upper.sample(solution.vec.FV().NumPy().copy()[:, None])
-    a, rho, c = 0.0355, air["density"], air["sound_speed"]
+    a, rho, c = 0.0355, air.density, air.sound_speed
     omega = 2 * math.pi * frequency
     k = omega / c
     for angle in (0.0, 30.0, 60.0):
@@ -223,7 +223,7 @@ def test_input_power_is_radiated_plus_dissipated(held, loss_factor):
     """P_in = omega/2 Im(f^H u) against the flux through the Kirchhoff sphere plus
     omega/2 eta u^H K_el u, within 2 % (issue; measured <= 3.1e-4 at 100 / 383 / 800 Hz)."""
     forced, coupled = held.forced, held.coupled
-    sphere = SphereSampler(coupled, KIRCHHOFF_FRACTION * held.study["air"]["domain_radius"])
+    sphere = SphereSampler(coupled, KIRCHHOFF_FRACTION * held.study.air.domain_radius)
     frequencies = np.array([100.0, 383.0, 800.0])
     solutions = forced.direct(frequencies, loss_factor)
     p, dp = sphere.sample(forced.pressure(solutions))
@@ -235,7 +235,7 @@ def test_input_power_is_radiated_plus_dissipated(held, loss_factor):
         supplied = omega / 2 * np.imag(np.vdot(forced.forcing[:n_u], u))
         dissipated = omega / 2 * loss_factor * np.real(np.vdot(u, k_el @ u))
         radiated = radiated_power(p[:, k], dp[:, k], sphere, omega,
-                                  held.study["air"]["density"])
+                                  held.study.air.density)
         assert supplied > 0 and radiated > 0
         assert (radiated + dissipated) == pytest.approx(supplied, rel=0.02), (f, radiated,
                                                                                dissipated)
@@ -345,8 +345,8 @@ def test_quadrant_engine_matches_the_axisymmetric_response():
         x = problem.forced.direct(frequencies)
         axial, radial = observer(problem.state, problem.coupled.membrane,
                                  scan_fractions(5)).observe(problem.forced.membrane(x))
-        sampler = sphere(problem.coupled, KIRCHHOFF_FRACTION * problem.study["air"][
-            "domain_radius"], ("upper",))
+        sampler = sphere(problem.coupled, KIRCHHOFF_FRACTION * problem.study.air.domain_radius,
+                         ("upper",))
         p, dp = sampler.sample(problem.forced.pressure(x))
         far = []
         for k, f in enumerate(frequencies):

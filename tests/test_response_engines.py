@@ -79,7 +79,7 @@ def test_quadrant_exterior_representation_vanishes_inside_its_sphere(engines):
     pressure there."""
     quadrant, three_d, _ = engines
     study = quadrant.study
-    radius = KIRCHHOFF_FRACTION * study["air"]["domain_radius"]
+    radius = KIRCHHOFF_FRACTION * study.air.domain_radius
     sampler = quadrant.sector.sphere(quadrant.coupled, radius, ("upper",))
     pressures = quadrant.forced.pressure(three_d.vectors)
     p, dp = sampler.sample(pressures)
@@ -87,7 +87,7 @@ def test_quadrant_exterior_representation_vanishes_inside_its_sphere(engines):
     point = sampler.coupled.pressure_space.mesh(*inside)
     for line in np.flatnonzero(LINES_HZ >= EXTINCTION_FROM_HZ):
         frequency = LINES_HZ[line]
-        wavenumber = 2 * math.pi * frequency / study["air"]["sound_speed"]
+        wavenumber = 2 * math.pi * frequency / study.air.sound_speed
         kp, kg = sampler.kernels(inside, wavenumber, baffle=True)
         local = 0j
         for _, factor in pressure_parts(sampler.gf, quadrant.coupled.pressure_free,

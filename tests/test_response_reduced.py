@@ -68,7 +68,7 @@ def test_reduced_path_matches_the_direct_solve_with_rayleigh_and_prony(engine, r
     peak (measured <= 1e-10; the issue asks 0.5 %), and the residual the basis
     reports is the one of the direct operator."""
     problem = request.getfixturevalue(engine)
-    eta = problem.study["membrane"]["loss_factor"]
+    eta = problem.study.membrane.loss_factor
     model = build_reduced_basis(problem.forced, LINES, eta, tol=1e-8)
     assert model.residuals.max() <= 1e-8
     picks = np.array([0, 140, 287, 396])           # 5, 180, 363.75 (near (0,1)), 500 Hz
@@ -92,7 +92,7 @@ def test_reduced_basis_is_exact_at_its_shifts(meridian):
     direct solve at every shift (eq. 2 of the module: exact there), and only there -- a
     shift dropped, a term's coefficient wrong (sign of C, a Prony ratio, the loss factor)
     breaks it."""
-    eta = meridian.study["membrane"]["loss_factor"]
+    eta = meridian.study.membrane.loss_factor
     shifts = np.array([120.0, 310.0, 455.0])
     model = build_reduced_basis(meridian.forced, shifts, eta, steps=1, shifts_hz=shifts)
     assert model.size == 3
@@ -108,7 +108,7 @@ def test_reduced_basis_is_exact_at_its_shifts(meridian):
 def test_more_moments_per_shift_converge(meridian):
     """Moment matching: at one shift (300 Hz) the error at 330 Hz falls as Arnoldi steps
     (Taylor moments) are added, as the projection argument says."""
-    eta = meridian.study["membrane"]["loss_factor"]
+    eta = meridian.study.membrane.loss_factor
     line = np.array([330.0])
     direct = meridian.forced.direct(line, eta)
     errors = [membrane_errors(meridian, direct, build_reduced_basis(
@@ -128,7 +128,7 @@ def test_modal_path_warns_under_prony_and_reduced_is_exact(meridian, caplog):
 def test_auto_method_is_reduced_on_3d_and_modal_on_the_meridian(quadrant, meridian):
     """``response.method: auto`` (the default): reduced on the 3-D engine, modal on the
     axisymmetric one; the spectra of the 3-D reduced path equal the direct ones."""
-    assert quadrant.study["response"]["method"] == "auto"
+    assert quadrant.study.response.method == "auto"
     lines = np.array([100.0, 250.0, 400.0])
     volts = np.full(lines.size, 2.0 + 0j)
     reduced = forced_response(quadrant, lines, volts)
@@ -199,7 +199,7 @@ def test_reduced_modal_matches_the_modal_path_with_the_papers_bm(plain_meridian)
     np.testing.assert_allclose([f for _, f in structural], [f for _, f in reference],
                                rtol=1e-6)
     damping = dict(zip([m.label for m in mine.modes], mine.basis.damping_per_mass))
-    assert damping["(0,1)"] == plain_meridian.study["reduced"]["damping_01"] > 0
+    assert damping["(0,1)"] == plain_meridian.study.reduced.damping_01 > 0
     for name in ("average_axial", "average_radial"):
         np.testing.assert_allclose(getattr(mine, name), getattr(modal, name), rtol=5e-3)
     peak = int(np.argmax(modal.average_axial))
@@ -222,7 +222,7 @@ def test_reduced_modal_shifts_to_an_unconverged_structural_mode(plain_meridian, 
     assert len(ritz.reduced.shifts_hz) > len(first)
     damped = ritz.mode_index[ritz.damping_per_mass > 0]
     assert damped.size and np.all(ritz.residuals[damped]
-                                  <= plain_meridian.study["eigen"]["residual_tol"])
+                                  <= plain_meridian.study.eigen.residual_tol)
     assert "(0,1)" in [m.label for m in modes]
 
 

@@ -50,7 +50,7 @@ def test_axis_forms_give_si_values():
     mapping = parse_sweep(_raw(axes={"load.voltage": {"start": "1 kV", "stop": "2 kV",
                                                       "points": 3}}))
     assert mapping.axes[0].values == (1000.0, 1500.0, 2000.0)
-    assert [p.study["load"]["voltage"] for p in mapping.points] == [1000.0, 1500.0, 2000.0]
+    assert [p.study.load.voltage for p in mapping.points] == [1000.0, 1500.0, 2000.0]
 
 
 @pytest.mark.parametrize("changes, fragment", [
@@ -114,7 +114,7 @@ def test_every_bundled_sweep_file_validates(path):
     assert sweep.points and len(sweep.path) == len(sweep.points)
     assert sweep.model in ("dry", "reduced", "coupled")
     if sweep.model == "coupled":
-        assert all(point.study["air"]["enabled"] for point in sweep.points)
+        assert all(point.study.air.enabled for point in sweep.points)
 
 
 def test_coupled_sweep_reuses_mesh_prestress_and_shifts_and_stays_below_dry(tmp_path):

@@ -170,7 +170,7 @@ def test_written_fields_are_unfolded_with_the_sector_parity(tmp_path):
     tetra = air.points[air.cells_dict["tetra"]]
     volumes = np.einsum("ij,ij->i", np.cross(tetra[:, 1] - tetra[:, 0], tetra[:, 2] - tetra[:, 0]),
                         tetra[:, 3] - tetra[:, 0]) / 6
-    radius = study["air"]["domain_radius"] + study["air"]["pml_thickness"]
+    radius = study.air.domain_radius + study.air.pml_thickness
     assert np.all(np.sign(volumes) == np.sign(volumes[0]))   # one orientation in every copy
     assert abs(volumes).sum() == pytest.approx(4 / 3 * np.pi * radius**3, rel=0.05)
 

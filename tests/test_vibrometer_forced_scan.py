@@ -44,7 +44,7 @@ def _response(study, imperfection, damping_per_mass=30.0, lines=LINES):
                                       solution.state.inner_radius,
                                       ScanOptions(rings=3, per_ring=8, disc_points=2))
     positions = solution.engine.prestressed_positions(solution.state, reference,
-                                                      study["load"]["z"])
+                                                      study.load.z)
     response = scan_response(solution, study, positions, lines, imperfection,
                              damping_per_mass=lambda mode: damping_per_mass)
     return response, positions

@@ -435,6 +435,6 @@ def test_fe_prestressed_membrane_is_near_the_geometric_model():
         "geometry.frame": "baffle", "air.enabled": False, "mesh.engine": "axisymmetric"})
     solution = cf.solve(study)
     points = np.asarray(solution.membrane(solution.labels[0]).points)
-    distances = device_distances(points, study["geometry"]["outer_radius"],
-                                 study["geometry"]["inner_radius"], study["load"]["z"])
-    assert distances.max() < 0.5 * 0.1 * study["geometry"]["outer_radius"]
+    distances = device_distances(points, study.geometry.outer_radius,
+                                 study.geometry.inner_radius, study.load.z)
+    assert distances.max() < 0.5 * 0.1 * study.geometry.outer_radius

@@ -41,12 +41,12 @@ section says which it can raise.
 :class:`~copdea_fem.measured.MeasuredSet` :func:`load_measured` read from it, as the others
 take a study file or a :class:`~copdea_fem.study.Study`: each file is then read once.
 
-A :class:`~copdea_fem.study.Study` given to a function is validated again first
-(:meth:`~copdea_fem.study.Study.checked`): a study changed by hand after :func:`load_study`
-is checked like a file (an unknown key, a wrong type or a value out of range is a
-:class:`~copdea_fem.study.StudyError`; a deleted key takes its default), so no hand edit
-reaches the solver unchecked.  A Netgen failure while meshing is a :class:`SolveFailed`
-naming the mesh keys.
+A :class:`~copdea_fem.study.Study` is checked where it is made (:func:`load_study`, its
+:meth:`~copdea_fem.study.Study.replace`, :func:`dataclasses.replace`) and is frozen, so a
+function takes it as it is: no hand edit can reach the solver unchecked (a changed copy is
+checked like a file; an unknown key, a wrong type or a value out of range is a
+:class:`~copdea_fem.study.StudyError`).  A study file's path is accepted too, and read.
+A Netgen failure while meshing is a :class:`SolveFailed` naming the mesh keys.
 
 The modules: :mod:`~copdea_fem.api.calls` (what every function shares: the study given,
 the resource guard, progress, :class:`SolveFailed`), :mod:`~copdea_fem.api.folders` (the

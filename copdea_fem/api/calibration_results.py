@@ -82,7 +82,7 @@ def fit_material(study: Study | str | Path, data: str | Path, *,
     _existing(data, "data file")
     columns = read_force_csv(data)
     inputs = [*input_files(study), data]
-    with claiming(out, "fit-material", inputs, study["output"]["directory"]) as folder:
+    with claiming(out, "fit-material", inputs, study.output.directory) as folder:
         model, fit, voltage = fit_force_data(study, columns)
         result = MaterialFitResult(study, model, fit, columns, voltage, Path(data))
         if folder is not None:
@@ -238,7 +238,7 @@ def calibrate_damping(study: Study | str | Path, spectrum: str | Path | None = N
         raise StudyError(f"--fit = {fit!r} is not allowed; allowed: one of "
                          + ", ".join(DAMPING_FITS))
     modes_json = _existing(modes_json, "--modes-json") if modes_json else \
-        _existing(study["reduced"]["modes_json"], "reduced.modes_json")
+        _existing(study.reduced.modes_json, "reduced.modes_json")
     inputs = [*input_files(study), _existing(spectrum, "spectrum file"), modes_json,
               _existing(quality_factors, "--quality-factors")]
     tau = _relaxation_time(relaxation_time, fit)
@@ -259,7 +259,7 @@ def calibrate_damping(study: Study | str | Path, spectrum: str | Path | None = N
             raise StudyError(f"--fit {fit} needs measured damping; allowed: "
                              "--quality-factors Q.csv or a SPECTRUM.csv")
         check_size(study, allow_large)
-    with claiming(out, "calibrate-damping", inputs, study["output"]["directory"]) as folder, \
+    with claiming(out, "calibrate-damping", inputs, study.output.directory) as folder, \
             solving(study), reporting_to(progress):
         if fit == "modal":
             from copdea_fem.reduced.io import calibrate_on_spectrum

@@ -1,5 +1,5 @@
 """What every function of the API shares: the study it is given (:func:`load_study`, a
-study checked again, the file each came from), the resource guard, the progress callable,
+:class:`Study` as it is, the file it came from), the resource guard, the progress callable,
 the solver's failures as :class:`SolveFailed`, the FE solve behind both
 (:func:`solve_checked`), and tables as DataFrames.
 """
@@ -7,7 +7,6 @@ the solver's failures as :class:`SolveFailed`, the FE solve behind both
 from __future__ import annotations
 
 import contextlib
-import weakref
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -15,9 +14,6 @@ from copdea_fem.study import Study, StudyError
 
 if TYPE_CHECKING:
     from copdea_fem.fe import Engine, SolveResult
-
-#: Study -> the file it was read from (the folder checks of ``write`` need it).
-_SOURCES: weakref.WeakKeyDictionary[Study, Path] = weakref.WeakKeyDictionary()
 
 
 class SolveFailed(RuntimeError):
@@ -58,8 +54,8 @@ def load_study(path: str | Path, overrides: dict[str, Any] | list[str] | None = 
     Returns
     -------
     Study
-        The resolved study (defaults filled in, every value in SI); the file it was read
-        from is remembered for the folder checks of the results' ``write``.
+        The resolved study (defaults filled in, every value in SI, frozen); its ``source``,
+        the file it was read from, serves the folder checks of the results' ``write``.
 
     Raises
     ------
@@ -74,33 +70,29 @@ def load_study(path: str | Path, overrides: dict[str, Any] | list[str] | None = 
         overrides = parse_overrides(list(overrides))
     elif overrides is not None and not isinstance(overrides, dict):
         parse_overrides(overrides)          # refused, naming what is allowed
-    study = _load(path, overrides=overrides)
-    _SOURCES[study] = Path(path)
-    return study
+    return _load(path, overrides=overrides)
 
 
 def as_study(study: Study | str | Path) -> Study:
-    """A study file read, or a :class:`Study` validated again (:meth:`Study.checked`: a hand
-    edit after :func:`load_study` is checked like a file), remembering its source file."""
-    if not isinstance(study, Study):
-        if not isinstance(study, (str, Path)):
-            raise StudyError(f"study = {type(study).__name__} is not allowed; allowed: a "
-                             "Study from load_study or a study file's path")
-        return load_study(study)
-    checked = study.checked()
-    if study in _SOURCES:
-        _SOURCES[checked] = _SOURCES[study]
-    return checked
+    """A study file read, or a :class:`Study` as it is (checked when it was made, and
+    frozen)."""
+    if isinstance(study, Study):
+        return study
+    if not isinstance(study, (str, Path)):
+        raise StudyError(f"study = {type(study).__name__} is not allowed; allowed: a "
+                         "Study from load_study or a study file's path")
+    return load_study(study)
 
 
 def input_files(study: Study) -> list:
-    source = _SOURCES.get(study)
-    return [source] if source is not None else []
+    """The file ``study`` was read from, if any (``study.source``): the folder checks of
+    the results' ``write`` keep results away from it."""
+    return [study.source] if study.source is not None else []
 
 
 def _load_text(study) -> str:
-    load = study["load"]
-    return f"load.z = {load['z'] * 1e3:g} mm, load.voltage = {load['voltage']:g} V"
+    load = study.load
+    return f"load.z = {load.z * 1e3:g} mm, load.voltage = {load.voltage:g} V"
 
 
 @contextlib.contextmanager
@@ -113,13 +105,13 @@ def solving(study):
         MeshMotionError,
         TooManyModesError,
     )
-    eigen = study["eigen"]
+    eigen = study.eigen
     advice = {
         MeshMotionError: ("the air mesh motion", "air.domain_radius, mesh.membrane_size or "
                           "load.z"),
         EigenResidualError: ("the eigen solve", f"eigen.residual_tol (now "
-                             f"{eigen['residual_tol']:g}) or eigen.backend"),
-        TooManyModesError: ("the eigen solve", f"eigen.max_modes (now {eigen['max_modes']}) or "
+                             f"{eigen.residual_tol:g}) or eigen.backend"),
+        TooManyModesError: ("the eigen solve", f"eigen.max_modes (now {eigen.max_modes}) or "
                             "the band eigen.f_min..eigen.f_max"),
         EigenSolverError: ("the eigen solve", "the band eigen.f_min..eigen.f_max, "
                            "eigen.max_damping_ratio or eigen.backend"),

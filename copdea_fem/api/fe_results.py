@@ -77,7 +77,7 @@ def solve(study: Study | str | Path, *, allow_large: bool = False,
     """
     study = as_study(study)
     check_size(study, allow_large)        # before the folder is claimed
-    with claiming(out, "solve", input_files(study), study["output"]["directory"]) as folder:
+    with claiming(out, "solve", input_files(study), study.output.directory) as folder:
         with reporting_to(progress):
             result = solve_checked(study, allow_large=True, mesh_cache=mesh_cache)
         solution = Solution(result)
@@ -310,12 +310,12 @@ def prepare_force(study: Study, voltages: str | Sequence[str | float] = "0 kV, 3
     """
     import numpy as np
 
-    if study["geometry"]["inner_radius"] == 0:
+    if study.geometry.inner_radius == 0:
         raise StudyError("geometry.inner_radius = 0 is not allowed for `force`; allowed: > 0 "
                          "(a full membrane has no disc to pull)")
     voltage_list = _quantity_list(voltages, "--voltages", "V")
     if z_max is None:
-        z_max = max(study["load"]["z"], 0.018)
+        z_max = max(study.load.z, 0.018)
     else:
         z_max = _quantity_list(z_max if isinstance(z_max, str) else [z_max], "--z-max", "m")[0]
     if points < 2:
@@ -372,7 +372,7 @@ def force(study: Study | str | Path, voltages: str | Sequence[str | float] = "0 
     """
     study, z_values, voltage_list = prepare_force(as_study(study), voltages, z_max, points,
                                                   allow_large)
-    with claiming(out, "force", input_files(study), study["output"]["directory"]) as folder:
+    with claiming(out, "force", input_files(study), study.output.directory) as folder:
         curve = compute_force(study, z_values, voltage_list, mesh_cache=mesh_cache,
                               progress=progress)
         if folder is not None:

@@ -67,7 +67,7 @@ def response(study: Study | str | Path, *, allow_large: bool = False,
     study = as_study(study)
     engine = engine_for(study)
     check_size(study, allow_large, engine)
-    with claiming(out, "response", input_files(study), study["output"]["directory"]) \
+    with claiming(out, "response", input_files(study), study.output.directory) \
             as folder:
         with solving(study), reporting_to(progress):
             problem = prepare_order_zero(study, engine=engine)
@@ -217,10 +217,10 @@ def spectrum(study: Study | str | Path, modes_json: str | Path | None = None, *,
     study = as_study(study)
     if modes_json is not None:
         read_text(modes_json, "--modes-json", error=StudyError)
-    elif study["reduced"]["modes_json"]:
-        read_text(study["reduced"]["modes_json"], "reduced.modes_json", error=StudyError)
-    inputs = [*input_files(study), modes_json or study["reduced"]["modes_json"]]
-    with claiming(out, "spectrum", inputs, study["output"]["directory"]) as folder:
+    elif study.reduced.modes_json:
+        read_text(study.reduced.modes_json, "reduced.modes_json", error=StudyError)
+    inputs = [*input_files(study), modes_json or study.reduced.modes_json]
+    with claiming(out, "spectrum", inputs, study.output.directory) as folder:
         fe, fe_path = fe_frequencies(study, modes_json)
         setup = build_reduced(study, fe)
         result = Spectrum(study, setup, spectra_of(setup), modes_json, fe_path)

@@ -101,7 +101,7 @@ def ring_only_off(study):
     for effect_id, entry in CATALOGUE.items():
         if effect_id not in FE_ROLES and entry.is_on(study):
             overrides.update(entry.off(study))
-    if study["effects"]["air_mass_scale"] != 1.0:
+    if study.effects.air_mass_scale != 1.0:
         overrides["effects.air_mass_scale"] = 1.0
     return study.replace(overrides) if overrides else study
 
@@ -205,8 +205,8 @@ def probe_study(study):
 
 
 def prony_terms(terms) -> tuple:
-    """``membrane.prony`` mappings (SI) as ``((g, tau [s]), ...)``."""
-    return tuple((float(t["modulus_ratio"]), float(t["relaxation_time"])) for t in terms or ())
+    """``membrane.prony`` (:class:`~copdea_fem.study.PronyTerm`, SI) as ``((g, tau [s]), ...)``."""
+    return tuple((float(t.modulus_ratio), float(t.relaxation_time)) for t in terms or ())
 
 
 class FEFailure(ReducedModelError):
@@ -376,7 +376,7 @@ class AnchoredEngine(RingPredictor):
         for effect_id, values in state:
             if CATALOGUE[effect_id].prony_term:
                 return ((float(values[0]), float(values[1])),)
-        return prony_terms(self.condition_study(condition)["membrane"]["prony"])
+        return prony_terms(self.condition_study(condition).membrane.prony)
 
 
     def shares(self, condition) -> dict:
@@ -424,7 +424,7 @@ class AnchoredEngine(RingPredictor):
             none found) and ``suggested_error``.
         """
         sigma = self.measured.noise.frequency_relative
-        rings = self.measured.base_study["reduced"]["rings"]
+        rings = self.measured.base_study.reduced.rings
 
         def worst(ring_count):
             out = (0.0, "", "")

@@ -108,7 +108,7 @@ def mounting_skipped(effect_id, state, base_study) -> str | None:
         return f"another mounting ({added}) is in the model: one mounting at a time"
     stated = base_mounting(base_study)
     if (stated is not None and CATALOGUE[stated].mounting == "built"
-            and not base_study["air"]["enabled"]):
+            and not base_study.air.enabled):
         return (f"another mounting ({stated}) is in the model: one mounting at a time "
                 "(the base study states it without air, air.enabled: false)")
     return None

@@ -56,7 +56,7 @@ def direct_grid(parameters) -> int:
 
 def ring_can_represent(study) -> bool:
     """Whether the ring surrogate (Sect. 3.2.1) can model the base study's device."""
-    return study["geometry"]["inner_radius"] > 0
+    return study.geometry.inner_radius > 0
 
 
 @dataclass(frozen=True)
@@ -129,7 +129,7 @@ class DirectFEEngine(RingPredictor):
         self.engines.setdefault(tuple(e for e, _ in state), set()).add(result.engine)
         modes = tuple(ModelMode(m.label, m.kind, m.frequency_hz,
                                 quality_factor(m.damping_ratio), math.nan,
-                                expected=m.kind != "pumping" or study["load"]["z"] > 0,
+                                expected=m.kind != "pumping" or study.load.z > 0,
                                 optional=m.kind == "non-axisymmetric")
                       for m in result.modes)
         return DirectPrediction(modes, study, result.engine)

@@ -44,7 +44,7 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 from copdea_fem.measured import EffectRules
-from copdea_fem.study import ENCLOSURE_AIR_SHARE, StudyError
+from copdea_fem.study import ENCLOSURE_AIR_SHARE, PronyTerm, StudyError
 
 # Modal damping b/m of Sect. 5.3 [1/s]: the physical default of effect modal_damping.
 PAPER_DAMPING = {"reduced.damping_p1": 45.0, "reduced.damping_01": 245.0,
@@ -118,7 +118,7 @@ class Requirement:
     reason: str = ""
 
 
-HAS_DISC = Requirement(lambda study, conditions: study["geometry"]["inner_radius"] != 0,
+HAS_DISC = Requirement(lambda study, conditions: study.geometry.inner_radius != 0,
                        "a membrane without a disc has no disc to pump")
 BIASED = Requirement(lambda study, conditions: any(c["voltage"] > 0 for c in conditions),
                      "every condition has V_b = 0: nothing to soften")
@@ -323,10 +323,10 @@ def _air_off(study):
 
 
 def _air_detect(study):
-    r = study["reduced"]
-    return (study["effects"]["air_added_mass"] != "none" or bool(r["modes_json"])
-            or r["coupled_freq_01"] is not None or r["coupled_freq_02"] is not None
-            or study["air"]["enabled"])
+    r = study.reduced
+    return (study.effects.air_added_mass != "none" or bool(r.modes_json)
+            or r.coupled_freq_01 is not None or r.coupled_freq_02 is not None
+            or study.air.enabled)
 
 
 CATALOGUE: dict[str, Effect] = {}
@@ -368,7 +368,7 @@ _register(Effect(
               "for every membrane mode; P1 (k_DE) shifts a little too",
     on_overrides=lambda s, v: {"effects.maxwell_scale": v[0]},
     off_overrides=lambda s: {"effects.maxwell_scale": 0.0},
-    detect=lambda s: s["effects"]["maxwell_scale"] > 0,
+    detect=lambda s: s.effects.maxwell_scale > 0,
     fe_role="anchored", direct=True, changes_prestress=True, applies_when=(BIASED,)))
 
 _register(Effect(
@@ -383,7 +383,7 @@ _register(Effect(
               "that the model lacks, and P1 below the massless-spring value",
     on_overrides=lambda s, v: {"spring.mass": v[0], "reduced.pumping_added_mass": "spring"},
     off_overrides=lambda s: {"spring.mass": 0.0},
-    detect=lambda s: s["spring"]["mass"] > 0,
+    detect=lambda s: s.spring.mass > 0,
     requires=("disc_pumping",), applies_when=(RAISED,),
     switched_keys=("spring.mass", "reduced.pumping_added_mass")))
 
@@ -397,7 +397,7 @@ _register(Effect(
               "from a model with the disc held",
     on_overrides=lambda s, v: {"disc.motion": "spring"},
     off_overrides=lambda s: {"disc.motion": "held"},
-    detect=lambda s: s["disc"]["motion"] == "spring",
+    detect=lambda s: s.disc.motion == "spring",
     fe_role="anchored", direct=True, visible_in_scan=True, applies_when=(HAS_DISC, RAISED),
     switched_keys=("disc.motion",)))
 
@@ -432,19 +432,19 @@ def frame_overrides(study, shape=None) -> dict:
     (:data:`FRAME_OVER_DIAMETER` x 2 r_o) -- so any membrane size has a frame; the air
     sphere grows to keep a square frame's corners inside it (R >= 1.1 x side / sqrt 2).
     """
-    g, air = study["geometry"], study["air"]
-    shape = shape or (g["frame"] if g["frame"] in ("square", "circle") else "square")
-    r_o, radius = g["outer_radius"], air["domain_radius"]
+    g, air = study.geometry, study.air
+    shape = shape or (g.frame if g.frame in ("square", "circle") else "square")
+    r_o, radius = g.outer_radius, air.domain_radius
     out = {"geometry.frame": shape, **NO_ENCLOSURE}
     if shape == "square":
-        side = g["frame_side"]
+        side = g.frame_side
         if side <= 2 * r_o:
             side = out["geometry.frame_side"] = FRAME_OVER_DIAMETER * 2 * r_o
             out["geometry.frame_radius"] = 0.5 * side       # its derived default, kept in step
         if side / 2 ** 0.5 >= radius:
             out["air.domain_radius"] = 1.1 * side / 2 ** 0.5
     else:
-        frame_radius = g["frame_radius"]
+        frame_radius = g.frame_radius
         if not r_o < frame_radius < radius:
             frame_radius = out["geometry.frame_radius"] = FRAME_OVER_DIAMETER * r_o
         if frame_radius >= radius:
@@ -470,8 +470,8 @@ _register(Effect(
               "a/b of m = 2 shifted differently)",
     on_overrides=lambda s, v: frame_overrides(s),
     off_overrides=lambda s: {"geometry.frame": "none"},
-    detect=lambda s: (s["geometry"]["frame"] in ("square", "circle")
-                      and s["geometry"]["enclosure"] == "none"),
+    detect=lambda s: (s.geometry.frame in ("square", "circle")
+                      and s.geometry.enclosure == "none"),
     fe_role="switch", direct=True, visible_in_scan=True, mounting="built",
     switched_keys=("geometry.frame",),
     not_tested_note="frame_reflection needs the fully-coupled air/PML FE (model: fe) with air "
@@ -491,8 +491,8 @@ _register(Effect(
               "no split pairs (axisymmetric)",
     on_overrides=lambda s, v: {"geometry.frame": "baffle", **NO_ENCLOSURE},
     off_overrides=lambda s: {"geometry.frame": "none"},
-    detect=lambda s: (s["geometry"]["frame"] == "baffle"
-                      and s["geometry"]["enclosure"] == "none"),
+    detect=lambda s: (s.geometry.frame == "baffle"
+                      and s.geometry.enclosure == "none"),
     fe_role="switch", direct=True, visible_in_scan=True, mounting="built"))
 
 _register(Effect(
@@ -514,8 +514,8 @@ _register(Effect(
               "same pattern by a few per cent; the split (m,n) pairs of a square frame merge",
     on_overrides=lambda s, v: {"geometry.frame": "none", **NO_ENCLOSURE},
     off_overrides=lambda s: {"geometry.frame": "baffle"},
-    detect=lambda s: (s["geometry"]["frame"] == "none"
-                      and s["geometry"]["enclosure"] == "none"),
+    detect=lambda s: (s.geometry.frame == "none"
+                      and s.geometry.enclosure == "none"),
     fe_role="switch", direct=True, visible_in_scan=True, mounting="open"))
 
 # Fit bounds of enclosure's depth over r_o: from a shallow gap (0.05 r_o, above the
@@ -531,13 +531,13 @@ def enclosure_overrides(study, values) -> dict:
     the base's frame or baffle), the outside air kept (``air.outside: true``); the air
     sphere grows to keep the cylinder's far corner within
     :data:`~copdea_fem.study.ENCLOSURE_AIR_SHARE` of its radius (1.1 x the least)."""
-    r_o = study["geometry"]["outer_radius"]
+    r_o = study.geometry.outer_radius
     depth = float(values[0]) * r_o
     out = {"geometry.frame": "none", "geometry.enclosure": "cylinder",
            "geometry.enclosure_depth": depth, "geometry.enclosure_radius": r_o,
            "geometry.enclosure_vent_radius": 0.0, "air.outside": True}
     farthest = math.hypot(r_o, depth)
-    if farthest >= ENCLOSURE_AIR_SHARE * study["air"]["domain_radius"]:
+    if farthest >= ENCLOSURE_AIR_SHARE * study.air.domain_radius:
         out["air.domain_radius"] = 1.1 * farthest / ENCLOSURE_AIR_SHARE
     return out
 
@@ -576,7 +576,7 @@ _register(Effect(
               "few cm) appear as air modes, not membrane resonances; no split pairs",
     on_overrides=enclosure_overrides,
     off_overrides=lambda s: dict(NO_ENCLOSURE),
-    detect=lambda s: s["geometry"]["enclosure"] != "none",
+    detect=lambda s: s.geometry.enclosure != "none",
     # opt-in: a sealed back is built, not hidden (the base states it, and then the other
     # mountings are tested in its place), and its fitted depth costs FE solves on a grid
     # per condition
@@ -599,7 +599,7 @@ _register(Effect(
     on_overrides=lambda s, v: {"effects.viscoelastic_strength": v[0],
                                "effects.viscoelastic_time": v[1]},
     off_overrides=lambda s: {"effects.viscoelastic_strength": 0.0},
-    detect=lambda s: s["effects"]["viscoelastic_strength"] > 0))
+    detect=lambda s: s.effects.viscoelastic_strength > 0))
 
 def prony_overrides(study, values) -> dict:
     """Overrides of :data:`viscoelastic_membrane <CATALOGUE>`: one Prony term
@@ -609,25 +609,26 @@ def prony_overrides(study, values) -> dict:
     ``1 / (2 pi tau (1 + g))`` where that spectrum would reach the FE's band (the study's
     check, :mod:`copdea_fem.study`: only for tau (1 + g) >~ 1.3 ms with the default band)."""
     ratio, time = float(values[0]), float(values[1])
-    terms = [{"modulus_ratio": ratio, "relaxation_time": time}]
-    out = {"membrane.prony": terms, **{key: 0.0 for key in PAPER_DAMPING}}
-    floor = prony_band_floor(terms, study["eigen"])
+    out = {"membrane.prony": [{"modulus_ratio": ratio, "relaxation_time": time}],
+           **{key: 0.0 for key in PAPER_DAMPING}}
+    floor = prony_band_floor([PronyTerm(ratio, time)], study.eigen)
     if floor is not None:
         out["eigen.f_min"] = floor
     return out
 
 
-def prony_band_floor(terms, eigen: dict, f_max: float | None = None) -> float | None:
-    """The ``eigen.f_min`` [Hz] that keeps the Prony ``terms``' relaxation spectrum
-    (Re f = 0, |Im f| >= 1 / (2 pi tau_max (1 + sum g))) out of the FE's band, where the
-    study's check (:func:`copdea_fem.study.parse_study`) would refuse ``eigen`` (with
-    ``f_max`` [Hz] in place of its own, the diagnosis's FE band); None: no change."""
+def prony_band_floor(terms, eigen, f_max: float | None = None) -> float | None:
+    """The ``eigen.f_min`` [Hz] that keeps the relaxation spectrum of the Prony ``terms``
+    (:class:`PronyTerm`; Re f = 0, |Im f| >= 1 / (2 pi tau_max (1 + sum g))) out of the FE's
+    band, where the study's check (:func:`copdea_fem.study.parse_study`) would refuse
+    ``eigen`` (the study's section ``study.eigen``; ``f_max`` [Hz] in place of its own, the
+    diagnosis's FE band); None: no change."""
     if not terms:
         return None
-    lowest = 1.0 / (2 * math.pi * max(t["relaxation_time"] for t in terms)
-                    * (1 + sum(t["modulus_ratio"] for t in terms)))
-    top = eigen["f_max"] if f_max is None else f_max
-    if eigen["f_min"] < 0.5 * lowest and lowest <= 2 * eigen["max_damping_ratio"] * top:
+    lowest = 1.0 / (2 * math.pi * max(t.relaxation_time for t in terms)
+                    * (1 + sum(t.modulus_ratio for t in terms)))
+    top = eigen.f_max if f_max is None else f_max
+    if eigen.f_min < 0.5 * lowest and lowest <= 2 * eigen.max_damping_ratio * top:
         return 0.5 * lowest
     return None
 
@@ -661,7 +662,7 @@ _register(Effect(
               "zeta < 2e-16 and its frequencies unchanged)",
     on_overrides=prony_overrides,
     off_overrides=lambda s: {"membrane.prony": []},
-    detect=lambda s: bool(s["membrane"]["prony"]),
+    detect=lambda s: bool(s.membrane.prony),
     needs="quality_factors", fe_role="anchored", visible_in_scan=True, prony_term=True,
     not_direct=("needs the ring surrogate to fit its two parameters (the direct FE engine "
                 "would tabulate them on a grid of damped FE solves per condition), which "
@@ -690,7 +691,7 @@ _register(Effect(
               "every z, V_b and mode; P1 less (the spring k_d is not scaled)",
     on_overrides=lambda s, v: {"effects.stiffness_scale": v[0]},
     off_overrides=lambda s: {"effects.stiffness_scale": 1.0},
-    detect=lambda s: s["effects"]["stiffness_scale"] != 1.0,
+    detect=lambda s: s.effects.stiffness_scale != 1.0,
     fe_role="anchored", direct=True, visible_in_scan=True, changes_prestress=True))
 
 EFFECT_IDS = tuple(CATALOGUE)

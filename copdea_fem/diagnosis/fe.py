@@ -113,10 +113,10 @@ def fe_study(study: Study, f_max: float | None = None) -> Study:
     if f_max is not None:
         overrides["eigen.f_max"] = float(f_max)
         from copdea_fem.diagnosis.effects import prony_band_floor
-        floor = prony_band_floor(study["membrane"]["prony"], study["eigen"], float(f_max))
+        floor = prony_band_floor(study.membrane.prony, study.eigen, float(f_max))
         if floor is not None:        # a Prony relaxation spectrum the wider band would reach
             overrides["eigen.f_min"] = floor
-    if not study["air"]["enabled"]:
+    if not study.air.enabled:
         overrides.update({"geometry.frame": "none", "geometry.enclosure": "none",
                           "air.outside": True, "mesh.engine": "axisymmetric"})
     return study.replace(overrides)
@@ -131,7 +131,8 @@ def fe_key(study: Study) -> str:
     whole = ("geometry", "membrane", "disc", "load", "air", "mesh")
     picked = ("spring.stiffness", "eigen.f_min", "eigen.f_max", "eigen.max_damping_ratio",
               "air.min_membrane_energy") + FE_EFFECT_KEYS
-    items = {f"{s}.{k}": v for s in whole for k, v in study[s].items()}
+    values = study.values
+    items = {f"{s}.{k}": v for s in whole for k, v in values[s].items()}
     items.update({key: study.get(key) for key in picked})
     text = json.dumps({"version": FE_CACHE_VERSION, "code": fe_fingerprint(), "study": items},
                       sort_keys=True, default=repr)
@@ -452,10 +453,10 @@ class FEModel:
         from copdea_fem.fe import coupled_modes, dry_modes, engine_for
         from copdea_fem.progress import quiet_progress
         engine = engine_for(run)
-        coupled = bool(run["air"]["enabled"])
-        load = run["load"]
+        coupled = bool(run.air.enabled)
+        load = run.load
         self.progress(f"FE ({engine.name}, {'coupled' if coupled else 'in vacuo'}) at "
-                      f"z = {1e3 * load['z']:g} mm, V_b = {1e-3 * load['voltage']:g} kV ...")
+                      f"z = {1e3 * load.z:g} mm, V_b = {1e-3 * load.voltage:g} kV ...")
         start = time.perf_counter()
         with quiet_progress():             # one line per FE study, not its steps
             if coupled:

@@ -266,19 +266,19 @@ class RingPredictor:
 
     def _build(self, study, condition, fe) -> _Reference:
         self.builds += 1
-        if (study["air"]["enabled"] and study["effects"]["air_added_mass"] == "none"
-                and not fe and not study["reduced"]["modes_json"]):
+        if (study.air.enabled and study.effects.air_added_mass == "none"
+                and not fe and not study.reduced.modes_json):
             # a base written with air: the ring model carries the air's estimate (eq. 19)
             study = study.replace({"effects.air_added_mass": "incompressible"})
         ring_model = ring_model_of(study)
-        load = study["load"]
-        _, basis, elastic = operating_point(ring_model, load["z"], load["voltage"],
-                                            study["effects"]["maxwell_scale"])
+        load = study.load
+        _, basis, elastic = operating_point(ring_model, load.z, load.voltage,
+                                            study.effects.maxwell_scale)
         limit = 2.0 * condition.band[1]
         membrane = [m.label for m in basis.modes if m.kind == "out-of-plane"]
         kept = [label for label in membrane if basis[label].frequency_hz <= limit]
-        kept = membrane[:max(2, len(kept))][:study["reduced"]["rings"] - 1]
-        labels = (["P1"] if study["disc"]["motion"] == "spring" else []) + kept
+        kept = membrane[:max(2, len(kept))][:study.reduced.rings - 1]
+        labels = (["P1"] if study.disc.motion == "spring" else []) + kept
         reference = study.replace({**REFERENCE_VALUES, "reduced.modes": ", ".join(labels)})
         setup = build_reduced(reference, fe)
         reduced = setup.reduced
@@ -298,7 +298,7 @@ class RingPredictor:
             force=reduced.modal_force_per_volt.copy(), scan_axial=reduced.scan_axial,
             scan_radial=reduced.scan_radial, point_axial=reduced.point_axial,
             point_radial=reduced.point_radial, radial_ratio=ratio,
-            disc_amplitude=float(disc), pumping_index=pumping, z=load["z"],
+            disc_amplitude=float(disc), pumping_index=pumping, z=load.z,
             chirp=setup.chirp, setup=setup)
 
 
@@ -321,8 +321,8 @@ def _cheap_values(study, overrides=None) -> dict:
             "viscoelastic_strength": get("effects.viscoelastic_strength"),
             "viscoelastic_time": get("effects.viscoelastic_time"),
             "spring_own_mass": get("spring.mass"),
-            "spring_stiffness": study["spring"]["stiffness"],
-            "spring_length": study["spring"]["length"],
+            "spring_stiffness": study.spring.stiffness,
+            "spring_length": study.spring.length,
             "damping": {label: get(damping_key(label))
                         for label in ("P1", "(0,1)", "(0,2)", "(0,3)")}}
 

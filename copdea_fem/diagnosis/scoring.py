@@ -179,7 +179,7 @@ class Scorer:
         self.meta = {}
         for c in self.conditions:
             study = measured.study_of(c)
-            self.meta[c.name] = {"voltage": study["load"]["voltage"], "z": study["load"]["z"]}
+            self.meta[c.name] = {"voltage": study.load.voltage, "z": study.load.z}
 
     # evaluation of a state against the data
     def terms(self, name) -> DevianceTerms:

@@ -150,11 +150,11 @@ def condition_name(study: Study, overrides: dict, index: int, taken: set) -> str
     parts = []
     for key in overrides:
         if key == "load.z":
-            parts.append(f"z{study['load']['z'] * 1e3:g}")
+            parts.append(f"z{study.load.z * 1e3:g}")
         elif key == "load.voltage":
-            parts.append(f"v{study['load']['voltage'] / 1e3:g}")
+            parts.append(f"v{study.load.voltage / 1e3:g}")
         elif key == "geometry.inner_radius":
-            parts.append(f"ri{study['geometry']['inner_radius'] * 1e3:g}")
+            parts.append(f"ri{study.geometry.inner_radius * 1e3:g}")
     name = "_".join(parts) or f"c{index + 1}"
     name = name.replace("-", "m")
     candidate, suffix = name, 2
@@ -196,8 +196,8 @@ def synthesise(study: Study, effects: dict, conditions: list[dict],
             condition_study = study.replace(overrides)
         except StudyError as error:
             raise StudyError(f"--conditions #{index + 1}: {error}") from None
-        x = condition_study["excitation"]
-        band = (max(x["f_start"], 1.0 / x["duration"]), x["f_end"])
+        x = condition_study.excitation
+        band = (max(x.f_start, 1.0 / x.duration), x.f_end)
         name = condition_name(condition_study, overrides, index, taken)
         prepared.append(Condition(name=name, overrides=dict(overrides), resonances=None,
                                   spectrum=None, band=band))
@@ -233,7 +233,7 @@ def synthesise(study: Study, effects: dict, conditions: list[dict],
                       "modes": {m.label: m.frequency_hz for m in exact.modes},
                       "perturbed": {m.label: m.frequency_hz for m in noisy.modes},
                       "missing": [label for label, gone in missing.items() if gone]}
-        drive = truth_study["load"]["z"] > 0 and truth_study["load"]["voltage"] > 0
+        drive = truth_study.load.z > 0 and truth_study.load.voltage > 0
         if options.spectra and drive:
             result = noisy.spectra()
             item.spectrum = {"freq_hz": result.frequency_hz,

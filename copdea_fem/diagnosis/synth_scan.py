@@ -187,7 +187,7 @@ def synthesise_scan(study: Study, options: ScanOptions, rng, name: str = "scan")
         return scatter.setdefault(label, math.exp(rng.normal(0, options.frequency_noise)))
 
     reference, _ = psv_reference_grid(state.outer_radius, state.inner_radius, options)
-    positions = result.engine.prestressed_positions(state, reference, study["load"]["z"])
+    positions = result.engine.prestressed_positions(state, reference, study.load.z)
     response = scan_response(result, solved_study, positions, frequencies, imperfection,
                              damping_per_mass=modal_damping(study, options.damping_ratio),
                              frequency_factors=factor)

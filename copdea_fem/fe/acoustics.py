@@ -192,7 +192,7 @@ def screen_faces(frame: str) -> str:
     Parameters
     ----------
     frame : {"square", "circle", "baffle", "none"}
-        ``study["geometry"]["frame"]``.
+        ``study.geometry.frame``.
 
     Returns
     -------
@@ -355,7 +355,7 @@ def pressure_space(mesh, order: int, screens: str, pml_order: int | None = None,
     mesh : ngsolve.Mesh
         Mesh of :func:`copdea_fem.fe.quadrant.geometry.load_mesh` with air.
     order : int
-        Polynomial order of the pressure in the air (``study["mesh"]["pressure_order"]``).
+        Polynomial order of the pressure in the air (``study.mesh.pressure_order``).
     screens : str
         Faces the pressure jumps across (:func:`screen_faces`), names joined
         by ``|``.  On the other plane faces (:func:`open_plane_faces`) ``q`` is

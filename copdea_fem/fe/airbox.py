@@ -32,10 +32,10 @@ def check_air_lift(study: Study) -> None:
     Called before any meshing by the coupled solve and by coupled sweeps (the
     dry and reduced models do not move the air).
     """
-    limit = 0.45 * ale_decay_length(study["air"]["domain_radius"],
-                                    study["geometry"]["outer_radius"])
-    if study["load"]["z"] >= limit:
-        raise StudyError(f"load.z = {preview(study['load']['z'])} is not allowed (raise "
+    limit = 0.45 * ale_decay_length(study.air.domain_radius,
+                                    study.geometry.outer_radius)
+    if study.load.z >= limit:
+        raise StudyError(f"load.z = {preview(study.load.z)} is not allowed (raise "
                          f"air.domain_radius); allowed: < {limit:g} m = 0.45 L for the coupled "
                          "step, L = the height over which the air mesh follows the membrane "
                          "(copdea_fem.fe.ale)")

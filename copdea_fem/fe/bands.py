@@ -1,7 +1,7 @@
 """Band rules shared by both engines: band-solver options, the dry partner band, the coupled
 start count, and the stop rule of an order-by-order (axisymmetric) solve.
 
-* The band solver is built once from ``study["eigen"]`` (:class:`BandSolver`) and handed
+* The band solver is built once from ``study.eigen`` (:class:`BandSolver`) and handed
   to the engine.
 * The dry partner band of a coupled solve reaches :data:`DRY_PARTNER_FACTOR` ``f_max``:
   a wet mode lies below its dry partner, and an added mass above 125 % of a modal mass
@@ -39,7 +39,7 @@ DENSE_LOWEST = 400
 
 @dataclass(frozen=True)
 class BandSolver:
-    """The band solves of one study (``study["eigen"]``): its band [Hz] and the options of
+    """The band solves of one study (``study.eigen``): its band [Hz] and the options of
     :func:`copdea_fem.fe.eigen.solve_band`, read once."""
 
     f_min: float
@@ -52,9 +52,9 @@ class BandSolver:
 
     @classmethod
     def from_study(cls, study) -> "BandSolver":
-        eigen = study["eigen"]
-        return cls(eigen["f_min"], eigen["f_max"], eigen["backend"], eigen["max_modes"],
-                   eigen["residual_tol"], eigen["max_damping_ratio"], eigen["factor_memory_gb"])
+        eigen = study.eigen
+        return cls(eigen.f_min, eigen.f_max, eigen.backend, eigen.max_modes,
+                   eigen.residual_tol, eigen.max_damping_ratio, eigen.factor_memory_gb)
 
     @property
     def dry_partner_top(self) -> float:

@@ -89,31 +89,31 @@ def assemble_coupled(study, mesh, state) -> "CoupledAssembly":
     mesh's disc face carries a quarter of them, :mod:`copdea_fem.fe.symmetry`).  One
     assembly serves every symmetry sector: :meth:`CoupledAssembly.restrict`.
     """
-    air, geometry = study["air"], study["geometry"]
-    closed = geometry["enclosure"] != "none"
-    outside = air["outside"] or not closed
-    screens = acoustics.enclosure_screen_faces(geometry["frame"], outside) if closed else \
-        acoustics.screen_faces(geometry["frame"])
-    if geometry["inner_radius"] == 0:
+    air, geometry = study.air, study.geometry
+    closed = geometry.enclosure != "none"
+    outside = air.outside or not closed
+    screens = acoustics.enclosure_screen_faces(geometry.frame, outside) if closed else \
+        acoustics.screen_faces(geometry.frame)
+    if geometry.inner_radius == 0:
         screens = "|".join(face for face in screens.split("|") if face != "disc")
     logger.info("air mesh follows the membrane (ALE) ...")
     def depth(radius):         # the air inside follows the membrane down to the bottom
-        return cavity_depth(geometry["enclosure"], geometry["enclosure_depth"],
-                            geometry["enclosure_radius"], radius)
+        return cavity_depth(geometry.enclosure, geometry.enclosure_depth,
+                            geometry.enclosure_radius, radius)
 
-    motion = air_mesh_displacement(state, mesh, air["domain_radius"],
+    motion = air_mesh_displacement(state, mesh, air.domain_radius,
                                    cavity_depth=depth if closed else None)
     # a square frame beyond a cylinder's or bowl's rim separates the outside halves too
-    frame_beyond_rim = closed and outside and geometry["frame"] == "square" \
-        and geometry["enclosure"] != "box"
-    pressure_space = acoustics.pressure_space(mesh, study["mesh"]["pressure_order"], screens,
+    frame_beyond_rim = closed and outside and geometry.frame == "square" \
+        and geometry.enclosure != "box"
+    pressure_space = acoustics.pressure_space(mesh, study.mesh.pressure_order, screens,
                                               vacuum_above=not outside,
                                               outside_jump=frame_beyond_rim)
-    membrane_space = displacement_space(mesh, study["mesh"]["order"], state.has_disc,
+    membrane_space = displacement_space(mesh, study.mesh.order, state.has_disc,
                                         complex_=True)
     if membrane_space.ndof != state.space.ndof:
         raise RuntimeError("complex and real membrane spaces differ; cannot couple")
-    with_disc = study["disc"]["motion"] == "spring" and state.has_disc
+    with_disc = study.disc.motion == "spring" and state.has_disc
     spaces = [membrane_space, *pressure_space.components]
     disc_component = len(spaces)       # after (p, q) or (p, q, q_o): acoustics.pressure_space
     if with_disc:
@@ -127,10 +127,10 @@ def assemble_coupled(study, mesh, state) -> "CoupledAssembly":
     pressure_test = tuple(test[1:disc_component])
     normal = _pressure_sign_fixed_normal()
     material, measure = state.material, state.measure
-    density, sound_speed = air["density"], air["sound_speed"]
+    density, sound_speed = air.density, air.sound_speed
     if with_disc:       # the device's disc area: lumped terms per unit area of the disc face
         disc_area = state.symmetry.copies * ngs.Integrate(ngs.CF(1) * ngs.ds("disc"), mesh)
-        disc_mass = study["disc"]["mass"] + study["spring"]["mass"] / 3
+        disc_mass = study.disc.mass + study.spring.mass / 3
 
     gradient = tangent_gradient(state.displacement) + tangent_gradient(trial[0])
     if with_disc:
@@ -149,7 +149,7 @@ def assemble_coupled(study, mesh, state) -> "CoupledAssembly":
     mass += membrane_mass_and_air
     if with_disc:
         disc, disc_test = trial[disc_component], test[disc_component]
-        stiffness += (study["spring"]["stiffness"] / disc_area) * disc * disc_test * ngs.ds("disc")
+        stiffness += (study.spring.stiffness / disc_area) * disc * disc_test * ngs.ds("disc")
         disc_traction, disc_acceleration = acoustics.coupling_forms(
             pressure, pressure_test, disc * normal[2], disc_test * normal[2], "disc",
             deformation=motion)
@@ -163,7 +163,7 @@ def assemble_coupled(study, mesh, state) -> "CoupledAssembly":
     kinetic += _physical_air_energy(pressure, pressure_test, density, motion)
     kinetic.Assemble()                   # before the PML: a real energy norm
     if outside:
-        acoustics.set_pml(mesh, air["domain_radius"], air["pml_thickness"])
+        acoustics.set_pml(mesh, air.domain_radius, air.pml_thickness)
     try:
         stiffness.AssembleLinearization(zero.vec)      # Hessian at u0 (E(u0 + u) at u = 0)
         mass.Assemble()
@@ -200,7 +200,7 @@ class CoupledAssembly:
         and the NGSolve ones unless the sectors factorise natively in NGSolve (``umfpack``,
         ``pardiso``).  The 0.65 m drum: ~0.5 GB of its peak during the eigen stage."""
         self.stiffness = self.mass = self.kinetic = None
-        if self.study["eigen"]["backend"] == "superlu":
+        if self.study.eigen.backend == "superlu":
             self.stiffness_matrix = self.mass_matrix = None
 
     def restrict(self, operators: MembraneOperators) -> "CoupledOperators":
@@ -214,7 +214,7 @@ class CoupledAssembly:
         mesh = state.mesh
         free_mask = np.array(self.space.FreeDofs())
         free_mask[offsets[0] + membrane_mirror_dofs(state.space, mesh,
-                                                    self.study["mesh"]["order"], sector)] = False
+                                                    self.study.mesh.order, sector)] = False
         free_mask[offsets[1] + pressure_mirror_dofs(self.pressure_space, mesh, sector)] = False
         pressure_end = offsets[1] + self.pressure_space.ndof     # the disc DOF, if any
         if self.with_disc and not operators.disc_dof:     # the disc moves in even-even only
@@ -238,7 +238,7 @@ class CoupledAssembly:
         is_air = np.zeros(free.size, dtype=bool)
         is_air[pressure_index] = True
         a_scaled, b_scaled, beta, row_scale, column_scale = scaled_pencil(a_full, b_full, is_air)
-        backend = self.study["eigen"]["backend"]
+        backend = self.study.eigen.backend
 
         def factorize(sigma: float):
             if backend == "superlu":      # SciPy factorises the complex scaled pencil natively

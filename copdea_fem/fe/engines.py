@@ -142,12 +142,12 @@ def check_size(study: Study, limit: float | None = None, *, engine: Engine) -> N
 def refuse_size(study, elements: float, unknowns: float, limit: float = MAX_UNKNOWNS) -> None:
     """Refuse (StudyError) a study whose estimated unknowns (the engine's estimate:
     :func:`copdea_fem.fe.engines.check_size`) exceed ``limit``, before meshing."""
-    with_air = study["air"]["enabled"]
-    mesh = study["mesh"]
+    with_air = study.air.enabled
+    mesh = study.mesh
     if unknowns > limit:
         coarser = "a larger mesh.membrane_size" + (" or mesh.air_size" if with_air else "")
         lower = "a lower mesh.order" + (" or mesh.pressure_order" if with_air else "")
         raise StudyError(
-            f"mesh.membrane_size = {mesh['membrane_size']:g} m (mesh.order = {mesh['order']}) "
+            f"mesh.membrane_size = {mesh.membrane_size:g} m (mesh.order = {mesh.order}) "
             f"gives about {elements:.3g} elements and {unknowns:.3g} unknowns, more than the "
             f"limit of {limit:.3g}; allowed: {coarser}, {lower}, or --allow-large")

@@ -128,23 +128,23 @@ def material_tangent(state: PrestressedState) -> sp.csr_matrix:
     return state.material_matrix
 
 
-def damping_terms(stiffness, mass, membrane_keys, material=None) -> DampingTerms | None:
+def damping_terms(stiffness, mass, membrane, material=None) -> DampingTerms | None:
     """The damping of a membrane pencil (module doc): ``C = alpha M + beta K`` and the
     Prony branches ``(g_j K_mat, tau_j)``; None without damping keys (the linear path).
 
     ``stiffness, mass``: ``K_s`` [N/m], ``M_s`` [kg] on the pencil's unknowns;
-    ``membrane_keys``: ``study["membrane"]``; ``material``: a callable returning ``K_mat``
-    on the same unknowns, called only when ``membrane.prony`` is given.
+    ``membrane``: the study's section ``study.membrane``; ``material``: a callable returning
+    ``K_mat`` on the same unknowns, called only when ``membrane.prony`` is given.
     """
-    alpha, beta = membrane_keys["rayleigh_alpha"], membrane_keys["rayleigh_beta"]
-    prony = membrane_keys.get("prony") or []
+    alpha, beta = membrane.rayleigh_alpha, membrane.rayleigh_beta
+    prony = membrane.prony
     if not (alpha or beta or prony):
         return None
     damping = (alpha * mass + beta * stiffness).tocsr() if (alpha or beta) else None
     relaxation = []
     if prony:
         tangent = material()
-        relaxation = [(term["modulus_ratio"] * tangent, term["relaxation_time"])
+        relaxation = [(term.modulus_ratio * tangent, term.relaxation_time)
                       for term in prony]
     return DampingTerms(damping, relaxation)
 
@@ -158,7 +158,7 @@ def operator_damping(operators: MembraneOperators, study) -> DampingTerms | None
         if operators.disc_dof:      # the rim lift strains the film; the spring is elastic
             block = _border(block, full, operators.state.disc_lift.vec.FV().NumPy(), free, 0.0)
         return block.tocsr()
-    return damping_terms(operators.stiffness, operators.mass, study["membrane"],
+    return damping_terms(operators.stiffness, operators.mass, study.membrane,
                          reduced_material)
 
 
@@ -174,17 +174,17 @@ def linearised_operators(state: PrestressedState, study, sector: Sector | None =
     if symmetry.quarter and sector is None:
         sector = SECTORS[0]
     free_mask = np.array(state.space.FreeDofs())
-    free_mask[membrane_mirror_dofs(state.space, state.mesh, study["mesh"]["order"], sector)] = False
+    free_mask[membrane_mirror_dofs(state.space, state.mesh, study.mesh.order, sector)] = False
     free = np.flatnonzero(free_mask)
     k_ff, m_ff = stiffness[free][:, free], mass[free][:, free]
-    with_disc = (study["disc"]["motion"] == "spring" and state.has_disc
+    with_disc = (study.disc.motion == "spring" and state.has_disc
                  and (sector is None or sector == SECTORS[0]))
     disc_mass = 0.0
     if with_disc:
         lift = state.disc_lift.vec.FV().NumPy()
-        spring = study["spring"]
-        disc_mass = (study["disc"]["mass"] + spring["mass"] / 3) / symmetry.copies
-        k_ff = _border(k_ff, stiffness, lift, free, spring["stiffness"] / symmetry.copies)
+        spring = study.spring
+        disc_mass = (study.disc.mass + spring.mass / 3) / symmetry.copies
+        k_ff = _border(k_ff, stiffness, lift, free, spring.stiffness / symmetry.copies)
         m_ff = _border(m_ff, mass, lift, free, disc_mass)
     return MembraneOperators(k_ff.tocsr(), m_ff.tocsr(), free, with_disc, state, sector,
                              disc_mass)

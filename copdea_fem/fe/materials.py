@@ -52,11 +52,11 @@ class Membrane:
 
     @classmethod
     def from_study(cls, study) -> "Membrane":
-        m = study["membrane"]
-        return cls(c10=m["c10"], c20=m["c20"], c01=m["c01"],
-                   permittivity=m["relative_permittivity"] * VACUUM_PERMITTIVITY,
-                   thickness=m["thickness"], density=m["density"],
-                   prestretch=m["prestretch"])
+        m = study.membrane
+        return cls(c10=m.c10, c20=m.c20, c01=m.c01,
+                   permittivity=m.relative_permittivity * VACUUM_PERMITTIVITY,
+                   thickness=m.thickness, density=m.density,
+                   prestretch=m.prestretch)
 
     @classmethod
     def with_effects(cls, study) -> "Membrane":
@@ -66,8 +66,8 @@ class Membrane:
         eq. (7) scales, as V_eff = sqrt(maxwell_scale) V_b does in the ring model's
         equilibrium and K_s; in the FE the forcing scales with it)."""
         nominal = cls.from_study(study)
-        effects = study["effects"]
-        stiffness, maxwell = effects["stiffness_scale"], effects["maxwell_scale"]
+        effects = study.effects
+        stiffness, maxwell = effects.stiffness_scale, effects.maxwell_scale
         if stiffness == 1.0 and maxwell == 1.0:
             return nominal
         return replace(nominal, c10=stiffness * nominal.c10, c20=stiffness * nominal.c20,

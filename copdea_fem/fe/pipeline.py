@@ -3,7 +3,7 @@
 The engine of the study (``mesh.engine``) is resolved once by the caller
 (:func:`copdea_fem.fe.engines.engine_for`: the API, a sweep's point, the diagnosis's FE
 solve) and passed in: ``engine`` is a required argument of every function here.  Its band
-solves are configured once from ``study["eigen"]`` (:class:`copdea_fem.fe.bands.BandSolver`).
+solves are configured once from ``study.eigen`` (:class:`copdea_fem.fe.bands.BandSolver`).
 Nothing here writes a file: the result objects of :mod:`copdea_fem.api` do
 (:meth:`copdea_fem.api.Solution.write`).
 
@@ -54,7 +54,7 @@ class SolveResult:
 def require_backend(study: Study) -> None:
     """Reject an ``eigen.backend`` this machine cannot run, before any meshing."""
     from copdea_fem.fe.eigen import available_backends, backend_available
-    backend = study["eigen"]["backend"]
+    backend = study.eigen.backend
     if not backend_available(backend):
         raise StudyError(f"eigen.backend = {backend!r} is not available on this machine "
                          f"(pardiso needs Intel MKL: pip install mkl); allowed here: "
@@ -117,7 +117,7 @@ def dry_modes(study: Study, mesh=None, timings: Timings | None = None, cache_dir
     """
     timings = timings or Timings()
     require_backend(study)
-    mesh = _meshed(study, mesh, study["air"]["enabled"], timings, cache_dir, engine)
+    mesh = _meshed(study, mesh, study.air.enabled, timings, cache_dir, engine)
     state, modes, result = engine.dry_modes(study, mesh, timings, solver, initial_shifts,
                                             BandSolver.from_study(study))
     return state, [modes[k] for k in _oscillating(modes)], result
@@ -157,7 +157,7 @@ def run_solve(study: Study, *, cache_dir=None, engine: Engine) -> SolveResult:
     """Prestress and modes of ``copdea-fem solve`` (coupled when ``air.enabled``)."""
     timings = Timings()
     coupled = None
-    if study["air"]["enabled"]:
+    if study.air.enabled:
         coupled = coupled_modes(study, timings=timings, cache_dir=cache_dir, engine=engine)
         state, modes, eigen_result = coupled.state, coupled.modes, coupled.eigen
     else:

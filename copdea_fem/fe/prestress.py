@@ -93,7 +93,7 @@ class MembraneSolver:
 
     Keeps the space, forms and the current state, so a sequence of loads (a
     force-displacement curve, a sweep over z and V_b) continues from the
-    previous equilibrium.
+    previous equilibrium.  ``settings``: the study's section ``study.prestress``.
     """
 
     #: NGSolve's factorisation of the Newton tangent: a sparse Cholesky (the tangent is
@@ -101,7 +101,7 @@ class MembraneSolver:
     inverse_kind = "sparsecholesky"
 
     def __init__(self, mesh, material: Membrane, order: int, outer_radius: float,
-                 inner_radius: float, settings: dict, curve_order: int = 1):
+                 inner_radius: float, settings, curve_order: int = 1):
         self.mesh, self.material, self.settings = mesh, material, settings
         self.has_disc = inner_radius > 0
         self.outer_radius, self.inner_radius = outer_radius, inner_radius
@@ -183,11 +183,11 @@ class MembraneSolver:
         """Newton with an energy line search; returns iterations or raises _StepFailed."""
         settings = self.settings
         inverse_kind = self.inverse_kind
-        for iteration in range(1, settings["max_newton_iter"] + 1):
+        for iteration in range(1, settings.max_newton_iter + 1):
             free_norm, reaction_norm = self._assemble_residual()
             if not math.isfinite(free_norm):
                 raise _StepFailed("the residual is not finite")
-            if free_norm <= settings["newton_tol"] * max(reaction_norm, 1e-300):
+            if free_norm <= settings.newton_tol * max(reaction_norm, 1e-300):
                 return iteration - 1
             self.energy.AssembleLinearization(self.u.vec)
             inverse = self.energy.mat.Inverse(self.free, inverse=inverse_kind)
@@ -210,7 +210,7 @@ class MembraneSolver:
                 if alpha < 1e-4:
                     self.u.vec.data = start
                     raise _StepFailed("the line search found no energy decrease")
-        raise _StepFailed(f"no convergence in {settings['max_newton_iter']} iterations")
+        raise _StepFailed(f"no convergence in {settings.max_newton_iter} iterations")
 
     def _try_load(self, z: float, voltage: float) -> int:
         """Move to (z, V) from the current state; on failure restore it."""
@@ -234,7 +234,7 @@ class MembraneSolver:
         z0, v0 = self.z, self.voltage.Get()
         s, ds_nominal = 0.0, 1.0 / steps
         ds = ds_nominal
-        min_ds = ds_nominal / 2 ** self.settings["max_cuts"]
+        min_ds = ds_nominal / 2 ** self.settings.max_cuts
         while s < 1.0 - 1e-12:
             ds = min(ds, 1.0 - s)
             z_next, v_next = z0 + (s + ds) * (z - z0), v0 + (s + ds) * (voltage - v0)
@@ -311,10 +311,10 @@ def _membrane_points(mesh, r_o: float, r_i: float, n_radii: int = 24, n_angles: 
 
 
 def make_solver(study, mesh) -> MembraneSolver:
-    g = study["geometry"]
-    return MembraneSolver(mesh, Membrane.with_effects(study), study["mesh"]["order"],
-                          g["outer_radius"], g["inner_radius"], study["prestress"],
-                          curve_order=study["mesh"]["curve_order"])
+    g = study.geometry
+    return MembraneSolver(mesh, Membrane.with_effects(study), study.mesh.order,
+                          g.outer_radius, g.inner_radius, study.prestress,
+                          curve_order=study.mesh.curve_order)
 
 
 def solve_prestress(study, mesh, solver: MembraneSolver | None = None) -> PrestressedState:
@@ -323,12 +323,12 @@ def solve_prestress(study, mesh, solver: MembraneSolver | None = None) -> Prestr
     Pass ``solver`` to continue from its current state (sweeps) instead.
     """
     solver = solver or make_solver(study, mesh)
-    z, voltage = study["load"]["z"], study["load"]["voltage"]
-    settings = study["prestress"]
+    z, voltage = study.load.z, study.load.voltage
+    settings = study.prestress
     if z != solver.z:
-        solver.go_to(z, solver.voltage.Get(), settings["z_steps"])
+        solver.go_to(z, solver.voltage.Get(), settings.z_steps)
     if voltage != solver.voltage.Get():
-        solver.go_to(z, voltage, settings["voltage_steps"])
+        solver.go_to(z, voltage, settings.voltage_steps)
     solver._check_tension(z, voltage)
     return solver.state()
 
@@ -340,12 +340,12 @@ def force_displacement(study, mesh, z_values, voltages, new_solver=None) -> np.n
     (default :func:`make_solver`) makes the solver of ``mesh``'s engine.
     """
     forces = np.empty((len(voltages), len(z_values)))
-    settings = study["prestress"]
+    settings = study.prestress
     new_solver = new_solver or make_solver
     for i, voltage in enumerate(voltages):
         solver = new_solver(study, mesh)
-        solver.go_to(0.0, voltage, settings["voltage_steps"])
+        solver.go_to(0.0, voltage, settings.voltage_steps)
         for j, z in enumerate(z_values):
-            solver.go_to(z, voltage, settings["z_steps"] if j == 0 else 1)
+            solver.go_to(z, voltage, settings.z_steps if j == 0 else 1)
             forces[i, j] = solver.disc_force()
     return forces

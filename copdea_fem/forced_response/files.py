@@ -38,8 +38,8 @@ def _plots(staging: Path, result, reduced) -> list[str]:
     study = result.problem.study
     setup, spectrum = reduced
     title = (f"{study.name}: FE forced response ({result.problem.engine}, {result.method}); z = "
-             f"{1e3 * study['load']['z']:g} mm, V_b = {study['load']['voltage'] / 1e3:g} kV, "
-             f"frame {study['geometry']['frame']}")
+             f"{1e3 * study.load.z:g} mm, V_b = {study.load.voltage / 1e3:g} kV, "
+             f"frame {study.geometry.frame}")
     written = []
     fig, axes = plt.subplots(2, 1, figsize=(7, 5), sharex=True)
     for axis, fe, name, key in ((axes[0], result.average_axial, "axial", "average_axial"),
@@ -149,14 +149,14 @@ def write_response(result, out_dir: Path, reduced=(None, None)) -> None:
                       "position": "m"},
             "microphones": {name: position.tolist() for name, position in result.microphones},
             "peaks_hz": result.peaks_hz, "lines": int(f.size),
-            "loss_factor": study["membrane"]["loss_factor"],
+            "loss_factor": study.membrane.loss_factor,
             "unknowns": int(result.problem.forced.size),
             "equilibrium_residual": result.problem.forced.equilibrium_residual,
             "timings_s": result.timings}
         if result.method in ("reduced", "reduced_modal"):
             document["reduced_basis"] = result.basis.summary()
         write_json(staging / "response.json", document)
-        if study["output"]["plots"]:
+        if study.output.plots:
             _plots(staging, result, reduced)
-        if study["output"]["paraview"] and result.peaks_hz:
+        if study.output.paraview and result.peaks_hz:
             _paraview(staging, result)

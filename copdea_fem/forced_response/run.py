@@ -63,7 +63,9 @@ from copdea_fem.forced_response.observers import LineResponse, Microphones
 from copdea_fem.study import DEFAULT_MICROPHONE, StudyError, listed_microphones
 
 if TYPE_CHECKING:
-    from copdea_fem.fe import Engine, OrderZero
+    from copdea_fem.fe import Engine, Mode, OrderZero
+    from copdea_fem.fe.forced.harmonic import ModalBasis
+    from copdea_fem.forced_response.reduced_basis import ReducedBasis
 
 logger = logging.getLogger(__name__)
 
@@ -73,10 +75,10 @@ def parse_microphones(study) -> list[tuple[str, np.ndarray]]:
     on the +z axis, then those of ``response.microphones`` ("name = x, y, z; ...", units
     allowed, e.g. ``side = 0.5 m, 0 m, 0.5 m``), parsed and checked as the study was read
     (:func:`copdea_fem.study.listed_microphones`), so a bad one never reaches a solve."""
-    response = study["response"]
-    axis = (0.0, 0.0, float(response["microphone_distance"]))
-    listed = listed_microphones(response["microphones"], study["geometry"]["frame"],
-                                study["geometry"]["enclosure"])
+    response = study.response
+    axis = (0.0, 0.0, float(response.microphone_distance))
+    listed = listed_microphones(response.microphones, study.geometry.frame,
+                                study.geometry.enclosure)
     return [(name, np.array(position))
             for name, position in [(DEFAULT_MICROPHONE, axis), *listed]]
 
@@ -86,16 +88,16 @@ def prepare_order_zero(study, *, engine: Engine) -> OrderZero:
     order m = 0 or the even-even sector: the engine's
     :meth:`copdea_fem.fe.engines.Engine.forced_problem`; ``engine``: the study's, resolved
     by the caller)."""
-    if study["load"]["voltage"] <= 0:
+    if study.load.voltage <= 0:
         raise StudyError("load.voltage = 0 is not allowed for `response`; allowed: > 0 V (the "
                          "linear forcing V_b dC/du vanishes without a bias)")
-    if study["response"]["method"] == "modal" and sealed_enclosure(study):
+    if study.response.method == "modal" and sealed_enclosure(study):
         raise StudyError("response.method = modal is not allowed with a sealed enclosure; "
                          "allowed: direct, reduced or auto (the modal path's static "
                          "correction A^-1 F does not exist: a uniform cavity pressure and the "
                          "membrane's static deflection under it solve A x = 0, "
                          "copdea_fem.fe.cavity.without_static_solution)")
-    if not study["air"]["outside"]:
+    if not study.air.outside:
         raise StudyError("air.outside = false is not allowed for `response`; allowed: true "
                          "(the sound at the microphones needs the outside air)")
     check_air_lift(study)
@@ -108,15 +110,15 @@ def modal_solution(problem: OrderZero, f_end: float):
     from copdea_fem.fe.forced.harmonic import ModalBasis
 
     study, coupled = problem.study, problem.coupled
-    reach = study["response"]["modal_band"] * f_end
-    eigen = study["eigen"]
+    reach = study.response.modal_band * f_end
+    eigen = study.eigen
     logger.info(f"coupled modes of the {problem.sector.name}, Re f <= {reach:g} Hz, "
                 f"|Im f| <= {reach:g} Hz ...")
     result = solve_band(coupled.stiffness, coupled.mass, 0.0, reach, factorize=coupled.factorize,
-                        hermitian=False, max_imag_hz=reach, backend=eigen["backend"],
-                        max_modes=eigen["max_modes"], residual_tol=eigen["residual_tol"])
+                        hermitian=False, max_imag_hz=reach, backend=eigen.backend,
+                        max_modes=eigen.max_modes, residual_tol=eigen.residual_tol)
     modes = _band_modes(problem, result.eigenvalues, result.vectors, result.residuals)
-    if study["membrane"].get("prony"):
+    if study.membrane.prony:
         logger.warning("response.method: modal with membrane.prony: the modal path is a few % "
                        "off the exact response (its static correction uses the relaxed "
                        "stiffness; docs/response.md); response.method: reduced (or direct) is "
@@ -140,7 +142,7 @@ def _band_modes(problem: OrderZero, eigenvalues, vectors, residuals):
     from copdea_fem.fe import AIR
 
     study = problem.study
-    eigen = study["eigen"]
+    eigen = study.eigen
     freq = np.sqrt(np.asarray(eigenvalues, complex)) / (2 * np.pi)
     freq = np.where(freq.real < 0, -freq, freq)
     result = types.SimpleNamespace(eigenvalues=np.asarray(eigenvalues), vectors=vectors,
@@ -148,8 +150,8 @@ def _band_modes(problem: OrderZero, eigenvalues, vectors, residuals):
                                    residuals=np.asarray(residuals))
     modes = problem.sector.classify(problem, result)
     for mode in modes:
-        if (mode.membrane_energy_fraction < study["air"]["min_membrane_energy"]
-                or mode.damping_ratio > eigen["max_damping_ratio"]):
+        if (mode.membrane_energy_fraction < study.air.min_membrane_energy
+                or mode.damping_ratio > eigen.max_damping_ratio):
             mode.kind = AIR
     problem.sector.label(modes)
     return modes
@@ -173,12 +175,12 @@ def reduced_modal_solution(problem: OrderZero, frequency_hz):
     study, forced = problem.study, problem.forced
     frequency_hz = np.asarray(frequency_hz, float)
     f_last = float(frequency_hz.max())
-    reach = study["response"]["modal_band"] * f_last
-    tolerance = study["eigen"]["residual_tol"]
+    reach = study.response.modal_band * f_last
+    tolerance = study.eigen.residual_tol
     extra: list[float] = []
     for round_ in range(RITZ_ROUNDS):
         reduced = build_reduced_basis(forced, frequency_hz, 0.0,
-                                      tol=study["response"]["reduced_tol"],
+                                      tol=study.response.reduced_tol,
                                       extra_shifts_hz=extra)
         ritz = ritz_modes(forced, reduced)
         freq = ritz.frequency
@@ -190,7 +192,7 @@ def reduced_modal_solution(problem: OrderZero, frequency_hz):
             record = types.SimpleNamespace(vectors=ritz.vectors[:, suspects],
                                            eigenvalues=ritz.eigenvalues[suspects])
             fractions = np.array(membrane_energy_fractions(problem.coupled, record))
-            suspects = suspects[fractions >= study["air"]["min_membrane_energy"]]
+            suspects = suspects[fractions >= study.air.min_membrane_energy]
         if not suspects.size:
             break
         if round_ + 1 == RITZ_ROUNDS:
@@ -226,24 +228,23 @@ def modal_damping(labels, kinds, study) -> np.ndarray:
         if kind == AIR:
             values.append(0.0)
             continue
-        section, key = damping_key(label).split(".")
-        values.append(float(study[section][key]))
+        values.append(float(study.get(damping_key(label))))
     return np.array(values)
 
 
 def states_material_damping(study) -> bool:
     """Whether the membrane carries its own loss (``membrane.loss_factor``, Rayleigh or a
     Prony series): the model the direct and reduced paths solve, with no modal b/m."""
-    membrane = study["membrane"]
-    return bool(membrane["loss_factor"] > 0 or membrane["rayleigh_alpha"] > 0
-                or membrane["rayleigh_beta"] > 0 or membrane["prony"])
+    membrane = study.membrane
+    return bool(membrane.loss_factor > 0 or membrane.rayleigh_alpha > 0
+                or membrane.rayleigh_beta > 0 or membrane.prony)
 
 
 def sealed_enclosure(study) -> bool:
     """Whether the study's membrane closes an enclosure without a vent (air enabled)."""
-    g = study["geometry"]
-    return (study["air"]["enabled"] and g["enclosure"] != "none"
-            and g["enclosure_vent_radius"] == 0)
+    g = study.geometry
+    return (study.air.enabled and g.enclosure != "none"
+            and g.enclosure_vent_radius == 0)
 
 
 def resolved_method(problem: OrderZero) -> str:
@@ -254,7 +255,7 @@ def resolved_method(problem: OrderZero) -> str:
     (its modal band costs minutes; the reduced basis's own modes, damped per mode),
     ``modal`` on the axisymmetric one; else its ``default_method`` -- ``reduced`` on the
     3-D engine, ``modal`` on the axisymmetric one."""
-    method = problem.study["response"]["method"]
+    method = problem.study.response.method
     if method != "auto":
         return method
     if sealed_enclosure(problem.study):
@@ -275,13 +276,13 @@ class ResponseResult:
     average_radial: np.ndarray
     point_axial: np.ndarray           # (lines, 3) m/s
     point_radial: np.ndarray
-    microphones: list                 # [(name, position [m])]
+    microphones: list[tuple[str, np.ndarray]]   # (name, position (x, y, z) [m])
     pressure: np.ndarray              # (lines, microphones) complex amplitude [Pa]
     spl_db: np.ndarray                # (lines, microphones)
     method: str
     far_field: str
-    modes: list
-    basis: object                     # ModalBasis (modal), ReducedBasis (reduced) or None
+    modes: list[Mode]
+    basis: ModalBasis | ReducedBasis | None     # modal, reduced, or None (direct)
     vectors: np.ndarray               # (n, K) basis vectors
     weights: np.ndarray               # (lines, K): x(line) = vectors @ weights[line]
     problem: OrderZero
@@ -294,8 +295,8 @@ class ResponseResult:
 
 
 def _far_field_method(study) -> str:
-    if study["geometry"]["frame"] == "baffle":
-        closed = study["geometry"]["enclosure"] != "none"
+    if study.geometry.frame == "baffle":
+        closed = study.geometry.enclosure != "none"
         return ("Rayleigh (baffle): Kirchhoff-Helmholtz with the half-space Green's function over "
                 "the hemisphere on the microphone's side" + (
                     " (the front only: an enclosure closes the back)" if closed else ""))
@@ -314,7 +315,7 @@ def forced_response(problem: OrderZero, frequency_hz=None,
         frequency_hz, voltage_lines = Chirp.from_study(study).lines()
     frequency_hz = np.asarray(frequency_hz, float)
     voltage_lines = np.asarray(voltage_lines, complex)
-    method, eta = resolved_method(problem), study["membrane"]["loss_factor"]
+    method, eta = resolved_method(problem), study.membrane.loss_factor
     start = time.perf_counter()
     modes, basis = [], None
     if method == "modal":
@@ -333,7 +334,7 @@ def forced_response(problem: OrderZero, frequency_hz=None,
                     "direct path's damping (membrane.loss_factor, rayleigh_*, prony and the "
                     "radiation), not the modal path's b/m (reduced.damping_*) ...")
         basis = build_reduced_basis(forced, frequency_hz, eta,
-                                    tol=study["response"]["reduced_tol"])
+                                    tol=study.response.reduced_tol)
         vectors = basis.vectors
         weights = basis.line_coefficients * voltage_lines[:, None]
     else:
@@ -347,7 +348,7 @@ def forced_response(problem: OrderZero, frequency_hz=None,
     observer_type, angles = problem.sector.observer, problem.sector.angles
     membrane = response.membrane()
     spectra = []
-    for fractions in (scan_fractions(study["reduced"]["scan_radii"]), QUARTER_POINTS):
+    for fractions in (scan_fractions(study.reduced.scan_radii), QUARTER_POINTS):
         obs = observer_type(problem.state, coupled.membrane, fractions)
         axial, radial = obs.observe(membrane)
         # |v| per point, then the mean over the angles of each radius (3-D: the square frame)
@@ -358,17 +359,17 @@ def forced_response(problem: OrderZero, frequency_hz=None,
     start = time.perf_counter()
     microphones = parse_microphones(study)
     observer = Microphones(problem.sector.sphere, coupled, microphones,
-                           KIRCHHOFF_FRACTION * study["air"]["domain_radius"],
-                           baffle=study["geometry"]["frame"] == "baffle",
-                           enclosed=study["geometry"]["enclosure"] != "none",
-                           sound_speed=study["air"]["sound_speed"])
+                           KIRCHHOFF_FRACTION * study.air.domain_radius,
+                           baffle=study.geometry.frame == "baffle",
+                           enclosed=study.geometry.enclosure != "none",
+                           sound_speed=study.air.sound_speed)
     pressure = observer.observe(response, frequency_hz)
     timings["sound"] = time.perf_counter() - start
     result = ResponseResult(frequency_hz, scan_axial.mean(axis=1), scan_radial.mean(axis=1),
                             point_axial, point_radial, microphones, pressure, spl_db(pressure),
                             method, _far_field_method(study), modes, basis, vectors, weights,
                             problem, timings)
-    result.peaks_hz = spectrum_peaks(result, study["response"]["peaks"])
+    result.peaks_hz = spectrum_peaks(result, study.response.peaks)
     return result
 
 
@@ -396,11 +397,11 @@ def reduced_spectrum(study, result: ResponseResult):
 
 def summary_lines(result: ResponseResult) -> list[str]:
     study = result.problem.study
-    g, load = study["geometry"], study["load"]
+    g, load = study.geometry, study.load
     where = result.problem.sector.summary
     lines = [f"{study.name}: forced response ({where}, {result.method}), r_i = "
-             f"{1e3 * g['inner_radius']:g} mm, z = {1e3 * load['z']:g} mm, V_b = "
-             f"{load['voltage'] / 1e3:g} kV, frame {g['frame']}, {result.frequency_hz.size} lines",
+             f"{1e3 * g.inner_radius:g} mm, z = {1e3 * load.z:g} mm, V_b = "
+             f"{load.voltage / 1e3:g} kV, frame {g.frame}, {result.frequency_hz.size} lines",
              f"far field: {result.far_field}"]
     if result.modes:
         lines.append(f"{'mode':>8} {'Re f Hz':>9} {'Im f Hz':>9} {'b/m 1/s':>8} "

@@ -113,7 +113,7 @@ def scan_response(solution, study, positions, frequencies, electrode, *,
         force = engine.electrode_forcing(state, part, electrode)
         size = part.pencil.membrane.stiffness.shape[0]
         forced = ForcedOrder.from_parts(part.pencil, force, sp.csr_matrix((size, size)), 0.0,
-                                        study["eigen"]["backend"])
+                                        study.eigen.backend)
         eigenvalues = np.asarray(band.eigenvalues, complex)
         shares = (np.asarray(membrane_energy_fractions(part.pencil, band))
                   if len(part.pencil.pressure_index) else np.ones(eigenvalues.size))

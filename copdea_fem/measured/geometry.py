@@ -88,9 +88,9 @@ def check_on_device(scan: ScanData, study, tolerance: float | None = None,
     """The largest distance [m] of a scan point from the device (the study's geometry
     and ``load.z``); :class:`MeasuredDataError` when one is farther than ``tolerance``
     [m] (default a tenth of the outer radius), naming the point and the frame."""
-    outer = float(study["geometry"]["outer_radius"])
-    inner = float(study["geometry"]["inner_radius"])
-    disc_z = float(study["load"]["z"])
+    outer = float(study.geometry.outer_radius)
+    inner = float(study.geometry.inner_radius)
+    disc_z = float(study.load.z)
     tolerance = TOLERANCE_OF_OUTER_RADIUS * outer if tolerance is None else tolerance
     distances = device_distances(scan.positions, outer, inner, disc_z)
     worst = int(np.argmax(distances))

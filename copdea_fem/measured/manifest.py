@@ -331,8 +331,8 @@ def _parse_condition(item, index, base: Study, folder: Path, switched_keys: dict
         positive = scan.frequencies[scan.frequencies > 0]
         band = (float(positive[0]), float(positive[-1]))
     else:
-        x = study["excitation"]
-        band = (max(x["f_start"], 1.0 / x["duration"]), x["f_end"])
+        x = study.excitation
+        band = (max(x.f_start, 1.0 / x.duration), x.f_end)
     if not 0 < band[0] < band[1]:
         raise refusal(f"{where}.band", list(band), "0 < f_low < f_high (Hz)")
     fe = None

@@ -45,7 +45,7 @@ def write_solve_files(staging: Path, result: SolveResult, rows: list[dict]) -> N
              "timings_s": result.timings.seconds}
     write_modes(staging, rows, study, extra)
     plotted = [k for k, mode in enumerate(structural) if mode.kind in (OUT_OF_PLANE, PUMPING)][:8]
-    if study["output"]["paraview"]:
+    if study.output.paraview:
         kept = {k: None for k in plotted}     # the plotted meshes, not read back
         write_paraview(staging, result.state, structural, fields, kept=kept)
         shapes = [kept[k] for k in plotted]
@@ -57,9 +57,9 @@ def write_solve_files(staging: Path, result: SolveResult, rows: list[dict]) -> N
                 result.coupled.operators, [result.modes[k] for k in indices],
                 [result.coupled.pressures[k] for k in indices]))
             write_pvd(staging / "air.pvd", air_files, times, parts)
-    elif study["output"]["plots"]:                # only the plotted modes, no file
+    elif study.output.plots:                # only the plotted modes, no file
         shapes = [mesh for _, mesh in fields.mode_meshes([structural[k] for k in plotted])]
-    if study["output"]["plots"]:
+    if study.output.plots:
         from copdea_fem.output.plots import plot_modes  # a bare solve does without the plots
         plot_modes(staging / "modes.png", shapes, [structural[k] for k in plotted])
 
@@ -110,7 +110,7 @@ def write_paraview(directory: Path, state: PrestressedState, modes: list[Mode], 
 def write_force_files(staging: Path, study: Study, z_values, voltages, forces) -> None:
     """force_displacement.csv (+ PNG) and study.resolved.yaml of ``force`` into ``staging``."""
     write_force_csv(staging / "force_displacement.csv", z_values, voltages, forces)
-    if study["output"]["plots"]:
+    if study.output.plots:
         from copdea_fem.output.plots import plot_force_displacement
         plot_force_displacement(staging / "force_displacement.png", z_values, voltages, forces)
     dump_resolved(study, staging / "study.resolved.yaml")

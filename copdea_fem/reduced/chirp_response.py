@@ -63,9 +63,9 @@ class Chirp:
 
     @classmethod
     def from_study(cls, study) -> "Chirp":
-        x = study["excitation"]
-        return cls(amplitude=x["amplitude"], f_start=x["f_start"], f_end=x["f_end"],
-                   duration=x["duration"], sample_time=x["sample_time"])
+        x = study.excitation
+        return cls(amplitude=x.amplitude, f_start=x.f_start, f_end=x.f_end,
+                   duration=x.duration, sample_time=x.sample_time)
 
     @property
     def sample_count(self) -> int:

@@ -73,9 +73,10 @@ def read_modes_json(path, study=None) -> dict:
                          'allowed: {"study": {...}, "modes": [{"label": ..., "freq_hz": ...}]}') \
             from None
     if study is not None and isinstance(data.get("study"), dict):
+        values = study.values
         for section in _COMPARED_SECTIONS:
             theirs = data["study"].get(section) or {}
-            for key, mine in study[section].items():
+            for key, mine in values[section].items():
                 other = theirs.get(key)
                 if isinstance(mine, (int, float)) and isinstance(other, (int, float)) and not (
                         math.isclose(mine, other, rel_tol=1e-9, abs_tol=1e-15)):
@@ -229,14 +230,14 @@ def plot_mode_shapes(path, setup):
 
 # -- CLI actions --------------------------------------------------------------------------------
 def fe_frequencies(study, modes_json):
-    path = modes_json or study["reduced"]["modes_json"]
+    path = modes_json or study.reduced.modes_json
     return (read_modes_json(path, study) if path else {}), path
 
 
 def _title(study):
-    g, load = study["geometry"], study["load"]
-    return (f"{study.name}: r_i = {1e3 * g['inner_radius']:g} mm, z = {1e3 * load['z']:g} mm, "
-            f"V_b = {load['voltage'] / 1e3:g} kV, {study['reduced']['rings']} rings")
+    g, load = study.geometry, study.load
+    return (f"{study.name}: r_i = {1e3 * g.inner_radius:g} mm, z = {1e3 * load.z:g} mm, "
+            f"V_b = {load.voltage / 1e3:g} kV, {study.reduced.rings} rings")
 
 
 def write_spectrum_files(out, study, setup, result) -> list:
@@ -263,7 +264,7 @@ def write_spectrum_files(out, study, setup, result) -> list:
            for key in ("reference_radius", "radius", "height", "radial", "axial")))))
     dump_resolved(study, out / "reduced_study.resolved.yaml")
     files.append(out / "reduced_study.resolved.yaml")
-    if study["output"]["plots"]:
+    if study.output.plots:
         title = _title(study)
         for name, plot in (("spectrum_average.png", plot_average),
                            ("spectrum_points.png", plot_points)):
@@ -307,10 +308,10 @@ def spectrum_summary(study, setup, fe_path) -> dict:
     if len(setup.pumping_frequency_hz):
         lines.append("Annex I pumping modes (eq. 22): " + ", ".join(
             f"P{k + 1} {f:.2f} Hz" for k, f in enumerate(setup.pumping_frequency_hz)))
-    if study["load"]["voltage"] == 0:
+    if study.load.voltage == 0:
         lines.append("note: load.voltage = 0: eq. (14) has no forcing (V_b V~ dC/dq = 0; the "
                      "true response is quadratic in V~), so the spectra are zero")
-    elif study["excitation"]["amplitude"] > 0.1 * study["load"]["voltage"]:
+    elif study.excitation.amplitude > 0.1 * study.load.voltage:
         lines.append("note: excitation.amplitude > 10 % of load.voltage: the linearisation of "
                      "Sect. 3.2 assumes |V~| << V_b; expect distortion the model does not show")
     if fe_path:
@@ -336,7 +337,7 @@ def fit_force_data(study, data: dict):
     """
     model = RingModel.from_study(study)
     count = data["z_m"].size
-    voltage = data.get("voltage_v", np.full(count, study["load"]["voltage"]))
+    voltage = data.get("voltage_v", np.full(count, study.load.voltage))
     fit = fit_material(model, data["z_m"], data["force_n"], voltage,
                        prestretch=data.get("prestretch"), inner_radius=data.get("inner_radius_m"),
                        force_std=data.get("force_std_n"))
@@ -349,7 +350,7 @@ def write_material_fit(out, study, model, fit, data, voltage) -> list:
     curves over the data (material_fit.png); their paths."""
     files = [write_csv(out / "material_fit.csv", MATERIAL_FIT_COLUMNS,
                        (PARAMETERS, fit.values, fit.standard_error))]
-    if study["output"]["plots"]:
+    if study.output.plots:
         files.append(_plot_force_fit(out / "material_fit.png", study, model, fit, data, voltage))
     return files
 
@@ -412,7 +413,7 @@ def write_damping_calibration(out, study, calibration, setup, measured) -> list:
     (damping_calibration.png); their paths."""
     files = [write_csv(out / "damping_calibration.csv", CALIBRATION_COLUMNS,
                        damping_calibration_columns(calibration, setup))]
-    if study["output"]["plots"]:
+    if study.output.plots:
         calibrated = setup.reduced.with_damping_per_mass(calibration.damping_per_mass)
         plot_average(out / "damping_calibration.png", spectra_of(setup, calibrated),
                      calibrated, _title(study) + " (damping calibrated)", measured=measured)

@@ -85,7 +85,7 @@ class ReducedSetup:
 def ring_model_of(study, ring_count: int | None = None) -> RingModel:
     """The study's ring model, c10, c20, c01 times ``effects.stiffness_scale``."""
     model = RingModel.from_study(study, ring_count=ring_count)
-    scale = study["effects"]["stiffness_scale"]
+    scale = study.effects.stiffness_scale
     if scale != 1.0:
         m = model.membrane
         model = model.with_membrane(replace(m, c10=scale * m.c10, c20=scale * m.c20,
@@ -143,25 +143,25 @@ def build_reduced(study, fe_frequencies: Mapping[str, float] | None = None) -> R
     """
     from copdea_fem.study import reduced_mode_labels
     ring_model = ring_model_of(study)
-    load, spring, effects = study["load"], study["spring"], study["effects"]
-    operating = (ring_model, load["z"], load["voltage"], effects["maxwell_scale"])
+    load, spring, effects = study.load, study.spring, study.effects
+    operating = (ring_model, load.z, load.voltage, effects.maxwell_scale)
     linearisation, basis, elastic_hessian = operating_point(*operating)
-    labels = reduced_mode_labels(study["reduced"]["modes"], study["disc"]["motion"])
+    labels = reduced_mode_labels(study.reduced.modes, study.disc.motion)
     modes = basis.truncate(labels)
     fe_frequencies = dict(fe_frequencies or {})
     ratios, sources, damping = [], [], []
     for mode in modes:
         key = _COUPLED_KEYS.get(mode.label)
-        given = study["reduced"][key] if key else None
+        given = study.get(f"reduced.{key}") if key else None
         if given is not None:
             ratio, source = added_mass_ratio_from_frequency(mode.frequency_hz, given,
                                                             mode.label), f"reduced.{key}"
         elif mode.label == "P1":
-            if study["reduced"]["pumping_added_mass"] == "spring":
+            if study.reduced.pumping_added_mass == "spring":
                 disc_amplitude = mode.axial[-1]
                 added, _ = pumping_added_mass(mode.angular_frequency ** 2, 1.0, disc_amplitude,
-                                              spring["stiffness"], spring["mass"],
-                                              spring["length"])
+                                              spring.stiffness, spring.mass,
+                                              spring.length)
                 ratio, source = added, "Annex I spring mass"
             else:
                 ratio, source = 0.0, "none (Sect. 5.1)"
@@ -169,28 +169,27 @@ def build_reduced(study, fe_frequencies: Mapping[str, float] | None = None) -> R
             ratio = added_mass_ratio_from_frequency(mode.frequency_hz, fe_frequencies[mode.label],
                                                     mode.label)
             source = "modes.json"
-        elif effects["air_added_mass"] == "incompressible":
-            ratio = _air_added_mass_ratio(*operating, mode.label, study["air"]["density"])
+        elif effects.air_added_mass == "incompressible":
+            ratio = _air_added_mass_ratio(*operating, mode.label, study.air.density)
             source = "incompressible-air estimate"
         else:
             ratio, source = 0.0, "dry (no coupled frequency given)"
-        if mode.label != "P1" and effects["air_mass_scale"] != 1.0:
-            ratio *= effects["air_mass_scale"]
-            source += f" x {effects['air_mass_scale']:.4g}"
+        if mode.label != "P1" and effects.air_mass_scale != 1.0:
+            ratio *= effects.air_mass_scale
+            source += f" x {effects.air_mass_scale:.4g}"
         ratios.append(ratio)
         sources.append(source)
-        section, name = damping_key(mode.label).split(".")
-        damping.append(study[section][name])
+        damping.append(study.get(damping_key(mode.label)))
     reduced = assemble_reduced_model(ring_model, linearisation, modes, ratios, damping,
-                                     study["reduced"]["scan_radii"], sources)
-    if effects["viscoelastic_strength"] > 0:
+                                     study.reduced.scan_radii, sources)
+    if effects.viscoelastic_strength > 0:
         shapes = np.stack([mode.shape / mode.largest_displacement for mode in modes], axis=1)
         reduced = replace(reduced, elastic_stiffness=np.einsum("ij,ik,kj->j", shapes,
                                                                elastic_hessian, shapes),
-                          viscoelastic_strength=effects["viscoelastic_strength"],
-                          viscoelastic_time=effects["viscoelastic_time"])
-    pumping = (pumping_frequencies(linearisation.axial_stiffness, spring["stiffness"],
-                                   study["disc"]["mass"], spring["mass"], spring["length"], 3)
+                          viscoelastic_strength=effects.viscoelastic_strength,
+                          viscoelastic_time=effects.viscoelastic_time)
+    pumping = (pumping_frequencies(linearisation.axial_stiffness, spring.stiffness,
+                                   study.disc.mass, spring.mass, spring.length, 3)
                if ring_model.disc_free else np.array([]))
     return ReducedSetup(ring_model=ring_model, linearisation=linearisation, basis=basis,
                         reduced=reduced, chirp=Chirp.from_study(study),
@@ -200,8 +199,8 @@ def build_reduced(study, fe_frequencies: Mapping[str, float] | None = None) -> R
 def dry_frequencies(study, labels=("P1", "(0,1)", "(0,2)"), ring_count: int | None = None) -> dict:
     """Dry ring-model frequencies {label: Hz} at the study's operating point (eq. 15)."""
     ring_model = ring_model_of(study, ring_count=ring_count)
-    _, basis, _ = operating_point(ring_model, study["load"]["z"], study["load"]["voltage"],
-                                  study["effects"]["maxwell_scale"])
+    _, basis, _ = operating_point(ring_model, study.load.z, study.load.voltage,
+                                  study.effects.maxwell_scale)
     return {label: basis[label].frequency_hz for label in labels
             if label in basis.labels}
 

@@ -194,17 +194,17 @@ class RingModel:
     def from_study(cls, study, ring_count: int | None = None) -> "RingModel":
         """Ring model of a :class:`copdea_fem.study.Study` (``reduced.rings`` rings)."""
         from copdea_fem.study import StudyError
-        r_i = study["geometry"]["inner_radius"]
+        r_i = study.geometry.inner_radius
         if r_i == 0:
             raise StudyError("geometry.inner_radius = 0 is not allowed for the reduced model; "
-                             f"allowed: (0, {study['geometry']['outer_radius']:g}) m "
+                             f"allowed: (0, {study.geometry.outer_radius:g}) m "
                              "(the ring model of Sect. 3.2.1 needs the central disc)")
         return cls(membrane=Membrane.from_study(study),
-                   outer_radius=study["geometry"]["outer_radius"], inner_radius=r_i,
-                   ring_count=int(ring_count or study["reduced"]["rings"]),
-                   disc_mass=study["disc"]["mass"],
-                   disc_free=study["disc"]["motion"] == "spring",
-                   spring_stiffness=study["spring"]["stiffness"])
+                   outer_radius=study.geometry.outer_radius, inner_radius=r_i,
+                   ring_count=int(ring_count or study.reduced.rings),
+                   disc_mass=study.disc.mass,
+                   disc_free=study.disc.motion == "spring",
+                   spring_stiffness=study.spring.stiffness)
 
     def with_membrane(self, membrane: Membrane) -> "RingModel":
         return replace(self, membrane=membrane)

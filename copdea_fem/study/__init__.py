@@ -8,8 +8,9 @@ unit string (``"35.5 mm"``, ``"2 kV"``, ``"228.5 kPa"``) or a plain SI number.
 The modules, in the order a study is read: :mod:`~copdea_fem.study.keys` (one key: its
 type, its value converted to SI and checked, :class:`StudyError`),
 :mod:`~copdea_fem.study.schema` (every key of every section, :data:`SCHEMA`),
-:mod:`~copdea_fem.study.checks` (the checks across keys) and
-:mod:`~copdea_fem.study.resolved` (:class:`Study`, :func:`load_study`,
+:mod:`~copdea_fem.study.checks` (the checks across keys),
+:mod:`~copdea_fem.study.sections` (the typed sections, frozen dataclasses generated from
+:data:`SCHEMA`) and :mod:`~copdea_fem.study.resolved` (:class:`Study`, :func:`load_study`,
 :func:`parse_study`).  Their public names are imported from here.
 
 Run ``python -m copdea_fem.study`` to print the reference table of the README.
@@ -57,12 +58,13 @@ from copdea_fem.study.schema import (
     SCHEMA,
     reference_table,
 )
+from copdea_fem.study.sections import SECTION_CLASSES, Enclosure, PronyTerm
 
 __all__ = ["AXISYMMETRIC_ENCLOSURES", "AXISYMMETRIC_FRAMES", "DEFAULT_MICROPHONE", "ENCLOSURES",
            "ENCLOSURE_AIR_SHARE", "ENCLOSURE_MIN_DEPTH", "ENCLOSURE_MIN_GAP", "ENGINES", "G1",
            "MAX_ELEMENTS_ACROSS", "MAX_PRONY_TERMS", "MAX_QUANTITY_CHARACTERS", "META_KEYS",
            "MICROPHONES_ALLOWED", "OVERRIDES_ALLOWED", "PRONY_ALLOWED", "ROUND_OFF_ULPS",
-           "SCHEMA", "Key", "Study", "StudyError", "above", "apart", "convert_quantity",
-           "convert_value", "dump_resolved", "engine_of", "listed_microphones", "load_study",
-           "parse_overrides", "parse_study", "reduced_mode_labels", "reference_table",
-           "unit_registry"]
+           "SCHEMA", "SECTION_CLASSES", "Enclosure", "Key", "PronyTerm", "Study", "StudyError",
+           "above", "apart", "convert_quantity", "convert_value", "dump_resolved", "engine_of",
+           "listed_microphones", "load_study", "parse_overrides", "parse_study",
+           "reduced_mode_labels", "reference_table", "unit_registry"]

@@ -8,6 +8,7 @@ reads the rest (compound expressions, other units, offsets).  Every refusal is a
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 import numbers
@@ -149,7 +150,8 @@ PRONY_ALLOWED = ("a list of at most 8 mappings {modulus_ratio: number in (0, 100
 
 
 def _prony_terms(key: str, value: Any) -> list:
-    """``membrane.prony`` -> ``[{"modulus_ratio": g_j, "relaxation_time": tau_j [s]}, ...]``."""
+    """``membrane.prony`` (mappings or :class:`~copdea_fem.study.sections.PronyTerm`) ->
+    ``[{"modulus_ratio": g_j, "relaxation_time": tau_j [s]}, ...]``."""
     if value is None:
         value = []
     if not isinstance(value, (list, tuple)) or len(value) > MAX_PRONY_TERMS:
@@ -157,6 +159,8 @@ def _prony_terms(key: str, value: Any) -> list:
     terms = []
     for index, item in enumerate(value):
         where = f"{key}[{index}]"
+        if dataclasses.is_dataclass(item) and not isinstance(item, type):   # a PronyTerm
+            item = dataclasses.asdict(item)
         if not isinstance(item, dict) or set(item) != {"modulus_ratio", "relaxation_time"}:
             raise refusal(where, item, PRONY_ALLOWED, "each term needs exactly the keys "
                           "modulus_ratio and relaxation_time")

@@ -7,7 +7,11 @@ any meshing; written beside every result (:func:`dump_resolved`).
 from __future__ import annotations
 
 import copy
+import dataclasses
+import warnings
+from collections.abc import Mapping
 from pathlib import Path
+from types import MappingProxyType
 from typing import Any
 
 import yaml
@@ -22,46 +26,128 @@ from copdea_fem.study.schema import (
     META_KEYS,
     SCHEMA,
 )
+from copdea_fem.study.sections import SECTION_CLASSES, plain_section, typed_section
 
 
+def _with_sections(cls):
+    """Class decorator: ``cls`` with one field per :data:`SCHEMA` section first (its
+    :data:`~copdea_fem.study.sections.SECTION_CLASSES` instance, None until checked), then
+    its own fields, as a frozen dataclass."""
+    own = dict(cls.__dict__.get("__annotations__", {}))
+    cls.__annotations__ = {**{section: SECTION_CLASSES[section] for section in SCHEMA}, **own}
+    for section in SCHEMA:
+        setattr(cls, section, dataclasses.field(default=None, repr=False))
+    return dataclasses.dataclass(frozen=True)(cls)
+
+
+@_with_sections
 class Study:
-    """A validated study: nested ``{section: {key: SI value}}`` plus its name.
+    """A validated study: one frozen section per :data:`SCHEMA` section, every value in SI.
 
-    Index like a dict: ``study["load"]["voltage"]`` [V].
+    Read attributes: ``study.load.voltage`` [V], ``study.geometry.enclosure``; each section
+    is a frozen dataclass generated from the schema (:mod:`copdea_fem.study.sections`).  A
+    study is checked where it is made (:func:`load_study`, :func:`parse_study`, or this
+    constructor) and cannot change afterwards: make a changed copy with
+    :meth:`replace` (``{"section.key": value}``, values with units as in a file) or
+    :func:`dataclasses.replace`, typed::
+
+        dataclasses.replace(study, load=dataclasses.replace(study.load, voltage=2e3))
+
+    Both check the new study as a file is checked: every key (a value with a unit is
+    converted to SI, one out of range refused), the derived defaults of keys given as None,
+    and the checks across keys (:func:`~copdea_fem.study.checks.check_across_keys`); both
+    keep ``source``.  Derived defaults already filled in stay as they are (a new
+    ``geometry.outer_radius`` does not move ``air.domain_radius``).
+
+    Parameters
+    ----------
+    geometry, membrane, ... : section dataclass, mapping or None
+        One per :data:`SCHEMA` section: its dataclass, or a mapping ``{key: value}`` (values
+        with units allowed, missing keys take their default), or None (every default).
+    name : str
+        The study's name (the file's ``name``, else the file name without suffix).
+    description : str
+        Free text.
+    source : Path or None
+        The file the study was read from; None when parsed from a mapping.  Not compared.
+
+    Raises
+    ------
+    StudyError
+        A section that is no mapping, an unknown key, a value out of range or in a wrong
+        unit, keys that do not fit together.
     """
 
-    def __init__(self, values: dict[str, dict[str, Any]], name: str, description: str = ""):
-        self.values = values
-        self.name = name
-        self.description = description
+    name: str = "study"
+    description: str = ""
+    source: Path | None = dataclasses.field(default=None, compare=False)
 
-    def __getitem__(self, section: str) -> dict[str, Any]:
-        return self.values[section]
+    def __post_init__(self):
+        values: dict[str, dict[str, Any]] = {}
+        for section, keys in SCHEMA.items():
+            given = getattr(self, section)
+            if given is None:
+                given = {}
+            elif isinstance(given, SECTION_CLASSES[section]):
+                given = plain_section(given)
+            elif not isinstance(given, Mapping):
+                raise refusal(section, given, "a mapping of keys: " + ", ".join(keys))
+            for key, value in given.items():
+                if key not in keys:
+                    raise _unknown_key(f"{section}.{key}", value)
+            values[section] = {key: convert_value(f"{section}.{key}", spec,
+                                                  given[key] if key in given else spec.default)
+                               for key, spec in keys.items()}
+        if not isinstance(self.name, str):
+            raise refusal("name", self.name, "a text")
+        if not isinstance(self.description, str):
+            raise refusal("description", self.description, "a text")
+        derived_defaults(values, self.name)
+        check_across_keys(values)
+        for section in SCHEMA:
+            object.__setattr__(self, section, typed_section(section, values[section]))
+        if self.source is not None:
+            object.__setattr__(self, "source", Path(self.source))
+
+    @property
+    def values(self) -> dict[str, dict[str, Any]]:
+        """The sections as plain mappings ``{section: {key: SI value}}`` (a copy; the form
+        the resolved study file writes and the cache keys hash)."""
+        return {section: plain_section(getattr(self, section)) for section in SCHEMA}
+
+    def __getitem__(self, section: str) -> Mapping[str, Any]:
+        """``study["load"]``: a read-only mapping of the section (deprecated: read
+        ``study.load``)."""
+        warnings.warn(f"study[{section!r}] is deprecated; read the attribute study.{section}",
+                      DeprecationWarning, stacklevel=2)
+        if section not in SCHEMA:
+            raise KeyError(section)
+        return MappingProxyType(plain_section(getattr(self, section)))
 
     def get(self, dotted: str) -> Any:
-        section, key = dotted.split(".", 1)
-        return self.values[section][key]
+        """The value of the key ``"section.key"`` (a key named at run time; a fixed key is
+        an attribute: ``study.load.voltage``)."""
+        section, _, key = dotted.partition(".")
+        if section not in SCHEMA or key not in SCHEMA[section]:
+            raise _unknown_key(dotted, "...")
+        return getattr(getattr(self, section), key)
 
     def replace(self, overrides: dict[str, Any]) -> Study:
-        """A new, re-validated study with ``{"section.key": value}`` overrides."""
-        raw = copy.deepcopy(self.values)
-        return parse_study(raw, overrides=overrides, name=self.name,
-                           description=self.description)
+        """A new study with ``{"section.key": value}`` overrides (values with units
+        allowed), checked as a file is; ``name``, ``description`` and ``source`` kept."""
+        return parse_study(self.values, overrides=overrides, name=self.name,
+                           description=self.description, source=self.source)
 
     def checked(self) -> Study:
-        """This study validated again, as a file would be: a study changed by hand after
-        :func:`load_study` (``study["load"]["voltage"] = "2 kV"``, a key added, deleted or
-        misspelled, a section replaced) comes back resolved to SI, or a :class:`StudyError`
-        names the key.  Values already in SI are kept as they are."""
-        if not isinstance(self.values, dict):
-            raise refusal("study", self.values, "a mapping of sections")
-        raw = {section: dict(keys) if isinstance(keys, dict) else keys
-               for section, keys in self.values.items()}
-        return parse_study(raw, name=self.name, description=self.description)
+        """This study (deprecated: a study is checked when it is made and cannot change)."""
+        warnings.warn("Study.checked() is deprecated: a Study is checked when it is made and "
+                      "cannot be changed", DeprecationWarning, stacklevel=2)
+        return self
 
     def as_dict(self) -> dict[str, Any]:
-        return {"name": self.name, "description": self.description,
-                **copy.deepcopy(self.values)}
+        """``{"name", "description", section: {key: SI value}, ...}``: what
+        :func:`dump_resolved` writes, in its order."""
+        return {"name": self.name, "description": self.description, **self.values}
 
 
 #: What study overrides may be, for the messages.
@@ -95,12 +181,14 @@ def load_study(path: str | Path, overrides: dict[str, Any] | None = None) -> Stu
     raw = read_yaml(path, "study file", StudyError)
     name = raw.get("name") or path.stem
     return parse_study(raw, overrides=overrides, name=str(name),
-                       description=str(raw.get("description", "")))
+                       description=str(raw.get("description", "")), source=path)
 
 
 def parse_study(raw: dict[str, Any], overrides: dict[str, Any] | None = None,
-                name: str = "study", description: str = "") -> Study:
-    """Validate a raw nested mapping (plus dotted overrides) into a :class:`Study`."""
+                name: str = "study", description: str = "",
+                source: str | Path | None = None) -> Study:
+    """Validate a raw nested mapping (plus dotted overrides) into a :class:`Study`
+    (``source``: the file it was read from, if any)."""
     raw = copy.deepcopy(raw)
     for key in raw:
         if key not in SCHEMA and key not in META_KEYS:
@@ -120,20 +208,8 @@ def parse_study(raw: dict[str, Any], overrides: dict[str, Any] | None = None,
         raw[section] = raw[section] or {}
         raw[section][key] = value
 
-    values: dict[str, dict[str, Any]] = {}
-    for section, keys in SCHEMA.items():
-        given = raw.get(section) or {}
-        if not isinstance(given, dict):
-            raise refusal(section, given, "a mapping of keys: " + ", ".join(keys))
-        for key, value in given.items():
-            if key not in keys:
-                raise _unknown_key(f"{section}.{key}", value)
-        values[section] = {key: convert_value(f"{section}.{key}", spec,
-                                         given[key] if key in given else spec.default)
-                           for key, spec in keys.items()}
-    derived_defaults(values, name)
-    check_across_keys(values)
-    return Study(values, name=name, description=description)
+    sections = {section: raw.get(section) or {} for section in SCHEMA}
+    return Study(**sections, name=name, description=description, source=source)
 
 
 def _unknown_key(dotted: str, value: Any) -> StudyError:
@@ -144,17 +220,17 @@ def _unknown_key(dotted: str, value: Any) -> StudyError:
     return refusal(dotted, value, allowed, "unknown key")
 
 
-def engine_of(study) -> str:
+def engine_of(study: Study) -> str:
     """The FE engine a study runs on: ``"axisymmetric"`` or ``"3d"`` (key mesh.engine).
 
     ``auto`` picks the axisymmetric engine for a frame none, baffle or circle with no
     enclosure, a cylinder or a bowl; else the 3-D engine.
     """
-    engine = study["mesh"]["engine"]
+    engine = study.mesh.engine
     if engine == "auto":
-        g = study["geometry"]
-        axisymmetric = (g["frame"] in AXISYMMETRIC_FRAMES
-                        and g.get("enclosure", "none") in AXISYMMETRIC_ENCLOSURES)
+        g = study.geometry
+        axisymmetric = (g.frame in AXISYMMETRIC_FRAMES
+                        and g.enclosure in AXISYMMETRIC_ENCLOSURES)
         return "axisymmetric" if axisymmetric else "3d"
     return engine
 

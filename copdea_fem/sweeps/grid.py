@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import itertools
 import json
@@ -38,7 +39,7 @@ def _space_key(study: Study, model: str, engine) -> str:
     the ring model's, or the FE space of the point's engine
     (:meth:`copdea_fem.fe.engines.Engine.space_key`)."""
     if model == "reduced":
-        return f"rings:{study['reduced']['rings']}:{study['disc']['motion']}"
+        return f"rings:{study.reduced.rings}:{study.disc.motion}"
     return engine.space_key(study, with_air=model == "coupled")
 
 
@@ -61,10 +62,10 @@ def expand_grid(base: Study, axes: list[Axis], model: str) -> list[SweepPoint]:
         except StudyError as error:
             where = ", ".join(f"{a.key} = {a.values[i]!r}" for a, i in zip(axes, index))
             raise SweepError(f"grid point p{number:0{width}d} ({where}): {error}") from None
-        if model == "dry" and study["air"]["enabled"]:
+        if model == "dry" and study.air.enabled:
             raise sweep_error("air.enabled", True, "false with model: dry (model: coupled couples "
                               "the air)", f"grid point p{number:0{width}d}")
-        study.name = f"{base.name}/p{number:0{width}d}"
+        study = dataclasses.replace(study, name=f"{base.name}/p{number:0{width}d}")
         engine = None if model == "reduced" else engine_for(study)
         hashed = {s: v for s, v in study.values.items() if s != "output"}
         # a finished point is resumed only under the code that computed it

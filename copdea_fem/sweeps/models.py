@@ -123,7 +123,7 @@ class _FEModel:
                 solver = engine.prestress_solver(study, mesh)
             solve_study = study
         iterations_before = solver.newton_iterations
-        band = (study["eigen"]["f_min"], study["eigen"]["f_max"])
+        band = (study.eigen.f_min, study.eigen.f_max)
         plan = shift_plan(chain.last_eigen) if reuse.shifts and chain.last_eigen is not None \
             and chain.last_band == band else None
         try:
@@ -194,12 +194,12 @@ class _ReducedModel:
         study = point.study
         start = time.perf_counter()
         ring_model = ring_model_of(study)
-        linearisation, basis, _ = operating_point(ring_model, study["load"]["z"],
-                                                  study["load"]["voltage"],
-                                                  study["effects"]["maxwell_scale"])
-        band = study["eigen"]
+        linearisation, basis, _ = operating_point(ring_model, study.load.z,
+                                                  study.load.voltage,
+                                                  study.effects.maxwell_scale)
+        band = study.eigen
         modes = [mode for mode in basis.modes
-                 if band["f_min"] <= mode.frequency_hz <= band["f_max"]]
+                 if band.f_min <= mode.frequency_hz <= band.f_max]
         vectors = np.column_stack([mode.shape for mode in modes]) if modes else \
             np.zeros((linearisation.mass_matrix.shape[0], 0))
         record = {

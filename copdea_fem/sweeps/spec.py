@@ -137,7 +137,7 @@ def parse_sweep(raw: dict, base_dir: Path | str = ".", name: str = "sweep",
             raise sweep_error(f"set.{key}", base_overrides[key], f"a key that is not swept (it is "
                               f"axes.{key})")
     base = _base_study(raw, Path(base_dir), name, {**base_overrides, **(overrides or {})})
-    if model == "dry" and base["air"]["enabled"]:
+    if model == "dry" and base.air.enabled:
         raise sweep_error("air.enabled", True, "false with model: dry (model: coupled couples the air)")
     axes = [_parse_axis(key, value) for key, value in axes_raw.items()]
     tracking = _tracking_settings(_mapping(raw.get("tracking"), "tracking"))
@@ -188,8 +188,7 @@ def _base_study(raw: dict, base_dir: Path, name: str, overrides: dict) -> Study:
         raise
     except StudyError as error:
         raise SweepError(f"base study {study_path} with set: {error}") from None
-    study.name = name
-    return study
+    return dataclasses.replace(study, name=name)
 
 
 _RANGE = re.compile(r"^\s*(?P<start>[^,]+?)\s*\.\.\s*(?P<stop>[^,]+?)\s*,\s*"

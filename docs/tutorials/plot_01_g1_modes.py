@@ -21,7 +21,7 @@ ROOT = next(path for path in (Path.cwd(), *Path.cwd().parents) if (path / "studi
 
 study = cf.load_study(ROOT / "studies/g1_z16_v2_quick.yaml",
                       {"eigen.f_max": "560 Hz", "output.plots": False})
-print(study["load"])                      # z [m], voltage [V]
+print(study.load)                         # z [m], voltage [V]
 solution = cf.solve(study)
 
 # %%

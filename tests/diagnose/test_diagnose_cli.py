@@ -38,9 +38,9 @@ def test_diagnose_the_bundled_example_writes_the_contract(tmp_path, capsys):
     assert "frame_reflection" in report and "coupled air/PML FE" in report
     # the final model reruns as an ordinary study, with the fitted effects in it
     final = load_study(out / "final_study.yaml")
-    assert final["spring"]["mass"] == pytest.approx(
+    assert final.spring.mass == pytest.approx(
         document["final_state"][0]["parameters"]["mass"])
-    assert final["effects"]["air_added_mass"] == "incompressible"
+    assert final.effects.air_added_mass == "incompressible"
     assert main(["spectrum", str(out / "final_study.yaml"), "--set", "load.z=11 mm",
                  "--out", str(tmp_path / "rerun")]) == 0
 
@@ -86,7 +86,7 @@ def test_synth_writes_a_ready_measured_set_and_is_reproducible(tmp_path, capsys)
     truth = json.loads((first / "synth_truth.json").read_text())
     assert truth["effects"] == {"spring_mass": [pytest.approx(2.5e-3)]}
     measured = load_measured(first / "measured.yaml")
-    assert measured.base_study["spring"]["mass"] == 0.0            # the base lacks the effect
+    assert measured.base_study.spring.mass == 0.0            # the base lacks the effect
     assert [c.name for c in measured.conditions] == ["z11_v2", "z16"]
     kinds = [r.kind for r in measured.conditions[1].resonances]
     assert kinds.count("pumping") >= 2                              # P2, P3 are in the data

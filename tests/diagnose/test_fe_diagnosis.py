@@ -115,7 +115,7 @@ def test_a_base_written_with_air_is_coupled_in_the_fe_and_carries_air_in_the_rin
     ring_dry = RingPredictor(measured).predict_study(dry, condition)
     assert ring.mode("(0,1)").frequency_hz < 0.85 * ring_dry.mode("(0,1)").frequency_hz
     study = measured.study_of(condition)
-    assert fe_study(study)["air"]["enabled"] and fe_key(study) != fe_key(dry)
+    assert fe_study(study).air.enabled and fe_key(study) != fe_key(dry)
 
 
 def test_frame_reflection_is_tested_with_fe_solves_and_named(tmp_path):

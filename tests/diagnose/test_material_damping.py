@@ -33,7 +33,7 @@ from copdea_fem.diagnosis.effects import CATALOGUE, catalogue_table  # noqa: E40
 from copdea_fem.diagnosis.fe import FEMode, FEModel, FEResult, fe_study  # noqa: E402
 from copdea_fem.diagnosis.ring_predictor import ModelMode  # noqa: E402
 from copdea_fem.diagnosis.select import Diagnoser  # noqa: E402
-from copdea_fem.study import parse_study  # noqa: E402
+from copdea_fem.study import PronyTerm, parse_study  # noqa: E402
 
 FAST_SEEDS = (1,)
 SLOW_SEEDS = (2, 3, 4, 5)
@@ -174,14 +174,14 @@ def test_the_effect_sets_one_prony_term_replaces_modal_damping_and_keeps_the_ban
     effect = CATALOGUE["viscoelastic_membrane"]
     study = parse_study(G1)
     on = study.replace(effect.on(study, (2.0, 3e-4)))
-    assert on["membrane"]["prony"] == [{"modulus_ratio": 2.0, "relaxation_time": 3e-4}]
+    assert on.membrane.prony == (PronyTerm(2.0, 3e-4),)
     assert not CATALOGUE["modal_damping"].is_on(on) and effect.is_on(on)
     slow = effect.on(study, (3.0, 2e-3))        # relaxation at 20 Hz: reaches |Im f| <= 62 Hz
     assert slow["eigen.f_min"] == pytest.approx(0.5 / (2 * math.pi * 2e-3 * 4.0))
     study.replace(slow)                                           # valid
     wide = fe_study(on.replace({"membrane.prony": [{"modulus_ratio": 0.5,
                                                      "relaxation_time": 1e-3}]}), 1250.0)
-    assert wide["eigen"]["f_min"] > 0                            # the diagnosis's wider band
+    assert wide.eigen.f_min > 0                            # the diagnosis's wider band
     row = next(line for line in catalogue_table().splitlines() if "`viscoelastic_membrane`"
                in line)
     assert "fe (FE solves; needs model: fe)" in row and "ratio `membrane.prony[0]" in row

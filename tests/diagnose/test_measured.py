@@ -32,7 +32,7 @@ def test_a_valid_manifest_is_read_with_si_values_and_defaults(tmp_path):
     measured = load_measured(_set(tmp_path, GOOD, {"r.csv": RESONANCES}))
     condition = measured.conditions[0]
     assert measured.name == "measured" and measured.noise.frequency_relative == 0.015
-    assert measured.study_of(condition)["load"]["z"] == pytest.approx(0.016)
+    assert measured.study_of(condition).load.z == pytest.approx(0.016)
     labels = [(r.frequency_hz, r.label, r.kind) for r in condition.resonances]
     assert labels == [(55.2, "P1", "pumping"), (388.0, "(0,1)", "axisymmetric"),
                       (941.0, "", "")]

@@ -137,7 +137,7 @@ def test_a_stated_mounting_is_replaced_not_stacked():
     stated = parse_study(battery.fe_battery._with(battery.DRUM, geometry={
         "frame_side": "0.9 m"}, air={"domain_radius": "0.8 m"}))
     framed = stated.replace(CATALOGUE["frame_reflection"].on(stated))
-    assert framed["geometry"]["frame"] == "square" and framed["geometry"]["frame_side"] == 0.9
+    assert framed.geometry.frame == "square" and framed.geometry.frame_side == 0.9
 
 
 @pytest.mark.slow
@@ -169,9 +169,9 @@ def test_the_mounting_effects_switch_the_frame_for_any_membrane_size():
     assert CATALOGUE["baffle"].on(g1) == {"geometry.frame": "baffle", "geometry.enclosure": "none"}
     drum = parse_study(battery.DRUM)
     framed = drum.replace(CATALOGUE["frame_reflection"].on(drum))     # validated study
-    side = framed["geometry"]["frame_side"]
+    side = framed.geometry.frame_side
     assert side == pytest.approx(0.080 / 0.071 * 0.65)
-    assert framed["air"]["domain_radius"] > side / 2 ** 0.5
+    assert framed.air.domain_radius > side / 2 ** 0.5
     circle = parse_study({"geometry": {"frame": "circle", "frame_radius": "50 mm"}})
     assert CATALOGUE["frame_reflection"].is_on(circle)
     assert CATALOGUE["frame_reflection"].on(circle) == {"geometry.frame": "circle",
@@ -199,7 +199,7 @@ def test_the_enclosure_is_a_sealed_cylinder_that_replaces_the_base_mounting():
     open_air."""
     enclosure = CATALOGUE["enclosure"]
     baffled = parse_study(battery.G1_BAFFLED)
-    r_o = baffled["geometry"]["outer_radius"]
+    r_o = baffled.geometry.outer_radius
     assert enclosure.on(baffled, [0.5]) == {
         "geometry.frame": "none", "geometry.enclosure": "cylinder",
         "geometry.enclosure_depth": 0.5 * r_o, "geometry.enclosure_radius": r_o,
@@ -215,7 +215,7 @@ def test_the_enclosure_is_a_sealed_cylinder_that_replaces_the_base_mounting():
     small = parse_study(battery.fe_battery._with(battery.G1_OPEN, air={"domain_radius":
                                                                         "80 mm"}))
     grown = small.replace(enclosure.on(small, [2.0]))
-    assert grown["air"]["domain_radius"] == pytest.approx(1.1 * 5 ** 0.5 * r_o / 0.8)
+    assert grown.air.domain_radius == pytest.approx(1.1 * 5 ** 0.5 * r_o / 0.8)
     assert "air.domain_radius" not in enclosure.on(baffled, [2.0])      # 3.5 r_o holds it
     # one mounting at a time, the enclosure among them
     air = (("air_loading", (1.0,)),)
@@ -239,7 +239,7 @@ def test_the_enclosure_is_opt_in_and_its_depth_reaches_the_fe():
     assert engine.anchor_state(state) == (("air_loading", (1.0,)), ("enclosure", (0.4,)))
     # the FE in vacuo: the enclosure, like the frame, acts through the air only
     dry = parse_study(battery.fe_battery._with(battery.DRUM_ENCLOSED, air={"enabled": False}))
-    assert fe_study(dry)["geometry"]["enclosure"] == "none"
+    assert fe_study(dry).geometry.enclosure == "none"
 
 
 

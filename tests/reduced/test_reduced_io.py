@@ -150,11 +150,11 @@ def test_calibrate_damping_fe_fits_need_measured_damping_before_any_work(tmp_pat
 # -- study keys of the reduced model --------------------------------------------------------------
 def test_reduced_and_excitation_defaults_are_the_papers():
     study = parse_study({})
-    assert study["reduced"]["rings"] == 6
-    assert (study["reduced"]["damping_p1"], study["reduced"]["damping_01"],
-            study["reduced"]["damping_02"]) == (45.0, 245.0, 57.0)
-    x = study["excitation"]
-    assert (x["amplitude"], x["f_start"], x["f_end"], x["duration"], x["sample_time"]) == (
+    assert study.reduced.rings == 6
+    assert (study.reduced.damping_p1, study.reduced.damping_01,
+            study.reduced.damping_02) == (45.0, 245.0, 57.0)
+    x = study.excitation
+    assert (x.amplitude, x.f_start, x.f_end, x.duration, x.sample_time) == (
         100.0, 0.0, 1000.0, 0.8, 0.4e-3)
     assert reduced_mode_labels("auto", "spring") == ("P1", "(0,1)", "(0,2)")
     assert reduced_mode_labels("auto", "held") == ("(0,1)", "(0,2)")

@@ -54,7 +54,7 @@ logger = logging.getLogger(__name__)
 
 def prepare_meridian(study):
     """The meridian mesh of the study (not cached: Netgen meshes it quickly)."""
-    return meridian_mesh(MeridianSpec.from_study(study), study["mesh"]["curve_order"])
+    return meridian_mesh(MeridianSpec.from_study(study), study.mesh.curve_order)
 
 
 def solve_axisymmetric_prestress(study, mesh, solver=None):
@@ -187,12 +187,12 @@ def axisymmetric_coupled_modes(study, mesh=None, timings=None, solver=None,
     """
     timings = timings or Timings()
     band = band or BandSolver.from_study(study)
-    air = study["air"]
+    air = study.air
     state = _prestressed(study, mesh, timings, solver)
     with timings.stage("assembly"):
         logger.info("air mesh follows the membrane (ALE) ...")
         cavity = MeridianSpec.from_study(study).cavity        # None: an open back
-        motion = meridian_motion(state, state.mesh, air["domain_radius"], cavity=cavity)
+        motion = meridian_motion(state, state.mesh, air.domain_radius, cavity=cavity)
         logger.info("assembling the air of every order ...")
         meridian_air = MeridianAir(state, study, motion)
     initial_shifts = initial_shifts or {}
@@ -209,7 +209,7 @@ def axisymmetric_coupled_modes(study, mesh=None, timings=None, solver=None,
             dry_operators, dry_result, lowest = _dry_order(band, forms, m,
                                                            band.dry_partner_top)
         if cavity is not None:     # the enclosure's own modes of order m start here too
-            lowest = min(lowest, lowest_order_frequency(m, cavity.radius, air["sound_speed"]))
+            lowest = min(lowest, lowest_order_frequency(m, cavity.radius, air.sound_speed))
         stop.record(lowest)
         if stop.done():
             break
@@ -242,7 +242,7 @@ def axisymmetric_coupled_modes(study, mesh=None, timings=None, solver=None,
             for k, (mode, fraction) in enumerate(zip(order_modes, membrane_energy_fractions(
                     coupled, result))):
                 mode.membrane_energy_fraction = fraction
-                if fraction < air["min_membrane_energy"]:
+                if fraction < air.min_membrane_energy:
                     mode.kind = AIR
                 scale = np.linalg.norm(mode.vector) / max(np.linalg.norm(full[:, k]), 1e-300)
                 order_pressures.append(result.vectors[coupled.pressure_index, k]
@@ -288,7 +288,7 @@ class AxisymmetricEngine:
 
     def mesh_key(self, study, with_air: bool):
         """What the meridian mesh depends on (it always holds the air)."""
-        return MeridianSpec.from_study(study), study["mesh"]["curve_order"]
+        return MeridianSpec.from_study(study), study.mesh.curve_order
 
     def space_key(self, study, with_air: bool) -> str:
         """The FE space of the modes' vectors: the meridian mesh's spec (it always holds the
@@ -296,8 +296,8 @@ class AxisymmetricEngine:
         spec = json.dumps(dataclasses.asdict(MeridianSpec.from_study(study)), sort_keys=True,
                           default=str)
         digest = hashlib.sha1(spec.encode()).hexdigest()[:16]
-        return (f"axisymmetric:{digest}:order{study['mesh']['order']}:"
-                f"curve{study['mesh']['curve_order']}")
+        return (f"axisymmetric:{digest}:order{study.mesh.order}:"
+                f"curve{study.mesh.curve_order}")
 
     def prepare_mesh(self, study, with_air=None, cache_dir=None):
         return prepare_meridian(study)
@@ -324,9 +324,9 @@ class AxisymmetricEngine:
     def estimate_size(self, study):
         """(elements, unknowns) of the meridian mesh (:func:`.meridian.estimate_size`)."""
         from copdea_fem.fe.axisymmetric.meridian import estimate_size
-        mesh = study["mesh"]
-        return estimate_size(MeridianSpec.from_study(study), mesh["order"],
-                             mesh["pressure_order"])
+        mesh = study.mesh
+        return estimate_size(MeridianSpec.from_study(study), mesh.order,
+                             mesh.pressure_order)
 
     def forced_problem(self, study):
         """Meridian mesh, prestress and the forced order m = 0

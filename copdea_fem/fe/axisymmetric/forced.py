@@ -34,13 +34,13 @@ def order_zero_problem(study, mesh, state, timings: dict) -> OrderZero:
 
     start = time.perf_counter()
     logger.info("assembling the m = 0 membrane-air pencil and the voltage forcing ...")
-    motion = meridian_motion(state, mesh, study["air"]["domain_radius"],
+    motion = meridian_motion(state, mesh, study.air.domain_radius,
                              cavity=MeridianSpec.from_study(study).cavity)
     air = MeridianAir(state, study, motion)
     forms = OrderForms(state, study)
     dry = forms.operators(0)
     coupled = coupled_order_operators(state, study, dry, air)
-    forced = forced_order(state, coupled, study["eigen"]["backend"]).with_damping(
+    forced = forced_order(state, coupled, study.eigen.backend).with_damping(
         forms.damping(dry))
     timings["assembly"] = time.perf_counter() - start
     return OrderZero(study, state, coupled, forced, timings, MERIDIAN_SECTOR)

@@ -71,27 +71,27 @@ class MeridianSpec:
 
     @classmethod
     def from_study(cls, study) -> "MeridianSpec":
-        g, a, m = study["geometry"], study["air"], study["mesh"]
-        if g["frame"] not in AXISYMMETRIC_FRAMES:
-            raise ValueError(f"geometry.frame = {g['frame']!r} has no meridian geometry; "
+        g, a, m = study.geometry, study.air, study.mesh
+        if g.frame not in AXISYMMETRIC_FRAMES:
+            raise ValueError(f"geometry.frame = {g.frame!r} has no meridian geometry; "
                              f"allowed: {', '.join(AXISYMMETRIC_FRAMES)}")
-        if g["enclosure"] not in ENCLOSURES:
-            raise ValueError(f"geometry.enclosure = {g['enclosure']!r} has no meridian "
+        if g.enclosure not in ENCLOSURES:
+            raise ValueError(f"geometry.enclosure = {g.enclosure!r} has no meridian "
                              f"geometry; allowed: {', '.join(ENCLOSURES)}")
-        enclosed = g["enclosure"] != "none" and a["enabled"]
+        enclosed = g.enclosure != "none" and a.enabled
         # radii equal within round-off ("35.5 mm" = 0.035500000000000004 m) are one radius
-        radius = snapped(g["enclosure_radius"], (g["outer_radius"], g["frame_radius"]))
-        vent = snapped(g["enclosure_vent_radius"], (g["inner_radius"], g["outer_radius"]))
-        return cls(outer_radius=g["outer_radius"], inner_radius=g["inner_radius"],
-                   frame=g["frame"], frame_radius=g["frame_radius"],
-                   domain_radius=a["domain_radius"], pml_thickness=a["pml_thickness"],
-                   membrane_size=m["membrane_size"], air_size=m["air_size"],
-                   grading=m["grading"],
-                   enclosure=g["enclosure"] if enclosed else "none",
-                   enclosure_depth=g["enclosure_depth"] if enclosed else 0.0,
+        radius = snapped(g.enclosure_radius, (g.outer_radius, g.frame_radius))
+        vent = snapped(g.enclosure_vent_radius, (g.inner_radius, g.outer_radius))
+        return cls(outer_radius=g.outer_radius, inner_radius=g.inner_radius,
+                   frame=g.frame, frame_radius=g.frame_radius,
+                   domain_radius=a.domain_radius, pml_thickness=a.pml_thickness,
+                   membrane_size=m.membrane_size, air_size=m.air_size,
+                   grading=m.grading,
+                   enclosure=g.enclosure if enclosed else "none",
+                   enclosure_depth=g.enclosure_depth if enclosed else 0.0,
                    enclosure_radius=radius if enclosed else 0.0,
                    vent_radius=vent if enclosed else 0.0,
-                   outside=a["outside"] or not enclosed)
+                   outside=a.outside or not enclosed)
 
     @property
     def cavity(self) -> Cavity | None:

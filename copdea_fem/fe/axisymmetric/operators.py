@@ -188,7 +188,7 @@ class OrderForms:
         if key not in self._forms:
             state, study = self.state, self.study
             axis_m1 = m == 1 and not state.has_disc
-            space = order_space(state.mesh, study["mesh"]["order"], m, state.has_disc)
+            space = order_space(state.mesh, study.mesh.order, m, state.has_disc)
             trial, test = space.TnT()
             energy, mass_form = membrane_forms(state, 0 if m == 0 else self.order, trial, test,
                                                axis_m1, theta=1.0)
@@ -207,16 +207,16 @@ class OrderForms:
         theta = theta_integral(m)
         stiffness = theta * self._hessian((self._space_key(m), m == 0), hessian, space, m)
         mass = theta * mass
-        with_disc = m == 0 and state.has_disc and study["disc"]["motion"] == "spring"
+        with_disc = m == 0 and state.has_disc and study.disc.motion == "spring"
         lift = rim_lift(space, state) if with_disc else None
         free = np.flatnonzero(np.array(space.FreeDofs()))
         k_ff, m_ff = stiffness[free][:, free], mass[free][:, free]
         disc_mass = 0.0
         if with_disc:
-            spring = study["spring"]
+            spring = study.spring
             vector = lift.vec.FV().NumPy()
-            disc_mass = study["disc"]["mass"] + spring["mass"] / 3
-            k_ff = _border(k_ff, stiffness, vector, free, spring["stiffness"])
+            disc_mass = study.disc.mass + spring.mass / 3
+            k_ff = _border(k_ff, stiffness, vector, free, spring.stiffness)
             m_ff = _border(m_ff, mass, vector, free, disc_mass)
         return OrderOperators(m, k_ff.tocsr(), m_ff.tocsr(), space, free, with_disc, lift,
                               axis_m1, state, mass.tocsr(), disc_mass,
@@ -271,7 +271,7 @@ class OrderForms:
         cache = self.__dict__.setdefault("_damping", {})   # once per order (dry + coupled)
         if id(operators) not in cache:
             cache[id(operators)] = (operators, damping_terms(
-                operators.stiffness, operators.mass, self.study["membrane"],
+                operators.stiffness, operators.mass, self.study.membrane,
                 lambda: self.material_tangent(operators)))
         return cache[id(operators)][1]
 
@@ -326,24 +326,24 @@ class MeridianAir:
         from copdea_fem.fe import acoustics
         from copdea_fem.fe.axisymmetric.air import air_form_parts, air_kinetic_parts, screen_normal
 
-        mesh, air = state.mesh, study["air"]
+        mesh, air = state.mesh, study.air
         enclosed = acoustics.has_cavity(mesh)
-        vacuum_above = enclosed and not air["outside"]
-        screens = (acoustics.enclosure_screen_faces(study["geometry"]["frame"], air["outside"])
-                   if enclosed else acoustics.screen_faces(study["geometry"]["frame"]))
+        vacuum_above = enclosed and not air.outside
+        screens = (acoustics.enclosure_screen_faces(study.geometry.frame, air.outside)
+                   if enclosed else acoustics.screen_faces(study.geometry.frame))
         if not state.has_disc:
             screens = "|".join(face for face in screens.split("|") if face != "disc")
-        self.pressure_space = acoustics.pressure_space(mesh, study["mesh"]["pressure_order"],
+        self.pressure_space = acoustics.pressure_space(mesh, study.mesh.pressure_order,
                                                        screens, vacuum_above=vacuum_above)
         trial, test = self.pressure_space.TnT()
-        parts = air_form_parts(trial, test, air["density"], air["sound_speed"],
-                               air["domain_radius"], air["pml_thickness"], deformation=motion)
+        parts = air_form_parts(trial, test, air.density, air.sound_speed,
+                               air.domain_radius, air.pml_thickness, deformation=motion)
         self.gradient, self.hoop, self.mass = (_assemble(self.pressure_space, part)
                                                for part in parts)
-        kinetic = air_kinetic_parts(trial, test, air["density"], deformation=motion)
+        kinetic = air_kinetic_parts(trial, test, air.density, deformation=motion)
         self.kinetic_gradient, self.kinetic_hoop = (_assemble(self.pressure_space, part)
                                                     for part in kinetic)
-        membrane_space = order_space(mesh, study["mesh"]["order"], 2, state.has_disc,
+        membrane_space = order_space(mesh, study.mesh.order, 2, state.has_disc,
                                      complex_=True)
         self.membrane_ndof = membrane_space.ndof
         both = ngs.FESpace([membrane_space, self.pressure_space])
@@ -426,7 +426,7 @@ def coupled_order_operators(state, study, dry: OrderOperators, air: MeridianAir
     a_scaled, b_scaled, beta, _, _ = scaled_pencil(a_full.astype(complex),
                                                    b_full.astype(complex), is_air)
     kinetic = theta * (blocks["kinetic_gradient"] + m**2 * blocks["kinetic_hoop"])
-    backend = study["eigen"]["backend"]
+    backend = study.eigen.backend
 
     def factorize(sigma: float):
         return Factorization((a_scaled - sigma * b_scaled).tocsc(), backend)

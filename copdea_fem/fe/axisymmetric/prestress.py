@@ -131,8 +131,8 @@ class AxisymmetricMembraneSolver(MembraneSolver):
 
 
 def make_axisymmetric_solver(study, mesh) -> AxisymmetricMembraneSolver:
-    g = study["geometry"]
-    return AxisymmetricMembraneSolver(mesh, Membrane.with_effects(study), study["mesh"]["order"],
-                                      g["outer_radius"], g["inner_radius"],
-                                      study["prestress"],
-                                      curve_order=study["mesh"]["curve_order"])
+    g = study.geometry
+    return AxisymmetricMembraneSolver(mesh, Membrane.with_effects(study), study.mesh.order,
+                                      g.outer_radius, g.inner_radius,
+                                      study.prestress,
+                                      curve_order=study.mesh.curve_order)

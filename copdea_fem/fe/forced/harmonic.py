@@ -90,9 +90,13 @@ structural damping the modal path then reproduces the direct one (tests).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 import scipy.sparse as sp
+
+if TYPE_CHECKING:
+    from copdea_fem.fe.eigen.damped import DampingTerms
 
 
 def reduce_vector(full: np.ndarray, free_dofs, lift=None) -> np.ndarray:
@@ -187,6 +191,28 @@ def damping_matrix(terms, omega: float) -> sp.csr_matrix:
     return matrix.tocsr()
 
 
+class MembranePencil(Protocol):
+    """A membrane's dry operators as the forced response reads them (either engine's:
+    :class:`copdea_fem.fe.linearise.MembraneOperators` of the 3-D sector, the axisymmetric
+    order's operators)."""
+
+    stiffness: sp.csr_matrix        # K_s [N/m] on the membrane unknowns
+    mass: sp.csr_matrix             # M_s [kg]
+
+
+class CoupledPencil(Protocol):
+    """The coupled pencil as :class:`ForcedOrder` and :class:`ModalBasis` read it: either
+    engine's coupled operators (:class:`copdea_fem.fe.coupled.CoupledOperators` of the 3-D
+    sector, the axisymmetric order's coupled operators) or a :class:`DryPencil`."""
+
+    stiffness: sp.csr_matrix        # A^, scaled (module doc)
+    mass: sp.csr_matrix             # B^
+    membrane_index: np.ndarray      # rows of the membrane unknowns
+    pressure_index: np.ndarray      # rows of the free pressure unknowns
+    pressure_scale: float           # Pa per scaled pressure unknown
+    membrane: MembranePencil        # the membrane's dry operators
+
+
 @dataclass
 class DryPencil:
     """A membrane's own pencil ``K_s u = omega^2 M_s u`` (either engine's dry operators) in
@@ -194,7 +220,7 @@ class DryPencil:
     then drive it as they drive a coupled one (the left eigenvector ``(lambda u)`` of the
     coupled pencil is a right one here, the pencil being symmetric)."""
 
-    membrane: object                 # dry operators: stiffness, mass, size, to_full
+    membrane: MembranePencil         # dry operators: stiffness, mass, size, to_full
 
     @property
     def stiffness(self):
@@ -223,14 +249,13 @@ class ForcedOrder:
     ``alpha`` is the air row scale of the scaled pencil (module doc).
     """
 
-    coupled: object                 # either engine's coupled operators, or a DryPencil
+    coupled: CoupledPencil          # either engine's coupled operators, or a DryPencil
     forcing: np.ndarray
     elastic: sp.csr_matrix
     alpha: float
     equilibrium_residual: float
     backend: str = "superlu"
-    # copdea_fem.fe.eigen.damped.DampingTerms on the scaled unknowns, or None
-    damping: object = None
+    damping: DampingTerms | None = None     # on the scaled unknowns
 
     @classmethod
     def from_parts(cls, coupled, force, k_el, balance, backend="superlu") -> ForcedOrder:

@@ -11,6 +11,12 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from copdea_fem.fe.forced.harmonic import CoupledPencil, ForcedOrder
+    from copdea_fem.fe.prestress import PrestressedState
+    from copdea_fem.study import Study
 
 
 @dataclass(frozen=True)
@@ -83,12 +89,14 @@ def band_parts(eigen) -> dict:
 
 @dataclass
 class OrderZero:
-    """The prestressed m = 0 problem of a study, ready to be driven."""
+    """The prestressed m = 0 problem of a study, ready to be driven: the study, its
+    prestressed state (either engine's), the driven part's coupled operators and their
+    forced pencil."""
 
-    study: object
-    state: object
-    coupled: object
-    forced: object
+    study: Study
+    state: PrestressedState
+    coupled: CoupledPencil
+    forced: ForcedOrder
     timings: dict = field(default_factory=dict)
     sector: DrivenSector | None = None
 

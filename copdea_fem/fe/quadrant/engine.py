@@ -104,12 +104,12 @@ class QuadrantEngine:
     def mesh_key(self, study, with_air: bool):
         """What the 3-D mesh depends on: its geometry spec (with or without air)."""
         return GeometrySpec.from_study(study, with_air=with_air).key(), \
-            study["mesh"]["curve_order"]
+            study.mesh.curve_order
 
     def space_key(self, study, with_air: bool) -> str:
         """The FE space of the modes' vectors: its mesh's geometry key, order and curving."""
         spec = GeometrySpec.from_study(study, with_air=with_air)
-        return f"fe:{spec.key()}:order{study['mesh']['order']}:curve{study['mesh']['curve_order']}"
+        return f"fe:{spec.key()}:order{study.mesh.order}:curve{study.mesh.curve_order}"
 
     def prepare_mesh(self, study, with_air=None, cache_dir=None):
         """The (cached) 3-D mesh; ``cache_dir=None``:
@@ -119,9 +119,9 @@ class QuadrantEngine:
     def estimate_size(self, study):
         """(elements, unknowns) of the 3-D mesh
         (:func:`copdea_fem.fe.quadrant.geometry.estimate_size`)."""
-        mesh = study["mesh"]
-        return estimate_size(GeometrySpec.from_study(study), mesh["order"],
-                             mesh["pressure_order"])
+        mesh = study.mesh
+        return estimate_size(GeometrySpec.from_study(study), mesh.order,
+                             mesh.pressure_order)
 
     def forced_problem(self, study):
         """The even-even symmetry sector, forced (:mod:`copdea_fem.fe.quadrant.forced`)."""
@@ -266,7 +266,7 @@ class QuadrantEngine:
                                     coupled.membrane_index, coupled.stiffness.shape[0]),
                                 max_imag_hz=band.max_imag_hz, initial_shifts=plan,
                                 start_modes=expected)
-            if study["geometry"]["enclosure"] != "none":
+            if study.geometry.enclosure != "none":
                 result = without_static_solution(result, band.f_max)
             return key, dry_result, result
 
@@ -281,14 +281,14 @@ class QuadrantEngine:
         with timings.stage("classify"), task_manager():
             sampler = ModeSampler(state)
             cavity = None
-            if study["geometry"]["enclosure"] != "none":
+            if study.geometry.enclosure != "none":
                 from copdea_fem.fe.quadrant.cavity import QuadrantCavitySampler
                 cavity = QuadrantCavitySampler(sectors[0][2].pressure_space,
                                                GeometrySpec.from_study(study))
             for (sector, operators, coupled), (key, dry_result, result) in zip(sectors, solved):
                 dry += classify_modes(operators, dry_result, sampler)
                 sector_modes, sector_pressures = coupled_mode_list(
-                    coupled, result, study["air"]["min_membrane_energy"], sampler)
+                    coupled, result, study.air.min_membrane_energy, sampler)
                 if cavity is not None:
                     label_cavity_orders(cavity, sector, coupled, sector_modes, sector_pressures)
                 modes += sector_modes

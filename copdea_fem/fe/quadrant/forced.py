@@ -104,7 +104,7 @@ def prepare_quadrant(study):
     coupled = forms.restrict(operators)
     force, balance = quadrant_forcing(state, operators)
     elastic = quadrant_elastic(state, operators)
-    forced = ForcedOrder.from_parts(coupled, force, elastic, balance, study["eigen"]["backend"])
+    forced = ForcedOrder.from_parts(coupled, force, elastic, balance, study.eigen.backend)
     forced.with_damping(operator_damping(operators, study))
     timings["assembly"] = time.perf_counter() - start
     return OrderZero(study, state, coupled, forced, timings, QUADRANT_SECTOR)
@@ -210,7 +210,7 @@ def _classify(problem, result):
     """The modes of the forced even-even band, with their membrane-energy fractions."""
     from copdea_fem.fe.modes import ModeSampler, coupled_mode_list
     modes, _ = coupled_mode_list(problem.coupled, result,
-                                 problem.study["air"]["min_membrane_energy"],
+                                 problem.study.air.min_membrane_energy,
                                  ModeSampler(problem.state))
     return modes
 

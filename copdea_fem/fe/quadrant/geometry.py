@@ -96,33 +96,33 @@ class GeometrySpec:
 
     @classmethod
     def from_study(cls, study, with_air: bool | None = None) -> "GeometrySpec":
-        g, a, m = study["geometry"], study["air"], study["mesh"]
-        air = a["enabled"] if with_air is None else with_air
-        enclosure = g.get("enclosure", "none") if air else "none"
+        g, a, m = study.geometry, study.air, study.mesh
+        air = a.enabled if with_air is None else with_air
+        enclosure = g.enclosure if air else "none"
         if enclosure != "none":
             # the cavity's depth where the lift is whole (the disc's rim); beyond, the lift
             # and a bowl's depth both fall towards the rim (the Jacobians are checked)
-            under_disc = cavity_depth(enclosure, g["enclosure_depth"], g["enclosure_radius"],
-                                      g["inner_radius"])
-            if abs(study["load"]["z"]) >= 0.45 * under_disc:
+            under_disc = cavity_depth(enclosure, g.enclosure_depth, g.enclosure_radius,
+                                      g.inner_radius)
+            if abs(study.load.z) >= 0.45 * under_disc:
                 raise StudyError(
-                    f"load.z = {preview(study['load']['z'])} is not allowed with geometry."
+                    f"load.z = {preview(study.load.z)} is not allowed with geometry."
                     f"enclosure = {enclosure} on the 3-D engine; allowed: below "
                     f"{0.45 * under_disc:g} m = 0.45 times the cavity's depth under the "
                     "disc's rim (the air inside follows the membrane down to the bottom, "
                     "copdea_fem.fe.ale)")
         closed = {} if enclosure == "none" else {
-            "enclosure": enclosure, "enclosure_depth": g["enclosure_depth"],
-            "enclosure_radius": 0.5 * g["frame_side"] if enclosure == "box"
-            else g["enclosure_radius"],
-            "enclosure_vent_radius": g["enclosure_vent_radius"], "outside": a["outside"]}
-        return cls(**closed, outer_radius=g["outer_radius"], inner_radius=g["inner_radius"],
-                   frame=g["frame"], frame_side=g["frame_side"],
-                   with_air=a["enabled"] if with_air is None else with_air,
-                   domain_radius=a["domain_radius"], pml_thickness=a["pml_thickness"],
-                   membrane_size=m["membrane_size"], air_size=m["air_size"],
-                   grading=m["grading"],
-                   symmetry=m["symmetry"] if (a["enabled"] if with_air is None else with_air)
+            "enclosure": enclosure, "enclosure_depth": g.enclosure_depth,
+            "enclosure_radius": 0.5 * g.frame_side if enclosure == "box"
+            else g.enclosure_radius,
+            "enclosure_vent_radius": g.enclosure_vent_radius, "outside": a.outside}
+        return cls(**closed, outer_radius=g.outer_radius, inner_radius=g.inner_radius,
+                   frame=g.frame, frame_side=g.frame_side,
+                   with_air=a.enabled if with_air is None else with_air,
+                   domain_radius=a.domain_radius, pml_thickness=a.pml_thickness,
+                   membrane_size=m.membrane_size, air_size=m.air_size,
+                   grading=m.grading,
+                   symmetry=m.symmetry if (a.enabled if with_air is None else with_air)
                    else "none")
 
     def key(self) -> str:
@@ -559,7 +559,7 @@ def enclosure_wall_area(spec: GeometrySpec) -> float:
 def study_mesh(study, with_air=None, cache_dir=None):
     """The (cached) 3-D mesh of the study; ``cache_dir=None``: :func:`mesh_cache_dir`."""
     spec = GeometrySpec.from_study(study, with_air=with_air)
-    return load_mesh(spec, study["mesh"]["curve_order"], cache_dir=cache_dir)
+    return load_mesh(spec, study.mesh.curve_order, cache_dir=cache_dir)
 
 
 def membrane_area(spec: GeometrySpec) -> float:

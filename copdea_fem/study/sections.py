@@ -1,0 +1,138 @@
+"""The typed sections of a study: one frozen dataclass per section of :data:`SCHEMA`,
+generated from it, so the schema stays the one source of keys, units, defaults and docs.
+
+``study.load`` is a :class:`LoadSection` (``study.load.voltage`` [V]), ``study.geometry`` a
+:class:`GeometrySection`, and so on: the class of section ``name`` is
+``name.capitalize() + "Section"`` (:data:`SECTION_CLASSES`).  Each field holds the key's
+value in SI, its type the key's kind (``float``, ``int``, ``str``, ``bool``; ``None`` where
+the key has no default and none was given, e.g. ``reduced.modes_json``), except the list
+key ``membrane.prony``: a tuple of :class:`PronyTerm`.  A section alone is not checked; a
+:class:`~copdea_fem.study.resolved.Study` checks its sections when it is made.
+
+The classes are module-level names of this module, so sections (and studies) pickle for
+worker processes.  :func:`plain_section` and :func:`typed_section` turn a section into the
+plain mapping the resolved study file writes (``membrane.prony`` a list of mappings) and
+back.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any, Optional
+
+from copdea_fem.study.schema import SCHEMA
+
+
+@dataclasses.dataclass(frozen=True)
+class PronyTerm:
+    """One term of the generalised Maxwell (Prony) series ``membrane.prony``.
+
+    Attributes
+    ----------
+    modulus_ratio : float
+        g_j, the term's modulus over the long-term modulus of eq. (20) [-].
+    relaxation_time : float
+        tau_j [s].
+    """
+
+    modulus_ratio: float
+    relaxation_time: float
+
+
+@dataclasses.dataclass(frozen=True)
+class Enclosure:
+    """The rigid closed back under the membrane (``geometry.enclosure*``), typed.
+
+    Attributes
+    ----------
+    kind : str
+        ``"cylinder"``, ``"bowl"`` or ``"box"``.
+    depth : float
+        Depth L below the membrane plane [m] (a bowl's at its centre).
+    radius : float
+        Radius of the cylinder, or of the bowl's rim [m] (a box's side is
+        ``geometry.frame_side``).
+    vent_radius : float
+        Radius of the vent in its bottom [m]; 0 = sealed.
+    """
+
+    kind: str
+    depth: float
+    radius: float
+    vent_radius: float
+
+
+#: The typed form of a list key's items (the plain form: a mapping per item).
+LIST_ITEM_CLASSES = {("membrane", "prony"): PronyTerm}
+
+
+def _field_type(section: str, key: str) -> Any:
+    spec = SCHEMA[section][key]
+    if spec.kind is list:
+        return tuple[LIST_ITEM_CLASSES[section, key], ...]
+    return spec.kind if spec.default is not None else Optional[spec.kind]  # noqa: UP045
+
+
+def _field_default(section: str, key: str) -> Any:
+    default = SCHEMA[section][key].default
+    return tuple(default) if isinstance(default, list) else default
+
+
+def _docstring(section: str) -> str:
+    lines = [f"The ``{section}`` section of a study (generated from ``SCHEMA[{section!r}]``).",
+             "", "Attributes", "----------"]
+    for key, spec in SCHEMA[section].items():
+        kind = "tuple of PronyTerm" if spec.kind is list else spec.kind.__name__
+        unit = f" [{spec.unit}]" if spec.unit else ""
+        lines += [f"{key} : {kind}", f"    {spec.description}{unit}."]
+    return "\n".join(lines)
+
+
+def _section_class(section: str) -> type:
+    name = section.capitalize() + "Section"
+    cls = dataclasses.make_dataclass(
+        name, [(key, _field_type(section, key), dataclasses.field(
+            default=_field_default(section, key))) for key in SCHEMA[section]],
+        namespace={"__doc__": _docstring(section), "__module__": __name__}, frozen=True)
+    cls.__qualname__ = name
+    return cls
+
+
+#: Section name -> its generated frozen dataclass.
+SECTION_CLASSES: dict[str, type] = {section: _section_class(section) for section in SCHEMA}
+globals().update({cls.__name__: cls for cls in SECTION_CLASSES.values()})
+
+
+def enclosure_shape(geometry) -> Enclosure | None:
+    """The geometry's enclosure typed: None for ``geometry.enclosure = none`` (an open
+    back), else an :class:`Enclosure` (``GeometrySection.enclosure_shape``)."""
+    if geometry.enclosure == "none":
+        return None
+    return Enclosure(geometry.enclosure, geometry.enclosure_depth, geometry.enclosure_radius,
+                     geometry.enclosure_vent_radius)
+
+
+SECTION_CLASSES["geometry"].enclosure_shape = property(enclosure_shape)
+
+
+def plain_section(section) -> dict[str, Any]:
+    """A section's values as the plain mapping ``{key: SI value}`` of the resolved study
+    (``membrane.prony`` a list of ``{modulus_ratio, relaxation_time}`` mappings)."""
+    values = {}
+    for field in dataclasses.fields(section):
+        value = getattr(section, field.name)
+        if isinstance(value, tuple):
+            value = [dataclasses.asdict(item) if dataclasses.is_dataclass(item) else item
+                     for item in value]
+        values[field.name] = value
+    return values
+
+
+def typed_section(section: str, values: dict[str, Any]):
+    """The :data:`SECTION_CLASSES` instance of ``section`` holding ``values`` (plain SI
+    values, checked: :func:`copdea_fem.study.keys.convert_value`)."""
+    typed = {}
+    for key, value in values.items():
+        item_class = LIST_ITEM_CLASSES.get((section, key))
+        typed[key] = tuple(item_class(**item) for item in value) if item_class else value
+    return SECTION_CLASSES[section](**typed)
