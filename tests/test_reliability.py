@@ -142,7 +142,7 @@ def _assigned(how):
         if how == "item":
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", DeprecationWarning)
-                study.load.voltage = 5.0
+                study["load"]["voltage"] = 5.0
         else:
             study.load.voltage = 5.0
     except (TypeError, dataclasses.FrozenInstanceError) as error:

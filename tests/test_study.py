@@ -170,12 +170,12 @@ def test_a_study_cannot_be_changed_by_hand():
     with pytest.raises(dataclasses.FrozenInstanceError):
         study.load = None
     with pytest.warns(DeprecationWarning, match=r"study\['load'\] is deprecated"):
-        section = study.load
+        section = study["load"]
     assert section == {"z": study.load.z, "voltage": study.load.voltage}
     with pytest.raises(TypeError, match="does not support item assignment"):
-        section.voltage = 5.0
+        section["voltage"] = 5.0
     with pytest.raises(TypeError):
-        study.load = {}
+        study["load"] = {}
     values = study.values
     values["load"]["voltage"] = 5.0               # a copy
     assert study.load.voltage == 2000.0
@@ -250,8 +250,8 @@ def test_the_enclosure_is_a_string_with_a_typed_shape():
     assert closed.geometry.enclosure_shape == Enclosure("cylinder", 0.02, 0.0355, 0.0)
 
 
-#: How a study was read by key before it was typed: ``study.load``,
-#: ``self.study.eigen``, ``study.load.voltage``, ``base["air"]["enabled"]``.
+#: How a study was read by key before it was typed: ``study["load"]``,
+#: ``self.study['eigen']``, ``study.get("load.voltage")``, ``base["air"]["enabled"]``.
 _DICT_READS = (r"study\[", r"study\.get\(\s*[\"'][a-z_]+\.[a-z_]+[\"']\s*\)",
                r"(?<![\]\w])\w+\[[\"'](" + "|".join(SCHEMA) + r")[\"']\]\[[\"']\w+[\"']\]")
 
