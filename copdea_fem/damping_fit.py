@@ -11,7 +11,7 @@ modes, with the FE of the study as the model of record:
    calibrated on a measured spectrum (eq. 19: ``m q'' + b q' + k q``).
 2. An FE solve of the study without damping keys gives each mode's frequency ``omega_k``
    and its radiation damping ratio ``zeta_rad,k`` (0 for a dry study).  Radiation and
-   structural damping add at first order (``tests/test_damping.py``), so the structural
+   structural damping add at first order (``tests/fe/test_damping.py``), so the structural
    target is ``zeta_k - zeta_rad,k``.
 3. The fit (below), then an FE solve with the fitted keys: its damping ratios, not the
    formula's, are the ``fitted`` column, and ``residual = zeta_FE / zeta_measured - 1``

@@ -12,7 +12,7 @@ The factors are exact products of the SI prefixes and definitions (BIPM SI
 brochure, 9th ed., Tables 4 and 7; gram = 1e-3 kg, litre-free), and the result is
 ``magnitude * factor`` -- the same arithmetic as pint's ``Quantity.to`` for a
 multiplicative unit, so the SI value is bitwise pint's
-(``tests/test_units.py`` checks every entry against pint).
+(``tests/study/test_units.py`` checks every entry against pint).
 """
 
 from __future__ import annotations

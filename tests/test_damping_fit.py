@@ -29,7 +29,7 @@ FREQ = np.geomspace(150.0, 1500.0, 6)           # Hz
 
 
 def coarse_study(**sections):
-    """The coarse G1 cone of tests/test_damping.py (z = 8 mm, 2 kV, baffle, m = 0..)."""
+    """The coarse G1 cone of tests/fe/test_damping.py (z = 8 mm, 2 kV, baffle, m = 0..)."""
     raw = {"mesh": {"membrane_size": "6 mm", "order": 2, "engine": "axisymmetric"},
            "geometry": {"frame": "baffle"}, "load": {"z": "8 mm", "voltage": "2 kV"},
            "eigen": {"f_min": 50, "f_max": 600}}

@@ -5,7 +5,7 @@ A sweep runs on the local executor and on a local cluster of two worker processe
 by the code under test, and the tables are compared; the cluster is closed at the end, also
 on Ctrl-C; the errors (a scheduler that does not answer or a malformed address, a scheduler
 without ``--executor dask``) are one line and exit 2, for sweep and diagnose.  The
-diagnosis's FE solves on a cluster: ``tests/diagnose/test_diagnose_dask.py``.  Skipped where
+diagnosis's FE solves on a cluster: ``tests/diagnosis/test_diagnose_dask.py``.  Skipped where
 dask.distributed is not installed (a test dependency).
 """
 

@@ -73,7 +73,7 @@ def test_mesh_fe_and_sweep_keys_change_with_the_code(monkeypatch):
 
 
 def test_a_stale_committed_fe_cache_is_named_with_its_refill_command(tmp_path):
-    sys.path.insert(0, str(ROOT / "tests" / "diagnose"))
+    sys.path.insert(0, str(ROOT / "tests" / "diagnosis"))
     try:
         import fe_battery
     finally:
@@ -81,7 +81,7 @@ def test_a_stale_committed_fe_cache_is_named_with_its_refill_command(tmp_path):
     missing = fe_battery.missing_entries(tmp_path)          # an empty folder: all missing
     assert missing and set(missing) == fe_battery.battery_keys()
     message = fe_battery.stale_message(missing)
-    assert "python tests/diagnose/fe_battery.py --refill" in message
+    assert "python tests/diagnosis/fe_battery.py --refill" in message
     assert fe_battery.REFILL_VARIABLE in message
 
 

@@ -38,11 +38,11 @@ ROOT = Path(__file__).resolve().parent.parent
 COPIED = ("copdea_fem", "tests", "studies", "meshes", "pyproject.toml", "README.md")
 #: The test files that kill most physics mutations, run first (the rest follow in
 #: name order): with -x a killed mutation then costs seconds to a minute, not the suite.
-FIRST = ("tests/test_materials.py", "tests/test_damping.py", "tests/test_coupled_references.py",
-         "tests/test_axisymmetric.py",
-         "tests/test_acoustics.py", "tests/test_coupled.py", "tests/test_symmetry.py",
-         "tests/test_dry_modes.py", "tests/test_prestress.py", "tests/test_damping_fit.py",
-         "tests/test_response_reduced.py", "tests/test_response_engines.py")
+FIRST = ("tests/fe/test_materials.py", "tests/fe/test_damping.py", "tests/fe/test_coupled_references.py",
+         "tests/fe/test_axisymmetric.py",
+         "tests/fe/test_acoustics.py", "tests/fe/test_coupled.py", "tests/fe/test_symmetry.py",
+         "tests/fe/test_dry_modes.py", "tests/fe/test_prestress.py", "tests/test_damping_fit.py",
+         "tests/forced_response/test_response_reduced.py", "tests/forced_response/test_response_engines.py")
 
 
 @dataclass(frozen=True)
@@ -301,7 +301,7 @@ def suite_files(root: Path) -> list[str]:
 def run_suite(root: Path, timeout: float) -> tuple[str, str, float]:
     """Fast suite against the copy at ``root``: (status, first failure, seconds)."""
     # a mutated FE has a new code fingerprint: the committed FE cache cannot judge it, so
-    # the tests that read it are skipped, not failed (tests/diagnose/conftest.py)
+    # the tests that read it are skipped, not failed (tests/diagnosis/conftest.py)
     env = dict(os.environ, PYTHONPATH=str(root), PYTHONDONTWRITEBYTECODE="1",
                COPDEA_FEM_FE_STALE="skip")
     check = subprocess.run([sys.executable, "-c", "import copdea_fem; print(copdea_fem.__file__)"],

@@ -27,7 +27,7 @@ all drawn from one seeded generator (:func:`numpy.random.default_rng`):
 
 The data are the reduced (ring) model's, so the ``measured.yaml`` names it as the
 model of record (``model: reduced``): diagnosing it tests that the diagnosis can
-invert its own surrogate, not the FE (for that: ``tests/diagnose/fe_battery.py``).
+invert its own surrogate, not the FE (for that: ``tests/diagnosis/fe_battery.py``).
 
 Written: ``measured.yaml``, ``base_study.yaml`` (the study as given,
 resolved), ``<condition>_resonances.csv``, ``<condition>_spectrum.csv`` and

@@ -32,7 +32,7 @@ isolated mode), and ``damping_ratio`` adds a damping the model lacks (0 by defau
 written ``measured.yaml`` still declares the quality factors uninformative
 (``noise.quality_relative`` = :data:`QUALITY_UNINFORMATIVE`; a user may edit it): what the
 diagnosis is asked to find here is the effects switched on, from frequencies and shapes.
-Measured on the vibrometer battery (tests/test_vibrometer_battery.py, seeds 0-19):
+Measured on the vibrometer battery (tests/vibrometer/test_vibrometer_battery.py, seeds 0-19):
 uninformative, ``air_loading`` named alone on 20 of 20; with ``quality_relative: 0.25``, on
 19 of 20, the other adding a marginal ``uniform_stiffness`` (ln U = 3.30 against 3.12).
 

@@ -588,7 +588,7 @@ def coupled_forms(pressure, pressure_test, normal_displacement, normal_displacem
 
     The one source of the coupled forms: the 3-D engine's assembly
     (:func:`copdea_fem.fe.coupled.assemble_coupled`) calls it, and the sign test
-    (``tests/test_acoustics.py``, air loading lowers every frequency) tests it.
+    (``tests/fe/test_acoustics.py``, air loading lowers every frequency) tests it.
     Derivation: module doc, "Weak form" (A1)-(A3).
 
     Parameters
