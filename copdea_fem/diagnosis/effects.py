@@ -25,7 +25,8 @@ it excludes, when it applies to the data (:meth:`Effect.applies_to`) and which
 study keys a condition may not set because it switches them.  The rest of the
 diagnosis reads these fields and never names an effect; the catalogue-level sets
 below (:data:`MOUNTINGS`, :data:`DEFAULT_CANDIDATES`, ...) are derived from them.
-Adding an effect is adding one :class:`Effect` to the catalogue.
+Adding an effect is adding one :class:`Effect` to the catalogue (the record and its
+parts: :mod:`copdea_fem.diagnosis.effect_record`).
 
 Identifiers are a contract (``diagnosis.json``): ``air_loading,
 electrostatic_softening, spring_mass, disc_pumping, modal_damping,
@@ -40,275 +41,24 @@ frame_reflection, viscoelastic_stiffening, uniform_stiffness``, ``baffle``,
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
-from typing import Callable
 
+from copdea_fem.diagnosis.effect_record import (  # noqa: F401  (the catalogue's names)
+    BIASED,
+    FE_ROLES_ALLOWED,
+    HAS_DISC,
+    MOUNTING_KINDS,
+    RAISED,
+    Effect,
+    Exclusion,
+    Parameter,
+    Requirement,
+)
 from copdea_fem.measured import EffectRules
 from copdea_fem.study import ENCLOSURE_AIR_SHARE, PronyTerm, StudyError
 
 # Modal damping b/m of Sect. 5.3 [1/s]: the physical default of effect modal_damping.
 PAPER_DAMPING = {"reduced.damping_p1": 45.0, "reduced.damping_01": 245.0,
                  "reduced.damping_02": 57.0, "reduced.damping_higher": 57.0}
-
-
-@dataclass(frozen=True)
-class Parameter:
-    """One fitted parameter of an effect.
-
-    Attributes
-    ----------
-    name : str
-        Short identifier (``"scale"``, ``"mass"``).
-    key : str
-        Study key it sets (``"effects.air_mass_scale"``).
-    unit : str or None
-        SI unit of the value (None: a pure number).
-    default : float
-        Physical default, the start of every fit [unit].
-    lower, upper : float
-        Fit bounds [unit].
-    log : bool
-        Fit in log space (positive scale factors, masses, times).
-    description : str
-    surrogate_only : bool
-        Only the ring surrogate reads it, although the FE represents the effect
-        (air_loading's scale: the FE has the real coupled air).  The direct FE engine
-        holds it at its default (not fitted), and an FE anchor takes the default.
-    """
-
-    name: str
-    key: str
-    unit: str | None
-    default: float
-    lower: float
-    upper: float
-    log: bool
-    description: str
-    surrogate_only: bool = False
-
-    def __post_init__(self):
-        if not self.lower <= self.default <= self.upper or (self.log and self.lower <= 0):
-            raise ValueError(f"parameter {self.name}: default {self.default!r} is not allowed; "
-                             f"allowed: [{self.lower!r}, {self.upper!r}] (> 0 when log)")
-
-    def shown(self, value: float) -> str:
-        """``value`` with its unit, in the unit a reader expects (g, ms)."""
-        if self.unit == "kg":
-            return f"{value * 1e3:.4g} g"
-        if self.unit == "s":
-            return f"{value * 1e3:.4g} ms"
-        return f"{value:.4g}" + (f" {self.unit}" if self.unit else "")
-
-
-@dataclass(frozen=True)
-class Requirement:
-    """A condition an effect needs in the base study or the data to be tested.
-
-    Attributes
-    ----------
-    holds : callable
-        ``(study, conditions) -> bool``: ``study`` the base study, ``conditions`` the
-        operating points of the measured conditions, mappings with ``voltage`` [V] and
-        ``z`` [m].
-    reason : str
-        Why the effect is not tested where it does not hold (the report prints it).
-    """
-
-    holds: Callable = field(repr=False)
-    reason: str = ""
-
-
-HAS_DISC = Requirement(lambda study, conditions: study.geometry.inner_radius != 0,
-                       "a membrane without a disc has no disc to pump")
-BIASED = Requirement(lambda study, conditions: any(c["voltage"] > 0 for c in conditions),
-                     "every condition has V_b = 0: nothing to soften")
-RAISED = Requirement(lambda study, conditions: any(c["z"] > 0 for c in conditions),
-                     "every condition has z = 0: the pumping modes are not driven")
-
-
-@dataclass(frozen=True)
-class Exclusion:
-    """Effects never in the model beside the effect that declares the exclusion.
-
-    Attributes
-    ----------
-    effects : tuple of str
-        The effects it excludes, in the order a reason names them.
-    rule : str
-        The rule as the report states it (``"one material-damping cause at a time"``).
-    why : str
-        Why the declaring effect is not tested beside one of ``effects``.
-    what : str
-        What the declaring effect is, said where it keeps one of ``effects`` out.
-    """
-
-    effects: tuple
-    rule: str
-    why: str
-    what: str
-
-
-FE_ROLES_ALLOWED = (None, "switch", "anchored")
-MOUNTING_KINDS = (None, "built", "open")
-
-
-@dataclass(frozen=True)
-class Effect:
-    """One physical effect: what it is, its parameters, its signature, how to apply it.
-
-    Attributes
-    ----------
-    id : str
-        Stable snake_case identifier (a contract).
-    title : str
-    description : str
-        What the effect is physically, with the paper's section.
-    kind : str
-        ``"physics"`` or ``"parameter"``.
-    engine : str
-        ``"reduced"``, ``"coupled_fe"`` or ``"fe"`` (module notes).
-    parameters : tuple of Parameter
-    signature : str
-        The residual pattern it explains (what a reader should see in the data).
-    requires : tuple of str
-        Effects that must be on for this one to act (spring_mass needs disc_pumping).
-    needs : str
-        What the data must contain to test it: ``"frequencies"`` or
-        ``"quality_factors"`` (peak widths from resonances or spectra).
-    on_overrides, off_overrides, detect : callables
-        ``(study, values) -> overrides``, ``(study) -> overrides``, ``(study) -> bool``.
-    fe_role : str or None
-        How the FE model of record represents it (:mod:`copdea_fem.diagnosis.anchored`):
-        ``"switch"`` (the ring model cannot: on in the FE whenever on in the state),
-        ``"anchored"`` (the ring model moves it well: in the FE from the step that
-        accepts it, at the accepted values) or None (the ring model alone).
-    direct : bool
-        The FE evaluates it by itself (its study keys: geometry, air,
-        ``diagnosis.fe.FE_EFFECT_KEYS``), so the direct FE engine can test it.
-    not_direct : str
-        Why the direct FE engine does not test it, where the general reason (it needs
-        the ring surrogate and the FE does not model it) is not the one.
-    visible_in_scan : bool
-        The FE honours it, so a synthetic vibrometer export (made by the FE) can hide it.
-    mounting : str or None
-        A mounting (one at a time; each replaces the base's own): ``"built"`` (a part
-        built around or behind the membrane, kept by a base that states it without air)
-        or ``"open"`` (nothing around the membrane); None: not a mounting.
-    replaces : tuple of str
-        Effects its overrides switch off where the base has them on (besides the other
-        mountings, which a mounting always replaces).
-    exclusion : Exclusion or None
-        Effects never tested beside this one, nor this one beside them.
-    applies_when : tuple of Requirement
-        What the base study and the data must offer for it to be tested
-        (:meth:`applies_to`).
-    adds_air : bool
-        It puts the air in the model: the coupled-FE effects are tested once it is on,
-        and it is what a measurement in vacuo lacks.
-    changes_prestress : bool
-        Its parameters change the static (prestressed) state: the ring surrogate solves
-        it again at every value, so its tabulation is coarser.
-    prony_term : bool
-        Its values are one Prony term ``(g, tau [s])`` of ``membrane.prony``, which the FE
-        anchor moves by a modal surrogate.
-    switched_keys : tuple of str
-        Study keys (or key prefixes) it switches, which a condition of
-        ``measured.yaml`` may therefore not set.
-    opt_in : bool
-        Tested only where ``measured.yaml``'s ``candidates`` name it.
-    not_tested_note : str
-        A line the report adds when it was not tested.
-    """
-
-    id: str
-    title: str
-    description: str
-    kind: str
-    engine: str
-    parameters: tuple
-    signature: str
-    on_overrides: Callable = field(repr=False)
-    off_overrides: Callable = field(repr=False)
-    detect: Callable = field(repr=False)
-    requires: tuple = ()
-    needs: str = "frequencies"
-    fe_role: str | None = None
-    direct: bool = False
-    not_direct: str = ""
-    visible_in_scan: bool = False
-    mounting: str | None = None
-    replaces: tuple = ()
-    exclusion: Exclusion | None = None
-    applies_when: tuple = ()
-    adds_air: bool = False
-    changes_prestress: bool = False
-    prony_term: bool = False
-    switched_keys: tuple = ()
-    opt_in: bool = False
-    not_tested_note: str = ""
-
-    def __post_init__(self):
-        for name, value, allowed in (("fe_role", self.fe_role, FE_ROLES_ALLOWED),
-                                     ("mounting", self.mounting, MOUNTING_KINDS)):
-            if value not in allowed:
-                raise ValueError(f"effect {self.id}: {name} = {value!r} is not allowed; "
-                                 f"allowed: {', '.join(map(str, allowed))}")
-
-    @property
-    def defaults(self) -> tuple:
-        return tuple(p.default for p in self.parameters)
-
-    def on(self, study, values=None) -> dict:
-        """Overrides that switch the effect on with ``values`` (default: the physical defaults)."""
-        values = self.defaults if values is None else tuple(float(v) for v in values)
-        if len(values) != len(self.parameters):
-            raise StudyError(f"{self.id} parameters = {values!r} is not allowed; allowed: "
-                             f"{len(self.parameters)} values ({self.parameter_names or 'none'})")
-        return self.on_overrides(study, values)
-
-    def off(self, study) -> dict:
-        """Overrides that switch the effect off."""
-        return self.off_overrides(study)
-
-    def is_on(self, study) -> bool:
-        return bool(self.detect(study))
-
-    @property
-    def parameter_names(self) -> str:
-        return ", ".join(p.name for p in self.parameters)
-
-    def describe_values(self, values) -> str:
-        return ", ".join(f"{p.name} = {p.shown(v)}" for p, v in zip(self.parameters, values))
-
-    def anchor_values(self, values) -> tuple:
-        """``values`` as an FE anchor takes them: the surrogate-only parameters at
-        their defaults (:attr:`Parameter.surrogate_only`)."""
-        return tuple(p.default if p.surrogate_only else v
-                     for p, v in zip(self.parameters, values))
-
-    def why_not_applicable(self, study, conditions) -> str | None:
-        """The reason of the first requirement (:attr:`applies_when`) that ``study`` (the
-        base study) and ``conditions`` (mappings with ``voltage`` [V] and ``z`` [m], one
-        per measured condition) do not meet; None: it applies."""
-        return next((r.reason for r in self.applies_when if not r.holds(study, conditions)),
-                    None)
-
-    def applies_to(self, study, conditions) -> bool:
-        """Whether the effect can be tested on the base ``study`` with these ``conditions``
-        (:meth:`why_not_applicable`)."""
-        return self.why_not_applicable(study, conditions) is None
-
-    @property
-    def acts_through_air(self) -> bool:
-        """The air loading or a mounting: an effect that acts through the air only."""
-        return self.adds_air or self.mounting is not None
-
-    def replaces_effect(self, other: "Effect") -> bool:
-        """Whether switching this effect on replaces ``other`` where the base has it on:
-        a mounting replaces every other mounting, and any effect those in :attr:`replaces`."""
-        return other.id in self.replaces or (self.mounting is not None
-                                             and other.mounting is not None
-                                             and other.id != self.id)
 
 
 def _air_on(study, values):

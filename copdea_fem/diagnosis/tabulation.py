@@ -23,7 +23,8 @@ import numpy as np
 import scipy.interpolate
 import scipy.optimize
 
-from copdea_fem.diagnosis.effects import CATALOGUE, Parameter
+from copdea_fem.diagnosis.effect_record import Parameter
+from copdea_fem.diagnosis.effects import CATALOGUE
 from copdea_fem.diagnosis.ring_predictor import safe_predict
 
 INVALID = math.inf
