@@ -78,7 +78,7 @@ def test_a_cold_diagnosis_on_a_local_cluster_is_the_local_one(tmp_path, monkeypa
         return hit
 
     monkeypatch.setattr(FEModel, "_read", recording)
-    local = cf.diagnose(measured, fe_cache=battery.FE_CACHE, fe_workers=1)
+    local = cf.diagnose(measured, fe_cache=battery.FE_CACHE, workers=1)
     monkeypatch.setattr(FEModel, "_read", original_read)
     cache = tmp_path / "cache"
     shutil.copytree(battery.FE_CACHE, cache)
@@ -88,7 +88,7 @@ def test_a_cold_diagnosis_on_a_local_cluster_is_the_local_one(tmp_path, monkeypa
     for key in removed:
         (cache / f"{key}.json").unlink()
     with caplog.at_level("INFO", logger="copdea_fem"):
-        remote = cf.diagnose(measured, fe_cache=cache, executor="dask", fe_workers=2)
+        remote = cf.diagnose(measured, fe_cache=cache, executor="dask", workers=2)
     assert no_children_left(before)
     assert remote.result.fe_solves == len(removed)
     assert f"FE: {len(removed)} solves on the Dask cluster ..." in caplog.messages
