@@ -43,13 +43,13 @@ def quick_timeout(monkeypatch):
     monkeypatch.setattr(parallel, "SCHEDULER_TIMEOUT_SECONDS", 0.5)
 
 
-def test_sweep_on_a_local_cluster_gives_the_table_of_the_local_executor(tmp_path):
+def test_sweep_on_a_local_cluster_gives_the_table_of_the_inline_executor(tmp_path):
     """Two worker processes, two chains: every point's record and the tracked table as the
     local executor writes them (the ring model is deterministic: equal to the last digit)."""
     before = multiprocessing.active_children()
     sweep = load_sweep(GRID)
     sweep.plots = False
-    local = run_sweep(sweep, out_dir=tmp_path / "local", executor="local")
+    local = run_sweep(sweep, out_dir=tmp_path / "local", executor="inline")
     remote = run_sweep(sweep, out_dir=tmp_path / "dask", executor="dask", workers=2)
     assert sorted(remote.computed) == sorted(local.computed) and not remote.failed
     assert read_table(tmp_path / "dask" / "sweep.csv") == \

@@ -359,14 +359,14 @@ def test_dask_local_cluster_gives_the_same_table_as_local(coarse_runs, tmp_path)
     np.testing.assert_allclose(*zip(*macs), atol=1e-5)   # float32 storage of the shapes
 
 
-def test_pool_executor_fills_in_missing_points_like_local(tmp_path):
+def test_processes_executor_fills_in_missing_points_like_inline(tmp_path):
     sweep = load_sweep(SWEEPS / "coarse_reduced_grid.yaml")
     sweep.plots = False
     run_sweep(sweep, out_dir=tmp_path / "local")
     shutil.copytree(tmp_path / "local", tmp_path / "pool")
     for point_id in ("p004", "p010"):
         shutil.rmtree(tmp_path / "pool" / "points" / point_id)
-    outcome = run_sweep(sweep, out_dir=tmp_path / "pool", executor="pool", workers=2)
+    outcome = run_sweep(sweep, out_dir=tmp_path / "pool", executor="processes", workers=2)
     assert sorted(outcome.computed) == ["p004", "p010"] and not outcome.failed
     assert read_table(tmp_path / "pool" / "sweep.csv") == read_table(tmp_path / "local" /
                                                                     "sweep.csv")
