@@ -12,7 +12,7 @@ import warnings
 from collections.abc import Mapping
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import yaml
 
@@ -27,6 +27,24 @@ from copdea_fem.study.schema import (
     SCHEMA,
 )
 from copdea_fem.study.sections import SECTION_CLASSES, plain_section, typed_section
+
+if TYPE_CHECKING:
+    from copdea_fem.study.sections import (
+        AirSection,
+        DiscSection,
+        EffectsSection,
+        EigenSection,
+        ExcitationSection,
+        GeometrySection,
+        LoadSection,
+        MembraneSection,
+        MeshSection,
+        OutputSection,
+        PrestressSection,
+        ReducedSection,
+        ResponseSection,
+        SpringSection,
+    )
 
 
 def _with_sections(cls):
@@ -77,6 +95,22 @@ class Study:
         A section that is no mapping, an unknown key, a value out of range or in a wrong
         unit, keys that do not fit together.
     """
+
+    if TYPE_CHECKING:      # the fields _with_sections adds, one per SCHEMA section
+        geometry: GeometrySection
+        membrane: MembraneSection
+        disc: DiscSection
+        spring: SpringSection
+        load: LoadSection
+        air: AirSection
+        mesh: MeshSection
+        prestress: PrestressSection
+        eigen: EigenSection
+        output: OutputSection
+        reduced: ReducedSection
+        excitation: ExcitationSection
+        response: ResponseSection
+        effects: EffectsSection
 
     name: str = "study"
     description: str = ""

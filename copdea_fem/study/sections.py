@@ -10,7 +10,9 @@ key ``membrane.prony``: a tuple of :class:`PronyTerm`.  A section alone is not c
 :class:`~copdea_fem.study.resolved.Study` checks its sections when it is made.
 
 The classes are module-level names of this module, so sections (and studies) pickle for
-worker processes.  :func:`plain_section` and :func:`typed_section` turn a section into the
+worker processes.  Type checkers and editors cannot run the generation: they read the stub
+``sections.pyi`` beside this file, made from the same schema by :func:`stub_text` (a test
+holds it to the schema; remake it with ``python -m copdea_fem.study --stubs``).  :func:`plain_section` and :func:`typed_section` turn a section into the
 plain mapping the resolved study file writes (``membrane.prony`` a list of mappings) and
 back.
 """
@@ -136,3 +138,37 @@ def typed_section(section: str, values: dict[str, Any]):
         item_class = LIST_ITEM_CLASSES.get((section, key))
         typed[key] = tuple(item_class(**item) for item in value) if item_class else value
     return SECTION_CLASSES[section](**typed)
+
+
+def _annotation(section: str, key: str) -> str:
+    spec = SCHEMA[section][key]
+    if spec.kind is list:
+        return f"tuple[{LIST_ITEM_CLASSES[section, key].__name__}, ...]"
+    return spec.kind.__name__ + ("" if spec.default is not None else " | None")
+
+
+def stub_text() -> str:
+    """The text of ``sections.pyi``: every generated section class with its fields typed,
+    for type checkers and editors (which do not run the generation)."""
+    lines = ['"""Type stub of :mod:`copdea_fem.study.sections`, made from ``SCHEMA`` by',
+             '``python -m copdea_fem.study --stubs`` (do not edit by hand)."""',
+             "", "from typing import Any", "",
+             "class PronyTerm:", "    modulus_ratio: float", "    relaxation_time: float",
+             "    def __init__(self, modulus_ratio: float, relaxation_time: float) -> None: ...",
+             "", "class Enclosure:", "    kind: str", "    depth: float", "    radius: float",
+             "    vent_radius: float",
+             "    def __init__(self, kind: str, depth: float, radius: float, "
+             "vent_radius: float) -> None: ...", ""]
+    for section, cls in SECTION_CLASSES.items():
+        lines.append(f"class {cls.__name__}:")
+        lines += [f"    {key}: {_annotation(section, key)}" for key in SCHEMA[section]]
+        if section == "geometry":
+            lines += ["    @property", "    def enclosure_shape(self) -> Enclosure | None: ..."]
+        lines += ["    def __init__(self, **values: Any) -> None: ...", ""]
+    lines += ["LIST_ITEM_CLASSES: dict[tuple[str, str], type]",
+              "SECTION_CLASSES: dict[str, type]", "",
+              "def enclosure_shape(geometry: GeometrySection) -> Enclosure | None: ...",
+              "def plain_section(section: Any) -> dict[str, Any]: ...",
+              "def typed_section(section: str, values: dict[str, Any]) -> Any: ...",
+              "def stub_text() -> str: ..."]
+    return "\n".join(lines) + "\n"

@@ -269,3 +269,23 @@ def test_the_package_reads_the_study_by_attribute():
             if any(re.search(pattern, line) for pattern in _DICT_READS):
                 found.append(f"{path.relative_to(ROOT)}:{number}: {line.strip()}")
     assert not found, "read the study's attributes (study.load.voltage):\n" + "\n".join(found)
+
+
+def test_the_sections_stub_is_made_from_the_schema():
+    """Type checkers read ``sections.pyi`` (the classes are generated at run time): it is
+    the text :func:`stub_text` makes from ``SCHEMA`` now, it parses, and ``Study`` declares
+    for them one field per section (``if TYPE_CHECKING`` in resolved.py)."""
+    import ast
+    import re
+
+    from copdea_fem.study import sections
+    stub = Path(sections.__file__).with_name("sections.pyi")
+    assert stub.read_text() == sections.stub_text(), \
+        "sections.pyi is stale: python -m copdea_fem.study --stubs"
+    tree = ast.parse(stub.read_text())
+    classes = {node.name for node in tree.body if isinstance(node, ast.ClassDef)}
+    assert {cls.__name__ for cls in sections.SECTION_CLASSES.values()} <= classes
+    source = (Path(sections.__file__).with_name("resolved.py")).read_text()
+    declared = re.findall(r"^        (\w+): (\w+)Section$", source, re.MULTILINE)
+    assert [name for name, _ in declared] == list(SCHEMA)
+    assert all(cls == name.capitalize() for name, cls in declared)
