@@ -57,6 +57,14 @@ def preview_path(path, width: int = PREVIEW_CHARACTERS) -> str:
     return f"{repr(head[:keep] + '...' + os.sep + name)} ({len(text)} characters)"
 
 
+def as_path(path, what: str, error: type[Exception] = ValueError) -> Path:
+    """``path`` (text or path-like) as a :class:`~pathlib.Path`, or ``error`` naming
+    ``what`` where it is no path at all (a number, None, a list)."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise error(f"{what} = {preview(path)} is not allowed; allowed: a file's path")
+    return Path(path)
+
+
 def read_text(path: str | Path, what: str, limit: int = MAX_DATA_BYTES,
               error: type[Exception] = ValueError) -> str:
     """The UTF-8 text of an input file, or ``error`` with a one-line message.
@@ -64,7 +72,7 @@ def read_text(path: str | Path, what: str, limit: int = MAX_DATA_BYTES,
     ``what`` names the file in the message (``"study file"``, ``"conditions[0].spectrum"``):
     ``study file = 'x.yaml' is not allowed (a binary file); allowed: a UTF-8 text file ...``.
     """
-    path = Path(path)
+    path = as_path(path, what, error)
 
     def refuse(reason):
         return error(f"{what} = {preview(path, PATH_CHARACTERS)} is not allowed ({reason}); "

@@ -107,12 +107,19 @@ def executor_name(value: str | None, old_spellings: dict[str, str] | None = None
 
 
 def check_executor(executor: str | None, scheduler=None, old_spellings=None,
-                   default: str = "inline", error: type[StudyError] = StudyError) -> str:
+                   default: str = "inline", error: type[StudyError] = StudyError,
+                   workers=None) -> str:
     """The executor of a run checked before any work: its name (:func:`executor_name`;
     ``default`` when None), a ``scheduler`` only with ``dask`` (:func:`check_scheduler`,
-    naming the executor as given) and, for ``dask``, :mod:`distributed` installed."""
+    naming the executor as given), ``workers`` (a count the user gave) not with ``inline``
+    (one process: the count would be ignored) and, for ``dask``, :mod:`distributed`
+    installed."""
     name = executor_name(executor, old_spellings, error=error) or default
     check_scheduler(executor, scheduler)
+    if workers is not None and name == "inline":
+        raise error(f"--workers = {preview(workers)} is not allowed with --executor inline "
+                    "(it runs in this process alone); allowed: --workers with --executor "
+                    "processes or dask")
     if name == "dask":
         require_distributed()
     return name

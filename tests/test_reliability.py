@@ -197,6 +197,11 @@ def _modes_error():
     return TooManyModesError("the band holds 300 eigenpairs, more than max_modes=200")
 
 
+def _api():
+    import copdea_fem
+    return copdea_fem
+
+
 def _copy_example(work):
     shutil.copytree(EXAMPLE, work / "data")
 
@@ -505,6 +510,44 @@ CASES = [
     Case("--fe-workers 0", 7, "--fe-workers = '0' is not allowed; allowed: an integer >= 1",
          argv=("diagnose", "{work}/data/measured.yaml", "--fe-workers", "0", "--out",
                "{work}/report"), setup=_copy_example),
+    # the execution layer's options and the API functions of fit-material, calibrate-damping,
+    # synth and the measured sets
+    Case("sweep --workers with --executor inline", 2, "--workers = 2 is not allowed with "
+         "--executor inline (it runs in this process alone); allowed: --workers with --executor "
+         "processes or dask", argv=("sweep", "{root}/studies/sweeps/coarse_reduced_grid.yaml",
+                                    "--executor", "inline", "--workers", "2", "--out", "{work}/s")),
+    Case("diagnose --workers with --executor inline", 2, "--workers = '2' is not allowed with "
+         "--executor inline", argv=("diagnose", "{work}/data/measured.yaml", "--executor",
+                                    "inline", "--workers", "2", "--out", "{work}/report"),
+         setup=_copy_example),
+    Case("diagnose --executor threads", 2, "--executor = 'threads' is not allowed; allowed: "
+         "one of inline, processes, dask", argv=("diagnose", "{work}/data/measured.yaml",
+                                                "--executor", "threads", "--out", "{work}/r"),
+         setup=_copy_example),
+    Case("diagnose --workers 1.5", 1, "--workers = '1.5' is not allowed; allowed: an integer "
+         ">= 1", argv=("diagnose", "{work}/data/measured.yaml", "--workers", "1.5", "--out",
+                       "{work}/r"), setup=_copy_example),
+    Case("diagnose --fe-workers beside --workers", 2, "--fe-workers = '2' is not allowed with "
+         "--workers; allowed: --workers alone", argv=("diagnose", "{work}/data/measured.yaml",
+                                                      "--fe-workers", "2", "--workers", "3",
+                                                      "--out", "{work}/r"),
+         setup=_copy_example),
+    Case("synth --seed -1", 1, "--seed = -1 is not allowed; allowed: an integer in [0, ",
+         argv=("synth", QUICK, "--seed", "-1", "--out", "{work}/y")),
+    Case("synth --format uff --seed -1", 1, "seed = -1 is not allowed; allowed: an integer in "
+         "[0, ", argv=("synth", QUICK, "--format", "uff", "--seed", "-1", "--out", "{work}/y")),
+    Case("synthesise(seed=-1), API", 1, "--seed = -1 is not allowed",
+         api=lambda work: _api().synthesise(QUICK, seed=-1), expect=StudyError),
+    Case("fit_material with a number for the data file, API", 2, "data file = 5 is not "
+         "allowed; allowed: a file's path", api=lambda work: _api().fit_material(QUICK, 5),
+         expect=StudyError),
+    Case("calibrate_damping fit='bogus', API", 2, "--fit = 'bogus' is not allowed; allowed: "
+         "one of modal, rayleigh, prony",
+         api=lambda work: _api().calibrate_damping(QUICK, None, fit="bogus"), expect=StudyError),
+    Case("load_measured of a number, API", 2, "measured file = 3 is not allowed; allowed: a "
+         "file's path", api=lambda work: _api().load_measured(3), expect=StudyError),
+    Case("load_measured of a folder, API", 4, "measured file = ", api=lambda work:
+         _api().load_measured(work), expect=StudyError),
     # the options and keys of the vibrometer, the Dask executor and the reduced modal path
     Case("identify --max-order 0", 3, "identify max_order = 0 is not allowed; allowed: an "
          "integer in [4, 400]", argv=("identify", "{root}/studies/measured_scan_example/"

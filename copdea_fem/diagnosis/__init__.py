@@ -101,9 +101,10 @@ def check_options(alpha: float = 0.05, fe_cache=None, fe_workers=None, executor=
     if fe_cache:
         from copdea_fem.diagnosis.fe import check_cache_dir
         check_cache_dir(fe_cache, "--fe-cache")
+    executor = check_executor(executor, scheduler, DIAGNOSIS_SPELLINGS, "processes",
+                              workers=fe_workers)
     if fe_workers is not None:
         fe_workers = check_workers(fe_workers, workers_option)
-    executor = check_executor(executor, scheduler, DIAGNOSIS_SPELLINGS, "processes")
     return fe_workers, executor
 
 

@@ -58,6 +58,11 @@ DEFAULT_CONDITIONS = ({"load.z": "11 mm", "load.voltage": "2 kV"},
                       {"load.z": "16 mm", "load.voltage": "3 kV"})
 
 
+#: Largest seed of the generators (:func:`numpy.random.default_rng` takes any integer >= 0;
+#: 2^63 - 1 keeps it a machine integer in the truth files).
+MAX_SEED = 2**63 - 1
+
+
 @dataclass(frozen=True)
 class SynthOptions:
     """Scatter of the synthetic measurement (module notes); all dimensionless."""
@@ -82,6 +87,10 @@ class SynthOptions:
                                  f"allowed: [{lo:g}, {hi:g}]")
         if not 0 <= self.spurious <= 100:
             raise StudyError(f"--spurious = {self.spurious!r} is not allowed; allowed: 0 to 100")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or not (
+                0 <= self.seed <= MAX_SEED):
+            raise StudyError(f"--seed = {self.seed!r} is not allowed; allowed: an integer in "
+                             f"[0, {MAX_SEED}]")
 
 
 @dataclass

@@ -50,6 +50,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from copdea_fem.diagnosis.synth import MAX_SEED
 from copdea_fem.study import Study, StudyError, dump_resolved
 
 logger = logging.getLogger(__name__)
@@ -98,7 +99,8 @@ class ScanOptions:
 
     def check(self) -> None:
         """Refuse settings outside their bounds (StudyError naming the option)."""
-        integers = {"rings": (1, 50), "per_ring": (3, 360), "disc_points": (0, 100)}
+        integers = {"rings": (1, 50), "per_ring": (3, 360), "disc_points": (0, 100),
+                    "seed": (0, MAX_SEED)}
         numbers = {"f_min": (0.0, 1e5), "f_max": (1.0, 1e5), "resolution": (1e-3, 1e3),
                    "frequency_noise": (0.0, 0.2), "snr_db": (0.0, 200.0),
                    "damping_ratio": (0.0, 0.5), "imperfection": (0.0, 1.0)}

@@ -61,7 +61,7 @@ from typing import Any
 
 import numpy as np
 
-from copdea_fem.inputs import read_yaml
+from copdea_fem.inputs import as_path, read_yaml
 from copdea_fem.measured.csv_files import POINTS, Spectrum, read_resonances, read_spectrum
 from copdea_fem.measured.errors import MeasuredDataError, refusal
 from copdea_fem.measured.geometry import check_on_device
@@ -216,7 +216,7 @@ def load_measured(path, *, effects: EffectRules) -> MeasuredSet:
         A file or key that is missing or not allowed, naming it, its value and what is
         allowed (a bad base study: its :class:`~copdea_fem.study.StudyError`).
     """
-    path = Path(path)
+    path = as_path(path, "measured file", MeasuredDataError)
     if not path.exists():
         raise refusal("measured file", path, "an existing measured.yaml", "does not exist")
     raw = read_yaml(path, "measured file", MeasuredDataError)

@@ -146,7 +146,8 @@ def run_sweep(sweep: Sweep, out_dir: str | Path | Claim | None = None, executor:
     start = time.perf_counter()
     progress = logger.info     # one line per point (and a few more), at INFO
     given = executor or sweep.execution.executor
-    executor = check_executor(given, scheduler, SWEEP_SPELLINGS, error=SweepError)
+    executor = check_executor(given, scheduler, SWEEP_SPELLINGS, error=SweepError,
+                              workers=workers)
     explicit_workers = workers is not None
     workers = sweep.execution.workers if workers is None else workers
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
