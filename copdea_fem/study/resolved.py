@@ -166,10 +166,12 @@ class Study:
             raise _unknown_key(dotted, "...")
         return getattr(getattr(self, section), key)
 
-    def replace(self, overrides: dict[str, Any]) -> Study:
+    def replace(self, overrides: dict[str, Any], name: str | None = None) -> Study:
         """A new study with ``{"section.key": value}`` overrides (values with units
-        allowed), checked as a file is; ``name``, ``description`` and ``source`` kept."""
-        return parse_study(self.values, overrides=overrides, name=self.name,
+        allowed), checked as a file is; ``description`` and ``source`` kept, ``name`` too
+        unless a new one is given."""
+        return parse_study(self.values, overrides=overrides,
+                           name=self.name if name is None else name,
                            description=self.description, source=self.source)
 
     def checked(self) -> Study:

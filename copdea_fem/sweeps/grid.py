@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import hashlib
 import itertools
 import json
@@ -56,7 +55,7 @@ def expand_grid(base: Study, axes: list[Axis], model: str) -> list[SweepPoint]:
         if model == "coupled":
             overrides.setdefault("air.enabled", True)
         try:
-            study = base.replace(overrides)
+            study = base.replace(overrides, name=f"{base.name}/p{number:0{width}d}")
             if model == "coupled":
                 check_air_lift(study)
         except StudyError as error:
@@ -65,7 +64,6 @@ def expand_grid(base: Study, axes: list[Axis], model: str) -> list[SweepPoint]:
         if model == "dry" and study.air.enabled:
             raise sweep_error("air.enabled", True, "false with model: dry (model: coupled couples "
                               "the air)", f"grid point p{number:0{width}d}")
-        study = dataclasses.replace(study, name=f"{base.name}/p{number:0{width}d}")
         engine = None if model == "reduced" else engine_for(study)
         hashed = {s: v for s, v in study.values.items() if s != "output"}
         # a finished point is resumed only under the code that computed it
