@@ -18,8 +18,12 @@ solves it on the lines: a :class:`LineResponse`, the part's solution of each lin
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from copdea_fem.fe.forced.harmonic import CoupledPencil, ForcedOrder
 
 
 @dataclass
@@ -37,7 +41,7 @@ class LineResponse:
         line's drive].
     """
 
-    forced: object
+    forced: ForcedOrder
     vectors: np.ndarray
     weights: np.ndarray
 
@@ -58,7 +62,7 @@ class Microphones:
     sphere : type
         The driven part's Kirchhoff sphere sampler
         (:attr:`copdea_fem.fe.forced.problem.DrivenSector.sphere`).
-    coupled : object
+    coupled : copdea_fem.fe.forced.harmonic.CoupledPencil
         The part's coupled operators.
     microphones : list of (str, (3,) array)
         Name and position [m] of each microphone.
@@ -72,7 +76,7 @@ class Microphones:
         [m/s]
     """
 
-    def __init__(self, sphere, coupled, microphones, radius: float, baffle: bool,
+    def __init__(self, sphere, coupled: CoupledPencil, microphones, radius: float, baffle: bool,
                  enclosed: bool, sound_speed: float):
         self.microphones, self.baffle, self.sound_speed = microphones, baffle, sound_speed
         # a baffle over an enclosure has no air below it (microphones there refused:
