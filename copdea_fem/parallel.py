@@ -116,6 +116,8 @@ def check_executor(executor: str | None, scheduler=None, old_spellings=None,
     installed."""
     name = executor_name(executor, old_spellings, error=error) or default
     check_scheduler(executor, scheduler)
+    if name == "dask" and isinstance(scheduler, str):
+        check_scheduler_answers(scheduler)
     if workers is not None and name == "inline":
         raise error(f"--workers = {preview(workers)} is not allowed with --executor inline "
                     "(it runs in this process alone); allowed: --workers with --executor "
@@ -133,6 +135,58 @@ def check_scheduler(executor: str | None, scheduler, option: str = "--scheduler"
         raise StudyError(f"{option} = {preview(scheduler)} is not allowed with --executor "
                          f"{executor or 'local'}; allowed: a Dask scheduler address with "
                          "--executor dask only")
+
+
+def check_scheduler_answers(address: str, option: str = "--scheduler",
+                            timeout: float | None = None) -> None:
+    """A one-line :class:`StudyError` naming ``option`` unless a Dask scheduler answers at
+    ``address`` within ``timeout`` [s] (default :data:`SCHEDULER_TIMEOUT_SECONDS`), checked
+    before any work (before an output folder is claimed or a measured file read).
+
+    The check asks the peer for its identity in Dask's protocol (``{"op": "identity"}``) in a
+    thread of its own, bounded in time as a whole: a peer that accepts the connection but is
+    not Dask (an HTTP server such as a dashboard, which never answers the handshake; or one
+    that sends bytes Dask reads as a frame of exabytes) is refused like a closed port, and the
+    answer must come from a scheduler (``type: Scheduler``).
+    """
+    import asyncio
+    distributed = require_distributed()
+    seconds = SCHEDULER_TIMEOUT_SECONDS if timeout is None else timeout
+    outcome: dict = {}
+
+    async def identity():
+        comm = await distributed.comm.connect(address, timeout=seconds)
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    def ask():
+        try:
+            outcome["answer"] = asyncio.run(asyncio.wait_for(identity(), seconds))
+        except BaseException as problem:     # noqa: BLE001 -- any failure is a refusal
+            outcome["problem"] = problem
+
+    thread = threading.Thread(target=ask, name="copdea-scheduler-check", daemon=True)
+    thread.start()
+    thread.join(seconds + 1.0)
+    answer = outcome.get("answer")
+    if isinstance(answer, dict) and answer.get("type") == "Scheduler":
+        return
+    problem = outcome.get("problem")
+    if "answer" in outcome:
+        reason = "it answered, but not as a Dask scheduler"
+    elif problem is None or isinstance(problem, (TimeoutError, asyncio.TimeoutError)):
+        reason = f"no Dask scheduler answered there within {seconds:g} s"
+    elif isinstance(problem, OSError) or (isinstance(problem, (ValueError, TypeError))
+                                          and "address" in str(problem)):
+        reason = " ".join(str(problem).split())[:200] or type(problem).__name__
+    else:
+        reason = "it answered, but not in Dask's protocol"
+    raise StudyError(f"{option} = {preview(address)} is not allowed ({reason}); allowed: the "
+                     "address of a running Dask scheduler, e.g. tcp://10.0.0.5:8786, or no "
+                     "--scheduler for a local cluster")
 
 
 def check_workers(value, option: str = "--workers",

@@ -105,8 +105,59 @@ def test_diagnose_with_an_unreachable_scheduler_stops_with_one_line(quick_timeou
                  "--fe-cache", str(tmp_path / "cache"), "--out", str(tmp_path / "out")])
     err = capsys.readouterr().err.strip()
     assert code == 2, err
-    assert err == (f"error: --scheduler = '{UNREACHABLE}' is not allowed (Timed out trying to "
-                   f"connect to {UNREACHABLE} after 0.5 s); allowed: the address of a running "
+    assert err == (f"error: --scheduler = '{UNREACHABLE}' is not allowed (no Dask scheduler "
+                   "answered there within 0.5 s); allowed: the address of a running "
                    "Dask scheduler, e.g. tcp://10.0.0.5:8786, or no --scheduler for a local "
                    "cluster")
     assert not (tmp_path / "cache").exists() and not (tmp_path / "out").exists()
+
+
+@pytest.fixture
+def not_dask_peers():
+    """Two addresses that accept a connection but are not Dask: an HTTP server (as a
+    dashboard given by mistake: it never answers Dask's handshake) and a peer that sends
+    garbage (read by Dask as a frame of exabytes)."""
+    import http.server
+    import socket
+    import threading
+    class Quiet(http.server.BaseHTTPRequestHandler):
+        def log_message(self, *args):              # the server's own log: not the CLI's
+            pass
+
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), Quiet)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    listener = socket.socket()
+    listener.bind(("127.0.0.1", 0))
+    listener.listen()
+
+    def garbage():
+        while True:
+            try:
+                connection, _ = listener.accept()
+            except OSError:
+                return
+            connection.sendall(bytes(range(256)) * 4)
+
+    threading.Thread(target=garbage, daemon=True).start()
+    yield {"http": f"tcp://127.0.0.1:{server.server_address[1]}",
+           "garbage": f"tcp://127.0.0.1:{listener.getsockname()[1]}"}
+    server.shutdown()
+    listener.close()
+
+
+@pytest.mark.parametrize("peer", ["http", "garbage"])
+def test_a_scheduler_address_that_is_not_dask_is_refused_before_any_work(
+        quick_timeout, not_dask_peers, peer, tmp_path, capsys):
+    """sweep: before the output folder is claimed; diagnose: before the measured file is
+    read (it does not exist here, so a later check would name it)."""
+    address = not_dask_peers[peer]
+    out = tmp_path / "out"
+    start = time.monotonic()
+    for argv in (["sweep", str(GRID), "--out", str(out)], ["diagnose", "absent.yaml"]):
+        assert main([*argv, "--executor", "dask", "--scheduler", address]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1, err
+        assert err[0].startswith(f"error: --scheduler = '{address}' is not allowed (")
+        assert "allowed: the address of a running Dask scheduler" in err[0]
+        assert not out.exists()
+    assert time.monotonic() - start < 60          # bounded: no hang (the limit is 0.5 s)

@@ -78,7 +78,7 @@ def sweep(sweep_file: str | Path, overrides: dict[str, Any] | list[str] | None =
     OutputFolderError
         ``out`` may not be written (as in :meth:`Solution.write`).
     """
-    from copdea_fem.parallel import check_scheduler
+    from copdea_fem.parallel import check_scheduler, check_scheduler_answers
     from copdea_fem.study import parse_overrides
     from copdea_fem.sweeps import load_sweep, parse_reuse, run_sweep
 
@@ -86,6 +86,9 @@ def sweep(sweep_file: str | Path, overrides: dict[str, Any] | list[str] | None =
         overrides = parse_overrides(list(overrides))
     spec = load_sweep(sweep_file, overrides=overrides)
     check_scheduler(executor or spec.execution.executor, scheduler)
+    address = spec.execution.scheduler if scheduler is None else scheduler
+    if (executor or spec.execution.executor) == "dask" and isinstance(address, str):
+        check_scheduler_answers(address)             # before the folder is claimed
     if spec.model != "reduced":
         for point in spec.points:
             check_size(point.study, allow_large, point.engine)
