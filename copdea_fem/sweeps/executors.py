@@ -15,6 +15,7 @@ from copdea_fem.folders import Claim, held, write_manifest
 from copdea_fem.parallel import (
     SWEEP_SPELLINGS,
     check_executor,
+    check_workers,
     dask_client,
     one_thread_per_worker,
     process_pool,
@@ -29,7 +30,6 @@ from copdea_fem.sweeps.spec import (
     SweepError,
     SweepPoint,
     check_chain_length,
-    sweep_error,
 )
 from copdea_fem.sweeps.store import PointStore
 
@@ -150,8 +150,8 @@ def run_sweep(sweep: Sweep, out_dir: str | Path | Claim | None = None, executor:
                               workers=workers)
     explicit_workers = workers is not None
     workers = sweep.execution.workers if workers is None else workers
-    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise sweep_error("--workers", workers, "an integer >= 1")
+    workers = check_workers(workers, "--workers", "processes solving the sweep's chains side "
+                            "by side")
     chain_length = check_chain_length(sweep.execution.chain_length if chain_length is None
                                       else chain_length)
     if executor == "dask" and scheduler is None:
