@@ -98,3 +98,30 @@ def test_a_deprecated_spelling_is_one_line_on_stderr(tmp_path):
         "--executor processes"]
     assert len(lines) == 3 and lines[2].startswith("error: ") and "absent.yaml" in lines[2]
     assert not list(tmp_path.iterdir())
+
+
+def test_the_default_local_cluster_has_one_worker_per_core(monkeypatch):
+    """``dask_client()`` without a count starts one worker process per core (the documented
+    rule of :func:`copdea_fem.parallel.local_workers`), not one: the cluster class is
+    replaced by one that records its arguments (no process started)."""
+    pytest.importorskip("distributed")
+    import distributed
+
+    from copdea_fem import parallel
+    started = {}
+
+    class Recorded(Exception):
+        pass
+
+    def cluster(**settings):
+        started.update(settings)
+        raise Recorded
+
+    monkeypatch.setattr(distributed, "LocalCluster", cluster)
+    monkeypatch.setattr(os, "cpu_count", lambda: 4)
+    with pytest.raises(Recorded), parallel.dask_client():
+        pass
+    assert started["n_workers"] == 4 and started["threads_per_worker"] == 1
+    with pytest.raises(Recorded), parallel.dask_client(workers=2):
+        pass
+    assert started["n_workers"] == 2

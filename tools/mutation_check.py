@@ -265,6 +265,10 @@ MUTATIONS = (
              "        g = np.exp(1j * wavenumber * d) / (4 * np.pi * d)",
              "        g = np.exp(-1j * wavenumber * d) / (4 * np.pi * d)",
              "far field: the shared Green's function with the e^{+i omega t} sign (both engines)"),
+    Mutation("local_cluster_one_worker", "copdea_fem/parallel.py",
+             "    count = local_workers(workers)\n",
+             "    count = local_workers(workers) if workers is not None else 1\n",
+             "Dask: the default local cluster given one worker"),
 )
 
 
