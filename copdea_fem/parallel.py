@@ -177,7 +177,8 @@ def check_scheduler_answers(address: str, option: str = "--scheduler",
     problem = outcome.get("problem")
     if "answer" in outcome:
         reason = "it answered, but not as a Dask scheduler"
-    elif problem is None or isinstance(problem, (TimeoutError, asyncio.TimeoutError)):
+    elif (problem is None or isinstance(problem, (TimeoutError, asyncio.TimeoutError))
+          or "timed out" in str(problem).lower()):      # Dask's own connect timeout
         reason = f"no Dask scheduler answered there within {seconds:g} s"
     elif isinstance(problem, OSError) or (isinstance(problem, (ValueError, TypeError))
                                           and "address" in str(problem)):
