@@ -614,13 +614,14 @@ def _check_function_types(path: Path, records) -> None:
         return (f"function type {kind} ({FUNCTION_TYPE_NAMES.get(kind, 'unknown')}) in "
                 f"{len(datasets)} dataset(s) 58 {where}")
 
-    unread = [kind for kind in held if kind not in FUNCTION_TYPES]
+    unread = [record for record in records if record.function_type not in FUNCTION_TYPES]
     if unread:
-        raise _error(path, "58", f"holds {'; '.join(named(k) for k in sorted(held))}",
+        raise _error(path, f"58 #{unread[0].dataset} (response node "
+                     f"{unread[0].response_node})", f"the file holds {'; '.join(named(k) for k in sorted(held))}",
                      "function type 4 (frequency response function) or 12 (spectrum) in "
                      "every dataset 58")
     if len(held) > 1:
-        raise _error(path, "58", f"holds {'; '.join(named(k) for k in sorted(held))}",
+        raise _error(path, "58", f"the file holds {'; '.join(named(k) for k in sorted(held))}",
                      "one function type in a scan")
 
 
@@ -640,6 +641,28 @@ def _point_directions(directions, point_of: dict, path: Path) -> dict:
         return out
     vector = _direction_vector(directions, "scan_directions")
     return {point: vector for point in point_of.values()}
+
+
+def read_trace_lines(path) -> tuple[tuple[str, tuple[np.ndarray, ...]], ...]:
+    """Every dataset 82 (trace lines) of a file: ``(name, polylines)``, each polyline the
+    (n,) node numbers drawn one after another (a node 0 lifts the pen: a new polyline)."""
+    path = Path(path)
+    uff, types = _open(path)
+    out = []
+    for index, kind in enumerate(types):
+        if kind != 82:
+            continue
+        record = _read_set(uff, index, path, 82)
+        try:
+            count = int(record.get("n_nodes", 0))
+            nodes = np.asarray(record["nodes"], float)[:count].astype(int)
+        except (KeyError, TypeError, ValueError) as error:
+            raise _error(path, f"82 #{index + 1}", f"incomplete record ({error})",
+                         "a dataset 82 of trace lines") from None
+        parts = [part[part != 0] for part in np.split(nodes, np.flatnonzero(nodes == 0))]
+        polylines = tuple(part for part in parts if part.size >= 2)
+        out.append((str(record.get("id", "")).strip() or f"trace {index + 1}", polylines))
+    return tuple(out)
 
 
 # --- dataset 55: identified mode shapes ------------------------------------------------
@@ -695,11 +718,14 @@ def read_mode_sets(path) -> tuple[ModeSet, ...]:
 
 __all__ = [
     "FUNCTION_TYPES",
+    "FUNCTION_TYPE_NAMES",
+    "LARGEST_VALUE",
     "FunctionRecord",
     "ModeSet",
     "read_functions",
     "read_geometry",
     "read_mode_sets",
     "read_scan",
+    "read_trace_lines",
     "read_units",
 ]
