@@ -406,9 +406,14 @@ def _read_scan(item: dict, where: str, path: Path, study: Study):
     directions = _scan_directions(item.get("scan_directions"), f"{where}.scan_directions")
     tolerance = None
     if item.get("scan_tolerance") is not None:
-        tolerance = _quantity(item["scan_tolerance"], "m", f"{where}.scan_tolerance")
-        if not tolerance > 0:
-            raise refusal(f"{where}.scan_tolerance", item["scan_tolerance"], "a length > 0")
+        # one rule for every bad value (0, a negative length, no length at all)
+        try:
+            tolerance = _quantity(item["scan_tolerance"], "m", f"{where}.scan_tolerance")
+        except StudyError:
+            tolerance = None
+        if tolerance is None or not tolerance > 0:
+            raise refusal(f"{where}.scan_tolerance", item["scan_tolerance"],
+                          "a length > 0 (e.g. 3.55 mm)")
     try:
         scan = read_scan(path, frame=frame, directions=directions)
     except MeasuredDataError as error:
