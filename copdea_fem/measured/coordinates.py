@@ -67,9 +67,10 @@ def _unit(vector, where: str) -> np.ndarray:
 
 def _checked_type(kind: int, label: int, where: str) -> None:
     if int(kind) != 0:
-        raise MeasuredDataError(
-            f"{where}: coordinate system {label} is {SYSTEM_TYPES.get(int(kind), 'of type ' + str(kind))}"
-            f" (type {int(kind)}) is not allowed; allowed: Cartesian systems (type 0)")
+        name = SYSTEM_TYPES.get(int(kind), "of an unknown type")
+        raise MeasuredDataError(f"{where}: coordinate system {label} is {name} (type "
+                                f"{int(kind)}) is not allowed; allowed: Cartesian systems "
+                                "(type 0)")
 
 
 def systems_from_18(records: list[dict], where: str, length_scale: float) -> dict:

@@ -311,7 +311,7 @@ _FORTRAN_EXPONENT = re.compile(rb"(?<=[0-9.])[Dd](?=[+-]?[0-9])")
 #: records 8-11, the data lines.
 _ASCII_58 = re.compile(rb"((?:^|\n) {4}-1[ \t]*\r?\n {4}58[ \t]*\r?\n(?:[^\n]*\n){6})"
                        rb"([^\n]*\n)((?:[^\n]*\n){4})"
-                       rb"(.*?)(?=\n {4}-1[ \t]*\r?(?:\n|$))", re.S)
+                       rb"(.*?)(?=\n {4}-1[ \t]*\r?(?:\n|$))", re.DOTALL)
 
 
 def _read_with_e_exponents(path: Path, data: bytes, failed):
@@ -618,7 +618,8 @@ def _check_function_types(path: Path, records) -> None:
     unread = [record for record in records if record.function_type not in FUNCTION_TYPES]
     if unread:
         raise _error(path, f"58 #{unread[0].dataset} (response node "
-                     f"{unread[0].response_node})", f"the file holds {'; '.join(named(k) for k in sorted(held))}",
+                     f"{unread[0].response_node})",
+                     f"the file holds {'; '.join(named(k) for k in sorted(held))}",
                      "function type 4 (frequency response function) or 12 (spectrum) in "
                      "every dataset 58")
     if len(held) > 1:

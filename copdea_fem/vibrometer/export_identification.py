@@ -18,6 +18,7 @@ LSFD residues).  What is written:
 
 from __future__ import annotations
 
+import itertools
 import logging
 import math
 from dataclasses import dataclass
@@ -64,7 +65,7 @@ def trace_segments(scan: ScanData, trace_lines) -> np.ndarray:
     segments = []
     for _, polylines in trace_lines:
         for polyline in polylines:
-            for a, b in zip(polyline[:-1], polyline[1:]):
+            for a, b in itertools.pairwise(polyline):
                 if int(a) in point_of and int(b) in point_of and a != b:
                     segments.append((point_of[int(a)], point_of[int(b)]))
     return np.array(segments, int).reshape(-1, 2)

@@ -81,7 +81,7 @@ def test_testlab_trace_lines_and_coordinate_systems():
     and its 36 node systems of dataset 18 (each the global axes turned 180 degrees about
     y: x_point - origin = (-1, 0, 0), xz_point - origin = (-1, 0, -1))."""
     path = SAMPLES / "TestLab_161_164_18_15_82.uff"
-    nodes, coordinates = read_geometry(path)
+    nodes, _ = read_geometry(path)
     assert nodes.size == 36
     traces = read_trace_lines(path)
     assert [name for name, _ in traces] == ["Massif", "Stator", "Dalle"]
