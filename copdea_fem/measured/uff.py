@@ -9,14 +9,21 @@ and in the model's frame, and refuses a file it cannot trust with a
 :class:`MeasuredDataError` naming the file and the dataset.
 
 Units.  Dataset 164's factors and each dataset 58's unit labels and exponents give the
-factor to SI of every function (:mod:`copdea_fem.measured.uff_units`).
+factor to SI of every function (:mod:`copdea_fem.measured.uff_units`); a label that names
+no unit (``NONE``) is said in a warning.  Fortran ``D`` exponents in 58 data lines are
+read as ``E``; a value above :data:`LARGEST_VALUE` (how pyuff writes infinity) is refused.
 
-Points and channels.  Every response is put on its point by its response node
-(``rsp_node``), never by its place in the file; a node without coordinates, a point
-without a response and two responses of one node and direction are refused.  The
-direction is the global axis ``rsp_dir`` = +-1, 2, 3 (x, y, z), or for a 1-D laser the
-per-point direction given in measured.yaml.  Channels are ordered by point (in the
-geometry's order) and then by direction, whatever the file's order.
+Points and channels.  Every response is put on its point by its measured node, never by
+its place in the file: the response node (``rsp_node``), or with one response and several
+references (a roving hammer) the reference node, by reciprocity
+(:mod:`copdea_fem.measured.references`); a node without coordinates, a point without a
+response and two responses of one node and direction are refused.  The direction is the
+axis ``rsp_dir`` = +-1, 2, 3 (x, y, z) of the node's displacement coordinate system
+(global unless datasets 18/2420 say otherwise: :mod:`copdea_fem.measured.coordinates`,
+which also places nodes defined in a local system), or for a 1-D laser the per-point
+direction given in measured.yaml.  Channels are ordered by point (in the geometry's
+order) and then by direction, whatever the file's order.  A file with a 2411 and a 15
+that disagree is read from its 2411, with a warning.
 """
 
 from __future__ import annotations
