@@ -639,10 +639,11 @@ CASES = [
          "measured.yaml", argv=("identify", "{root}/studies/measured_scan_example/"
                                 "measured.yaml", "--band", "100", "200", "--out", "{work}/i")),
     *[Case(f"scan_tolerance {value}", 1, f"conditions[0].scan_tolerance = {shown} is not "
-           "allowed; allowed: a length > 0", api=lambda work: _api().load_measured(
+           "allowed; allowed: > 0 m", api=lambda work: _api().load_measured(
                work / "data" / "measured.yaml"), expect=StudyError,
            setup=_scan_tolerance(value))
-      for value, shown in (("0 mm", "'0 mm'"), ("-3 mm", "'-3 mm'"), ("0", "0"))],
+      for value, shown in (("0 mm", "'0 mm = 0 m'"), ("-3 mm", "'-3 mm = -0.003 m'"),
+                           ("0", "0"))],
 ]
 
 
