@@ -280,6 +280,14 @@ def _infinity(records):
     records[5]["data"][3] = np.inf
 
 
+def _conflicting_15(records):
+    """A dataset 15 after the 2411 with the same nodes elsewhere (x = 0, 1, 2, 3 m)."""
+    import pyuff
+    records.insert(2, pyuff.prepare_15(node_nums=[1, 2, 3, 4], def_cs=[0] * 4, disp_cs=[0] * 4,
+                                       color=[8] * 4, x=[0.0, 1.0, 2.0, 3.0], y=[0.0] * 4,
+                                       z=[0.0] * 4))
+
+
 def _scan_tolerance(value):
     def setup(work):
         shutil.copytree(ROOT / "studies" / "measured_scan_example", work / "data")
@@ -635,6 +643,14 @@ CASES = [
          "(outside the file's lines); allowed: a band within 5..200 Hz",
          argv=("identify", "{work}/lab.uff", "--band", "300", "400", "--out", "{work}/i"),
          setup=_lab_file()),
+    Case("identify FILE: unit labels NONE", 4, "names no unit ('NONE' in 58 #3): their unit "
+         "taken as dataset 164's units", argv=("identify", "{work}/lab.uff", "--out",
+                                               "{work}/i"), expect=0,
+         setup=_lab_file(_lab_records(lambda r: r.update(ordinate_axis_units_lab="NONE")))),
+    Case("identify FILE: a 2411 and a conflicting 15", 4, "dataset 2411 #2 (4 nodes) and "
+         "dataset 15 #3 (4 nodes) give different nodes or coordinates: 2411 #2 used, 15 #3 "
+         "ignored", argv=("identify", "{work}/lab.uff", "--out", "{work}/i"), expect=0,
+         setup=_lab_file(_conflicting_15)),
     Case("identify measured.yaml --band", 2, "--band = 100 200 is not allowed with a "
          "measured.yaml", argv=("identify", "{root}/studies/measured_scan_example/"
                                 "measured.yaml", "--band", "100", "200", "--out", "{work}/i")),

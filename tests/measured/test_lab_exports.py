@@ -185,6 +185,28 @@ def test_displacement_coordinate_systems_turn_directions_and_points(tmp_path):
     assert np.allclose(third, np.eye(3))
 
 
+def test_dataset_2420_systems_are_applied(tmp_path):
+    """The same quarter turn as dataset 2420 (rows 1-3: the local axes in global axes,
+    row 4: the origin): local x = global y, local y = global -x."""
+    scan = _small_scan(points=3)
+    sets = _records(write_scan(tmp_path / "a.uff", scan, binary=False))
+    geometry = next(s for s in sets if s["type"] == 2411)
+    geometry["def_cs"] = np.array([5, 0, 0])
+    geometry["disp_cs"] = np.array([5, 0, 0])
+    geometry["x"], geometry["y"], geometry["z"] = (np.array([1.0, 0.0, 0.0]),
+                                                   np.array([0.0, 1.0, 0.0]),
+                                                   np.array([0.0, 0.0, 1.0]))
+    system = pyuff.prepare_2420(Part_UID=1, Part_Name="part", CS_sys_labels=[5],
+                                CS_types=[0], CS_colors=[8], CS_names=["turned"],
+                                CS_matrices=[np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0],
+                                                       [0.0, 0.0, 1.0], [1.0, 2.0, 3.0]])])
+    path = _rewrite(tmp_path / "2420.uff", [sets[0], system, *sets[1:]])
+    back = read_scan(path)
+    assert np.allclose(back.positions[0], [1.0, 3.0, 3.0])
+    assert np.allclose(back.channel_direction[back.channel_point == 0],
+                       [[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+
+
 def test_a_cylindrical_system_is_refused_by_name(tmp_path):
     scan = _small_scan(points=3)
     sets = _records(write_scan(tmp_path / "c.uff", scan, binary=False))
