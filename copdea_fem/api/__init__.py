@@ -57,7 +57,8 @@ result folders of ``write`` and of ``out``), then the functions with their resul
 :func:`calibrate_damping`), :mod:`~copdea_fem.api.sweep_results` (:func:`sweep`),
 :mod:`~copdea_fem.api.measured_results` (:func:`load_measured`, :func:`diagnose`,
 :func:`identify`, :func:`identify_file`, :func:`correlate`) and
-:mod:`~copdea_fem.api.synthetic_results` (:func:`synthesise`, :func:`catalogue_table`).  Their public names are imported from here.
+:mod:`~copdea_fem.api.synthetic_results` (:func:`synthesise`, :func:`catalogue_table`).
+Their public names are imported from here.
 """
 
 from copdea_fem.api.calibration_results import (
