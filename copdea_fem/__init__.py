@@ -21,7 +21,7 @@ __all__ = ["load_study", "solve", "response", "force", "spectrum", "fit_material
            "Solution", "ResponseSolution", "ForceCurve", "Spectrum", "MaterialFitResult",
            "DampingCalibrationResult", "SweepResult", "Diagnosis", "CorrelateResult",
            "IdentifyResult", "SyntheticData", "SolveFailed", "StudyError", "OutputFolderError",
-           "load_measured"]
+           "load_measured", "identify_file", "FileIdentifyResult"]
 
 
 def __getattr__(name):

@@ -27,6 +27,7 @@ import signal
 import sys
 import threading
 import warnings
+from pathlib import Path
 
 from copdea_fem import api
 
@@ -231,12 +232,30 @@ def cmd_correlate(args) -> int:
 
 
 def cmd_identify(args) -> int:
-    """The modes of every scan of a measured.yaml: identified.csv, stabilisation PNGs, VTU."""
+    """The modes of every scan of a measured.yaml (identified.csv, stabilisation PNGs,
+    VTU), or of one UFF export without a study (modes.csv, shapes.csv, stabilisation.png,
+    VTU)."""
     out = _output(args)
     options = {} if args.max_order is None else {"max_order": args.max_order}
-    result = api.identify(args.measured, out=out, **options)
+    if Path(args.measured).suffix.lower() in (".uff", ".unv"):
+        band = None if args.band is None else tuple(_band_value(v) for v in args.band)
+        result = api.identify_file(args.measured, band=band, out=out, **options)
+    elif args.band is not None:
+        raise api.StudyError(f"--band = {' '.join(args.band)} is not allowed with a "
+                             "measured.yaml; allowed: --band with a .uff/.unv file (a "
+                             "measured.yaml's conditions have band:)")
+    else:
+        result = api.identify(args.measured, out=out, **options)
     _print(result.summary_lines(out.path))
     return 0
+
+
+def _band_value(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise api.StudyError(f"--band = {text!r} is not allowed; allowed: two frequencies "
+                             "F1 < F2 in Hz (numbers)") from None
 
 
 def cmd_synth(args) -> int:
@@ -308,8 +327,12 @@ def _add_diagnose_commands(commands, with_study) -> None:
     identify = commands.add_parser(
         "identify", help="identify the modes of the vibrometer scans (UFF exports) of a "
         "measured.yaml: identified.csv, stabilisation_<condition>.png, shapes VTU")
-    identify.add_argument("measured", help="measured.yaml whose conditions name scan: FILE")
+    identify.add_argument("measured", help="measured.yaml whose conditions name scan: FILE, "
+                          "or a .uff/.unv export of any structure (no study)")
     identify.add_argument("--out", help="output directory (default: results/identify_<name>)")
+    identify.add_argument("--band", nargs=2, metavar=("F1", "F2"),
+                          help="band [Hz] of a .uff/.unv file (default: all its lines above "
+                               "0 Hz)")
     identify.add_argument("--max-order", type=int, metavar="N",
                           help="highest LSCF model order (default 120: up to 60 modes in the "
                                "band)")

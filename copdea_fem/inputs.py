@@ -34,11 +34,12 @@ PATH_CHARACTERS = 500
 def preview(value, width: int = PREVIEW_CHARACTERS) -> str:
     """``repr(value)``, cut to ``width`` characters with the full length noted.
 
-    A path (:class:`pathlib.PurePath`) is shown as its text, and a long one keeps
-    its file name whole: the folder part is cut instead (:func:`preview_path`).
+    A path (:class:`pathlib.PurePath`) is shown whole up to :data:`PATH_CHARACTERS`
+    (whatever ``width``); a longer one keeps its file name whole: the folder part is cut
+    instead (:func:`preview_path`).
     """
     if isinstance(value, PurePath):
-        return preview_path(value, width)
+        return preview_path(value, max(width, PATH_CHARACTERS))
     text = repr(value)
     if len(text) <= width:
         return text

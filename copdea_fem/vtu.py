@@ -220,7 +220,7 @@ def _write_buffers(path: Path, buffers: list) -> None:
 #: numpy dtype (without byte order) -> VTK's DataArray type; VTK cell type numbers.
 _VTK_TYPES = {"f8": "Float64", "f4": "Float32", "i8": "Int64", "i4": "Int32", "i2": "Int16",
               "i1": "Int8", "u8": "UInt64", "u4": "UInt32", "u2": "UInt16", "u1": "UInt8"}
-_VTK_CELLS = {"triangle": 5, "tetra": 10, "wedge": 13}
+_VTK_CELLS = {"vertex": 1, "line": 3, "triangle": 5, "tetra": 10, "wedge": 13}
 #: meshio orders a wedge's corners as gmsh does, VTK with the first face turned over
 _VTK_ORDER = {"wedge": [0, 2, 1, 3, 5, 4]}
 

@@ -236,6 +236,67 @@ def _quality(text):
     return {"q.csv": text}
 
 
+def _lab_file(edit=None, text_edit=None):
+    """A setup writing work/lab.uff: a 4-point, 3-direction scan of one mode (60 Hz, 2 %,
+    closed form), its pyuff records changed by ``edit(records)`` or its text by
+    ``text_edit``."""
+    def setup(work):
+        import pyuff
+
+        from copdea_fem.measured import ScanData, write_scan
+        frequencies = np.arange(41) * 5.0
+        omega, s = 2 * math.pi * frequencies, complex(-0.02 * 2 * math.pi * 60, 2 * math.pi * 60)
+        shapes = np.random.default_rng(2).normal(size=12)
+        residue = -1j * shapes / (2 * s.imag)
+        values = (np.outer(residue, 1 / (1j * omega - s)) + np.outer(
+            residue.conj(), 1 / (1j * omega - s.conjugate()))) * 1j * omega
+        positions = np.column_stack([np.linspace(0.02, 0.03, 4), np.linspace(0, 0.01, 4) ** 2,
+                                     np.zeros(4)])
+        scan = ScanData(path=Path("lab.uff"), nodes=np.arange(1, 5), positions=positions,
+                        channel_point=np.repeat(np.arange(4), 3),
+                        channel_direction=np.tile(np.eye(3), (4, 1)),
+                        frequencies=frequencies, values=values)
+        path = write_scan(work / "lab.uff", scan, binary=False)
+        if edit is not None:
+            records = pyuff.UFF(str(path)).read_sets()
+            edit(records)
+            path.unlink()
+            pyuff.UFF(str(path)).write_sets(records, mode="overwrite")
+        if text_edit is not None:
+            path.write_text(text_edit(path.read_text()))
+    return setup
+
+
+def _lab_records(change):
+    def edit(records):
+        for record in records:
+            if record["type"] == 58:
+                change(record)
+    return edit
+
+
+def _infinity(records):
+    records[5]["data"] = records[5]["data"].copy()
+    records[5]["data"][3] = np.inf
+
+
+def _conflicting_15(records):
+    """A dataset 15 after the 2411 with the same nodes elsewhere (x = 0, 1, 2, 3 m)."""
+    import pyuff
+    records.insert(2, pyuff.prepare_15(node_nums=[1, 2, 3, 4], def_cs=[0] * 4, disp_cs=[0] * 4,
+                                       color=[8] * 4, x=[0.0, 1.0, 2.0, 3.0], y=[0.0] * 4,
+                                       z=[0.0] * 4))
+
+
+def _scan_tolerance(value):
+    def setup(work):
+        shutil.copytree(ROOT / "studies" / "measured_scan_example", work / "data")
+        path = work / "data" / "measured.yaml"
+        path.write_text(path.read_text().replace("  scan: z16_v2.uff\n", "  scan: z16_v2.uff\n"
+                                                 f"  scan_tolerance: {value}\n"))
+    return setup
+
+
 #: G1 in a baffle over a sealed cylinder (geometry.enclosure)
 ENCLOSED = ("--set", "geometry.frame=baffle", "--set", "geometry.enclosure=cylinder")
 BAD_STUDY_TEXT = "is not valid YAML"
@@ -562,6 +623,43 @@ CASES = [
     Case("reduced_modal with a membrane loss", 3, "response.method = 'reduced_modal' is not "
          "allowed", argv=("check", QUICK, "--set", "response.method=reduced_modal", "--set",
                           "membrane.loss_factor=0.01")),
+    # lab exports read by identify FILE (no study)
+    Case("identify FILE: pyuff's infinity in a 58", 4, "dataset 58 #6 (response node 2): 1 "
+         "values of magnitude above 1e+307 (first 1.798e+308 at abscissa 15: how pyuff writes "
+         "infinity", argv=("identify", "{work}/lab.uff", "--out", "{work}/i"),
+         setup=_lab_file(_infinity)),
+    Case("identify FILE: Fortran D exponents in 58 data lines", 4, "lab.uff: 1 modes",
+         argv=("identify", "{work}/lab.uff", "--out", "{work}/i"), expect=0,
+         setup=_lab_file(text_edit=lambda text: text.replace("e-0", "D-0"))),
+    Case("identify FILE: a time history", 4, "the file holds function type 1 (time response) "
+         "in 12 dataset(s) 58", argv=("identify", "{work}/lab.uff", "--out", "{work}/i"),
+         setup=_lab_file(_lab_records(lambda r: r.update(func_type=1)))),
+    Case("identify FILE: two references and twelve responses", 4, "(a poly-reference test) "
+         "is not allowed; allowed: one reference (roving response) or one response (roving "
+         "reference", argv=("identify", "{work}/lab.uff", "--out", "{work}/i"),
+         setup=_lab_file(_lab_records(lambda r: r.update(ref_node=r["rsp_node"] % 2 + 1,
+                                                         ref_dir=3)))),
+    Case("identify FILE: --band outside the lines", 1, "--band = [300, 400] Hz is not allowed "
+         "(outside the file's lines); allowed: a band within 5..200 Hz",
+         argv=("identify", "{work}/lab.uff", "--band", "300", "400", "--out", "{work}/i"),
+         setup=_lab_file()),
+    Case("identify FILE: unit labels NONE", 4, "names no unit ('NONE' in 58 #3): their unit "
+         "taken as dataset 164's units", argv=("identify", "{work}/lab.uff", "--out",
+                                               "{work}/i"), expect=0,
+         setup=_lab_file(_lab_records(lambda r: r.update(ordinate_axis_units_lab="NONE")))),
+    Case("identify FILE: a 2411 and a conflicting 15", 4, "dataset 2411 #2 (4 nodes) and "
+         "dataset 15 #3 (4 nodes) give different nodes or coordinates: 2411 #2 used, 15 #3 "
+         "ignored", argv=("identify", "{work}/lab.uff", "--out", "{work}/i"), expect=0,
+         setup=_lab_file(_conflicting_15)),
+    Case("identify measured.yaml --band", 2, "--band = 100 200 is not allowed with a "
+         "measured.yaml", argv=("identify", "{root}/studies/measured_scan_example/"
+                                "measured.yaml", "--band", "100", "200", "--out", "{work}/i")),
+    *[Case(f"scan_tolerance {value}", 1, f"conditions[0].scan_tolerance = {shown} is not "
+           "allowed; allowed: > 0 m", api=lambda work: _api().load_measured(
+               work / "data" / "measured.yaml"), expect=StudyError,
+           setup=_scan_tolerance(value))
+      for value, shown in (("0 mm", "'0 mm = 0 m'"), ("-3 mm", "'-3 mm = -0.003 m'"),
+                           ("0", "0"))],
 ]
 
 
@@ -1120,16 +1218,15 @@ def test_an_fe_cache_entry_locked_too_long_is_solved_here(tmp_path, monkeypatch,
 # ------------------------------------------------------------- paths in messages (issue 22)
 
 def test_a_missing_data_file_is_named_whole_in_the_refusal(work, capsys):
-    """A path above the 60-character preview keeps its file name: the folder part is cut."""
+    """A path above the 60-character preview of other values is shown whole."""
     data = work / "a_campaign_folder_with_a_rather_long_name" / "day_1"
     shutil.copytree(EXAMPLE, data)
     (data / "z16_v2_resonances.csv").rename(data / "z16_v2_resonances_moved.csv")
     path = data / "z16_v2_resonances.csv"
     assert len(repr(str(path))) > 60
     line = refused(["diagnose", data / "measured.yaml", "--out", work / "report"], work, capsys)
-    assert line.startswith("error: conditions[1].resonances = '") and \
-        f"...{os.sep}z16_v2_resonances.csv' ({len(str(path))} characters) is not allowed " \
-        "(file does not exist)" in line, line
+    assert line.startswith(f"error: conditions[1].resonances = {str(path)!r} is not allowed "
+                           "(file does not exist)"), line
 
 
 def test_the_path_preview_keeps_the_name_and_the_limit():
@@ -1139,11 +1236,12 @@ def test_the_path_preview_keeps_the_name_and_the_limit():
     short = PurePosixPath("/data/z16.csv")
     assert preview(short) == "'/data/z16.csv'"
     deep = PurePosixPath("/" + "campaign/" * 20 + "z16_v2_resonances.csv")
-    shown = preview(deep)
-    assert shown == "'/campaign/campaign/campaign/campa.../z16_v2_resonances.csv' " \
-                    f"({len(str(deep))} characters)"
-    assert len(shown.split(" (")[0]) == 60
-    name = "n" * 80 + ".csv"                                 # a name longer than the width
+    assert preview(deep) == repr(str(deep))                  # whole, not cut in the middle
+    deeper = PurePosixPath("/" + "campaign/" * 60 + "z16_v2_resonances.csv")
+    shown = preview(deeper)                                  # above PATH_CHARACTERS: cut
+    assert shown.endswith(f".../z16_v2_resonances.csv' ({len(str(deeper))} characters)")
+    assert len(shown.split(" (")[0]) == 500
+    name = "n" * 600 + ".csv"                                # a name longer than the width
     assert preview(PurePosixPath("/d/" + name)) == f"'.../{name}' ({len(name) + 3} characters)"
     assert preview("x" * 100).endswith("... (102 characters)")   # other values: as before
 

@@ -269,6 +269,15 @@ MUTATIONS = (
              "    count = local_workers(workers)\n",
              "    count = local_workers(workers) if workers is not None else 1\n",
              "Dask: the default local cluster given one worker"),
+    Mutation("uff_164_factor_inverted", "copdea_fem/measured/uff_units.py",
+             'return 1.0 / (units["length"] ** length * units["force"] ** force)',
+             'return units["length"] ** length * units["force"] ** force',
+             "UFF reading: dataset 164's factor multiplied instead of divided (a 58 whose "
+             "label names no unit)"),
+    Mutation("uff_negative_direction_positive", "copdea_fem/measured/uff.py",
+             "direction[abs(code) - 1] = np.sign(code)",
+             "direction[abs(code) - 1] = 1.0",
+             "UFF reading: a negative measuring direction (rsp_dir -3) read as positive"),
 )
 
 

@@ -56,8 +56,9 @@ result folders of ``write`` and of ``out``), then the functions with their resul
 :mod:`~copdea_fem.api.calibration_results` (:func:`fit_material`,
 :func:`calibrate_damping`), :mod:`~copdea_fem.api.sweep_results` (:func:`sweep`),
 :mod:`~copdea_fem.api.measured_results` (:func:`load_measured`, :func:`diagnose`,
-:func:`identify`, :func:`correlate`) and :mod:`~copdea_fem.api.synthetic_results`
-(:func:`synthesise`, :func:`catalogue_table`).  Their public names are imported from here.
+:func:`identify`, :func:`identify_file`, :func:`correlate`) and
+:mod:`~copdea_fem.api.synthetic_results` (:func:`synthesise`, :func:`catalogue_table`).
+Their public names are imported from here.
 """
 
 from copdea_fem.api.calibration_results import (
@@ -78,10 +79,12 @@ from copdea_fem.api.fe_results import (
 from copdea_fem.api.measured_results import (
     CorrelateResult,
     Diagnosis,
+    FileIdentifyResult,
     IdentifyResult,
     correlate,
     diagnose,
     identify,
+    identify_file,
     load_measured,
 )
 from copdea_fem.api.response_results import ResponseSolution, Spectrum, response, spectrum
@@ -99,7 +102,8 @@ __all__ = ["load_study", "solve", "Solution", "response", "ResponseSolution",  #
            "force", "prepare_force", "compute_force", "ForceCurve", "spectrum", "Spectrum",
            "fit_material", "MaterialFitResult", "calibrate_damping",
            "DampingCalibrationResult", "sweep", "SweepResult", "load_measured", "diagnose",
-           "Diagnosis", "identify", "IdentifyResult", "correlate", "CorrelateResult",
+           "Diagnosis", "identify", "IdentifyResult", "identify_file",
+           "FileIdentifyResult", "correlate", "CorrelateResult",
            "synthesise", "SyntheticData", "catalogue_table", "reference_table", "Output",
            "SolveFailed", "StudyError", "OutputFolderError", "PrestressError",
            "ReducedModelError", "solving", "check_size", "progress_to"]

@@ -316,6 +316,152 @@ class IdentifyResult:
         return target
 
 
+def identify_file(path: str | Path, *, band: tuple[float, float] | None = None,
+                  progress: Callable[[str], None] | None = None,
+                  out: str | Path | Claim | Output | None = None,
+                  **options) -> FileIdentifyResult:
+    """The modes of any structure's UFF export, without a study (``copdea-fem identify
+    FILE.uff``, nothing written).
+
+    The file is read (:func:`copdea_fem.measured.read_scan` with ``geometry=False``: FRFs
+    of one reference, or of one response and several references by reciprocity; nodal
+    coordinate systems applied) and identified as a study's scan is (LSCF poles, LSFD
+    residues: :mod:`copdea_fem.vibrometer.identification`).
+
+    Parameters
+    ----------
+    path : str or Path
+        A ``.uff``/``.unv`` file with dataset 58 FRFs (function type 4) on one frequency
+        axis; datasets 2411/15 (points), 18/2420 (coordinate systems), 82 (trace lines)
+        and 164 (units) are used when present.
+    band : (float, float), optional
+        The band [Hz] (``--band F1 F2``); default: the file's lines above 0 Hz.  A band
+        reaching past the file's lines is clipped to them with a warning.
+    progress : callable(str), optional
+        As :func:`solve`'s.
+    out : str, Path, Claim or Output, optional
+        As :func:`solve`'s (:meth:`FileIdentifyResult.write`; an :class:`Output` without
+        a folder: ``results/identify_<file name>``).
+    **options
+        As :func:`identify`'s (``max_order``, ``components``, ...; not ``f_min``,
+        ``f_max``: ``band``).
+
+    Returns
+    -------
+    FileIdentifyResult
+
+    Raises
+    ------
+    StudyError
+        A file that cannot be read or identified (a
+        :class:`~copdea_fem.measured.MeasuredDataError` naming the file and dataset), a
+        bad band or option.
+    """
+    from copdea_fem.inputs import as_path
+    from copdea_fem.measured import read_scan
+    from copdea_fem.measured.uff import read_trace_lines
+    from copdea_fem.vibrometer.export_identification import ExportIdentification
+    from copdea_fem.vibrometer.identification import OPTIONS, check_options, identify_scan
+
+    path = as_path(path, "identify file", StudyError)
+    for name in options:
+        if name not in OPTIONS or name in ("f_min", "f_max"):
+            raise StudyError(f"identify option {name!r} is not allowed (unknown option); "
+                             "allowed: band, " + ", ".join(o for o in OPTIONS
+                                                           if o not in ("f_min", "f_max")))
+    check_options(options)
+    band = _checked_band(band)
+    scan = read_scan(path, geometry=False)
+    frequencies = scan.frequencies
+    positive = frequencies[frequencies > 0]
+    if positive.size == 0:
+        raise StudyError(f"identify file {str(path)!r}: no frequency line above 0 Hz; "
+                         "allowed: FRFs on a frequency axis")
+    low, high = (float(positive[0]), float(frequencies[-1])) if band is None else band
+    if band is not None and (high <= positive[0] or low >= frequencies[-1]):
+        raise StudyError(f"--band = [{low:g}, {high:g}] Hz is not allowed (outside the file's "
+                         f"lines); allowed: a band within {positive[0]:g}..{frequencies[-1]:g}"
+                         " Hz")
+    if band is not None and (low < positive[0] or high > frequencies[-1]):
+        clipped = max(low, float(positive[0])), min(high, float(frequencies[-1]))
+        logger.warning("--band = [%g, %g] Hz reaches past the file's lines %g..%g Hz: "
+                       "clipped to [%g, %g] Hz", low, high, positive[0], frequencies[-1],
+                       *clipped)
+        low, high = clipped
+    with claiming(out, "identify", [path], Path("results") / f"identify_{path.stem}") \
+            as folder, reporting_to(progress):
+        logger.info("identifying %s (%d channels on %d nodes, %d lines, %g-%g Hz)",
+                    path, scan.n_channels, scan.n_points, frequencies.size, low, high)
+        found = identify_scan(scan, f_min=low, f_max=high, **options)
+        traces = read_trace_lines(path)
+        result = FileIdentifyResult(ExportIdentification(scan, found, traces), path)
+        if folder is not None:
+            result.write(folder)
+    return result
+
+
+def _checked_band(band) -> tuple[float, float] | None:
+    import math
+    import numbers
+
+    if band is None:
+        return None
+    try:
+        low, high = band
+    except (TypeError, ValueError):
+        raise StudyError(f"--band = {band!r} is not allowed; allowed: two frequencies "
+                         "F1 < F2 [Hz]") from None
+    if not all(isinstance(v, numbers.Real) and not isinstance(v, bool) and math.isfinite(v)
+               for v in (low, high)) or not 0 <= low < high:
+        raise StudyError(f"--band = {low!r} {high!r} is not allowed; allowed: two "
+                         "frequencies 0 <= F1 < F2 [Hz]")
+    return float(low), float(high)
+
+
+@dataclass
+class FileIdentifyResult:
+    """The result of :func:`identify_file`: ``result`` (the
+    :class:`~copdea_fem.vibrometer.export_identification.ExportIdentification`), ``table``,
+    ``write``."""
+
+    result: Any
+    source: Path | None = None
+
+    @property
+    def modes(self) -> tuple:
+        return self.result.modes
+
+    def summary_lines(self, folder: str | Path) -> list[str]:
+        """What ``copdea-fem identify FILE`` prints: the modes [Hz] (damping [%]) and the
+        folder written."""
+        lines = [f"{self.source.name if self.source else 'file'}: {len(self.modes)} modes"]
+        lines += [f"  {m.test_mode:3d}  {m.freq_hz:10.3f} Hz  damping {100 * m.damping_ratio:6.3f}"
+                  f" %  MPC {m.mpc:.3f}" for m in self.modes]
+        lines.append(f"wrote {folder}")
+        return lines
+
+    @property
+    def table(self) -> pd.DataFrame:
+        """modes.csv as a DataFrame (test_mode, freq_hz, damping_ratio, mpc)."""
+        from copdea_fem.vibrometer.export_identification import MODES_COLUMNS
+        return data_frame([{"test_mode": m.test_mode, "freq_hz": m.freq_hz,
+                            "damping_ratio": m.damping_ratio, "mpc": m.mpc}
+                           for m in self.modes], MODES_COLUMNS)
+
+    def write(self, folder: str | Path | Claim) -> Path:
+        """Write modes.csv, shapes.csv, stabilisation.png and (with a geometry) shapes/
+        (VTU per mode, shapes.pvd) in ``folder``; or into a held
+        :class:`~copdea_fem.folders.Claim`.  Parameters, return and errors as
+        :meth:`Solution.write`."""
+        from copdea_fem.folders import result_directory
+        from copdea_fem.vibrometer.export_identification import write_export_identification
+        title = self.source.name if self.source else "identify"
+        with claimed(folder, "identify", [self.source]) as target:
+            with result_directory(target, "identify") as staging:
+                write_export_identification(staging, self.result, title)
+        return target
+
+
 def correlate(measured: MeasuredSet | str | Path, *, allow_large: bool = False,
               progress: Callable[[str], None] | None = None,
               out: str | Path | Claim | Output | None = None) -> CorrelateResult:

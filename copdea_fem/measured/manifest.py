@@ -190,9 +190,9 @@ class MeasuredSet:
         return self.base_study.replace({**condition.overrides, **(extra or {})})
 
 
-def _quantity(value, unit, where):
+def _quantity(value, unit, where, positive=False):
     from copdea_fem.study import Key, convert_value
-    return convert_value(where, Key(unit, 0.0, where, minimum=0), value)
+    return convert_value(where, Key(unit, 0.0, where, minimum=0, open_min=positive), value)
 
 
 def load_measured(path, *, effects: EffectRules) -> MeasuredSet:
@@ -406,9 +406,9 @@ def _read_scan(item: dict, where: str, path: Path, study: Study):
     directions = _scan_directions(item.get("scan_directions"), f"{where}.scan_directions")
     tolerance = None
     if item.get("scan_tolerance") is not None:
-        tolerance = _quantity(item["scan_tolerance"], "m", f"{where}.scan_tolerance")
-        if not tolerance > 0:
-            raise refusal(f"{where}.scan_tolerance", item["scan_tolerance"], "a length > 0")
+        # one rule for 0 and a negative length alike: > 0 m
+        tolerance = _quantity(item["scan_tolerance"], "m", f"{where}.scan_tolerance",
+                              positive=True)
     try:
         scan = read_scan(path, frame=frame, directions=directions)
     except MeasuredDataError as error:

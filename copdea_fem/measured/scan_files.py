@@ -1,6 +1,6 @@
 """Scan files by format: :func:`read_scan` picks a file's reader by its suffix.
 
-A reader is ``read(path, *, frame, directions) -> ScanData``
+A reader is ``read(path, *, frame, directions, geometry) -> ScanData``
 (:func:`copdea_fem.measured.uff.read_scan` reads Universal File Format exports); a new
 format is one module with its reader and one line of :data:`SCAN_READERS`.
 """
@@ -9,7 +9,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from copdea_fem.inputs import preview
 from copdea_fem.measured import uff
 from copdea_fem.measured.errors import refusal
 from copdea_fem.measured.scan import ScanData, ScanFrame
@@ -18,7 +17,8 @@ from copdea_fem.measured.scan import ScanData, ScanFrame
 SCAN_READERS = {".uff": uff.read_scan, ".unv": uff.read_scan}
 
 
-def read_scan(path, *, frame: ScanFrame | None = None, directions=None) -> ScanData:
+def read_scan(path, *, frame: ScanFrame | None = None, directions=None,
+              geometry: bool = True) -> ScanData:
     """A vibrometer's scan file as a :class:`ScanData` (SI, the model's frame), read by the
     reader of its suffix (:data:`SCAN_READERS`).
 
@@ -32,6 +32,9 @@ def read_scan(path, *, frame: ScanFrame | None = None, directions=None) -> ScanD
     directions : (3,) sequence or dict, optional
         A 1-D laser's measuring direction in the file's axes, one for every point or
         ``{node: [x, y, z]}`` per point.
+    geometry : bool, default True
+        Whether the file must give the points' coordinates (False: a file without them
+        gives its measured nodes, positions NaN).
 
     Returns
     -------
@@ -46,8 +49,8 @@ def read_scan(path, *, frame: ScanFrame | None = None, directions=None) -> ScanD
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in SCAN_READERS:
-        raise refusal(f"scan file {preview(path)} suffix", path.suffix, ", ".join(SCAN_READERS))
-    return SCAN_READERS[suffix](path, frame=frame, directions=directions)
+        raise refusal(f"scan file {str(path)!r} suffix", path.suffix, ", ".join(SCAN_READERS))
+    return SCAN_READERS[suffix](path, frame=frame, directions=directions, geometry=geometry)
 
 
 __all__ = ["SCAN_READERS", "read_scan"]

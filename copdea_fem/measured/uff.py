@@ -9,14 +9,21 @@ and in the model's frame, and refuses a file it cannot trust with a
 :class:`MeasuredDataError` naming the file and the dataset.
 
 Units.  Dataset 164's factors and each dataset 58's unit labels and exponents give the
-factor to SI of every function (:mod:`copdea_fem.measured.uff_units`).
+factor to SI of every function (:mod:`copdea_fem.measured.uff_units`); a label that names
+no unit (``NONE``) is said in a warning.  Fortran ``D`` exponents in 58 data lines are
+read as ``E``; a value above :data:`LARGEST_VALUE` (how pyuff writes infinity) is refused.
 
-Points and channels.  Every response is put on its point by its response node
-(``rsp_node``), never by its place in the file; a node without coordinates, a point
-without a response and two responses of one node and direction are refused.  The
-direction is the global axis ``rsp_dir`` = +-1, 2, 3 (x, y, z), or for a 1-D laser the
-per-point direction given in measured.yaml.  Channels are ordered by point (in the
-geometry's order) and then by direction, whatever the file's order.
+Points and channels.  Every response is put on its point by its measured node, never by
+its place in the file: the response node (``rsp_node``), or with one response and several
+references (a roving hammer) the reference node, by reciprocity
+(:mod:`copdea_fem.measured.references`); a node without coordinates, a point without a
+response and two responses of one node and direction are refused.  The direction is the
+axis ``rsp_dir`` = +-1, 2, 3 (x, y, z) of the node's displacement coordinate system
+(global unless datasets 18/2420 say otherwise: :mod:`copdea_fem.measured.coordinates`,
+which also places nodes defined in a local system), or for a 1-D laser the per-point
+direction given in measured.yaml.  Channels are ordered by point (in the geometry's
+order) and then by direction, whatever the file's order.  A file with a 2411 and a 15
+that disagree is read from its 2411, with a warning.
 """
 
 from __future__ import annotations
@@ -33,7 +40,14 @@ from pathlib import Path
 import numpy as np
 
 from copdea_fem.inputs import preview
+from copdea_fem.measured.coordinates import (
+    GLOBAL,
+    system_of,
+    systems_from_18,
+    systems_from_2420,
+)
 from copdea_fem.measured.errors import MeasuredDataError
+from copdea_fem.measured.references import ROVING_REFERENCE, layout
 from copdea_fem.measured.scan import ScanData, ScanFrame
 from copdea_fem.measured.uff_units import (
     already_divided,
@@ -47,6 +61,22 @@ logger = logging.getLogger(__name__)
 
 #: UFF function types read as scans: 4 = frequency response function, 12 = spectrum.
 FUNCTION_TYPES = {4: "frf", 12: "spectrum"}
+#: Names of the UFF function types (record 6 of dataset 58), for refusals.
+FUNCTION_TYPE_NAMES = {0: "general or unknown", 1: "time response", 2: "auto spectrum",
+                       3: "cross spectrum", 4: "frequency response function",
+                       5: "transmissibility", 6: "coherence", 7: "auto correlation",
+                       8: "cross correlation", 9: "power spectral density",
+                       10: "energy spectral density", 11: "probability density function",
+                       12: "spectrum", 13: "cumulative frequency distribution",
+                       14: "peaks valley", 15: "stress/cycles", 16: "strain/cycles",
+                       17: "orbit", 18: "mode indicator function", 19: "force pattern",
+                       20: "partial power", 21: "partial coherence", 22: "eigenvalue",
+                       23: "eigenvector", 24: "shock response spectrum",
+                       25: "finite impulse response filter", 26: "multiple coherence",
+                       27: "order function", 28: "phase compensation"}
+#: Largest magnitude taken as a measured number: pyuff writes an infinity as the largest
+#: double (1.797e308), and anything within a factor 10 of it is an overflow, not data.
+LARGEST_VALUE = 1e307
 
 
 @dataclass(frozen=True)
@@ -71,6 +101,8 @@ class FunctionRecord:
         The factor applied to the file's numbers.
     response : str
         displacement, velocity, acceleration or unknown.
+    labelled : bool
+        Whether the ordinate's label names a unit (else 164 and the exponents gave it).
     """
 
     dataset: int
@@ -85,10 +117,11 @@ class FunctionRecord:
     denominator_label: str
     si_factor: float
     response: str
+    labelled: bool = True
 
 
 def _where(path: Path, dataset: str) -> str:
-    return f"scan file {preview(Path(path))} dataset {dataset}"
+    return f"scan file {str(path)!r} dataset {dataset}"
 
 
 def _error(path: Path, dataset: str, problem: str, allowed: str) -> MeasuredDataError:
@@ -157,27 +190,27 @@ def _units(uff, types, path) -> dict:
 
 
 def read_geometry(path) -> tuple[np.ndarray, np.ndarray]:
-    """Node numbers (P,) and coordinates (P, 3) [m, in the file's axes] of dataset 2411
-    (else 15; the first one of the file), lengths converted with dataset 164."""
+    """Node numbers (P,) and coordinates (P, 3) [m, in the file's global axes] of dataset
+    2411 (else 15; the first one of the file), lengths converted with dataset 164 and the
+    nodes' coordinate systems (datasets 18, 2420) applied."""
     path = Path(path)
     uff, types = _open(path)
-    return _geometry(uff, types, path, _units(uff, types, path)["length"])
+    nodes, coordinates, _ = _geometry(uff, types, path, _units(uff, types, path)["length"])
+    return nodes, coordinates
 
 
-def _geometry(uff, types, path, length_factor: float, length_unit: float | None = None):
-    kind = 2411 if 2411 in types else 15 if 15 in types else None
-    if kind is None:
-        raise _error(path, "2411/15", "no geometry (no dataset 2411 or 15 with the scan "
-                     "points)", "an export with the scan points' coordinates")
+def _node_record(uff, types, path, kind: int):
     index = types.index(kind)
     record = _read_set(uff, index, path, kind)
+    where = f"{kind} #{index + 1}"
     try:
         nodes = np.asarray(record["node_nums"], float)
         coordinates = np.column_stack([np.asarray(record[a], float) for a in "xyz"])
+        systems = [np.asarray(record.get(key, np.zeros(nodes.size)), float).reshape(-1)
+                   for key in ("def_cs", "disp_cs")]
     except (KeyError, ValueError) as error:
-        raise _error(path, f"{kind} #{index + 1}", f"incomplete node records ({error})",
+        raise _error(path, where, f"incomplete node records ({error})",
                      "node number, coordinate systems and x, y, z per node") from None
-    where = f"{kind} #{index + 1}"
     if nodes.size == 0:
         raise _error(path, where, "no node", "at least one scan point")
     if not np.all(np.isfinite(coordinates)) or not np.all(np.isfinite(nodes)):
@@ -189,8 +222,55 @@ def _geometry(uff, types, path, length_factor: float, length_unit: float | None 
     if np.any(counts > 1):
         raise _error(path, where, f"node {int(unique[counts > 1][0])} defined twice",
                      "each node once")
+    if any(s.size != nodes.size for s in systems):
+        systems = [np.zeros(nodes.size), np.zeros(nodes.size)]
+    return where, nodes.astype(int), coordinates, systems[0].astype(int), \
+        systems[1].astype(int)
+
+
+def _systems(uff, types, path, scale: float) -> dict:
+    """The file's coordinate systems (datasets 18 and 2420) by label."""
+    systems = {}
+    for kind, reader in ((18, systems_from_18), (2420, systems_from_2420)):
+        indices = [i for i, t in enumerate(types) if t == kind]
+        if indices:
+            records = [_read_set(uff, i, path, kind) for i in indices]
+            systems.update(reader(records, _where(path, f"{kind} #{indices[0] + 1}"), scale))
+    return systems
+
+
+def _geometry(uff, types, path, length_factor: float, length_unit: float | None = None):
+    """(nodes (P,), coordinates (P, 3) [m, global], displacement systems (P,) of
+    :class:`CoordinateSystem`): dataset 2411, else 15; both present and not the same nodes
+    at the same places: 2411 used, with a warning naming both."""
+    kind = 2411 if 2411 in types else 15 if 15 in types else None
+    if kind is None:
+        raise _error(path, "2411/15", "no geometry (no dataset 2411 or 15 with the scan "
+                     "points)", "an export with the scan points' coordinates")
     scale = length_unit if length_unit is not None else 1.0 / length_factor
-    return nodes.astype(int), coordinates * scale
+    where, nodes, coordinates, defined_in, displaced_in = _node_record(uff, types, path, kind)
+    systems = _systems(uff, types, path, scale)
+    coordinates = coordinates * scale
+    raw = coordinates.copy()
+    for k in np.flatnonzero(defined_in):
+        system = system_of(systems, int(defined_in[k]), int(nodes[k]), _where(path, where))
+        coordinates[k] = system.point(coordinates[k][None])[0]
+    displacement = [system_of(systems, int(label), int(node), _where(path, where))
+                    for label, node in zip(displaced_in, nodes)]
+    if kind == 2411 and 15 in types:
+        other, old_nodes, old_coordinates, *_ = _node_record(uff, types, path, 15)
+        same = np.array_equal(np.sort(old_nodes), np.sort(nodes))
+        if same:
+            order = np.argsort(old_nodes)[np.argsort(np.argsort(nodes))]
+            # dataset 15 writes coordinates with 6 significant digits (E13.5)
+            same = np.allclose(old_coordinates[order] * scale, raw, rtol=0,
+                               atol=1e-5 * max(float(np.abs(raw).max()), 1e-300))
+        if not same:
+            logger.warning("%s: dataset %s (%d nodes) and dataset %s (%d nodes) give "
+                           "different nodes or coordinates: %s used, %s ignored",
+                           f"scan file {str(path)!r}", where, nodes.size, other,
+                           old_nodes.size, where, other)
+    return nodes, coordinates, displacement
 
 
 def read_functions(path, *, units: dict | None = None) -> tuple[FunctionRecord, ...]:
@@ -211,17 +291,73 @@ def _functions(uff, types, path, units) -> tuple[FunctionRecord, ...]:
     try:
         records = [_read_58(uff, i) for i in indices]
     except _Unparsed as failed:
-        if b"58b" not in data:
-            raise _error(path, f"58 #{failed.index + 1}", f"cannot be parsed ({failed.reason})",
-                         "a well-formed dataset 58") from None
-        records, data = _read_fixed(path, types, failed)
+        if b"58b" in data:
+            records, data = _read_fixed(path, types, failed)
+        else:
+            records, data = _read_with_e_exponents(path, data, failed)
     headers = _raw_58_headers(data)
     if len(headers) != len(records):
         headers = [None] * len(records)
     out = []
     for index, record, header in zip(indices, records, headers):
         out.append(_function(path, index, record, header, units))
+    unlabelled = [record for record in out if not record.labelled]
+    if unlabelled:
+        first = unlabelled[0]
+        logger.warning("scan file %r: %d of %d datasets 58 have an ordinate unit label that "
+                       "names no unit (%r in 58 #%d): their unit taken as dataset 164's "
+                       "units to the exponents of records 8-11 (SI, m N s, without a 164; "
+                       "factor to SI %g)", str(path), len(unlabelled), len(out),
+                       first.ordinate_label, first.dataset, first.si_factor)
     return tuple(out)
+
+
+#: A Fortran double's exponent letter (``1.5D+02``, legal in UFF data lines).
+_FORTRAN_EXPONENT = re.compile(rb"(?<=[0-9.])[Dd](?=[+-]?[0-9])")
+#: An ASCII dataset 58 block: the delimiter, "58", header records 1-6, record 7 (numbers),
+#: records 8-11, the data lines.
+_ASCII_58 = re.compile(rb"((?:^|\n) {4}-1[ \t]*\r?\n {4}58[ \t]*\r?\n(?:[^\n]*\n){6})"
+                       rb"([^\n]*\n)((?:[^\n]*\n){4})"
+                       rb"(.*?)(?=\n {4}-1[ \t]*\r?(?:\n|$))", re.DOTALL)
+
+
+def _read_with_e_exponents(path: Path, data: bytes, failed):
+    """The datasets 58 of an ASCII file read again with the Fortran ``D`` exponents of
+    their data lines written as ``E`` (on a temporary copy); refused when there are none
+    or the copy cannot be read either."""
+    import pyuff
+
+    count = 0
+
+    def fixed_block(match):
+        nonlocal count
+        record_7, found_7 = _FORTRAN_EXPONENT.subn(b"E", match.group(2))
+        body, found = _FORTRAN_EXPONENT.subn(b"E", match.group(4))
+        count += found + found_7
+        return match.group(1) + record_7 + match.group(3) + body
+
+    fixed = _ASCII_58.sub(fixed_block, data)
+    if count == 0:
+        raise _error(path, f"58 #{failed.index + 1}", f"cannot be parsed ({failed.reason})",
+                     "a well-formed dataset 58") from None
+    logger.info("scan file %r: %d Fortran D exponents in dataset 58 data lines read as E",
+                str(path), count)
+    with tempfile.TemporaryDirectory(prefix="copdea-uff-") as folder:
+        copy = Path(folder) / path.name
+        copy.write_bytes(fixed)
+        try:
+            with contextlib.redirect_stdout(io.StringIO()):
+                uff = pyuff.UFF(str(copy))
+                types = [int(t) for t in uff.get_set_types()]
+            records = [_read_58(uff, i) for i, t in enumerate(types) if t == 58]
+        except _Unparsed as again:
+            raise _error(path, f"58 #{again.index + 1}", f"cannot be parsed ({again.reason}, "
+                         "also with its D exponents read as E)", "a well-formed dataset 58") \
+                from None
+        except Exception as error:  # noqa: BLE001 -- pyuff raises bare Exceptions
+            raise _error(path, f"58 #{failed.index + 1}", f"cannot be parsed ({error})",
+                         "a well-formed dataset 58") from None
+    return records, fixed
 
 
 class _Unparsed(Exception):
@@ -288,6 +424,14 @@ def _function(path, index, record, header, units) -> FunctionRecord:
     if np.any(bad):
         raise _error(path, where, f"{int(bad.sum())} values are NaN or infinite (first at "
                      f"abscissa {abscissa[np.argmax(bad)]:g})", "finite numbers")
+    parts = np.column_stack([np.real(values).ravel(), np.imag(values).ravel()])
+    huge = np.abs(parts).max(axis=1) > LARGEST_VALUE
+    if np.any(huge):
+        first = int(np.argmax(huge))
+        raise _error(path, where, f"{int(huge.sum())} values of magnitude above "
+                     f"{LARGEST_VALUE:g} (first {np.abs(parts[first]).max():.4g} at abscissa "
+                     f"{abscissa[first]:g}: how pyuff writes infinity, or an overflow)",
+                     f"finite measured numbers (below {LARGEST_VALUE:g})")
     function_type = int(record.get("func_type", 0))
     ordinate_text = _label(record, header, 10, "ordinate_axis_units_lab")
     denominator_text = _label(record, header, 11, "orddenom_axis_units_lab")
@@ -316,7 +460,8 @@ def _function(path, index, record, header, units) -> FunctionRecord:
         reference_node=int(record.get("ref_node", 0)),
         reference_direction=int(record.get("ref_dir", 0)), abscissa=abscissa,
         values=values.astype(complex) * factor, ordinate_label=ordinate_text,
-        denominator_label=denominator_text, si_factor=factor, response=response)
+        denominator_label=denominator_text, si_factor=factor, response=response,
+        labelled=ordinate is not None)
 
 
 def _direction_vector(value, where: str) -> np.ndarray:
@@ -332,7 +477,8 @@ def _direction_vector(value, where: str) -> np.ndarray:
     return vector / norm
 
 
-def read_scan(path, *, frame: ScanFrame | None = None, directions=None) -> ScanData:
+def read_scan(path, *, frame: ScanFrame | None = None, directions=None,
+              geometry: bool = True) -> ScanData:
     """A vibrometer's UFF export as a :class:`ScanData` (SI, the model's frame).
 
     Parameters
@@ -346,6 +492,10 @@ def read_scan(path, *, frame: ScanFrame | None = None, directions=None) -> ScanD
         A 1-D laser's measuring direction in the file's axes: one for every point, or
         ``{node: [x, y, z]}`` per point.  It replaces ``rsp_dir`` for those points;
         without it ``rsp_dir`` must be +-1, 2 or 3.
+    geometry : bool, default True
+        Whether the file must hold the points' coordinates (dataset 2411/15); without
+        one (``geometry=False`` only) the points are the measured nodes, their positions
+        NaN.
 
     Returns
     -------
@@ -355,28 +505,33 @@ def read_scan(path, *, frame: ScanFrame | None = None, directions=None) -> ScanD
     ------
     MeasuredDataError
         No geometry, a node without data or data without a node, two responses of one
-        node and direction, mixed frequency axes or function types, NaN, a direction
-        that is not given: the message names the file and the dataset.
+        node and direction, mixed frequency axes or function types, a function type
+        other than FRF or spectrum, several references with several responses, NaN, a
+        direction that is not given: the message names the file and the dataset.
+
+    Notes
+    -----
+    The measured node of an FRF is its response node, or with one response and several
+    references (a roving hammer) its reference node, by reciprocity
+    (:mod:`copdea_fem.measured.references`).  A node's direction code refers to its
+    displacement coordinate system (datasets 18, 2420; :mod:`copdea_fem.measured.coordinates`).
     """
     path = Path(path)
     uff, types = _open(path)
     units = _units(uff, types, path)
     frame = frame or ScanFrame()
-    nodes, coordinates = _geometry(uff, types, path, units["length"], frame.length_unit)
+    has_geometry = 2411 in types or 15 in types
+    if geometry or has_geometry:
+        nodes, coordinates, systems = _geometry(uff, types, path, units["length"],
+                                                frame.length_unit)
     if 58 not in types:
         raise _error(path, "58", "no response function (no dataset 58)",
                      "one dataset 58 per scan point and direction")
     records = _functions(uff, types, path, units)
+    _check_function_types(path, records)
     first = records[0]
     for record in records:
         where = f"58 #{record.dataset} (response node {record.response_node})"
-        if record.function_type not in FUNCTION_TYPES:
-            raise _error(path, where, f"function type {record.function_type}",
-                         "4 (frequency response function) or 12 (spectrum)")
-        if record.function_type != first.function_type:
-            raise _error(path, where, f"function type {record.function_type} beside "
-                         f"{first.function_type} in dataset 58 #{first.dataset}",
-                         "one function type in a scan")
         if record.abscissa.shape != first.abscissa.shape or not np.allclose(
                 record.abscissa, first.abscissa, rtol=1e-9, atol=0.0):
             raise _error(path, where, f"a frequency axis of {record.abscissa.size} lines "
@@ -392,37 +547,55 @@ def read_scan(path, *, frame: ScanFrame | None = None, directions=None) -> ScanD
     if frequencies.size < 2 or np.any(np.diff(frequencies) <= 0) or frequencies[0] < 0:
         raise _error(path, f"58 #{first.dataset}", "frequencies not strictly increasing "
                      "from >= 0", "a frequency axis of at least two increasing lines")
+    swapped = layout(records, f"scan file {str(path)!r}") == ROVING_REFERENCE
+    measured_at = [(r.reference_node, r.reference_direction) if swapped
+                   else (r.response_node, r.response_direction) for r in records]
+    if not (geometry or has_geometry):
+        nodes = np.array(sorted({node for node, _ in measured_at}), int)
+        coordinates = np.full((nodes.size, 3), np.nan)
+        systems = [GLOBAL] * nodes.size
+        logger.info("scan file %r: no geometry (dataset 2411/15): %d nodes without "
+                    "coordinates", str(path), nodes.size)
     point_of = {int(node): i for i, node in enumerate(nodes)}
     per_point = _point_directions(directions, point_of, path)
+    role = "reference" if swapped else "response"
     channels, seen = [], {}
-    for record in records:
-        where = f"58 #{record.dataset} (response node {record.response_node})"
-        if record.response_node not in point_of:
-            raise _error(path, where, f"node {record.response_node} has no coordinates in "
+    for record, (node, code) in zip(records, measured_at):
+        where = f"58 #{record.dataset} ({role} node {node})"
+        if node not in point_of:
+            raise _error(path, where, f"node {node} has no coordinates in "
                          "the geometry (dataset 2411/15)", "responses of scan points only")
-        point = point_of[record.response_node]
+        point = point_of[node]
         if point in per_point:
             direction = per_point[point]
-        elif abs(record.response_direction) in (1, 2, 3):
+        elif abs(code) in (1, 2, 3):
             direction = np.zeros(3)
-            direction[abs(record.response_direction) - 1] = np.sign(record.response_direction)
+            direction[abs(code) - 1] = np.sign(code)
+            direction = systems[point].direction(direction[None])[0]
         else:
-            raise _error(path, where, f"response direction {record.response_direction} and no "
+            raise _error(path, where, f"{role} direction {code} and no "
                          "direction given for the point", "rsp_dir +-1, +-2, +-3 (global x, "
                          "y, z) or a 1-D laser's direction in measured.yaml (scan_directions)")
         key = (point, tuple(np.round(direction, 9)))
         if key in seen:
-            raise _error(path, where, f"a second response of node {record.response_node} "
+            raise _error(path, where, f"a second {role} of node {node} "
                          f"along {direction.tolist()} (also dataset 58 #{seen[key]})",
-                         "one response per node and direction")
+                         f"one {role} per node and direction")
         seen[key] = record.dataset
-        order = abs(record.response_direction) if point not in per_point else 0
+        order = abs(code) if point not in per_point else 0
         channels.append((point, order, record.dataset, direction, record.values))
     measured = {point for point, *_ in channels}
     missing = [int(nodes[i]) for i in range(len(nodes)) if i not in measured]
-    if missing:
+    if missing and geometry:
         raise _error(path, "2411/15", f"{len(missing)} node(s) without data (first: node "
                      f"{missing[0]})", "a response (dataset 58) for every scan point")
+    if missing:
+        logger.info("scan file %r: %d geometry nodes without data (first: node %d) left out",
+                    str(path), len(missing), missing[0])
+        keep = np.array(sorted(measured), int)
+        renumber = {int(old): new for new, old in enumerate(keep)}
+        channels = [(renumber[c[0]], *c[1:]) for c in channels]
+        nodes, coordinates = nodes[keep], coordinates[keep]
     channels.sort(key=lambda c: (c[0], c[1], c[2]))
     rotation = frame.rotation()
     origin = np.asarray(frame.origin, float) * (frame.length_unit if frame.length_unit
@@ -434,6 +607,31 @@ def read_scan(path, *, frame: ScanFrame | None = None, directions=None) -> ScanD
                     channel_direction=directions_model, frequencies=frequencies,
                     values=np.array([c[4] for c in channels]),
                     quantity=FUNCTION_TYPES[first.function_type], response=first.response)
+
+
+def _check_function_types(path: Path, records) -> None:
+    """Refuse a file with a function type other than FRF or spectrum, or with both,
+    listing what the file holds and what is accepted."""
+    held: dict[int, list[int]] = {}
+    for record in records:
+        held.setdefault(record.function_type, []).append(record.dataset)
+
+    def named(kind):
+        datasets = held[kind]
+        where = ", ".join(f"#{d}" for d in datasets[:3]) + (" ..." if len(datasets) > 3 else "")
+        return (f"function type {kind} ({FUNCTION_TYPE_NAMES.get(kind, 'unknown')}) in "
+                f"{len(datasets)} dataset(s) 58 {where}")
+
+    unread = [record for record in records if record.function_type not in FUNCTION_TYPES]
+    if unread:
+        raise _error(path, f"58 #{unread[0].dataset} (response node "
+                     f"{unread[0].response_node})",
+                     f"the file holds {'; '.join(named(k) for k in sorted(held))}",
+                     "function type 4 (frequency response function) or 12 (spectrum) in "
+                     "every dataset 58")
+    if len(held) > 1:
+        raise _error(path, "58", f"the file holds {'; '.join(named(k) for k in sorted(held))}",
+                     "one function type in a scan")
 
 
 def _point_directions(directions, point_of: dict, path: Path) -> dict:
@@ -452,6 +650,28 @@ def _point_directions(directions, point_of: dict, path: Path) -> dict:
         return out
     vector = _direction_vector(directions, "scan_directions")
     return {point: vector for point in point_of.values()}
+
+
+def read_trace_lines(path) -> tuple[tuple[str, tuple[np.ndarray, ...]], ...]:
+    """Every dataset 82 (trace lines) of a file: ``(name, polylines)``, each polyline the
+    (n,) node numbers drawn one after another (a node 0 lifts the pen: a new polyline)."""
+    path = Path(path)
+    uff, types = _open(path)
+    out = []
+    for index, kind in enumerate(types):
+        if kind != 82:
+            continue
+        record = _read_set(uff, index, path, 82)
+        try:
+            count = int(record.get("n_nodes", 0))
+            nodes = np.asarray(record["nodes"], float)[:count].astype(int)
+        except (KeyError, TypeError, ValueError) as error:
+            raise _error(path, f"82 #{index + 1}", f"incomplete record ({error})",
+                         "a dataset 82 of trace lines") from None
+        parts = [part[part != 0] for part in np.split(nodes, np.flatnonzero(nodes == 0))]
+        polylines = tuple(part for part in parts if part.size >= 2)
+        out.append((str(record.get("id", "")).strip() or f"trace {index + 1}", polylines))
+    return tuple(out)
 
 
 # --- dataset 55: identified mode shapes ------------------------------------------------
@@ -507,11 +727,14 @@ def read_mode_sets(path) -> tuple[ModeSet, ...]:
 
 __all__ = [
     "FUNCTION_TYPES",
+    "FUNCTION_TYPE_NAMES",
+    "LARGEST_VALUE",
     "FunctionRecord",
     "ModeSet",
     "read_functions",
     "read_geometry",
     "read_mode_sets",
     "read_scan",
+    "read_trace_lines",
     "read_units",
 ]

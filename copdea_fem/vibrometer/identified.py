@@ -72,12 +72,15 @@ def scan_surface(scan: ScanData) -> np.ndarray:
 
 
 def shape_meshes(scan: ScanData, modes: tuple[IdentifiedMode, ...]):
-    """``(name, VtuMesh)`` per mode on the scan grid: point data ``shape_real``,
+    """``(name, VtuMesh)`` per mode on the scan grid (triangles of :func:`scan_surface`;
+    VTK vertices where the points span no surface): point data ``shape_real``,
     ``shape_imag`` (P, 3) [residue units], ``shape_abs`` and ``normal_real`` (z)."""
     from copdea_fem.vtu import VtuMesh
 
     triangles = scan_surface(scan)
-    cells = [("triangle", triangles)]
+    # points on one line (or fewer than 3) span no surface: the shapes on the points
+    cells = [("triangle", triangles)] if triangles.size else \
+        [("vertex", np.arange(scan.n_points).reshape(-1, 1))]
     out = []
     for mode in modes:
         vectors = point_vectors(scan, mode.shape)
