@@ -240,7 +240,12 @@ def identify(measured: MeasuredSet | str | Path, *,
         :class:`~copdea_fem.measured.MeasuredDataError`).
     """
     from copdea_fem.measured import MeasuredDataError
-    from copdea_fem.vibrometer.identification import OPTIONS, check_options, identify_scan
+    from copdea_fem.vibrometer.identification import (
+        OPTIONS,
+        check_options,
+        condition_band,
+        identify_scan,
+    )
     from copdea_fem.vibrometer.identified import IdentifiedSet
 
     for name in options:
@@ -265,9 +270,7 @@ def identify(measured: MeasuredSet | str | Path, *,
             logger.info("identifying %s (%d channels, %d lines, largest distance off the "
                         "device %.2f mm)", condition.name, condition.scan.n_channels,
                         condition.scan.frequencies.size, 1e3 * condition.scan_distance)
-            frequencies = condition.scan.frequencies
-            band = {"f_min": max(condition.band[0], float(frequencies[frequencies > 0][0])),
-                    "f_max": min(condition.band[1], float(frequencies[-1]))}
+            band = dict(zip(("f_min", "f_max"), condition_band(condition)))
             found = identify_scan(condition.scan, **{**band, **options})
             sets.append(IdentifiedSet(condition.name, condition.scan, found.modes,
                                       found.diagram))
@@ -363,7 +366,7 @@ def correlate(measured: MeasuredSet | str | Path, *, allow_large: bool = False,
         A condition's prestress (Newton) solve failed.
     """
     from copdea_fem.measured import MeasuredDataError
-    from copdea_fem.vibrometer.identification import identify
+    from copdea_fem.vibrometer.identification import condition_band, identify
     from copdea_fem.vibrometer.model_shapes import correlate_identified, fe_shapes
 
     measured = as_measured(measured)
@@ -383,7 +386,8 @@ def correlate(measured: MeasuredSet | str | Path, *, allow_large: bool = False,
             as folder, reporting_to(progress):
         for condition, study in zip(scanned, studies):
             logger.info("correlate %s: identify the scan's modes", condition.name)
-            modes = identify(condition.scan, f_min=condition.band[0], f_max=condition.band[1])
+            f_min, f_max = condition_band(condition)
+            modes = identify(condition.scan, f_min=f_min, f_max=f_max)
             logger.info("correlate %s: %d modes identified; FE modes at the scan points",
                         condition.name, len(modes))
             model = fe_shapes(study, condition.scan,
