@@ -265,6 +265,10 @@ MUTATIONS = (
              "        g = np.exp(1j * wavenumber * d) / (4 * np.pi * d)",
              "        g = np.exp(-1j * wavenumber * d) / (4 * np.pi * d)",
              "far field: the shared Green's function with the e^{+i omega t} sign (both engines)"),
+    Mutation("stable_pole_damping_absolute", "copdea_fem/vibrometer/identification.py",
+             "damping_ok = abs(damping[i] - last_d) / last_d < d_tol",
+             "damping_ok = abs(damping[i] - last_d) < d_tol",
+             "stabilisation diagram: the damping's stability check absolute, not relative"),
 )
 
 

@@ -261,8 +261,7 @@ def _identify(scan: ScanData, options: dict) -> Identification:
     logger.info("LSCF: %d orders on %d principal functions of %d channels (%.1f s)",
                 len(model.all_poles), keep, scan.n_channels, time.perf_counter() - started)
     diagram_poles = _physical_poles(model.all_poles, options)
-    tracks, status = _tracks(diagram_poles, options)
-    chosen = _choose(tracks, options)
+    chosen, status = choose_poles(diagram_poles, options)
     chosen = _refined(chosen, principal[:, frequencies[frequencies <= f_high] >= f_low].T,
                       band_frequencies, power, keep, scan.n_channels, frf_form, options)
     constants = np.zeros((scan.n_channels, 0), complex)
@@ -489,6 +488,29 @@ def _physical_poles(all_poles, options) -> list:
     return out
 
 
+def choose_poles(diagram_poles, options) -> tuple[np.ndarray, list]:
+    """The automatic choice (module notes, step 2).
+
+    Parameters
+    ----------
+    diagram_poles : list of (frequency, damping, pole) arrays
+        Per model order: the damped frequencies [Hz], damping ratios [-] and the poles
+        [rad/s] of the physical poles, ascending in frequency.
+    options : dict
+        :func:`check_options`'s (``frequency_tolerance``, ``damping_tolerance``,
+        ``min_stable_orders``).
+
+    Returns
+    -------
+    chosen : (N,) complex array
+        The chosen modes' poles [rad/s].
+    status : list of (n_k,) int arrays
+        Each pole's NEW, FREQUENCY_STABLE or STABLE.
+    """
+    tracks, status = _tracks(diagram_poles, options)
+    return _choose(tracks, options), status
+
+
 def _tracks(diagram_poles, options):
     """Chain poles over the orders by frequency (module notes); returns the tracks (lists of
     (order index, frequency, damping, pole, stable)) and every pole's status."""
@@ -629,13 +651,17 @@ def plot_stabilisation(path, diagram: StabilisationDiagram, title: str = "") -> 
 __all__ = [
     "DEFAULTS",
     "IDENTIFIED_COLUMNS",
+    "MIN_NOISE_CHANNELS",
     "OPTIONS",
     "Identification",
     "StabilisationDiagram",
+    "choose_poles",
+    "condition_band",
     "identified_rows",
     "identify",
     "identify_scan",
     "modal_phase_collinearity",
     "plot_stabilisation",
+    "principal_count",
     "write_identified",
 ]

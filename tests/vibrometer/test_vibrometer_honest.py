@@ -116,3 +116,21 @@ def test_progress_in_hz(z_records, caplog):
     for message in added:
         frequency = float(message.split()[3])
         assert message.split()[4] == "Hz" and 150.0 <= frequency <= 850.0 + math.ulp(850.0)
+
+
+@pytest.mark.parametrize("dampings, stable", [((0.001, 0.0012), False), ((0.01, 0.0101), True)])
+def test_a_pole_stable_in_frequency_not_in_damping(dampings, stable):
+    """One pole at 100 Hz at every order, its damping alternating between two values: 20 %
+    apart it is frequency-stable only (the damping check is relative: 0.0002 apart is not
+    stable at 0.001) and no mode is chosen; 1 % apart it is stable and chosen."""
+    options = {**identification.check_options({}), "band": (50.0, 150.0)}
+    orders = []
+    for k in range(60):
+        zeta = dampings[k % 2]
+        omega_n = 2 * math.pi * 100.0 / math.sqrt(1 - zeta ** 2)
+        orders.append((np.array([100.0]), np.array([zeta]),
+                       np.array([complex(-zeta * omega_n, 2 * math.pi * 100.0)])))
+    chosen, status = identification.choose_poles(orders, options)
+    expected = identification.STABLE if stable else identification.FREQUENCY_STABLE
+    assert all(state[0] == expected for state in status[1:])
+    assert chosen.size == (1 if stable else 0)
