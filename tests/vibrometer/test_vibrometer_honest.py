@@ -59,6 +59,24 @@ def test_peak_check_closed_form():
     assert unexplained_peaks(peaks, [100.3, 199.2], 1.0).size == 0
 
 
+def test_peaks_as_scipy_finds_them():
+    """The peak search against :func:`scipy.signal.find_peaks` (the same prominence) on
+    random walks, plateaus among them."""
+    from scipy.signal import find_peaks
+
+    from copdea_fem.vibrometer.peak_check import PEAK_PROMINENCE
+
+    rng = np.random.default_rng(1)
+    frequencies = np.arange(200.0)
+    for trial in range(100):
+        level = rng.normal(size=200).cumsum() * 0.05 + rng.normal(size=200) * 0.03
+        if trial % 3 == 0:
+            level = np.round(level, 1)
+        index, _ = find_peaks(level, prominence=PEAK_PROMINENCE)
+        assert summed_peaks(frequencies, 10 ** level[None, :]) == pytest.approx(
+            frequencies[index])
+
+
 def test_a_short_record_is_refused(tmp_path):
     """15 lines leave 6 LSCF orders: refused by name (before: 5 modes, two where none)."""
     with pytest.raises(MeasuredDataError, match=r"15 lines up to 237.5 Hz are not allowed .* "
