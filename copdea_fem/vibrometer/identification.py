@@ -235,16 +235,8 @@ def _identify(scan: ScanData, options: dict) -> Identification:
     # unstable at the higher orders: a 200-500 Hz band kept 1 of 3 modes)
     # LSCF's highest order is bounded by the lines it fits (its normal equations hold the
     # correlations of lags -n..n of a spectrum of F lines: n <= F - 2)
-    # a short record leaves too few orders for a pole's stability to be evidence (15 lines:
-    # 6 orders, stable over 2 of them, gave 5 modes, two where there is none): refused
     lines = int(np.sum(frequencies <= f_high))
     half_order = min(options["max_order"] // 2, (lines - 2) // 2)
-    if half_order < MIN_ORDERS:
-        raise MeasuredDataError(
-            f"scan file {scan.path}: {lines} lines up to {f_high:g} Hz are not allowed for "
-            f"identification (too short a record: LSCF's order is at most the lines - 2, and "
-            f"the stabilisation diagram needs {MIN_ORDERS} orders); allowed: at least "
-            f"{2 * MIN_ORDERS + 2} lines from the first above 0 Hz to f_max")
     if half_order < options["max_order"] // 2:
         logger.info("LSCF order limited to %d by the %d lines", 2 * half_order, lines)
         options = {**options, "min_stable_orders": min(options["min_stable_orders"],
@@ -450,7 +442,22 @@ def _options(scan, f_min, f_max, max_order, components, frequency_tolerance,
                              "damping_tolerance": damping_tolerance, "max_damping": max_damping,
                              "min_stable_orders": min_stable_orders})
     options["band"] = (low, high)
+    # a short record leaves too few orders for a pole's stability to be evidence (15 lines:
+    # 6 orders, stable over 2 of them, gave 5 modes, two where there is none): refused
+    lines = int(np.sum((frequencies > 0) & (frequencies <= high)))
+    if min(options["max_order"] // 2, (lines - 2) // 2) < MIN_ORDERS:
+        raise MeasuredDataError(
+            f"scan file {scan.path}: {lines} lines up to {high:g} Hz are not allowed for "
+            f"identification (too short a record: LSCF's order is at most the lines - 2, and "
+            f"the stabilisation diagram needs {MIN_ORDERS} orders); allowed: at least "
+            f"{2 * MIN_ORDERS + 2} lines from the first above 0 Hz to f_max")
     return options
+
+
+def check_scan(scan: ScanData, *, f_min=None, f_max=None, **options) -> None:
+    """Refuse, before any work, a scan or band :func:`identify_scan` would refuse (its
+    parameters): a :class:`MeasuredDataError` naming the file and what is allowed."""
+    _options(scan, f_min, f_max, *(options.get(name) for name in DEFAULTS))
 
 
 def check_options(values: dict) -> dict:
@@ -655,6 +662,7 @@ __all__ = [
     "OPTIONS",
     "Identification",
     "StabilisationDiagram",
+    "check_scan",
     "choose_poles",
     "condition_band",
     "identified_rows",
