@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scan_subsets import example_copy
 
 from copdea_fem import folders
 from copdea_fem.api import SolveFailed
@@ -660,7 +661,26 @@ CASES = [
            setup=_scan_tolerance(value))
       for value, shown in (("0 mm", "'0 mm = 0 m'"), ("-3 mm", "'-3 mm = -0.003 m'"),
                            ("0", "0"))],
+    # scans as labs export them: few channels, few lines, a band past the lines
+    Case("identify a 1-D scan of 34 records", 4, "modes found: at least 10",
+         api=lambda work: _modes_found(example_copy(work, z_only=True)), expect=None),
+    Case("identify a 15-line scan", 4, "15 lines up to 237.5 Hz are not allowed for "
+         "identification", argv=("identify", "{work}/scan/measured.yaml", "--out", "{work}/i"),
+         setup=lambda work: example_copy(work, lines=15)),
+    Case("identify a band past the scan's top", 1, "band: [150 Hz, 900 Hz] reaches past the "
+         "scan's lines 150..850 Hz", api=lambda work: _modes_found(
+             example_copy(work, band=(150, 900))), expect=None),
+    Case("identify a band off the scan's lines", 1, "condition 'z16_v2' band = '[900 Hz, "
+         "1000 Hz]' is not allowed", argv=("identify", "{work}/scan/measured.yaml", "--out",
+                                           "{work}/i"),
+         setup=lambda work: example_copy(work, band=(900, 1000))),
 ]
+
+
+def _modes_found(measured) -> str:
+    """``identify`` on a measured.yaml: whether at least 10 modes were found."""
+    count = len(_api().identify(measured).sets[0].modes)
+    return f"modes found: {'at least 10' if count >= 10 else count}"
 
 
 def _section_replaced():

@@ -278,6 +278,10 @@ MUTATIONS = (
              "direction[abs(code) - 1] = np.sign(code)",
              "direction[abs(code) - 1] = 1.0",
              "UFF reading: a negative measuring direction (rsp_dir -3) read as positive"),
+    Mutation("stable_pole_damping_absolute", "copdea_fem/vibrometer/identification.py",
+             "damping_ok = abs(damping[i] - last_d) / last_d < d_tol",
+             "damping_ok = abs(damping[i] - last_d) < d_tol",
+             "stabilisation diagram: the damping's stability check absolute, not relative"),
 )
 
 

@@ -240,7 +240,13 @@ def identify(measured: MeasuredSet | str | Path, *,
         :class:`~copdea_fem.measured.MeasuredDataError`).
     """
     from copdea_fem.measured import MeasuredDataError
-    from copdea_fem.vibrometer.identification import OPTIONS, check_options, identify_scan
+    from copdea_fem.vibrometer.identification import (
+        OPTIONS,
+        check_options,
+        check_scan,
+        condition_band,
+        identify_scan,
+    )
     from copdea_fem.vibrometer.identified import IdentifiedSet
 
     for name in options:
@@ -257,17 +263,18 @@ def identify(measured: MeasuredSet | str | Path, *,
         raise MeasuredDataError(f"measured file {source}: no condition has a scan; "
                                 "allowed: at least one condition with scan: FILE (.uff/.unv)")
     files = [p for c in measured_set.conditions for p in c.files.values()]
+    bands = [dict(zip(("f_min", "f_max"), condition_band(condition)))
+             for condition in scanned]
+    for condition, band in zip(scanned, bands):
+        check_scan(condition.scan, **{**band, **options})           # before any work
     sets = []
     with claiming(out, "identify", [measured_set.path, *files],
                   Path("results") / f"identify_{measured_set.name}") as folder, \
             reporting_to(progress):
-        for condition in scanned:
+        for condition, band in zip(scanned, bands):
             logger.info("identifying %s (%d channels, %d lines, largest distance off the "
                         "device %.2f mm)", condition.name, condition.scan.n_channels,
                         condition.scan.frequencies.size, 1e3 * condition.scan_distance)
-            frequencies = condition.scan.frequencies
-            band = {"f_min": max(condition.band[0], float(frequencies[frequencies > 0][0])),
-                    "f_max": min(condition.band[1], float(frequencies[-1]))}
             found = identify_scan(condition.scan, **{**band, **options})
             sets.append(IdentifiedSet(condition.name, condition.scan, found.modes,
                                       found.diagram))
@@ -509,7 +516,7 @@ def correlate(measured: MeasuredSet | str | Path, *, allow_large: bool = False,
         A condition's prestress (Newton) solve failed.
     """
     from copdea_fem.measured import MeasuredDataError
-    from copdea_fem.vibrometer.identification import identify
+    from copdea_fem.vibrometer.identification import check_scan, condition_band, identify
     from copdea_fem.vibrometer.model_shapes import correlate_identified, fe_shapes
 
     measured = as_measured(measured)
@@ -520,6 +527,9 @@ def correlate(measured: MeasuredSet | str | Path, *, allow_large: bool = False,
     settings = measured.pairing
     studies = [measured.study_of(condition).replace(
         {"eigen.f_max": condition.band[1] * (1 + settings.window)}) for condition in scanned]
+    bands = [condition_band(condition) for condition in scanned]
+    for condition, (f_min, f_max) in zip(scanned, bands):
+        check_scan(condition.scan, f_min=f_min, f_max=f_max)        # before any work
     for study in studies:
         check_size(study, allow_large)                 # every condition's, before any work
     correlations, scans = [], []
@@ -527,9 +537,9 @@ def correlate(measured: MeasuredSet | str | Path, *, allow_large: bool = False,
                                for path in condition.files.values())]
     with claiming(out, "correlate", inputs, Path("results") / f"correlate_{measured.name}") \
             as folder, reporting_to(progress):
-        for condition, study in zip(scanned, studies):
+        for condition, study, (f_min, f_max) in zip(scanned, studies, bands):
             logger.info("correlate %s: identify the scan's modes", condition.name)
-            modes = identify(condition.scan, f_min=condition.band[0], f_max=condition.band[1])
+            modes = identify(condition.scan, f_min=f_min, f_max=f_max)
             logger.info("correlate %s: %d modes identified; FE modes at the scan points",
                         condition.name, len(modes))
             model = fe_shapes(study, condition.scan,

@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import dataclasses
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from copdea_fem.diagnosis.effects import (
     CATALOGUE,
@@ -49,8 +50,20 @@ from copdea_fem.diagnosis.effects import (
     Parameter,
     catalogue_table,
 )
-from copdea_fem.diagnosis.select import Diagnoser, DiagnosisResult
 from copdea_fem.measured import MeasuredDataError, MeasuredSet, manifest
+
+if TYPE_CHECKING:
+    from copdea_fem.diagnosis.select import Diagnoser, DiagnosisResult
+
+
+def __getattr__(name):
+    """``Diagnoser`` and ``DiagnosisResult`` imported when first used: the search's modules
+    (scipy.stats among them, 0.6 s) are not needed to read a measured.yaml
+    (:func:`load_measured`: ``copdea-fem identify``)."""
+    if name in ("Diagnoser", "DiagnosisResult"):
+        from copdea_fem.diagnosis import select
+        return getattr(select, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def load_measured(measured) -> MeasuredSet:
@@ -170,6 +183,7 @@ def diagnose_measured(measured, alpha: float = 0.05, model: str | None = None,
         if pairings:
             from copdea_fem.diagnosis.scanned import ShapeCheck
             shape_check = ShapeCheck(measured, pairings)
+        from copdea_fem.diagnosis.select import Diagnoser
         result = Diagnoser(measured, alpha=alpha, engine=engine, shape_check=shape_check).run()
         return dataclasses.replace(result, scan_pairings=pairings) if pairings else result
     finally:

@@ -97,7 +97,7 @@ def resonances_from_scans(measured: MeasuredSet) -> tuple[MeasuredSet, tuple]:
     Conditions without a scan, or with their own ``resonances:``, are kept as they are.
     """
     from copdea_fem.diagnosis.fe import fe_study
-    from copdea_fem.vibrometer.identification import identify
+    from copdea_fem.vibrometer.identification import condition_band, identify
     from copdea_fem.vibrometer.model_shapes import correlate_identified, fe_shapes
 
     settings = measured.pairing
@@ -109,7 +109,8 @@ def resonances_from_scans(measured: MeasuredSet) -> tuple[MeasuredSet, tuple]:
             conditions.append(condition)
             continue
         low, high = condition.band
-        modes = identify(condition.scan, f_min=low, f_max=high)
+        f_min, f_max = condition_band(condition)
+        modes = identify(condition.scan, f_min=f_min, f_max=f_max)
         study = fe_study(measured.study_of(condition), f_max=high * (1 + window))
         correlation = correlate_identified(condition.name, modes,
                                            fe_shapes(study, condition.scan),

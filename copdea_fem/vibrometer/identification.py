@@ -58,7 +58,7 @@ import logging
 import math
 import numbers
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -75,6 +75,14 @@ DEFAULTS = {"max_order": 120, "components": 24, "frequency_tolerance": 0.01,
 #: A mode's least modal phase collinearity (module notes): below it, its residues are not
 #: a shape (0.5: phases spread over half the circle; a normal mode's is 1).
 MPC_MIN = 0.5
+
+#: Channels from which on half of them are kept out of the principal response functions to
+#: measure the noise (:func:`principal_count`): fewer channels span the modes' shapes alone.
+MIN_NOISE_CHANNELS = 8
+
+#: Fewest LSCF orders (2, 4, ..., 2 MIN_ORDERS) a record must allow; a mode is then stable
+#: over at least MIN_STABLE_ORDERS of them - half: a majority, not chance.
+MIN_ORDERS, MIN_STABLE_ORDERS = 10, 5
 
 #: The options of :func:`identify_scan`.
 OPTIONS = ("f_min", "f_max", *DEFAULTS)
@@ -106,6 +114,10 @@ class StabilisationDiagram:
     mean_magnitude : (F,) float array
         Mean |H| over the channels on ``band_frequencies`` (the diagram's background).
     band_frequencies : (F,) float array
+    peaks : (n,) float array
+        The peaks of the summed |H| in the band [Hz] (:mod:`peak_check`).
+    unexplained_peaks : (m,) float array
+        Those with no chosen mode near them [Hz]: modes the identification missed.
     """
 
     orders: np.ndarray
@@ -116,6 +128,8 @@ class StabilisationDiagram:
     band: tuple
     mean_magnitude: np.ndarray
     band_frequencies: np.ndarray
+    peaks: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    unexplained_peaks: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 @dataclass(frozen=True)
@@ -209,7 +223,8 @@ def _identify(scan: ScanData, options: dict) -> Identification:
     # fraction of an SVD's cost for 252 channels x 800 lines)
     power, left = np.linalg.eigh(values[:, in_band] @ values[:, in_band].conj().T)
     power, left = power[::-1], left[:, ::-1]
-    keep = min(options["components"], int(np.sum(power > 1e-18 * power[0])))
+    keep = principal_count(options["components"], int(np.sum(power > 1e-18 * power[0])),
+                           scan.n_channels)
     if keep == 0 or not power[0] > 0:
         raise MeasuredDataError(f"scan file {scan.path}: every FRF is zero in "
                                 f"{f_low:g}-{f_high:g} Hz; allowed: a measured response")
@@ -222,13 +237,11 @@ def _identify(scan: ScanData, options: dict) -> Identification:
     # correlations of lags -n..n of a spectrum of F lines: n <= F - 2)
     lines = int(np.sum(frequencies <= f_high))
     half_order = min(options["max_order"] // 2, (lines - 2) // 2)
-    if half_order < 2:
-        raise MeasuredDataError(f"scan file {scan.path}: {lines} lines up to {f_high:g} Hz "
-                                "are not allowed for identification; allowed: at least 6")
     if half_order < options["max_order"] // 2:
         logger.info("LSCF order limited to %d by the %d lines", 2 * half_order, lines)
         options = {**options, "min_stable_orders": min(options["min_stable_orders"],
-                                                        max(2, round(0.2 * half_order)))}
+                                                        max(MIN_STABLE_ORDERS,
+                                                            round(0.2 * half_order)))}
     model = Model(frf=principal, freq=frequencies[frequencies <= f_high],
                   lower=float(frequencies[frequencies > 0][0]), upper=f_high,
                   pol_order_high=half_order, frf_form=frf_form)
@@ -240,8 +253,7 @@ def _identify(scan: ScanData, options: dict) -> Identification:
     logger.info("LSCF: %d orders on %d principal functions of %d channels (%.1f s)",
                 len(model.all_poles), keep, scan.n_channels, time.perf_counter() - started)
     diagram_poles = _physical_poles(model.all_poles, options)
-    tracks, status = _tracks(diagram_poles, options)
-    chosen = _choose(tracks, options)
+    chosen, status = choose_poles(diagram_poles, options)
     chosen = _refined(chosen, principal[:, frequencies[frequencies <= f_high] >= f_low].T,
                       band_frequencies, power, keep, scan.n_channels, frf_form, options)
     constants = np.zeros((scan.n_channels, 0), complex)
@@ -277,14 +289,99 @@ def _identify(scan: ScanData, options: dict) -> Identification:
         dampings=[p[1] for p in diagram_poles], status=status,
         chosen=np.array([[m.freq_hz, m.damping_ratio] for m in modes]).reshape(-1, 2),
         band=(f_low, f_high), mean_magnitude=np.mean(np.abs(values[:, in_band]), axis=0)
-        * scale, band_frequencies=band_frequencies)
+        * scale, band_frequencies=band_frequencies,
+        **_peak_check(scan, modes, band_frequencies, values[:, in_band]))
     logger.info("identified %d modes in %.1f s", len(modes), time.perf_counter() - started)
+    _warn_unresolved(scan, modes, float(frequencies[1] - frequencies[0]))
     return Identification(tuple(modes), diagram)
+
+
+def principal_count(components: int, rank: int, n_channels: int) -> int:
+    """How many principal response functions LSCF and the refinement are fed.
+
+    At most ``components`` and the FRF matrix's rank; and, with
+    :data:`MIN_NOISE_CHANNELS` channels or more, at most half the channels, so that as many
+    channels lie outside the principal functions as in them: their power is the noise the
+    refinement weighs a missed mode against (:mod:`pole_refinement`).  Without that
+    estimate no missed mode is added, and with few channels the diagram alone misses most:
+    the example scan's 34 out-of-plane records, 24 functions of 34 channels, gave 2 of its
+    ~17 modes in 150-850 Hz; 17 functions give all of them.  Fewer channels (a beam's
+    three) leave no room for noise beside the modes: all are kept and nothing is added.
+    """
+    keep = min(components, rank)
+    if n_channels >= MIN_NOISE_CHANNELS:
+        keep = min(keep, n_channels // 2)
+    return max(keep, 1) if rank else 0
+
+
+def _peak_check(scan, modes, band_frequencies, band_values) -> dict:
+    """The summed |H|'s peaks and those no mode explains (:mod:`peak_check`), with a
+    warning naming them: the modes there could not be found."""
+    from copdea_fem.vibrometer.peak_check import summed_peaks, unexplained_peaks
+
+    peaks = summed_peaks(band_frequencies, band_values)
+    missed = unexplained_peaks(peaks, [m.freq_hz for m in modes],
+                               float(band_frequencies[1] - band_frequencies[0]))
+    if missed.size:
+        logger.warning(
+            "scan file %s: %d modes identified, but the summed |H| of its %d channels has %d "
+            "peaks, %d of them with no mode near: %s Hz; the modes there could not be "
+            "found (too few channels, lines or modes too close?): check the stabilisation "
+            "diagram", scan.path, len(modes), scan.n_channels, peaks.size, missed.size,
+            ", ".join(f"{f:.1f}" for f in missed))
+    return {"peaks": peaks, "unexplained_peaks": missed}
+
+
+def _warn_unresolved(scan, modes, line_spacing: float) -> None:
+    """A warning naming the modes whose half-power width ``2 zeta f`` [Hz] is narrower than
+    the line spacing ``df`` [Hz]: the lines do not resolve their damping (a resonance falls
+    between two lines), so the damping ratio is a guess of the fit."""
+    narrow = [m for m in modes if 2 * m.damping_ratio * m.freq_hz < line_spacing]
+    if narrow:
+        logger.warning(
+            "scan file %s: the damping of %d modes is narrower than the line spacing "
+            "(2 zeta f < df = %.4g Hz), not resolved by the lines: %s", scan.path,
+            len(narrow), line_spacing, ", ".join(f"{m.freq_hz:.1f} Hz (zeta {m.damping_ratio:.2g})"
+                                                 for m in narrow))
+
+
+def condition_band(condition) -> tuple[float, float]:
+    """A measured condition's ``band:`` [Hz] within its scan's lines.
+
+    A band reaching past the scan's first line above 0 Hz or its last line is clipped to
+    them, with a warning naming the condition's ``band:``; a band that misses the lines
+    altogether is refused naming it.
+
+    Parameters
+    ----------
+    condition : copdea_fem.measured.Condition
+        With ``scan`` and ``band`` [Hz].
+
+    Returns
+    -------
+    (float, float)
+        f_min, f_max [Hz].
+    """
+    from copdea_fem.measured.errors import refusal
+
+    frequencies = np.asarray(condition.scan.frequencies, float)
+    first, last = float(frequencies[frequencies > 0][0]), float(frequencies[-1])
+    low, high = max(condition.band[0], first), min(condition.band[1], last)
+    if not low < high:
+        raise refusal(f"condition {condition.name!r} band", f"[{condition.band[0]:g} Hz, "
+                      f"{condition.band[1]:g} Hz]", f"a band overlapping the scan's lines "
+                      f"{first:g}..{last:g} Hz ({condition.scan.path})")
+    if (low, high) != tuple(condition.band):
+        logger.warning("condition %r: band: [%g Hz, %g Hz] reaches past the scan's lines "
+                       "%g..%g Hz (%s): identified in [%g Hz, %g Hz]", condition.name,
+                       condition.band[0], condition.band[1], first, last, condition.scan.path,
+                       low, high)
+    return low, high
 
 
 def _refined(chosen, data, band_frequencies, channel_power, keep, n_channels, frf_form, options):
     """The chosen poles refined and the missed ones added (:mod:`pole_refinement`)."""
-    from copdea_fem.vibrometer.pole_refinement import add_missing
+    from copdea_fem.vibrometer.pole_refinement import LEAST_DAMPING, add_missing
 
     f_low, f_high = options["band"]
     # the noise per complex value: the FRF matrix's power outside the principal functions
@@ -295,15 +392,27 @@ def _refined(chosen, data, band_frequencies, channel_power, keep, n_channels, fr
     scale = 2 * math.pi * f_high
     poles, added = add_missing(band_frequencies / f_high, data, chosen / scale,
                                {"receptance": 0, "mobility": 1, "accelerance": 2}[frf_form],
-                               (f_low / f_high, 1.0), options["max_damping"], noise)
+                               (f_low / f_high, 1.0), options["max_damping"], noise,
+                               hz_per_unit=f_high)
     poles = poles * scale
     zeta = -poles.real / np.abs(poles)
     frequency = poles.imag / (2 * math.pi)
-    # a pole the fit pressed against a band edge is an out-of-band mode's tail, not a mode
-    inside = (frequency > f_low * (1 + 1e-6)) & (frequency < f_high * (1 - 1e-6))
-    logger.info("poles refined, %d added, %d at a band edge dropped", added,
-                int(np.sum(~inside)))
-    return poles[(zeta > 0) & (zeta <= options["max_damping"]) & inside]
+    # a pole pressed against the fit's least damping is a spike between two lines fitted to
+    # model error, not a resonance the lines resolve
+    resolved = zeta > 2 * LEAST_DAMPING
+    # a pole the fit pressed against a band edge, or nearest the band's first or last line,
+    # is an out-of-band mode's tail or not resolved by the band (no line beyond it): not a
+    # mode
+    half_line = 0.5 * float(band_frequencies[1] - band_frequencies[0])
+    inside = ((frequency > max(f_low * (1 + 1e-6), band_frequencies[0] + half_line))
+              & (frequency < min(f_high * (1 - 1e-6), band_frequencies[-1] - half_line)))
+    logger.info("poles refined, %d added, %d on a band edge's line dropped%s", added,
+                int(np.sum(~inside)), "".join(f" ({f:.1f} Hz)" for f in frequency[~inside]
+                                              if f_low <= f <= f_high))
+    if np.any(~resolved):
+        logger.info("%d poles at the fit's least damping dropped: %s", int(np.sum(~resolved)),
+                    ", ".join(f"{f:.1f} Hz" for f in frequency[~resolved]))
+    return poles[resolved & (zeta <= options["max_damping"]) & inside]
 
 
 def _options(scan, f_min, f_max, max_order, components, frequency_tolerance,
@@ -333,7 +442,22 @@ def _options(scan, f_min, f_max, max_order, components, frequency_tolerance,
                              "damping_tolerance": damping_tolerance, "max_damping": max_damping,
                              "min_stable_orders": min_stable_orders})
     options["band"] = (low, high)
+    # a short record leaves too few orders for a pole's stability to be evidence (15 lines:
+    # 6 orders, stable over 2 of them, gave 5 modes, two where there is none): refused
+    lines = int(np.sum((frequencies > 0) & (frequencies <= high)))
+    if min(options["max_order"] // 2, (lines - 2) // 2) < MIN_ORDERS:
+        raise MeasuredDataError(
+            f"scan file {scan.path}: {lines} lines up to {high:g} Hz are not allowed for "
+            f"identification (too short a record: LSCF's order is at most the lines - 2, and "
+            f"the stabilisation diagram needs {MIN_ORDERS} orders); allowed: at least "
+            f"{2 * MIN_ORDERS + 2} lines from the first above 0 Hz to f_max")
     return options
+
+
+def check_scan(scan: ScanData, *, f_min=None, f_max=None, **options) -> None:
+    """Refuse, before any work, a scan or band :func:`identify_scan` would refuse (its
+    parameters): a :class:`MeasuredDataError` naming the file and what is allowed."""
+    _options(scan, f_min, f_max, *(options.get(name) for name in DEFAULTS))
 
 
 def check_options(values: dict) -> dict:
@@ -369,6 +493,29 @@ def _physical_poles(all_poles, options) -> list:
         order = np.argsort(frequency[keep])
         out.append((frequency[keep][order], damping[keep][order], poles[keep][order]))
     return out
+
+
+def choose_poles(diagram_poles, options) -> tuple[np.ndarray, list]:
+    """The automatic choice (module notes, step 2).
+
+    Parameters
+    ----------
+    diagram_poles : list of (frequency, damping, pole) arrays
+        Per model order: the damped frequencies [Hz], damping ratios [-] and the poles
+        [rad/s] of the physical poles, ascending in frequency.
+    options : dict
+        :func:`check_options`'s (``frequency_tolerance``, ``damping_tolerance``,
+        ``min_stable_orders``).
+
+    Returns
+    -------
+    chosen : (N,) complex array
+        The chosen modes' poles [rad/s].
+    status : list of (n_k,) int arrays
+        Each pole's NEW, FREQUENCY_STABLE or STABLE.
+    """
+    tracks, status = _tracks(diagram_poles, options)
+    return _choose(tracks, options), status
 
 
 def _tracks(diagram_poles, options):
@@ -467,7 +614,8 @@ def write_identified(folder, sets) -> None:
 
 def plot_stabilisation(path, diagram: StabilisationDiagram, title: str = "") -> None:
     """PNG of the stabilisation diagram: every order's poles (o new, f frequency-stable,
-    filled: stable), the chosen modes as vertical lines, the mean |H| behind (log scale).
+    filled: stable), the chosen modes as vertical lines (dashed orange: the summed |H|'s
+    peaks no mode explains), the mean |H| behind (log scale).
 
     Drawn on matplotlib's Agg canvas, not through pyplot (as :mod:`copdea_fem.output.plots`).
     """
@@ -492,6 +640,9 @@ def plot_stabilisation(path, diagram: StabilisationDiagram, title: str = "") -> 
         axis.scatter(x, y, **style)
     for frequency, _ in diagram.chosen:
         axis.axvline(frequency, color="k", lw=0.6, alpha=0.5)
+    for index, frequency in enumerate(diagram.unexplained_peaks):
+        axis.axvline(frequency, color="tab:orange", lw=1.2, ls="--",
+                     label="peak of the summed |H| without a mode" if index == 0 else None)
     axis.set_xlim(*diagram.band)
     axis.set_xlabel("frequency [Hz]")
     axis.set_ylabel("model order")
@@ -507,13 +658,18 @@ def plot_stabilisation(path, diagram: StabilisationDiagram, title: str = "") -> 
 __all__ = [
     "DEFAULTS",
     "IDENTIFIED_COLUMNS",
+    "MIN_NOISE_CHANNELS",
     "OPTIONS",
     "Identification",
     "StabilisationDiagram",
+    "check_scan",
+    "choose_poles",
+    "condition_band",
     "identified_rows",
     "identify",
     "identify_scan",
     "modal_phase_collinearity",
     "plot_stabilisation",
+    "principal_count",
     "write_identified",
 ]

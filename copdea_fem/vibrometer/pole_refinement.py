@@ -51,6 +51,9 @@ ADD_SIGNIFICANCE = 8.0
 ENERGY_FLOOR = 1e-6
 #: Damping ratios of the candidate poles of the search (the membrane's 0.5-2 %).
 CANDIDATE_DAMPINGS = (0.003, 0.007, 0.015, 0.03)
+#: The least damping ratio a refined pole may take (the fit's bound; a pole there is a
+#: spike between two lines, not a resolved resonance).
+LEAST_DAMPING = 1e-5
 #: Modes added to one scan at most.
 MAX_ADDED = 24
 
@@ -163,7 +166,7 @@ def refine(omega, data, poles, power, band, max_damping, free=None):
 
     start = fixed
     low = np.column_stack([np.full(poles.size, band[0]),
-                           np.log(1e-5 * np.abs(poles))]).ravel()
+                           np.log(LEAST_DAMPING * np.abs(poles))]).ravel()
     high = np.column_stack([np.full(poles.size, band[1]),
                             np.log(max_damping * np.abs(poles) * 1.5)]).ravel()
     start = np.clip(start, low + 1e-9 * np.abs(low), high - 1e-9 * np.abs(high))[mask]
@@ -177,18 +180,21 @@ def refine(omega, data, poles, power, band, max_damping, free=None):
     return _poles(full(result.x))
 
 
-def add_missing(omega, data, poles, power, band, max_damping, noise_variance):
+def add_missing(omega, data, poles, power, band, max_damping, noise_variance, hz_per_unit=None):
     """``poles`` refined, with the modes the diagram missed added (module notes).
 
     Parameters as :func:`refine`; ``noise_variance`` [data unit^2] per complex value
     (None: unknown, no mode is added - a few channels leave no space for noise alone
     beside the modes', and without the noise's size an added pole fits model error: on
-    three measured beam FRFs, eleven such poles).
+    three measured beam FRFs, eleven such poles).  ``hz_per_unit``: Hz per unit of
+    ``omega`` / (2 pi) - the progress lines give the poles' frequencies in Hz (default:
+    ``omega`` in rad/s).
 
     Returns
     -------
     (poles, added) : ((n,) complex array, int)
     """
+    hz_per_unit = 1.0 / (2 * math.pi) if hz_per_unit is None else hz_per_unit
     energy = float(np.sum(np.abs(data) ** 2))
     poles = refine(omega, data, poles, power, band, max_damping)
     cost = _cost(omega, data, poles, power)
@@ -220,15 +226,16 @@ def add_missing(omega, data, poles, power, band, max_damping, noise_variance):
         zeta = -trial.real / np.abs(trial)
         if cost - trial_cost <= threshold or np.any(zeta > max_damping):
             break
-        logger.info("pole added at %.4g (damping %.3g): cost %.3g -> %.3g (threshold %.3g)",
-                    trial[-1].imag, zeta[-1], cost, trial_cost, threshold)
+        logger.info("pole added at %.1f Hz (damping %.3g): cost %.3g -> %.3g (threshold "
+                    "%.3g)", trial[-1].imag * hz_per_unit, zeta[-1], cost, trial_cost,
+                    threshold)
         poles, cost, added = trial, trial_cost, added + 1
     if added:
         poles = refine(omega, data, poles, power, band, max_damping)
-    return _pruned(omega, data, poles, power, threshold), added
+    return _pruned(omega, data, poles, power, threshold, hz_per_unit), added
 
 
-def _pruned(omega, data, poles, power, threshold):
+def _pruned(omega, data, poles, power, threshold, hz_per_unit):
     """``poles`` without those whose removal raises the cost by less than ``threshold``
     (the residues refitted; the least needed one first, one at a time)."""
     cost = _cost(omega, data, poles, power)
@@ -238,8 +245,8 @@ def _pruned(omega, data, poles, power, threshold):
         weakest = int(np.argmin(increases))
         if increases[weakest] > threshold:
             break
-        logger.info("pole at %.4g removed: the cost rises by %.3g only (threshold %.3g)",
-                    poles[weakest].imag, increases[weakest], threshold)
+        logger.info("pole at %.1f Hz removed: the cost rises by %.3g only (threshold %.3g)",
+                    poles[weakest].imag * hz_per_unit, increases[weakest], threshold)
         poles = np.delete(poles, weakest)
         cost += increases[weakest]
     return poles
