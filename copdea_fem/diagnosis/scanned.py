@@ -7,7 +7,7 @@ resonance list from it:
 1. its modes are identified (:func:`copdea_fem.vibrometer.identification.identify`, in the
    condition's band; nothing from the FE): frequency, damping ratio zeta, shape; a mode
    set's modes are the file's, within the band
-   (:func:`copdea_fem.vibrometer.identified.modes_of_set`);
+   (:func:`copdea_fem.vibrometer.given_modes.modes_of_set`);
 2. they are paired by shape with the base model's FE modes at that condition
    (:func:`copdea_fem.vibrometer.model_shapes.fe_shapes`, the FE the diagnosis runs:
    :func:`scan_fe_study`; one-to-one, largest total MAC within the ``pairing:`` window,
@@ -92,7 +92,7 @@ def condition_test_modes(condition) -> tuple:
     """
     low, high = condition.band
     if condition.mode_set is not None:
-        from copdea_fem.vibrometer.identified import modes_of_set
+        from copdea_fem.vibrometer.given_modes import modes_of_set
         return modes_of_set(condition.mode_set, low, high), condition.mode_set.channels
     from copdea_fem.vibrometer.identification import identify
     return identify(condition.scan, f_min=low, f_max=high), condition.scan

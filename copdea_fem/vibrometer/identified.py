@@ -47,21 +47,6 @@ class IdentifiedSet:
     diagram: object = None
 
 
-def modes_of_set(mode_set, f_min: float = 0.0, f_max: float = float("inf")
-                 ) -> tuple[IdentifiedMode, ...]:
-    """The modes another program identified (:class:`copdea_fem.measured.mode_sets.
-    MeasuredModes`) within ``[f_min, f_max]`` [Hz], as test modes along the set's channels
-    (numbered 1.. in order of frequency; the MPC of each shape as for an identified one)."""
-    from copdea_fem.vibrometer.identification import modal_phase_collinearity
-
-    kept = [k for k in range(mode_set.n_modes) if f_min <= mode_set.freq_hz[k] <= f_max]
-    return tuple(IdentifiedMode(test_mode=number, freq_hz=float(mode_set.freq_hz[k]),
-                                damping_ratio=float(mode_set.damping_ratio[k]),
-                                shape=mode_set.shapes[:, k],
-                                mpc=modal_phase_collinearity(mode_set.shapes[:, k]))
-                 for number, k in enumerate(kept, 1))
-
-
 def point_vectors(scan: ScanData, shape: np.ndarray) -> np.ndarray:
     """(P, 3) complex vector per point of a channel-wise shape: the least-squares (minimum
     norm) solution of ``d_c . v = shape_c`` over the point's channels (one channel of a
@@ -104,5 +89,4 @@ def shape_meshes(scan: ScanData, modes: tuple[IdentifiedMode, ...]):
     return out
 
 
-__all__ = ["IdentifiedMode", "IdentifiedSet", "modes_of_set", "point_vectors", "scan_surface",
-           "shape_meshes"]
+__all__ = ["IdentifiedMode", "IdentifiedSet", "point_vectors", "scan_surface", "shape_meshes"]
