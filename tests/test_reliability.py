@@ -1570,3 +1570,33 @@ def test_synth_uff_refuses_a_bad_frequency_noise(work, capsys):
     line = refused(["synth", SCAN_EXAMPLE / "base_study.yaml", "--format", "uff",
                     "--frequency-noise", "nan", "--out", work / "synth"], work, capsys)
     assert "frequency_noise = nan is not allowed" in line
+
+
+# ------------------------------------------------------------------ correlate on too few points
+
+def test_correlate_on_one_scan_point_warns_that_shapes_are_not_told_apart(tmp_path, capsys):
+    """The bundled scan cut to one point (3 channels): the pairs are written (exit 0) but
+    every one is marked (pairs.csv fe_auto_mac >= the pairing's mac_min) and a warning
+    says the channels cannot tell the shapes apart; the full scan has no such warning."""
+    import csv
+    import dataclasses
+
+    from copdea_fem.measured import read_scan, write_scan
+
+    scan = read_scan(SCAN_EXAMPLE / "z16_v2.uff")
+    channels = np.flatnonzero(scan.channel_point == 0)
+    one = dataclasses.replace(scan, nodes=scan.nodes[:1], positions=scan.positions[:1],
+                              channel_point=scan.channel_point[channels],
+                              channel_direction=scan.channel_direction[channels],
+                              values=scan.values[channels])
+    data = tmp_path / "data"
+    shutil.copytree(SCAN_EXAMPLE, data)
+    write_scan(data / "z16_v2.uff", one)
+    assert main(["correlate", str(data / "measured.yaml"), "--out", str(tmp_path / "pairs"),
+                 "--quiet"]) == 0
+    error = capsys.readouterr().err
+    assert "z16_v2: the measured channels cannot tell the FE's shapes apart" in error, error
+    with open(tmp_path / "pairs" / "pairs.csv", newline="") as stream:
+        rows = [row for row in csv.DictReader(stream) if row["label"]]
+    assert rows and all(float(row["fe_auto_mac"]) >= 0.5 for row in rows)
+    assert "cannot tell the FE's shapes apart" in (tmp_path / "pairs" / "report.md").read_text()

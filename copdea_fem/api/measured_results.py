@@ -431,7 +431,8 @@ class CorrelateResult:
         rows = [{"condition": c.condition, "test_mode": p.test_mode,
                  "test_freq_hz": p.test_freq_hz, "test_damping_ratio": p.test_damping_ratio,
                  "label": p.label, "fe_freq_hz": p.fe_freq_hz, "freq_error": p.freq_error,
-                 "mac": p.mac} for c in self.correlations for p in c.pairs]
+                 "mac": p.mac, "fe_auto_mac": p.fe_auto_mac}
+                for c in self.correlations for p in c.pairs]
         return data_frame(rows, PAIR_COLUMNS)
 
     def write(self, folder: str | Path | Claim) -> Path:
