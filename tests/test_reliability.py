@@ -562,7 +562,35 @@ CASES = [
     Case("reduced_modal with a membrane loss", 3, "response.method = 'reduced_modal' is not "
          "allowed", argv=("check", QUICK, "--set", "response.method=reduced_modal", "--set",
                           "membrane.loss_factor=0.01")),
+    # a condition's mode set (modes: FILE, dataset 55) in measured.yaml
+    Case("modes beside scan in one condition", 2, "conditions[0].modes = 'z16_v2.uff' is not "
+         "allowed; allowed: scan: or modes:, not both",
+         argv=("correlate", "{work}/data/measured.yaml", "--out", "{work}/pairs"),
+         setup=lambda work: _scan_condition(work, "  scan: z16_v2.uff",
+                                            "  scan: z16_v2.uff\n  modes: z16_v2.uff")),
+    Case("modes naming a file of FRFs", 4, "dataset 55: no mode shape (no dataset 55) is not "
+         "allowed", argv=("diagnose", "{work}/data/measured.yaml", "--out", "{work}/d"),
+         setup=lambda work: _scan_condition(work, "  scan: z16_v2.uff", "  modes: z16_v2.uff")),
+    Case("modes naming a missing file", 4, "the file does not exist",
+         argv=("correlate", "{work}/data/measured.yaml", "--out", "{work}/pairs"),
+         setup=lambda work: _scan_condition(work, "  scan: z16_v2.uff", "  modes: gone.unv")),
+    Case("modes with scan_directions", 2, "conditions[0].scan_directions = [0, 0, 1] is not "
+         "allowed; allowed: only beside scan: FILE (a mode set's shapes lie along the file's "
+         "axes)", argv=("correlate", "{work}/data/measured.yaml", "--out", "{work}/pairs"),
+         setup=lambda work: _scan_condition(work, "  scan: z16_v2.uff", "  modes: modes.unv\n"
+                                            "  scan_directions: [0, 0, 1]")),
 ]
+
+
+def _scan_condition(work, old, new):
+    """The bundled scan example in ``work/data`` with its condition's line ``old`` made
+    ``new``."""
+    data = work / "data"
+    shutil.copytree(ROOT / "studies" / "measured_scan_example", data)
+    manifest = data / "measured.yaml"
+    text = manifest.read_text()
+    assert text.count(old) == 1
+    manifest.write_text(text.replace(old, new))
 
 
 def _section_replaced():

@@ -239,7 +239,7 @@ class ShapeCheck:
                 study = scan_fe_study(self.measured, condition, state)
                 out[condition.name] = correlate_identified(
                     condition.name, pairing.modes, fe_shapes(study, pairing.scan),
-                    window=self.window, mac_min=self.mac_min)
+                    window=self.window, mac_min=self.mac_min, warn=False)   # said once
             self._cache[key] = out
         return self._cache[key]
 
