@@ -674,6 +674,23 @@ CASES = [
          "1000 Hz]' is not allowed", argv=("identify", "{work}/scan/measured.yaml", "--out",
                                            "{work}/i"),
          setup=lambda work: example_copy(work, band=(900, 1000))),
+    # a condition's mode set (modes: FILE, dataset 55) in measured.yaml
+    Case("modes beside scan in one condition", 2, "conditions[0].modes = 'z16_v2.uff' is not "
+         "allowed; allowed: scan: or modes:, not both",
+         argv=("correlate", "{work}/data/measured.yaml", "--out", "{work}/pairs"),
+         setup=lambda work: _scan_condition(work, "  scan: z16_v2.uff",
+                                            "  scan: z16_v2.uff\n  modes: z16_v2.uff")),
+    Case("modes naming a file of FRFs", 4, "dataset 55: no mode shape (no dataset 55) is not "
+         "allowed", argv=("diagnose", "{work}/data/measured.yaml", "--out", "{work}/d"),
+         setup=lambda work: _scan_condition(work, "  scan: z16_v2.uff", "  modes: z16_v2.uff")),
+    Case("modes naming a missing file", 4, "the file does not exist",
+         argv=("correlate", "{work}/data/measured.yaml", "--out", "{work}/pairs"),
+         setup=lambda work: _scan_condition(work, "  scan: z16_v2.uff", "  modes: gone.unv")),
+    Case("modes with scan_directions", 2, "conditions[0].scan_directions = [0, 0, 1] is not "
+         "allowed; allowed: only beside scan: FILE (a mode set's shapes lie along the file's "
+         "axes)", argv=("correlate", "{work}/data/measured.yaml", "--out", "{work}/pairs"),
+         setup=lambda work: _scan_condition(work, "  scan: z16_v2.uff", "  modes: modes.unv\n"
+                                            "  scan_directions: [0, 0, 1]")),
 ]
 
 
@@ -681,6 +698,17 @@ def _modes_found(measured) -> str:
     """``identify`` on a measured.yaml: whether at least 10 modes were found."""
     count = len(_api().identify(measured).sets[0].modes)
     return f"modes found: {'at least 10' if count >= 10 else count}"
+
+
+def _scan_condition(work, old, new):
+    """The bundled scan example in ``work/data`` with its condition's line ``old`` made
+    ``new``."""
+    data = work / "data"
+    shutil.copytree(ROOT / "studies" / "measured_scan_example", data)
+    manifest = data / "measured.yaml"
+    text = manifest.read_text()
+    assert text.count(old) == 1
+    manifest.write_text(text.replace(old, new))
 
 
 def _section_replaced():
@@ -1688,3 +1716,33 @@ def test_synth_uff_refuses_a_bad_frequency_noise(work, capsys):
     line = refused(["synth", SCAN_EXAMPLE / "base_study.yaml", "--format", "uff",
                     "--frequency-noise", "nan", "--out", work / "synth"], work, capsys)
     assert "frequency_noise = nan is not allowed" in line
+
+
+# ------------------------------------------------------------------ correlate on too few points
+
+def test_correlate_on_one_scan_point_warns_that_shapes_are_not_told_apart(tmp_path, capsys):
+    """The bundled scan cut to one point (3 channels): the pairs are written (exit 0) but
+    every one is marked (pairs.csv fe_auto_mac >= the pairing's mac_min) and a warning
+    says the channels cannot tell the shapes apart; the full scan has no such warning."""
+    import csv
+    import dataclasses
+
+    from copdea_fem.measured import read_scan, write_scan
+
+    scan = read_scan(SCAN_EXAMPLE / "z16_v2.uff")
+    channels = np.flatnonzero(scan.channel_point == 0)
+    one = dataclasses.replace(scan, nodes=scan.nodes[:1], positions=scan.positions[:1],
+                              channel_point=scan.channel_point[channels],
+                              channel_direction=scan.channel_direction[channels],
+                              values=scan.values[channels])
+    data = tmp_path / "data"
+    shutil.copytree(SCAN_EXAMPLE, data)
+    write_scan(data / "z16_v2.uff", one)
+    assert main(["correlate", str(data / "measured.yaml"), "--out", str(tmp_path / "pairs"),
+                 "--quiet"]) == 0
+    error = capsys.readouterr().err
+    assert "z16_v2: the measured channels cannot tell the FE's shapes apart" in error, error
+    with open(tmp_path / "pairs" / "pairs.csv", newline="") as stream:
+        rows = [row for row in csv.DictReader(stream) if row["label"]]
+    assert rows and all(float(row["fe_auto_mac"]) >= 0.5 for row in rows)
+    assert "cannot tell the FE's shapes apart" in (tmp_path / "pairs" / "report.md").read_text()

@@ -38,7 +38,8 @@ ROOT = Path(__file__).resolve().parent.parent
 COPIED = ("copdea_fem", "tests", "studies", "meshes", "pyproject.toml", "README.md")
 #: The test files that kill most physics mutations, run first (the rest follow in
 #: name order): with -x a killed mutation then costs seconds to a minute, not the suite.
-FIRST = ("tests/fe/test_materials.py", "tests/fe/test_damping.py", "tests/fe/test_coupled_references.py",
+FIRST = ("tests/test_mac.py",
+         "tests/fe/test_materials.py", "tests/fe/test_damping.py", "tests/fe/test_coupled_references.py",
          "tests/fe/test_axisymmetric.py",
          "tests/fe/test_acoustics.py", "tests/fe/test_coupled.py", "tests/fe/test_symmetry.py",
          "tests/fe/test_dry_modes.py", "tests/fe/test_prestress.py", "tests/test_damping_fit.py",
@@ -282,6 +283,11 @@ MUTATIONS = (
              "damping_ok = abs(damping[i] - last_d) / last_d < d_tol",
              "damping_ok = abs(damping[i] - last_d) < d_tol",
              "stabilisation diagram: the damping's stability check absolute, not relative"),
+    Mutation("mac_without_conjugate", "copdea_fem/mac.py",
+             "    cross = a.conj().T @ weighted_b",
+             "    cross = a.T @ weighted_b",
+             "MAC: the complex conjugate of the first shape left out (measured shapes, the "
+             "sweeps' tracking)"),
 )
 
 

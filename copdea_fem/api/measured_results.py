@@ -472,23 +472,26 @@ class FileIdentifyResult:
 def correlate(measured: MeasuredSet | str | Path, *, allow_large: bool = False,
               progress: Callable[[str], None] | None = None,
               out: str | Path | Claim | Output | None = None) -> CorrelateResult:
-    """Pair the modes identified in each condition's scan with the FE's by shape
-    (``copdea-fem correlate``, nothing written).
+    """Pair the modes identified in each condition's scan (or given by its mode set) with
+    the FE's by shape (``copdea-fem correlate``, nothing written).
 
-    For each condition of ``measured`` with a ``scan:``: the modes are identified
-    (:func:`copdea_fem.vibrometer.identification.identify`, in the condition's band), the base
-    study at the condition is solved (the FE band reaching the pairing window past the
-    condition's, as :func:`solve` solves: the resource guard first, a failed solve a
-    :class:`SolveFailed`), its structural modes sampled at the scan points along the measured
-    directions (:mod:`copdea_fem.vibrometer.sampling`) and paired one-to-one by shape
-    (:func:`copdea_fem.vibrometer.pairing.correlate_shapes`, measured.yaml's
-    ``pairing:`` window and smallest MAC).
+    For each condition of ``measured`` with a ``scan:`` or ``modes:``: the modes are
+    identified (:func:`copdea_fem.vibrometer.identification.identify`, in the condition's
+    band) or taken from the mode set (dataset 55, within the band), the base study at the
+    condition is solved as the diagnosis solves it
+    (:func:`copdea_fem.diagnosis.scanned.scan_fe_study`: the FE band reaching the pairing
+    window past the condition's; solved as :func:`solve` solves: the resource guard first, a
+    failed solve a :class:`SolveFailed`), its structural modes sampled at the measured
+    points along the measured directions (:mod:`copdea_fem.vibrometer.sampling`) and paired
+    one-to-one by shape (:func:`copdea_fem.vibrometer.pairing.correlate_shapes`,
+    measured.yaml's ``pairing:`` window and smallest MAC): the pairing :func:`diagnose`
+    uses (:func:`copdea_fem.diagnosis.scanned.pair_condition`).
 
     Parameters
     ----------
     measured : MeasuredSet, str or Path
         From :func:`load_measured`, or a measured.yaml; at least one condition that names a
-        scan file.
+        scan file or a mode set.
     allow_large : bool, default False
         Start even when a condition's FE problem is estimated above the size limit.
     progress : callable(str), optional
@@ -507,7 +510,8 @@ def correlate(measured: MeasuredSet | str | Path, *, allow_large: bool = False,
     ------
     StudyError
         A bad measured.yaml, scan file or base study
-        (:class:`~copdea_fem.measured.MeasuredDataError`), no condition with a scan, or a
+        (:class:`~copdea_fem.measured.MeasuredDataError`), no condition with a scan or a
+        mode set, or a
         condition's problem above the size limit (without ``allow_large``; before any
         work).
     SolveFailed
@@ -515,21 +519,21 @@ def correlate(measured: MeasuredSet | str | Path, *, allow_large: bool = False,
     PrestressError
         A condition's prestress (Newton) solve failed.
     """
+    from copdea_fem.diagnosis.scanned import pair_condition, scan_fe_study
     from copdea_fem.measured import MeasuredDataError
-    from copdea_fem.vibrometer.identification import check_scan, condition_band, identify
-    from copdea_fem.vibrometer.model_shapes import correlate_identified, fe_shapes
+    from copdea_fem.vibrometer.identification import check_scan, condition_band
 
     measured = as_measured(measured)
-    scanned = [c for c in measured.conditions if c.scan is not None]
+    scanned = [c for c in measured.conditions if c.shapes_measured]
     if not scanned:
         raise MeasuredDataError(f"{measured.path or measured.name}: no condition names a "
-                                "scan; allowed: conditions with scan: FILE.uff")
-    settings = measured.pairing
-    studies = [measured.study_of(condition).replace(
-        {"eigen.f_max": condition.band[1] * (1 + settings.window)}) for condition in scanned]
-    bands = [condition_band(condition) for condition in scanned]
-    for condition, (f_min, f_max) in zip(scanned, bands):
-        check_scan(condition.scan, f_min=f_min, f_max=f_max)        # before any work
+                                "scan or a mode set; allowed: conditions with scan: FILE.uff "
+                                "or modes: FILE.unv")
+    studies = [scan_fe_study(measured, condition) for condition in scanned]
+    for condition in scanned:                           # before any work
+        if condition.scan is not None:
+            f_min, f_max = condition_band(condition)
+            check_scan(condition.scan, f_min=f_min, f_max=f_max)
     for study in studies:
         check_size(study, allow_large)                 # every condition's, before any work
     correlations, scans = [], []
@@ -537,17 +541,13 @@ def correlate(measured: MeasuredSet | str | Path, *, allow_large: bool = False,
                                for path in condition.files.values())]
     with claiming(out, "correlate", inputs, Path("results") / f"correlate_{measured.name}") \
             as folder, reporting_to(progress):
-        for condition, study, (f_min, f_max) in zip(scanned, studies, bands):
-            logger.info("correlate %s: identify the scan's modes", condition.name)
-            modes = identify(condition.scan, f_min=f_min, f_max=f_max)
-            logger.info("correlate %s: %d modes identified; FE modes at the scan points",
-                        condition.name, len(modes))
-            model = fe_shapes(study, condition.scan,
-                              solve=functools.partial(solve_checked, allow_large=allow_large))
-            correlations.append(correlate_identified(condition.name, modes, model,
-                                                     window=settings.window,
-                                                     mac_min=settings.mac_min))
-            scans.append(condition.scan)
+        for condition in scanned:
+            logger.info("correlate %s: the test modes, the FE's at the measured points",
+                        condition.name)
+            pairing = pair_condition(measured, condition, solve=functools.partial(
+                solve_checked, allow_large=allow_large))
+            correlations.append(pairing.correlation)
+            scans.append(pairing.scan)
         result = CorrelateResult(measured, tuple(correlations), tuple(scans))
         if folder is not None:
             result.write(folder)
@@ -589,7 +589,8 @@ class CorrelateResult:
         rows = [{"condition": c.condition, "test_mode": p.test_mode,
                  "test_freq_hz": p.test_freq_hz, "test_damping_ratio": p.test_damping_ratio,
                  "label": p.label, "fe_freq_hz": p.fe_freq_hz, "freq_error": p.freq_error,
-                 "mac": p.mac} for c in self.correlations for p in c.pairs]
+                 "mac": p.mac, "fe_auto_mac": p.fe_auto_mac}
+                for c in self.correlations for p in c.pairs]
         return data_frame(rows, PAIR_COLUMNS)
 
     def write(self, folder: str | Path | Claim) -> Path:

@@ -166,7 +166,7 @@ def diagnose_measured(measured, alpha: float = 0.05, model: str | None = None,
     if model is not None:
         measured = dataclasses.replace(measured, model=model)
     pairings = ()
-    if any(c.scan is not None and c.resonances is None for c in measured.conditions):
+    if any(c.shapes_measured and c.resonances is None for c in measured.conditions):
         from copdea_fem.diagnosis.scanned import resonances_from_scans
         measured, pairings = resonances_from_scans(measured)
     engine = None

@@ -1,13 +1,17 @@
-"""Vibrometer scans as the diagnosis's measured peaks: identified, and labelled by shape.
+"""Vibrometer scans and mode sets as the diagnosis's measured peaks: identified, and
+labelled by shape.
 
-A condition with a ``scan:`` and no ``resonances:`` gets its resonance list from the scan:
+A condition with a ``scan:`` (or a ``modes:`` mode set) and no ``resonances:`` gets its
+resonance list from it:
 
 1. its modes are identified (:func:`copdea_fem.vibrometer.identification.identify`, in the
-   condition's band; nothing from the FE): frequency, damping ratio zeta, shape;
+   condition's band; nothing from the FE): frequency, damping ratio zeta, shape; a mode
+   set's modes are the file's, within the band
+   (:func:`copdea_fem.vibrometer.given_modes.modes_of_set`);
 2. they are paired by shape with the base model's FE modes at that condition
    (:func:`copdea_fem.vibrometer.model_shapes.fe_shapes`, the FE the diagnosis runs:
-   :func:`copdea_fem.diagnosis.fe.fe_study`; one-to-one, largest total MAC within the
-   ``pairing:`` window, :mod:`copdea_fem.vibrometer.pairing`);
+   :func:`scan_fe_study`; one-to-one, largest total MAC within the ``pairing:`` window,
+   :mod:`copdea_fem.vibrometer.pairing`);
 3. each test mode becomes a resonance: its frequency, ``Q = 1 / (2 zeta)`` (the half-power
    quality factor of a lightly damped mode), and the *label of the FE mode its shape
    matches* (with the kind that label implies).  A labelled peak pairs only with the model
@@ -22,6 +26,9 @@ A condition with a ``scan:`` and no ``resonances:`` gets its resonance list from
    unpaired test modes are unlabelled peaks of unknown kind.
 
 The correlations are kept (:class:`ScanPairing`) for the report (the MAC of each pair).
+Steps 1 and 2 are :func:`pair_condition`, which ``copdea-fem correlate`` calls as well: one
+FE study (:func:`scan_fe_study`) and one pairing, so that pairs.csv and the diagnosis's
+report give the same labels and the same FE frequencies.
 """
 
 from __future__ import annotations
@@ -43,9 +50,87 @@ class ScanPairing:
     condition: str
     correlation: object            # copdea_fem.vibrometer.pairing.Correlation
     resonances: tuple
-    modes: tuple = ()              # the identified modes (IdentifiedMode)
-    scan: object = None            # the condition's ScanData
+    modes: tuple = ()              # the test modes (IdentifiedMode): identified, or a mode set's
+    scan: object = None            # their channels: the scan, or the mode set's (ScanData)
     f_max: float = math.nan        # top of the FE band [Hz]
+
+
+def pairing_settings(measured: MeasuredSet) -> tuple[float, float]:
+    """The pairing's relative frequency window and smallest MAC: measured.yaml's
+    ``pairing:``, else :mod:`copdea_fem.vibrometer.pairing`'s defaults."""
+    from copdea_fem.vibrometer.pairing import DEFAULT_MAC_MIN, DEFAULT_WINDOW
+
+    settings = measured.pairing
+    if settings is None:
+        return DEFAULT_WINDOW, DEFAULT_MAC_MIN
+    return settings.window, settings.mac_min
+
+
+def scan_fe_study(measured: MeasuredSet, condition, state=None):
+    """The FE study the measured shapes of ``condition`` are paired with: the base study at
+    the condition (with the diagnosis ``state``'s effects on, when given) as the diagnosis's
+    FE solves it (:func:`copdea_fem.diagnosis.fe.fe_study`: in vacuo on the axisymmetric
+    engine, the frame and the enclosure acting only through the air), its band reaching
+    the pairing window past the condition's, ``f_max = f_high (1 + window)`` [Hz]."""
+    from copdea_fem.diagnosis.fe import fe_study
+
+    study = measured.study_of(condition)
+    if state:
+        from copdea_fem.diagnosis.ring_predictor import state_overrides
+        study = study.replace(state_overrides(study, state))
+    window, _ = pairing_settings(measured)
+    return fe_study(study, f_max=condition.band[1] * (1 + window))
+
+
+def condition_test_modes(condition) -> tuple:
+    """The test modes of a condition and the channels they lie on: a scan's modes
+    identified in the band (nothing from the FE), or a mode set's modes in the band.
+
+    Returns
+    -------
+    (tuple of IdentifiedMode, ScanData)
+    """
+    low, high = condition.band
+    if condition.mode_set is not None:
+        from copdea_fem.vibrometer.given_modes import modes_of_set
+        return modes_of_set(condition.mode_set, low, high), condition.mode_set.channels
+    from copdea_fem.vibrometer.identification import condition_band, identify
+    low, high = condition_band(condition)
+    return identify(condition.scan, f_min=low, f_max=high), condition.scan
+
+
+def pair_condition(measured: MeasuredSet, condition, *, solve=None) -> ScanPairing:
+    """One condition's test modes (:func:`condition_test_modes`) paired by shape with the FE's
+    (:func:`scan_fe_study`, :func:`copdea_fem.vibrometer.model_shapes.fe_shapes`): the
+    pairing of both ``correlate`` and ``diagnose``.
+
+    Parameters
+    ----------
+    measured : MeasuredSet
+    condition : Condition
+        A condition with a scan or a mode set.
+    solve : callable, optional
+        ``solve(study) -> SolveResult`` (default: the study's engine,
+        :func:`copdea_fem.vibrometer.model_shapes.fe_shapes`).
+
+    Returns
+    -------
+    ScanPairing
+        ``resonances`` empty (:func:`resonances_from_scans` fills them).
+    """
+    from copdea_fem.vibrometer.model_shapes import correlate_identified, fe_shapes
+
+    window, mac_min = pairing_settings(measured)
+    modes, channels = condition_test_modes(condition)
+    study = scan_fe_study(measured, condition)
+    logger.info("%s: %d test modes (%s); FE modes at the %d measured points", condition.name,
+                len(modes), "mode set" if condition.mode_set is not None else "identified",
+                channels.n_points)
+    correlation = correlate_identified(condition.name, modes,
+                                       fe_shapes(study, channels, solve=solve),
+                                       window=window, mac_min=mac_min)
+    return ScanPairing(condition.name, correlation, (), tuple(modes), channels,
+                       float(study.eigen.f_max))
 
 
 def _resonance(pair) -> Resonance | None:
@@ -94,41 +179,31 @@ def resonances_from_scans(measured: MeasuredSet) -> tuple[MeasuredSet, tuple]:
     """``measured`` with a resonance list for every condition that has a scan and none of
     its own (module notes), and the :class:`ScanPairing` of each such condition.
 
-    Conditions without a scan, or with their own ``resonances:``, are kept as they are.
+    Conditions without a scan or mode set, or with their own ``resonances:``, are kept as
+    they are.
     """
-    from copdea_fem.diagnosis.fe import fe_study
-    from copdea_fem.vibrometer.identification import condition_band, identify
-    from copdea_fem.vibrometer.model_shapes import correlate_identified, fe_shapes
-
-    settings = measured.pairing
-    window = settings.window if settings is not None else 0.5
-    mac_min = settings.mac_min if settings is not None else 0.5
     conditions, pairings = [], []
     for condition in measured.conditions:
-        if condition.scan is None or condition.resonances is not None:
+        if not condition.shapes_measured or condition.resonances is not None:
             conditions.append(condition)
             continue
         low, high = condition.band
-        f_min, f_max = condition_band(condition)
-        modes = identify(condition.scan, f_min=f_min, f_max=f_max)
-        study = fe_study(measured.study_of(condition), f_max=high * (1 + window))
-        correlation = correlate_identified(condition.name, modes,
-                                           fe_shapes(study, condition.scan),
-                                           window=window, mac_min=mac_min)
+        pairing = pair_condition(measured, condition)
+        correlation, modes = pairing.correlation, pairing.modes
         resonances = [r for r in map(_resonance, correlation.pairs) if r is not None]
         resonances = tuple(sorted(_merge_unresolved(resonances, correlation),
                                   key=lambda r: r.frequency_hz))
-        logger.info("%s: %d modes identified in the scan, %d paired by shape, %d resonances",
+        logger.info("%s: %d test modes, %d paired by shape, %d resonances",
                     condition.name, len(modes),
                     sum(1 for pair in correlation.pairs if pair.label), len(resonances))
-        pairings.append(ScanPairing(condition.name, correlation, resonances, tuple(modes),
-                                    condition.scan, high * (1 + window)))
+        pairings.append(dataclasses.replace(pairing, resonances=resonances))
         conditions.append(dataclasses.replace(condition, resonances=resonances or None))
         if not resonances and condition.spectrum is None:
             from copdea_fem.measured import MeasuredDataError
-            raise MeasuredDataError(f"{condition.name}: scan {condition.files.get('scan')}: "
-                                    "no mode identified in the band "
-                                    f"[{low:g} Hz, {high:g} Hz]; allowed: a scan with at "
+            kind = "modes" if condition.mode_set is not None else "scan"
+            raise MeasuredDataError(f"{condition.name}: {kind} {condition.files.get(kind)}: "
+                                    "no mode in the band "
+                                    f"[{low:g} Hz, {high:g} Hz]; allowed: a {kind} with at "
                                     "least one resonance in the condition's band")
     return dataclasses.replace(measured, conditions=tuple(conditions)), tuple(pairings)
 
@@ -148,15 +223,11 @@ class ShapeCheck:
     def __init__(self, measured: MeasuredSet, pairings):
         self.measured = measured
         self.pairings = {pairing.condition: pairing for pairing in pairings}
-        settings = measured.pairing
-        self.window = settings.window if settings is not None else 0.5
-        self.mac_min = settings.mac_min if settings is not None else 0.5
+        self.window, self.mac_min = pairing_settings(measured)
         self._cache: dict = {}
 
     def correlations(self, state) -> dict:
         """``{condition: Correlation}`` of the model ``state`` (FE solved once per state)."""
-        from copdea_fem.diagnosis.ring_predictor import state_overrides
-        from copdea_fem.diagnosis.fe import fe_study
         from copdea_fem.vibrometer.model_shapes import correlate_identified, fe_shapes
 
         key = repr(state)
@@ -166,13 +237,10 @@ class ShapeCheck:
                 pairing = self.pairings.get(condition.name)
                 if pairing is None:
                     continue
-                study = self.measured.study_of(condition)
-                if state:
-                    study = study.replace(state_overrides(study, state))
+                study = scan_fe_study(self.measured, condition, state)
                 out[condition.name] = correlate_identified(
-                    condition.name, pairing.modes, fe_shapes(fe_study(study, pairing.f_max),
-                                                             pairing.scan),
-                    window=self.window, mac_min=self.mac_min)
+                    condition.name, pairing.modes, fe_shapes(study, pairing.scan),
+                    window=self.window, mac_min=self.mac_min, warn=False)   # said once
             self._cache[key] = out
         return self._cache[key]
 
@@ -243,5 +311,6 @@ def pairing_report_lines(pairings) -> list[str]:
     return lines
 
 
-__all__ = ["ScanPairing", "ShapeCheck", "base_shape_macs", "pairing_report_lines",
-           "resonances_from_scans", "step_mac_lines"]
+__all__ = ["ScanPairing", "ShapeCheck", "base_shape_macs", "condition_test_modes",
+           "pair_condition", "pairing_report_lines", "pairing_settings", "resonances_from_scans",
+           "scan_fe_study", "step_mac_lines"]

@@ -7,6 +7,8 @@ model runs.
 ``observation``   ``observed:`` (the mode families a measurement can see) and ``pairing:``
 ``scan``          :class:`ScanData`, one vibrometer scan in SI and in the model's frame
 ``scan_files``    :func:`read_scan`: a scan file read by the reader of its suffix
+``mode_sets``     :func:`read_mode_set`: mode shapes another program identified (dataset 55)
+                  as channels (:class:`MeasuredModes`)
 ``uff``           the Universal File Format reader (``uff_units``: its unit labels in SI;
                   ``uff_writer``: :func:`write_scan`)
 ``geometry``      where the scan points lie on the prestressed device
@@ -33,12 +35,14 @@ from copdea_fem.measured.manifest import (
     load_measured,
     parse_measured,
 )
+from copdea_fem.measured.mode_sets import MeasuredModes, read_mode_set
 from copdea_fem.measured.observation import ObservedFamilies, PairingSettings
 from copdea_fem.measured.scan import ScanData, ScanFrame
 from copdea_fem.measured.scan_files import SCAN_READERS, read_scan
 from copdea_fem.measured.uff_writer import write_scan
 
-__all__ = ["SCAN_READERS", "Condition", "EffectRules", "MeasuredDataError", "MeasuredSet",
-           "NoiseModel", "ObservedFamilies", "PairingSettings", "Resonance", "ScanData",
-           "ScanFrame", "Spectrum", "load_measured", "normalise_label", "parse_measured",
-           "read_resonances", "read_scan", "read_spectrum", "write_scan"]
+__all__ = ["SCAN_READERS", "Condition", "EffectRules", "MeasuredDataError", "MeasuredModes",
+           "MeasuredSet", "NoiseModel", "ObservedFamilies", "PairingSettings", "Resonance",
+           "ScanData", "ScanFrame", "Spectrum", "load_measured", "normalise_label",
+           "parse_measured", "read_mode_set", "read_resonances", "read_scan", "read_spectrum",
+           "write_scan"]

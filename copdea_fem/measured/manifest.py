@@ -48,6 +48,14 @@ Manifest (paths relative to the manifest's folder)::
                                      #   for all points or {node: [x, y, z]} per point
         scan_tolerance: 3.55 mm      # optional: how far a point may lie off the device
                                      #   (default a tenth of the outer radius)
+      - name: z16_v2_modes
+        set: {load.z: 16 mm, load.voltage: 2 kV}
+        modes: z16_v2_modes.unv      # mode shapes another program identified (dataset 55
+                                     #   with the geometry: copdea_fem.measured.mode_sets),
+                                     #   paired by shape as a scan's; not beside scan:
+                                     #   (which shapes to pair would be ambiguous).
+                                     #   scan_frame and scan_tolerance apply; band default:
+                                     #   the lowest to the highest mode
 """
 
 from __future__ import annotations
@@ -65,6 +73,7 @@ from copdea_fem.inputs import as_path, read_yaml
 from copdea_fem.measured.csv_files import POINTS, Spectrum, read_resonances, read_spectrum
 from copdea_fem.measured.errors import MeasuredDataError, refusal
 from copdea_fem.measured.geometry import check_on_device
+from copdea_fem.measured.mode_sets import MODE_SET_SUFFIXES, MeasuredModes, read_mode_set
 from copdea_fem.measured.observation import (
     ObservedFamilies,
     PairingSettings,
@@ -79,7 +88,8 @@ MANIFEST_KEYS = ("name", "description", "base_study", "noise", "candidates", "co
                  "model", "observed", "pairing")
 MODELS = ("fe", "reduced")     # the model of record (key ``model``, default fe)
 CONDITION_KEYS = ("name", "set", "resonances", "spectrum", "spectrum_point", "band",
-                  "modes_json", "scan", "scan_frame", "scan_directions", "scan_tolerance")
+                  "modes_json", "scan", "scan_frame", "scan_directions", "scan_tolerance",
+                  "modes")
 SCAN_FRAME_KEYS = ("origin", "x_axis", "z_axis", "length_unit")
 
 
@@ -154,7 +164,10 @@ class Condition:
     scan : ScanData or None
         The vibrometer scan (``scan:``), in SI and in the model's frame.
     scan_distance : float
-        Largest distance [m] of a scan point from the prestressed device (nan: no scan).
+        Largest distance [m] of a scan point (or a mode set's node) from the prestressed
+        device (nan: neither).
+    mode_set : MeasuredModes or None
+        Mode shapes another program identified (``modes:``), in the model's frame.
     """
 
     name: str
@@ -166,6 +179,13 @@ class Condition:
     files: dict = field(default_factory=dict)
     scan: ScanData | None = None
     scan_distance: float = math.nan
+    mode_set: MeasuredModes | None = None
+
+    @property
+    def shapes_measured(self) -> bool:
+        """Whether the condition has measured shapes to pair with the model's (a scan or a
+        mode set)."""
+        return self.scan is not None or self.mode_set is not None
 
 
 @dataclass(frozen=True)
@@ -314,12 +334,29 @@ def _parse_condition(item, index, base: Study, folder: Path, switched_keys: dict
                           + " file, relative to the measured.yaml")
         files["scan"] = folder / item["scan"]
         scan, scan_distance = _read_scan(item, where, files["scan"], study)
-    else:
+    mode_set = None
+    if item.get("modes") is not None:
+        if scan is not None:
+            raise refusal(f"{where}.modes", item["modes"], "scan: or modes:, not both (which "
+                          "shapes to pair would be ambiguous: the scan's identified modes or "
+                          "the file's; give each its own condition)")
+        if not isinstance(item["modes"], str) or not item["modes"].strip():
+            raise refusal(f"{where}.modes", item["modes"], "the name of a "
+                          + "/".join(MODE_SET_SUFFIXES) + " file with dataset 55 mode shapes, "
+                          "relative to the measured.yaml")
+        if item.get("scan_directions") is not None:
+            raise refusal(f"{where}.scan_directions", item["scan_directions"], "only beside "
+                          "scan: FILE (a mode set's shapes lie along the file's axes)")
+        files["modes"] = folder / item["modes"]
+        mode_set, scan_distance = _read_mode_set(item, where, files["modes"], study)
+    if scan is None and mode_set is None:
         for key in ("scan_frame", "scan_directions", "scan_tolerance"):
             if item.get(key) is not None:
-                raise refusal(f"{where}.{key}", item[key], "only beside scan: FILE")
-    if resonances is None and spectrum is None and scan is None:
-        raise refusal(f"{where} ({name})", "no data", "resonances and/or spectrum, and/or scan")
+                raise refusal(f"{where}.{key}", item[key], "only beside scan: FILE or "
+                              "modes: FILE")
+    if resonances is None and spectrum is None and scan is None and mode_set is None:
+        raise refusal(f"{where} ({name})", "no data", "resonances and/or spectrum, and/or scan "
+                      "or modes")
     if item.get("band") is not None:
         band_raw = item["band"]
         if not isinstance(band_raw, (list, tuple)) or len(band_raw) != 2:
@@ -330,10 +367,12 @@ def _parse_condition(item, index, base: Study, folder: Path, switched_keys: dict
     elif scan is not None:
         positive = scan.frequencies[scan.frequencies > 0]
         band = (float(positive[0]), float(positive[-1]))
+    elif mode_set is not None:
+        band = (float(mode_set.freq_hz[0]), float(mode_set.freq_hz[-1]))
     else:
         x = study.excitation
         band = (max(x.f_start, 1.0 / x.duration), x.f_end)
-    if not 0 < band[0] < band[1]:
+    if not (0 < band[0] < band[1] or (item.get("band") is None and 0 < band[0] == band[1])):
         raise refusal(f"{where}.band", list(band), "0 < f_low < f_high (Hz)")
     fe = None
     if item.get("modes_json") is not None:
@@ -345,7 +384,7 @@ def _parse_condition(item, index, base: Study, folder: Path, switched_keys: dict
             raise MeasuredDataError(f"{where}.modes_json: {error}") from None
     return Condition(name=name, overrides=dict(overrides), resonances=resonances,
                      spectrum=spectrum, band=band, fe_frequencies=fe, files=files, scan=scan,
-                     scan_distance=scan_distance)
+                     scan_distance=scan_distance, mode_set=mode_set)
 
 
 def _vector(value, where: str, nonzero: bool) -> np.ndarray:
@@ -399,16 +438,35 @@ def _scan_directions(raw, where: str):
     return _vector(raw, where, nonzero=True)
 
 
-def _read_scan(item: dict, where: str, path: Path, study: Study):
-    """The condition's scan, read and checked on the device; (ScanData, largest distance)."""
+def _frame_and_tolerance(item: dict, where: str):
+    """The condition's ``scan_frame`` (None: the file's frame) and ``scan_tolerance`` [m]
+    (None: the default)."""
     frame = (parse_scan_frame(item["scan_frame"], f"{where}.scan_frame")
              if item.get("scan_frame") is not None else None)
-    directions = _scan_directions(item.get("scan_directions"), f"{where}.scan_directions")
     tolerance = None
     if item.get("scan_tolerance") is not None:
         # one rule for 0 and a negative length alike: > 0 m
         tolerance = _quantity(item["scan_tolerance"], "m", f"{where}.scan_tolerance",
                               positive=True)
+    return frame, tolerance
+
+
+def _read_mode_set(item: dict, where: str, path: Path, study: Study):
+    """The condition's mode set, read and checked on the device; (MeasuredModes, largest
+    distance of a node from the device [m])."""
+    frame, tolerance = _frame_and_tolerance(item, where)
+    try:
+        mode_set = read_mode_set(path, frame=frame)
+    except MeasuredDataError as error:
+        raise MeasuredDataError(f"{where}.modes: {error}") from None
+    distance = check_on_device(mode_set.channels, study, tolerance, f"{where}.modes")
+    return mode_set, distance
+
+
+def _read_scan(item: dict, where: str, path: Path, study: Study):
+    """The condition's scan, read and checked on the device; (ScanData, largest distance)."""
+    frame, tolerance = _frame_and_tolerance(item, where)
+    directions = _scan_directions(item.get("scan_directions"), f"{where}.scan_directions")
     try:
         scan = read_scan(path, frame=frame, directions=directions)
     except MeasuredDataError as error:

@@ -74,7 +74,8 @@ class ScanData:
     values : (C, F) complex array
         FRFs [m/s/V] (UFF function type 4) or spectra [m/s] (type 12), SI.
     quantity : str
-        ``"frf"`` or ``"spectrum"``.
+        ``"frf"`` or ``"spectrum"``; ``"modes"``: the channels of a mode set
+        (:mod:`copdea_fem.measured.mode_sets`), no lines.
     response : str
         What the ordinate is: ``"velocity"`` (a vibrometer), ``"acceleration"`` or
         ``"displacement"`` (a key of :data:`RESPONSES`).

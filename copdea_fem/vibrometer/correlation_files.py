@@ -11,9 +11,10 @@ from pathlib import Path
 
 import numpy as np
 
-#: pairs.csv's columns, in order.
+#: pairs.csv's columns, in order (``fe_auto_mac``: the paired FE unit's largest MAC with a
+#: rival unit at the measured channels, :mod:`copdea_fem.vibrometer.pairing`).
 PAIR_COLUMNS = ("condition", "test_mode", "test_freq_hz", "test_damping_ratio", "label",
-                "fe_freq_hz", "freq_error", "mac")
+                "fe_freq_hz", "freq_error", "mac", "fe_auto_mac")
 
 
 def _number(value: float, digits: int = 6) -> str:
@@ -31,7 +32,8 @@ def write_pairs_csv(path: Path, correlations) -> Path:
                 writer.writerow([correlation.condition, pair.test_mode,
                                  _number(pair.test_freq_hz), _number(pair.test_damping_ratio),
                                  pair.label, _number(pair.fe_freq_hz),
-                                 _number(pair.freq_error), _number(pair.mac, 4)])
+                                 _number(pair.freq_error), _number(pair.mac, 4),
+                                 _number(pair.fe_auto_mac, 4)])
     return path
 
 
@@ -93,6 +95,22 @@ def plot_mac(path: Path, correlations) -> Path:
     return path
 
 
+def indistinct_message(correlation) -> str:
+    """What to say when the measured channels cannot tell the paired FE shapes from a rival
+    (:meth:`copdea_fem.vibrometer.pairing.Correlation.indistinct_pairs`); "" when they can."""
+    indistinct = correlation.indistinct_pairs()
+    if not indistinct:
+        return ""
+    worst = max(indistinct, key=lambda pair: pair.fe_auto_mac)
+    paired = sum(1 for pair in correlation.pairs if pair.label)
+    return (f"{correlation.condition}: the measured channels cannot tell the FE's shapes "
+            f"apart for {len(indistinct)} of {paired} pairs (the paired FE mode has a rival "
+            f"within the window whose shape at the channels has MAC >= "
+            f"{correlation.mac_min:g} with its own; worst: test mode {worst.test_mode} "
+            f"{worst.label} vs {worst.fe_rival}, {worst.fe_auto_mac:.2f}): those labels are "
+            "not decided by shape (pairs.csv column fe_auto_mac); measure more points")
+
+
 def report_markdown(name: str, correlations) -> str:
     """report.md: per condition, the pairs and what frequency order alone would have said."""
     from copdea_fem.vibrometer.pairing import pair_by_frequency
@@ -113,6 +131,9 @@ def report_markdown(name: str, correlations) -> str:
                    + ("-" if math.isnan(rms) else f"{100 * rms:.2f} %"))
         header = ("| test mode | f [Hz] | damping ratio | label | FE f [Hz] | error | MAC | "
                   "by frequency alone |")
+        indistinct = correlation.indistinct_pairs()
+        if indistinct:
+            summary += "\n- " + indistinct_message(correlation)
         lines += [f"## {correlation.condition}", "", summary, "", header,
                   "|---|---|---|---|---|---|---|---|"]
         for pair, other in zip(correlation.pairs, by_frequency):
@@ -127,5 +148,5 @@ def report_markdown(name: str, correlations) -> str:
     return "\n".join(lines)
 
 
-__all__ = ["PAIR_COLUMNS", "plot_mac", "report_markdown", "write_comac_csv",
-           "write_pairs_csv"]
+__all__ = ["PAIR_COLUMNS", "indistinct_message", "plot_mac", "report_markdown",
+           "write_comac_csv", "write_pairs_csv"]

@@ -55,15 +55,22 @@ def fe_shapes(study, scan, *, solve=None) -> FEShapes:
 
 def correlate_identified(condition: str, identified, fe: FEShapes, *,
                          window: float = DEFAULT_WINDOW,
-                         mac_min: float = DEFAULT_MAC_MIN) -> Correlation:
+                         mac_min: float = DEFAULT_MAC_MIN, warn: bool = True) -> Correlation:
     """Pair identified modes (:class:`copdea_fem.vibrometer.identified.IdentifiedMode`) with the
-    FE's sampled shapes (:func:`copdea_fem.vibrometer.pairing.correlate_shapes`)."""
+    FE's sampled shapes (:func:`copdea_fem.vibrometer.pairing.correlate_shapes`); with
+    ``warn``, a warning when the channels cannot tell a pair's FE shape from a rival's
+    (:meth:`~copdea_fem.vibrometer.pairing.Correlation.indistinct_pairs`)."""
+    from copdea_fem.vibrometer.correlation_files import indistinct_message
+
     identified = tuple(identified)
     shapes = (np.column_stack([mode.shape for mode in identified]) if identified
               else np.zeros((fe.shapes.shape[0], 0), dtype=complex))
-    return correlate_shapes([mode.freq_hz for mode in identified], shapes, fe,
-                            test_damping_ratio=[mode.damping_ratio for mode in identified],
-                            window=window, mac_min=mac_min, condition=condition)
+    correlation = correlate_shapes([mode.freq_hz for mode in identified], shapes, fe,
+                                   test_damping_ratio=[mode.damping_ratio for mode in identified],
+                                   window=window, mac_min=mac_min, condition=condition)
+    if warn and correlation.indistinct_pairs():
+        logger.warning(indistinct_message(correlation))
+    return correlation
 
 
 __all__ = ["STRUCTURAL_KINDS", "correlate_identified", "fe_shapes"]

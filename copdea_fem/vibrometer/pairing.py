@@ -25,6 +25,17 @@ admissible pairs: those within the frequency window ``|ln(f_test / f_FE)| <= ln(
 (at most 0.05 of a MAC) only breaks near-ties.  A test mode without an admissible pair is
 ``unpaired``.  Two test modes paired with one unit take its members in frequency order.
 
+Whether the channels can tell the shapes apart.  A pairing by shape means something only
+where the FE's shapes differ at the measured channels: on one point with three directions
+every pair of modes looks alike, and the "best" MAC is a choice among equals.  So each pair
+carries the FE's own auto-MAC at the channels, ``fe_auto_mac``: the largest (unit) MAC of
+the paired FE unit with any other FE unit inside the pair's frequency window, i.e. with
+any rival the pairing could have chosen instead.  At or above ``mac_min`` the FE's own
+shape would be admissible as the rival too (a test shape equal to the paired FE shape has
+exactly that MAC with the rival), so shape does not decide that pair: the pair is
+*indistinct* (:attr:`ModePair.distinct` False) and the caller warns.  On a PSV-like grid the
+off-diagonal auto-MAC stays near 0.1; on a single point it is 1.
+
 COMAC (coordinate MAC, Lieven & Ewins 1988) of channel c over the pairs p, with each pair's
 FE shape the projection of the test shape on its unit and both scaled to unit norm and
 aligned in phase (modal scale factor): ``COMAC_c = |sum_p t_pc conj(f_pc)|^2 /
@@ -125,7 +136,10 @@ class ModePair:
 
     ``label`` is ``""`` (and the FE columns NaN) when the test mode is unpaired;
     ``freq_error = f_FE / f_test - 1``; ``mac``: the MAC with the FE unit (a pair's:
-    the subspace MAC)."""
+    the subspace MAC); ``fe_auto_mac``: the largest MAC, at the measured channels, of the
+    paired FE unit with another FE unit within the frequency window, ``fe_rival`` that
+    unit's label (module notes: the channels cannot tell the two apart when
+    ``fe_auto_mac >= mac_min``)."""
 
     test_mode: int
     test_freq_hz: float
@@ -134,6 +148,8 @@ class ModePair:
     fe_freq_hz: float = math.nan
     freq_error: float = math.nan
     mac: float = math.nan
+    fe_auto_mac: float = math.nan
+    fe_rival: str = ""
 
     @property
     def paired(self) -> bool:
@@ -173,6 +189,12 @@ class Correlation:
     comac: np.ndarray
     window: float = DEFAULT_WINDOW
     mac_min: float = DEFAULT_MAC_MIN
+
+    def indistinct_pairs(self) -> tuple:
+        """The pairs whose FE unit has a rival within the window that looks the same at the
+        measured channels (``fe_auto_mac >= mac_min``, module notes)."""
+        return tuple(pair for pair in self.pairs
+                     if pair.label and pair.fe_auto_mac >= self.mac_min)
 
     def label_of(self, test_mode: int) -> str:
         """The FE label paired with ``test_mode`` (1-based), ``""`` if unpaired."""
@@ -251,12 +273,31 @@ def correlate_shapes(test_freq_hz, test_shapes, fe: FEShapes, *, test_damping_ra
         if k is None:
             pairs.append(ModePair(**common))
         else:
+            auto_mac, rival = _largest_rival_mac(k, test_freq[t], fe, units, window)
             pairs.append(ModePair(**common, label=fe.labels[k], fe_freq_hz=float(fe.freq_hz[k]),
                                   freq_error=float(fe.freq_hz[k] / test_freq[t] - 1),
-                                  mac=float(unit_mac[t, k])))
+                                  mac=float(unit_mac[t, k]), fe_auto_mac=auto_mac,
+                                  fe_rival=rival))
     comac = coordinate_mac(test, fe, pairs_of, units)
     return Correlation(condition, tuple(pairs), mac, unit_mac, tuple(fe.labels),
                        fe.freq_hz.copy(), test_freq, comac, float(window), float(mac_min))
+
+
+def _largest_rival_mac(k, test_freq, fe: FEShapes, units, window) -> tuple[float, str]:
+    """The largest MAC at the channels of FE mode ``k``'s unit with another unit that has a
+    member within the window of ``test_freq`` [Hz], and that unit's first label (module
+    notes); (0, "") without a rival."""
+    own = next(unit for unit in units if k in unit)
+    limit = math.log1p(window)
+    best, rival = 0.0, ""
+    for unit in units:
+        if unit == own or not any(abs(math.log(test_freq / fe.freq_hz[j])) <= limit
+                                  for j in unit):
+            continue
+        value = subspace_mac(fe.shapes[:, list(own)], fe.shapes[:, list(unit)])
+        if value > best:
+            best, rival = value, unit_key(fe.labels[unit[0]]) or fe.labels[unit[0]]
+    return float(best), rival
 
 
 def _assign(test_freq, fe_freq, unit_mac, slots, window, mac_min) -> dict[int, int]:

@@ -160,3 +160,36 @@ def test_shapes_on_other_channels_are_refused():
         correlate_shapes([100.0], np.ones((10, 1)), model)
     with pytest.raises(CorrelationError, match="NaN"):
         correlate_shapes([100.0], np.full((252, 1), np.nan), model)
+
+
+def test_one_scan_point_cannot_tell_the_shapes_apart_and_says_so(caplog):
+    """On one point every out-of-plane shape is a single number along z: any two FE modes
+    have MAC 1 there (|a b*|^2 / (|a|^2 |b|^2) = 1 for scalars), so a pairing "by shape" is
+    a choice among equals; each pair says so (fe_auto_mac 1 >= mac_min) and the caller
+    warns.  On the PSV grid the same modes are told apart (auto-MAC well below mac_min)."""
+    from copdea_fem.vibrometer.model_shapes import correlate_identified
+
+    rng = np.random.default_rng(2)
+    grid = psv_grid()
+    point, direction = channels(grid)
+    full = correlate_shapes(*measured_modes(rng, grid, point, direction)[1:],
+                            model_modes(grid, point, direction))
+    assert not full.indistinct_pairs()
+    assert max(pair.fe_auto_mac for pair in full.pairs if pair.label) < 0.5
+
+    one = grid[[3]]                                   # one point on the outer ring
+    point, direction = channels(one)
+    model = model_modes(one, point, direction)
+    _, freq, shapes = measured_modes(rng, one, point, direction)
+    single = correlate_shapes(freq, shapes, model)
+    paired = [pair for pair in single.pairs if pair.label]
+    assert paired and single.indistinct_pairs() == tuple(paired)
+    for pair in paired:
+        assert pair.fe_auto_mac == pytest.approx(1.0, abs=1e-9) and pair.fe_rival
+    from copdea_fem.vibrometer.identified import IdentifiedMode
+    modes = [IdentifiedMode(k + 1, float(f), 0.01, shapes[:, k], 1.0)
+             for k, f in enumerate(freq)]
+    with caplog.at_level("WARNING", logger="copdea_fem"):
+        correlate_identified("one_point", modes, model)
+    assert "one_point: the measured channels cannot tell the FE's shapes apart" in caplog.text
+    assert "measure more points" in caplog.text
