@@ -92,6 +92,12 @@ def prepare_order_zero(study, *, engine: Engine) -> OrderZero:
     if study.load.voltage <= 0:
         raise StudyError("load.voltage = 0 is not allowed for `response`; allowed: > 0 V (the "
                          "linear forcing V_b dC/du vanishes without a bias)")
+    if study.load.z == 0:
+        raise StudyError("load.z = 0 is not allowed for `response`; allowed: > 0 m (on the flat "
+                         "membrane the voltage does not drive this state: the linear forcing "
+                         "V_b dC/du is the divergence of a displacement that vanishes at the "
+                         "membrane's fixed edges, int div u dA = 0, so every line's response "
+                         "would be round-off)")
     if study.response.method == "modal" and sealed_enclosure(study):
         raise StudyError("response.method = modal is not allowed with a sealed enclosure; "
                          "allowed: direct, reduced or auto (the modal path's static "
