@@ -265,6 +265,10 @@ MUTATIONS = (
              "        g = np.exp(1j * wavenumber * d) / (4 * np.pi * d)",
              "        g = np.exp(-1j * wavenumber * d) / (4 * np.pi * d)",
              "far field: the shared Green's function with the e^{+i omega t} sign (both engines)"),
+    Mutation("enclosure_depth_linear_grid", "copdea_fem/diagnosis/effects.py",
+             "                          *ENCLOSURE_DEPTH_RATIO, True,",
+             "                          *ENCLOSURE_DEPTH_RATIO, False,",
+             "diagnosis: the enclosure effect's depth searched on a linear grid"),
 )
 
 
