@@ -288,6 +288,10 @@ MUTATIONS = (
              "    cross = a.T @ weighted_b",
              "MAC: the complex conjugate of the first shape left out (measured shapes, the "
              "sweeps' tracking)"),
+    Mutation("enclosure_depth_linear_grid", "copdea_fem/diagnosis/effects.py",
+             "                          *ENCLOSURE_DEPTH_RATIO, True,",
+             "                          *ENCLOSURE_DEPTH_RATIO, False,",
+             "diagnosis: the enclosure effect's depth searched on a linear grid"),
 )
 
 

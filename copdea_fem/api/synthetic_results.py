@@ -4,6 +4,7 @@
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -16,6 +17,8 @@ from copdea_fem.study import Study, StudyError
 if TYPE_CHECKING:
     from copdea_fem.diagnosis.synth import SynthOptions
     from copdea_fem.diagnosis.synth_scan import ScanOptions
+
+logger = logging.getLogger(__name__)
 
 #: The file formats of :func:`synthesise`: resonance and spectrum CSVs from the ring model,
 #: or a scanning vibrometer's export (UFF) per condition made by the FE.
@@ -55,7 +58,7 @@ def synthesise(study: Study | str | Path, effects: str = "", conditions: str | N
     frequency_noise : float, default 0.015
         1-sigma relative frequency scatter [-].
     quality_noise, amplitude_noise, missing, spurious, label_fraction, spectra
-        ``"csv"`` only: 1-sigma relative scatter of quality factors and of each spectral
+        ``"csv"`` only (``"uff"`` refuses any but the default): 1-sigma relative scatter of quality factors and of each spectral
         line [-], probability that a mode's peak is missing [-], spurious peaks in the
         whole set, share of peaks that keep their mode label [-], and whether spectra are
         made (else resonance lists only).
@@ -93,11 +96,26 @@ def synthesise(study: Study | str | Path, effects: str = "", conditions: str | N
     if file_format == "uff":
         from copdea_fem.diagnosis import check_scan_truth
         from copdea_fem.diagnosis.synth_scan import ScanOptions, synthesise_scan_set
+        given = {"--quality-noise": (quality_noise, 0.15), "--amplitude-noise":
+                 (amplitude_noise, 0.10), "--missing": (missing, 0.10),
+                 "--spurious": (spurious, 1), "--label-fraction": (label_fraction, 0.5),
+                 "--no-spectra": (not spectra, False)}
+        for option, (value, default) in given.items():
+            if value != default:
+                raise StudyError(f"{option} = {value!r} is not allowed with --format uff; "
+                                 f"allowed: its default ({default!r}) -- it sets the csv "
+                                 "format's resonance lists and spectra, which a scan export "
+                                 "does not hold")
         options = options or ScanOptions(frequency_noise=frequency_noise, seed=seed)
         options.check()
         truth, named = check_scan_truth(study, effects, conditions, parameters)
     else:
         from copdea_fem.diagnosis.synth import SynthOptions
+        if study.geometry.enclosure != "none":
+            logger.warning(
+                "synth --format csv: the ring model makes these data and holds no enclosure: "
+                f"geometry.enclosure = {study.geometry.enclosure} is not in them (--format uff "
+                "solves the FE with it)")
         options = options or SynthOptions(
             frequency_noise=frequency_noise, quality_noise=quality_noise,
             amplitude_noise=amplitude_noise, missing_probability=missing, spurious=spurious,

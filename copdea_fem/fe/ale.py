@@ -81,15 +81,27 @@ def checked_decay_length(state, domain_radius: float) -> float:
     return length
 
 
+#: Floor [m] of the decay length L in phi = (1 - |z|/L)^2: far below any mesh size, so that
+#: it changes nothing but a zero depth (a bowl's rim) into a finite phi.
+SHORTEST_DECAY_LENGTH = 1e-12
+
+
 def transfinite_factors(rho, radial, axial, z_disc: float, radius, height, length: float):
     """(u_rho, w, phi) of the transfinite map (module doc) as CoefficientFunctions.
 
     ``rho, radial, axial``: the prestress profiles [m] on r_i..r_o; w = z under the disc
     and 0 beyond r_o, u_rho = 0 outside; ``radius``, ``height``: the CFs of the
-    cylindrical radius and the height above the plane.
+    cylindrical radius and the height above the plane.  ``length`` (a float or a CF [m])
+    is taken as at least :data:`SHORTEST_DECAY_LENGTH`: an enclosure's depth falls to 0 at
+    the rim of a bowl (exactly 0 on a hemisphere, and beyond its rim), where u_rho = w = 0
+    and phi only has to stay finite (0 / 0 would make the whole motion NaN).
     """
     w = _piecewise_linear(rho, axial, radius, z_disc, 0.0)
     u_rho = _piecewise_linear(rho, radial, radius, 0.0, 0.0)
+    if isinstance(length, (int, float)):
+        length = max(length, SHORTEST_DECAY_LENGTH)
+    else:
+        length = ngs.IfPos(length - SHORTEST_DECAY_LENGTH, length, SHORTEST_DECAY_LENGTH)
     inside = 1 - ngs.sqrt(height**2) / length
     return u_rho, w, ngs.IfPos(inside, inside**2, 0.0)
 

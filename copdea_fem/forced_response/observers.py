@@ -9,7 +9,8 @@ solves it on the lines: a :class:`LineResponse`, the part's solution of each lin
 
 - :class:`Microphones`: the sound pressure [Pa] at the microphones, by the Kirchhoff-
   Helmholtz (Rayleigh in a baffle) integral over the sphere sampler of the driven part
-  (:mod:`copdea_fem.fe.forced.radiation`);
+  (:mod:`copdea_fem.fe.forced.radiation`), or inside that sphere (near the device, inside
+  an enclosure) the FE's own pressure field (:mod:`.microphone_places`);
 - :class:`ScanPoints`: the displacement [m] at scan points of the prestressed device, along
   any of a part's fields (the engine's point sampler,
   :meth:`copdea_fem.fe.engines.Engine.point_sampler`).
@@ -74,11 +75,23 @@ class Microphones:
         An enclosure closes the back (a baffle's front only).
     sound_speed : float
         [m/s]
+    places : list of str, optional
+        Per microphone, :data:`~copdea_fem.forced_response.microphone_places.FAR` (the
+        integral; the default for all) or ``FIELD``: inside the sphere, the FE's own
+        pressure at the point (:class:`~copdea_fem.forced_response.microphone_places.
+        FieldPressure`: the air near the device or inside an enclosure).
     """
 
     def __init__(self, sphere, coupled: CoupledPencil, microphones, radius: float, baffle: bool,
-                 enclosed: bool, sound_speed: float):
+                 enclosed: bool, sound_speed: float, places=None):
+        from copdea_fem.forced_response.microphone_places import FIELD, FieldPressure
+
         self.microphones, self.baffle, self.sound_speed = microphones, baffle, sound_speed
+        self.in_field = [place == FIELD for place in (places or [])] + \
+            [False] * (len(microphones) - len(places or []))
+        self.field = FieldPressure(coupled, [position for (_, position), inside in
+                                             zip(microphones, self.in_field) if inside]) \
+            if any(self.in_field) else None
         # a baffle over an enclosure has no air below it (microphones there refused:
         # study/checks.py)
         below = () if enclosed else ("lower",)
@@ -94,7 +107,12 @@ class Microphones:
                    for name, sampler in self.samplers.items()}
         weights = response.weights
         pressure = np.zeros((omega.size, len(self.microphones)), complex)
+        if self.field is not None:
+            inside = np.flatnonzero(self.in_field)
+            pressure[:, inside] = weights @ self.field.sample(pressure_vectors).T
         for j, (_, position) in enumerate(self.microphones):  # z != 0 in a baffle: checks.py
+            if self.in_field[j]:
+                continue
             side = ("upper" if position[2] > 0 else "lower") if self.baffle else "all"
             sampler, (p_values, dp_values) = self.samplers[side], sampled[side]
             field_p, field_dp = weights @ p_values.T, weights @ dp_values.T  # (lines, points)

@@ -59,6 +59,7 @@ import numpy as np
 
 from copdea_fem.fe import check_air_lift
 from copdea_fem.forced_response.files import AVERAGE_COLUMNS, MODE_COLUMNS, POINT_COLUMNS  # noqa: F401
+from copdea_fem.forced_response.microphone_places import FIELD, microphone_places
 from copdea_fem.forced_response.observers import LineResponse, Microphones
 from copdea_fem.study import DEFAULT_MICROPHONE, StudyError, listed_microphones
 
@@ -91,6 +92,12 @@ def prepare_order_zero(study, *, engine: Engine) -> OrderZero:
     if study.load.voltage <= 0:
         raise StudyError("load.voltage = 0 is not allowed for `response`; allowed: > 0 V (the "
                          "linear forcing V_b dC/du vanishes without a bias)")
+    if study.load.z == 0:
+        raise StudyError("load.z = 0 is not allowed for `response`; allowed: > 0 m (on the flat "
+                         "membrane the voltage does not drive this state: the linear forcing "
+                         "V_b dC/du is the divergence of a displacement that vanishes at the "
+                         "membrane's fixed edges, int div u dA = 0, so every line's response "
+                         "would be round-off)")
     if study.response.method == "modal" and sealed_enclosure(study):
         raise StudyError("response.method = modal is not allowed with a sealed enclosure; "
                          "allowed: direct, reduced or auto (the modal path's static "
@@ -100,6 +107,7 @@ def prepare_order_zero(study, *, engine: Engine) -> OrderZero:
     if not study.air.outside:
         raise StudyError("air.outside = false is not allowed for `response`; allowed: true "
                          "(the sound at the microphones needs the outside air)")
+    microphone_places(study, parse_microphones(study))
     check_air_lift(study)
     return engine.forced_problem(study)
 
@@ -358,16 +366,21 @@ def forced_response(problem: OrderZero, frequency_hz=None,
     timings["velocity"] = time.perf_counter() - start
     start = time.perf_counter()
     microphones = parse_microphones(study)
+    places = microphone_places(study, microphones)
+    far_field = _far_field_method(study) + "".join(
+        f"; {name}: the FE's own pressure at the point (inside the Kirchhoff sphere)"
+        for (name, _), place in zip(microphones, places) if place == FIELD)
     observer = Microphones(problem.sector.sphere, coupled, microphones,
                            KIRCHHOFF_FRACTION * study.air.domain_radius,
                            baffle=study.geometry.frame == "baffle",
                            enclosed=study.geometry.enclosure != "none",
-                           sound_speed=study.air.sound_speed)
+                           sound_speed=study.air.sound_speed,
+                           places=places)
     pressure = observer.observe(response, frequency_hz)
     timings["sound"] = time.perf_counter() - start
     result = ResponseResult(frequency_hz, scan_axial.mean(axis=1), scan_radial.mean(axis=1),
                             point_axial, point_radial, microphones, pressure, spl_db(pressure),
-                            method, _far_field_method(study), modes, basis, vectors, weights,
+                            method, far_field, modes, basis, vectors, weights,
                             problem, timings)
     result.peaks_hz = spectrum_peaks(result, study.response.peaks)
     return result

@@ -28,7 +28,10 @@ The modes come from the solve of the same study (:func:`copdea_fem.fe.pipeline.r
 its band per sector or order and the operators it solved), so a response holds exactly
 the modes ``solve`` reports, with their labels.  Per mode, the eigenvalue may be moved by
 a factor (``frequency_factors``: the scatter of a synthetic measurement); the residual
-correction (the modes above the band) is the exact static one.
+correction (the modes above the band) is the exact static one.  Over a sealed enclosure A
+has no inverse (the static pair lambda = 0 of a uniform cavity pressure, which a forcing
+of the membrane does not excite): the correction is then the static one of the other pairs
+(:func:`copdea_fem.fe.forced.harmonic.null_pair`).
 
 Each part's response on the lines (:class:`.observers.LineResponse`, as ``response``'s) is
 observed at the scan points (:class:`.observers.ScanPoints`, the engine's fields there).
@@ -99,6 +102,7 @@ def scan_response(solution, study, positions, frequencies, electrode, *,
 
     from copdea_fem.fe.forced.harmonic import ForcedOrder, ModalBasis
     from copdea_fem.fe.modes import membrane_energy_fractions
+    from copdea_fem.forced_response.run import sealed_enclosure
 
     engine, state = solution.engine, solution.state
     frequencies = np.asarray(frequencies, float)
@@ -124,7 +128,8 @@ def scan_response(solution, study, positions, frequencies, electrode, *,
             damping[column] = float(damping_per_mass(modes[0]))
         basis = ModalBasis.build(forced, eigenvalues, band.vectors,
                                  [columns[k][0].label if k in columns else ""
-                                  for k in range(eigenvalues.size)], damping)
+                                  for k in range(eigenvalues.size)], damping,
+                                 singular=sealed_enclosure(study))
         if frequency_factors is not None:
             factors = np.ones(eigenvalues.size)
             for column, modes in columns.items():

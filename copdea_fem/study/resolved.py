@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import logging
 import warnings
 from collections.abc import Mapping
 from pathlib import Path
@@ -27,6 +28,8 @@ from copdea_fem.study.schema import (
     SCHEMA,
 )
 from copdea_fem.study.sections import SECTION_CLASSES, plain_section, typed_section
+
+logger = logging.getLogger(__name__)
 
 if TYPE_CHECKING:
     from copdea_fem.study.sections import (
@@ -216,8 +219,37 @@ def load_study(path: str | Path, overrides: dict[str, Any] | None = None) -> Stu
     path = Path(path)
     raw = read_yaml(path, "study file", StudyError)
     name = raw.get("name") or path.stem
-    return parse_study(raw, overrides=overrides, name=str(name),
-                       description=str(raw.get("description", "")), source=path)
+    study = parse_study(raw, overrides=overrides, name=str(name),
+                        description=str(raw.get("description", "")), source=path)
+    given = set(raw.get("geometry") or {}) if isinstance(raw.get("geometry"), dict) else set()
+    given |= {dotted.partition(".")[2] for dotted in (overrides or {})
+              if dotted.startswith("geometry.")}
+    for warning in unused_enclosure_keys(study, given):
+        logger.warning(warning)
+    return study
+
+
+#: The keys that shape an enclosure (docs/enclosures.md).
+ENCLOSURE_KEYS = ("enclosure_depth", "enclosure_radius", "enclosure_vent_radius")
+
+
+def unused_enclosure_keys(study: Study, given) -> list[str]:
+    """Warnings for enclosure keys that change nothing (the file's and the overrides'
+    ``geometry`` keys ``given``): a depth, radius or vent without an enclosure, a radius on
+    a box (whose sides are the square frame's), an enclosure without air (it acts through
+    the air it traps).  Said when a file is read, not for each study made from it."""
+    g = study.geometry
+    warnings_ = []
+    if g.enclosure == "none":
+        warnings_ += [f"geometry.{key} is ignored: geometry.enclosure = none"
+                      for key in ENCLOSURE_KEYS if key in given]
+    elif g.enclosure == "box" and "enclosure_radius" in given:
+        warnings_.append("geometry.enclosure_radius is ignored with geometry.enclosure = box "
+                         "(its sides are geometry.frame_side)")
+    if g.enclosure != "none" and not study.air.enabled:
+        warnings_.append(f"geometry.enclosure = {g.enclosure} changes nothing with air.enabled "
+                         "= false (an enclosure acts through the air it traps)")
+    return warnings_
 
 
 def parse_study(raw: dict[str, Any], overrides: dict[str, Any] | None = None,

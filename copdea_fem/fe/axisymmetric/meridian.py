@@ -131,11 +131,18 @@ class Cavity:
 
     def bottom(self, r, sqrt=np.sqrt):
         """Height of the bottom wall below radius ``r`` (<= radius) [m]; ``sqrt``:
-        ``ngsolve.sqrt`` for a CoefficientFunction ``r``."""
+        ``ngsolve.sqrt`` for a CoefficientFunction ``r``.  The radicand is taken as at
+        least 0 (:func:`copdea_fem.fe.airbox.cavity_depth`: a hemisphere's rim)."""
         if self.shape == "cylinder":
             return -self.depth + 0 * r
         sphere = self.sphere_radius
-        return sphere - self.depth - sqrt(sphere**2 - r * r)
+        radicand = sphere**2 - r * r
+        if sqrt is np.sqrt:
+            radicand = np.maximum(radicand, 0.0)
+        else:
+            from ngsolve import IfPos
+            radicand = IfPos(radicand, radicand, 0.0)
+        return sphere - self.depth - sqrt(radicand)
 
     def volume(self) -> float:
         """Volume [m^3] (the spherical cap: pi d^2 (3 R_s - d) / 3)."""
@@ -355,7 +362,7 @@ def _tangent_intersection(cavity: Cavity, r_1: float, r_2: float) -> tuple[float
     the tangents at its ends meet (Netgen's ``spline3`` then follows the circle exactly)."""
     sphere = cavity.sphere_radius
     centre = sphere - cavity.depth
-    angle_1, angle_2 = (math.asin(r / sphere) for r in (r_1, r_2))   # from the downward axis
+    angle_1, angle_2 = (math.asin(min(r / sphere, 1.0)) for r in (r_1, r_2))   # from the downward axis
     half = 0.5 * (angle_1 - angle_2)
     middle = 0.5 * (angle_1 + angle_2)
     distance = sphere / math.cos(half)

@@ -315,6 +315,73 @@ class ForcedOrder:
         return vectors[self.coupled.pressure_index] * self.coupled.pressure_scale
 
 
+#: Shift of the factorisation of a singular A, ``A - sigma B`` with ``sigma = -NULL_SHIFT
+#: |lambda|_max`` of the band (:func:`null_pair`): its relative error on the other pairs,
+#: (sigma / lambda)^2 after one refinement, stays at round-off for any band.
+NULL_SHIFT = 1e-6
+
+#: A pencil whose smallest eigenvalue lies below this share of the band's largest
+#: |lambda| has a static pair (|f| < 1e-4 f_max, as
+#: :data:`copdea_fem.fe.cavity.STATIC_SHARE` drops it from the band).
+NULL_SHARE = 1e-8
+
+
+@dataclass
+class NullPair:
+    """The static pair lambda = 0 of a pencil (right ``x0``, left ``y0``, ``norm`` =
+    ``y0^T B x0``) and the shifted factorisation that solves around it.
+
+    ``A x = r`` has solutions for every r with ``y0^T r = 0`` (a forcing on the membrane
+    alone: the left vector of lambda = 0 is ``(lambda u0, p0) = (0, p0)``), defined up to
+    a multiple of ``x0``; the modal expansion over the other pairs picks the one with
+    ``y0^T B x = 0``.  :meth:`solve` finds it as ``x = (A - sigma B)^-1 (r + sigma B x)``
+    (one refinement of the shifted solve) projected by ``x - x0 (y0^T B x) / norm``.
+    """
+
+    x0: np.ndarray
+    y0: np.ndarray
+    norm: complex
+    shifted: object          # Factorization of A - sigma B
+    sigma: float
+    b: sp.csr_matrix
+
+    def project(self, vector: np.ndarray) -> np.ndarray:
+        return vector - self.x0 * (self.y0 @ (self.b @ vector)) / self.norm
+
+    def solve(self, rhs: np.ndarray) -> np.ndarray:
+        x = self.project(self.shifted.solve(rhs))
+        return self.project(self.shifted.solve(rhs + self.sigma * (self.b @ x)))
+
+
+def null_pair(a, b, backend: str, scale: float) -> NullPair | None:
+    """The :class:`NullPair` of the pencil (A, B), or None when its smallest eigenvalue is
+    above :data:`NULL_SHARE` ``scale`` (A has an inverse).
+
+    Inverse iteration with the shift ``sigma = -NULL_SHIFT scale`` [rad^2/s^2]: the null
+    vector dominates after one step by the ratio ``lambda_1 / sigma`` of the next pair
+    (>= 1e2 for any band above 1e-4 f_max), three steps each for the right vector (A - sigma B)
+    and the left one (its transpose, a second factorisation).
+    """
+    from copdea_fem.fe.eigen import Factorization
+
+    sigma = -NULL_SHIFT * scale
+    shifted = Factorization((a - sigma * b).tocsc(), backend)
+    transposed = Factorization((a - sigma * b).T.tocsc(), backend)
+    rng = np.random.default_rng(0)
+    x0 = rng.standard_normal(a.shape[0]) + 0j
+    y0 = x0.copy()
+    for _ in range(3):
+        x0 = shifted.solve(b @ x0)
+        x0 /= np.linalg.norm(x0)
+        y0 = transposed.solve(b.T @ y0)
+        y0 /= np.linalg.norm(y0)
+    bx = b @ x0
+    rayleigh = complex(np.vdot(bx, a @ x0) / np.vdot(bx, bx))
+    if abs(rayleigh) > NULL_SHARE * scale:
+        return None
+    return NullPair(x0, y0, complex(y0 @ bx), shifted, sigma, sp.csr_matrix(b))
+
+
 @dataclass
 class ModalBasis:
     """Coupled modes of the band with their left vectors, and the residual correction.
@@ -340,7 +407,12 @@ class ModalBasis:
     relaxation_modal: tuple = ()          # (u_j^T G_j u_j [N/m], tau_j [s]) per Prony term
 
     @classmethod
-    def build(cls, forced: ForcedOrder, eigenvalues, vectors, labels, damping_per_mass):
+    def build(cls, forced: ForcedOrder, eigenvalues, vectors, labels, damping_per_mass,
+              singular: bool = False):
+        """The basis of the band's pairs; ``singular``: the pencil may hold the static pair
+        lambda = 0 of a sealed enclosure (not among ``eigenvalues``), whose A has no
+        inverse: the static correction is then taken on the other pairs
+        (:func:`null_pair`)."""
         from copdea_fem.fe.eigen import Factorization
         coupled = forced.coupled
         a, b = coupled.stiffness, coupled.mass
@@ -361,9 +433,15 @@ class ModalBasis:
         k_el = forced.elastic[u_index][:, u_index]
         structural = np.einsum("ij,ij->j", membrane, mass @ membrane)
         elastic = np.einsum("ij,ij->j", membrane, k_el @ membrane)
-        static = Factorization(a.tocsc(), forced.backend)
-        first = static.solve(forced.forcing)
-        second = static.solve(b @ first)
+        scale = float(np.max(np.abs(eigenvalues))) if eigenvalues.size else 1.0
+        pair = null_pair(a, b, forced.backend, scale) if singular else None
+        if pair is None:
+            static = Factorization(a.tocsc(), forced.backend)
+            first = static.solve(forced.forcing)
+            second = static.solve(b @ first)
+        else:
+            first = pair.solve(forced.forcing)
+            second = pair.solve(b @ first)
         weights = participation / norms
         residual0 = first - vectors @ (weights / eigenvalues)
         residual1 = second - vectors @ (weights / eigenvalues ** 2)
