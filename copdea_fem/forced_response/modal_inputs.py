@@ -260,10 +260,13 @@ class ModalInputs:
         """Band columns over all channels."""
         return sum(len(channel.eigenvalues) for channel in self.channels)
 
-    def frequency_response(self, frequency_hz) -> tuple[np.ndarray, np.ndarray]:
-        """The modal path (1) with its static correction, physical ``e^{+i omega t}``
-        convention (the complex conjugate of the FE's): velocity (F, P, 3, K) [m/s/V] and
-        motional current (F, K, K) [A/V] (row: the electrode sensed, column: the input)."""
+    def frequency_response(self, frequency_hz, static_correction: bool = True
+                           ) -> tuple[np.ndarray, np.ndarray]:
+        """The modal path (1) with its static correction (unless ``static_correction`` is
+        false), physical ``e^{+i omega t}`` convention (the complex conjugate of the FE's):
+        velocity (F, P, 3, K) [m/s/V] and motional current (F, K, K) [A/V] (row: the
+        electrode sensed, column: the input)."""
+        keep = 1.0 if static_correction else 0.0
         frequency_hz = np.atleast_1d(np.asarray(frequency_hz, float))
         omega = 2 * np.pi * frequency_hz
         count = len(self.inputs)
@@ -272,12 +275,12 @@ class ModalInputs:
         for channel in self.channels:
             modal = channel.participation[None, :, :] / channel.denominators(omega)[:, :, None]
             displacement = (np.einsum("pdj,fjk->fpdk", channel.displacement, modal)
-                            + channel.residual_displacement[None]
-                            + omega[:, None, None, None] ** 2
-                            * channel.residual_displacement1[None])
+                            + keep * (channel.residual_displacement[None]
+                                      + omega[:, None, None, None] ** 2
+                                      * channel.residual_displacement1[None]))
             charge = (np.einsum("lj,fjk->flk", channel.currents, modal)
-                      + channel.residual_currents[None]
-                      + omega[:, None, None] ** 2 * channel.residual_currents1[None])
+                      + keep * (channel.residual_currents[None]
+                                + omega[:, None, None] ** 2 * channel.residual_currents1[None]))
             velocity += -1j * omega[:, None, None, None] * displacement
             current += -1j * omega[:, None, None] * charge
         return np.conj(velocity), np.conj(current)
