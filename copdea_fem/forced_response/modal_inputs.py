@@ -49,6 +49,9 @@ import numpy as np
 
 logger = logging.getLogger(__name__)
 
+#: The kind of an out-of-plane mode (:mod:`copdea_fem.fe.modes`).
+OUT_OF_PLANE = "out-of-plane"
+
 #: The quarter points Q1-Q3 (fractions of the width from the inner edge, Sect. 5.3) are
 #: observed at these angles [deg]: 0 (the cos families' maximum) and 30 (where the sin
 #: families of the orders 1-5 are not on a nodal line).
@@ -93,6 +96,8 @@ class Channel:
         Each column's label (``""``: an air/PML or unlabelled column).
     structural : (J,) bool array
         Columns of labelled structural modes.
+    out_of_plane : (J,) bool array
+        Columns of labelled out-of-plane modes (what a vibrometer and the sound see).
     eigenvalues : (J,) complex array
         lambda_j [rad^2/s^2].
     norms : (J,) complex array
@@ -118,6 +123,7 @@ class Channel:
     name: str
     labels: list
     structural: np.ndarray
+    out_of_plane: np.ndarray
     eigenvalues: np.ndarray
     norms: np.ndarray
     damping: np.ndarray
@@ -245,6 +251,8 @@ class ModalInputs:
             name=name, labels=labels,
             structural=np.array([kind != "air" and bool(label)
                                  for label, kind in zip(labels, kinds)]),
+            out_of_plane=np.array([kind == OUT_OF_PLANE and bool(label)
+                                   for label, kind in zip(labels, kinds)]),
             eigenvalues=basis0.eigenvalues, norms=basis0.norms,
             damping=basis0.eigenvalues * basis0.damping_per_mass * basis0.structural_mass,
             participation=participation,
@@ -285,14 +293,17 @@ class ModalInputs:
             current += -1j * omega[:, None, None] * charge
         return np.conj(velocity), np.conj(current)
 
-    def structural_modes(self, f_max: float) -> list[tuple[int, int, str, float]]:
-        """``(channel index, column, label, Re f [Hz])`` of the labelled structural modes with
-        ``Re f <= f_max``, by frequency."""
+    def structural_modes(self, f_max: float, out_of_plane: bool = False
+                         ) -> list[tuple[int, int, str, float]]:
+        """``(channel index, column, label, Re f [Hz])`` of the labelled structural modes
+        (``out_of_plane``: the out-of-plane ones only) with ``Re f <= f_max``, by
+        frequency."""
         found = []
         for c, channel in enumerate(self.channels):
             freq = np.sqrt(channel.eigenvalues.astype(complex)) / (2 * np.pi)
             freq = np.where(freq.real < 0, -freq, freq)
-            for j in np.flatnonzero(channel.structural):
+            kept = channel.out_of_plane if out_of_plane else channel.structural
+            for j in np.flatnonzero(kept):
                 if freq[j].real <= f_max:
                     found.append((c, int(j), channel.labels[j], float(freq[j].real)))
         return sorted(found, key=lambda item: (item[3], item[2]))
