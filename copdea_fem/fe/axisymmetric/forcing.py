@@ -39,13 +39,16 @@ def forced_order(state, coupled, backend="superlu") -> ForcedOrder:
 def _energy_form(state, space, voltage, axis_m1=False, m=0, radial=None):
     """Variation form of the order-m membrane energy E(u0 + u; V) of the whole device
     (:func:`copdea_fem.fe.axisymmetric.membrane.order_energy`); ``radial``: a coefficient
-    function of R weighting the energy density (None: no weight)."""
+    function rho(R) weighting the co-energy, an indicator (0 or 1; None: no weight).  The
+    co-energy goes as V^2 (eq. 7) and nothing else depends on V, so the voltage
+    ``V rho(R)`` weights it by rho^2 = rho and leaves the elastic energy as it is."""
+    local = voltage if radial is None else voltage * radial
     at_voltage = types.SimpleNamespace(material=state.material, displacement=state.displacement,
-                                       voltage=voltage, measure=state.measure)
+                                       voltage=local, measure=state.measure)
     trial, test = space.TnT()
     energy, _ = membrane_forms(at_voltage, int(m), trial, test, axis_m1)
     form = ngs.BilinearForm(space, symmetric=False)
-    form += ngs.Variation(energy if radial is None else radial * energy)
+    form += ngs.Variation(energy)
     return form
 
 
@@ -72,9 +75,8 @@ def order_forcing(state, dry, radial=None) -> np.ndarray:
     on the co-energy (:mod:`copdea_fem.fe.forced.electrode`), for the cos family of ``dry``'s
     order; the uniform electrode's (:func:`voltage_forcing`) for m = 0 and ``rho = 1``.
 
-    ``radial``: ``rho(R)``, a coefficient function of the reference radius (None: 1).  It
-    weights the whole energy density; only the co-energy depends on V, so the difference
-    quotient below keeps ``rho`` on the co-energy alone (the elastic part cancels).
+    ``radial``: ``rho(R)``, a coefficient function of the reference radius (None: 1),
+    weighting the co-energy inside the forcing integral (:func:`_energy_form`).
 
     For m >= 1 the order's energy is ``pi int [W(G0 + G_c) + W(G0 + G_s)] R dR``
     (:mod:`.membrane`), so its gradient at u = 0 is ``pi int W'(G0) : (G_c + G_s) R dR``.

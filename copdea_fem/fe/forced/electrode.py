@@ -50,8 +50,9 @@ a weight; :class:`ElectrodeImperfection` and :class:`SegmentWeight` follow it): 
 
 - ``family_weights(m) -> (c_m, s_m)`` [-]: the factors of the order-m forcing of the weight
   ``cos(m theta)`` on the cos and sin families (``c_0``: of the uniform weight on m = 0);
-- ``radial_weight(r)``: ``rho(r)`` at reference radii [m] (NumPy or NGSolve), or None where
-  it is 1 (then nothing enters the forcing integral: the uniform electrode's numbers);
+- ``radial_weight(r)``: ``rho(r)`` at reference radii [m] (NumPy or NGSolve), an indicator
+  (0 or 1: the axisymmetric engine weights the co-energy by the voltage ``V rho``), or None
+  where it is 1 (then nothing enters the forcing integral: the uniform electrode's numbers);
 - ``weight(x, y)`` and ``sector_weight(sector, x, y)``: ``w`` and the folded W_s of (2).
 
 :func:`segment_weights` gives a study's segments as weights with their complex drives.
