@@ -143,7 +143,7 @@ class Excitation:
     def set_lines(self) -> list[str]:
         """The ``--set`` lines that feed the drive to ``copdea-fem response``."""
         from copdea_fem.forced_response.excitation import set_lines
-        return set_lines(self.design, float(self.study.excitation.amplitude))
+        return set_lines(self.design, self.study)
 
     def spectra(self, frequency_hz=None):
         """(lines [Hz], |v| averaged over the points and components [m/s] of the inputs

@@ -23,10 +23,15 @@ mode's own frequency (the first target's response the reference).
 What the inputs cannot separate: the rows of G of a target and of its degenerate partners
 (the other member of its a/b pair: the same label but for the suffix) are compared by
 their singular values; a ratio below :data:`SEPARABLE_RATIO` means no drive of these inputs
-tells them apart (e.g. the a and b members of an order m with too few sectors).
+tells them apart (e.g. the a and b members of an order m with too few sectors).  And each
+other mode's *floor*: the lowest level it can be held at alone under a unit target response
+(2 with O that mode only); a floor above :data:`SEPARATION_DB` is reported (e.g. the orders
+m and N - m, which N equal sectors drive with one pattern).
 
 Phases: the FE's complex amplitude ``u`` goes as ``e^{-i omega t}``; a drive
-``V_k(t) = V_b + A_k cos(omega t + phi_k)`` has ``A_k = |u_k|``, ``phi_k = -arg u_k``.
+``V_k(t) = V_b + A_k cos(omega t + phi_k)`` has ``A_k = |u_k|``, ``phi_k = -arg u_k``
+(the phase of ``electrodes.segments``' ``drive.phase``); the common phase is set so that
+the input of the largest amplitude has phase 0.
 """
 
 from __future__ import annotations
@@ -43,6 +48,10 @@ logger = logging.getLogger(__name__)
 
 #: epsilon of (2) relative to the mean squared column norm of G.
 REGULARISATION = 1e-9
+
+#: A mode that cannot be held below this level [dB re the target] by any drive of the
+#: inputs is reported as not separated from the target.
+SEPARATION_DB = -20.0
 
 #: Smallest singular value ratio of a target's and its partners' rows of G that the inputs
 #: can still drive apart (below it their responses move together).
@@ -138,11 +147,19 @@ def design_drive(model, targets, max_ac: float, f_max: float) -> ExcitationDesig
     q_inverse_gt = np.linalg.solve(q, g_target.conj().T)       # (K, T)
     multipliers = np.linalg.solve(g_target @ q_inverse_gt, np.ones(len(targets)))
     drive = q_inverse_gt @ multipliers
-    drive = drive * (max_ac / np.abs(drive).max())
+    largest = int(np.argmax(np.abs(drive)))
+    drive = drive * (max_ac / np.abs(drive[largest])) * np.exp(-1j * np.angle(drive[largest]))
     response = gain @ drive
     reference = abs(response[target_rows[0]])
     levels = [float(20 * np.log10(max(abs(r), 1e-300) / reference)) for r in response]
     inseparable = []
+    for row in other_rows:
+        floor = separation_floor_db(gain[row], g_target, epsilon)
+        if floor > SEPARATION_DB:
+            inseparable.append(
+                f"{labels[row]}: cannot be held below {floor:.1f} dB re the target with these "
+                f"inputs (its modal-force row is nearly parallel to the target's within the "
+                f"inputs' span; e.g. the orders m and N - m of N equal sectors)")
     for label in targets:
         partners = [row for row, other in enumerate(labels)
                     if partner_stem(other) == partner_stem(label)]
@@ -160,17 +177,34 @@ def design_drive(model, targets, max_ac: float, f_max: float) -> ExcitationDesig
                             [freq for *_, freq in modes], levels, targets, inseparable)
 
 
-def set_lines(design: ExcitationDesign, chirp_amplitude: float) -> list[str]:
-    """The ``--set`` lines that feed the drive to ``copdea-fem response``: each segment's
+def separation_floor_db(row, g_target, epsilon: float) -> float:
+    """The lowest level [dB re the first target] that mode ``row`` (its row of G) can be held
+    at, alone, under a unit response of the targets: (2) with O = that mode only."""
+    count = row.size
+    q = np.outer(row.conj(), row) + epsilon * np.eye(count)
+    q_inverse_gt = np.linalg.solve(q, g_target.conj().T)
+    drive = q_inverse_gt @ np.linalg.solve(g_target @ q_inverse_gt, np.ones(len(g_target)))
+    return float(20 * np.log10(max(abs(row @ drive), 1e-300)))
+
+
+def set_lines(design: ExcitationDesign, study) -> list[str]:
+    """The ``--set`` line that feeds the drive to ``copdea-fem response``: the study's
+    ``electrodes.segments`` (the whole electrode where it has none) with each segment's
     ``drive.amplitude`` [per volt of the chirp's ``excitation.amplitude``] and
-    ``drive.phase`` [deg]."""
-    lines = []
+    ``drive.phase`` [deg] of the design."""
+    chirp = float(study.excitation.amplitude)
+    segments = {segment.name: segment for segment in study.electrodes.segments}
+    items = []
     for name, amplitude, phase in zip(design.inputs, design.amplitude, design.phase_deg):
-        lines.append(f"--set electrodes.segments.{name}.drive.amplitude="
-                     f"{amplitude / chirp_amplitude:.9g}")
-        lines.append(f"--set 'electrodes.segments.{name}.drive.phase={phase:.6g} deg'")
-    return lines
+        segment = segments.get(name)
+        theta = [0, 360] if segment is None else [float(v) for v in segment.theta]
+        where = f"theta: [{theta[0]:g}, {theta[1]:g}]"
+        if segment is not None and segment.r is not None:
+            where += f", r: [{float(segment.r[0]):.9g}, {float(segment.r[1]):.9g}]"
+        items.append(f"{{name: {name}, {where}, drive: {{amplitude: {amplitude / chirp:.9g}, "
+                     f"phase: {phase:.6g}}}}}")
+    return [f"--set 'electrodes.segments=[{', '.join(items)}]'"]
 
 
 __all__ = ["DRIVE_COLUMNS", "ExcitationDesign", "REGULARISATION", "SELECTIVITY_COLUMNS",
-           "SEPARABLE_RATIO", "design_drive", "partner_stem", "resolve_targets", "set_lines"]
+           "SEPARABLE_RATIO", "SEPARATION_DB", "design_drive", "separation_floor_db", "partner_stem", "resolve_targets", "set_lines"]

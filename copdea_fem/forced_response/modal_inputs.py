@@ -59,10 +59,12 @@ POINT_ANGLES_DEG = (0.0, 30.0)
 
 
 def drive_inputs(study) -> list[tuple[str, object]]:
-    """The study's inputs ``(name, weight)``: the uniform electrode
-    ``("electrode", ElectrodeImperfection())`` (one AC voltage on the whole membrane)."""
-    from copdea_fem.fe.forced.electrode import ElectrodeImperfection
-    return [("electrode", ElectrodeImperfection())]
+    """The study's inputs ``(name, weight)``: its segments (``electrodes.segments``,
+    :func:`copdea_fem.fe.forced.electrode.segment_weights`; without segments the whole
+    electrode, one AC voltage on the whole membrane).  The segments' ``drive`` is not
+    applied: each segment is an input of its own."""
+    from copdea_fem.fe.forced.electrode import segment_weights
+    return [(name, weight) for name, weight, _ in segment_weights(study)]
 
 
 def study_points(solution, study) -> tuple[list[str], np.ndarray]:
@@ -192,33 +194,35 @@ class ModalInputs:
             kinds = [columns[k][0].kind if k in columns else "air"
                      for k in range(len(band.eigenvalues))]
             damping_per_mass = modal_damping(labels, kinds, study)
-            bases, factors = {}, {}
+            # one basis per distinct forcing: the axisymmetric engine forces an order by one
+            # vector per radial factor of the weights (the inputs differ by their families'
+            # factors), the 3-D engine by each input's folded weight
+            bases, factors, keys = {}, {}, []
             for k, (_, weight) in enumerate(inputs):
                 for family, factor in part.families(weight):
                     factors[(family, k)] = factor
-                shared = part.m is not None
-                if shared and bases:
+                key = ("radii", getattr(weight, "radii", None)) if part.m is not None else k
+                keys.append(key)
+                if key in bases:
                     continue
                 force = np.asarray(engine.electrode_forcing(state, part, weight), float)
                 forced = ForcedOrder.from_parts(part.pencil, force, zero, 0.0,
                                                 study.eigen.backend)
                 basis = ModalBasis.build(forced, band.eigenvalues, band.vectors, labels,
                                          damping_per_mass)
-                bases["all" if shared else k] = (forced, basis)
+                bases[key] = (forced, basis)
             forced0, basis0 = next(iter(bases.values()))
             membrane_index = np.asarray(forced0.coupled.membrane_index)
             membrane = basis0.vectors[membrane_index]
             families = ("cos",) if part.m is None else ("cos", "sin")
             for family in families:
                 gains = np.array([factors.get((family, k), 0.0) for k in range(len(inputs))])
-                if not np.any(gains):
-                    continue
                 family_labels = [next((mode.label for mode in columns[k]
                                        if part.m is None or mode.family == family), "")
                                  if k in columns else "" for k in range(len(labels))]
                 model.channels.append(cls._channel(
-                    f"{part.key}:{family}", part, family, bases, gains, family_labels, kinds,
-                    basis0, membrane, membrane_index, points))
+                    f"{part.key}:{family}", part, family, [bases[key] for key in keys], gains,
+                    family_labels, kinds, basis0, membrane, membrane_index, points))
         logger.info(f"modal model: {len(model.inputs)} input(s), {model.columns} band "
                     f"column(s) in {len(model.channels)} driven field(s), "
                     f"{len(model.point_names)} points")
@@ -227,13 +231,14 @@ class ModalInputs:
     @staticmethod
     def _channel(name, part, family, bases, gains, labels, kinds, basis0, membrane,
                  membrane_index, points) -> Channel:
+        """``bases``: (forced pencil, modal basis) of each input's forcing."""
         from copdea_fem.forced_response.observers import LineResponse
 
         operators = part.pencil.membrane
         count = len(gains)
 
         def forced_of(k):
-            return bases["all"] if "all" in bases else bases[k]
+            return bases[k]
 
         participation = np.stack([gains[k] * forced_of(k)[1].participation
                                   for k in range(count)], axis=1)

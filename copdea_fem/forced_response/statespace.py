@@ -45,6 +45,9 @@ realised as (2).  At ``s = 0`` the model's gain is the exact static response ``A
 D holds what a velocity realisation (2) feeds through (``2 Re(conj(x) g conj(p))``, zero
 for a real pencil).
 
+Columns that no input drives (the orders m >= 1 of a whole electrode) are left out: they
+are not controllable.
+
 Self-sensing current: the motional part ``F_k^T v`` (:mod:`.modal_inputs` eq. 2) only; the
 blocked capacitance's ``C_k0 dV_k/dt`` is improper as an LTI output and is left to the user
 (``units`` says so).
@@ -169,6 +172,8 @@ def realise(model, static_correction: bool = True) -> StateSpaceModel:
 
     for channel in model.channels:
         for j, lam in enumerate(channel.eigenvalues):
+            if not np.any(channel.participation[j]):
+                continue                        # no input drives it: not controllable
             a = np.conj(channel.norms[j])
             b = np.conj(channel.damping[j])
             c = np.conj(channel.norms[j] * lam)
