@@ -146,7 +146,7 @@ class Excitation:
         return set_lines(self.design, self.study)
 
     def spectra(self, frequency_hz=None):
-        """(lines [Hz], |v| averaged over the points and components [m/s] of the inputs
+        """(lines [Hz], the modulus of v averaged over the points and components [m/s] of the inputs
         driven together at ``max_ac`` in phase (one electrode), of the designed drive)."""
         import numpy as np
         f_max = float(self.study.eigen.f_max)
