@@ -100,6 +100,21 @@ def cmd_response(args) -> int:
     return 0
 
 
+def cmd_excite(args) -> int:
+    """The drive of each input that lights the target mode(s)."""
+    result = api.excite(_study(args), args.target, max_ac=args.max_ac,
+                        allow_large=args.allow_large, out=_output(args))
+    _print(result.summary_lines())
+    return 0
+
+
+def cmd_statespace(args) -> int:
+    """The coupled modal model as a real LTI system."""
+    result = api.statespace(_study(args), allow_large=args.allow_large, out=_output(args))
+    _print(result.summary_lines())
+    return 0
+
+
 def cmd_force(args) -> int:
     out = _output(args)
     curve = api.force(_study(args), args.voltages, args.z_max or None, args.points,
@@ -443,6 +458,23 @@ def build_parser() -> argparse.ArgumentParser:
     response.add_argument("--quiet", action="store_true", help="no progress messages")
     _add_mesh_options(response)
     response.set_defaults(handler=cmd_response)
+    excite = with_study("excite", "the drive of each electrode segment that lights the "
+                        "target mode(s): drive.csv, selectivity.csv, response_set.txt, PNG")
+    excite.add_argument("--target", action="append", metavar="LABEL",
+                        help="a mode label of the band, e.g. '(2,1)' (repeat for several)")
+    excite.add_argument("--max-ac", type=float, metavar="V",
+                        help="peak AC amplitude of the drive [V] (default: "
+                        "excitation.amplitude)")
+    excite.add_argument("--out", help="result directory (default: output.directory)")
+    excite.add_argument("--quiet", action="store_true", help="no progress messages")
+    _add_mesh_options(excite)
+    excite.set_defaults(handler=cmd_excite)
+    statespace = with_study("statespace", "the coupled modal model as a real LTI system: "
+                            "statespace.npz, statespace.mat")
+    statespace.add_argument("--out", help="result directory (default: output.directory)")
+    statespace.add_argument("--quiet", action="store_true", help="no progress messages")
+    _add_mesh_options(statespace)
+    statespace.set_defaults(handler=cmd_statespace)
     _add_reduced_commands(commands, with_study)
     _add_sweep_command(commands)
     _add_diagnose_commands(commands, with_study)

@@ -740,6 +740,20 @@ CASES = [
          "air.enabled = false", expect=None, api=_load({
              "geometry.frame": "baffle", "geometry.enclosure": "cylinder",
              "air.enabled": False})),
+    # excite and statespace
+    Case("excite without --target", 2, "--target is required for `excite`",
+         argv=("excite", QUICK, "--out", "{work}/e")),
+    Case("excite --max-ac 0", 1, "--max-ac = 0.0 is not allowed; allowed: a peak AC amplitude "
+         "> 0 V", argv=("excite", QUICK, "--target", "(0,1)", "--max-ac", "0", "--out",
+                        "{work}/e")),
+    Case("excite --max-ac nan", 1, "--max-ac = nan is not allowed",
+         argv=("excite", QUICK, "--target", "(0,1)", "--max-ac", "nan", "--out", "{work}/e")),
+    Case("statespace with a membrane loss factor", 3, "membrane.loss_factor = 0.01, "
+         "rayleigh_alpha = 0, rayleigh_beta = 0, prony = () are not allowed for `statespace`",
+         argv=("statespace", QUICK, "--set", "membrane.loss_factor=0.01", "--out",
+               "{work}/s")),
+    Case("statespace without a bias", 3, "load.voltage = 0 is not allowed for `statespace`",
+         argv=("statespace", QUICK, "--set", "load.voltage=0 V", "--out", "{work}/s")),
 ]
 
 

@@ -12,7 +12,8 @@
 
 Every command has this shape (:func:`response`, :func:`force`, :func:`spectrum`,
 :func:`fit_material`, :func:`calibrate_damping`, :func:`sweep`, :func:`diagnose`,
-:func:`identify`, :func:`correlate`, :func:`synthesise`): a function that checks its inputs
+:func:`identify`, :func:`correlate`, :func:`synthesise`, :func:`excite`,
+:func:`statespace`): a function that checks its inputs
 and options before any work and returns a result object with its tables as
 :class:`pandas.DataFrame`, its printed summary (``summary_lines``) and a ``write(folder)``
 that writes the command's files under the rules of :mod:`copdea_fem.folders` (the only
@@ -55,6 +56,7 @@ result folders of ``write`` and of ``out``), then the functions with their resul
 :mod:`~copdea_fem.api.response_results` (:func:`response`, :func:`spectrum`),
 :mod:`~copdea_fem.api.calibration_results` (:func:`fit_material`,
 :func:`calibrate_damping`), :mod:`~copdea_fem.api.sweep_results` (:func:`sweep`),
+:mod:`~copdea_fem.api.control_results` (:func:`excite`, :func:`statespace`),
 :mod:`~copdea_fem.api.measured_results` (:func:`load_measured`, :func:`diagnose`,
 :func:`identify`, :func:`identify_file`, :func:`correlate`) and
 :mod:`~copdea_fem.api.synthetic_results` (:func:`synthesise`, :func:`catalogue_table`).
@@ -68,6 +70,7 @@ from copdea_fem.api.calibration_results import (
     fit_material,
 )
 from copdea_fem.api.calls import SolveFailed, check_size, load_study, solving
+from copdea_fem.api.control_results import Excitation, StateSpace, excite, statespace
 from copdea_fem.api.fe_results import (
     ForceCurve,
     Solution,
@@ -104,7 +107,8 @@ __all__ = ["load_study", "solve", "Solution", "response", "ResponseSolution",  #
            "DampingCalibrationResult", "sweep", "SweepResult", "load_measured", "diagnose",
            "Diagnosis", "identify", "IdentifyResult", "identify_file",
            "FileIdentifyResult", "correlate", "CorrelateResult",
-           "synthesise", "SyntheticData", "catalogue_table", "reference_table", "Output",
+           "synthesise", "SyntheticData", "catalogue_table", "excite", "Excitation",
+           "statespace", "StateSpace", "reference_table", "Output",
            "SolveFailed", "StudyError", "OutputFolderError", "PrestressError",
            "ReducedModelError", "solving", "check_size", "progress_to"]
 

@@ -61,7 +61,11 @@ if TYPE_CHECKING:   # the names for type checkers, and the package's imports for
         check_size,
         engine_for,
     )
-    from copdea_fem.fe.forced.electrode import ElectrodeImperfection
+    from copdea_fem.fe.forced.electrode import (
+        ElectrodeImperfection,
+        SegmentWeight,
+        segment_weights,
+    )
     from copdea_fem.fe.forced.problem import DrivenPart, OrderZero
     from copdea_fem.fe.materials import Membrane
     from copdea_fem.fe.modes import AIR, IN_PLANE, OUT_OF_PLANE, PUMPING, Mode
@@ -92,7 +96,8 @@ _HOMES = {
     "PrestressedState": "prestress", "PrestressError": "prestress",
     "Membrane": "materials",
     "OrderZero": "forced.problem", "DrivenPart": "forced.problem",
-    "ElectrodeImperfection": "forced.electrode",
+    "ElectrodeImperfection": "forced.electrode", "SegmentWeight": "forced.electrode",
+    "segment_weights": "forced.electrode",
     "PointSampler": "points",
     "MeshMotionError": "ale", "check_air_lift": "airbox",
     "EigenSolverError": "eigen", "EigenResidualError": "eigen", "TooManyModesError": "eigen",
@@ -101,10 +106,10 @@ _HOMES = {
 __all__ = ["AIR", "IN_PLANE", "MAX_UNKNOWNS", "MESH_CACHE_VARIABLE", "OUT_OF_PLANE", "PUMPING",
            "CoupledSolution", "DrivenPart", "EigenResidualError", "EigenSolverError",
            "ElectrodeImperfection", "Engine", "Membrane", "MeshMotionError", "Mode", "OrderZero",
-           "PointSampler", "PrestressError", "PrestressedState", "SolveResult",
+           "PointSampler", "PrestressError", "PrestressedState", "SegmentWeight", "SolveResult",
            "TooManyModesError", "check_air_lift", "check_size", "coupled_modes", "dry_modes",
            "engine_for", "make_prestress_solver", "prepare_mesh", "require_backend",
-           "run_force", "run_solve"]
+           "run_force", "run_solve", "segment_weights"]
 
 
 def __getattr__(name):

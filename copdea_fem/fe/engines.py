@@ -32,7 +32,7 @@ if TYPE_CHECKING:
     import numpy as np
 
     from copdea_fem.fe.bands import BandSolver
-    from copdea_fem.fe.forced.electrode import ElectrodeImperfection
+    from copdea_fem.fe.forced.electrode import ElectrodeImperfection, SegmentWeight
     from copdea_fem.fe.forced.problem import DrivenPart, OrderZero
     from copdea_fem.fe.modes import Mode
     from copdea_fem.fe.points import PointSampler
@@ -88,10 +88,21 @@ class Engine(Protocol):
         (:mod:`copdea_fem.forced_response.scan`)."""
 
     def electrode_forcing(self, state: PrestressedState, part: DrivenPart,
-                          electrode: ElectrodeImperfection) -> np.ndarray:
+                          electrode: ElectrodeImperfection | SegmentWeight) -> np.ndarray:
         """The forcing [N/V] of ``electrode``'s drive weight on ``part``'s membrane unknowns
         (:mod:`copdea_fem.fe.forced.electrode`; the factors of an order's families:
-        :meth:`copdea_fem.fe.forced.problem.DrivenPart.families`)."""
+        :meth:`copdea_fem.fe.forced.problem.DrivenPart.families`).
+
+        ``electrode`` is any object of the weight protocol of
+        :mod:`copdea_fem.fe.forced.electrode`, a weight
+        ``w(r, theta) = rho(r) sum_m (c_m cos m theta + s_m sin m theta)`` on the co-energy:
+        ``family_weights(m) -> (c_m, s_m)``, ``radial_weight(r) -> rho`` (None: 1),
+        ``weight(x, y)`` and ``sector_weight(sector, x, y)`` (its fold on a 3-D symmetry
+        sector).  The axisymmetric engine returns the forcing of ``rho(R) cos(m theta)`` on
+        the order's cos family (the caller multiplies by ``c_m``, ``s_m`` per family); the
+        3-D engine the forcing of the folded weight itself (factor 1).  Linear in the
+        weight: a drive of several segments is the sum of their forcings times their
+        complex AC volts (:func:`copdea_fem.fe.forced.electrode.segment_weights`)."""
 
     def point_sampler(self, state: PrestressedState, positions) -> PointSampler:
         """The fields of ``state`` at points (P, 3) [m] of the prestressed device

@@ -89,8 +89,12 @@ def scan_response(solution, study, positions, frequencies, electrode, *,
         (:meth:`copdea_fem.fe.engines.Engine.prestressed_positions`).
     frequencies : (F,) array
         Lines [Hz].
-    electrode : copdea_fem.fe.ElectrodeImperfection
-        The electrode's drive weight (``ElectrodeImperfection()``: the uniform electrode).
+    electrode : weight or list of (weight, complex)
+        The electrode's drive weight (the protocol of :mod:`copdea_fem.fe.forced.electrode`;
+        ``ElectrodeImperfection()``: the uniform electrode), or a drive of several
+        segments at once: ``[(weight, amplitude), ...]``, each segment's complex AC volts
+        per volt of input in the FRFs' ``e^{+i omega t}`` convention
+        (:func:`copdea_fem.fe.forced.electrode.segment_weights`'s drives).
     damping_per_mass : callable
         ``mode -> (b/m)`` [1/s] of a structural mode (a :class:`copdea_fem.fe.Mode` of the
         solve: its label, frequency, ...; module notes; air modes get none).
@@ -98,62 +102,106 @@ def scan_response(solution, study, positions, frequencies, electrode, *,
         ``label -> factor`` on a structural mode's frequency (the eigenvalue times its
         square); the twins of an axisymmetric pair share their column's (the first's).
     """
+    engine, state = solution.engine, solution.state
+    frequencies = np.asarray(frequencies, float)
+    omega = 2 * np.pi * frequencies
+    points = ScanPoints(engine.point_sampler(state, positions), frequencies.size)
+    truth: dict = {}
+    drive = list(electrode) if isinstance(electrode, (list, tuple)) else [(electrode, 1.0)]
+    for part in engine.driven_parts(solution, study):
+        if len(part.band.eigenvalues) == 0:
+            continue
+        for force, families in driven_groups(engine, state, part, drive):
+            _drive_part(solution, study, part, force, families, points, frequencies,
+                        damping_per_mass, frequency_factors, truth)
+    velocity = np.conj(-1j * omega[None, None, :] * points.displacement)
+    return ScanResponse(frequencies, velocity, truth)
+
+
+def driven_groups(engine, state, part, drive) -> list[tuple[np.ndarray, list]]:
+    """``(force, [(family, factor), ...])`` per forcing a part needs for a drive
+    ``[(weight, amplitude), ...]`` (amplitudes complex, ``e^{+i omega t}``: the FE's
+    ``e^{-i omega t}`` forcing takes their conjugates).  On the axisymmetric engine one per
+    radial factor of the weights (the order's forcing of ``rho(R) cos m theta``), the
+    family factors summed over the weights sharing it; on the 3-D engine one, the sum of
+    the weights' forcings (factor 1).  One weight of amplitude 1: its own forcing and
+    factors, unchanged."""
+    groups: dict = {}
+    for weight, amplitude in drive:
+        families = part.families(weight)
+        if not families:
+            continue
+        scale = np.conj(complex(amplitude))
+        if part.m is not None:
+            key = getattr(weight, "radii", None)
+            if key not in groups:
+                groups[key] = [engine.electrode_forcing(state, part, weight), {}]
+            for family, factor in families:
+                sums = groups[key][1]
+                sums[family] = sums.get(family, 0.0) + (factor if scale == 1 else scale * factor)
+        else:
+            force = engine.electrode_forcing(state, part, weight)
+            force = force if scale == 1 else scale * np.asarray(force, complex)
+            if None in groups:
+                groups[None][0] = groups[None][0] + force
+            else:
+                groups[None] = [force, {"cos": 1.0}]
+    return [(force, [(family, factor) for family, factor in sums.items() if factor != 0.0])
+            for force, sums in groups.values()]
+
+
+def _drive_part(solution, study, part, force, families, points, frequencies, damping_per_mass,
+                frequency_factors, truth) -> None:
+    """The response of one part under one forcing ``force``, its families by ``families``,
+    added to ``points``; its modes' frequency, damping and static reach into ``truth``."""
     import scipy.sparse as sp
 
     from copdea_fem.fe.forced.harmonic import ForcedOrder, ModalBasis
     from copdea_fem.fe.modes import membrane_energy_fractions
     from copdea_fem.forced_response.run import sealed_enclosure
 
-    engine, state = solution.engine, solution.state
-    frequencies = np.asarray(frequencies, float)
-    omega = 2 * np.pi * frequencies
-    points = ScanPoints(engine.point_sampler(state, positions), frequencies.size)
-    truth = {}
-    for part in engine.driven_parts(solution, study):
-        families = part.families(electrode)
-        band = part.band
-        if not families or len(band.eigenvalues) == 0:
-            continue
-        force = engine.electrode_forcing(state, part, electrode)
-        size = part.pencil.membrane.stiffness.shape[0]
-        forced = ForcedOrder.from_parts(part.pencil, force, sp.csr_matrix((size, size)), 0.0,
-                                        study.eigen.backend)
-        eigenvalues = np.asarray(band.eigenvalues, complex)
-        shares = (np.asarray(membrane_energy_fractions(part.pencil, band))
-                  if len(part.pencil.pressure_index) else np.ones(eigenvalues.size))
-        columns = part_modes(part, solution.modes)          # structural, labelled
-        # the paper's modal b/m (eq. 19) per label, in the modal path's denominator
-        damping = np.zeros(eigenvalues.size)
+    band = part.band
+    if not families:
+        return
+    size = part.pencil.membrane.stiffness.shape[0]
+    forced = ForcedOrder.from_parts(part.pencil, force, sp.csr_matrix((size, size)), 0.0,
+                                    study.eigen.backend)
+    eigenvalues = np.asarray(band.eigenvalues, complex)
+    shares = (np.asarray(membrane_energy_fractions(part.pencil, band))
+              if len(part.pencil.pressure_index) else np.ones(eigenvalues.size))
+    columns = part_modes(part, solution.modes)          # structural, labelled
+    # the paper's modal b/m (eq. 19) per label, in the modal path's denominator
+    damping = np.zeros(eigenvalues.size)
+    for column, modes in columns.items():
+        damping[column] = float(damping_per_mass(modes[0]))
+    basis = ModalBasis.build(forced, eigenvalues, band.vectors,
+                             [columns[k][0].label if k in columns else ""
+                              for k in range(eigenvalues.size)], damping,
+                             singular=sealed_enclosure(study))
+    if frequency_factors is not None:
+        factors = np.ones(eigenvalues.size)
         for column, modes in columns.items():
-            damping[column] = float(damping_per_mass(modes[0]))
-        basis = ModalBasis.build(forced, eigenvalues, band.vectors,
-                                 [columns[k][0].label if k in columns else ""
-                                  for k in range(eigenvalues.size)], damping,
-                                 singular=sealed_enclosure(study))
-        if frequency_factors is not None:
-            factors = np.ones(eigenvalues.size)
-            for column, modes in columns.items():
-                factors[column] = float(frequency_factors(modes[0].label))
-            basis.eigenvalues = eigenvalues * factors ** 2
-        response = LineResponse(forced, basis.basis, basis.coefficients(frequencies))
-        static = basis.participation / (basis.norms * basis.eigenvalues)
-        for family, factor in families:
-            sampled = points.basis(response, part.pencil.membrane, family)
-            points.add(response, sampled, factor)
-            for column, modes in columns.items():
-                peak = float(np.abs(factor * static[column]) * np.abs(sampled[..., column]).max())
-                frequency = abs(np.sqrt(basis.eigenvalues[column]).real) / (2 * np.pi)
-                material = damping[column] / (4 * np.pi * frequency) * shares[column]
-                for mode in modes:
-                    if part.m is None or mode.family == family:
-                        truth[mode.label] = {"freq_hz": float(frequency),
-                                             "damping_ratio": float(mode.damping_ratio
-                                                                    + material),
-                                             "static_displacement": peak}
-        logger.debug("scan response: %s driven (%d modes of the band)", part.key,
-                     eigenvalues.size)
-    velocity = np.conj(-1j * omega[None, None, :] * points.displacement)
-    return ScanResponse(frequencies, velocity, truth)
+            factors[column] = float(frequency_factors(modes[0].label))
+        basis.eigenvalues = eigenvalues * factors ** 2
+    response = LineResponse(forced, basis.basis, basis.coefficients(frequencies))
+    static = basis.participation / (basis.norms * basis.eigenvalues)
+    for family, factor in families:
+        sampled = points.basis(response, part.pencil.membrane, family)
+        points.add(response, sampled, factor)
+        for column, modes in columns.items():
+            peak = float(np.abs(factor * static[column]) * np.abs(sampled[..., column]).max())
+            frequency = abs(np.sqrt(basis.eigenvalues[column]).real) / (2 * np.pi)
+            material = damping[column] / (4 * np.pi * frequency) * shares[column]
+            for mode in modes:
+                if part.m is None or mode.family == family:
+                    reach = max(peak, truth.get(mode.label, {}).get("static_displacement",
+                                                                    0.0))
+                    truth[mode.label] = {"freq_hz": float(frequency),
+                                         "damping_ratio": float(mode.damping_ratio
+                                                                + material),
+                                         "static_displacement": reach}
+    logger.debug("scan response: %s driven (%d modes of the band)", part.key,
+                 eigenvalues.size)
 
 
 def part_modes(part, modes) -> dict:

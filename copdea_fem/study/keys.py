@@ -40,7 +40,8 @@ class Key:
     """One study key: SI unit, default, bounds and meaning.
 
     ``unit`` is the SI unit the value is converted to (``None`` for a pure
-    number, a switch or a choice).  ``default=None`` with ``derived`` set means
+    number, a switch or a choice); a list key (``kind=list``) is read item by item by its
+    ``reader``.  ``default=None`` with ``derived`` set means
     the default is computed from other keys (see
     :func:`copdea_fem.study.checks.derived_defaults`).
     """
@@ -54,6 +55,7 @@ class Key:
     open_min: bool = False          # minimum excluded
     choices: tuple | None = None
     derived: str | None = None      # text of the derived default, for the docs
+    reader: Any = None              # a list key's reader (key, value) -> plain SI items
 
     def allowed(self) -> str:
         if self.choices:
@@ -118,7 +120,7 @@ def convert_value(key: str, spec: Key, value: Any) -> Any:
     if value is None and spec.default is None:
         return None
     if spec.kind is list:
-        return _LIST_KEYS[key](key, value)
+        return (spec.reader or _LIST_KEYS[key])(key, value)
     if spec.kind is bool:
         if not isinstance(value, bool):
             raise refusal(key, value, spec.allowed())

@@ -25,6 +25,7 @@ from copdea_fem.study.schema import (
     AXISYMMETRIC_ENCLOSURES,
     AXISYMMETRIC_FRAMES,
     META_KEYS,
+    OPTIONAL_SECTIONS,
     SCHEMA,
 )
 from copdea_fem.study.sections import SECTION_CLASSES, plain_section, typed_section
@@ -36,6 +37,7 @@ if TYPE_CHECKING:
         AirSection,
         DiscSection,
         EffectsSection,
+        ElectrodesSection,
         EigenSection,
         ExcitationSection,
         GeometrySection,
@@ -114,6 +116,7 @@ class Study:
         excitation: ExcitationSection
         response: ResponseSection
         effects: EffectsSection
+        electrodes: ElectrodesSection
 
     name: str = "study"
     description: str = ""
@@ -149,8 +152,15 @@ class Study:
     @property
     def values(self) -> dict[str, dict[str, Any]]:
         """The sections as plain mappings ``{section: {key: SI value}}`` (a copy; the form
-        the resolved study file writes and the cache keys hash)."""
-        return {section: plain_section(getattr(self, section)) for section in SCHEMA}
+        the resolved study file writes and the cache keys hash; an optional section,
+        :data:`~copdea_fem.study.schema.OPTIONAL_SECTIONS`, only when a key differs from
+        its default)."""
+        values = {section: plain_section(getattr(self, section)) for section in SCHEMA}
+        for section in OPTIONAL_SECTIONS:      # written only when not all at the default
+            if all(value == SCHEMA[section][key].default
+                   for key, value in values[section].items()):
+                del values[section]
+        return values
 
     def __getitem__(self, section: str) -> Mapping[str, Any]:
         """``study["load"]``: a read-only mapping of the section (deprecated: read

@@ -5,6 +5,7 @@ default, bounds and description (:data:`SCHEMA`), and the README's table made fr
 from __future__ import annotations
 
 from copdea_fem.study.keys import Key
+from copdea_fem.study.segments import read_segments
 
 G1 = "Table 1, G1"
 ENGINES = ("auto", "3d", "axisymmetric")
@@ -309,6 +310,23 @@ SCHEMA["effects"] = {
     "viscoelastic_time": Key("s", 2e-4, "relaxation time tau of that standard linear solid",
                              minimum=0, maximum=10, open_min=True),
 }
+
+# The electrode split into segments driven apart (copdea_fem.fe.forced.electrode); written
+# in a resolved study only when given (OPTIONAL_SECTIONS).
+SCHEMA["electrodes"] = {
+    "segments": Key(None, [], "the electrode split into segments, each driven by its own AC "
+                    "voltage on the shared bias load.voltage: a list of {name, theta: [from, to] "
+                    "degrees counter-clockwise from the x axis (from > to wraps through 0; "
+                    "[0, 360] the whole circle), r: [from, to] metres on the flat pre-stretched "
+                    "membrane (default the whole annulus), drive: {amplitude: AC volts per volt "
+                    "of the input (default 1), phase: degrees (default 0)}}; segments may not "
+                    "overlap; [] = one electrode over the whole membrane (docs/response.md)",
+                    kind=list, reader=read_segments),
+}
+
+#: Sections written in a resolved study (and hashed) only when a key differs from its
+#: default, so that a study without them resolves as it did before they existed.
+OPTIONAL_SECTIONS = ("electrodes",)
 
 #: Most elements across the membrane width r_o - r_i that both engines mesh: the smallest
 #: mesh.membrane_size, and the narrowest ring of a circular frame, is (r_o - r_i) / this.

@@ -6,7 +6,8 @@ generated from it, so the schema stays the one source of keys, units, defaults a
 ``name.capitalize() + "Section"`` (:data:`SECTION_CLASSES`).  Each field holds the key's
 value in SI, its type the key's kind (``float``, ``int``, ``str``, ``bool``; ``None`` where
 the key has no default and none was given, e.g. ``reduced.modes_json``), except the list
-key ``membrane.prony``: a tuple of :class:`PronyTerm`.  A section alone is not checked; a
+key ``membrane.prony``: a tuple of :class:`PronyTerm`, and ``electrodes.segments``: a tuple
+of :class:`ElectrodeSegment`.  A section alone is not checked; a
 :class:`~copdea_fem.study.resolved.Study` checks its sections when it is made.
 
 The classes are module-level names of this module, so sections (and studies) pickle for
@@ -64,8 +65,62 @@ class Enclosure:
     vent_radius: float
 
 
+@dataclasses.dataclass(frozen=True)
+class SegmentDrive:
+    """The AC drive of an electrode segment (``electrodes.segments[k].drive``).
+
+    Attributes
+    ----------
+    amplitude : float
+        AC volts on the segment per volt of the input [V/V].
+    phase : float
+        Phase of the segment's AC voltage [deg] (its complex drive
+        ``amplitude e^{i phase}``).
+    """
+
+    amplitude: float = 1.0
+    phase: float = 0.0
+
+
+@dataclasses.dataclass(frozen=True)
+class ElectrodeSegment:
+    """One segment of ``electrodes.segments`` (:mod:`copdea_fem.study.segments`).
+
+    Attributes
+    ----------
+    name : str
+        The segment's name (modal_forcing.csv's ``segment``).
+    theta : tuple of float
+        ``(from, to)`` [deg], counter-clockwise from the x axis (wrapping through 0 where
+        ``to < from``).
+    r : tuple of float or None
+        ``(from, to)`` [m] on the flat pre-stretched membrane; None = the whole annulus.
+    drive : SegmentDrive
+        Its AC drive.
+    """
+
+    name: str
+    theta: tuple
+    r: tuple | None = None
+    drive: SegmentDrive = SegmentDrive()
+
+    def __post_init__(self):
+        object.__setattr__(self, "theta", tuple(self.theta))
+        if self.r is not None:
+            object.__setattr__(self, "r", tuple(self.r))
+        if isinstance(self.drive, dict):
+            object.__setattr__(self, "drive", SegmentDrive(**self.drive))
+
+    def plain(self) -> dict[str, Any]:
+        """The plain mapping of the resolved study file (lists, a drive mapping)."""
+        return {"name": self.name, "theta": list(self.theta),
+                "r": None if self.r is None else list(self.r),
+                "drive": {"amplitude": self.drive.amplitude, "phase": self.drive.phase}}
+
+
 #: The typed form of a list key's items (the plain form: a mapping per item).
-LIST_ITEM_CLASSES = {("membrane", "prony"): PronyTerm}
+LIST_ITEM_CLASSES = {("membrane", "prony"): PronyTerm,
+                     ("electrodes", "segments"): ElectrodeSegment}
 
 
 def _field_type(section: str, key: str) -> Any:
@@ -84,7 +139,8 @@ def _docstring(section: str) -> str:
     lines = [f"The ``{section}`` section of a study (generated from ``SCHEMA[{section!r}]``).",
              "", "Attributes", "----------"]
     for key, spec in SCHEMA[section].items():
-        kind = "tuple of PronyTerm" if spec.kind is list else spec.kind.__name__
+        kind = (f"tuple of {LIST_ITEM_CLASSES[section, key].__name__}" if spec.kind is list
+                else spec.kind.__name__)
         unit = f" [{spec.unit}]" if spec.unit else ""
         lines += [f"{key} : {kind}", f"    {spec.description}{unit}."]
     return "\n".join(lines)
@@ -124,7 +180,8 @@ def plain_section(section) -> dict[str, Any]:
     for field in dataclasses.fields(section):
         value = getattr(section, field.name)
         if isinstance(value, tuple):
-            value = [dataclasses.asdict(item) if dataclasses.is_dataclass(item) else item
+            value = [item.plain() if hasattr(item, "plain") else
+                     dataclasses.asdict(item) if dataclasses.is_dataclass(item) else item
                      for item in value]
         values[field.name] = value
     return values
@@ -158,7 +215,13 @@ def stub_text() -> str:
              "", "class Enclosure:", "    kind: str", "    depth: float", "    radius: float",
              "    vent_radius: float",
              "    def __init__(self, kind: str, depth: float, radius: float, "
-             "vent_radius: float) -> None: ...", ""]
+             "vent_radius: float) -> None: ...", "",
+             "class SegmentDrive:", "    amplitude: float", "    phase: float",
+             "    def __init__(self, amplitude: float = ..., phase: float = ...) -> None: ...",
+             "", "class ElectrodeSegment:", "    name: str", "    theta: tuple[float, float]",
+             "    r: tuple[float, float] | None", "    drive: SegmentDrive",
+             "    def __init__(self, name: str, theta: Any, r: Any = ..., drive: Any = ...) "
+             "-> None: ...", "    def plain(self) -> dict[str, Any]: ...", ""]
     for section, cls in SECTION_CLASSES.items():
         lines.append(f"class {cls.__name__}:")
         lines += [f"    {key}: {_annotation(section, key)}" for key in SCHEMA[section]]

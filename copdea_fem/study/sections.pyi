@@ -15,6 +15,19 @@ class Enclosure:
     vent_radius: float
     def __init__(self, kind: str, depth: float, radius: float, vent_radius: float) -> None: ...
 
+class SegmentDrive:
+    amplitude: float
+    phase: float
+    def __init__(self, amplitude: float = ..., phase: float = ...) -> None: ...
+
+class ElectrodeSegment:
+    name: str
+    theta: tuple[float, float]
+    r: tuple[float, float] | None
+    drive: SegmentDrive
+    def __init__(self, name: str, theta: Any, r: Any = ..., drive: Any = ...) -> None: ...
+    def plain(self) -> dict[str, Any]: ...
+
 class GeometrySection:
     outer_radius: float
     inner_radius: float
@@ -143,6 +156,10 @@ class EffectsSection:
     air_mass_scale: float
     viscoelastic_strength: float
     viscoelastic_time: float
+    def __init__(self, **values: Any) -> None: ...
+
+class ElectrodesSection:
+    segments: tuple[ElectrodeSegment, ...]
     def __init__(self, **values: Any) -> None: ...
 
 LIST_ITEM_CLASSES: dict[tuple[str, str], type]

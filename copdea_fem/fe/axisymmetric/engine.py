@@ -357,11 +357,12 @@ class AxisymmetricEngine:
                 for (key, band), pencil in zip(bands.items(), pencils)]
 
     def electrode_forcing(self, state, part: DrivenPart, electrode) -> np.ndarray:
-        """The forcing [N/V] of the weight ``cos(m theta)`` on the order's cos family
+        """The forcing [N/V] of the weight ``rho(R) cos(m theta)`` on the order's cos family,
+        ``rho`` the weight's radial factor
         (:func:`copdea_fem.fe.axisymmetric.forcing.order_forcing`; ``electrode``'s factors of
         the order's families: :meth:`copdea_fem.fe.forced.problem.DrivenPart.families`)."""
-        from copdea_fem.fe.axisymmetric.forcing import order_forcing
-        return order_forcing(state, part.pencil.membrane)
+        from copdea_fem.fe.axisymmetric.forcing import weight_forcing
+        return weight_forcing(state, part.pencil.membrane, electrode)
 
     def point_sampler(self, state, positions):
         """The fields of ``state`` at points of the prestressed device

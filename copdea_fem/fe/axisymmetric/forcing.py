@@ -36,11 +36,15 @@ def forced_order(state, coupled, backend="superlu") -> ForcedOrder:
                                   backend)
 
 
-def _energy_form(state, space, voltage, axis_m1=False, m=0):
+def _energy_form(state, space, voltage, axis_m1=False, m=0, radial=None):
     """Variation form of the order-m membrane energy E(u0 + u; V) of the whole device
-    (:func:`copdea_fem.fe.axisymmetric.membrane.order_energy`)."""
+    (:func:`copdea_fem.fe.axisymmetric.membrane.order_energy`); ``radial``: a coefficient
+    function rho(R) weighting the co-energy, an indicator (0 or 1; None: no weight).  The
+    co-energy goes as V^2 (eq. 7) and nothing else depends on V, so the voltage
+    ``V rho(R)`` weights it by rho^2 = rho and leaves the elastic energy as it is."""
+    local = voltage if radial is None else voltage * radial
     at_voltage = types.SimpleNamespace(material=state.material, displacement=state.displacement,
-                                       voltage=voltage, measure=state.measure)
+                                       voltage=local, measure=state.measure)
     trial, test = space.TnT()
     energy, _ = membrane_forms(at_voltage, int(m), trial, test, axis_m1)
     form = ngs.BilinearForm(space, symmetric=False)
@@ -66,10 +70,13 @@ def voltage_forcing(state, dry) -> tuple[np.ndarray, float]:
     return reduce_vector(force, dry.free_dofs, _order_lift(dry)), balance
 
 
-def order_forcing(state, dry) -> np.ndarray:
-    """The forcing [N/V] on the order-m unknowns of the drive weight ``cos(m theta)`` on the
-    co-energy (:mod:`copdea_fem.fe.forced.electrode`), for the cos family of ``dry``'s order;
-    the uniform electrode's (:func:`voltage_forcing`) for m = 0.
+def order_forcing(state, dry, radial=None) -> np.ndarray:
+    """The forcing [N/V] on the order-m unknowns of the drive weight ``rho(R) cos(m theta)``
+    on the co-energy (:mod:`copdea_fem.fe.forced.electrode`), for the cos family of ``dry``'s
+    order; the uniform electrode's (:func:`voltage_forcing`) for m = 0 and ``rho = 1``.
+
+    ``radial``: ``rho(R)``, a coefficient function of the reference radius (None: 1),
+    weighting the co-energy inside the forcing integral (:func:`_energy_form`).
 
     For m >= 1 the order's energy is ``pi int [W(G0 + G_c) + W(G0 + G_s)] R dR``
     (:mod:`.membrane`), so its gradient at u = 0 is ``pi int W'(G0) : (G_c + G_s) R dR``.
@@ -80,13 +87,22 @@ def order_forcing(state, dry) -> np.ndarray:
     has no entry where G_s has one ((1,2), (2,1), (3,2) of :mod:`.membrane`).  So the
     difference quotient of :func:`copdea_fem.fe.forced.harmonic.forcing_from_energy` on
     the order-m energy is this forcing, exactly."""
-    if dry.m == 0:
+    if dry.m == 0 and radial is None:
         return voltage_forcing(state, dry)[0]
     voltage = ngs.Parameter(float(state.voltage))
-    form = _energy_form(state, dry.space, voltage, dry.axis_m1, dry.m)
+    form = _energy_form(state, dry.space, voltage, dry.axis_m1, dry.m, radial)
     force, _ = forcing_from_energy(form, voltage, state.voltage,
                                    ngs.GridFunction(dry.space).vec, dry.free_dofs)
     return reduce_vector(force, dry.free_dofs, _order_lift(dry))
+
+
+def weight_forcing(state, dry, weight) -> np.ndarray:
+    """The forcing [N/V] on the order-m unknowns of ``rho(R) cos(m theta)``, ``rho`` the
+    radial factor of ``weight`` (the protocol of :mod:`copdea_fem.fe.forced.electrode`:
+    ``weight.radial_weight(R)``, None for 1), on the cos family of ``dry``'s order
+    (:func:`order_forcing`)."""
+    from copdea_fem.fe.axisymmetric.membrane import radius
+    return order_forcing(state, dry, weight.radial_weight(radius()))
 
 
 def elastic_stiffness(state, dry) -> sp.csr_matrix:

@@ -31,6 +31,31 @@ is a single harmonic and the prestressed device is axisymmetric):
   onto itself: ``sum_q s(q) int_quadrant w(q x) L(x) . R_q u(x) ...``); the quadrant's
   forms are a quarter of the device's, hence the 1/4 (``W_s = 1`` for the even-even
   sector of the uniform electrode).
+
+**Segments.**  A segmented electrode (``electrodes.segments``) is the same mechanism: the
+segment k driven alone by ``V~_k`` is the weight
+
+    w_k(r, theta) = 1_[r1, r2](r) 1_[a, b](theta)                                  (3)
+
+on the co-energy (the film outside the segment sees only the bias; the forcing is linear in
+``w``), and a drive of every segment at once is the sum of the segments' forcings, each
+times its complex AC voltage.  :class:`SegmentWeight` is that indicator; on the
+axisymmetric engine its Fourier orders (eq. 4 there) split it into the orders' families,
+its radial factor staying inside the forcing integral; on the 3-D quadrant it is folded as
+(2).
+
+**The weight protocol** (what :meth:`copdea_fem.fe.engines.Engine.electrode_forcing` asks of
+a weight; :class:`ElectrodeImperfection` and :class:`SegmentWeight` follow it): a weight
+``w(r, theta) = rho(r) sum_m (c_m cos m theta + s_m sin m theta)`` has
+
+- ``family_weights(m) -> (c_m, s_m)`` [-]: the factors of the order-m forcing of the weight
+  ``cos(m theta)`` on the cos and sin families (``c_0``: of the uniform weight on m = 0);
+- ``radial_weight(r)``: ``rho(r)`` at reference radii [m] (NumPy or NGSolve), an indicator
+  (0 or 1: the axisymmetric engine weights the co-energy by the voltage ``V rho``), or None
+  where it is 1 (then nothing enters the forcing integral: the uniform electrode's numbers);
+- ``weight(x, y)`` and ``sector_weight(sector, x, y)``: ``w`` and the folded W_s of (2).
+
+:func:`segment_weights` gives a study's segments as weights with their complex drives.
 """
 
 from __future__ import annotations
@@ -97,16 +122,155 @@ class ElectrodeImperfection:
             total = total + amplitude * _cos(m * (theta - angle))
         return total
 
+    def radial_weight(self, r):
+        """None: the weight (1) does not vary with the radius."""
+        return None
+
     def sector_weight(self, sector, x, y):
         """W_s of (2) for a :class:`copdea_fem.fe.symmetry.Sector` (``None``: the whole
         device, ``w`` itself)."""
-        if sector is None:
-            return self.weight(x, y)
-        from copdea_fem.fe.symmetry import QUADRANTS
-        total = 0
-        for qx, qy in QUADRANTS:
-            total = total + float(sector.sign(qx, qy)) * self.weight(qx * x, qy * y)
-        return 0.25 * total
+        return folded_weight(self, sector, x, y)
+
+
+@dataclass(frozen=True)
+class SegmentWeight:
+    r"""The indicator of an electrode segment as a co-energy weight (module notes, eq. 3):
+    ``w(r, theta) = 1_[r1, r2](r) 1_arc(theta)``, the arc from ``start`` counter-clockwise
+    over ``span`` [rad].
+
+    Its Fourier orders (the integrals of ``w cos m theta``, ``w sin m theta`` over the turn
+    divided by ``2 pi`` for m = 0, ``pi`` for m >= 1), with ``a = start``, ``b = start + span``:
+
+        c_0 = 1_r (b - a) / (2 pi),  c_m = 1_r (sin mb - sin ma) / (m pi),
+        s_m = 1_r (cos ma - cos mb) / (m pi)                                         (4)
+
+    (exactly 1 and 0 for a whole turn).  The radial factor ``1_r`` stays in the forcing
+    integral (:meth:`radial_weight`); the angular factors are :meth:`family_weights`.
+
+    Attributes
+    ----------
+    start : float
+        Where the arc starts [rad], counter-clockwise from the x axis.
+    span : float
+        The arc's angle [rad], in (0, 2 pi].
+    radii : tuple of float or None
+        ``(r1, r2)`` [m] on the flat pre-stretched reference; None = the whole membrane.
+    """
+
+    start: float = 0.0
+    span: float = 2 * math.pi
+    radii: tuple | None = None
+
+    def __post_init__(self):
+        if not 0.0 < self.span <= 2 * math.pi:
+            raise ValueError(f"segment span = {self.span!r} rad is not allowed; allowed: "
+                             "(0, 2 pi]")
+        if self.radii is not None and not 0.0 <= self.radii[0] < self.radii[1]:
+            raise ValueError(f"segment radii = {self.radii!r} m are not allowed; allowed: "
+                             "(r1, r2) with 0 <= r1 < r2")
+
+    @classmethod
+    def from_degrees(cls, theta, radii=None) -> SegmentWeight:
+        """The weight of a segment ``theta = (from, to)`` [deg] (wrapping through 0 where
+        ``to < from``, the whole turn where ``to - from >= 360``), ``radii`` [m] or None."""
+        start, end = float(theta[0]), float(theta[1])
+        span = 360.0 if end - start >= 360.0 else (end - start) % 360.0
+        return cls(math.radians(start % 360.0), math.radians(span),
+                   None if radii is None else (float(radii[0]), float(radii[1])))
+
+    @property
+    def whole_turn(self) -> bool:
+        """Whether the arc is the whole circle."""
+        return self.span >= 2 * math.pi
+
+    def family_weights(self, m: int) -> tuple[float, float]:
+        """(c_m, s_m) of (4) without the radial factor [-]: the factors of the order-m
+        forcing of the weight ``cos(m theta)`` on the cos and sin families."""
+        if m == 0:
+            return self.span / (2 * math.pi), 0.0
+        if self.whole_turn:
+            return 0.0, 0.0
+        a, b = self.start, self.start + self.span
+        return ((math.sin(m * b) - math.sin(m * a)) / (m * math.pi),
+                (math.cos(m * a) - math.cos(m * b)) / (m * math.pi))
+
+    def radial_weight(self, r):
+        """``1_[r1, r2](r)`` at reference radii ``r`` [m] (NumPy arrays or NGSolve
+        coefficient functions); None where the segment spans the whole membrane (no radial
+        factor)."""
+        if self.radii is None:
+            return None
+        r1, r2 = self.radii
+        return _step(r - r1) * _step(r2 - r)
+
+    def weight(self, x, y):
+        """w(r, theta) of (3) at points (x, y) [m] (NumPy arrays or NGSolve coefficient
+        functions)."""
+        if self.whole_turn:
+            angular = 1.0
+        else:
+            offset = _wrap(_angle(x, y) - self.start)           # in [0, 2 pi)
+            angular = _step(self.span - offset)
+        radial = self.radial_weight(_radius(x, y))
+        return angular if radial is None else angular * radial
+
+    def sector_weight(self, sector, x, y):
+        """W_s of (2) for a :class:`copdea_fem.fe.symmetry.Sector` (``None``: the whole
+        device, ``w`` itself)."""
+        return folded_weight(self, sector, x, y)
+
+
+def folded_weight(weight, sector, x, y):
+    """W_s of (2) of any weight with a ``weight(x, y)`` method, on a
+    :class:`copdea_fem.fe.symmetry.Sector` (``None``: the whole device, ``w`` itself)."""
+    if sector is None:
+        return weight.weight(x, y)
+    from copdea_fem.fe.symmetry import QUADRANTS
+    total = 0
+    for qx, qy in QUADRANTS:
+        total = total + float(sector.sign(qx, qy)) * weight.weight(qx * x, qy * y)
+    return 0.25 * total
+
+
+#: The name of the one segment of a study without ``electrodes.segments``.
+WHOLE_ELECTRODE = "electrode"
+
+
+def segment_weights(study) -> list[tuple[str, SegmentWeight, complex]]:
+    """The segments of a study as weights: ``[(name, weight, drive), ...]``, ``drive`` the
+    complex AC volts of the segment per volt of input ``amplitude e^{i phase}`` [V/V]
+    (``electrodes.segments``, :mod:`copdea_fem.study.segments`); a study without segments
+    has one, :data:`WHOLE_ELECTRODE`, over the whole membrane, driven by 1."""
+    segments = study.electrodes.segments
+    if not segments:
+        return [(WHOLE_ELECTRODE, SegmentWeight(), 1.0 + 0.0j)]
+    return [(segment.name, SegmentWeight.from_degrees(segment.theta, segment.r),
+             complex(segment.drive.amplitude * np.exp(1j * math.radians(segment.drive.phase))))
+            for segment in segments]
+
+
+def _radius(x, y):
+    if isinstance(x, np.ndarray) or np.isscalar(x):
+        return np.hypot(x, y)
+    import ngsolve as ngs
+    return ngs.sqrt(x * x + y * y)
+
+
+def _step(value):
+    """1 where ``value > 0``, else 0 (NumPy or NGSolve)."""
+    if isinstance(value, np.ndarray) or np.isscalar(value):
+        return np.where(np.asarray(value) > 0, 1.0, 0.0)
+    import ngsolve as ngs
+    return ngs.IfPos(value, 1.0, 0.0)
+
+
+def _wrap(angle):
+    """An angle [rad] in (-3 pi, pi] moved into [0, 2 pi)."""
+    if isinstance(angle, np.ndarray) or np.isscalar(angle):
+        return np.mod(angle, 2 * np.pi)
+    import ngsolve as ngs
+    once = angle + ngs.IfPos(-angle, 2 * math.pi, 0.0)
+    return once + ngs.IfPos(-once, 2 * math.pi, 0.0)
 
 
 def _angle(x, y):
@@ -123,4 +287,5 @@ def _cos(value):
     return ngs.cos(value)
 
 
-__all__ = ["ElectrodeImperfection"]
+__all__ = ["WHOLE_ELECTRODE", "ElectrodeImperfection", "SegmentWeight", "folded_weight",
+           "segment_weights"]

@@ -60,10 +60,11 @@ def _energy_form(state, voltage, weight=None):
 def quadrant_forcing(state, operators, imperfection=None):
     """f [N/V] on the sector's unknowns and the equilibrium residual (:mod:`.harmonic`).
 
-    ``imperfection``: an :class:`copdea_fem.fe.forced.electrode.ElectrodeImperfection`; the
-    forcing is then the imperfect electrode's on the operators' sector (the weight W_s of
-    its eq. 2 on the co-energy; the residual is the weighted energy's, 0 only for the
-    uniform electrode)."""
+    ``imperfection``: a drive weight (the protocol of :mod:`copdea_fem.fe.forced.electrode`:
+    an :class:`~copdea_fem.fe.forced.electrode.ElectrodeImperfection`, a
+    :class:`~copdea_fem.fe.forced.electrode.SegmentWeight`); the forcing is then that
+    weight's on the operators' sector (the weight W_s of its eq. 2 on the co-energy; the
+    residual is the weighted energy's, 0 only for the uniform electrode)."""
     voltage = ngs.Parameter(float(state.voltage))
     weight = None
     if imperfection is not None:

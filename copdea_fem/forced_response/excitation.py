@@ -1,0 +1,210 @@
+r"""``copdea-fem excite``: the drive of each input that lights the target mode(s).
+
+Criterion
+---------
+With the modal model of :mod:`.modal_inputs` (eq. 1), the response of in-band structural
+out-of-plane mode j of the band (the in-plane modes are not what a drive is designed for:
+neither a vibrometer nor the sound sees them) to the drive ``u`` (the complex AC voltages of the K inputs, FE convention) at its
+own frequency ``omega_j = 2 pi Re f_j`` is
+
+    r_j(u) = sum_k G_jk u_k,      G_jk = p_jk / d_j(omega_j)     [m per volt]         (1)
+
+(a mode's displacement amplitude: the band's vectors have peak |u| = 1).  The drive
+minimises the leakage into the other modes O under a unit response of the targets T,
+regularised so that a drive the segments cannot tell apart stays bounded:
+
+    min_u  ||G_O u||^2 + epsilon ||u||^2    subject to   G_T u = 1 (each target)        (2)
+
+``u = Q^-1 G_T^H (G_T Q^-1 G_T^H)^-1 1``, ``Q = G_O^H G_O + epsilon I``, with
+``epsilon = REGULARISATION trace(G^H G) / K``.  The drive is then scaled so that its peak
+AC amplitude is ``--max-ac`` [V].  Selectivity: ``20 log10(|r_j| / |r_target|)`` [dB] at each
+mode's own frequency (the first target's response the reference).
+
+What the inputs cannot separate: the rows of G of a target and of its degenerate partners
+(the other member of its a/b pair: the same label but for the suffix) are compared by
+their singular values; a ratio below :data:`SEPARABLE_RATIO` means no drive of these inputs
+tells them apart (e.g. the a and b members of an order m with too few sectors).  And each
+other mode's *floor*: the lowest level it can be held at alone under a unit target response
+(2 with O that mode only); a floor above :data:`SEPARATION_DB` is reported (e.g. the orders
+m and N - m, which N equal sectors drive with one pattern).
+
+Phases: the FE's complex amplitude ``u`` goes as ``e^{-i omega t}``; a drive
+``V_k(t) = V_b + A_k cos(omega t + phi_k)`` has ``A_k = |u_k|``, ``phi_k = -arg u_k``
+(the phase of ``electrodes.segments``' ``drive.phase``); the common phase is set so that
+the input of the largest amplitude has phase 0.
+"""
+
+from __future__ import annotations
+
+import logging
+import re
+from dataclasses import dataclass
+
+import numpy as np
+
+from copdea_fem.study import StudyError
+
+logger = logging.getLogger(__name__)
+
+#: epsilon of (2) relative to the mean squared column norm of G.
+REGULARISATION = 1e-9
+
+#: A mode that cannot be held below this level [dB re the target] by any drive of the
+#: inputs is reported as not separated from the target.
+SEPARATION_DB = -20.0
+
+#: Smallest singular value ratio of a target's and its partners' rows of G that the inputs
+#: can still drive apart (below it their responses move together).
+SEPARABLE_RATIO = 1e-6
+
+DRIVE_COLUMNS = ("segment", "amplitude", "phase_deg")
+SELECTIVITY_COLUMNS = ("label", "freq_hz", "level_db")
+
+
+@dataclass
+class ExcitationDesign:
+    """The designed drive and what it does.
+
+    Attributes
+    ----------
+    inputs : list of str
+    amplitude : (K,) array
+        Peak AC amplitude per input [V].
+    phase_deg : (K,) array
+        phi_k [deg] (module notes).
+    drive : (K,) complex array
+        The FE-convention complex amplitudes [V].
+    labels, freq_hz, level_db : lists
+        The in-band structural modes, their frequencies [Hz] and levels [dB re target].
+    targets : list of str
+    inseparable : list of str
+        One line per target whose partners the inputs cannot separate.
+    """
+
+    inputs: list
+    amplitude: np.ndarray
+    phase_deg: np.ndarray
+    drive: np.ndarray
+    labels: list
+    freq_hz: list
+    level_db: list
+    targets: list
+    inseparable: list
+
+    def worst_other_db(self) -> float:
+        """The highest level of a non-target mode [dB] (-inf where there is none)."""
+        others = [level for label, level in zip(self.labels, self.level_db)
+                  if label not in self.targets]
+        return max(others) if others else -np.inf
+
+
+def partner_stem(label: str) -> str:
+    """A label without its a/b pair suffix: ``(2,1)a`` -> ``(2,1)``."""
+    return re.sub(r"[a-d]$", "", label)
+
+
+def resolve_targets(requested, labels) -> list[str]:
+    """The band's labels of the requested targets: a label as written, or a pair's stem
+    (``(2,1)``) for its first member (``(2,1)a``); StudyError listing the band's labels for
+    an unknown one."""
+    resolved = []
+    for target in requested:
+        if target in labels:
+            resolved.append(target)
+            continue
+        members = [label for label in labels if partner_stem(label) == target]
+        if not members:
+            raise StudyError(f"--target {target!r} is not a mode of the band; allowed: "
+                             + ", ".join(labels))
+        resolved.append(sorted(members)[0])
+    return resolved
+
+
+def design_drive(model, targets, max_ac: float, f_max: float) -> ExcitationDesign:
+    """The drive (2) of a :class:`.modal_inputs.ModalInputs` for the target labels, its
+    peak amplitude ``max_ac`` [V], over the structural modes with ``Re f <= f_max`` [Hz]."""
+    modes = model.structural_modes(f_max, out_of_plane=True)
+    labels = [label for _, _, label, _ in modes]
+    targets = resolve_targets(targets, labels)
+    rows = []
+    for c, j, _, freq in modes:
+        channel = model.channels[c]
+        denominator = channel.denominators([2 * np.pi * freq])[0, j]
+        rows.append(channel.participation[j] / denominator)
+    gain = np.array(rows)                                       # (modes, K)
+    target_rows = [labels.index(label) for label in targets]
+    other_rows = [row for row in range(len(labels)) if row not in target_rows]
+    g_target, g_other = gain[target_rows], gain[other_rows]
+    for label, row in zip(targets, g_target):
+        if not np.any(np.abs(row) > 0):
+            raise StudyError(f"--target {label}: the inputs ({', '.join(model.inputs)}) do "
+                             "not drive this mode (its modal force is zero for every input); "
+                             "allowed: a mode an input drives, or segments that drive its "
+                             "order")
+    count = gain.shape[1]
+    epsilon = REGULARISATION * float(np.real(np.trace(gain.conj().T @ gain))) / count
+    q = g_other.conj().T @ g_other + epsilon * np.eye(count)
+    q_inverse_gt = np.linalg.solve(q, g_target.conj().T)       # (K, T)
+    multipliers = np.linalg.solve(g_target @ q_inverse_gt, np.ones(len(targets)))
+    drive = q_inverse_gt @ multipliers
+    largest = int(np.argmax(np.abs(drive)))
+    drive = drive * (max_ac / np.abs(drive[largest])) * np.exp(-1j * np.angle(drive[largest]))
+    response = gain @ drive
+    reference = abs(response[target_rows[0]])
+    levels = [float(20 * np.log10(max(abs(r), 1e-300) / reference)) for r in response]
+    inseparable = []
+    for row in other_rows:
+        floor = separation_floor_db(gain[row], g_target, epsilon)
+        if floor > SEPARATION_DB:
+            inseparable.append(
+                f"{labels[row]}: cannot be held below {floor:.1f} dB re the target with these "
+                f"inputs (its modal-force row is nearly parallel to the target's within the "
+                f"inputs' span; e.g. the orders m and N - m of N equal sectors)")
+    for label in targets:
+        partners = [row for row, other in enumerate(labels)
+                    if partner_stem(other) == partner_stem(label)]
+        if len(partners) > 1:
+            singular = np.linalg.svd(gain[partners], compute_uv=False)
+            ratio = singular[-1] / singular[0] if singular[0] > 0 else 0.0
+            if ratio < SEPARABLE_RATIO:
+                inseparable.append(
+                    f"{label}: its pair {', '.join(labels[row] for row in partners)} cannot be "
+                    f"separated with these inputs (modal-force rows of rank "
+                    f"{int(np.sum(singular > SEPARABLE_RATIO * singular[0]))} of "
+                    f"{len(partners)}, singular value ratio {ratio:.1e})")
+    phase = np.degrees(-np.angle(drive))
+    return ExcitationDesign(list(model.inputs), np.abs(drive), phase, drive, labels,
+                            [freq for *_, freq in modes], levels, targets, inseparable)
+
+
+def separation_floor_db(row, g_target, epsilon: float) -> float:
+    """The lowest level [dB re the first target] that mode ``row`` (its row of G) can be held
+    at, alone, under a unit response of the targets: (2) with O = that mode only."""
+    count = row.size
+    q = np.outer(row.conj(), row) + epsilon * np.eye(count)
+    q_inverse_gt = np.linalg.solve(q, g_target.conj().T)
+    drive = q_inverse_gt @ np.linalg.solve(g_target @ q_inverse_gt, np.ones(len(g_target)))
+    return float(20 * np.log10(max(abs(row @ drive), 1e-300)))
+
+
+def set_lines(design: ExcitationDesign, study) -> list[str]:
+    """The ``--set`` line that feeds the drive to ``copdea-fem response``: the study's
+    ``electrodes.segments`` (the whole electrode where it has none) with each segment's
+    ``drive.amplitude`` [per volt of the chirp's ``excitation.amplitude``] and
+    ``drive.phase`` [deg] of the design."""
+    chirp = float(study.excitation.amplitude)
+    segments = {segment.name: segment for segment in study.electrodes.segments}
+    items = []
+    for name, amplitude, phase in zip(design.inputs, design.amplitude, design.phase_deg):
+        segment = segments.get(name)
+        theta = [0, 360] if segment is None else [float(v) for v in segment.theta]
+        where = f"theta: [{theta[0]:g}, {theta[1]:g}]"
+        if segment is not None and segment.r is not None:
+            where += f", r: [{float(segment.r[0]):.9g}, {float(segment.r[1]):.9g}]"
+        items.append(f"{{name: {name}, {where}, drive: {{amplitude: {amplitude / chirp:.9g}, "
+                     f"phase: {phase:.6g}}}}}")
+    return [f"--set 'electrodes.segments=[{', '.join(items)}]'"]
+
+
+__all__ = ["DRIVE_COLUMNS", "ExcitationDesign", "REGULARISATION", "SELECTIVITY_COLUMNS",
+           "SEPARABLE_RATIO", "SEPARATION_DB", "design_drive", "separation_floor_db", "partner_stem", "resolve_targets", "set_lines"]

@@ -1,0 +1,317 @@
+r"""The band's coupled modes driven by several inputs: the modal model that ``excite`` and
+``statespace`` share.
+
+Inputs
+------
+An input is ``(name, weight)``: a drive weight on the electrostatic co-energy (an
+:class:`copdea_fem.fe.forced.electrode.ElectrodeImperfection`, or any object with its
+``family_weights(m)`` and ``weight``/``sector_weight``: a segment's indicator), driven by its
+own AC voltage ``V~_k`` on top of the common bias ``load.voltage``.  The uniform electrode is
+``("electrode", ElectrodeImperfection())``.  Each driven part of the solve
+(:meth:`copdea_fem.fe.engines.Engine.driven_parts`: an order m with its cos and sin families,
+or a 3-D symmetry sector) is a *channel*; input k forces a channel with
+``F_k = factor_k f_k`` [N/V] (:meth:`copdea_fem.fe.engines.Engine.electrode_forcing`, the
+factor from :meth:`copdea_fem.fe.forced.problem.DrivenPart.families`).
+
+Modal model (the modal path of :mod:`copdea_fem.fe.forced.harmonic`)
+-------------------------------------------------------------------
+Per channel and band column j (right vector ``x_j``, left ``y_j``, ``n_j = y_j^T B x_j``)
+the response per volt of input k is, in the FE's ``e^{-i omega t}`` convention,
+
+    c_jk(omega) = p_jk / d_j(omega),   p_jk = y_j^T F_k,
+    d_j(omega) = n_j (lambda_j - omega^2) - i omega lambda_j (b/m)_j m_j          (1)
+
+with the paper's modal damping (b/m)_j by label (``reduced.damping_*``, eq. 19; air and PML
+columns none) and ``m_j = u_j^T M_s u_j``; the modes above the band enter through the
+static correction ``r0_k + omega^2 r1_k`` (harmonic module notes).
+
+Self-sensing current
+--------------------
+The charge of input k's electrode is ``Q_k = C_k(u) V`` with ``C_k`` the weighted
+capacitance, so at the bias ``i_k = C_k0 dV_k/dt + V_b dC_k/du . du/dt``.  The forcing is
+``f_k = V_b dC_k/du`` (harmonic module notes: ``f = V_b dC/du``), hence the motional current
+
+    i_k = F_k^T v    [A],   v = du/dt,                                              (2)
+
+the same vector that forces the membrane (electromechanical reciprocity, factor 1 in SI:
+the velocity per volt of input l seen by input k's current is the velocity per volt of
+input k seen by input l's current).  The blocked term ``C_k0 dV_k/dt`` is a pure
+differentiator of the input: not a proper LTI output, it is left out of the model and
+``C_k0`` is not computed here (``statespace`` says so in its units).
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+
+import numpy as np
+
+logger = logging.getLogger(__name__)
+
+#: The kind of an out-of-plane mode (:mod:`copdea_fem.fe.modes`).
+OUT_OF_PLANE = "out-of-plane"
+
+#: The quarter points Q1-Q3 (fractions of the width from the inner edge, Sect. 5.3) are
+#: observed at these angles [deg]: 0 (the cos families' maximum) and 30 (where the sin
+#: families of the orders 1-5 are not on a nodal line).
+POINT_ANGLES_DEG = (0.0, 30.0)
+
+
+def drive_inputs(study) -> list[tuple[str, object]]:
+    """The study's inputs ``(name, weight)``: its segments (``electrodes.segments``,
+    :func:`copdea_fem.fe.forced.electrode.segment_weights`; without segments the whole
+    electrode, one AC voltage on the whole membrane).  The segments' ``drive`` is not
+    applied: each segment is an input of its own."""
+    from copdea_fem.fe.forced.electrode import segment_weights
+    return [(name, weight) for name, weight, _ in segment_weights(study)]
+
+
+def study_points(solution, study) -> tuple[list[str], np.ndarray]:
+    """Names and positions (P, 3) [m] on the prestressed device of the observed points: Q1-Q3
+    (:data:`copdea_fem.reduced.chirp_response.QUARTER_POINTS`) at each angle of
+    :data:`POINT_ANGLES_DEG`; names ``q<i>_<angle>deg``."""
+    from copdea_fem.reduced.chirp_response import QUARTER_POINTS
+    state = solution.state
+    r_i, r_o = float(state.inner_radius), float(state.outer_radius)
+    names, reference = [], []
+    for angle in POINT_ANGLES_DEG:
+        for index, fraction in enumerate(QUARTER_POINTS, start=1):
+            radius = r_i + fraction * (r_o - r_i)
+            theta = np.radians(angle)
+            names.append(f"q{index}_{angle:g}deg")
+            reference.append((radius * np.cos(theta), radius * np.sin(theta)))
+    positions = solution.engine.prestressed_positions(state, np.array(reference),
+                                                      study.load.z)
+    return names, positions
+
+
+@dataclass
+class Channel:
+    """One driven field (a part's family) with its band columns and what the inputs do to it.
+
+    Attributes
+    ----------
+    name : str
+        ``<part key>:<family>``.
+    labels : list of str
+        Each column's label (``""``: an air/PML or unlabelled column).
+    structural : (J,) bool array
+        Columns of labelled structural modes.
+    out_of_plane : (J,) bool array
+        Columns of labelled out-of-plane modes (what a vibrometer and the sound see).
+    eigenvalues : (J,) complex array
+        lambda_j [rad^2/s^2].
+    norms : (J,) complex array
+        n_j of (1).
+    damping : (J,) complex array
+        ``lambda_j (b/m)_j m_j`` of (1).
+    participation : (J, K) complex array
+        p_jk of (1) [per volt of input k].
+    displacement : (P, 3, J) complex array
+        Each column's displacement at the points (peak |u| = 1 normalisation of the band).
+    currents : (K, J) complex array
+        ``F_k^T u_j`` of (2): input k's motional current per unit velocity of column j.
+    residual_displacement : (P, 3, K) complex array
+        r0_k at the points [m/V].
+    residual_displacement1 : (P, 3, K) complex array
+        r1_k at the points [m s^2/V].
+    residual_currents : (K, K) complex array
+        ``F_l^T r0_k`` [C/V per ... : A s/V] (row l, column k).
+    residual_currents1 : (K, K) complex array
+        ``F_l^T r1_k``.
+    """
+
+    name: str
+    labels: list
+    structural: np.ndarray
+    out_of_plane: np.ndarray
+    eigenvalues: np.ndarray
+    norms: np.ndarray
+    damping: np.ndarray
+    participation: np.ndarray
+    displacement: np.ndarray
+    currents: np.ndarray
+    residual_displacement: np.ndarray
+    residual_displacement1: np.ndarray
+    residual_currents: np.ndarray
+    residual_currents1: np.ndarray
+
+    def denominators(self, omega) -> np.ndarray:
+        """d_j(omega) of (1), (F, J), FE convention."""
+        omega = np.asarray(omega, float)[:, None]
+        lam = self.eigenvalues[None, :]
+        return self.norms * (lam - omega ** 2) - 1j * omega * self.damping
+
+
+@dataclass
+class ModalInputs:
+    """The modal model (module notes) of a solve driven by inputs, observed at points.
+
+    Attributes
+    ----------
+    inputs : list of str
+        The inputs' names (K).
+    point_names : list of str
+        The points' names (P).
+    positions : (P, 3) array
+        Where they are [m].
+    channels : list of Channel
+    """
+
+    inputs: list
+    point_names: list
+    positions: np.ndarray
+    channels: list = field(default_factory=list)
+
+    @classmethod
+    def build(cls, solution, study, inputs, positions, point_names) -> ModalInputs:
+        """The model of ``solution`` (a :class:`copdea_fem.fe.SolveResult` of ``study``) for
+        ``inputs`` (``[(name, weight), ...]``) at ``positions`` (P, 3) [m]."""
+        import scipy.sparse as sp
+
+        from copdea_fem.fe.forced.harmonic import ForcedOrder, ModalBasis
+        from copdea_fem.forced_response.observers import ScanPoints
+        from copdea_fem.forced_response.run import modal_damping
+        from copdea_fem.forced_response.scan import part_modes
+
+        engine, state = solution.engine, solution.state
+        model = cls([name for name, _ in inputs], list(point_names),
+                    np.asarray(positions, float))
+        points = ScanPoints(engine.point_sampler(state, positions), 1)
+        for part in engine.driven_parts(solution, study):
+            band = part.band
+            if len(band.eigenvalues) == 0:
+                continue
+            size = part.pencil.membrane.stiffness.shape[0]
+            zero = sp.csr_matrix((size, size))
+            # one basis per distinct forcing: the axisymmetric engine forces an order by
+            # one vector (the inputs differ by their families' factors), the 3-D by each
+            # input's folded weight
+            columns = part_modes(part, solution.modes)
+            labels = [columns[k][0].label if k in columns else ""
+                      for k in range(len(band.eigenvalues))]
+            kinds = [columns[k][0].kind if k in columns else "air"
+                     for k in range(len(band.eigenvalues))]
+            damping_per_mass = modal_damping(labels, kinds, study)
+            # one basis per distinct forcing: the axisymmetric engine forces an order by one
+            # vector per radial factor of the weights (the inputs differ by their families'
+            # factors), the 3-D engine by each input's folded weight
+            bases, factors, keys = {}, {}, []
+            for k, (_, weight) in enumerate(inputs):
+                for family, factor in part.families(weight):
+                    factors[(family, k)] = factor
+                key = ("radii", getattr(weight, "radii", None)) if part.m is not None else k
+                keys.append(key)
+                if key in bases:
+                    continue
+                force = np.asarray(engine.electrode_forcing(state, part, weight), float)
+                forced = ForcedOrder.from_parts(part.pencil, force, zero, 0.0,
+                                                study.eigen.backend)
+                basis = ModalBasis.build(forced, band.eigenvalues, band.vectors, labels,
+                                         damping_per_mass)
+                bases[key] = (forced, basis)
+            forced0, basis0 = next(iter(bases.values()))
+            membrane_index = np.asarray(forced0.coupled.membrane_index)
+            membrane = basis0.vectors[membrane_index]
+            families = ("cos",) if part.m is None else ("cos", "sin")
+            for family in families:
+                gains = np.array([factors.get((family, k), 0.0) for k in range(len(inputs))])
+                family_labels = [next((mode.label for mode in columns[k]
+                                       if part.m is None or mode.family == family), "")
+                                 if k in columns else "" for k in range(len(labels))]
+                model.channels.append(cls._channel(
+                    f"{part.key}:{family}", part, family, [bases[key] for key in keys], gains,
+                    family_labels, kinds, basis0, membrane, membrane_index, points))
+        logger.info(f"modal model: {len(model.inputs)} input(s), {model.columns} band "
+                    f"column(s) in {len(model.channels)} driven field(s), "
+                    f"{len(model.point_names)} points")
+        return model
+
+    @staticmethod
+    def _channel(name, part, family, bases, gains, labels, kinds, basis0, membrane,
+                 membrane_index, points) -> Channel:
+        """``bases``: (forced pencil, modal basis) of each input's forcing."""
+        from copdea_fem.forced_response.observers import LineResponse
+
+        operators = part.pencil.membrane
+        count = len(gains)
+
+        def forced_of(k):
+            return bases[k]
+
+        participation = np.stack([gains[k] * forced_of(k)[1].participation
+                                  for k in range(count)], axis=1)
+        forcings = np.stack([gains[k] * forced_of(k)[0].forcing[membrane_index]
+                             for k in range(count)], axis=0)          # (K, n_membrane)
+        currents = forcings @ membrane                                # (K, J)
+        residual0 = np.stack([gains[k] * forced_of(k)[1].residual0 for k in range(count)], 1)
+        residual1 = np.stack([gains[k] * forced_of(k)[1].residual1 for k in range(count)], 1)
+        forced0 = forced_of(0)[0]
+        sampled = points.basis(LineResponse(forced0, np.hstack([basis0.vectors, residual0,
+                                                                  residual1]),
+                                            np.zeros((1, 1))), operators, family)
+        columns = basis0.vectors.shape[1]
+        return Channel(
+            name=name, labels=labels,
+            structural=np.array([kind != "air" and bool(label)
+                                 for label, kind in zip(labels, kinds)]),
+            out_of_plane=np.array([kind == OUT_OF_PLANE and bool(label)
+                                   for label, kind in zip(labels, kinds)]),
+            eigenvalues=basis0.eigenvalues, norms=basis0.norms,
+            damping=basis0.eigenvalues * basis0.damping_per_mass * basis0.structural_mass,
+            participation=participation,
+            displacement=sampled[..., :columns],
+            currents=currents,
+            residual_displacement=sampled[..., columns:columns + count],
+            residual_displacement1=sampled[..., columns + count:],
+            residual_currents=forcings @ residual0[membrane_index],
+            residual_currents1=forcings @ residual1[membrane_index])
+
+    @property
+    def columns(self) -> int:
+        """Band columns over all channels."""
+        return sum(len(channel.eigenvalues) for channel in self.channels)
+
+    def frequency_response(self, frequency_hz, static_correction: bool = True
+                           ) -> tuple[np.ndarray, np.ndarray]:
+        """The modal path (1) with its static correction (unless ``static_correction`` is
+        false), physical ``e^{+i omega t}`` convention (the complex conjugate of the FE's):
+        velocity (F, P, 3, K) [m/s/V] and motional current (F, K, K) [A/V] (row: the
+        electrode sensed, column: the input)."""
+        keep = 1.0 if static_correction else 0.0
+        frequency_hz = np.atleast_1d(np.asarray(frequency_hz, float))
+        omega = 2 * np.pi * frequency_hz
+        count = len(self.inputs)
+        velocity = np.zeros((omega.size, len(self.positions), 3, count), complex)
+        current = np.zeros((omega.size, count, count), complex)
+        for channel in self.channels:
+            modal = channel.participation[None, :, :] / channel.denominators(omega)[:, :, None]
+            displacement = (np.einsum("pdj,fjk->fpdk", channel.displacement, modal)
+                            + keep * (channel.residual_displacement[None]
+                                      + omega[:, None, None, None] ** 2
+                                      * channel.residual_displacement1[None]))
+            charge = (np.einsum("lj,fjk->flk", channel.currents, modal)
+                      + keep * (channel.residual_currents[None]
+                                + omega[:, None, None] ** 2 * channel.residual_currents1[None]))
+            velocity += -1j * omega[:, None, None, None] * displacement
+            current += -1j * omega[:, None, None] * charge
+        return np.conj(velocity), np.conj(current)
+
+    def structural_modes(self, f_max: float, out_of_plane: bool = False
+                         ) -> list[tuple[int, int, str, float]]:
+        """``(channel index, column, label, Re f [Hz])`` of the labelled structural modes
+        (``out_of_plane``: the out-of-plane ones only) with ``Re f <= f_max``, by
+        frequency."""
+        found = []
+        for c, channel in enumerate(self.channels):
+            freq = np.sqrt(channel.eigenvalues.astype(complex)) / (2 * np.pi)
+            freq = np.where(freq.real < 0, -freq, freq)
+            kept = channel.out_of_plane if out_of_plane else channel.structural
+            for j in np.flatnonzero(kept):
+                if freq[j].real <= f_max:
+                    found.append((c, int(j), channel.labels[j], float(freq[j].real)))
+        return sorted(found, key=lambda item: (item[3], item[2]))
+
+
+__all__ = ["Channel", "ModalInputs", "POINT_ANGLES_DEG", "drive_inputs", "study_points"]

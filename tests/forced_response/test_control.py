@@ -1,0 +1,263 @@
+"""``excite`` and ``statespace`` (copdea_fem.forced_response.excitation, .statespace,
+.modal_inputs), checked against what they did not make.
+
+- **The state space** against ``solve`` (its poles are the coupled eigenvalues), against the
+  scan response's modal path (an independent driver of the same modal sum:
+  :func:`copdea_fem.forced_response.scan.scan_response`), and against reciprocity (the
+  current of electrode k driven by electrode l equals that of l driven by k).
+- **The drive of excite** against the modal forces of the segments as ``response`` computes
+  them (:func:`copdea_fem.forced_response.segments`' source, the scan response driving the
+  segments together) and against the Fourier aliasing of N equal sectors (orders m and
+  N - m share one drive pattern).
+
+All on the axisymmetric engine's coarse G1 at z = 16 mm, 2 kV (a second per solve).
+"""
+
+from __future__ import annotations
+
+import functools
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+QUICK = ROOT / "studies" / "g1_z16_v2_quick.yaml"
+AXISYMMETRIC = ("mesh.engine=axisymmetric", "geometry.frame=baffle")
+DRY = ("mesh.engine=axisymmetric", "geometry.frame=none", "air.enabled=false")
+EIGHT_SECTORS = ("electrodes.segments=[" + ", ".join(
+    f"{{name: s{k}, theta: [{45 * k}, {45 * (k + 1)}]}}" for k in range(8)) + "]")
+RINGS = ("electrodes.segments=[{name: inner, theta: [0, 360], r: [0.017, 0.026]}, "
+         "{name: outer, theta: [0, 360], r: [0.026, 0.0355]}]")
+# quarter segments, one ring split at 25 mm: inputs of several orders and radial factors
+MIXED = ("electrodes.segments=[{name: a, theta: [0, 90]}, {name: b, theta: [90, 200]}, "
+         "{name: c, theta: [200, 360], r: [0.017, 0.025]}, "
+         "{name: d, theta: [200, 360], r: [0.025, 0.0355]}]")
+# the poles of solve are those without the modal b/m, which solve does not apply
+UNDAMPED = tuple(f"reduced.damping_{key}=0" for key in ("p1", "01", "02", "higher"))
+LINES = np.array([150.0, 300.0, 470.0, 520.0, 700.0])
+
+
+@functools.cache
+def _model(*overrides):
+    """(study, solve, modal model) of the quick study with ``overrides``."""
+    from copdea_fem.api import load_study
+    from copdea_fem.fe import engine_for, run_solve
+    from copdea_fem.forced_response.modal_inputs import ModalInputs, drive_inputs, study_points
+
+    study = load_study(QUICK, list(overrides))
+    solution = run_solve(study, engine=engine_for(study))
+    names, positions = study_points(solution, study)
+    return study, solution, ModalInputs.build(solution, study, drive_inputs(study), positions,
+                                              names)
+
+
+def _scan_velocity(study, solution, model, input_index):
+    """The scan response's velocity (F, P, 3) at the model's points driving one input."""
+    from copdea_fem.fe.forced.electrode import segment_weights
+    from copdea_fem.forced_response.run import modal_damping
+    from copdea_fem.forced_response.scan import scan_response
+
+    weight = segment_weights(study)[input_index][1]
+    response = scan_response(solution, study, model.positions, LINES, weight,
+                             damping_per_mass=lambda mode: float(
+                                 modal_damping([mode.label], [mode.kind], study)[0]))
+    return response.velocity.transpose(2, 0, 1)
+
+
+@pytest.mark.parametrize("overrides", [AXISYMMETRIC, DRY], ids=["coupled", "dry"])
+def test_the_modal_model_is_the_scan_responses_modal_path(overrides):
+    study, solution, model = _model(*overrides, MIXED)
+    velocity, _ = model.frequency_response(LINES)
+    for k in range(len(model.inputs)):
+        reference = _scan_velocity(study, solution, model, k)
+        # one modal sum evaluated by two drivers: round-off only
+        assert np.abs(velocity[..., k] - reference).max() <= 1e-9 * np.abs(reference).max()
+
+
+def test_the_poles_of_the_state_space_are_the_coupled_eigenvalues_of_solve():
+    from copdea_fem.forced_response.statespace import realise
+
+    study, solution, model = _model(*AXISYMMETRIC, *UNDAMPED, MIXED)
+    system = realise(model, static_correction=False)
+    poles = np.linalg.eigvals(system.A) / (2 * np.pi)
+    driven = {label for channel in model.channels
+              for label, row in zip(channel.labels, channel.participation)
+              if label and np.any(row)}
+    expected = [complex(mode.freq_im_hz, mode.freq_hz) for mode in solution.modes
+                if mode.label in driven]
+    assert len(expected) >= 10
+    for pole in expected:
+        # s = 2 pi (Im f + i Re f) and its conjugate (module notes of statespace, eq. 1)
+        for value in (pole, pole.conjugate()):
+            assert np.min(np.abs(poles - value)) <= 1e-9 * abs(value)
+
+
+def test_the_state_space_realises_the_modal_sum_exactly_on_a_real_pencil():
+    from copdea_fem.forced_response.statespace import realise
+
+    study, solution, model = _model(*DRY, MIXED)
+    system = realise(model, static_correction=False)
+    transfer = system.frequency_response(LINES)
+    velocity, current = model.frequency_response(LINES, static_correction=False)
+    points = 3 * len(model.point_names)
+    lti_velocity = transfer[:, :points].reshape(velocity.shape)
+    assert np.abs(lti_velocity - velocity).max() <= 1e-9 * np.abs(velocity).max()
+    assert np.abs(transfer[:, points:] - current).max() <= 1e-9 * np.abs(current).max()
+
+
+@pytest.mark.parametrize("overrides, bound", [(DRY, 5e-2), (AXISYMMETRIC, 5e-2)],
+                         ids=["dry", "coupled"])
+def test_the_state_space_follows_the_scan_responses_modal_path(overrides, bound):
+    """With the static correction's pseudo-modes and (coupled) the conjugate pole pairs,
+    the LTI model departs from the modal path by what the module notes say: the O(omega^2)
+    misfit of one pseudo-mode per input, the non-resonant term of a radiating mode (measured
+    2.4e-2 of the peak for these segments dry, up to 1e-2 coupled, on this mesh; the bound is
+    that with a margin: an approximation, not round-off)."""
+    from copdea_fem.forced_response.statespace import realise
+
+    study, solution, model = _model(*overrides, MIXED)
+    transfer = realise(model).frequency_response(LINES)
+    points = 3 * len(model.point_names)
+    for k in range(len(model.inputs)):
+        reference = _scan_velocity(study, solution, model, k)
+        lti = transfer[:, :points, k].reshape(reference.shape)
+        assert np.abs(lti - reference).max() <= bound * np.abs(reference).max()
+
+
+@pytest.mark.parametrize("overrides", [AXISYMMETRIC, DRY], ids=["coupled", "dry"])
+def test_the_currents_are_the_forcing_transposed(overrides):
+    """Reciprocity (modal_inputs eq. 2): the motional current of electrode k per volt on l is
+    that of l per volt on k; and it is F_k^T v with v the velocity the scan response drives
+    (factor 1 in SI)."""
+    from copdea_fem.forced_response.statespace import realise
+
+    study, solution, model = _model(*overrides, MIXED)
+    system = realise(model, static_correction=False)
+    points = 3 * len(model.point_names)
+    current = system.frequency_response(LINES)[:, points:]
+    scale = np.abs(current).max()
+    assert scale > 0
+    assert np.abs(current - current.transpose(0, 2, 1)).max() <= 1e-9 * scale
+
+
+def test_excite_lights_the_21_and_reports_the_order_it_cannot_separate():
+    """Eight 45-degree sectors: the (2,1) drive holds every mode at least 20 dB down but the
+    one the sectors cannot separate: N equal sectors drive the orders m and N - m with one
+    pattern (the Fourier series of a sector drive), here the (6,1)."""
+    from copdea_fem.api import excite
+
+    study = _model(*AXISYMMETRIC, "eigen.f_max=900 Hz", EIGHT_SECTORS)[0]
+    result = excite(study, ["(2,1)"])
+    levels = dict(zip(result.design.labels, result.design.level_db))
+    assert levels["(2,1)a"] == 0.0
+    reported = [line.split(":")[0] for line in result.design.inseparable]
+    assert reported == ["(6,1)a"]
+    for label, level in levels.items():
+        if label not in ("(2,1)a", "(6,1)a"):
+            assert level <= -20.0, (label, level)
+    # the drive is a pure order-2 pattern: +-100 V, sign changing every 90 degrees
+    assert np.allclose(result.design.amplitude, 100.0)
+    assert np.all(np.isclose(np.abs(result.design.phase_deg) % 180, 0.0)
+                  | np.isclose(np.abs(result.design.phase_deg) % 180, 180.0))
+
+
+def test_excite_rings_light_the_02_and_hold_the_01_down():
+    from copdea_fem.api import excite
+
+    study = _model(*AXISYMMETRIC, RINGS)[0]
+    result = excite(study, ["(0,2)"])
+    levels = dict(zip(result.design.labels, result.design.level_db))
+    assert levels["(0,1)"] <= -40.0
+    assert not result.design.inseparable
+
+
+def test_the_designed_drive_does_in_the_scan_response_what_excite_says():
+    """The rings' drive fed to the scan response (the segments driven together, its own
+    forcing code): at the (0,1)'s frequency the velocity drops relative to the one
+    electrode, at the (0,2)'s it does not."""
+    from copdea_fem.api import excite
+    from copdea_fem.fe.forced.electrode import segment_weights
+    from copdea_fem.forced_response.run import modal_damping
+    from copdea_fem.forced_response.scan import scan_response
+
+    study, solution, model = _model(*AXISYMMETRIC, RINGS)
+    result = excite(study, ["(0,2)"])
+    frequency = {label: freq for label, freq in zip(result.design.labels,
+                                                    result.design.freq_hz)}
+    lines = np.array([frequency["(0,1)"], frequency["(0,2)"]])
+    weights = [weight for _, weight, _ in segment_weights(study)]
+    damping = lambda mode: float(modal_damping([mode.label], [mode.kind], study)[0])  # noqa: E731
+    one = scan_response(solution, study, model.positions, lines,
+                        [(w, 100.0) for w in weights], damping_per_mass=damping).velocity
+    designed = scan_response(solution, study, model.positions, lines,
+                             [(w, np.conj(u)) for w, u in zip(weights, result.design.drive)],
+                             damping_per_mass=damping).velocity
+    axial = lambda v: np.abs(v[:, 2]).mean(axis=0)  # noqa: E731
+    ratio = axial(designed) / axial(one)
+    # measured 0.63 and 0.97: the (0,1) is strongly damped (radiation, b/m = 245 1/s), so at
+    # its frequency the points also see the (0,2)'s tail and the static part, which the
+    # modal criterion does not hold down
+    assert ratio[0] < 0.75 * ratio[1]
+
+
+def test_excite_and_statespace_files(tmp_path):
+    import scipy.io
+
+    from copdea_fem.cli import main
+    from copdea_fem.forced_response.statespace import NPZ_KEYS
+
+    study = ["--set", AXISYMMETRIC[0], "--set", AXISYMMETRIC[1], "--set", RINGS]
+    assert main(["excite", str(QUICK), *study, "--target", "(0,2)", "--max-ac", "50",
+                 "--out", str(tmp_path / "e"), "--quiet"]) == 0
+    drive = (tmp_path / "e" / "drive.csv").read_text().splitlines()
+    assert drive[0] == "segment,amplitude,phase_deg"
+    assert max(float(line.split(",")[1]) for line in drive[1:]) == pytest.approx(50.0)
+    assert (tmp_path / "e" / "selectivity.csv").read_text().startswith("label,freq_hz,level_db")
+    assert (tmp_path / "e" / "excite_spectra.png").stat().st_size > 0
+    line = (tmp_path / "e" / "response_set.txt").read_text().strip()
+    from copdea_fem.api import load_study
+    fed = load_study(QUICK, [*AXISYMMETRIC, line.split(" ", 1)[1].strip("'")])
+    assert [s.name for s in fed.electrodes.segments] == ["inner", "outer"]
+    assert max(s.drive.amplitude for s in fed.electrodes.segments) == pytest.approx(0.5)
+    assert main(["statespace", str(QUICK), *study, "--out", str(tmp_path / "s"),
+                 "--quiet"]) == 0
+    arrays = np.load(tmp_path / "s" / "statespace.npz")
+    assert set(arrays.files) == set(NPZ_KEYS)
+    assert list(arrays["inputs"]) == ["V~_inner", "V~_outer"]
+    assert arrays["outputs"][-1] == "i_outer"
+    matlab = scipy.io.loadmat(tmp_path / "s" / "statespace.mat")
+    assert np.array_equal(matlab["A"], arrays["A"])
+
+
+def test_excite_names_the_bands_labels_for_an_unknown_target(tmp_path, capsys):
+    from copdea_fem.cli import main
+
+    code = main(["excite", str(QUICK), "--set", AXISYMMETRIC[0], "--set", AXISYMMETRIC[1],
+                 "--target", "(7,7)", "--out", str(tmp_path / "e")])
+    assert code == 2
+    message = capsys.readouterr().err.strip().splitlines()[-1]
+    assert message.startswith("error: --target '(7,7)' is not a mode of the band; allowed: "
+                              "(0,1), ")
+    assert "(2,1)a" in message
+    assert not (tmp_path / "e" / "drive.csv").exists()
+
+
+def test_excite_refuses_a_mode_no_input_drives():
+    from copdea_fem.api import excite
+    from copdea_fem.study import StudyError
+
+    study = _model(*AXISYMMETRIC)[0]         # the whole electrode drives m = 0 only
+    with pytest.raises(StudyError, match=r"--target \(2,1\)a: the inputs \(electrode\) do "
+                                         "not drive this mode"):
+        excite(study, ["(2,1)"])
+
+
+def test_the_api_returns_a_control_system_when_python_control_is_installed():
+    control = pytest.importorskip("control")
+    from copdea_fem.api import statespace
+
+    result = statespace(_model(*AXISYMMETRIC, RINGS)[0])
+    system = result.system
+    assert isinstance(system, control.StateSpace)
+    assert np.allclose(control.poles(system), np.linalg.eigvals(result.model.A))
