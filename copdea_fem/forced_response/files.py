@@ -140,6 +140,12 @@ def write_response(result, out_dir: Path, reduced=(None, None)) -> None:
                        [m.freq_hz for m in result.modes], [m.freq_im_hz for m in result.modes],
                        list(result.basis.damping_per_mass),
                        [m.membrane_energy_fraction for m in result.modes]))
+        from copdea_fem.forced_response.segments import MODAL_FORCING_COLUMNS
+        rows = result.modal_forcing
+        write_csv(staging / "modal_forcing.csv", MODAL_FORCING_COLUMNS,
+                  ([r.segment for r in rows], [r.label for r in rows],
+                   [r.freq_hz for r in rows], [r.force.real for r in rows],
+                   [r.force.imag for r in rows]))
         dump_resolved(study, staging / "study.resolved.yaml")
         document = {
             "engine": result.problem.engine,
@@ -153,10 +159,13 @@ def write_response(result, out_dir: Path, reduced=(None, None)) -> None:
             "unknowns": int(result.problem.forced.size),
             "equilibrium_residual": result.problem.forced.equilibrium_residual,
             "timings_s": result.timings}
+        if result.segments:
+            document["segments"] = list(result.segments)
+            document["modal_forcing_unit"] = "N/(V sqrt(kg))"
         if result.method in ("reduced", "reduced_modal"):
             document["reduced_basis"] = result.basis.summary()
         write_json(staging / "response.json", document)
         if study.output.plots:
             _plots(staging, result, reduced)
-        if study.output.paraview and result.peaks_hz:
-            _paraview(staging, result)
+        if study.output.paraview and result.peaks_hz and not result.segments:
+            _paraview(staging, result)      # segments: the driven part's shapes are not all
