@@ -562,6 +562,34 @@ CASES = [
     Case("reduced_modal with a membrane loss", 3, "response.method = 'reduced_modal' is not "
          "allowed", argv=("check", QUICK, "--set", "response.method=reduced_modal", "--set",
                           "membrane.loss_factor=0.01")),
+    # the segmented electrode (electrodes.segments)
+    *[Case(f"electrode segments: {what}", 2, fragment, argv=("check", "{work}/s.yaml"),
+           files={"s.yaml": "electrodes:\n  segments:\n" + "".join(
+               f"    - {item}\n" for item in items)})
+      for what, items, fragment in [
+          ("overlapping", ["{name: a, theta: [350, 20]}", "{name: b, theta: [10, 90]}"],
+           "electrodes.segments[1] (b) = 'theta [10.0, 90.0], r None' is not allowed (it "
+           "overlaps segment 0 (a))"),
+          ("empty angle", ["{name: a, theta: [30, 30]}"],
+           "electrodes.segments[0] (a).theta = [30.0, 30.0] is not allowed (an empty segment)"),
+          ("empty ring", ["{name: a, theta: [0, 90], r: [20 mm, 20 mm]}"],
+           "electrodes.segments[0] (a).r = [0.02, 0.02] is not allowed (an empty segment)"),
+          ("radius off the membrane", ["{name: a, theta: [0, 90], r: [10 mm, 30 mm]}"],
+           "electrodes.segments[0] (a).r = [0.01, 0.03] is not allowed (off the membrane)"),
+          ("angle off the circle", ["{name: a, theta: [0, 400]}"],
+           "electrodes.segments[0].theta[1] = 400 is not allowed; allowed: [-360, 360] deg"),
+          ("duplicate names", ["{name: a, theta: [0, 90]}", "{name: a, theta: [90, 180]}"],
+           "electrodes.segments[1] (a).name = 'a' is not allowed (segment 0 has it too)"),
+          ("no theta", ["{name: a}"], "electrodes.segments[0] = {'name': 'a'} is not allowed"),
+          ("a phase in words", ["{name: a, theta: [0, 90], drive: {phase: late}}"],
+           "electrodes.segments[0].drive.phase = 'late' is not allowed"),
+      ]],
+    Case("electrode segments with off-axis microphones", 2, "response.microphones = 'side = "
+         "0.5 m, 0 m, 0.5 m' is not allowed with electrodes.segments",
+         argv=("response", "{work}/s.yaml", "--out", "{work}/r"),
+         files={"s.yaml": "load: {z: 16 mm, voltage: 2 kV}\nresponse: {microphones: 'side = "
+                          "0.5 m, 0 m, 0.5 m'}\nelectrodes:\n  segments:\n    - {name: a, "
+                          "theta: [0, 90]}\n"}),
 ]
 
 

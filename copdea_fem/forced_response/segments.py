@@ -115,19 +115,16 @@ def part_modal_forces(engine, state, part, columns: dict, weights, rows: dict) -
     scale = 4.0 if part.sector is not None else 1.0      # quarter forcing (notes)
     for name, weight, _ in weights:
         families = dict(part.families(weight))
-        if not families:
-            continue
         key = getattr(weight, "radii", None) if part.m is not None else id(weight)
-        if key not in forcings:              # the orders' forcing depends on rho(R) alone
+        if families and key not in forcings:     # an order's forcing depends on rho(R) alone
             forcings[key] = phi.T @ np.asarray(engine.electrode_forcing(state, part, weight),
                                                complex)
         for column, modes in columns.items():
-            for mode in modes:
-                family = mode.family if part.m is not None else "cos"
-                if family in families:
-                    rows[name].append(ModalForce(name, mode.label, float(mode.freq_hz),
-                                                 complex(scale * families[family]
-                                                         * forcings[key][column])))
+            for mode in modes:                   # a mode the weight does not drive: 0
+                factor = families.get(mode.family if part.m is not None else "cos", 0.0)
+                force = scale * factor * forcings[key][column] if factor else 0.0
+                rows[name].append(ModalForce(name, mode.label, float(mode.freq_hz),
+                                             complex(force)))
     logger.debug("modal forcing: %s (%d modes)", part.key, len(columns))
 
 
@@ -242,7 +239,8 @@ def segment_response(problem, engine):
     always was, and the modal forces of its driven part's band (:func:`driven_modal_forcing`).
     With segments: the driven part forced by every segment at once (:func:`drive_segments`:
     the sound at the axis microphone, which no order m >= 1 reaches), a solve of the study
-    for the orders (sectors) the segments drive beyond it, the modal forces of all its
+    for the orders (sectors) the segments drive beyond it (its band up to
+    ``response.modal_band`` times the last line, as the modal path's), the modal forces of all its
     parts (:func:`modal_forcing`) and the velocity spectra of every part at once
     (:func:`segments_velocity`, replacing the driven part's); the operating shapes of the
     driven part alone are not written (``result.segments`` names the segments)."""
@@ -265,8 +263,14 @@ def segment_response(problem, engine):
     start = time.perf_counter()
     logger.info(f"{len(weights)} electrode segments: the modes of every order the segments "
                 "drive (solve) ...")
-    solution = run_solve(study, engine=engine)
-    result.modal_forcing = modal_forcing(solution, study, weights)
+    # the band of the modal path (response.modal_band times the last line), so that the
+    # spectra hold the modes above the lines as the driven part's path does
+    reach = max(study.eigen.f_max,
+                study.response.modal_band * float(result.frequency_hz.max()))
+    solved = study.replace({"eigen.f_max": reach}) if reach > study.eigen.f_max else study
+    solution = run_solve(solved, engine=engine)
+    result.modal_forcing = [row for row in modal_forcing(solution, solved, weights)
+                            if row.freq_hz <= study.eigen.f_max]
     scan = scan_fractions(study.reduced.scan_radii)
     axial, radial = segments_velocity(solution, study, weights, result.frequency_hz,
                                       result.voltage_lines,
