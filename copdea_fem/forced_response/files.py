@@ -15,6 +15,8 @@ POINT_COLUMNS = ("freq_hz",) + tuple(f"v_{component}_q{i}" for i in (1, 2, 3)
                                      for component in ("axial", "radial"))
 MODE_COLUMNS = ("label", "kind", "freq_hz", "freq_im_hz", "damping_per_mass",
                 "membrane_energy_fraction")
+#: modal_forcing.csv: the modal force per volt of a segment's input [N/(V sqrt(kg))]
+MODAL_FORCING_COLUMNS = ("segment", "label", "freq_hz", "force_re", "force_im")
 
 
 @dataclass
@@ -140,7 +142,6 @@ def write_response(result, out_dir: Path, reduced=(None, None)) -> None:
                        [m.freq_hz for m in result.modes], [m.freq_im_hz for m in result.modes],
                        list(result.basis.damping_per_mass),
                        [m.membrane_energy_fraction for m in result.modes]))
-        from copdea_fem.forced_response.segments import MODAL_FORCING_COLUMNS
         rows = result.modal_forcing
         write_csv(staging / "modal_forcing.csv", MODAL_FORCING_COLUMNS,
                   ([r.segment for r in rows], [r.label for r in rows],

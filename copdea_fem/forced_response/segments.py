@@ -34,12 +34,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from copdea_fem.forced_response.files import MODAL_FORCING_COLUMNS
 from copdea_fem.forced_response.scan import part_modes
 
 logger = logging.getLogger(__name__)
 
-#: Columns of modal_forcing.csv (a contract).
-MODAL_FORCING_COLUMNS = ("segment", "label", "freq_hz", "force_re", "force_im")
 
 
 @dataclass(frozen=True)
