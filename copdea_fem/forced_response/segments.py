@@ -148,11 +148,10 @@ def driven_modal_forcing(problem, weights, engine) -> list[ModalForce]:
                        backend=eigen.backend, max_modes=eigen.max_modes,
                        residual_tol=eigen.residual_tol)
     modes = band_modes(problem, found.eigenvalues, found.vectors, found.residuals)
-    axisymmetric = problem.engine == "axisymmetric"
     band = types.SimpleNamespace(eigenvalues=np.asarray(found.eigenvalues),
                                  vectors=np.asarray(found.vectors))
-    part = DrivenPart("driven", coupled, band, m=0 if axisymmetric else None,
-                      sector=None if axisymmetric else getattr(coupled.membrane, "sector", None))
+    part = DrivenPart("driven", coupled, band, m=getattr(coupled.membrane, "m", None),
+                      sector=getattr(coupled.membrane, "sector", None))
     columns = {k: [mode] for k, mode in enumerate(modes) if mode.kind != AIR and mode.label
                and eigen.f_min <= mode.freq_hz <= eigen.f_max}
     rows: dict[str, list[ModalForce]] = {name: [] for name, _, _ in weights}
@@ -179,8 +178,8 @@ def drive_segments(problem, weights, engine):
     from copdea_fem.forced_response.scan import driven_groups
 
     coupled = problem.coupled
-    axisymmetric = problem.engine == "axisymmetric"
-    part = DrivenPart("driven", coupled, None, m=0 if axisymmetric else None)
+    part = DrivenPart("driven", coupled, None, m=getattr(coupled.membrane, "m", None),
+                      sector=getattr(coupled.membrane, "sector", None))
     total = 0.0
     for force, families in driven_groups(engine, problem.state, part, drive_of(weights)):
         total = total + dict(families).get("cos", 0.0) * np.asarray(force, complex)
