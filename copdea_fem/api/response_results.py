@@ -62,7 +62,8 @@ def response(study: Study | str | Path, *, allow_large: bool = False,
         ``out`` may not be written (as in :meth:`Solution.write`).
     """
     from copdea_fem.fe import engine_for
-    from copdea_fem.forced_response.run import forced_response, prepare_order_zero
+    from copdea_fem.forced_response.run import prepare_order_zero
+    from copdea_fem.forced_response.segments import segment_response
 
     study = as_study(study)
     engine = engine_for(study)
@@ -71,7 +72,7 @@ def response(study: Study | str | Path, *, allow_large: bool = False,
             as folder:
         with solving(study), reporting_to(progress):
             problem = prepare_order_zero(study, engine=engine)
-            result = forced_response(problem)
+            result = segment_response(problem, engine)
         solution = ResponseSolution(result)
         if folder is not None:
             solution.write(folder, progress)
@@ -146,6 +147,20 @@ class ResponseSolution:
                    list(r.basis.damping_per_mass),
                    [m.membrane_energy_fraction for m in r.modes])
         return pd.DataFrame(dict(zip(MODE_COLUMNS, columns)))
+
+    @property
+    def modal_forcing(self) -> pd.DataFrame:
+        """modal_forcing.csv: ``segment, label, freq_hz, force_re, force_im`` -- the modal
+        force of each in-band structural mode per volt of each segment's AC input
+        [N/(V sqrt(kg))], the mode mass-normalised
+        (:mod:`copdea_fem.forced_response.segments`)."""
+        import pandas as pd
+
+        from copdea_fem.forced_response.segments import MODAL_FORCING_COLUMNS
+        rows = self.result.modal_forcing
+        return pd.DataFrame(dict(zip(MODAL_FORCING_COLUMNS, (
+            [r.segment for r in rows], [r.label for r in rows], [r.freq_hz for r in rows],
+            [r.force.real for r in rows], [r.force.imag for r in rows]))))
 
     @property
     def peaks_hz(self) -> list[float]:

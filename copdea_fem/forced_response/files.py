@@ -15,6 +15,8 @@ POINT_COLUMNS = ("freq_hz",) + tuple(f"v_{component}_q{i}" for i in (1, 2, 3)
                                      for component in ("axial", "radial"))
 MODE_COLUMNS = ("label", "kind", "freq_hz", "freq_im_hz", "damping_per_mass",
                 "membrane_energy_fraction")
+#: modal_forcing.csv: the modal force per volt of a segment's input [N/(V sqrt(kg))]
+MODAL_FORCING_COLUMNS = ("segment", "label", "freq_hz", "force_re", "force_im")
 
 
 @dataclass
@@ -140,6 +142,11 @@ def write_response(result, out_dir: Path, reduced=(None, None)) -> None:
                        [m.freq_hz for m in result.modes], [m.freq_im_hz for m in result.modes],
                        list(result.basis.damping_per_mass),
                        [m.membrane_energy_fraction for m in result.modes]))
+        rows = result.modal_forcing
+        write_csv(staging / "modal_forcing.csv", MODAL_FORCING_COLUMNS,
+                  ([r.segment for r in rows], [r.label for r in rows],
+                   [r.freq_hz for r in rows], [r.force.real for r in rows],
+                   [r.force.imag for r in rows]))
         dump_resolved(study, staging / "study.resolved.yaml")
         document = {
             "engine": result.problem.engine,
@@ -153,10 +160,13 @@ def write_response(result, out_dir: Path, reduced=(None, None)) -> None:
             "unknowns": int(result.problem.forced.size),
             "equilibrium_residual": result.problem.forced.equilibrium_residual,
             "timings_s": result.timings}
+        if result.segments:
+            document["segments"] = list(result.segments)
+            document["modal_forcing_unit"] = "N/(V sqrt(kg))"
         if result.method in ("reduced", "reduced_modal"):
             document["reduced_basis"] = result.basis.summary()
         write_json(staging / "response.json", document)
         if study.output.plots:
             _plots(staging, result, reduced)
-        if study.output.paraview and result.peaks_hz:
-            _paraview(staging, result)
+        if study.output.paraview and result.peaks_hz and not result.segments:
+            _paraview(staging, result)      # segments: the driven part's shapes are not all

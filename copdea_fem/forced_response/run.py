@@ -41,6 +41,10 @@ Files (column names are a contract):
 - ``spl.csv``: ``freq_hz, spl_<microphone>...`` [Hz, dB re 20 uPa]
 - ``response_modes.csv``: ``label, kind, freq_hz, freq_im_hz, damping_per_mass,
   membrane_energy_fraction`` of the modes used (modal path)
+- ``modal_forcing.csv``: ``segment, label, freq_hz, force_re, force_im`` -- the modal force
+  of each in-band structural mode per volt of each electrode segment's AC input
+  [N/(V sqrt(kg))], the mode mass-normalised (:mod:`.segments`; one segment
+  ``electrode`` without ``electrodes.segments``)
 - ``response.json``: method, far-field method, microphones [m], peaks, powers, timings
 - PNGs (``output.plots``): ``response_average.png`` (Fig. 12 style, the reduced model's
   spectrum dashed), ``response_points.png``, ``spl.png``
@@ -107,6 +111,11 @@ def prepare_order_zero(study, *, engine: Engine) -> OrderZero:
     if not study.air.outside:
         raise StudyError("air.outside = false is not allowed for `response`; allowed: true "
                          "(the sound at the microphones needs the outside air)")
+    if study.electrodes.segments and study.response.microphones.strip():
+        raise StudyError(f"response.microphones = {study.response.microphones!r} is not "
+                         "allowed with electrodes.segments; allowed: '' (the axis microphone "
+                         "alone: the orders m >= 1 a segmented drive reaches radiate nothing "
+                         "onto the axis, and their sound elsewhere is not computed)")
     microphone_places(study, parse_microphones(study))
     check_air_lift(study)
     return engine.forced_problem(study)
@@ -125,7 +134,7 @@ def modal_solution(problem: OrderZero, f_end: float):
     result = solve_band(coupled.stiffness, coupled.mass, 0.0, reach, factorize=coupled.factorize,
                         hermitian=False, max_imag_hz=reach, backend=eigen.backend,
                         max_modes=eigen.max_modes, residual_tol=eigen.residual_tol)
-    modes = _band_modes(problem, result.eigenvalues, result.vectors, result.residuals)
+    modes = band_modes(problem, result.eigenvalues, result.vectors, result.residuals)
     if study.membrane.prony:
         logger.warning("response.method: modal with membrane.prony: the modal path is a few % "
                        "off the exact response (its static correction uses the relaxed "
@@ -141,7 +150,7 @@ def modal_solution(problem: OrderZero, f_end: float):
 RITZ_ROUNDS = 3
 
 
-def _band_modes(problem: OrderZero, eigenvalues, vectors, residuals):
+def band_modes(problem: OrderZero, eigenvalues, vectors, residuals):
     """Classified, labelled modes (as ``solve`` labels them) of eigenpairs: air/PML modes
     (little membrane energy, or damped beyond what ``solve`` looks for: its band holds
     |Im f| <= eigen.max_damping_ratio f_max; PML modes reach zeta ~ 1) get kind AIR."""
@@ -214,7 +223,7 @@ def reduced_modal_solution(problem: OrderZero, frequency_hz):
                     + " Hz")
     index = np.flatnonzero(converged)
     index = index[np.argsort(freq[index].real)]
-    modes = _band_modes(problem, ritz.eigenvalues[index], ritz.vectors[:, index],
+    modes = band_modes(problem, ritz.eigenvalues[index], ritz.vectors[:, index],
                         ritz.residuals[index])
     damping = modal_damping([m.label for m in modes], [m.kind for m in modes], study)
     damped = index[damping > 0]
@@ -296,6 +305,9 @@ class ResponseResult:
     problem: OrderZero
     timings: dict
     peaks_hz: list = field(default_factory=list)
+    voltage_lines: np.ndarray | None = None     # (lines,) complex input per line [V]
+    modal_forcing: list = field(default_factory=list)   # ModalForce rows (.segments)
+    segments: list = field(default_factory=list)   # the segments driven (none: one electrode)
 
     def solution(self, line: int) -> np.ndarray:
         """Scaled solution vector of one line (chirp amplitude applied)."""
@@ -383,6 +395,7 @@ def forced_response(problem: OrderZero, frequency_hz=None,
                             method, far_field, modes, basis, vectors, weights,
                             problem, timings)
     result.peaks_hz = spectrum_peaks(result, study.response.peaks)
+    result.voltage_lines = voltage_lines
     return result
 
 
