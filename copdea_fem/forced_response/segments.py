@@ -141,7 +141,7 @@ def driven_modal_forcing(problem, weights, engine) -> list[ModalForce]:
     from copdea_fem.fe.modes import AIR
     from copdea_fem.forced_response.run import band_modes
 
-    study, coupled, eigen = problem.study, problem.coupled, problem.study.eigen
+    coupled, eigen = problem.coupled, problem.study.eigen
     found = solve_band(coupled.stiffness, coupled.mass, eigen.f_min, eigen.f_max,
                        factorize=coupled.factorize, hermitian=False,
                        max_imag_hz=eigen.max_damping_ratio * eigen.f_max,
