@@ -38,7 +38,7 @@ ROOT = Path(__file__).resolve().parent.parent
 COPIED = ("copdea_fem", "tests", "studies", "meshes", "pyproject.toml", "README.md")
 #: The test files that kill most physics mutations, run first (the rest follow in
 #: name order): with -x a killed mutation then costs seconds to a minute, not the suite.
-FIRST = ("tests/test_mac.py",
+FIRST = ("tests/fe/test_vent_helmholtz.py", "tests/test_mac.py",
          "tests/fe/test_materials.py", "tests/fe/test_damping.py", "tests/fe/test_coupled_references.py",
          "tests/fe/test_axisymmetric.py",
          "tests/fe/test_acoustics.py", "tests/fe/test_coupled.py", "tests/fe/test_symmetry.py",
@@ -292,6 +292,10 @@ MUTATIONS = (
              "                          *ENCLOSURE_DEPTH_RATIO, True,",
              "                          *ENCLOSURE_DEPTH_RATIO, False,",
              "diagnosis: the enclosure effect's depth searched on a linear grid"),
+    Mutation("vent_radius_halved_axisymmetric", "copdea_fem/fe/axisymmetric/meridian.py",
+             "vent_radius=vent if enclosed else 0.0,",
+             "vent_radius=0.5 * vent if enclosed else 0.0,",
+             "axisymmetric mesh: the enclosure's vent radius halved"),
 )
 
 
