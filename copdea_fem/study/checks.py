@@ -32,13 +32,23 @@ def derived_defaults(v: dict[str, dict[str, Any]], name: str) -> None:
     if v["geometry"]["frame_radius"] is None:
         v["geometry"]["frame_radius"] = 0.5 * v["geometry"]["frame_side"]
     g = v["geometry"]
-    if g["enclosure_depth"] is None:
-        g["enclosure_depth"] = r_o
-    if g["enclosure_radius"] is None:   # under a circular frame: the whole ring is its lid
-        g["enclosure_radius"] = g["frame_radius"] if g["frame"] == "circle" else r_o
+    for key, default in enclosure_defaults(g).items():
+        if g[key] is None:
+            g[key] = default
     if v["output"]["directory"] is None:
         v["output"]["directory"] = f"results/{name}"
 
+
+
+def enclosure_defaults(g) -> dict[str, float]:
+    """The enclosure's keys when the study leaves them out (``g``: the geometry section,
+    SI): as deep as r_o, as wide as r_o - under a circular frame the whole ring is its lid -
+    and no vent."""
+    get = g.__getitem__ if isinstance(g, dict) else lambda key: getattr(g, key)
+    r_o = get("outer_radius")
+    return {"enclosure_depth": r_o,
+            "enclosure_radius": get("frame_radius") if get("frame") == "circle" else r_o,
+            "enclosure_vent_radius": 0.0}
 
 def check_across_keys(v: dict[str, dict[str, Any]]) -> None:
     """The checks that need more than one key, on the values read key by key (SI, defaults

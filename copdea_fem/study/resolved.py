@@ -19,7 +19,7 @@ import yaml
 
 from copdea_fem.folders import package_versions
 from copdea_fem.inputs import parse_yaml, preview, read_yaml
-from copdea_fem.study.checks import check_across_keys, derived_defaults
+from copdea_fem.study.checks import check_across_keys, derived_defaults, enclosure_defaults
 from copdea_fem.study.keys import StudyError, convert_value, refusal
 from copdea_fem.study.schema import (
     AXISYMMETRIC_ENCLOSURES,
@@ -250,6 +250,9 @@ def unused_enclosure_keys(study: Study, given) -> list[str]:
     the air it traps).  Said when a file is read, not for each study made from it."""
     g = study.geometry
     warnings_ = []
+    # a key at its default (a resolved study written by a run lists them all) says nothing
+    given = {key for key, default in enclosure_defaults(g).items()
+             if key in given and getattr(g, key) != default} | (set(given) - set(ENCLOSURE_KEYS))
     if g.enclosure == "none":
         warnings_ += [f"geometry.{key} is ignored: geometry.enclosure = none"
                       for key in ENCLOSURE_KEYS if key in given]
