@@ -59,6 +59,18 @@ def test_a_batch_of_fe_solves_on_a_local_cluster_gives_the_local_modes(tmp_path)
     assert again.solve_many(requests) == 0 and again._client is None  # no cluster started
 
 
+def to_last_bits(tree, rel=1e-9):
+    """``tree`` with every float compared to ``rel``: a solve on another CPU (its BLAS
+    kernels) or in another process order may differ in the last bits, nothing more."""
+    if isinstance(tree, dict):
+        return {key: to_last_bits(value, rel) for key, value in tree.items()}
+    if isinstance(tree, (list, tuple)):
+        return type(tree)(to_last_bits(value, rel) for value in tree)
+    if isinstance(tree, float):
+        return pytest.approx(tree, rel=rel, abs=1e-300)
+    return tree
+
+
 def test_a_cold_diagnosis_on_a_local_cluster_is_the_local_one(tmp_path, monkeypatch, caplog):
     """The whole diagnosis (battery case ``air_hidden``, seed 1) with the committed cache
     read by the local executor, then again with the in-vacuo entries it read removed from a
@@ -92,9 +104,10 @@ def test_a_cold_diagnosis_on_a_local_cluster_is_the_local_one(tmp_path, monkeypa
     assert no_children_left(before)
     assert remote.result.fe_solves == len(removed)
     assert f"FE: {len(removed)} solves on the Dask cluster ..." in caplog.messages
-    for key, text in removed.items():
-        assert json.loads((cache / f"{key}.json").read_text())["modes"] == \
-            json.loads(text)["modes"]
+    for key, text in removed.items():      # same modes; the last bits follow the CPU's BLAS
+        written, committed = (json.loads(t)["modes"] for t in
+                              ((cache / f"{key}.json").read_text(), text))
+        assert written == to_last_bits(committed)
     document, expected = remote.document, local.document
     document.pop("fe"), expected.pop("fe")     # how many solved here, in how long
-    assert document == expected
+    assert document == to_last_bits(expected)
