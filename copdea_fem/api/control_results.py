@@ -235,9 +235,11 @@ class Excitation:
 
         d = self.design
         files = []
+        start = time.perf_counter()
         for target in d.targets:
             files.append(staging / f"operating_shape_{safe_name(target)}.vtu")
             write_vtu(files[-1], self.operating_shape(target))
+        self.timings["operating shape"] = time.perf_counter() - start
         write_pvd(staging / "operating_shape.pvd", files,
                   [d.freq_hz[d.labels.index(target)] for target in d.targets])
 
