@@ -157,3 +157,26 @@ def test_response_fed_with_excites_set_lines_holds_the_01_down(tmp_path):
         expected = np.abs(model @ inputs) / np.abs(model.sum(axis=-1))
         measured = designed[rows][:, columns] / one[rows][:, columns]
         assert np.abs(measured / expected - 1).max() <= 3e-2, (component, measured, expected)
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason=(
+    "on the 3-D quadrant (square frame) the even-even sector sees two combinations of the "
+    "eight sectors only, and the coarse mesh's '(0,2)' is driven by the order-2 pattern at "
+    "+6.5 dB re the (2,1)a: the least-squares drive trades the (0,1) up to +1.5 dB and "
+    "the (6,1)a (+16.1 dB) is not reported; rings: (0,1) at -23.4 dB (measured "
+    "2026-12-05)"))
+def test_the_acceptance_figures_on_the_3d_quadrant():
+    """The issue's two figures (G1, z = 16 mm, 2 kV) on the bundled device's own engine and
+    frame (3-D quadrant, square frame), coarse mesh: the eight sectors light the (2,1) with
+    every other out-of-plane mode at least 20 dB down but those reported as inseparable;
+    the rings light the (0,2) with the (0,1) at least 40 dB down."""
+    from copdea_fem.api import excite, load_study
+
+    sectors = excite(load_study(QUICK, [EIGHT_SECTORS]), ["(2,1)"]).design
+    reported = {line.split(":")[0] for line in sectors.inseparable}
+    for label, level in zip(sectors.labels, sectors.level_db):
+        if label not in sectors.targets and label not in reported:
+            assert level <= -20.0, (label, level)
+    rings = excite(load_study(QUICK, [RINGS]), ["(0,2)"]).design
+    assert dict(zip(rings.labels, rings.level_db))["(0,1)"] <= -40.0
