@@ -179,7 +179,7 @@ class Excitation:
         if self.solution is None:
             raise StudyError("operating shape: this Excitation holds no solve; allowed: "
                              "the result of excite()")
-        weights = dict((name, weight) for name, weight, _ in segment_weights(self.study))
+        weights = {name: weight for name, weight, _ in segment_weights(self.study)}
         drive = [(weights[name], np.conj(u)) for name, u in zip(d.inputs, d.drive)]
         study = self.study
 
