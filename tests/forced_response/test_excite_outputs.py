@@ -90,6 +90,22 @@ def test_no_operating_shape_without_paraview_files(tmp_path):
     assert not list(out.glob("*.vtu")) and not list(out.glob("*.png"))
 
 
+def test_the_operating_shape_of_a_mode_that_is_not_a_target_is_refused():
+    from copdea_fem.api import excite, load_study
+    from copdea_fem.study import StudyError
+
+    result = excite(load_study(QUICK, [AXISYMMETRIC[1], AXISYMMETRIC[3], RINGS]), ["(0,2)"])
+    with pytest.raises(StudyError, match=r"operating shape of '\(0,1\)': not a target; "
+                                         r"allowed: \(0,2\)$"):
+        result.operating_shape("(0,1)")
+    shape = result.operating_shape()
+    # rings drive the order 0 only: the shape is axisymmetric, |v| equal on every ring
+    radius = np.round(np.hypot(shape.points[:, 0], shape.points[:, 1]), 9)
+    ring = radius == radius[np.argmax(shape.point_data["velocity_abs"])]
+    values = shape.point_data["velocity_abs"][ring]
+    assert ring.sum() > 10 and np.ptp(values) <= 1e-9 * values.max()
+
+
 def _rows(path):
     with open(path, newline="") as handle:
         return list(csv.DictReader(handle))
