@@ -21,7 +21,8 @@ __all__ = ["load_study", "solve", "response", "force", "spectrum", "fit_material
            "Solution", "ResponseSolution", "ForceCurve", "Spectrum", "MaterialFitResult",
            "DampingCalibrationResult", "SweepResult", "Diagnosis", "CorrelateResult",
            "IdentifyResult", "SyntheticData", "SolveFailed", "StudyError", "OutputFolderError",
-           "load_measured", "identify_file", "FileIdentifyResult"]
+           "load_measured", "identify_file", "FileIdentifyResult", "excite", "statespace",
+           "Excitation", "StateSpace"]
 
 
 def __getattr__(name):

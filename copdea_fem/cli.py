@@ -459,7 +459,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_mesh_options(response)
     response.set_defaults(handler=cmd_response)
     excite = with_study("excite", "the drive of each electrode segment that lights the "
-                        "target mode(s): drive.csv, selectivity.csv, response_set.txt, PNG")
+                        "target mode(s): drive.csv, selectivity.csv, response_set.txt, PNG, "
+                        "operating-shape VTU")
     excite.add_argument("--target", action="append", metavar="LABEL",
                         help="a mode label of the band, e.g. '(2,1)' (repeat for several)")
     excite.add_argument("--max-ac", type=float, metavar="V",

@@ -94,13 +94,13 @@ def excite(study: Study | str | Path, targets: Sequence[str], *, max_ac: float |
     timings: dict = {}
     with claiming(out, "excite", input_files(study), study.output.directory) as folder:
         with reporting_to(progress):
-            _, model = _modal_model(study, allow_large, timings)
+            solution, model = _modal_model(study, allow_large, timings)
             start = time.perf_counter()
             design = design_drive(model, targets, amplitude, study.eigen.f_max)
             timings["design"] = time.perf_counter() - start
             for line in design.inseparable:
                 logger.warning(line)
-        result = Excitation(study, model, design, timings)
+        result = Excitation(study, model, design, timings, solution)
         if folder is not None:
             result.write(folder, progress)
     return result
@@ -115,11 +115,14 @@ class Excitation:
     model : ModalInputs
     design : ExcitationDesign
     timings : dict
+    solution : copdea_fem.fe.SolveResult, optional
+        The solve the model was built from (for :meth:`operating_shape`).
     """
 
     def __init__(self, study: Study, model: ModalInputs, design: ExcitationDesign,
-                 timings: dict) -> None:
+                 timings: dict, solution=None) -> None:
         self.study, self.model, self.design, self.timings = study, model, design, timings
+        self.solution = solution
 
     @property
     def drive(self) -> pd.DataFrame:
@@ -157,6 +160,35 @@ class Excitation:
         designed = np.abs(velocity @ np.conj(self.design.drive)).mean(axis=(1, 2))
         return np.asarray(frequency_hz), single, designed
 
+    def operating_shape(self, target: str | None = None):
+        """The designed drive's operating shape at ``target``'s frequency (default: the
+        first target): a :class:`~copdea_fem.vtu.VtuMesh` of the prestressed membrane with
+        the velocity [m/s] as point data, ``e^{+i omega t}`` convention
+        (:mod:`copdea_fem.forced_response.operating_shape`: the fields and their units)."""
+        import numpy as np
+
+        from copdea_fem.fe.forced.electrode import segment_weights
+        from copdea_fem.forced_response.operating_shape import operating_shape_mesh
+        from copdea_fem.forced_response.run import modal_damping
+
+        d = self.design
+        target = d.targets[0] if target is None else target
+        if target not in d.targets:
+            raise StudyError(f"operating shape of {target!r}: not a target; allowed: "
+                             + ", ".join(d.targets))
+        if self.solution is None:
+            raise StudyError("operating shape: this Excitation holds no solve; allowed: "
+                             "the result of excite()")
+        weights = {name: weight for name, weight, _ in segment_weights(self.study)}
+        drive = [(weights[name], np.conj(u)) for name, u in zip(d.inputs, d.drive)]
+        study = self.study
+
+        def damping(mode):
+            return float(modal_damping([mode.label], [mode.kind], study)[0])
+
+        return operating_shape_mesh(self.solution, study, drive,
+                                    d.freq_hz[d.labels.index(target)], damping)
+
     def summary_lines(self) -> list[str]:
         import numpy as np
         d = self.design
@@ -173,7 +205,9 @@ class Excitation:
     def write(self, folder: str | Path | Claim,
               progress: Callable[[str], None] | None = None) -> Path:
         """Write ``drive.csv``, ``selectivity.csv``, ``response_set.txt`` (the ``--set``
-        lines), ``excite_spectra.png`` and ``study.resolved.yaml`` into ``folder``."""
+        lines), ``excite_spectra.png`` (``output.plots``), ``operating_shape_<target>.vtu``
+        per target with ``operating_shape.pvd`` (``output.paraview``; :meth:`operating_shape`)
+        and ``study.resolved.yaml`` into ``folder``."""
         from copdea_fem.folders import result_directory
         from copdea_fem.forced_response.excitation import DRIVE_COLUMNS, SELECTIVITY_COLUMNS
         from copdea_fem.reduced.io import write_csv
@@ -189,9 +223,25 @@ class Excitation:
                 write_csv(staging / "selectivity.csv", SELECTIVITY_COLUMNS,
                           (d.labels, d.freq_hz, d.level_db))
                 (staging / "response_set.txt").write_text("\n".join(self.set_lines()) + "\n")
-                self._plot(staging / "excite_spectra.png")
+                if self.study.output.plots:
+                    self._plot(staging / "excite_spectra.png")
+                if self.study.output.paraview and self.solution is not None:
+                    self._paraview(staging)
                 dump_resolved(self.study, staging / "study.resolved.yaml")
         return target
+
+    def _paraview(self, staging: Path) -> None:
+        from copdea_fem.vtu import safe_name, write_pvd, write_vtu
+
+        d = self.design
+        files = []
+        start = time.perf_counter()
+        for target in d.targets:
+            files.append(staging / f"operating_shape_{safe_name(target)}.vtu")
+            write_vtu(files[-1], self.operating_shape(target))
+        self.timings["operating shape"] = time.perf_counter() - start
+        write_pvd(staging / "operating_shape.pvd", files,
+                  [d.freq_hz[d.labels.index(target)] for target in d.targets])
 
     def _plot(self, path: Path) -> None:
         import matplotlib

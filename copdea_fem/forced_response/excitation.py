@@ -18,7 +18,8 @@ regularised so that a drive the segments cannot tell apart stays bounded:
 ``u = Q^-1 G_T^H (G_T Q^-1 G_T^H)^-1 1``, ``Q = G_O^H G_O + epsilon I``, with
 ``epsilon = REGULARISATION trace(G^H G) / K``.  The drive is then scaled so that its peak
 AC amplitude is ``--max-ac`` [V].  Selectivity: ``20 log10(|r_j| / |r_target|)`` [dB] at each
-mode's own frequency (the first target's response the reference).
+mode's own frequency (the first target's response the reference; ``-inf`` for a mode that
+no input drives at all, its row of G zero).
 
 What the inputs cannot separate: the rows of G of a target and of its degenerate partners
 (the other member of its a/b pair: the same label but for the suffix) are compared by
@@ -151,7 +152,9 @@ def design_drive(model, targets, max_ac: float, f_max: float) -> ExcitationDesig
     drive = drive * (max_ac / np.abs(drive[largest])) * np.exp(-1j * np.angle(drive[largest]))
     response = gain @ drive
     reference = abs(response[target_rows[0]])
-    levels = [float(20 * np.log10(max(abs(r), 1e-300) / reference)) for r in response]
+    # -inf: a mode no input drives (its row of G is zero: e.g. an order m >= 1 under rings)
+    levels = [float(20 * np.log10(abs(r) / reference)) if abs(r) > 0 else -np.inf
+              for r in response]
     inseparable = []
     for row in other_rows:
         floor = separation_floor_db(gain[row], g_target, epsilon)

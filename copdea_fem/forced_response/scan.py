@@ -150,25 +150,21 @@ def driven_groups(engine, state, part, drive) -> list[tuple[np.ndarray, list]]:
             for force, sums in groups.values()]
 
 
-def _drive_part(solution, study, part, force, families, points, frequencies, damping_per_mass,
-                frequency_factors, truth) -> None:
-    """The response of one part under one forcing ``force``, its families by ``families``,
-    added to ``points``; its modes' frequency, damping and static reach into ``truth``."""
+def part_line_response(solution, study, part, force, frequencies, damping_per_mass,
+                       frequency_factors=None):
+    """One part's modal response (module notes) to the forcing ``force`` [N per volt] on the
+    lines ``frequencies`` [Hz]: ``(LineResponse, ModalBasis, columns, damping)`` with
+    ``columns`` of :func:`part_modes` and ``damping`` the modal b/m [1/s] per column."""
     import scipy.sparse as sp
 
     from copdea_fem.fe.forced.harmonic import ForcedOrder, ModalBasis
-    from copdea_fem.fe.modes import membrane_energy_fractions
     from copdea_fem.forced_response.run import sealed_enclosure
 
     band = part.band
-    if not families:
-        return
     size = part.pencil.membrane.stiffness.shape[0]
     forced = ForcedOrder.from_parts(part.pencil, force, sp.csr_matrix((size, size)), 0.0,
                                     study.eigen.backend)
     eigenvalues = np.asarray(band.eigenvalues, complex)
-    shares = (np.asarray(membrane_energy_fractions(part.pencil, band))
-              if len(part.pencil.pressure_index) else np.ones(eigenvalues.size))
     columns = part_modes(part, solution.modes)          # structural, labelled
     # the paper's modal b/m (eq. 19) per label, in the modal path's denominator
     damping = np.zeros(eigenvalues.size)
@@ -184,6 +180,22 @@ def _drive_part(solution, study, part, force, families, points, frequencies, dam
             factors[column] = float(frequency_factors(modes[0].label))
         basis.eigenvalues = eigenvalues * factors ** 2
     response = LineResponse(forced, basis.basis, basis.coefficients(frequencies))
+    return response, basis, columns, damping
+
+
+def _drive_part(solution, study, part, force, families, points, frequencies, damping_per_mass,
+                frequency_factors, truth) -> None:
+    """The response of one part under one forcing ``force``, its families by ``families``,
+    added to ``points``; its modes' frequency, damping and static reach into ``truth``."""
+    from copdea_fem.fe.modes import membrane_energy_fractions
+
+    if not families:
+        return
+    response, basis, columns, damping = part_line_response(
+        solution, study, part, force, frequencies, damping_per_mass, frequency_factors)
+    eigenvalues = np.asarray(part.band.eigenvalues, complex)
+    shares = (np.asarray(membrane_energy_fractions(part.pencil, part.band))
+              if len(part.pencil.pressure_index) else np.ones(eigenvalues.size))
     static = basis.participation / (basis.norms * basis.eigenvalues)
     for family, factor in families:
         sampled = points.basis(response, part.pencil.membrane, family)
@@ -233,4 +245,5 @@ def column_frequencies(eigenvalues) -> np.ndarray:
     return np.where(freq.real < 0, -freq, freq)
 
 
-__all__ = ["ScanResponse", "column_frequencies", "part_modes", "scan_response"]
+__all__ = ["ScanResponse", "column_frequencies", "driven_groups", "part_line_response",
+           "part_modes", "scan_response"]

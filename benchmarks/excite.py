@@ -1,0 +1,106 @@
+"""``excite`` against ``response`` and ``statespace`` against ``solve`` of one study:
+``python -m benchmarks.excite [--repeat 3] [--target LABEL] [--set SECTION.KEY=VALUE ...]``.
+
+The study is ``studies/g1_segments_quick.yaml`` (G1, z = 16 mm, 2 kV, coupled, coarse mesh,
+eight 45-degree sectors; its default engine).  Each repetition runs, as a user does, a fresh
+``python -m copdea_fem.cli`` of each command with files off (``output.paraview=false``,
+``output.plots=false``: the CSV, JSON, NPZ and MAT files remain), the commands of a pair one
+right after the other, the order alternating between repetitions: ``excite --target
+(2,1)`` with ``response``, then ``statespace`` with ``solve``.  Wall and CPU (user + system
+of the child) seconds per run; the report gives the medians of each command and the
+median of the per-repetition ratios, against the targets (issue 41, item 8):
+``excite / response <= 2`` (:data:`EXCITE_TARGET`) and ``statespace / solve <= 1.5``
+(:data:`STATESPACE_TARGET`).  On a shared machine only the ratio of two runs close in time
+means something.  Each command's own stage timings (its summary's ``timings:`` line) are
+kept for the last repetition.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+STUDY = ROOT / "studies" / "g1_segments_quick.yaml"
+FILES_OFF = ["output.paraview=false", "output.plots=false"]
+EXCITE_TARGET = 2.0
+STATESPACE_TARGET = 1.5
+PAIRS = (("excite", "response"), ("statespace", "solve"))
+
+
+def _command(command: str, overrides: list[str], directory: Path, target: str) -> dict:
+    """One fresh ``python -m copdea_fem.cli COMMAND`` of :data:`STUDY` into ``directory``:
+    wall and CPU seconds of the child, and its summary's ``timings:`` line."""
+    argv = [sys.executable, "-m", "copdea_fem.cli", command, str(STUDY), "--out",
+            str(directory)]
+    if command == "excite":
+        argv += ["--target", target]
+    for item in FILES_OFF + overrides:
+        argv += ["--set", item]
+    environment = dict(os.environ, PYTHONPATH=str(ROOT))
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    started = time.perf_counter()
+    done = subprocess.run(argv, cwd=ROOT, env=environment, check=True, capture_output=True,
+                          text=True)
+    wall = time.perf_counter() - started
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    stages = [line.strip() for line in (done.stdout + done.stderr).splitlines()
+              if line.strip().startswith("timings:")]
+    return {"wall_s": wall, "cpu_s": cpu, "timings": stages[-1] if stages else ""}
+
+
+def run(repeat: int, overrides: list[str], target: str) -> dict:
+    runs = {name: [] for pair in PAIRS for name in pair}
+    for k in range(repeat):
+        for pair in PAIRS:
+            order = pair if k % 2 == 0 else pair[::-1]
+            with tempfile.TemporaryDirectory() as directory:
+                for name in order:
+                    runs[name].append(_command(name, overrides, Path(directory) / name,
+                                               target))
+                    print(f"run {k + 1}/{repeat} {name}: {runs[name][-1]['wall_s']:.2f} s "
+                          f"wall, {runs[name][-1]['cpu_s']:.2f} s CPU", file=sys.stderr)
+    report = {"study": str(STUDY.relative_to(ROOT)), "overrides": FILES_OFF + overrides,
+              "target": target, "repeat": repeat}
+    for name, values in runs.items():
+        report[name] = {key: {"median": statistics.median(r[key] for r in values),
+                              "min": min(r[key] for r in values),
+                              "max": max(r[key] for r in values)}
+                        for key in ("wall_s", "cpu_s")}
+        report[name]["stages_last_run"] = values[-1]["timings"]
+    for (mine, reference), limit in zip(PAIRS, (EXCITE_TARGET, STATESPACE_TARGET)):
+        ratios = {key: [r[key] / s[key] for r, s in zip(runs[mine], runs[reference])]
+                  for key in ("wall_s", "cpu_s")}
+        report[f"ratio_{mine}_to_{reference}"] = {
+            key: {"median": statistics.median(values),
+                  "all": [round(value, 3) for value in values]}
+            for key, values in ratios.items()}
+        report[f"ratio_{mine}_to_{reference}"]["target"] = limit
+        report[f"ratio_{mine}_to_{reference}"]["target_met"] = \
+            statistics.median(ratios["wall_s"]) <= limit
+    return report
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.excite")
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--target", default="(2,1)", help="excite's --target")
+    parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE")
+    args = parser.parse_args(argv)
+    if args.repeat < 1:
+        parser.error(f"--repeat {args.repeat} is not allowed; allowed: >= 1")
+    print(json.dumps(run(args.repeat, args.set, args.target), indent=2))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
