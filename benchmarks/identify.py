@@ -26,7 +26,8 @@ optimisation, matplotlib's figure) and the report gives each command's median ov
 reference's and the median of the per-repetition ratios: the load moves both.
 ``--in-process``: the same commands' API calls (:func:`copdea_fem.api.identify_file`,
 :func:`copdea_fem.api.correlate`, files written) in this process after one warm-up
-(imports done): median and range.
+(imports done): median and range.  ``--baseline CHECKOUT`` runs each command from another
+checkout too (by ``PYTHONPATH``, right after this one's): before / after on the same load.
 """
 
 from __future__ import annotations
@@ -134,16 +135,22 @@ def command_lines(folder: Path, commands) -> dict:
     return {command: lines[command] for command in commands}
 
 
-def time_commands(repeat: int, commands) -> dict:
+def time_commands(repeat: int, commands, baseline: Path | None = None) -> dict:
     """Wall seconds of the reference process and of each command on the export, fresh
-    processes, interleaved: {"reference" or command: [seconds, ...]}."""
+    processes, interleaved: {"reference" or command: [seconds, ...]}; with ``baseline`` (a
+    checkout) each command also from it, right after this checkout's (``"<command>
+    (baseline)"``)."""
     import os
     import subprocess
     import sys
 
     root = Path(__file__).resolve().parents[1]
     env = dict(os.environ, PYTHONPATH=str(root))
-    seconds = {"reference": [], **{command: [] for command in commands}}
+    checkouts = [("", env)]
+    if baseline is not None:
+        checkouts.append((" (baseline)", dict(os.environ, PYTHONPATH=str(baseline))))
+    seconds = {"reference": [], **{command + suffix: [] for command in commands
+                                   for suffix, _ in checkouts}}
     with tempfile.TemporaryDirectory() as folder:
         write_export(Path(folder))
         lines = command_lines(Path(folder), commands)
@@ -153,12 +160,13 @@ def time_commands(repeat: int, commands) -> dict:
                            capture_output=True)
             seconds["reference"].append(time.perf_counter() - start)
             for command, arguments in lines.items():
-                out = Path(folder) / f"{command}_{run}"
-                start = time.perf_counter()
-                subprocess.run([sys.executable, "-m", "copdea_fem.cli", *arguments, "--out",
-                                str(out), "--quiet"], check=True, env=env, cwd=folder,
-                               capture_output=True)
-                seconds[command].append(time.perf_counter() - start)
+                for suffix, environment in checkouts:
+                    out = Path(folder) / f"{command}_{run}{suffix.strip(' ()')}"
+                    start = time.perf_counter()
+                    subprocess.run([sys.executable, "-m", "copdea_fem.cli", *arguments,
+                                    "--out", str(out), "--quiet"], check=True, env=environment,
+                                   cwd=folder, capture_output=True)
+                    seconds[command + suffix].append(time.perf_counter() - start)
     return seconds
 
 
@@ -202,6 +210,9 @@ def main(argv=None) -> int:
                         help="also time the whole identify command (fresh processes)")
     parser.add_argument("--correlate", action="store_true",
                         help="with --commands / --in-process: correlate too (FE solve included)")
+    parser.add_argument("--baseline", type=Path, metavar="CHECKOUT",
+                        help="with --commands: also run each command from another checkout "
+                        "(PYTHONPATH), interleaved, e.g. /work/main")
     parser.add_argument("--in-process", action="store_true",
                         help="also time the commands' API calls in this process")
     args = parser.parse_args(argv)
@@ -234,21 +245,23 @@ def main(argv=None) -> int:
     met = median <= TARGET_SECONDS
     commands = ("identify-file", "identify") + (("correlate",) if args.correlate else ())
     if args.commands:
-        timed = time_commands(args.repeat, commands)
+        timed = time_commands(args.repeat, commands, args.baseline)
         reference = timed.pop("reference")
         print(f"reference process ({REFERENCE!r}): median "
               f"{statistics.median(reference):.2f} s (range {min(reference):.2f}-"
               f"{max(reference):.2f})")
-        for command, seconds in timed.items():
+        for name, seconds in timed.items():
+            command, _, suffix = name.partition(" ")
             middle = statistics.median(seconds)
-            target = COMMAND_TARGETS.get(command)
+            target = None if suffix else COMMAND_TARGETS.get(command)
             verdict = "" if target is None else \
                 f"; target <= {target:g} s: {'met' if middle <= target else 'MISSED'}"
             if target is not None:
                 met = met and middle <= target
-            print(f"copdea-fem {' '.join(command_lines(Path('.'), [command])[command])} "
-                  f"(whole command, fresh process): median {middle:.2f} s (range "
-                  f"{min(seconds):.2f}-{max(seconds):.2f}, {len(seconds)} runs), "
+            words = " ".join(command_lines(Path("."), [command])[command])
+            print(f"copdea-fem {words} {suffix + ' ' if suffix else ''}(whole command, fresh "
+                  f"process): median {middle:.2f} s (range {min(seconds):.2f}-"
+                  f"{max(seconds):.2f}, {len(seconds)} runs), "
                   f"{ratio_line(seconds, reference)}{verdict}")
     if args.in_process:
         for command, seconds in time_in_process(args.repeat, commands).items():
