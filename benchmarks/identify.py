@@ -23,7 +23,9 @@ FE solve included: correlate keeps no FE cache, so every run is a first run; tar
 <= 8 s).  On a shared machine each repetition also runs a fixed reference process
 (:data:`REFERENCE`: the imports every command needs, NumPy, SciPy's linear algebra and
 optimisation, matplotlib's figure) and the report gives each command's median over the
-reference's and the median of the per-repetition ratios: the load moves both.
+reference's and the median of the per-repetition ratios: the load moves both; the CPU
+seconds (user + system of each child) are given beside the wall seconds, with the same
+ratios (a loaded machine stretches wall time far more than CPU time).
 ``--in-process``: the same commands' API calls (:func:`copdea_fem.api.identify_file`,
 :func:`copdea_fem.api.correlate`, files written) in this process after one warm-up
 (imports done): median and range.  ``--baseline CHECKOUT`` runs each command from another
@@ -135,13 +137,25 @@ def command_lines(folder: Path, commands) -> dict:
     return {command: lines[command] for command in commands}
 
 
-def time_commands(repeat: int, commands, baseline: Path | None = None) -> dict:
-    """Wall seconds of the reference process and of each command on the export, fresh
-    processes, interleaved: {"reference" or command: [seconds, ...]}; with ``baseline`` (a
-    checkout) each command also from it, right after this checkout's (``"<command>
-    (baseline)"``)."""
-    import os
+def _run_child(arguments, env, cwd) -> tuple[float, float]:
+    """Wall and CPU seconds (user + system of the child) of one fresh process."""
+    import resource
     import subprocess
+
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    start = time.perf_counter()
+    subprocess.run(arguments, check=True, env=env, cwd=cwd, capture_output=True)
+    wall = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+
+
+def time_commands(repeat: int, commands, baseline: Path | None = None) -> tuple[dict, dict]:
+    """Wall and CPU seconds of the reference process and of each command on the export,
+    fresh processes, interleaved: ({"reference" or command: [seconds, ...]}, the same for
+    CPU); with ``baseline`` (a checkout) each command also from it, right after this
+    checkout's (``"<command> (baseline)"``)."""
+    import os
     import sys
 
     root = Path(__file__).resolve().parents[1]
@@ -149,25 +163,23 @@ def time_commands(repeat: int, commands, baseline: Path | None = None) -> dict:
     checkouts = [("", env)]
     if baseline is not None:
         checkouts.append((" (baseline)", dict(os.environ, PYTHONPATH=str(baseline))))
-    seconds = {"reference": [], **{command + suffix: [] for command in commands
-                                   for suffix, _ in checkouts}}
+    names = ["reference"] + [command + suffix for command in commands for suffix, _ in checkouts]
+    wall, cpu = {name: [] for name in names}, {name: [] for name in names}
     with tempfile.TemporaryDirectory() as folder:
         write_export(Path(folder))
         lines = command_lines(Path(folder), commands)
         for run in range(repeat):
-            start = time.perf_counter()
-            subprocess.run([sys.executable, "-c", REFERENCE], check=True, env=env, cwd=folder,
-                           capture_output=True)
-            seconds["reference"].append(time.perf_counter() - start)
+            seconds = _run_child([sys.executable, "-c", REFERENCE], env, folder)
+            wall["reference"].append(seconds[0])
+            cpu["reference"].append(seconds[1])
             for command, arguments in lines.items():
                 for suffix, environment in checkouts:
                     out = Path(folder) / f"{command}_{run}{suffix.strip(' ()')}"
-                    start = time.perf_counter()
-                    subprocess.run([sys.executable, "-m", "copdea_fem.cli", *arguments,
-                                    "--out", str(out), "--quiet"], check=True, env=environment,
-                                   cwd=folder, capture_output=True)
-                    seconds[command + suffix].append(time.perf_counter() - start)
-    return seconds
+                    seconds = _run_child([sys.executable, "-m", "copdea_fem.cli", *arguments,
+                                          "--out", str(out), "--quiet"], environment, folder)
+                    wall[command + suffix].append(seconds[0])
+                    cpu[command + suffix].append(seconds[1])
+    return wall, cpu
 
 
 def time_in_process(repeat: int, commands) -> dict:
@@ -245,11 +257,11 @@ def main(argv=None) -> int:
     met = median <= TARGET_SECONDS
     commands = ("identify-file", "identify") + (("correlate",) if args.correlate else ())
     if args.commands:
-        timed = time_commands(args.repeat, commands, args.baseline)
-        reference = timed.pop("reference")
+        timed, cpu = time_commands(args.repeat, commands, args.baseline)
+        reference, reference_cpu = timed.pop("reference"), cpu.pop("reference")
         print(f"reference process ({REFERENCE!r}): median "
               f"{statistics.median(reference):.2f} s (range {min(reference):.2f}-"
-              f"{max(reference):.2f})")
+              f"{max(reference):.2f}), CPU {statistics.median(reference_cpu):.2f} s")
         for name, seconds in timed.items():
             command, _, suffix = name.partition(" ")
             middle = statistics.median(seconds)
@@ -262,7 +274,8 @@ def main(argv=None) -> int:
             print(f"copdea-fem {words} {suffix + ' ' if suffix else ''}(whole command, fresh "
                   f"process): median {middle:.2f} s (range {min(seconds):.2f}-"
                   f"{max(seconds):.2f}, {len(seconds)} runs), "
-                  f"{ratio_line(seconds, reference)}{verdict}")
+                  f"{ratio_line(seconds, reference)}; CPU {statistics.median(cpu[name]):.2f} s, "
+                  f"{ratio_line(cpu[name], reference_cpu)}{verdict}")
     if args.in_process:
         for command, seconds in time_in_process(args.repeat, commands).items():
             print(f"{command} in process (after a warm-up, files written): median "
