@@ -1,4 +1,5 @@
-"""The common quantities of a study read without pint, for the whole command's speed.
+"""The common quantities of a study, and the common unit labels of a measurement file,
+read without pint, for the whole command's speed.
 
 Reading ``"16 mm"`` with :mod:`pint` costs its import (slow: it imports dask
 when dask is installed) and the build of its unit registry in every fresh
@@ -67,3 +68,112 @@ def fast_to_si(text: str, unit: str | None) -> float | None:
         return None
     value = magnitude * entry[1]
     return value if math.isfinite(value) else None
+
+
+# --- unit labels of measurement files (UFF dataset 58's axis labels) ---------------------
+
+_LENGTH, _TIME, _MASS, _CURRENT = "[length]", "[time]", "[mass]", "[current]"
+#: symbol -> (factor to SI, SI dimensions as pint names them): the units a vibration
+#: export's axis labels use (BIPM SI brochure, Tables 2 and 4; ``g_n`` standard gravity,
+#: 9.80665 m/s^2 exactly, CGPM 1901)
+_LABEL_BASES = {"m": (1.0, {_LENGTH: 1}), "s": (1.0, {_TIME: 1}), "Hz": (1.0, {_TIME: -1}),
+                "N": (1.0, {_MASS: 1, _LENGTH: 1, _TIME: -2}),
+                "V": (1.0, {_MASS: 1, _LENGTH: 2, _TIME: -3, _CURRENT: -1}),
+                "A": (1.0, {_CURRENT: 1}), "Pa": (1.0, {_MASS: 1, _LENGTH: -1, _TIME: -2}),
+                "kg": (1.0, {_MASS: 1}), "g_n": (9.80665, {_LENGTH: 1, _TIME: -2})}
+#: which prefixes each label symbol takes here (others go to pint)
+_LABEL_ALLOWED = {"m": "numck", "s": "num", "Hz": "k", "N": "mk", "V": "umk", "A": "um",
+                  "Pa": "kM", "kg": "", "g_n": ""}
+
+
+def _label_table() -> dict[str, tuple[float, dict]]:
+    table = {}
+    for base, (factor, dimensions) in _LABEL_BASES.items():
+        table[base] = (factor, dimensions)
+        for prefix in _LABEL_ALLOWED[base]:
+            table[prefix + base] = (_PREFIXES[prefix] * factor, dimensions)
+    return table
+
+
+#: label symbol -> (factor to SI, SI dimensions)
+LABEL_UNITS = _label_table()
+_LABEL_TOKEN = re.compile(r"\s*(\*\*|[*/()]|[+-]?\d+|[A-Za-z_]+)")
+
+
+def _label_tokens(text: str) -> list[str] | None:
+    tokens, position = [], 0
+    while position < len(text):
+        found = _LABEL_TOKEN.match(text, position)
+        if found is None:
+            return None
+        tokens.append(found.group(1))
+        position = found.end()
+        while position < len(text) and text[position].isspace():
+            position += 1
+    return tokens
+
+
+def fast_label_to_si(text: str) -> tuple[float, dict] | None:
+    """A unit label's factor to SI and SI dimensions (``{"[length]": 1, "[time]": -1}``,
+    pint's names) when it is a product of the symbols of :data:`LABEL_UNITS` (``*``,
+    ``/`` left to right, parentheses, integer powers ``**n``, ``1``): ``m/s``,
+    ``(m/s)/V``, ``g_n**2/Hz``, ``(1/N)*(m/s**2)``; ``None`` otherwise (another unit, a
+    number, implicit products: pint decides).  The factor is the product of the symbols'
+    exact factors, as pint's ``to_base_units`` multiplies them."""
+    tokens = _label_tokens(text)
+    if not tokens:
+        return None
+    position = 0
+
+    def combine(left, right, sign):
+        factor = left[0] * right[0] if sign > 0 else left[0] / right[0]
+        dimensions = dict(left[1])
+        for key, power in right[1].items():
+            dimensions[key] = dimensions.get(key, 0) + sign * power
+        return factor, {key: power for key, power in dimensions.items() if power}
+
+    def atom():
+        nonlocal position
+        if position >= len(tokens):
+            raise ValueError(text)
+        token = tokens[position]
+        position += 1
+        if token == "(":
+            value = product()
+            if position >= len(tokens) or tokens[position] != ")":
+                raise ValueError(text)
+            position += 1
+        elif token == "1":
+            value = (1.0, {})
+        elif token in LABEL_UNITS:
+            value = LABEL_UNITS[token]
+        else:
+            raise ValueError(text)
+        if position < len(tokens) and tokens[position] == "**":
+            if position + 1 >= len(tokens) or not re.fullmatch(r"[+-]?\d+", tokens[position + 1]):
+                raise ValueError(text)
+            power = int(tokens[position + 1])
+            if abs(power) > 4:
+                raise ValueError(text)
+            position += 2
+            factor, dimensions = value
+            value = (factor ** power, {key: exponent * power
+                                       for key, exponent in dimensions.items()})
+        return value
+
+    def product():
+        nonlocal position
+        value = atom()
+        while position < len(tokens) and tokens[position] in "*/":
+            sign = 1 if tokens[position] == "*" else -1
+            position += 1
+            value = combine(value, atom(), sign)
+        return value
+
+    try:
+        factor, dimensions = product()
+    except ValueError:
+        return None
+    if position != len(tokens) or not dimensions or not math.isfinite(factor) or factor == 0:
+        return None                 # a pure number ("1", "m/m"): pint says what it is
+    return factor, dimensions

@@ -143,3 +143,31 @@ def test_bare_peer_case_runs_on_one_blas_thread_without_scipy_optimize(tmp_path)
     with open(tmp_path / "out" / "modes.csv", newline="") as table:
         labels = [row["label"] for row in csv.DictReader(table)]
     assert labels == ["(0,1)", "(1,1)a", "(1,1)b"]
+
+
+def test_identify_file_imports_no_pint(tmp_path):
+    """``copdea-fem identify FILE`` on a binary export (unit labels Hz, m/s, V) reads its
+    labels without pint (its import and unit registry ~0.6 s of a 2 s budget, issue 42)."""
+    code = (
+        "import sys\n"
+        "import numpy as np\n"
+        "from copdea_fem.cli import main\n"
+        "from copdea_fem.measured import ScanData, write_scan\n"
+        "f = np.arange(1, 201) * 2.5\n"
+        "s = complex(-0.02 * 2 * np.pi * 150, 2 * np.pi * 150)\n"
+        "iw = 2j * np.pi * f\n"
+        "h = iw * (1 / (iw - s) + 1 / (iw - s.conjugate()))\n"
+        "shape = np.array([1.0, 0.5, -0.3, 0.8, 0.2, -0.6])\n"
+        "scan = ScanData(path=None, nodes=np.array([1, 2]), positions=np.eye(3)[:2],\n"
+        "                channel_point=np.repeat([0, 1], 3),\n"
+        "                channel_direction=np.tile(np.eye(3), (2, 1)),\n"
+        "                frequencies=f, values=np.outer(shape, h))\n"
+        f"path = write_scan({str(tmp_path / 'two.uff')!r}, scan, binary=True)\n"
+        f"code = main(['identify', str(path), '--out', {str(tmp_path / 'out')!r}, '--quiet'])\n"
+        "print(code, 'pint' in sys.modules)\n")
+    completed = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                               cwd=ROOT)
+    assert completed.returncode == 0, completed.stderr[-2000:]
+    assert completed.stdout.strip().splitlines()[-1] == "0 False", completed.stdout
+    modes = (tmp_path / "out" / "modes.csv").read_text().splitlines()
+    assert len(modes) == 2 and abs(float(modes[1].split(",")[1]) - 150) < 0.5

@@ -129,14 +129,17 @@ def _error(path: Path, dataset: str, problem: str, allowed: str) -> MeasuredData
 
 
 
+#: A dataset 58's delimiter and type line (after a newline; at the file's start, without).
+_DATASET_58 = rb" {4}-1[ \t]*\r?\n {4}58b?(?=[ \t\r\n])"
+
+
 def _raw_58_headers(data: bytes) -> list[list[bytes]]:
     """The 13 header lines of every dataset 58 in the file's bytes, in file order."""
-    headers = []
-    for match in re.finditer(rb"(?:^|\n) {4}-1[ \t]*\r?\n {4}58b?(?=[ \t\r\n])", data):
-        start = match.start() + (1 if data[match.start():match.start() + 1] == b"\n" else 0)
-        lines = data[start:start + 13 * 200].splitlines()[:13]
-        headers.append(lines)
-    return headers
+    # the pattern starts with a literal newline so that the search skips ahead by it (a
+    # leading "(?:^|\n)" made it try every byte: 0.1 s on a PSV-size binary export)
+    starts = [0] if re.match(_DATASET_58, data) else []
+    starts += [match.start() + 1 for match in re.finditer(rb"\n" + _DATASET_58, data)]
+    return [data[start:start + 13 * 200].splitlines()[:13] for start in starts]
 
 
 # --- reading --------------------------------------------------------------------------

@@ -91,7 +91,9 @@ def plot_mac(path: Path, correlations) -> Path:
                        fontsize=9)
         figure.colorbar(image, ax=axis, fraction=0.03)
     figure.tight_layout()
-    figure.savefig(path)
+    # zlib's fastest level: the same pixels, a few times faster to write than the default 6
+    # (an FE column per mode: 116 columns make a 3448-pixel-wide PNG)
+    figure.savefig(path, pil_kwargs={"compress_level": 1})
     return path
 
 

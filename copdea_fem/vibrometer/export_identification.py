@@ -111,15 +111,18 @@ def shape_rows(result: ExportIdentification) -> list[dict]:
 
 
 def _write_csv(path: Path, columns, rows) -> None:
+    """``rows`` (dicts) under ``columns``: floats to 8 significant digits, NaN empty."""
     import csv
 
+    def text(value):
+        if isinstance(value, float):
+            return f"{value:.8g}" if math.isfinite(value) else ""
+        return value
+
     with open(path, "w", newline="", encoding="utf-8") as handle:
-        writer = csv.DictWriter(handle, fieldnames=columns)
-        writer.writeheader()
-        for row in rows:
-            writer.writerow({key: (("" if not math.isfinite(value) else f"{value:.8g}")
-                                   if isinstance(value, float) else value)
-                             for key, value in row.items()})
+        writer = csv.writer(handle)
+        writer.writerow(columns)
+        writer.writerows([text(row[key]) for key in columns] for row in rows)
 
 
 def write_export_identification(folder, result: ExportIdentification, title: str) -> None:
