@@ -16,6 +16,7 @@ from copdea_fem.study.schema import (
     ENCLOSURE_MIN_GAP,
     MAX_ELEMENTS_ACROSS,
 )
+from copdea_fem.study.imperfections import check_imperfections
 from copdea_fem.study.segments import check_segments
 
 
@@ -125,6 +126,7 @@ def check_across_keys(v: dict[str, dict[str, Any]]) -> None:
     _check_reduced_keys(v)
     listed_microphones(v["response"]["microphones"], g["frame"], g["enclosure"])
     check_segments(v)
+    check_imperfections(v)
     m = v["membrane"]
     if v["response"]["method"] == "reduced_modal" and (
             m["loss_factor"] > 0 or m["rayleigh_alpha"] > 0 or m["rayleigh_beta"] > 0
