@@ -104,6 +104,14 @@ def read_point_masses(key: str, value: Any) -> list:
     return masses
 
 
+def imperfection_keys_given(v: dict[str, dict[str, Any]]) -> str:
+    """The keys of :data:`IMPERFECTION_KEYS` a study's plain values set, comma-separated
+    ("" for a perfect device)."""
+    given = (v["membrane"]["prestretch_anisotropy"], v["membrane"]["thickness_variation"],
+             v["imperfections"]["point_masses"])
+    return ", ".join(key for key, value in zip(IMPERFECTION_KEYS, given) if value)
+
+
 def is_imperfect(membrane, imperfections) -> bool:
     """Whether a study's sections (typed or plain mappings) hold any imperfection."""
     get = (lambda section, key: section[key]) if isinstance(membrane, dict) else getattr
@@ -117,7 +125,6 @@ def check_imperfections(v: dict[str, dict[str, Any]]) -> None:
     anisotropy's axis needs the film's constitutive law: the prestress checks it (its
     ``loss_of_tension`` error, :mod:`copdea_fem.fe.prestress`)."""
     m, g = v["membrane"], v["geometry"]
-    e = m["prestretch_anisotropy"]
     terms = m["thickness_variation"]
     if terms and not above(1.0, sum(abs(t["amplitude"]) for t in terms)):
         raise refusal("membrane.thickness_variation",
@@ -130,19 +137,8 @@ def check_imperfections(v: dict[str, dict[str, Any]]) -> None:
             raise refusal(f"imperfections.point_masses[{index}].r", point["r"],
                           f"[0, {r_o:g}) m = on {where} (below geometry.outer_radius)",
                           "a mass on the clamped rim cannot move")
-    if is_imperfect(m, v["imperfections"]):
-        engine = v["mesh"]["engine"]
-        given = ", ".join(key for key, on in zip(IMPERFECTION_KEYS, (
-            e, terms, v["imperfections"]["point_masses"])) if on)
-        if engine == "axisymmetric":
-            raise refusal("mesh.engine", engine, "3d (or auto) with " + given,
-                          "the axisymmetric engine models perfect (round) devices only")
-        if g["frame"] == "circle":
-            raise refusal("geometry.frame", g["frame"], "square, baffle or none with " + given,
-                          "an imperfect device needs the 3-D engine, which has no circular "
-                          "frame")
 
 
 __all__ = ["IMPERFECTION_KEYS", "MASSES_ALLOWED", "MAX_TERMS", "THICKNESS_ALLOWED",
-           "check_imperfections", "is_imperfect", "read_point_masses",
+           "check_imperfections", "imperfection_keys_given", "is_imperfect", "read_point_masses",
            "read_thickness_variation"]
