@@ -27,7 +27,7 @@ import ngsolve as ngs
 import numpy as np
 
 from copdea_fem.fe.linearise import MembraneOperators, to_scipy
-from copdea_fem.fe.membrane import deformed_normal
+from copdea_fem.fe.membrane import areal_density, deformed_normal
 
 OUT_OF_PLANE, IN_PLANE, PUMPING, AIR = "out-of-plane", "in-plane", "pumping", "air"
 PUMPING_DISC_FRACTION = 0.5   # disc kinetic energy share above which a mode is pumping
@@ -152,7 +152,7 @@ def normal_mass_matrix(state):
     """M_n = rho_s * integral (u.n)(v.n) dS on the deformed normal [kg] (SciPy, full space)."""
     u, v = state.space.TnT()
     normal = deformed_normal(state.displacement)
-    form = ngs.BilinearForm(state.material.areal_density * (u * normal) * (v * normal)
+    form = ngs.BilinearForm(areal_density(state.material) * (u * normal) * (v * normal)
                             * state.measure)
     return to_scipy(form.Assemble().mat)
 
