@@ -127,7 +127,7 @@ def check_across_keys(v: dict[str, dict[str, Any]]) -> None:
     listed_microphones(v["response"]["microphones"], g["frame"], g["enclosure"])
     check_segments(v)
     check_imperfections(v)
-    imperfect = imperfection_keys_given(v)
+    imperfect = imperfection_keys_given(v["membrane"], v["imperfections"])
     if imperfect and engine == "axisymmetric":
         raise refusal("mesh.engine", engine, "3d (or auto) with " + imperfect,
                       "the axisymmetric engine models perfect (round) devices only")

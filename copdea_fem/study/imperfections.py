@@ -104,19 +104,18 @@ def read_point_masses(key: str, value: Any) -> list:
     return masses
 
 
-def imperfection_keys_given(v: dict[str, dict[str, Any]]) -> str:
-    """The keys of :data:`IMPERFECTION_KEYS` a study's plain values set, comma-separated
-    ("" for a perfect device)."""
-    given = (v["membrane"]["prestretch_anisotropy"], v["membrane"]["thickness_variation"],
-             v["imperfections"]["point_masses"])
+def imperfection_keys_given(membrane, imperfections) -> str:
+    """The keys of :data:`IMPERFECTION_KEYS` a study's sections (typed, or the plain
+    mappings of the checks) set, comma-separated ("" for a perfect device)."""
+    get = (lambda section, key: section[key]) if isinstance(membrane, dict) else getattr
+    given = (get(membrane, "prestretch_anisotropy"), get(membrane, "thickness_variation"),
+             get(imperfections, "point_masses"))
     return ", ".join(key for key, value in zip(IMPERFECTION_KEYS, given) if value)
 
 
 def is_imperfect(membrane, imperfections) -> bool:
     """Whether a study's sections (typed or plain mappings) hold any imperfection."""
-    get = (lambda section, key: section[key]) if isinstance(membrane, dict) else getattr
-    return bool(get(membrane, "prestretch_anisotropy") or get(membrane, "thickness_variation")
-                or get(imperfections, "point_masses"))
+    return bool(imperfection_keys_given(membrane, imperfections))
 
 
 def check_imperfections(v: dict[str, dict[str, Any]]) -> None:
