@@ -95,7 +95,7 @@ SCHEMA: dict[str, dict[str, Key]] = {
                                      "membrane.prestretch_axis and * (1 - e) across it, then "
                                      "clamped in the round frame (thickness h0 / (lambda_p^2 "
                                      "(1 - e^2))); the film must stay in tension across the "
-                                     "axis (the prestress refuses a slack one; G1: e < 0.33); "
+                                     "axis (the prestress refuses a slack one; G1 at 0 V: e < 0.34); "
                                      "0 = equibiaxial. 3-D engine (docs/imperfections.md)",
                                      minimum=0, maximum=0.5),
         "prestretch_axis": Key("deg", 0.0, "direction of the larger pre-stretch, "
