@@ -190,8 +190,9 @@ def principal_stretches(u, prestretch: float, anisotropy: float = 0.0, axis: flo
 
 
 def field_coefficients(u, material: Membrane, voltage: float) -> dict:
-    """Post-processing fields of the prestressed state (SI units) as CFs (the Maxwell
-    stress and the field at the nominal thickness h0, also with a thickness variation)."""
+    """Post-processing fields of the prestressed state (SI units) as CFs (the thickness
+    and the field with the thickness variation; the principal stresses' Maxwell part at
+    the nominal thickness h0)."""
     lam1, lam2 = principal_stretches(u, material.prestretch, material.anisotropy,
                                      material.anisotropy_axis)
     _, det_c = invariants(u, material.prestretch, None, material.anisotropy,
@@ -206,7 +207,7 @@ def field_coefficients(u, material: Membrane, voltage: float) -> dict:
         "stretch_2": lam2,
         "stress_1": sigma1,
         "stress_2": sigma2,
-        "thickness": material.thickness_at(det_c),
-        "e_field": material.electric_field(det_c, voltage),
+        "thickness": material.thickness_at(det_c) * thickness_factor(material),
+        "e_field": material.electric_field(det_c, voltage) / thickness_factor(material),
         "normal": deformed_normal(u),
     }

@@ -267,8 +267,9 @@ class MembraneSolver:
                 "loss_of_tension",
                 f"loss of tension at z = {z * 1e3:.3f} mm, V_b = {voltage:.0f} V: the smallest "
                 f"principal stress is {stress / 1e3:.3g} kPa at r = {radius * 1e3:.2f} mm; a "
-                "membrane cannot carry compression and wrinkles. Lower load.voltage, or raise "
-                "membrane.prestretch or load.z.", z, voltage)
+                "membrane cannot carry compression and wrinkles. Lower load.voltage"
+                + (" or membrane.prestretch_anisotropy" if self.material.anisotropy else "")
+                + ", or raise membrane.prestretch or load.z.", z, voltage)
 
     def _diagnose(self, z: float, voltage: float, reason: str) -> PrestressError:
         """Why the last step failed: wrinkling, pull-in, or plain non-convergence."""
@@ -279,7 +280,9 @@ class MembraneSolver:
             return PrestressError(
                 "loss_of_tension", f"loss of tension {where}: the smallest principal stress "
                 f"falls to {stress / 1e3:.3g} kPa at r = {radius * 1e3:.2f} mm and the membrane "
-                "wrinkles. Lower load.voltage, or raise membrane.prestretch.", z, voltage)
+                "wrinkles. Lower load.voltage"
+                + (" or membrane.prestretch_anisotropy" if self.material.anisotropy else "")
+                + ", or raise membrane.prestretch.", z, voltage)
         if voltage != self.voltage.Get():
             return PrestressError(
                 "pull_in", f"electromechanical instability (pull-in) {where}: {reason}. "
