@@ -262,11 +262,12 @@ def test_a_perfect_device_keeps_its_numbers():
 
 @pytest.mark.slow
 def test_a_coupled_quadrant_with_a_mirror_symmetric_imperfection_matches_the_whole_device():
-    """G1 in air at 2 kV (coarse): an anisotropy of 2 % along x and a thickness term of
-    order 2 keep both mirror planes, so the quadrant's four sectors hold every mode; the
-    (1,1) and (2,1) splits on the quadrant match those of the whole device (meshed with
-    mesh.symmetry none) within 3 % of the split (the two meshes differ: their frequencies
-    ~1e-3 apart, the split's share of which is a few per cent)."""
+    """G1 in air at 2 kV (coarse, 9 mm, order 2): an anisotropy of 2 % along x and a
+    thickness term of order 2 keep both mirror planes, so the quadrant's four sectors hold
+    every mode.  The (1,1) pair splits by ~3 % on both meshes; the two coarse meshes split
+    the perfect device's pairs by up to 0.25 % themselves (the quadrant mesh is not
+    symmetric about the diagonal, the whole one about nothing), so the splits must agree
+    within 0.3 % of the frequency, and the quadrant's members lie along the axes."""
     from helpers import coupled_study
 
     from copdea_fem.fe.pipeline import coupled_modes
@@ -280,6 +281,9 @@ def test_a_coupled_quadrant_with_a_mirror_symmetric_imperfection_matches_the_who
         assert not mirror_breaking(study)
         solution = coupled_modes(study, engine=engine_for(study))
         modes = {mode.label: mode for mode in solution.modes if mode.kind == "out-of-plane"}
-        splits.append([split(modes, pair) for pair in ("(1,1)", "(2,1)")])
-    print("coupled splits, quadrant and whole:", splits)
-    assert np.allclose(splits[0], splits[1], rtol=0.03), splits
+        splits.append(split(modes, "(1,1)"))
+        if symmetry == "quarter":
+            assert modes["(1,1)a"].orientation_deg == pytest.approx(0.0, abs=0.1)
+            assert modes["(1,1)b"].orientation_deg == pytest.approx(90.0, abs=0.1)
+    print("coupled (1,1) splits, quadrant and whole:", splits)
+    assert splits[0] > 0.02 and abs(splits[0] - splits[1]) < 3e-3, splits
