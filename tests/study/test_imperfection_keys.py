@@ -95,3 +95,17 @@ def test_bad_values_are_refused_naming_key_value_and_allowed(given, key, allowed
         parse_study(given)
     message = str(refused.value)
     assert message.startswith(key + " = ") and "allowed" in message and allowed in message
+
+
+def test_the_fe_cache_key_sees_every_imperfection():
+    """The diagnosis's FE cache key hashes the imperfections (a point mass lives in its own
+    section), so an imperfect device never reuses a perfect device's cached modes."""
+    from copdea_fem.diagnosis.fe import fe_key
+    base = {"geometry": {"frame": "baffle"}}
+    keys = {fe_key(parse_study({**base, **extra})) for extra in (
+        {}, {"membrane": {"prestretch_anisotropy": 0.01}},
+        {"membrane": {"prestretch_anisotropy": 0.01, "prestretch_axis": 10}},
+        {"membrane": {"thickness_variation": [{"order": 2, "amplitude": 0.01}]}},
+        {"imperfections": {"point_masses": [{"mass": 1e-5, "r": 0.02}]}},
+        {"imperfections": {"point_masses": [{"mass": 1e-5, "r": 0.02, "theta": 5}]}})}
+    assert len(keys) == 6
