@@ -38,7 +38,7 @@ from copdea_fem.fe import acoustics
 from copdea_fem.fe.airbox import cavity_depth
 from copdea_fem.fe.ale import air_mesh_displacement
 from copdea_fem.fe.eigen import Factorization, NativeShiftedInverse
-from copdea_fem.fe.linearise import MembraneOperators, to_scipy
+from copdea_fem.fe.linearise import MembraneOperators, point_mass_matrix, to_scipy
 from copdea_fem.fe.membrane import (
     areal_density,
     displacement_space,
@@ -94,8 +94,8 @@ def assemble_coupled(study, mesh, state) -> "CoupledAssembly":
     ``M_d + M_s/3`` and stiffness ``k_d`` spread over the disc face (a quadrant
     mesh's disc face carries a quarter of them, :mod:`copdea_fem.fe.symmetry`).  One
     assembly serves every symmetry sector: :meth:`CoupledAssembly.restrict`.  Point masses
-    on the disc add to ``M_d``; point masses on the membrane are not coupled to the air
-    yet (the study refuses them with air: :mod:`copdea_fem.study.imperfections`).
+    on the disc add to ``M_d``; point masses on the membrane add their lumped
+    masses (:func:`copdea_fem.fe.linearise.point_mass_matrix`) to the membrane block.
     """
     air, geometry = study.air, study.geometry
     closed = geometry.enclosure != "none"
@@ -180,10 +180,30 @@ def assemble_coupled(study, mesh, state) -> "CoupledAssembly":
             mesh.UnSetPML(acoustics.PML_REGIONS)
     if stiffness.mat.nze != mass.mat.nze:  # A - sigma B is formed entry by entry
         raise RuntimeError("coupled stiffness and mass have different sparsity patterns")
+    if state.point_masses:      # the membrane is the product space's first component
+        add_in_pattern(mass.mat, point_mass_matrix(state))
     offsets = np.cumsum([0] + [component.ndof for component in spaces])
     return CoupledAssembly(study, state, space, offsets, with_disc, stiffness.mat, mass.mat,
                            to_scipy(stiffness.mat), to_scipy(mass.mat), to_scipy(kinetic.mat),
                            pressure_space, motion)
+
+
+def add_in_pattern(matrix, extra: sp.spmatrix) -> None:
+    """Add ``extra`` (SciPy, on the first ``extra.shape[0]`` DOFs) to the NGSolve sparse
+    ``matrix`` in place, entry by entry within its pattern (its values, ``AsVector``, are
+    stored in the order of ``COO``: rows ascending); an entry outside the pattern is an
+    error (the lumped masses of :func:`copdea_fem.fe.linearise.point_mass_matrix` couple
+    the DOFs of one membrane element, which the membrane's mass form couples already)."""
+    rows, columns, _ = matrix.COO()
+    rows, columns = np.asarray(rows), np.asarray(columns)
+    values = matrix.AsVector().FV().NumPy()
+    extra = extra.tocoo()
+    for row, column, value in zip(extra.row, extra.col, extra.data):
+        start, stop = np.searchsorted(rows, row, "left"), np.searchsorted(rows, row, "right")
+        found = start + np.flatnonzero(columns[start:stop] == column)
+        if found.size != 1:
+            raise RuntimeError(f"entry ({row}, {column}) lies outside the matrix's pattern")
+        values[found[0]] += value
 
 
 @dataclass

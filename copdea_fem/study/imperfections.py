@@ -136,11 +136,6 @@ def check_imperfections(v: dict[str, dict[str, Any]]) -> None:
             raise refusal(f"imperfections.point_masses[{index}].r", point["r"],
                           f"[0, {r_o:g}) m = on {where} (below geometry.outer_radius)",
                           "a mass on the clamped rim cannot move")
-        if v["air"]["enabled"] and not (r_i > 0 and point["r"] <= r_i):
-            raise refusal(f"imperfections.point_masses[{index}].r", point["r"],
-                          f"<= geometry.inner_radius = {r_i:g} m (on the disc) with "
-                          "air.enabled = true, or air.enabled = false",
-                          "the coupled solve does not carry lumped membrane masses yet")
 
 
 __all__ = ["IMPERFECTION_KEYS", "MASSES_ALLOWED", "MAX_TERMS", "THICKNESS_ALLOWED",
