@@ -109,3 +109,13 @@ def test_the_fe_cache_key_sees_every_imperfection():
         {"imperfections": {"point_masses": [{"mass": 1e-5, "r": 0.02}]}},
         {"imperfections": {"point_masses": [{"mass": 1e-5, "r": 0.02, "theta": 5}]}})}
     assert len(keys) == 6
+
+
+def test_the_axisymmetric_ring_model_refuses_an_imperfect_device():
+    """The reduced model (rings, Sect. 3.2.1) is round: it names the keys rather than
+    return the numbers of a device it does not model."""
+    from copdea_fem.reduced.rings import RingModel
+    RingModel.from_study(parse_study({}))
+    with pytest.raises(StudyError, match=r"membrane.prestretch_anisotropy = 0.01 is not "
+                                         r"allowed for the reduced model; allowed: a perfect"):
+        RingModel.from_study(parse_study({"membrane": {"prestretch_anisotropy": 0.01}}))
