@@ -324,6 +324,9 @@ def make_solver(study, mesh) -> MembraneSolver:
                             g.outer_radius, g.inner_radius, study.prestress,
                             curve_order=study.mesh.curve_order)
     solver.point_masses = membrane_point_masses(study)
+    if disc_point_mass(study) and study.disc.motion == "held":
+        logger.info(f"the point masses on the disc ({disc_point_mass(study) * 1e3:g} g) do "
+                    "not move: the disc is held (disc.motion: held)")
     return solver
 
 
