@@ -53,7 +53,7 @@ from copdea_fem.fe.membrane import (
     tangent_gradient,
 )
 from copdea_fem.fe.prestress import PrestressedState, disc_point_mass
-from copdea_fem.fe.symmetry import SECTORS, Sector, membrane_mirror_dofs
+from copdea_fem.fe.symmetry import MIRROR_NUDGE, SECTORS, Sector, membrane_mirror_dofs
 
 
 @dataclass
@@ -128,14 +128,20 @@ def point_mass_matrix(state: PrestressedState) -> sp.csr_matrix:
     a quadrant mesh a quarter, :mod:`copdea_fem.fe.symmetry`).
 
     The basis values come from the element that holds the point: one unit coefficient at
-    a time on its DOFs, the field evaluated there (at most a few dozen DOFs a point)."""
+    a time on its DOFs, the field evaluated there (at most a few dozen DOFs a point).  On a
+    quadrant the centre lies on both mirror faces, where a point search may return a face
+    of the air: the point moves into the quadrant by :data:`~copdea_fem.fe.symmetry.
+    MIRROR_NUDGE` of r_o (the field changes by that share)."""
     space, mesh = state.space, state.mesh
     probe = ngs.GridFunction(space)
     values = probe.vec.FV().NumPy()
     rows, cols, data = [], [], []
     for mass, x, y in state.point_masses:
+        if state.symmetry.quarter:     # only a mass at the centre keeps the mirror planes
+            step = MIRROR_NUDGE * state.outer_radius
+            x, y = max(x, step), max(y, step)
         point = mesh(x, y, 0.0, ngs.BND)
-        if point.nr < 0:
+        if point.nr < 0 or mesh[ngs.ElementId(ngs.BND, point.nr)].mat != "membrane":
             raise ValueError(f"imperfections.point_masses: the point ({x:g}, {y:g}) m lies off "
                              "the meshed membrane; allowed: points on the membrane")
         dofs = [dof for dof in space.GetDofNrs(ngs.ElementId(ngs.BND, point.nr)) if dof >= 0]
