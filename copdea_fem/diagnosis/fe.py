@@ -128,11 +128,11 @@ def fe_key(study: Study) -> str:
     :data:`FE_CACHE_VERSION` (this module's own post-processing): the cache key of
     :class:`FEModel`.  Sections of the
     physics and the mesh, whole; of the others only the keys that change the modes."""
-    whole = ("geometry", "membrane", "disc", "load", "air", "mesh")
+    whole = ("geometry", "membrane", "disc", "load", "air", "mesh", "imperfections")
     picked = ("spring.stiffness", "eigen.f_min", "eigen.f_max", "eigen.max_damping_ratio",
               "air.min_membrane_energy") + FE_EFFECT_KEYS
     values = study.values
-    items = {f"{s}.{k}": v for s in whole for k, v in values[s].items()}
+    items = {f"{s}.{k}": v for s in whole for k, v in values.get(s, {}).items()}
     items.update({key: study.get(key) for key in picked})
     text = json.dumps({"version": FE_CACHE_VERSION, "code": fe_fingerprint(), "study": items},
                       sort_keys=True, default=repr)

@@ -38,8 +38,14 @@ from copdea_fem.fe import acoustics
 from copdea_fem.fe.airbox import cavity_depth
 from copdea_fem.fe.ale import air_mesh_displacement
 from copdea_fem.fe.eigen import Factorization, NativeShiftedInverse
-from copdea_fem.fe.linearise import MembraneOperators, to_scipy
-from copdea_fem.fe.membrane import displacement_space, energy_density, tangent_gradient
+from copdea_fem.fe.linearise import MembraneOperators, point_mass_matrix, to_scipy
+from copdea_fem.fe.membrane import (
+    areal_density,
+    displacement_space,
+    energy_density,
+    tangent_gradient,
+)
+from copdea_fem.fe.prestress import disc_point_mass
 
 logger = logging.getLogger(__name__)
 
@@ -87,7 +93,9 @@ def assemble_coupled(study, mesh, state) -> "CoupledAssembly":
     the lift of :mod:`copdea_fem.fe.linearise` (``u = u_free + w_d lift``), with mass
     ``M_d + M_s/3`` and stiffness ``k_d`` spread over the disc face (a quadrant
     mesh's disc face carries a quarter of them, :mod:`copdea_fem.fe.symmetry`).  One
-    assembly serves every symmetry sector: :meth:`CoupledAssembly.restrict`.
+    assembly serves every symmetry sector: :meth:`CoupledAssembly.restrict`.  Point masses
+    on the disc add to ``M_d``; point masses on the membrane add their lumped
+    masses (:func:`copdea_fem.fe.linearise.point_mass_matrix`) to the membrane block.
     """
     air, geometry = study.air, study.geometry
     closed = geometry.enclosure != "none"
@@ -130,7 +138,7 @@ def assemble_coupled(study, mesh, state) -> "CoupledAssembly":
     density, sound_speed = air.density, air.sound_speed
     if with_disc:       # the device's disc area: lumped terms per unit area of the disc face
         disc_area = state.symmetry.copies * ngs.Integrate(ngs.CF(1) * ngs.ds("disc"), mesh)
-        disc_mass = study.disc.mass + study.spring.mass / 3
+        disc_mass = study.disc.mass + disc_point_mass(study) + study.spring.mass / 3
 
     gradient = tangent_gradient(state.displacement) + tangent_gradient(trial[0])
     if with_disc:
@@ -142,7 +150,7 @@ def assemble_coupled(study, mesh, state) -> "CoupledAssembly":
     # Variation above
     coupling_and_air, membrane_mass_and_air = acoustics.coupled_forms(
         pressure, pressure_test, u * normal, v * normal, None,
-        material.areal_density * u * v * measure, density, sound_speed, "membrane",
+        areal_density(material) * u * v * measure, density, sound_speed, "membrane",
         deformation=motion)
     stiffness += coupling_and_air
     mass = ngs.BilinearForm(space)
@@ -172,10 +180,30 @@ def assemble_coupled(study, mesh, state) -> "CoupledAssembly":
             mesh.UnSetPML(acoustics.PML_REGIONS)
     if stiffness.mat.nze != mass.mat.nze:  # A - sigma B is formed entry by entry
         raise RuntimeError("coupled stiffness and mass have different sparsity patterns")
+    if state.point_masses:      # the membrane is the product space's first component
+        add_in_pattern(mass.mat, point_mass_matrix(state))
     offsets = np.cumsum([0] + [component.ndof for component in spaces])
     return CoupledAssembly(study, state, space, offsets, with_disc, stiffness.mat, mass.mat,
                            to_scipy(stiffness.mat), to_scipy(mass.mat), to_scipy(kinetic.mat),
                            pressure_space, motion)
+
+
+def add_in_pattern(matrix, extra: sp.spmatrix) -> None:
+    """Add ``extra`` (SciPy, on the first ``extra.shape[0]`` DOFs) to the NGSolve sparse
+    ``matrix`` in place, entry by entry within its pattern (its values, ``AsVector``, are
+    stored in the order of ``COO``: rows ascending); an entry outside the pattern is an
+    error (the lumped masses of :func:`copdea_fem.fe.linearise.point_mass_matrix` couple
+    the DOFs of one membrane element, which the membrane's mass form couples already)."""
+    rows, columns, _ = matrix.COO()
+    rows, columns = np.asarray(rows), np.asarray(columns)
+    values = matrix.AsVector().FV().NumPy()
+    extra = extra.tocoo()
+    for row, column, value in zip(extra.row, extra.col, extra.data):
+        start, stop = np.searchsorted(rows, row, "left"), np.searchsorted(rows, row, "right")
+        found = start + np.flatnonzero(columns[start:stop] == column)
+        if found.size != 1:
+            raise RuntimeError(f"entry ({row}, {column}) lies outside the matrix's pattern")
+        values[found[0]] += value
 
 
 @dataclass

@@ -22,23 +22,15 @@ one and the study's schema tests the engine's name.
 
 from __future__ import annotations
 
+import logging
 from contextlib import AbstractContextManager
 from typing import TYPE_CHECKING, Any, Protocol
 
 from copdea_fem.fe.quadrant.geometry import CACHE_VARIABLE
 from copdea_fem.study import Study, StudyError, engine_of
+from copdea_fem.study.imperfections import imperfection_keys_given
 
-if TYPE_CHECKING:
-    import numpy as np
-
-    from copdea_fem.fe.bands import BandSolver
-    from copdea_fem.fe.forced.electrode import ElectrodeImperfection, SegmentWeight
-    from copdea_fem.fe.forced.problem import DrivenPart, OrderZero
-    from copdea_fem.fe.modes import Mode
-    from copdea_fem.fe.points import PointSampler
-    from copdea_fem.fe.prestress import MembraneSolver, PrestressedState
-    from copdea_fem.fe.solution import CoupledSolution
-    from copdea_fem.progress import Timings
+logger = logging.getLogger(__name__)
 
 
 class Engine(Protocol):
@@ -125,7 +117,12 @@ class Engine(Protocol):
 
 
 def engine_for(study: Study) -> Engine:
-    """The engine of the study (``mesh.engine``, ``auto`` resolved by the frame)."""
+    """The engine of the study (``mesh.engine``, ``auto`` resolved by the frame and the
+    imperfections: an imperfect device goes to the 3-D engine, logged)."""
+    imperfect = imperfection_keys_given(study.membrane, study.imperfections)
+    if study.mesh.engine == "auto" and imperfect:
+        logger.info(f"mesh.engine = auto: the 3-D engine, for {imperfect} (the "
+                    "axisymmetric engine models round devices only)")
     if engine_of(study) == "axisymmetric":
         from copdea_fem.fe.axisymmetric.engine import AxisymmetricEngine
         return AxisymmetricEngine()

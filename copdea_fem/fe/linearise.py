@@ -11,7 +11,9 @@ the biasing spring (``disc.motion: spring``) -- one rigid axial disc DOF
 ``w_d`` [m] that moves the inner rim: ``u = u_free + w_d * lift``.  The disc
 adds mass ``M_d + M_s/3`` (Rayleigh's equivalent mass of a spring with a
 linear static deflection profile; the spring's own wave modes P2, P3, ... are
-Annex I's business) and stiffness ``k_d`` (eq. 4, linear spring).
+Annex I's business) and stiffness ``k_d`` (eq. 4, linear spring); the point masses on the
+disc (``imperfections.point_masses``, r <= r_i) add to ``M_d``, those on the membrane
+enter ``M_s`` as lumped masses (:func:`point_mass_matrix`).
 
 On a quadrant mesh (:mod:`copdea_fem.fe.symmetry`) the operators are those of one sector:
 its mirror conditions remove DOFs, the disc DOF exists in the even-even
@@ -44,9 +46,14 @@ import numpy as np
 import scipy.sparse as sp
 
 from copdea_fem.fe.eigen.damped import DampingTerms
-from copdea_fem.fe.membrane import energy_density, material_energy_density, tangent_gradient
-from copdea_fem.fe.prestress import PrestressedState
-from copdea_fem.fe.symmetry import SECTORS, Sector, membrane_mirror_dofs
+from copdea_fem.fe.membrane import (
+    areal_density,
+    energy_density,
+    material_energy_density,
+    tangent_gradient,
+)
+from copdea_fem.fe.prestress import PrestressedState, disc_point_mass
+from copdea_fem.fe.symmetry import MIRROR_NUDGE, SECTORS, Sector, membrane_mirror_dofs
 
 
 @dataclass
@@ -104,10 +111,50 @@ def membrane_matrices(state: PrestressedState):
     hessian = ngs.BilinearForm(space, symmetric=False)
     hessian += ngs.Variation(energy_density(u, material, state.voltage) * on_membrane)
     hessian.AssembleLinearization(state.displacement.vec)
-    mass = ngs.BilinearForm(material.areal_density * u * v * on_membrane,
+    mass = ngs.BilinearForm(areal_density(material) * u * v * on_membrane,
                             symmetric=False).Assemble()
-    state.matrices = (to_scipy(hessian.mat), to_scipy(mass.mat))
+    mass = to_scipy(mass.mat)
+    if state.point_masses:
+        mass = (mass + point_mass_matrix(state)).tocsr()
+    state.matrices = (to_scipy(hessian.mat), mass)
     return state.matrices
+
+
+def point_mass_matrix(state: PrestressedState) -> sp.csr_matrix:
+    """The lumped masses of ``state.point_masses`` on the full membrane space [kg]:
+    ``sum_j m_j / copies * sum_c phi_c(x_j) phi_c(x_j)^T`` (``phi_c(x)`` the values of the
+    basis functions' component c at the point: a point evaluation, rank 3 per mass --
+    kinetic energy m |u(x_j)|^2 / 2 of a mass riding with the film in every direction; on
+    a quadrant mesh a quarter, :mod:`copdea_fem.fe.symmetry`).
+
+    The basis values come from the element that holds the point: one unit coefficient at
+    a time on its DOFs, the field evaluated there (at most a few dozen DOFs a point).  On a
+    quadrant the centre lies on both mirror faces, where a point search may return a face
+    of the air: the point moves into the quadrant by :data:`~copdea_fem.fe.symmetry.
+    MIRROR_NUDGE` of r_o (the field changes by that share)."""
+    space, mesh = state.space, state.mesh
+    probe = ngs.GridFunction(space)
+    values = probe.vec.FV().NumPy()
+    rows, cols, data = [], [], []
+    for mass, x, y in state.point_masses:
+        if state.symmetry.quarter:     # only a mass at the centre keeps the mirror planes
+            step = MIRROR_NUDGE * state.outer_radius
+            x, y = max(x, step), max(y, step)
+        point = mesh(x, y, 0.0, ngs.BND)
+        if point.nr < 0 or mesh[ngs.ElementId(ngs.BND, point.nr)].mat != "membrane":
+            raise ValueError(f"imperfections.point_masses: the point ({x:g}, {y:g}) m lies off "
+                             "the meshed membrane; allowed: points on the membrane")
+        dofs = [dof for dof in space.GetDofNrs(ngs.ElementId(ngs.BND, point.nr)) if dof >= 0]
+        basis = np.zeros((3, len(dofs)))
+        for column, dof in enumerate(dofs):
+            values[:] = 0.0
+            values[dof] = 1.0
+            basis[:, column] = probe(point)
+        block = mass / state.symmetry.copies * (basis.T @ basis)
+        rows += np.repeat(dofs, len(dofs)).tolist()
+        cols += np.tile(dofs, len(dofs)).tolist()
+        data += block.ravel().tolist()
+    return sp.csr_matrix((data, (rows, cols)), shape=(space.ndof, space.ndof))
 
 
 def material_tangent(state: PrestressedState) -> sp.csr_matrix:
@@ -183,7 +230,8 @@ def linearised_operators(state: PrestressedState, study, sector: Sector | None =
     if with_disc:
         lift = state.disc_lift.vec.FV().NumPy()
         spring = study.spring
-        disc_mass = (study.disc.mass + spring.mass / 3) / symmetry.copies
+        disc_mass = (study.disc.mass + disc_point_mass(study) + spring.mass / 3) / \
+            symmetry.copies
         k_ff = _border(k_ff, stiffness, lift, free, spring.stiffness / symmetry.copies)
         m_ff = _border(m_ff, mass, lift, free, disc_mass)
     return MembraneOperators(k_ff.tocsr(), m_ff.tocsr(), free, with_disc, state, sector,

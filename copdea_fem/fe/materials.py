@@ -39,7 +39,16 @@ class Membrane:
     density : float
         Mass density rho0 [kg/m^3] (referred to h0, electrodes included).
     prestretch : float
-        Equibiaxial pre-stretch lambda_p [-].
+        Pre-stretch lambda_p [-] (equibiaxial when ``anisotropy`` is 0).
+    anisotropy : float
+        Anisotropy e of the pre-stretch [-]: the film is pre-stretched by lambda_p (1 + e)
+        along ``anisotropy_axis`` and lambda_p (1 - e) across it (study key
+        ``membrane.prestretch_anisotropy``; :mod:`copdea_fem.fe.membrane`).
+    anisotropy_axis : float
+        Direction of the larger pre-stretch [rad], counter-clockwise from x.
+    thickness_variation : tuple
+        ``((k, a, angle [rad]), ...)``: the film's thickness before pre-stretch is
+        h0 (1 + sum a cos k (theta - angle)) (``membrane.thickness_variation``).
     """
 
     c10: float
@@ -49,6 +58,9 @@ class Membrane:
     thickness: float
     density: float
     prestretch: float
+    anisotropy: float = 0.0
+    anisotropy_axis: float = 0.0
+    thickness_variation: tuple = ()
 
     @classmethod
     def from_study(cls, study) -> "Membrane":
@@ -56,7 +68,23 @@ class Membrane:
         return cls(c10=m.c10, c20=m.c20, c01=m.c01,
                    permittivity=m.relative_permittivity * VACUUM_PERMITTIVITY,
                    thickness=m.thickness, density=m.density,
-                   prestretch=m.prestretch)
+                   prestretch=m.prestretch, anisotropy=m.prestretch_anisotropy,
+                   anisotropy_axis=float(np.radians(m.prestretch_axis)),
+                   thickness_variation=tuple((term.order, term.amplitude,
+                                              float(np.radians(term.angle)))
+                                             for term in m.thickness_variation))
+
+    @property
+    def uniform(self) -> bool:
+        """Whether the film is equibiaxially pre-stretched and of even thickness (the
+        perfect device)."""
+        return self.anisotropy == 0 and not self.thickness_variation
+
+    @property
+    def area_stretch(self) -> float:
+        """det F_p = lambda_p^2 (1 - e^2) [-]: pre-stretched over unstretched area (and
+        h0 over the pre-stretched thickness, incompressibility)."""
+        return self.prestretch**2 * (1 - self.anisotropy**2)
 
     @classmethod
     def with_effects(cls, study) -> "Membrane":
@@ -75,8 +103,11 @@ class Membrane:
 
     @property
     def prestretched_thickness(self) -> float:
-        """h0 / lambda_p**2 [m] (incompressibility, Sect. 2)."""
-        return self.thickness / self.prestretch**2
+        """h0 / lambda_p**2 [m] (incompressibility, Sect. 2); h0 / (lambda_p^2 (1 - e^2))
+        with an anisotropic pre-stretch (the mean over theta with a thickness variation)."""
+        if self.anisotropy == 0:
+            return self.thickness / self.prestretch**2
+        return self.thickness / self.area_stretch
 
     @property
     def areal_density(self) -> float:

@@ -17,9 +17,30 @@ Energy (eq. 2 in variational form, eq. 7 + 20):
 (the integral is over the pre-stretched area; ``dS0 = dS / lambda_p^2``).
 Its first variation is the internal-force part of eq. (2); its Hessian is the
 exact tangent: material + initial-stress + electrostatic terms in one.
+
+Imperfect films (:mod:`copdea_fem.study.imperfections`).  An anisotropic pre-stretch
+maps the unstretched film onto the reference by ``F_p = lambda_p R diag(1 + e, 1 - e)
+R^T`` (``R`` the rotation by the axis angle alpha), symmetric, so the deformation from the
+unstretched film is ``F = (P + Grad_s u) F_p`` and
+
+    tr_c  = tr(D^T D B_p),   det_c = det(B_p) det(Ct),   D = P + Grad_s u,
+    B_p   = F_p F_p^T = lambda_p^2 R diag((1 + e)^2, (1 - e)^2) R^T   (in-plane block),
+
+with ``det(B_p) = lambda_p^4 (1 - e^2)^2`` (e = 0: the equibiaxial formulas above).  The
+rim stays the circle r_o, so u = 0 is the clamped, homogeneous, anisotropic state the
+prestress starts from.  The film's volume per pre-stretched area is ``h0 / det F_p =
+h0 / (lambda_p^2 (1 - e^2))``.  A thickness variation makes ``h0`` a field
+``h0 t(theta)``, ``t = 1 + sum a cos k (theta - angle)``, on the reference (theta the
+reference angle; the film is mapped homogeneously, so the same profile in the film's
+material angle differs by O(e a), a second-order term the keys do not try to resolve):
+the strain energy and the mass scale with ``t``, the co-energy per volume
+``-eps/2 (V / (h0 t))^2 det_c`` with ``1/t^2``, so the energy per reference area is
+``h0 t / det F_p (Psi_m - eps/2 (V/h0)^2 det_c / t^2)``.
 """
 
 from __future__ import annotations
+
+import math
 
 import ngsolve as ngs
 
@@ -59,28 +80,69 @@ def tangent_gradient(u):
     return ngs.Grad(u).Trace()
 
 
-def invariants(u, prestretch: float, gradient=None):
+def invariants(u, prestretch: float, gradient=None, anisotropy: float = 0.0,
+               axis: float = 0.0):
     """(tr_c, det_c) of the in-plane Cauchy-Green tensor from the unstretched film.
 
     ``gradient`` (Grad_s u) may be given instead of ``u``, for sums of fields
-    (``u0 + u`` in the coupled step) whose gradient NGSolve cannot take.
+    (``u0 + u`` in the coupled step) whose gradient NGSolve cannot take.  ``anisotropy``
+    e and ``axis`` alpha [rad]: the anisotropic pre-stretch of the module notes.
     """
     projector = ngs.CF((1, 0, 0, 0, 1, 0, 0, 0, 0), dims=(3, 3))
     normal_dyad = ngs.CF((0, 0, 0, 0, 0, 0, 0, 0, 1), dims=(3, 3))
     deformation = projector + (tangent_gradient(u) if gradient is None else gradient)
     ct = deformation.trans * deformation + normal_dyad
-    return prestretch**2 * (ngs.Trace(ct) - 1), prestretch**4 * ngs.Det(ct)
+    return _invariants_of(ct, prestretch, anisotropy, axis)
+
+
+def _invariants_of(ct, prestretch: float, anisotropy: float, axis: float):
+    """(tr_c, det_c) of ``Ct = D^T D + e_z e_z`` (module notes)."""
+    if anisotropy == 0:
+        return prestretch**2 * (ngs.Trace(ct) - 1), prestretch**4 * ngs.Det(ct)
+    along, across = (prestretch * (1 + anisotropy))**2, (prestretch * (1 - anisotropy))**2
+    c, s = math.cos(axis), math.sin(axis)
+    b_xx, b_yy = c * c * along + s * s * across, s * s * along + c * c * across
+    b_xy = c * s * (along - across)
+    stretch_dyad = ngs.CF((b_xx, b_xy, 0, b_xy, b_yy, 0, 0, 0, 0), dims=(3, 3))
+    return ngs.Trace(ct * stretch_dyad), along * across * ngs.Det(ct)
+
+
+def thickness_factor(material: Membrane):
+    """t(theta) = 1 + sum a cos k (theta - angle) on the reference [-] (module notes), a
+    CoefficientFunction; 1.0 (a number) for a film of even thickness."""
+    if not material.thickness_variation:
+        return 1.0
+    theta = ngs.atan2(ngs.y, ngs.x)
+    return 1 + sum(amplitude * ngs.cos(order * (theta - angle))
+                   for order, amplitude, angle in material.thickness_variation)
+
+
+def areal_density(material: Membrane):
+    """Mass per reference area rho0 h0 t / (lambda_p^2 (1 - e^2)) [kg/m^2] (module notes):
+    ``material.areal_density`` (a number) for a film of even thickness, else a
+    CoefficientFunction."""
+    factor = thickness_factor(material)
+    return material.areal_density if isinstance(factor, float) else \
+        material.areal_density * factor
 
 
 def energy_density(u, material: Membrane, voltage, gradient=None):
-    """Membrane energy per pre-stretched area h0/lambda_p^2 Psi_em [J/m^2] (eq. 7, 20).
+    """Membrane energy per pre-stretched area h0/lambda_p^2 Psi_em [J/m^2] (eq. 7, 20);
+    for an imperfect film h0 t / (lambda_p^2 (1 - e^2)) (Psi_m + Psi_e / t^2) (module
+    notes).
 
     ``voltage`` may be a number or an NGSolve Parameter [V]; ``gradient`` as
     in :func:`invariants`.
     """
-    tr_c, det_c = invariants(u, material.prestretch, gradient)
-    return material.thickness / material.prestretch**2 * material.free_energy(
-        tr_c, det_c, voltage)
+    tr_c, det_c = invariants(u, material.prestretch, gradient, material.anisotropy,
+                             material.anisotropy_axis)
+    if material.uniform:
+        return material.thickness / material.prestretch**2 * material.free_energy(
+            tr_c, det_c, voltage)
+    factor = thickness_factor(material)
+    return material.prestretched_thickness * factor * (
+        material.strain_energy(tr_c, det_c)
+        + material.electrostatic_coenergy(det_c, voltage) / factor**2)
 
 
 def material_energy_density(base_gradient, increment_gradient, material: Membrane):
@@ -102,8 +164,12 @@ def material_energy_density(base_gradient, increment_gradient, material: Membran
     ct = (base.trans * base + base.trans * increment_gradient + increment_gradient.trans * base
           + normal_dyad)
     stretch = material.prestretch
-    tr_c, det_c = stretch**2 * (ngs.Trace(ct) - 1), stretch**4 * ngs.Det(ct)
-    return material.thickness / stretch**2 * material.strain_energy(tr_c, det_c)
+    if material.uniform:
+        tr_c, det_c = stretch**2 * (ngs.Trace(ct) - 1), stretch**4 * ngs.Det(ct)
+        return material.thickness / stretch**2 * material.strain_energy(tr_c, det_c)
+    tr_c, det_c = _invariants_of(ct, stretch, material.anisotropy, material.anisotropy_axis)
+    return material.prestretched_thickness * thickness_factor(material) * \
+        material.strain_energy(tr_c, det_c)
 
 
 def deformed_normal(u):
@@ -115,17 +181,22 @@ def deformed_normal(u):
     return normal / ngs.Norm(normal)
 
 
-def principal_stretches(u, prestretch: float):
-    """In-plane principal stretches (larger, smaller) from the unstretched film [-]."""
-    tr_c, det_c = invariants(u, prestretch)
+def principal_stretches(u, prestretch: float, anisotropy: float = 0.0, axis: float = 0.0):
+    """In-plane principal stretches (larger, smaller) from the unstretched film [-]
+    (``anisotropy``, ``axis``: as in :func:`invariants`)."""
+    tr_c, det_c = invariants(u, prestretch, None, anisotropy, axis)
     disc = ngs.sqrt(ngs.IfPos(tr_c**2 - 4 * det_c, tr_c**2 - 4 * det_c, 0))
     return ngs.sqrt((tr_c + disc) / 2), ngs.sqrt((tr_c - disc) / 2)
 
 
 def field_coefficients(u, material: Membrane, voltage: float) -> dict:
-    """Post-processing fields of the prestressed state (SI units) as CFs."""
-    lam1, lam2 = principal_stretches(u, material.prestretch)
-    _, det_c = invariants(u, material.prestretch)
+    """Post-processing fields of the prestressed state (SI units) as CFs (the thickness
+    and the field with the thickness variation; the principal stresses' Maxwell part at
+    the nominal thickness h0)."""
+    lam1, lam2 = principal_stretches(u, material.prestretch, material.anisotropy,
+                                     material.anisotropy_axis)
+    _, det_c = invariants(u, material.prestretch, None, material.anisotropy,
+                          material.anisotropy_axis)
     d_tr, d_det, *_ = material.free_energy_partials(lam1**2 + lam2**2, lam1**2 * lam2**2,
                                                     voltage)
     sigma1 = 2 * lam1**2 * (d_tr + lam2**2 * d_det)    # materials.Membrane.principal_stresses
@@ -136,7 +207,7 @@ def field_coefficients(u, material: Membrane, voltage: float) -> dict:
         "stretch_2": lam2,
         "stress_1": sigma1,
         "stress_2": sigma2,
-        "thickness": material.thickness_at(det_c),
-        "e_field": material.electric_field(det_c, voltage),
+        "thickness": material.thickness_at(det_c) * thickness_factor(material),
+        "e_field": material.electric_field(det_c, voltage) / thickness_factor(material),
         "normal": deformed_normal(u),
     }

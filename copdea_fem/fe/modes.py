@@ -11,7 +11,9 @@ displacement even about y = 0), ``b`` the sin m theta one.  Pumping modes (the
 disc carries most of the kinetic energy) are ``P1, P2, ...``; in-plane modes
 ``ip(m,n)`` take n from their dominant in-plane component and the letters
 ``a``/``b`` (hoop-dominant, cos/sin) or ``c``/``d`` (radial-dominant, cos/sin);
-at m = 0 ``a`` is the torsion, ``b`` the radial mode.
+at m = 0 ``a`` is the torsion, ``b`` the radial mode.  A pair an imperfection splits and
+turns (:mod:`copdea_fem.study.imperfections`) keeps the rule: ``a`` is the member closer to
+cos m theta; :attr:`Mode.orientation_deg` says where each member's antinode lies.
 
 Energy fractions are kinetic-energy (mass-weighted) fractions, exact FE
 integrals: ``normal_fraction = x^H M_n x / x^H M x`` over the membrane with
@@ -23,11 +25,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import math
+
 import ngsolve as ngs
 import numpy as np
 
 from copdea_fem.fe.linearise import MembraneOperators, to_scipy
-from copdea_fem.fe.membrane import deformed_normal
+from copdea_fem.fe.membrane import areal_density, deformed_normal
 
 OUT_OF_PLANE, IN_PLANE, PUMPING, AIR = "out-of-plane", "in-plane", "pumping", "air"
 PUMPING_DISC_FRACTION = 0.5   # disc kinetic energy share above which a mode is pumping
@@ -59,6 +63,22 @@ class Mode:
     in_plane_component: str = ""   # in-plane modes: "radial" or "hoop", the dominant component
     # an air mode inside an enclosure: its (m, n, p) (copdea_fem.fe.cavity); () otherwise
     cavity_orders: tuple = ()
+    # deg, the angle of an antinode line in [0, 180/m) from the shape (mode_orientation)
+    orientation: float = math.nan
+
+    @property
+    def orientation_deg(self) -> float:
+        """Angle [deg] counter-clockwise from x of the member's first antinode line (its
+        largest |displacement| round a circle), in ``[0, 180/m)``: measured from the shape
+        where the engine sampled it (:func:`mode_orientation`), else from its family (a cos
+        member 0, a sin member 90/m); NaN for m = 0 (no orientation)."""
+        if self.m == 0:
+            return math.nan
+        if not math.isnan(self.orientation):
+            return self.orientation
+        if self.family in ("cos", "sin"):
+            return 0.0 if self.family == "cos" else 90.0 / self.m
+        return math.nan
 
     @property
     def damping_ratio(self) -> float:
@@ -152,7 +172,7 @@ def normal_mass_matrix(state):
     """M_n = rho_s * integral (u.n)(v.n) dS on the deformed normal [kg] (SciPy, full space)."""
     u, v = state.space.TnT()
     normal = deformed_normal(state.displacement)
-    form = ngs.BilinearForm(state.material.areal_density * (u * normal) * (v * normal)
+    form = ngs.BilinearForm(areal_density(state.material) * (u * normal) * (v * normal)
                             * state.measure)
     return to_scipy(form.Assemble().mat)
 
@@ -203,7 +223,9 @@ def classify_modes(operators: MembraneOperators, eigen_result, sampler: ModeSamp
             normal_fraction=normal_fraction, disc_fraction=disc_fraction,
             modal_mass=copies * total * scale**2, vector=vector * scale / max(peak, 1e-300),
             disc_displacement=disc * scale / max(peak, 1e-300), sector=operators.sector,
-            family=family, in_plane_component=component))
+            family=family, in_plane_component=component,
+            orientation=mode_orientation(field_, m, sampler.angles, sampler.radii,
+                                         hoop=field_ is hoop)))
     assign_labels(modes)
     return modes
 
@@ -226,6 +248,31 @@ def field_family(field_: np.ndarray, m: int, angles: np.ndarray, hoop: bool = Fa
     cos_part = float(np.sum(np.abs(field_ @ np.cos(m * angles)) ** 2))
     sin_part = float(np.sum(np.abs(field_ @ np.sin(m * angles)) ** 2))
     return "cos" if (cos_part >= sin_part) != hoop else "sin"
+
+
+def mode_orientation(field_: np.ndarray, m: int, angles: np.ndarray, radii: np.ndarray,
+                     hoop: bool = False) -> float:
+    """The orientation [deg, in [0, 180/m)] of a (n_radii, n_angles) field's order-m part
+    (:attr:`Mode.orientation_deg`); NaN for m = 0.
+
+    With ``A(r) = sum f cos m theta`` and ``B(r) = sum f sin m theta`` (complex: a damped
+    mode's shape), the field's order-m part is ``A cos m theta + B sin m theta``; the
+    radius-weighted 2x2 matrix ``S = sum_r r Re[(A, B)^H (A, B)]`` has its principal
+    eigenvector along ``(cos psi, sin psi)`` for a shape ``cos m (theta - psi/m)``: its
+    antinode at ``psi/m`` (defined mod 180/m: the eigenvector's sign).  The hoop component
+    of the cos member goes as sin m theta, so it is turned back by 90/m."""
+    if m == 0:
+        return math.nan
+    a, b = field_ @ np.cos(m * angles), field_ @ np.sin(m * angles)
+    cross = np.sum(radii * np.real(a * np.conj(b)))
+    matrix = np.array([[np.sum(radii * np.abs(a) ** 2), cross],
+                       [cross, np.sum(radii * np.abs(b) ** 2)]])
+    _, vectors = np.linalg.eigh(matrix)
+    psi = math.atan2(vectors[1, -1], vectors[0, -1])
+    angle = math.degrees(psi) / m - (90.0 / m if hoop else 0.0)
+    period = 180.0 / m
+    angle %= period
+    return 0.0 if period - angle < 1e-9 * period else angle
 
 
 def pair_letter(mode: Mode) -> str:

@@ -79,6 +79,9 @@ class PrestressedState:
     symmetry: Symmetry = field(default_factory=Symmetry)   # the mesh's part of the device
     # (K, M) of copdea_fem.fe.linearise.membrane_matrices
     matrices: tuple | None = field(default=None, repr=False)
+    # lumped masses on the membrane, ((mass [kg], x [m], y [m]), ...) on the reference
+    # (imperfections.point_masses off the disc; copdea_fem.fe.linearise.point_mass_matrix)
+    point_masses: tuple = ()
 
     @property
     def has_disc(self) -> bool:
@@ -107,6 +110,7 @@ class MembraneSolver:
         self.outer_radius, self.inner_radius = outer_radius, inner_radius
         self.voltage = ngs.Parameter(0.0)
         self.z, self.newton_iterations, self.load_steps = 0.0, 0, []
+        self.point_masses = ()     # the state's lumped membrane masses (make_solver sets them)
         self.space, self.free, self.symmetry, self.measure, density = self._discretise(
             order, curve_order)
         self.u = ngs.GridFunction(self.space, name="displacement")
@@ -263,8 +267,9 @@ class MembraneSolver:
                 "loss_of_tension",
                 f"loss of tension at z = {z * 1e3:.3f} mm, V_b = {voltage:.0f} V: the smallest "
                 f"principal stress is {stress / 1e3:.3g} kPa at r = {radius * 1e3:.2f} mm; a "
-                "membrane cannot carry compression and wrinkles. Lower load.voltage, or raise "
-                "membrane.prestretch or load.z.", z, voltage)
+                "membrane cannot carry compression and wrinkles. Lower load.voltage"
+                + (" or membrane.prestretch_anisotropy" if self.material.anisotropy else "")
+                + ", or raise membrane.prestretch or load.z.", z, voltage)
 
     def _diagnose(self, z: float, voltage: float, reason: str) -> PrestressError:
         """Why the last step failed: wrinkling, pull-in, or plain non-convergence."""
@@ -275,7 +280,9 @@ class MembraneSolver:
             return PrestressError(
                 "loss_of_tension", f"loss of tension {where}: the smallest principal stress "
                 f"falls to {stress / 1e3:.3g} kPa at r = {radius * 1e3:.2f} mm and the membrane "
-                "wrinkles. Lower load.voltage, or raise membrane.prestretch.", z, voltage)
+                "wrinkles. Lower load.voltage"
+                + (" or membrane.prestretch_anisotropy" if self.material.anisotropy else "")
+                + ", or raise membrane.prestretch.", z, voltage)
         if voltage != self.voltage.Get():
             return PrestressError(
                 "pull_in", f"electromechanical instability (pull-in) {where}: {reason}. "
@@ -291,7 +298,8 @@ class MembraneSolver:
         return PrestressedState(self.mesh, self.material, self.space, u, self.z,
                                 self.voltage.Get(), self.disc_force(), self.newton_iterations,
                                 list(self.load_steps), self.disc_lift, self.outer_radius,
-                                self.inner_radius, self.measure, self.symmetry)
+                                self.inner_radius, self.measure, self.symmetry,
+                                point_masses=self.point_masses)
 
 
 class _StepFailed(Exception):
@@ -312,9 +320,34 @@ def _membrane_points(mesh, r_o: float, r_i: float, n_radii: int = 24, n_angles: 
 
 def make_solver(study, mesh) -> MembraneSolver:
     g = study.geometry
-    return MembraneSolver(mesh, Membrane.with_effects(study), study.mesh.order,
-                          g.outer_radius, g.inner_radius, study.prestress,
-                          curve_order=study.mesh.curve_order)
+    solver = MembraneSolver(mesh, Membrane.with_effects(study), study.mesh.order,
+                            g.outer_radius, g.inner_radius, study.prestress,
+                            curve_order=study.mesh.curve_order)
+    solver.point_masses = membrane_point_masses(study)
+    if disc_point_mass(study) and study.disc.motion == "held":
+        logger.info(f"the point masses on the disc ({disc_point_mass(study) * 1e3:g} g) do "
+                    "not move: the disc is held (disc.motion: held)")
+    return solver
+
+
+def membrane_point_masses(study) -> tuple:
+    """The masses of ``imperfections.point_masses`` on the membrane, ``((mass [kg], x [m],
+    y [m]), ...)`` on the flat reference (the disc's, ``r <= geometry.inner_radius``, are
+    :func:`disc_point_mass`)."""
+    r_i = study.geometry.inner_radius
+    return tuple((point.mass, point.r * math.cos(math.radians(point.theta)),
+                  point.r * math.sin(math.radians(point.theta)))
+                 for point in study.imperfections.point_masses
+                 if not (r_i > 0 and point.r <= r_i))
+
+
+def disc_point_mass(study) -> float:
+    """The masses of ``imperfections.point_masses`` on the rigid disc (``r <=
+    geometry.inner_radius``) [kg]: they ride with the disc's axial motion, so they add to
+    its mass (the disc has no tilt: their rotary inertia does not enter)."""
+    r_i = study.geometry.inner_radius
+    return float(sum(point.mass for point in study.imperfections.point_masses
+                     if r_i > 0 and point.r <= r_i))
 
 
 def solve_prestress(study, mesh, solver: MembraneSolver | None = None) -> PrestressedState:

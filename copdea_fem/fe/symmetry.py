@@ -126,6 +126,48 @@ class Symmetry:
                 np.where(x < 0, -1.0, 1.0), np.where(y < 0, -1.0, 1.0))
 
 
+#: Angles [deg] closer than this to a multiple of the symmetric ones count as on it (the
+#: keys are read in degrees; a unit conversion may round by an ulp).
+ANGLE_TOLERANCE_DEG = 1e-9
+
+
+def _multiple(angle_deg: float, period_deg: float) -> bool:
+    remainder = angle_deg % period_deg
+    return min(remainder, period_deg - remainder) <= ANGLE_TOLERANCE_DEG
+
+
+def mirror_breaking(study) -> str:
+    """Why the study's imperfections break a mirror plane x = 0 or y = 0 ("" if they keep
+    both, so the quadrant's sectors still hold every mode; :mod:`copdea_fem.study.
+    imperfections` for the keys).
+
+    * An anisotropic pre-stretch ``B_p`` is even about both planes exactly when its axis is
+      along x or y (``alpha`` a multiple of 90 deg): reflecting y -> -y flips the sign of
+      ``B_xy = cos alpha sin alpha (along - across)``.
+    * A thickness term ``cos k (theta - angle)``: even about y = 0 (theta -> -theta) iff
+      ``sin(k angle) = 0``, i.e. ``k angle`` a multiple of 180 deg; then about x = 0
+      (theta -> 180 - theta) it becomes ``(-1)^k`` times itself: ``k`` even.
+    * A point mass on the membrane at ``r > 0`` has a mirror image that holds no mass; one
+      at the centre (a full membrane) or on the disc (it only adds to the disc's axial mass)
+      keeps both planes.
+    """
+    m = study.membrane
+    if m.prestretch_anisotropy and not _multiple(m.prestretch_axis, 90.0):
+        return (f"membrane.prestretch_axis = {m.prestretch_axis:g} deg is not along x or y "
+                "(a multiple of 90 deg)")
+    for index, term in enumerate(m.thickness_variation):
+        if term.order % 2 or not _multiple(term.order * term.angle, 180.0):
+            return (f"membrane.thickness_variation[{index}] (order {term.order}, angle "
+                    f"{term.angle:g} deg) is not even about both axes (needs an even order "
+                    "and order * angle a multiple of 180 deg)")
+    r_i = study.geometry.inner_radius
+    for index, point in enumerate(study.imperfections.point_masses):
+        if point.r > 0 and not (r_i > 0 and point.r <= r_i):
+            return (f"imperfections.point_masses[{index}] sits off the centre on the "
+                    "membrane")
+    return ""
+
+
 def bitarray(mask: np.ndarray):
     """NGSolve BitArray of a boolean array."""
     import ngsolve as ngs

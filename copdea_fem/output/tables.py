@@ -14,7 +14,7 @@ from copdea_fem.study import Study, dump_resolved
 
 MODE_COLUMNS = ("label", "m", "n", "kind", "freq_hz", "freq_im_hz", "damping_ratio",
                 "membrane_energy_fraction", "modal_mass", "dry_freq_hz", "added_mass_ratio",
-                "normal_fraction", "disc_fraction", "residual", "symmetry")
+                "normal_fraction", "disc_fraction", "residual", "symmetry", "orientation_deg")
 
 
 def mode_rows(modes, dry_frequencies: dict | None = None) -> list[dict]:
@@ -38,7 +38,9 @@ def mode_rows(modes, dry_frequencies: dict | None = None) -> list[dict]:
             "normal_fraction": mode.normal_fraction, "disc_fraction": mode.disc_fraction,
             "residual": mode.residual,
             # parity about x = 0 and y = 0 on a quadrant mesh (copdea_fem.fe.symmetry), else ""
-            "symmetry": mode.sector.name if mode.sector is not None else ""})
+            "symmetry": mode.sector.name if mode.sector is not None else "",
+            # the member's antinode line [deg, 0 <= . < 180/m] (copdea_fem.fe.modes), NaN: m = 0
+            "orientation_deg": mode.orientation_deg})
     return rows
 
 

@@ -194,6 +194,14 @@ class RingModel:
     def from_study(cls, study, ring_count: int | None = None) -> "RingModel":
         """Ring model of a :class:`copdea_fem.study.Study` (``reduced.rings`` rings)."""
         from copdea_fem.study import StudyError
+        from copdea_fem.study.imperfections import imperfection_keys_given
+        imperfect = imperfection_keys_given(study.membrane, study.imperfections)
+        if imperfect:
+            given = ", ".join(f"{key} = {study.get(key)!r}" for key in imperfect.split(", "))
+            raise StudyError(f"{given} is not allowed for the reduced model; allowed: "
+                             "a perfect (round) device, the keys at their defaults (the ring "
+                             "model of Sect. 3.2.1 is axisymmetric; the 3-D FE models "
+                             "imperfections)")
         r_i = study.geometry.inner_radius
         if r_i == 0:
             raise StudyError("geometry.inner_radius = 0 is not allowed for the reduced model; "

@@ -55,6 +55,7 @@ from copdea_fem.study.schema import (
     G1,
     MAX_ELEMENTS_ACROSS,
     META_KEYS,
+    OPTIONAL_KEYS,
     OPTIONAL_SECTIONS,
     SCHEMA,
     reference_table,
@@ -63,16 +64,18 @@ from copdea_fem.study.sections import (
     SECTION_CLASSES,
     ElectrodeSegment,
     Enclosure,
+    PointMass,
     PronyTerm,
     SegmentDrive,
+    ThicknessTerm,
 )
 
 __all__ = ["AXISYMMETRIC_ENCLOSURES", "AXISYMMETRIC_FRAMES", "DEFAULT_MICROPHONE", "ENCLOSURES",
            "ENCLOSURE_AIR_SHARE", "ENCLOSURE_MIN_DEPTH", "ENCLOSURE_MIN_GAP", "ENGINES", "G1",
            "MAX_ELEMENTS_ACROSS", "MAX_PRONY_TERMS", "MAX_QUANTITY_CHARACTERS", "META_KEYS",
            "MICROPHONES_ALLOWED", "OVERRIDES_ALLOWED", "PRONY_ALLOWED", "ROUND_OFF_ULPS",
-           "OPTIONAL_SECTIONS", "SCHEMA", "SECTION_CLASSES", "ElectrodeSegment", "Enclosure",
-           "Key", "PronyTerm", "SegmentDrive", "Study", "StudyError",
+           "OPTIONAL_KEYS", "OPTIONAL_SECTIONS", "SCHEMA", "SECTION_CLASSES", "ElectrodeSegment", "Enclosure",
+           "Key", "PointMass", "PronyTerm", "SegmentDrive", "Study", "StudyError", "ThicknessTerm",
            "above", "apart", "convert_quantity", "convert_value", "dump_resolved", "engine_of",
            "listed_microphones", "load_study", "parse_overrides", "parse_study",
            "reduced_mode_labels", "reference_table", "unit_registry"]

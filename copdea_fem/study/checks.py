@@ -16,6 +16,7 @@ from copdea_fem.study.schema import (
     ENCLOSURE_MIN_GAP,
     MAX_ELEMENTS_ACROSS,
 )
+from copdea_fem.study.imperfections import check_imperfections, imperfection_keys_given
 from copdea_fem.study.segments import check_segments
 
 
@@ -125,6 +126,14 @@ def check_across_keys(v: dict[str, dict[str, Any]]) -> None:
     _check_reduced_keys(v)
     listed_microphones(v["response"]["microphones"], g["frame"], g["enclosure"])
     check_segments(v)
+    check_imperfections(v)
+    imperfect = imperfection_keys_given(v["membrane"], v["imperfections"])
+    if imperfect and engine == "axisymmetric":
+        raise refusal("mesh.engine", engine, "3d (or auto) with " + imperfect,
+                      "the axisymmetric engine models perfect (round) devices only")
+    if imperfect and g["frame"] == "circle":
+        raise refusal("geometry.frame", g["frame"], "square, baffle or none with " + imperfect,
+                      "an imperfect device needs the 3-D engine, which has no circular frame")
     m = v["membrane"]
     if v["response"]["method"] == "reduced_modal" and (
             m["loss_factor"] > 0 or m["rayleigh_alpha"] > 0 or m["rayleigh_beta"] > 0

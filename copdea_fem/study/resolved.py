@@ -20,11 +20,13 @@ import yaml
 from copdea_fem.folders import package_versions
 from copdea_fem.inputs import parse_yaml, preview, read_yaml
 from copdea_fem.study.checks import check_across_keys, derived_defaults, enclosure_defaults
+from copdea_fem.study.imperfections import is_imperfect
 from copdea_fem.study.keys import StudyError, convert_value, refusal
 from copdea_fem.study.schema import (
     AXISYMMETRIC_ENCLOSURES,
     AXISYMMETRIC_FRAMES,
     META_KEYS,
+    OPTIONAL_KEYS,
     OPTIONAL_SECTIONS,
     SCHEMA,
 )
@@ -41,6 +43,7 @@ if TYPE_CHECKING:
         EigenSection,
         ExcitationSection,
         GeometrySection,
+        ImperfectionsSection,
         LoadSection,
         MembraneSection,
         MeshSection,
@@ -117,6 +120,7 @@ class Study:
         response: ResponseSection
         effects: EffectsSection
         electrodes: ElectrodesSection
+        imperfections: ImperfectionsSection
 
     name: str = "study"
     description: str = ""
@@ -154,12 +158,17 @@ class Study:
         """The sections as plain mappings ``{section: {key: SI value}}`` (a copy; the form
         the resolved study file writes and the cache keys hash; an optional section,
         :data:`~copdea_fem.study.schema.OPTIONAL_SECTIONS`, only when a key differs from
-        its default)."""
+        its default; an optional key, :data:`~copdea_fem.study.schema.OPTIONAL_KEYS`, only
+        when it differs from its default)."""
         values = {section: plain_section(getattr(self, section)) for section in SCHEMA}
         for section in OPTIONAL_SECTIONS:      # written only when not all at the default
             if all(value == SCHEMA[section][key].default
                    for key, value in values[section].items()):
                 del values[section]
+        for section, keys in OPTIONAL_KEYS.items():     # each only when not at its default
+            for key in keys:
+                if values[section][key] == SCHEMA[section][key].default:
+                    del values[section][key]
         return values
 
     def __getitem__(self, section: str) -> Mapping[str, Any]:
@@ -304,14 +313,16 @@ def _unknown_key(dotted: str, value: Any) -> StudyError:
 def engine_of(study: Study) -> str:
     """The FE engine a study runs on: ``"axisymmetric"`` or ``"3d"`` (key mesh.engine).
 
-    ``auto`` picks the axisymmetric engine for a frame none, baffle or circle with no
-    enclosure, a cylinder or a bowl; else the 3-D engine.
+    ``auto`` picks the axisymmetric engine for a perfect device (no key of
+    :data:`~copdea_fem.study.imperfections.IMPERFECTION_KEYS` set) with a frame none, baffle
+    or circle and no enclosure, a cylinder or a bowl; else the 3-D engine.
     """
     engine = study.mesh.engine
     if engine == "auto":
         g = study.geometry
         axisymmetric = (g.frame in AXISYMMETRIC_FRAMES
-                        and g.enclosure in AXISYMMETRIC_ENCLOSURES)
+                        and g.enclosure in AXISYMMETRIC_ENCLOSURES
+                        and not is_imperfect(study.membrane, study.imperfections))
         return "axisymmetric" if axisymmetric else "3d"
     return engine
 

@@ -4,6 +4,7 @@ default, bounds and description (:data:`SCHEMA`), and the README's table made fr
 
 from __future__ import annotations
 
+from copdea_fem.study.imperfections import read_point_masses, read_thickness_variation
 from copdea_fem.study.keys import Key
 from copdea_fem.study.segments import read_segments
 
@@ -89,6 +90,23 @@ SCHEMA: dict[str, dict[str, Key]] = {
                      "relaxation_time: tau_j [s]}; the material tangent becomes "
                      "K_mat (1 + sum g_j (-i omega tau_j)/(1 - i omega tau_j)); [] = elastic",
                      kind=list),
+        "prestretch_anisotropy": Key(None, 0.0, "anisotropy e of the pre-stretch: the film is "
+                                     "pre-stretched by membrane.prestretch * (1 + e) along "
+                                     "membrane.prestretch_axis and * (1 - e) across it, then "
+                                     "clamped in the round frame (thickness h0 / (lambda_p^2 "
+                                     "(1 - e^2))); the film must stay in tension across the "
+                                     "axis (the prestress refuses a slack one; G1 at 0 V: e < 0.34); "
+                                     "0 = equibiaxial. 3-D engine (docs/imperfections.md)",
+                                     minimum=0, maximum=0.5),
+        "prestretch_axis": Key("deg", 0.0, "direction of the larger pre-stretch, "
+                               "counter-clockwise from the x axis", minimum=-360,
+                               maximum=360),
+        "thickness_variation": Key(None, [], "uneven film: a list of {order: k >= 1, "
+                                   "amplitude: a (|a| < 1), angle: degrees (default 0)}, the "
+                                   "thickness h0 (1 + sum a cos k (theta - angle)) on mass, "
+                                   "stiffness and field alike; sum |a| < 1; [] = uniform. "
+                                   "3-D engine (docs/imperfections.md)", kind=list,
+                                   reader=read_thickness_variation),
     },
     "disc": {
         "mass": Key("kg", 3.0e-3, f"rigid disc mass M_d ({G1}; G2: 1.9 g)",
@@ -324,9 +342,24 @@ SCHEMA["electrodes"] = {
                     kind=list, reader=read_segments),
 }
 
+# Point masses on the membrane or the disc (copdea_fem.fe.linearise); written in a resolved
+# study only when given (OPTIONAL_SECTIONS).
+SCHEMA["imperfections"] = {
+    "point_masses": Key(None, [], "lumped masses on the device: a list of {mass: kg > 0, r: "
+                        "metres on the flat pre-stretched device, below "
+                        "geometry.outer_radius (r <= geometry.inner_radius: on the rigid disc, "
+                        "adding to its mass), theta: degrees counter-clockwise from the x "
+                        "axis (default 0)}; [] = none. 3-D engine (docs/imperfections.md)",
+                        kind=list, reader=read_point_masses),
+}
+
 #: Sections written in a resolved study (and hashed) only when a key differs from its
 #: default, so that a study without them resolves as it did before they existed.
-OPTIONAL_SECTIONS = ("electrodes",)
+OPTIONAL_SECTIONS = ("electrodes", "imperfections")
+#: Keys of the other sections written (and hashed) only when they differ from their
+#: default, for the same reason.
+OPTIONAL_KEYS = {"membrane": ("prestretch_anisotropy", "prestretch_axis",
+                              "thickness_variation")}
 
 #: Most elements across the membrane width r_o - r_i that both engines mesh: the smallest
 #: mesh.membrane_size, and the narrowest ring of a circular frame, is (r_o - r_i) / this.

@@ -6,8 +6,9 @@ generated from it, so the schema stays the one source of keys, units, defaults a
 ``name.capitalize() + "Section"`` (:data:`SECTION_CLASSES`).  Each field holds the key's
 value in SI, its type the key's kind (``float``, ``int``, ``str``, ``bool``; ``None`` where
 the key has no default and none was given, e.g. ``reduced.modes_json``), except the list
-key ``membrane.prony``: a tuple of :class:`PronyTerm`, and ``electrodes.segments``: a tuple
-of :class:`ElectrodeSegment`.  A section alone is not checked; a
+key ``membrane.prony``: a tuple of :class:`PronyTerm`, ``electrodes.segments``: a tuple
+of :class:`ElectrodeSegment`, ``membrane.thickness_variation``: a tuple of
+:class:`ThicknessTerm` and ``imperfections.point_masses``: a tuple of :class:`PointMass`.  A section alone is not checked; a
 :class:`~copdea_fem.study.resolved.Study` checks its sections when it is made.
 
 The classes are module-level names of this module, so sections (and studies) pickle for
@@ -118,9 +119,60 @@ class ElectrodeSegment:
                 "drive": {"amplitude": self.drive.amplitude, "phase": self.drive.phase}}
 
 
+@dataclasses.dataclass(frozen=True)
+class ThicknessTerm:
+    """One term of ``membrane.thickness_variation`` (:mod:`copdea_fem.study.imperfections`):
+    the film's thickness ``h0 (1 + amplitude cos order (theta - angle))``.
+
+    Attributes
+    ----------
+    order : int
+        Circumferential order k >= 1 [-].
+    amplitude : float
+        Relative amplitude a, |a| < 1 [-].
+    angle : float
+        Angle of the thickest line [deg], counter-clockwise from the x axis.
+    """
+
+    order: int
+    amplitude: float
+    angle: float = 0.0
+
+    def plain(self) -> dict[str, Any]:
+        """The plain mapping of the resolved study file."""
+        return {"order": self.order, "amplitude": self.amplitude, "angle": self.angle}
+
+
+@dataclasses.dataclass(frozen=True)
+class PointMass:
+    """One lumped mass of ``imperfections.point_masses``
+    (:mod:`copdea_fem.study.imperfections`).
+
+    Attributes
+    ----------
+    mass : float
+        The mass [kg].
+    r : float
+        Its radius on the flat pre-stretched device [m] (at most ``geometry.inner_radius``:
+        on the rigid disc).
+    theta : float
+        Its angle [deg], counter-clockwise from the x axis.
+    """
+
+    mass: float
+    r: float
+    theta: float = 0.0
+
+    def plain(self) -> dict[str, Any]:
+        """The plain mapping of the resolved study file."""
+        return {"mass": self.mass, "r": self.r, "theta": self.theta}
+
+
 #: The typed form of a list key's items (the plain form: a mapping per item).
 LIST_ITEM_CLASSES = {("membrane", "prony"): PronyTerm,
-                     ("electrodes", "segments"): ElectrodeSegment}
+                     ("electrodes", "segments"): ElectrodeSegment,
+                     ("membrane", "thickness_variation"): ThicknessTerm,
+                     ("imperfections", "point_masses"): PointMass}
 
 
 def _field_type(section: str, key: str) -> Any:
@@ -221,7 +273,14 @@ def stub_text() -> str:
              "", "class ElectrodeSegment:", "    name: str", "    theta: tuple[float, float]",
              "    r: tuple[float, float] | None", "    drive: SegmentDrive",
              "    def __init__(self, name: str, theta: Any, r: Any = ..., drive: Any = ...) "
-             "-> None: ...", "    def plain(self) -> dict[str, Any]: ...", ""]
+             "-> None: ...", "    def plain(self) -> dict[str, Any]: ...", "",
+             "class ThicknessTerm:", "    order: int", "    amplitude: float",
+             "    angle: float",
+             "    def __init__(self, order: int, amplitude: float, angle: float = ...) "
+             "-> None: ...", "    def plain(self) -> dict[str, Any]: ...", "",
+             "class PointMass:", "    mass: float", "    r: float", "    theta: float",
+             "    def __init__(self, mass: float, r: float, theta: float = ...) -> None: ...",
+             "    def plain(self) -> dict[str, Any]: ...", ""]
     for section, cls in SECTION_CLASSES.items():
         lines.append(f"class {cls.__name__}:")
         lines += [f"    {key}: {_annotation(section, key)}" for key in SCHEMA[section]]

@@ -28,6 +28,20 @@ class ElectrodeSegment:
     def __init__(self, name: str, theta: Any, r: Any = ..., drive: Any = ...) -> None: ...
     def plain(self) -> dict[str, Any]: ...
 
+class ThicknessTerm:
+    order: int
+    amplitude: float
+    angle: float
+    def __init__(self, order: int, amplitude: float, angle: float = ...) -> None: ...
+    def plain(self) -> dict[str, Any]: ...
+
+class PointMass:
+    mass: float
+    r: float
+    theta: float
+    def __init__(self, mass: float, r: float, theta: float = ...) -> None: ...
+    def plain(self) -> dict[str, Any]: ...
+
 class GeometrySection:
     outer_radius: float
     inner_radius: float
@@ -54,6 +68,9 @@ class MembraneSection:
     rayleigh_alpha: float
     rayleigh_beta: float
     prony: tuple[PronyTerm, ...]
+    prestretch_anisotropy: float
+    prestretch_axis: float
+    thickness_variation: tuple[ThicknessTerm, ...]
     def __init__(self, **values: Any) -> None: ...
 
 class DiscSection:
@@ -160,6 +177,10 @@ class EffectsSection:
 
 class ElectrodesSection:
     segments: tuple[ElectrodeSegment, ...]
+    def __init__(self, **values: Any) -> None: ...
+
+class ImperfectionsSection:
+    point_masses: tuple[PointMass, ...]
     def __init__(self, **values: Any) -> None: ...
 
 LIST_ITEM_CLASSES: dict[tuple[str, str], type]

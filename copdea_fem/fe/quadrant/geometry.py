@@ -58,9 +58,11 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from copdea_fem.fe.airbox import ale_decay_length, bowl_sphere_radius, cavity_depth
+from copdea_fem.fe.symmetry import mirror_breaking
 from copdea_fem.fingerprint import mesh_fingerprint
 from copdea_fem.inputs import preview
 from copdea_fem.study import StudyError
+from copdea_fem.study.imperfections import is_imperfect
 
 SCREENS = "membrane|disc|frame"
 SYMMETRIES = ("quarter", "none")
@@ -123,7 +125,7 @@ class GeometrySpec:
                    membrane_size=m.membrane_size, air_size=m.air_size,
                    grading=m.grading,
                    symmetry=m.symmetry if (a.enabled if with_air is None else with_air)
-                   else "none")
+                   and not mirror_breaking(study) else "none")
 
     def key(self) -> str:
         data = asdict(self)
@@ -557,8 +559,17 @@ def enclosure_wall_area(spec: GeometrySpec) -> float:
 
 
 def study_mesh(study, with_air=None, cache_dir=None):
-    """The (cached) 3-D mesh of the study; ``cache_dir=None``: :func:`mesh_cache_dir`."""
+    """The (cached) 3-D mesh of the study; ``cache_dir=None``: :func:`mesh_cache_dir`.
+    An imperfection that breaks a mirror plane (:func:`copdea_fem.fe.symmetry.
+    mirror_breaking`) meshes the whole device where ``mesh.symmetry`` asks for a quadrant
+    (logged)."""
     spec = GeometrySpec.from_study(study, with_air=with_air)
+    breaking = mirror_breaking(study)
+    if spec.with_air and study.mesh.symmetry == "quarter":
+        if breaking:
+            logger.info(f"the whole device is meshed, not a quadrant: {breaking}")
+        elif is_imperfect(study.membrane, study.imperfections):
+            logger.info("the imperfections keep both mirror planes: one quadrant is meshed")
     return load_mesh(spec, study.mesh.curve_order, cache_dir=cache_dir)
 
 

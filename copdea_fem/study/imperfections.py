@@ -1,0 +1,143 @@
+"""The imperfections of a device: the keys ``membrane.prestretch_anisotropy``,
+``membrane.prestretch_axis``, ``membrane.thickness_variation`` and
+``imperfections.point_masses`` read item by item (:func:`read_thickness_variation`,
+:func:`read_point_masses`) and checked against the membrane and each other
+(:func:`check_imperfections`).
+
+* Anisotropic pre-stretch ``e`` along the axis ``alpha`` [deg, counter-clockwise from x]:
+  the film is pre-stretched by ``lambda_p (1 + e)`` along the axis and ``lambda_p (1 - e)``
+  across it, then clamped in the round frame of radius ``r_o``; the film's thickness is
+  ``h0 / (lambda_p^2 (1 - e^2))`` (incompressible).  A membrane carries no compression, so
+  the smaller principal stress of that flat state (:meth:`copdea_fem.fe.materials.Membrane.
+  principal_stresses` at ``V = 0`` and stretches ``lambda_p (1 +- e)``) must stay positive:
+  that bounds ``e`` for the study's film (the prestress refuses a slack film with its
+  ``loss_of_tension`` error); the key's own bound 0.5 (a stretch ratio of 3 between the
+  axes) holds whatever the film.
+* Thickness variation: ``h0 (1 + sum_j a_j cos k_j (theta - angle_j))`` with orders
+  ``k_j >= 1``; ``sum |a_j| < 1`` keeps the film's thickness positive everywhere.
+* Point masses ``{mass [kg], r [m], theta [deg]}`` on the membrane (``r_i < r < r_o``) or on
+  the rigid disc (``r <= r_i``); a mass on the clamped rim ``r >= r_o`` cannot move and is
+  refused.
+
+Angles stay in degrees in the resolved study (the unit of the keys, as
+``electrodes.segments``); the FE converts them to radians.  Every default is the perfect
+device: a study without these keys resolves, and hashes, as it did before they existed
+(:data:`~copdea_fem.study.schema.OPTIONAL_KEYS`, section ``imperfections`` optional).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from copdea_fem.study.keys import above, convert_quantity, refusal
+
+#: Most terms of ``membrane.thickness_variation`` / masses of ``imperfections.point_masses``.
+MAX_TERMS = 16
+#: Highest circumferential order of a thickness term: the 3-D mesh must resolve k periods
+#: round the membrane (mesh.membrane_size checks the resolution; 64 is far beyond any
+#: measured imperfection).
+MAX_THICKNESS_ORDER = 64
+THICKNESS_ALLOWED = (f"a list of at most {MAX_TERMS} mappings {{order: integer k in [1, "
+                     f"{MAX_THICKNESS_ORDER}], amplitude: a with |a| < 1, angle: degrees "
+                     "(default 0)}, with sum |a| < 1: h = h0 (1 + sum a cos k (theta - angle))")
+MASSES_ALLOWED = (f"a list of at most {MAX_TERMS} mappings {{mass: kg > 0, r: metres in [0, "
+                  "geometry.outer_radius), theta: degrees (default 0)}")
+
+#: The keys whose non-default values make a device imperfect (for messages).
+IMPERFECTION_KEYS = ("membrane.prestretch_anisotropy", "membrane.thickness_variation",
+                     "imperfections.point_masses")
+
+
+def read_thickness_variation(key: str, value: Any) -> list:
+    """``membrane.thickness_variation`` (mappings or
+    :class:`~copdea_fem.study.sections.ThicknessTerm`) -> ``[{"order": k, "amplitude": a,
+    "angle": [deg]}, ...]``, each term bounded alone (their sum: :func:`check_imperfections`)."""
+    if value is None:
+        value = []
+    if not isinstance(value, (list, tuple)) or len(value) > MAX_TERMS:
+        raise refusal(key, value, THICKNESS_ALLOWED)
+    terms = []
+    for index, item in enumerate(value):
+        where = f"{key}[{index}]"
+        if hasattr(item, "plain"):
+            item = item.plain()
+        if not isinstance(item, dict) or not {"order", "amplitude"} <= set(item) \
+                or not set(item) <= {"order", "amplitude", "angle"}:
+            raise refusal(where, item, THICKNESS_ALLOWED, "each term needs the keys order and "
+                          "amplitude, and may have angle")
+        order = convert_quantity(f"{where}.order", item["order"], "", 1, MAX_THICKNESS_ORDER)
+        if not float(order).is_integer():
+            raise refusal(f"{where}.order", item["order"],
+                          f"an integer in [1, {MAX_THICKNESS_ORDER}]")
+        amplitude = convert_quantity(f"{where}.amplitude", item["amplitude"], "", -1, 1)
+        if not above(1.0, abs(amplitude)):
+            raise refusal(f"{where}.amplitude", item["amplitude"], "|a| < 1",
+                          "the film would vanish where cos k (theta - angle) = -sign(a)")
+        angle = convert_quantity(f"{where}.angle", item.get("angle", 0.0), "deg", -360, 360)
+        terms.append({"order": int(order), "amplitude": amplitude, "angle": angle})
+    return terms
+
+
+def read_point_masses(key: str, value: Any) -> list:
+    """``imperfections.point_masses`` (mappings or
+    :class:`~copdea_fem.study.sections.PointMass`) -> ``[{"mass" [kg], "r" [m], "theta"
+    [deg]}, ...]``, each bounded alone (against the geometry: :func:`check_imperfections`)."""
+    if value is None:
+        value = []
+    if not isinstance(value, (list, tuple)) or len(value) > MAX_TERMS:
+        raise refusal(key, value, MASSES_ALLOWED)
+    masses = []
+    for index, item in enumerate(value):
+        where = f"{key}[{index}]"
+        if hasattr(item, "plain"):
+            item = item.plain()
+        if not isinstance(item, dict) or not {"mass", "r"} <= set(item) \
+                or not set(item) <= {"mass", "r", "theta"}:
+            raise refusal(where, item, MASSES_ALLOWED, "each mass needs the keys mass and r, "
+                          "and may have theta")
+        mass = convert_quantity(f"{where}.mass", item["mass"], "kg", 0, 100)
+        if not above(mass, 0.0):
+            raise refusal(f"{where}.mass", item["mass"], "> 0 kg")
+        radius = convert_quantity(f"{where}.r", item["r"], "m", 0, 1)
+        theta = convert_quantity(f"{where}.theta", item.get("theta", 0.0), "deg", -360, 360)
+        masses.append({"mass": mass, "r": radius, "theta": theta})
+    return masses
+
+
+def imperfection_keys_given(membrane, imperfections) -> str:
+    """The keys of :data:`IMPERFECTION_KEYS` a study's sections (typed, or the plain
+    mappings of the checks) set, comma-separated ("" for a perfect device)."""
+    get = (lambda section, key: section[key]) if isinstance(membrane, dict) else getattr
+    given = (get(membrane, "prestretch_anisotropy"), get(membrane, "thickness_variation"),
+             get(imperfections, "point_masses"))
+    return ", ".join(key for key, value in zip(IMPERFECTION_KEYS, given) if value)
+
+
+def is_imperfect(membrane, imperfections) -> bool:
+    """Whether a study's sections (typed or plain mappings) hold any imperfection."""
+    return bool(imperfection_keys_given(membrane, imperfections))
+
+
+def check_imperfections(v: dict[str, dict[str, Any]]) -> None:
+    """The imperfections against the film and the geometry (module notes); a
+    :class:`~copdea_fem.study.keys.StudyError` names the key.  The tension across the
+    anisotropy's axis needs the film's constitutive law: the prestress checks it (its
+    ``loss_of_tension`` error, :mod:`copdea_fem.fe.prestress`)."""
+    m, g = v["membrane"], v["geometry"]
+    terms = m["thickness_variation"]
+    if terms and not above(1.0, sum(abs(t["amplitude"]) for t in terms)):
+        raise refusal("membrane.thickness_variation",
+                      [t["amplitude"] for t in terms], "amplitudes with sum |a| < 1",
+                      "the film's thickness would reach zero")
+    r_o, r_i = g["outer_radius"], g["inner_radius"]
+    for index, point in enumerate(v["imperfections"]["point_masses"]):
+        if not above(r_o, point["r"]):
+            where = "the disc or the membrane" if r_i > 0 else "the membrane"
+            raise refusal(f"imperfections.point_masses[{index}].r", point["r"],
+                          f"[0, {r_o:g}) m = on {where} (below geometry.outer_radius)",
+                          "a mass on the clamped rim cannot move")
+
+
+__all__ = ["IMPERFECTION_KEYS", "MASSES_ALLOWED", "MAX_TERMS", "THICKNESS_ALLOWED",
+           "check_imperfections", "imperfection_keys_given", "is_imperfect", "read_point_masses",
+           "read_thickness_variation"]
