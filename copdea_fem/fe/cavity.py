@@ -52,14 +52,6 @@ CAVITY_SHARE = 0.5
 CAVITY_MEMBRANE_ENERGY = 0.5
 
 
-def may_be_cavity_mode(mode) -> bool:
-    """Whether a coupled :class:`copdea_fem.fe.modes.Mode` moves mostly air (an air mode or
-    a membrane share below :data:`CAVITY_MEMBRANE_ENERGY`): a cavity mode when most of its
-    air's potential energy lies inside the enclosure (module doc)."""
-    from copdea_fem.fe.modes import AIR
-    return mode.kind == AIR or mode.membrane_energy_fraction < CAVITY_MEMBRANE_ENERGY
-
-
 #: A sample below this share of the line's largest |p| is not a sign (as
 #: :data:`copdea_fem.fe.modes.NODE_THRESHOLD` for the membrane's nodal circles).
 NODE_THRESHOLD = 0.02

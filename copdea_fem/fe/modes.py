@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 import ngsolve as ngs
 import numpy as np
 
+from copdea_fem.fe.cavity import CAVITY_MEMBRANE_ENERGY
 from copdea_fem.fe.linearise import MembraneOperators, to_scipy
 from copdea_fem.fe.membrane import deformed_normal
 
@@ -333,6 +334,13 @@ def coupled_mode_list(coupled, result, min_membrane_energy: float,
     structural = [mode for mode in modes if mode.kind != AIR]
     assign_labels(structural)
     return modes, pressures
+
+
+def may_be_cavity_mode(mode) -> bool:
+    """Whether a coupled :class:`Mode` moves mostly air (an air mode or a membrane share
+    below :data:`copdea_fem.fe.cavity.CAVITY_MEMBRANE_ENERGY`): a cavity mode when most of
+    its air's potential energy lies inside the enclosure (:mod:`copdea_fem.fe.cavity`)."""
+    return mode.kind == AIR or mode.membrane_energy_fraction < CAVITY_MEMBRANE_ENERGY
 
 
 def number_from_dry_partners(modes: list[Mode], dry_modes: list[Mode], mass) -> None:

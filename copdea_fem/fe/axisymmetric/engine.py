@@ -40,7 +40,6 @@ from copdea_fem.fe.axisymmetric.prestress import make_axisymmetric_solver
 from copdea_fem.fe.bands import BandSolver, OrderStop, coupled_start_modes, lowest_frequency_hz
 from copdea_fem.fe.cavity import (
     lowest_order_frequency,
-    may_be_cavity_mode,
     without_static_solution,
 )
 from copdea_fem.fe.eigen import SectorBandResults
@@ -49,6 +48,7 @@ from copdea_fem.fe.modes import (  # noqa: F401  (largest_mac_assignment: this e
     AIR,
     largest_mac_assignment,
     match_dry,
+    may_be_cavity_mode,
     membrane_energy_fractions,
     number_from_dry_partners,
 )

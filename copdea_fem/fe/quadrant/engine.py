@@ -18,7 +18,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from copdea_fem.fe.bands import BandSolver, coupled_start_modes
-from copdea_fem.fe.cavity import label_cavity_modes, may_be_cavity_mode, without_static_solution
+from copdea_fem.fe.cavity import label_cavity_modes, without_static_solution
 from copdea_fem.fe.forced.problem import DrivenPart, band_parts
 from copdea_fem.fe.linearise import linearised_operators, operator_damping
 from copdea_fem.fe.modes import (
@@ -26,6 +26,7 @@ from copdea_fem.fe.modes import (
     OUT_OF_PLANE,
     ModeSampler,
     classify_modes,
+    may_be_cavity_mode,
     number_from_dry_partners,
     sector_family,
 )
@@ -87,7 +88,7 @@ def sampled_shapes(state, modes) -> np.ndarray:
 
 def label_cavity_orders(sampler, sector, coupled, modes, pressures) -> None:
     """Give the modes of one sector that move mostly air
-    (:func:`copdea_fem.fe.cavity.may_be_cavity_mode`) and live in the enclosure their orders
+    (:func:`copdea_fem.fe.modes.may_be_cavity_mode`) and live in the enclosure their orders
     (:attr:`copdea_fem.fe.modes.Mode.cavity_orders`, :mod:`copdea_fem.fe.quadrant.cavity`):
     a round enclosure's (m, n, p) with m as the mode's order and its cos/sin member from
     the mirror class; a box's (i, j, k) (its nodal planes, no pair)."""
