@@ -714,6 +714,12 @@ CASES = [
     Case("response of the flat membrane", 3, "error: load.z = 0 is not allowed for `response`; "
          "allowed: > 0 m (on the flat membrane the voltage does not drive this state",
          argv=("response", ROOT / "studies" / "g1_enclosure_box.yaml", "--out", "{work}/r")),
+    *[Case(f"synth --format {fmt} of the flat membrane", 3, "error: --conditions #1: load.z = "
+           "0 is not allowed for `synth`; allowed: > 0 m (on the flat membrane the voltage does "
+           "not drive this state", argv=("synth", ROOT / "studies" / "g1_enclosure_box.yaml",
+                                         "--format", fmt, "--conditions", "load.voltage=2 kV",
+                                         "--out", "{work}/y"))
+      for fmt in ("csv", "uff")],
     *[Case(f"synth --format uff {option} {value}", 2, f"error: {option} = {shown} is not "
            "allowed with --format uff; allowed: its default",
            argv=("synth", QUICK, "--format", "uff", option, value, "--out", "{work}/y"))
