@@ -977,6 +977,40 @@ def test_interrupt_in_the_write_phase_keeps_old_or_nothing(tmp_path, sign, code,
     assert snapshot(tmp_path) == before and not leftovers(tmp_path)
 
 
+@pytest.mark.parametrize("sign, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)],
+                         ids=["ctrl-c", "sigterm"])
+def test_an_interrupted_dask_sweep_ends_in_one_line(tmp_path, sign, code):
+    """A sweep on a local Dask cluster, interrupted once its tasks run: the signal goes to the
+    whole process group, as a terminal's Ctrl-C does (the workers get it too).  The exit code
+    is the CLI's and the one line the docs promise (docs/reliability.md) is all that follows
+    on stderr: no worker's traceback, no Dask log of the closing cluster or of its cancelled
+    tasks (copdea_fem.parallel.dask_client)."""
+    pytest.importorskip("distributed")
+    out = tmp_path / "sweep"
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    process = subprocess.Popen(
+        [sys.executable, "-m", "copdea_fem.cli", "sweep",
+         ROOT / "studies" / "sweeps" / "coarse_fig11b.yaml", "--executor", "dask",
+         "--workers", "1", "--out", out], cwd=tmp_path, env=env, stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE, text=True, start_new_session=True, preexec_fn=_default_sigint)
+    try:
+        for line in process.stderr:            # progress lines until the chains are submitted
+            if "chains on" in line:
+                break
+        else:
+            raise AssertionError(f"the sweep ended before its chains ran: {process.wait()}")
+        time.sleep(0.5)                        # a point is being solved
+        os.killpg(process.pid, sign)
+        _, err = process.communicate(timeout=60)
+    finally:
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
+    assert process.returncode == code
+    assert err.strip().splitlines() == [f"interrupted; the points finished so far are kept in "
+                                        f"{out}; run the sweep again to resume"]
+
+
 def test_a_run_killed_while_writing_is_cleaned_up_by_the_next(tmp_path, capsys):
     out = tmp_path / "run"
     process = cli_process(["spectrum", REDUCED_STUDY, "--out", out], tmp_path, delay=60)
