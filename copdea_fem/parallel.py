@@ -303,15 +303,18 @@ def local_workers(workers: int | None = None) -> int:
 
 #: What a local cluster's worker processes inherit as they start (:func:`quiet_workers`): Dask
 #: reads ``DASK_*`` variables into its config when it is imported, before it sets up its
-#: logging, so their Dask loggers print errors only (not the warnings of tasks cancelled when
-#: a run is interrupted, nor "event loop unresponsive" during a long FE solve).
-WORKER_ENVIRONMENT = {"DASK_LOGGING__DISTRIBUTED": "error"}
+#: logging, so their Dask loggers print only what ends a worker (not the warnings of tasks
+#: cancelled when a run is interrupted, nor "event loop unresponsive" during a long FE
+#: solve, nor the errors with tracebacks of a worker whose scheduler closed first, a race of
+#: every interrupted run).  A task's own error reaches this process through its future and
+#: is reported there.
+WORKER_ENVIRONMENT = {"DASK_LOGGING__DISTRIBUTED": "critical"}
 
 
 @contextlib.contextmanager
 def quiet_workers():
-    """While inside, the worker processes a local cluster starts ignore SIGINT and log Dask's
-    errors only (:data:`WORKER_ENVIRONMENT`).
+    """While inside, the worker processes a local cluster starts ignore SIGINT and log only
+    Dask's critical records (:data:`WORKER_ENVIRONMENT`).
 
     A terminal's Ctrl-C reaches every process of its group; a worker that took it would end
     with a KeyboardInterrupt traceback while this process closes the cluster anyway.  An
@@ -381,7 +384,7 @@ def dask_client(scheduler=None, workers: int | None = None, option: str = "--sch
 
     An interrupt (Ctrl-C, which a terminal sends to the whole process group, or the CLI's
     SIGTERM) ends the run with the CLI's one line: the workers ignore SIGINT and log only
-    errors (:func:`quiet_workers`), and this process's Dask loggers fall silent while the
+    critical records (:func:`quiet_workers`), and this process's Dask loggers fall silent while the
     cluster closes (:func:`quiet_distributed_logs`) -- else 3-4 tracebacks and the
     cancelled tasks' warnings of every worker would follow it.
     """
