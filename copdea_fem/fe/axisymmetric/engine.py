@@ -44,9 +44,8 @@ from copdea_fem.fe.cavity import (
 )
 from copdea_fem.fe.eigen import SectorBandResults
 from copdea_fem.fe.forced.problem import DrivenPart, band_parts
-from copdea_fem.fe.modes import (  # noqa: F401  (largest_mac_assignment: this engine's API)
+from copdea_fem.fe.modes import (
     AIR,
-    largest_mac_assignment,
     match_dry,
     may_be_cavity_mode,
     membrane_energy_fractions,
