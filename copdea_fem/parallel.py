@@ -301,6 +301,65 @@ def local_workers(workers: int | None = None) -> int:
     return workers if workers is not None else max(1, os.cpu_count() or 1)
 
 
+#: What a local cluster's worker processes inherit as they start (:func:`quiet_workers`): Dask
+#: reads ``DASK_*`` variables into its config when it is imported, before it sets up its
+#: logging, so their Dask loggers print only what ends a worker (not the warnings of tasks
+#: cancelled when a run is interrupted, nor "event loop unresponsive" during a long FE
+#: solve, nor the errors with tracebacks of a worker whose scheduler closed first, a race of
+#: every interrupted run).  A task's own error reaches this process through its future and
+#: is reported there.
+WORKER_ENVIRONMENT = {"DASK_LOGGING__DISTRIBUTED": "critical"}
+
+
+@contextlib.contextmanager
+def quiet_workers():
+    """While inside, the worker processes a local cluster starts ignore SIGINT and log only
+    Dask's critical records (:data:`WORKER_ENVIRONMENT`).
+
+    A terminal's Ctrl-C reaches every process of its group; a worker that took it would end
+    with a KeyboardInterrupt traceback while this process closes the cluster anyway.  An
+    ignored signal stays ignored across the exec of a spawned process (POSIX), so SIGINT is
+    ignored here while the cluster starts its workers, then handled again; the main thread
+    only (elsewhere signals cannot be set, and the workers keep the default)."""
+    main_thread = threading.current_thread() is threading.main_thread()
+    saved_environment = {name: os.environ.get(name) for name in WORKER_ENVIRONMENT}
+    os.environ.update(WORKER_ENVIRONMENT)
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main_thread else None
+    try:
+        yield
+    finally:
+        if main_thread:
+            signal.signal(signal.SIGINT, previous)
+        for name, value in saved_environment.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
+
+
+@contextlib.contextmanager
+def quiet_distributed_logs():
+    """Yields ``quiet()``: once called, this process's Dask loggers (``distributed`` and those
+    below it that set a level of their own) drop every record until the block ends, when their
+    levels are restored."""
+    saved: dict[logging.Logger, int] = {}
+
+    def quiet():
+        names = ["distributed", *(name for name in logging.root.manager.loggerDict
+                                  if name.startswith("distributed."))]
+        for name in names:
+            dask_logger = logging.getLogger(name)
+            if name == "distributed" or dask_logger.level != logging.NOTSET:
+                saved.setdefault(dask_logger, dask_logger.level)
+                dask_logger.setLevel(logging.CRITICAL + 1)
+
+    try:
+        yield quiet
+    finally:
+        for dask_logger, level in saved.items():
+            dask_logger.setLevel(level)
+
+
 @contextlib.contextmanager
 def dask_client(scheduler=None, workers: int | None = None, option: str = "--scheduler"):
     """A :class:`distributed.Client` for the run, closed (with its local cluster) on the way out.
@@ -322,6 +381,12 @@ def dask_client(scheduler=None, workers: int | None = None, option: str = "--sch
     ``distributed.nanny.pre-spawn-environ``) and no memory limit (as the worker processes of
     ``processes``: an FE solve's memory is bounded by the size guard, not by a share of the
     machine); they end with this process (Dask's worker processes watch their parent).
+
+    An interrupt (Ctrl-C, which a terminal sends to the whole process group, or the CLI's
+    SIGTERM) ends the run with the CLI's one line: the workers ignore SIGINT and log only
+    critical records (:func:`quiet_workers`), and this process's Dask loggers fall silent while the
+    cluster closes (:func:`quiet_distributed_logs`) -- else 3-4 tracebacks and the
+    cancelled tasks' warnings of every worker would follow it.
     """
     distributed = require_distributed()
     if scheduler is not None and not isinstance(scheduler, str):
@@ -339,11 +404,16 @@ def dask_client(scheduler=None, workers: int | None = None, option: str = "--sch
     count = local_workers(workers)
     logger.info(f"dask: starting a local cluster of {count} worker processes, one thread each "
                 "...")
-    with distributed.LocalCluster(n_workers=count, threads_per_worker=1, processes=True,
-                                  memory_limit=0, dashboard_address=None) as cluster, \
-            distributed.Client(cluster) as client:
-        logger.info(f"dask: local cluster at {cluster.scheduler_address}")
-        try:
-            yield client
-        finally:
+    with quiet_distributed_logs() as quiet:
+        with quiet_workers():
+            cluster = distributed.LocalCluster(n_workers=count, threads_per_worker=1,
+                                               processes=True, memory_limit=0,
+                                               dashboard_address=None)
+        with cluster, distributed.Client(cluster) as client:
+            logger.info(f"dask: local cluster at {cluster.scheduler_address}")
+            try:
+                yield client
+            except KeyboardInterrupt:
+                quiet()                 # the cluster closes in silence: one line says it all
+                raise
             logger.info("dask: closing the local cluster")

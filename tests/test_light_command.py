@@ -120,7 +120,7 @@ def test_bare_peer_case_runs_on_one_blas_thread_without_scipy_optimize(tmp_path)
     """The FreeFEM peer's case without files (``benchmarks/command.py`` ``command-peer``,
     bare) as the ``copdea-fem`` command runs it (``console_main``): each coupled mode's dry
     partner is evident, so scipy.optimize is never imported
-    (:func:`copdea_fem.fe.axisymmetric.engine.largest_mac_assignment`), and the OpenBLAS
+    (:func:`copdea_fem.fe.modes.largest_mac_assignment`), and the OpenBLAS
     libraries loaded with one thread (:data:`copdea_fem.cli.COMMAND_BLAS_THREADS`)."""
     code = (
         "import sys\n"

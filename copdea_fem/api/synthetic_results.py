@@ -93,6 +93,7 @@ def synthesise(study: Study | str | Path, effects: str = "", conditions: str | N
     if file_format not in SYNTHETIC_FORMATS:
         raise StudyError(f"--format = {file_format!r} is not allowed; allowed: one of "
                          + ", ".join(SYNTHETIC_FORMATS))
+    check_driven_conditions(study, conditions)
     if file_format == "uff":
         from copdea_fem.diagnosis import check_scan_truth
         from copdea_fem.diagnosis.synth_scan import ScanOptions, synthesise_scan_set
@@ -132,6 +133,24 @@ def synthesise(study: Study | str | Path, effects: str = "", conditions: str | N
         if folder is not None:
             result.write(folder)
     return result
+
+
+def check_driven_conditions(study: Study, conditions: str | None) -> None:
+    """Refuse, before any work, a condition where the voltage drives nothing (the flat
+    membrane, no bias): its data would be round-off.  The check is ``response``'s
+    (:func:`copdea_fem.forced_response.run.check_driven_state`); a condition that does not
+    parse is left to the format's own checks, which name it."""
+    from copdea_fem.diagnosis.synth import parse_conditions
+    from copdea_fem.forced_response.run import check_driven_state
+    for index, overrides in enumerate(parse_conditions(conditions)):
+        try:
+            condition_study = study.replace(overrides)
+        except StudyError:
+            continue
+        try:
+            check_driven_state(condition_study, "synth")
+        except StudyError as error:
+            raise StudyError(f"--conditions #{index + 1}: {error}") from None
 
 
 @dataclass

@@ -2,12 +2,19 @@ r"""The air inside an enclosure: cavity-mode labels and the rigid cylinder's clo
 
 Shared by both engines (pure NumPy/SciPy; the engines sample the pressure).
 
-A coupled mode whose membrane carries little of the kinetic energy is an air mode
-(:data:`copdea_fem.fe.modes.AIR`); when most of its air's potential energy
-``int |p|^2 / (rho_a c_a^2) dV`` lies inside the enclosure (share above
-:data:`CAVITY_SHARE`) it is a *cavity mode* and is labelled ``cavity(m,n,p)`` by its
-pressure pattern, as the structural labels are made (DESIGN.md: what the mode is, never
-its rank in a band):
+A coupled mode whose air carries most of its kinetic energy (the membrane's share below
+:data:`CAVITY_MEMBRANE_ENERGY`; :func:`copdea_fem.fe.modes.membrane_energy_fractions`)
+and most of whose air's potential energy ``int |p|^2 / (rho_a c_a^2) dV`` lies inside the
+enclosure (share above :data:`CAVITY_SHARE`) is a *cavity mode* and is labelled
+``cavity(m,n,p)`` by its pressure pattern, as the structural labels are made (DESIGN.md:
+what the mode is, never its rank in a band).  This holds the air modes
+(:data:`copdea_fem.fe.modes.AIR`, membrane share below ``air.min_membrane_energy``) and a
+vented enclosure's Helmholtz mode, ``cavity(0,0,0)``: the cavity's uniform pressure
+breathing through the vent drags the membrane along (share 0.12-0.17 for G1 over a
+3-6 mm vent), but the vent's air carries most of the kinetic energy.  Such a mode keeps
+its kind (its membrane part is still damped and driven as the structural modes' are,
+:mod:`copdea_fem.forced_response`); it takes no structural label, so the membrane's own
+(0,1), stiffened above it, keeps ``(0,1)``:
 
 * ``m`` nodal diameters: the circumferential order (the axisymmetric engine's order;
   the 3-D engine reads it off the pressure around the axis, :func:`circumferential_order`);
@@ -36,6 +43,14 @@ import numpy as np
 #: outside air's radiating modes ~none, so any split near one half is a mode the
 #: vent or the walls share between both and it is labelled ``air``.
 CAVITY_SHARE = 0.5
+
+#: A coupled mode whose membrane (+ disc) carries less than this share of the kinetic
+#: energy moves mostly air: a cavity mode when its pressure lies inside (module doc).  One
+#: half, as :data:`copdea_fem.fe.modes.OUT_OF_PLANE_FRACTION` splits the membrane's kinds:
+#: the Helmholtz modes of G1's vented boxes lie at 0.12-0.17, every membrane mode there
+#: (the air-stiffened (0,1) included) at 0.62 or more.
+CAVITY_MEMBRANE_ENERGY = 0.5
+
 
 #: A sample below this share of the line's largest |p| is not a sign (as
 #: :data:`copdea_fem.fe.modes.NODE_THRESHOLD` for the membrane's nodal circles).
@@ -77,9 +92,11 @@ def without_static_solution(result, f_max: float):
 def label_cavity_modes(modes) -> None:
     """Label the air modes with :attr:`copdea_fem.fe.modes.Mode.cavity_orders`:
     ``cavity(m,n,p)``, plus ``a``/``b`` for the cos/sin member of an m >= 1 pair (as the
-    structural pairs, :func:`copdea_fem.fe.modes.pair_letter`)."""
+    structural pairs, :func:`copdea_fem.fe.modes.pair_letter`); n, the membrane's nodal
+    count, is 0 (as an air mode's)."""
     for mode in modes:
         if mode.cavity_orders:
+            mode.n = 0
             letter = "" if mode.cavity_orders[0] == 0 or mode.family not in ("cos", "sin") \
                 else "ab"[mode.family == "sin"]
             mode.label = cavity_label(*mode.cavity_orders) + letter

@@ -30,6 +30,7 @@ import math
 import ngsolve as ngs
 import numpy as np
 
+from copdea_fem.fe.cavity import CAVITY_MEMBRANE_ENERGY
 from copdea_fem.fe.linearise import MembraneOperators, to_scipy
 from copdea_fem.fe.membrane import areal_density, deformed_normal
 
@@ -382,6 +383,58 @@ def coupled_mode_list(coupled, result, min_membrane_energy: float,
     return modes, pressures
 
 
+def may_be_cavity_mode(mode) -> bool:
+    """Whether a coupled :class:`Mode` moves mostly air (an air mode or a membrane share
+    below :data:`copdea_fem.fe.cavity.CAVITY_MEMBRANE_ENERGY`): a cavity mode when most of
+    its air's potential energy lies inside the enclosure (:mod:`copdea_fem.fe.cavity`)."""
+    return mode.kind == AIR or mode.membrane_energy_fraction < CAVITY_MEMBRANE_ENERGY
+
+
+def number_from_dry_partners(modes: list[Mode], dry_modes: list[Mode], mass) -> None:
+    """n of coupled out-of-plane modes from their dry partners: the one-to-one assignment of
+    largest total MAC (:func:`largest_mac_assignment`) between the coupled out-of-plane
+    modes and the dry ones of one order (or sector and m).
+
+    A wet mode is the dry one the air loads: its n is the dry mode's, whatever its shape
+    became.  Over an enclosure the trapped air stiffens the volume-changing (0,1) past the
+    (0,2) and bends it to a net volume near zero, with a nodal circle of its own
+    (docs/enclosures.md): counted, it would read (0,2) or (0,3).  Cavity modes
+    (:attr:`Mode.cavity_orders`, a vent's Helmholtz mode among them) are no membrane mode
+    and take no n; with no dry out-of-plane mode the modes keep their n.
+    """
+    wet = [mode for mode in modes if mode.kind == OUT_OF_PLANE and not mode.cavity_orders]
+    dry = [mode for mode in dry_modes if mode.kind == OUT_OF_PLANE]
+    if not wet or not dry:
+        return
+    macs = np.array([[mac(w.vector, d.vector, mass) for d in dry] for w in wet])
+    rows, columns = largest_mac_assignment(macs)
+    for row, column in zip(rows, columns):
+        wet[row].n = dry[column].n
+
+
+def largest_mac_assignment(macs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rows and columns of the one-to-one assignment of largest total MAC in ``macs``
+    (wet x dry, MAC [-]; rows ascending).
+
+    SciPy's sparse bipartite matching
+    (:func:`scipy.sparse.csgraph.min_weight_full_bipartite_matching`, LAPJVsp) on the dense
+    table: the same optimum as :func:`scipy.optimize.linear_sum_assignment` with
+    ``maximize=True``, without importing all of :mod:`scipy.optimize` into a solve (0.1-0.2 s
+    of a small command).  Every MAC is shifted by 1, so that a MAC of exactly 0 stays an
+    edge of the graph (a zero is no edge there); every full matching holds min(rows,
+    columns) edges, so the shift moves every total alike and keeps the optimum.
+    """
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import min_weight_full_bipartite_matching
+    transposed = macs.shape[0] > macs.shape[1]
+    table = macs.T if transposed else macs          # rows: the smaller side
+    rows, columns = min_weight_full_bipartite_matching(csr_matrix(table + 1.0), maximize=True)
+    if not transposed:
+        return rows, columns
+    order = np.argsort(columns)
+    return columns[order], rows[order]
+
+
 def same_family(mode: Mode, dry: Mode) -> bool:
     """The 3-D engine's pairing rule: same kind, (m, n) and symmetry sector."""
     return dry.kind == mode.kind and (dry.m, dry.n) == (mode.m, mode.n) and \
@@ -400,7 +453,7 @@ def match_dry(modes: list[Mode], dry_modes: list[Mode], membrane_mass,
     partners = {}
     used: set[int] = set()
     for k, mode in enumerate(modes):
-        if mode.kind == AIR:
+        if mode.kind == AIR or mode.cavity_orders:      # no membrane mode: no dry partner
             continue
         best, best_mac = None, -1.0
         for j, dry in enumerate(dry_modes):

@@ -88,20 +88,29 @@ def parse_microphones(study) -> list[tuple[str, np.ndarray]]:
             for name, position in [(DEFAULT_MICROPHONE, axis), *listed]]
 
 
+def check_driven_state(study, command: str) -> None:
+    """Refuse an operating point where the voltage drives nothing (StudyError naming the key,
+    its value and what ``command`` allows): no bias (``load.voltage = 0``) or the flat
+    membrane (``load.z = 0``), where the linear forcing V_b dC/du vanishes (the messages
+    say why) and every response would be round-off.  Shared by
+    ``response`` and ``synth`` (whose data are responses to the voltage)."""
+    if study.load.voltage <= 0:
+        raise StudyError(f"load.voltage = 0 is not allowed for `{command}`; allowed: > 0 V "
+                         "(the linear forcing V_b dC/du vanishes without a bias)")
+    if study.load.z == 0:
+        raise StudyError(f"load.z = 0 is not allowed for `{command}`; allowed: > 0 m (on the "
+                         "flat membrane the voltage does not drive this state: the linear "
+                         "forcing V_b dC/du is the divergence of a displacement that vanishes "
+                         "at the membrane's fixed edges, int div u dA = 0, so every line's "
+                         "response would be round-off)")
+
+
 def prepare_order_zero(study, *, engine: Engine) -> OrderZero:
     """Mesh, prestress, ALE air and the forced pencil of the driven part of the problem (the
     order m = 0 or the even-even sector: the engine's
     :meth:`copdea_fem.fe.engines.Engine.forced_problem`; ``engine``: the study's, resolved
     by the caller)."""
-    if study.load.voltage <= 0:
-        raise StudyError("load.voltage = 0 is not allowed for `response`; allowed: > 0 V (the "
-                         "linear forcing V_b dC/du vanishes without a bias)")
-    if study.load.z == 0:
-        raise StudyError("load.z = 0 is not allowed for `response`; allowed: > 0 m (on the flat "
-                         "membrane the voltage does not drive this state: the linear forcing "
-                         "V_b dC/du is the divergence of a displacement that vanishes at the "
-                         "membrane's fixed edges, int div u dA = 0, so every line's response "
-                         "would be round-off)")
+    check_driven_state(study, "response")
     if study.response.method == "modal" and sealed_enclosure(study):
         raise StudyError("response.method = modal is not allowed with a sealed enclosure; "
                          "allowed: direct, reduced or auto (the modal path's static "

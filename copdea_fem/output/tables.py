@@ -64,12 +64,14 @@ def _json(value):
     raise TypeError(f"cannot serialise {type(value).__name__}")
 
 
-def frequency_table(rows: list[dict], kinds=("pumping", "out-of-plane", "in-plane")) -> str:
-    """Plain-text table of the modes for the terminal."""
-    lines = [f"{'label':>10} {'kind':>13} {'f [Hz]':>10} {'Im f [Hz]':>10} {'residual':>9}"]
+def frequency_table(rows: list[dict]) -> str:
+    """Plain-text table of the modes for the terminal: the rows of modes.csv
+    (:func:`mode_rows`) but its unnamed air/PML modes (label ``air``); an enclosure's cavity
+    modes (``cavity(m,n,p)``, kind ``air`` or not) are listed as modes.csv lists them."""
+    lines = [f"{'label':>13} {'kind':>13} {'f [Hz]':>10} {'Im f [Hz]':>10} {'residual':>9}"]
     for row in rows:
-        if row["kind"] in kinds:
-            lines.append(f"{row['label']:>10} {row['kind']:>13} {row['freq_hz']:10.2f} "
+        if row["label"] != "air":
+            lines.append(f"{row['label']:>13} {row['kind']:>13} {row['freq_hz']:10.2f} "
                          f"{row['freq_im_hz']:10.3f} {row['residual']:9.1e}")
     return "\n".join(lines)
 

@@ -248,7 +248,7 @@ def test_largest_mac_assignment_is_scipys():
     allow several, a one-to-one pairing of the smaller side always."""
     from scipy.optimize import linear_sum_assignment
 
-    from copdea_fem.fe.axisymmetric.engine import largest_mac_assignment
+    from copdea_fem.fe.modes import largest_mac_assignment
 
     generator = np.random.default_rng(5)
     for trial in range(600):

@@ -38,10 +38,19 @@ from copdea_fem.fe.axisymmetric.modes import (
 from copdea_fem.fe.axisymmetric.operators import MeridianAir, OrderForms, coupled_order_operators
 from copdea_fem.fe.axisymmetric.prestress import make_axisymmetric_solver
 from copdea_fem.fe.bands import BandSolver, OrderStop, coupled_start_modes, lowest_frequency_hz
-from copdea_fem.fe.cavity import lowest_order_frequency, without_static_solution
+from copdea_fem.fe.cavity import (
+    lowest_order_frequency,
+    without_static_solution,
+)
 from copdea_fem.fe.eigen import SectorBandResults
 from copdea_fem.fe.forced.problem import DrivenPart, band_parts
-from copdea_fem.fe.modes import AIR, OUT_OF_PLANE, mac, match_dry, membrane_energy_fractions
+from copdea_fem.fe.modes import (
+    AIR,
+    match_dry,
+    may_be_cavity_mode,
+    membrane_energy_fractions,
+    number_from_dry_partners,
+)
 from copdea_fem.fe.solution import CoupledSolution
 from copdea_fem.progress import Timings, single_threaded_blas, tagging
 
@@ -139,43 +148,12 @@ def same_order_family(mode, dry) -> bool:
 
 
 def number_from_dry(modes, dry_modes, mass) -> None:
-    """n of the coupled out-of-plane modes of one order: their dry partner's (the one-to-one
-    assignment of largest total MAC between the order's out-of-plane modes), so that n
-    counts from 0 Hz up (the dry band starts there) whatever band the coupled solve had.
-    Without dry out-of-plane modes (none below 1.5 f_max) the rank among the coupled
-    ones stands."""
-    wet = [mode for mode in modes if mode.kind == OUT_OF_PLANE]
-    dry = [mode for mode in dry_modes if mode.kind == OUT_OF_PLANE]
-    number_out_of_plane(modes)
-    if not wet or not dry:
-        return
-    macs = np.array([[mac(w.vector, d.vector, mass) for d in dry] for w in wet])
-    rows, columns = largest_mac_assignment(macs)
-    for row, column in zip(rows, columns):
-        wet[row].n = dry[column].n
-
-
-def largest_mac_assignment(macs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Rows and columns of the one-to-one assignment of largest total MAC in ``macs``
-    (wet x dry, MAC [-]; rows ascending).
-
-    SciPy's sparse bipartite matching
-    (:func:`scipy.sparse.csgraph.min_weight_full_bipartite_matching`, LAPJVsp) on the dense
-    table: the same optimum as :func:`scipy.optimize.linear_sum_assignment` with
-    ``maximize=True``, without importing all of :mod:`scipy.optimize` into a solve (0.1-0.2 s
-    of a small command).  Every MAC is shifted by 1, so that a MAC of exactly 0 stays an
-    edge of the graph (a zero is no edge there); every full matching holds min(rows,
-    columns) edges, so the shift moves every total alike and keeps the optimum.
-    """
-    from scipy.sparse import csr_matrix
-    from scipy.sparse.csgraph import min_weight_full_bipartite_matching
-    transposed = macs.shape[0] > macs.shape[1]
-    table = macs.T if transposed else macs          # rows: the smaller side
-    rows, columns = min_weight_full_bipartite_matching(csr_matrix(table + 1.0), maximize=True)
-    if not transposed:
-        return rows, columns
-    order = np.argsort(columns)
-    return columns[order], rows[order]
+    """n of the coupled out-of-plane modes of one order: their dry partner's
+    (:func:`copdea_fem.fe.modes.number_from_dry_partners`), so that n counts from 0 Hz up
+    (the dry band starts there) whatever band the coupled solve had.  Without dry
+    out-of-plane modes (none below 1.5 f_max) the rank among the coupled ones stands."""
+    number_out_of_plane([mode for mode in modes if not mode.cavity_orders])
+    number_from_dry_partners(modes, dry_modes, mass)
 
 
 def axisymmetric_coupled_modes(study, mesh=None, timings=None, solver=None,
@@ -247,7 +225,7 @@ def axisymmetric_coupled_modes(study, mesh=None, timings=None, solver=None,
                 scale = np.linalg.norm(mode.vector) / max(np.linalg.norm(full[:, k]), 1e-300)
                 order_pressures.append(result.vectors[coupled.pressure_index, k]
                                        * coupled.pressure_scale * scale)
-                if mode.kind == AIR and cavity_sampler is not None:
+                if cavity_sampler is not None and may_be_cavity_mode(mode):
                     mode.cavity_orders = cavity_sampler.orders(m, coupled.pressure_free,
                                                                order_pressures[-1])
             number_from_dry(order_modes, order_dry, dry_operators.mass_full)

@@ -178,8 +178,9 @@ def with_pairs(modes: list[OrderMode]) -> list[OrderMode]:
 
 def label_all(modes: list[OrderMode]) -> None:
     """Labels over all orders, as the 3-D engine's (:func:`copdea_fem.fe.modes.assign_labels`);
-    an air mode keeps a cavity label (:class:`CavitySampler`), the others are ``air``."""
-    assign_labels([mode for mode in modes if mode.kind != AIR])
+    a cavity mode (an air mode or a vent's Helmholtz mode, :class:`CavitySampler`) takes a
+    cavity label, the other air modes are ``air``."""
+    assign_labels([mode for mode in modes if mode.kind != AIR and not mode.cavity_orders])
     for mode in modes:
         if mode.kind == AIR:
             mode.label, mode.n = "air", 0
