@@ -30,6 +30,18 @@ from copdea_fem.fe.quadrant.geometry import CACHE_VARIABLE
 from copdea_fem.study import Study, StudyError, engine_of
 from copdea_fem.study.imperfections import imperfection_keys_given
 
+if TYPE_CHECKING:
+    import numpy as np
+
+    from copdea_fem.fe.bands import BandSolver
+    from copdea_fem.fe.forced.electrode import ElectrodeImperfection, SegmentWeight
+    from copdea_fem.fe.forced.problem import DrivenPart, OrderZero
+    from copdea_fem.fe.modes import Mode
+    from copdea_fem.fe.points import PointSampler
+    from copdea_fem.fe.prestress import MembraneSolver, PrestressedState
+    from copdea_fem.fe.solution import CoupledSolution
+    from copdea_fem.progress import Timings
+
 logger = logging.getLogger(__name__)
 
 
