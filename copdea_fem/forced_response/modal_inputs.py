@@ -181,8 +181,9 @@ class ModalInputs:
         points = ScanPoints(engine.point_sampler(state, positions), 1)
         for part in engine.driven_parts(solution, study):
             band = part.band
-            if len(band.eigenvalues) == 0:
-                continue
+            if len(band.eigenvalues) == 0 and not any(part.families(weight)
+                                                      for _, weight in inputs):
+                continue            # no mode, no input drives it (its pencil is not built)
             size = part.pencil.membrane.stiffness.shape[0]
             zero = sp.csr_matrix((size, size))
             # one basis per distinct forcing: the axisymmetric engine forces an order by
@@ -223,6 +224,7 @@ class ModalInputs:
                 model.channels.append(cls._channel(
                     f"{part.key}:{family}", part, family, [bases[key] for key in keys], gains,
                     family_labels, kinds, basis0, membrane, membrane_index, points))
+        model.channels = merged_static(model.channels)
         logger.info(f"modal model: {len(model.inputs)} input(s), {model.columns} band "
                     f"column(s) in {len(model.channels)} driven field(s), "
                     f"{len(model.point_names)} points")
@@ -314,4 +316,30 @@ class ModalInputs:
         return sorted(found, key=lambda item: (item[3], item[2]))
 
 
-__all__ = ["Channel", "ModalInputs", "POINT_ANGLES_DEG", "drive_inputs", "study_points"]
+#: The name of the channel that holds the static correction of the driven parts without a
+#: mode in the band (:func:`merged_static`).
+STATIC_CHANNEL = "static:parts without a band mode"
+
+
+def merged_static(channels: list) -> list:
+    """``channels`` with those without a band column (the orders a segment drives above the
+    band: :meth:`copdea_fem.fe.engines.Engine.driven_parts`) summed into one,
+    :data:`STATIC_CHANNEL`: their response is their static correction ``r0_k + omega^2
+    r1_k`` alone, linear in the inputs, so the sum is exact (and the state space holds one
+    pseudo-mode per input for all of them, not one per order)."""
+    static = [channel for channel in channels if len(channel.eigenvalues) == 0]
+    if len(static) < 2:
+        return channels
+    first = static[0]
+    summed = {name: sum(getattr(channel, name) for channel in static) for name in (
+        "residual_displacement", "residual_displacement1", "residual_currents",
+        "residual_currents1")}
+    merged = Channel(name=STATIC_CHANNEL, labels=[], structural=first.structural,
+                     out_of_plane=first.out_of_plane, eigenvalues=first.eigenvalues,
+                     norms=first.norms, damping=first.damping,
+                     participation=first.participation, displacement=first.displacement,
+                     currents=first.currents, **summed)
+    return [channel for channel in channels if len(channel.eigenvalues)] + [merged]
+
+
+__all__ = ["Channel", "ModalInputs", "STATIC_CHANNEL", "merged_static", "POINT_ANGLES_DEG", "drive_inputs", "study_points"]

@@ -108,9 +108,7 @@ def scan_response(solution, study, positions, frequencies, electrode, *,
     points = ScanPoints(engine.point_sampler(state, positions), frequencies.size)
     truth: dict = {}
     drive = list(electrode) if isinstance(electrode, (list, tuple)) else [(electrode, 1.0)]
-    for part in engine.driven_parts(solution, study):
-        if len(part.band.eigenvalues) == 0:
-            continue
+    for part in engine.driven_parts(solution, study):     # an empty band: its static part
         for force, families in driven_groups(engine, state, part, drive):
             _drive_part(solution, study, part, force, families, points, frequencies,
                         damping_per_mass, frequency_factors, truth)
@@ -168,7 +166,8 @@ def _drive_part(solution, study, part, force, families, points, frequencies, dam
                                     study.eigen.backend)
     eigenvalues = np.asarray(band.eigenvalues, complex)
     shares = (np.asarray(membrane_energy_fractions(part.pencil, band))
-              if len(part.pencil.pressure_index) else np.ones(eigenvalues.size))
+              if len(part.pencil.pressure_index) and eigenvalues.size
+              else np.ones(eigenvalues.size))
     columns = part_modes(part, solution.modes)          # structural, labelled
     # the paper's modal b/m (eq. 19) per label, in the modal path's denominator
     damping = np.zeros(eigenvalues.size)

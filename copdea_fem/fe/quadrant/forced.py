@@ -46,6 +46,11 @@ OBSERVATION_ANGLES = np.radians([11.25, 33.75, 56.25, 78.75])
 logger = logging.getLogger(__name__)
 
 
+#: Extra quadrature order of the forcing of a drive weight (a segment's indicator is
+#: discontinuous across its edges, which cut the elements: the rule samples it).
+WEIGHT_BONUS_INTORDER = 16
+
+
 def _energy_form(state, voltage, weight=None):
     """Variation form of the quadrant's membrane energy; ``weight``: a coefficient function
     multiplying the density (its electrostatic part is what the forcing reads)."""
@@ -53,7 +58,12 @@ def _energy_form(state, voltage, weight=None):
     u = state.space.TrialFunction()
     density = energy_density(u, state.material, voltage)
     form = ngs.BilinearForm(state.space, symmetric=False)
-    form += ngs.Variation((density if weight is None else weight * density) * state.measure)
+    if weight is None:
+        form += ngs.Variation(density * state.measure)
+    else:
+        measure = ngs.ds(definedon=state.mesh.Boundaries("membrane"),
+                         bonus_intorder=WEIGHT_BONUS_INTORDER)
+        form += ngs.Variation(weight * density * measure)
     return form
 
 
