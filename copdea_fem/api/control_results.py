@@ -29,8 +29,9 @@ logger = logging.getLogger("copdea_fem")
 SPECTRUM_LINES = 2000
 
 
-def _modal_model(study: Study, allow_large: bool, timings: dict):
-    """The solve of ``study`` and its modal model for the study's inputs at its points."""
+def _modal_model(study: Study, allow_large: bool, timings: dict, microphones=()):
+    """The solve of ``study`` and its modal model for the study's inputs at its points (and
+    ``microphones``: :func:`copdea_fem.forced_response.statespace.statespace_microphones`)."""
     from copdea_fem.fe import engine_for, run_solve
     from copdea_fem.forced_response.modal_inputs import ModalInputs, drive_inputs, study_points
 
@@ -42,7 +43,8 @@ def _modal_model(study: Study, allow_large: bool, timings: dict):
     timings["solve"] = time.perf_counter() - start
     start = time.perf_counter()
     names, positions = study_points(solution, study)
-    model = ModalInputs.build(solution, study, drive_inputs(study), positions, names)
+    model = ModalInputs.build(solution, study, drive_inputs(study), positions, names,
+                              microphones)
     timings["modal model"] = time.perf_counter() - start
     return solution, model
 
@@ -238,14 +240,19 @@ def statespace(study: Study | str | Path, *, allow_large: bool = False,
     SolveFailed, PrestressError, OutputFolderError
         As :func:`solve`.
     """
-    from copdea_fem.forced_response.statespace import check_statespace_study, realise
+    from copdea_fem.forced_response.statespace import (
+        check_statespace_study,
+        realise,
+        statespace_microphones,
+    )
 
     study = as_study(study)
     check_statespace_study(study)
+    microphones = statespace_microphones(study)
     timings: dict = {}
     with claiming(out, "statespace", input_files(study), study.output.directory) as folder:
         with reporting_to(progress):
-            _, model = _modal_model(study, allow_large, timings)
+            _, model = _modal_model(study, allow_large, timings, microphones)
             start = time.perf_counter()
             system = realise(model)
             timings["realisation"] = time.perf_counter() - start

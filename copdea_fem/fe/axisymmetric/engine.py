@@ -403,6 +403,11 @@ class AxisymmetricEngine:
         timings["prestress"] = time.perf_counter() - start
         return order_zero_problem(study, mesh, state, timings)
 
+    def driven_sector(self):
+        """The order m = 0 (:data:`copdea_fem.fe.axisymmetric.forced.MERIDIAN_SECTOR`)."""
+        from copdea_fem.fe.axisymmetric.forced import MERIDIAN_SECTOR
+        return MERIDIAN_SECTOR
+
     def driven_parts(self, solution, study) -> list[DrivenPart]:
         """The orders m of a solve with their pencils: the coupled operators the solve kept
         (with air), else each order's dry operators rebuilt; then every order up to
