@@ -37,8 +37,8 @@ carry the sound as much as the structural ones.
 
 - A microphone inside the Kirchhoff sphere reads the FE's own pressure at its point, a
   constant linear gain on each column: the model is exact there (measured on the quick G1
-  in a baffle: 2e-4 of the peak against ``response``'s modal path; the state space's
-  conjugate poles and pseudo-modes 0.3-0.7 %).
+  in a baffle: 2e-4 of the peak against ``response``'s modal path; the state space, with
+  its conjugate poles and pseudo-modes, 0.3-0.7 %).
 - Beyond it, the Kirchhoff-Helmholtz integral's kernels depend on the frequency, which
   constant output gains cannot hold; per column j the gain is the column's pressure at the
   microphone with the kernels at its own frequency ``omega_j = |Re sqrt(lambda_j)|`` and the
@@ -50,9 +50,9 @@ carry the sound as much as the structural ones.
   correction's ``r0_k + omega^2 r1_k`` with its kernels at ``eigen.f_max``): the model's
   pressure is the microphone's advanced by ``|x_m| / c`` (a pure delay, left to the user),
   right at each lightly damped mode's own frequency and an approximation elsewhere
-  (measured on the quick G1 in a baffle at 1 m on the axis: 16-21 % of the peak pressure
-  over 100-900 Hz; no choice of the kernels' frequencies for the air columns did better
-  than 15 %).
+  (measured on the quick G1 in a baffle at 1 m on the axis: 21 % of the peak pressure over
+  100-900 Hz, the state space 16 %; no choice of the kernels' frequencies for the air
+  columns did better than 15 %).
 
 The orders m >= 1 (the other sectors) radiate nothing onto the axis; off it, ``statespace``
 refuses microphones with segments as ``response`` does.
