@@ -489,4 +489,5 @@ def merged_static(channels: list) -> list:
     return [channel for channel in channels if len(channel.eigenvalues)] + [merged]
 
 
-__all__ = ["Channel", "ModalInputs", "STATIC_CHANNEL", "merged_static", "POINT_ANGLES_DEG", "drive_inputs", "study_points"]
+__all__ = ["Channel", "ModalInputs", "POINT_ANGLES_DEG", "STATIC_CHANNEL", "drive_inputs",
+           "merged_static", "microphone_delays", "radiating_band", "study_points"]

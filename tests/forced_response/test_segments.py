@@ -303,3 +303,24 @@ def test_the_engines_converge_on_a_45_degree_segments_response_with_h():
         gaps.append(np.max(np.abs(reference - three_d)) / np.max(np.abs(three_d)))
     assert gaps[1] < 0.5 * gaps[0], gaps
     assert gaps[1] < 0.05, gaps
+
+
+def test_an_orders_forcing_is_linear_in_the_order():
+    """The order-m forcing ``pi int W_e'(G0) : G_c R dR`` is linear in m (G_c is), so the
+    orders above 3 are interpolated from the orders 2 and 3
+    (copdea_fem.fe.axisymmetric.forcing.WeightForcings): the same as assembled, to round-off
+    (measured 3e-15)."""
+    from copdea_fem.fe.axisymmetric.forcing import WeightForcings, weight_forcing
+    from copdea_fem.fe.axisymmetric.operators import OrderForms
+    from copdea_fem.fe.forced.electrode import SegmentWeight
+
+    study, solution = _solve("axisymmetric")
+    forms = OrderForms(solution.state, study)
+    forcings = WeightForcings(solution.state)
+    for weight in (SegmentWeight.from_degrees((0, 90)),
+                   SegmentWeight.from_degrees((0, 90), (0.02, 0.03))):
+        for m in (4, 7, 40):
+            operators = forms.operators(m)
+            assembled = weight_forcing(solution.state, operators, weight)
+            assert np.abs(forcings(operators, weight) - assembled).max() <= \
+                1e-12 * np.abs(assembled).max()
