@@ -279,9 +279,12 @@ class StateSpace:
 
     def summary_lines(self) -> list[str]:
         m = self.model
+        microphones = sum(name.startswith("p_") for name in m.outputs)
+        sound = f", pressure at {microphones} microphone(s)" if microphones else ""
         return [f"{self.study.name}: state space, {m.A.shape[0]} states, {len(m.inputs)} "
                 f"input(s), {len(m.outputs)} outputs (velocity at "
-                f"{(len(m.outputs) - len(m.inputs)) // 3} points, motional currents)",
+                f"{(len(m.outputs) - len(m.inputs) - microphones) // 3} points{sound}, "
+                "motional currents)",
                 "timings: " + ", ".join(f"{k} {v:.2f} s" for k, v in self.timings.items())]
 
     def write(self, folder: str | Path | Claim,
