@@ -29,8 +29,9 @@ logger = logging.getLogger("copdea_fem")
 SPECTRUM_LINES = 2000
 
 
-def _modal_model(study: Study, allow_large: bool, timings: dict):
-    """The solve of ``study`` and its modal model for the study's inputs at its points."""
+def _modal_model(study: Study, allow_large: bool, timings: dict, microphones=()):
+    """The solve of ``study`` and its modal model for the study's inputs at its points (and
+    ``microphones``: :func:`copdea_fem.forced_response.statespace.statespace_microphones`)."""
     from copdea_fem.fe import engine_for, run_solve
     from copdea_fem.forced_response.modal_inputs import ModalInputs, drive_inputs, study_points
 
@@ -42,7 +43,8 @@ def _modal_model(study: Study, allow_large: bool, timings: dict):
     timings["solve"] = time.perf_counter() - start
     start = time.perf_counter()
     names, positions = study_points(solution, study)
-    model = ModalInputs.build(solution, study, drive_inputs(study), positions, names)
+    model = ModalInputs.build(solution, study, drive_inputs(study), positions, names,
+                              microphones)
     timings["modal model"] = time.perf_counter() - start
     return solution, model
 
@@ -288,14 +290,19 @@ def statespace(study: Study | str | Path, *, allow_large: bool = False,
     SolveFailed, PrestressError, OutputFolderError
         As :func:`solve`.
     """
-    from copdea_fem.forced_response.statespace import check_statespace_study, realise
+    from copdea_fem.forced_response.statespace import (
+        check_statespace_study,
+        realise,
+        statespace_microphones,
+    )
 
     study = as_study(study)
     check_statespace_study(study)
+    microphones = statespace_microphones(study)
     timings: dict = {}
     with claiming(out, "statespace", input_files(study), study.output.directory) as folder:
         with reporting_to(progress):
-            _, model = _modal_model(study, allow_large, timings)
+            _, model = _modal_model(study, allow_large, timings, microphones)
             start = time.perf_counter()
             system = realise(model)
             timings["realisation"] = time.perf_counter() - start
@@ -322,9 +329,12 @@ class StateSpace:
 
     def summary_lines(self) -> list[str]:
         m = self.model
+        microphones = sum(name.startswith("p_") for name in m.outputs)
+        sound = f", pressure at {microphones} microphone(s)" if microphones else ""
         return [f"{self.study.name}: state space, {m.A.shape[0]} states, {len(m.inputs)} "
                 f"input(s), {len(m.outputs)} outputs (velocity at "
-                f"{(len(m.outputs) - len(m.inputs)) // 3} points, motional currents)",
+                f"{(len(m.outputs) - len(m.inputs) - microphones) // 3} points{sound}, "
+                "motional currents)",
                 "timings: " + ", ".join(f"{k} {v:.2f} s" for k, v in self.timings.items())]
 
     def write(self, folder: str | Path | Claim,

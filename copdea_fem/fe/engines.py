@@ -35,7 +35,7 @@ if TYPE_CHECKING:
 
     from copdea_fem.fe.bands import BandSolver
     from copdea_fem.fe.forced.electrode import ElectrodeImperfection, SegmentWeight
-    from copdea_fem.fe.forced.problem import DrivenPart, OrderZero
+    from copdea_fem.fe.forced.problem import DrivenPart, DrivenSector, OrderZero
     from copdea_fem.fe.modes import Mode
     from copdea_fem.fe.points import PointSampler
     from copdea_fem.fe.prestress import MembraneSolver, PrestressedState
@@ -84,6 +84,11 @@ class Engine(Protocol):
         """Mesh, prestress and the forced-response operators of the part of the problem a
         uniform electrode drives; its ``sector``
         (:class:`copdea_fem.fe.forced.problem.DrivenSector`) describes it."""
+
+    def driven_sector(self) -> DrivenSector:
+        """What the forced response needs to know of the part a uniform electrode drives
+        (:class:`copdea_fem.fe.forced.problem.DrivenSector`: its observers, its Kirchhoff
+        sphere), without building the problem (:meth:`forced_problem` builds it with it)."""
 
     def driven_parts(self, solution, study: Study) -> list[DrivenPart]:
         """The independently solved parts of ``solution`` (a

@@ -7,6 +7,7 @@ reach up to the mode, prestress and band types, so importing it loads no NGSolve
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -30,3 +31,6 @@ class CoupledSolution:
     eigen: SectorBandResults            # the band result of each sector (or order)
     operators: list                     # the engine's coupled operators of each sector
                                         # (or order), in solve order
+    order_pencil: Callable | None = None    # m -> the coupled operators of any order m
+                                            # (axisymmetric engine: the orders a drive
+                                            # reaches beyond the solved ones); None on 3-D

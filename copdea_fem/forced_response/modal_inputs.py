@@ -25,6 +25,38 @@ with the paper's modal damping (b/m)_j by label (``reduced.damping_*``, eq. 19; 
 columns none) and ``m_j = u_j^T M_s u_j``; the modes above the band enter through the
 static correction ``r0_k + omega^2 r1_k`` (harmonic module notes).
 
+Pressure at the microphones
+---------------------------
+The sound at a microphone (``response.microphones``, :func:`.run.parse_microphones`) is that
+of the part a uniform electrode drives (the order m = 0, the even-even sector:
+:attr:`copdea_fem.fe.forced.problem.DrivenPart.uniform`), as ``response`` computes it
+(:class:`.observers.Microphones`).  That part's band is then ``response``'s modal path's
+(:func:`radiating_band`: ``Re f`` and ``|Im f|`` up to ``response.modal_band`` times
+``eigen.f_max``): the strongly damped air and PML modes, which ``solve``'s band leaves out,
+carry the sound as much as the structural ones.
+
+- A microphone inside the Kirchhoff sphere reads the FE's own pressure at its point, a
+  constant linear gain on each column: the model is exact there (measured on the quick G1
+  in a baffle: 2e-4 of the peak against ``response``'s modal path; the state space, with
+  its conjugate poles and pseudo-modes, 0.3-0.7 %).
+- Beyond it, the Kirchhoff-Helmholtz integral's kernels depend on the frequency, which
+  constant output gains cannot hold; per column j the gain is the column's pressure at the
+  microphone with the kernels at its own frequency ``omega_j = |Re sqrt(lambda_j)|`` and the
+  propagation delay ``|x_m| / c`` taken out,
+
+      P_mj = e^{-i k_j |x_m|} p_m(x_j; k_j),      k_j = omega_j / c                    (3)
+
+  (``e^{+i k R}`` is the outgoing wave of the FE's ``e^{-i omega t}``; the static
+  correction's ``r0_k + omega^2 r1_k`` with its kernels at ``eigen.f_max``): the model's
+  pressure is the microphone's advanced by ``|x_m| / c`` (a pure delay, left to the user),
+  right at each lightly damped mode's own frequency and an approximation elsewhere
+  (measured on the quick G1 in a baffle at 1 m on the axis: 21 % of the peak pressure over
+  100-900 Hz, the state space 16 %; no choice of the kernels' frequencies for the air
+  columns did better than 15 %).
+
+The orders m >= 1 (the other sectors) radiate nothing onto the axis; off it, ``statespace``
+refuses microphones with segments as ``response`` does.
+
 Self-sensing current
 --------------------
 The charge of input k's electrode is ``Q_k = C_k(u) V`` with ``C_k`` the weighted
@@ -120,6 +152,13 @@ class Channel:
         ``F_l^T r0_k`` [C/V per ... : A s/V] (row l, column k).
     residual_currents1 : (K, K) complex array
         ``F_l^T r1_k``.
+    pressure : (M, J) complex array
+        P_mj of (3) [Pa per unit of column j] at the model's microphones (zero where the
+        channel does not radiate: module notes).
+    residual_pressure : (M, K) complex array
+        The pressure (3) of r0_k [Pa/V].
+    residual_pressure1 : (M, K) complex array
+        The pressure (3) of r1_k [Pa s^2/V].
     """
 
     name: str
@@ -136,6 +175,9 @@ class Channel:
     residual_displacement1: np.ndarray
     residual_currents: np.ndarray
     residual_currents1: np.ndarray
+    pressure: np.ndarray
+    residual_pressure: np.ndarray
+    residual_pressure1: np.ndarray
 
     def denominators(self, omega) -> np.ndarray:
         """d_j(omega) of (1), (F, J), FE convention."""
@@ -157,17 +199,26 @@ class ModalInputs:
     positions : (P, 3) array
         Where they are [m].
     channels : list of Channel
+    microphones : list of (str, (3,) array)
+        The microphones' names and positions [m] (M; none without the outside air).
+    microphone_delays : list of float
+        ``|x_m| / c`` [s] of each: what the model's pressure is advanced by (eq. 3).
     """
 
     inputs: list
     point_names: list
     positions: np.ndarray
     channels: list = field(default_factory=list)
+    microphones: list = field(default_factory=list)
+    microphone_delays: list = field(default_factory=list)
 
     @classmethod
-    def build(cls, solution, study, inputs, positions, point_names) -> ModalInputs:
+    def build(cls, solution, study, inputs, positions, point_names,
+              microphones=()) -> ModalInputs:
         """The model of ``solution`` (a :class:`copdea_fem.fe.SolveResult` of ``study``) for
-        ``inputs`` (``[(name, weight), ...]``) at ``positions`` (P, 3) [m]."""
+        ``inputs`` (``[(name, weight), ...]``) at ``positions`` (P, 3) [m] and
+        ``microphones`` (``[(name, (x, y, z) [m]), ...]``, :func:`.run.parse_microphones`;
+        the solve must hold the outside air)."""
         import scipy.sparse as sp
 
         from copdea_fem.fe.forced.harmonic import ForcedOrder, ModalBasis
@@ -177,12 +228,16 @@ class ModalInputs:
 
         engine, state = solution.engine, solution.state
         model = cls([name for name, _ in inputs], list(point_names),
-                    np.asarray(positions, float))
+                    np.asarray(positions, float), microphones=list(microphones),
+                    microphone_delays=microphone_delays(study, microphones))
         points = ScanPoints(engine.point_sampler(state, positions), 1)
         for part in engine.driven_parts(solution, study):
+            if microphones and part.uniform and len(part.pencil.pressure_index):
+                part = radiating_band(part, study)
             band = part.band
-            if len(band.eigenvalues) == 0:
-                continue
+            if len(band.eigenvalues) == 0 and not any(part.families(weight)
+                                                      for _, weight in inputs):
+                continue            # no mode, no input drives it (its pencil is not built)
             size = part.pencil.membrane.stiffness.shape[0]
             zero = sp.csr_matrix((size, size))
             # one basis per distinct forcing: the axisymmetric engine forces an order by
@@ -214,6 +269,8 @@ class ModalInputs:
             forced0, basis0 = next(iter(bases.values()))
             membrane_index = np.asarray(forced0.coupled.membrane_index)
             membrane = basis0.vectors[membrane_index]
+            sound = model.part_pressure(engine, study, part, forced0, basis0,
+                                        [bases[key] for key in keys])
             families = ("cos",) if part.m is None else ("cos", "sin")
             for family in families:
                 gains = np.array([factors.get((family, k), 0.0) for k in range(len(inputs))])
@@ -222,16 +279,52 @@ class ModalInputs:
                                  if k in columns else "" for k in range(len(labels))]
                 model.channels.append(cls._channel(
                     f"{part.key}:{family}", part, family, [bases[key] for key in keys], gains,
-                    family_labels, kinds, basis0, membrane, membrane_index, points))
+                    family_labels, kinds, basis0, membrane, membrane_index, points,
+                    sound if family == "cos" else _silent(sound)))
+        model.channels = merged_static(model.channels)
         logger.info(f"modal model: {len(model.inputs)} input(s), {model.columns} band "
                     f"column(s) in {len(model.channels)} driven field(s), "
                     f"{len(model.point_names)} points")
         return model
 
+    def part_pressure(self, engine, study, part, forced0, basis0, bases):
+        """(P (M, J), pressure of r0 (M, K), of r1 (M, K)) of (3) on one driven part, per
+        input before its family factor; zeros where the part does not radiate (module
+        notes)."""
+        from copdea_fem.forced_response.observers import LineResponse
+        from copdea_fem.forced_response.run import microphone_observer
+
+        count, columns = len(bases), basis0.vectors.shape[1]
+        sound = (np.zeros((len(self.microphones), columns), complex),
+                 np.zeros((len(self.microphones), count), complex),
+                 np.zeros((len(self.microphones), count), complex))
+        if not (self.microphones and part.uniform and len(forced0.coupled.pressure_index)):
+            return sound
+        observer = microphone_observer(study, engine.driven_sector().sphere, part.pencil,
+                                       self.microphones)
+        delays = np.asarray(self.microphone_delays)
+
+        def advanced(vectors, frequency_hz):
+            """(M, columns) pressure of each column at its own frequency, delay out."""
+            frequency_hz = np.asarray(frequency_hz, float)
+            pressure = observer.observe(LineResponse(forced0, vectors,
+                                                     np.eye(vectors.shape[1])), frequency_hz)
+            delay = np.exp(-2j * np.pi * frequency_hz[:, None] * delays[None, :])
+            return (pressure * delay).T
+
+        if columns:
+            own = np.abs(np.sqrt(basis0.eigenvalues.astype(complex)).real) / (2 * np.pi)
+            sound[0][:] = advanced(basis0.vectors, own)
+        top = np.full(count, float(study.eigen.f_max))
+        sound[1][:] = advanced(np.stack([basis[1].residual0 for basis in bases], 1), top)
+        sound[2][:] = advanced(np.stack([basis[1].residual1 for basis in bases], 1), top)
+        return sound
+
     @staticmethod
     def _channel(name, part, family, bases, gains, labels, kinds, basis0, membrane,
-                 membrane_index, points) -> Channel:
-        """``bases``: (forced pencil, modal basis) of each input's forcing."""
+                 membrane_index, points, sound) -> Channel:
+        """``bases``: (forced pencil, modal basis) of each input's forcing; ``sound``: the
+        part's pressure (:meth:`part_pressure`)."""
         from copdea_fem.forced_response.observers import LineResponse
 
         operators = part.pencil.membrane
@@ -266,7 +359,9 @@ class ModalInputs:
             residual_displacement=sampled[..., columns:columns + count],
             residual_displacement1=sampled[..., columns + count:],
             residual_currents=forcings @ residual0[membrane_index],
-            residual_currents1=forcings @ residual1[membrane_index])
+            residual_currents1=forcings @ residual1[membrane_index],
+            pressure=sound[0], residual_pressure=sound[1] * gains[None, :],
+            residual_pressure1=sound[2] * gains[None, :])
 
     @property
     def columns(self) -> int:
@@ -298,6 +393,20 @@ class ModalInputs:
             current += -1j * omega[:, None, None] * charge
         return np.conj(velocity), np.conj(current)
 
+    def pressure_response(self, frequency_hz, static_correction: bool = True) -> np.ndarray:
+        """The pressure (3) at the microphones [Pa/V] (F, M, K), advanced by each
+        microphone's ``|x_m| / c`` (module notes), physical ``e^{+i omega t}`` convention."""
+        keep = 1.0 if static_correction else 0.0
+        omega = 2 * np.pi * np.atleast_1d(np.asarray(frequency_hz, float))
+        pressure = np.zeros((omega.size, len(self.microphones), len(self.inputs)), complex)
+        for channel in self.channels:
+            modal = channel.participation[None, :, :] / channel.denominators(omega)[:, :, None]
+            pressure += (np.einsum("mj,fjk->fmk", channel.pressure, modal)
+                         + keep * (channel.residual_pressure[None]
+                                   + omega[:, None, None] ** 2
+                                   * channel.residual_pressure1[None]))
+        return np.conj(pressure)
+
     def structural_modes(self, f_max: float, out_of_plane: bool = False
                          ) -> list[tuple[int, int, str, float]]:
         """``(channel index, column, label, Re f [Hz])`` of the labelled structural modes
@@ -314,4 +423,71 @@ class ModalInputs:
         return sorted(found, key=lambda item: (item[3], item[2]))
 
 
-__all__ = ["Channel", "ModalInputs", "POINT_ANGLES_DEG", "drive_inputs", "study_points"]
+def microphone_delays(study, microphones) -> list[float]:
+    """The delay [s] each microphone's pressure is advanced by in the model (eq. 3):
+    ``|x_m| / c`` for one the Kirchhoff integral reaches, 0 for one inside its sphere (the
+    FE's own pressure there: a constant gain, exact;
+    :func:`.microphone_places.microphone_places`)."""
+    from copdea_fem.forced_response.microphone_places import FAR, microphone_places
+    return [float(np.linalg.norm(position)) / study.air.sound_speed if place == FAR else 0.0
+            for (_, position), place in zip(microphones, microphone_places(study, microphones))]
+
+
+def radiating_band(part, study):
+    """``part`` (the one a uniform electrode drives, with air) with the band of
+    ``response``'s modal path (:func:`.run.modal_solution`): ``Re f`` and ``|Im f|`` up to
+    ``response.modal_band`` times ``eigen.f_max``, the strongly damped air and PML modes
+    included; the sound at a microphone is theirs as much as the structure's, and
+    ``solve``'s band (``|Im f| <= eigen.max_damping_ratio f_max``) leaves them to the
+    static correction (measured on the quick G1 in a baffle: 25 % of the peak pressure)."""
+    import dataclasses
+    import types
+
+    from copdea_fem.fe.eigen import solve_band
+
+    eigen, pencil = study.eigen, part.pencil
+    reach = study.response.modal_band * eigen.f_max
+    logger.info(f"{part.key}: the radiating modes for the sound, Re f <= {reach:g} Hz, "
+                f"|Im f| <= {reach:g} Hz ...")
+    found = solve_band(pencil.stiffness, pencil.mass, 0.0, reach, factorize=pencil.factorize,
+                       hermitian=False, max_imag_hz=reach, backend=eigen.backend,
+                       max_modes=eigen.max_modes, residual_tol=eigen.residual_tol)
+    band = types.SimpleNamespace(eigenvalues=np.asarray(found.eigenvalues),
+                                 vectors=np.asarray(found.vectors))
+    return dataclasses.replace(part, band=band)
+
+
+def _silent(sound):
+    """The pressure (:meth:`ModalInputs.part_pressure`) of a field that does not radiate
+    (an order's sin family: the part's radiating field is its cos family)."""
+    return tuple(np.zeros_like(array) for array in sound)
+
+
+#: The name of the channel that holds the static correction of the driven parts without a
+#: mode in the band (:func:`merged_static`).
+STATIC_CHANNEL = "static:parts without a band mode"
+
+
+def merged_static(channels: list) -> list:
+    """``channels`` with those without a band column (the orders a segment drives above the
+    band: :meth:`copdea_fem.fe.engines.Engine.driven_parts`) summed into one,
+    :data:`STATIC_CHANNEL`: their response is their static correction ``r0_k + omega^2
+    r1_k`` alone, linear in the inputs, so the sum is exact (and the state space holds one
+    pseudo-mode per input for all of them, not one per order)."""
+    static = [channel for channel in channels if len(channel.eigenvalues) == 0]
+    if len(static) < 2:
+        return channels
+    first = static[0]
+    summed = {name: sum(getattr(channel, name) for channel in static) for name in (
+        "residual_displacement", "residual_displacement1", "residual_currents",
+        "residual_currents1", "residual_pressure", "residual_pressure1")}
+    merged = Channel(name=STATIC_CHANNEL, labels=[], structural=first.structural,
+                     out_of_plane=first.out_of_plane, eigenvalues=first.eigenvalues,
+                     norms=first.norms, damping=first.damping,
+                     participation=first.participation, displacement=first.displacement,
+                     currents=first.currents, pressure=first.pressure, **summed)
+    return [channel for channel in channels if len(channel.eigenvalues)] + [merged]
+
+
+__all__ = ["Channel", "ModalInputs", "POINT_ANGLES_DEG", "STATIC_CHANNEL", "drive_inputs",
+           "merged_static", "microphone_delays", "radiating_band", "study_points"]

@@ -335,7 +335,7 @@ def _far_field_method(study) -> str:
 def forced_response(problem: OrderZero, frequency_hz=None,
                     voltage_lines=None) -> ResponseResult:
     """Spectra and SPL on the chirp's lines (or given lines and complex amplitudes [V])."""
-    from copdea_fem.fe.forced.radiation import KIRCHHOFF_FRACTION, spl_db
+    from copdea_fem.fe.forced.radiation import spl_db
     from copdea_fem.reduced.chirp_response import QUARTER_POINTS, Chirp, scan_fractions
 
     study, forced, coupled = problem.study, problem.forced, problem.coupled
@@ -391,12 +391,7 @@ def forced_response(problem: OrderZero, frequency_hz=None,
     far_field = _far_field_method(study) + "".join(
         f"; {name}: the FE's own pressure at the point (inside the Kirchhoff sphere)"
         for (name, _), place in zip(microphones, places) if place == FIELD)
-    observer = Microphones(problem.sector.sphere, coupled, microphones,
-                           KIRCHHOFF_FRACTION * study.air.domain_radius,
-                           baffle=study.geometry.frame == "baffle",
-                           enclosed=study.geometry.enclosure != "none",
-                           sound_speed=study.air.sound_speed,
-                           places=places)
+    observer = microphone_observer(study, problem.sector.sphere, coupled, microphones, places)
     pressure = observer.observe(response, frequency_hz)
     timings["sound"] = time.perf_counter() - start
     result = ResponseResult(frequency_hz, scan_axial.mean(axis=1), scan_radial.mean(axis=1),
@@ -406,6 +401,21 @@ def forced_response(problem: OrderZero, frequency_hz=None,
     result.peaks_hz = spectrum_peaks(result, study.response.peaks)
     result.voltage_lines = voltage_lines
     return result
+
+
+def microphone_observer(study, sphere, coupled, microphones, places=None) -> Microphones:
+    """The :class:`.observers.Microphones` of ``response`` on a driven part's ``coupled``
+    pencil (``sphere``: its Kirchhoff sphere sampler type,
+    :attr:`copdea_fem.fe.forced.problem.DrivenSector.sphere`); ``places`` as
+    :func:`.microphone_places.microphone_places` gives them (None: found here)."""
+    from copdea_fem.fe.forced.radiation import KIRCHHOFF_FRACTION
+    if places is None:
+        places = microphone_places(study, microphones)
+    return Microphones(sphere, coupled, microphones,
+                       KIRCHHOFF_FRACTION * study.air.domain_radius,
+                       baffle=study.geometry.frame == "baffle",
+                       enclosed=study.geometry.enclosure != "none",
+                       sound_speed=study.air.sound_speed, places=places)
 
 
 def spectrum_peaks(result: ResponseResult, count: int) -> list[float]:

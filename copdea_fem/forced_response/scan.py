@@ -108,9 +108,7 @@ def scan_response(solution, study, positions, frequencies, electrode, *,
     points = ScanPoints(engine.point_sampler(state, positions), frequencies.size)
     truth: dict = {}
     drive = list(electrode) if isinstance(electrode, (list, tuple)) else [(electrode, 1.0)]
-    for part in engine.driven_parts(solution, study):
-        if len(part.band.eigenvalues) == 0:
-            continue
+    for part in engine.driven_parts(solution, study):     # an empty band: its static part
         for force, families in driven_groups(engine, state, part, drive):
             _drive_part(solution, study, part, force, families, points, frequencies,
                         damping_per_mass, frequency_factors, truth)
@@ -195,7 +193,8 @@ def _drive_part(solution, study, part, force, families, points, frequencies, dam
         solution, study, part, force, frequencies, damping_per_mass, frequency_factors)
     eigenvalues = np.asarray(part.band.eigenvalues, complex)
     shares = (np.asarray(membrane_energy_fractions(part.pencil, part.band))
-              if len(part.pencil.pressure_index) else np.ones(eigenvalues.size))
+              if len(part.pencil.pressure_index) and eigenvalues.size
+              else np.ones(eigenvalues.size))
     static = basis.participation / (basis.norms * basis.eigenvalues)
     for family, factor in families:
         sampled = points.basis(response, part.pencil.membrane, family)

@@ -4,8 +4,10 @@ r"""``copdea-fem statespace``: the coupled modal model as a real LTI system
 Physical time convention ``e^{+i omega t}``, ``s = i omega`` (the FE's fields go as
 ``e^{-i omega t}``: a transfer here is the complex conjugate of the FE's).  Inputs: the AC
 voltages ``u_k`` [V] of the inputs (:mod:`.modal_inputs`); outputs: the three Cartesian
-velocity components [m/s] at the observed points (:func:`.modal_inputs.study_points`), then
-each input's motional current [A] (:mod:`.modal_inputs` eq. 2).
+velocity components [m/s] at the observed points (:func:`.modal_inputs.study_points`), the
+sound pressure [Pa] at the study's microphones (``response.microphones``, with the outside
+air; advanced by each one's propagation delay: :mod:`.modal_inputs` eq. 3), then each
+input's motional current [A] (:mod:`.modal_inputs` eq. 2).
 
 Modes as real states
 --------------------
@@ -84,7 +86,7 @@ class StateSpaceModel:
     inputs : list of str
         The inputs' AC voltages ``V~_<name>`` [V].
     outputs : list of str
-        ``v<x|y|z>_<point>`` [m/s], then ``i_<input>`` [A].
+        ``v<x|y|z>_<point>`` [m/s], then ``p_<microphone>`` [Pa], then ``i_<input>`` [A].
     units : dict
         Name -> unit of every input and output (and ``current``: what the current holds).
     states : list of str
@@ -126,6 +128,16 @@ class StateSpaceModel:
                                   outputs=list(self.outputs))
 
 
+def pressure_note(model) -> str:
+    """What the pressure outputs hold (``units["pressure"]``, :mod:`.modal_inputs` eq. 3):
+    each microphone's pressure advanced by its propagation delay, which is left out."""
+    delays = ", ".join(f"{name} {1e3 * delay:.4g} ms" for (name, _), delay in
+                       zip(model.microphones, model.microphone_delays))
+    return ("sound pressure at the microphone advanced by its propagation delay |x|/c "
+            f"(a pure delay, not in the model: {delays}); the radiation kernels at each "
+            "mode's own frequency")
+
+
 def resonant_root(a: complex, b: complex, c: complex) -> tuple[complex, complex]:
     """(s1, s2) of ``a s^2 + b s + c`` (1): s1 the root with the larger imaginary part."""
     roots = np.roots([a, b, c])
@@ -149,6 +161,24 @@ def check_statespace_study(study) -> None:
             "reduced.damping_*; a hysteretic loss has no real-time realisation)")
 
 
+def statespace_microphones(study) -> list:
+    """The microphones whose pressure ``statespace`` outputs (:func:`.run.parse_microphones`:
+    the axis one and ``response.microphones``); none without the outside air (a dry study,
+    ``air.outside = false``).  Refuses (StudyError) listed microphones with
+    ``electrodes.segments``, as ``response`` does: the orders m >= 1 that segments drive
+    radiate off the axis, and the model's sound is that of the order m = 0 alone."""
+    from copdea_fem.forced_response.run import parse_microphones
+    if not (study.air.enabled and study.air.outside):
+        return []
+    if study.electrodes.segments and study.response.microphones.strip():
+        raise StudyError(f"response.microphones = {study.response.microphones!r} is not "
+                         "allowed with electrodes.segments for `statespace`; allowed: '' (the "
+                         "axis microphone alone: the orders m >= 1 a segmented drive reaches "
+                         "radiate nothing onto the axis, and their sound elsewhere is not "
+                         "computed)")
+    return parse_microphones(study)
+
+
 def realise(model, static_correction: bool = True) -> StateSpaceModel:
     """The real LTI system (module notes) of a :class:`.modal_inputs.ModalInputs`
     (``static_correction``: with the pseudo-modes (3) of the modes above the band)."""
@@ -156,17 +186,23 @@ def realise(model, static_correction: bool = True) -> StateSpaceModel:
     points = len(model.point_names)
     blocks, b_rows, c_cols, d_total, states = [], [], [], None, []
 
-    def add(label, s1, input_row, velocity_shape, current_shape):
+    microphones = len(model.microphones)
+
+    def add(label, s1, input_row, velocity_shape, pressure_shape, current_shape):
         """One pole pair (2): ``input_row`` (K,) complex ``g conj(p)``; the output shapes
-        the conjugated displacement (Q_v,) and charge (K,) per unit of z."""
+        the conjugated displacement (Q_v,), pressure (M,) and charge (K,) per unit of z:
+        the velocity and the current are ``s z`` times theirs, the pressure ``z`` times
+        its own (no feedthrough)."""
         nonlocal d_total
         sigma, w = s1.real, s1.imag
         blocks.append(np.array([[sigma, -w], [w, sigma]]))
         b_rows.append(np.vstack([input_row.real, input_row.imag]))
-        shape = np.concatenate([velocity_shape, current_shape])
-        out = shape * s1                                  # velocity: s z
+        derivative = np.concatenate([velocity_shape, np.zeros(microphones), current_shape])
+        direct = np.concatenate([np.zeros(velocity_shape.size), pressure_shape,
+                                 np.zeros(current_shape.size)])
+        out = derivative * s1 + direct                    # velocity: s z; pressure: z
         c_cols.append(np.column_stack([2 * out.real, -2 * out.imag]))
-        feed = 2 * np.real(shape[:, None] * input_row[None, :])
+        feed = 2 * np.real(derivative[:, None] * input_row[None, :])
         d_total = feed if d_total is None else d_total + feed
         states.extend([f"{label}.re", f"{label}.im"])
 
@@ -182,7 +218,7 @@ def realise(model, static_correction: bool = True) -> StateSpaceModel:
             label = channel.labels[j] or f"{channel.name}:{j}"
             add(label, s1, g * np.conj(channel.participation[j]),
                 np.conj(channel.displacement[..., j]).reshape(-1),
-                np.conj(channel.currents[:, j]))
+                np.conj(channel.pressure[:, j]), np.conj(channel.currents[:, j]))
         for k in range(count if static_correction else 0):
             r0 = channel.residual_displacement[..., k].reshape(-1)
             r1 = channel.residual_displacement1[..., k].reshape(-1)
@@ -204,23 +240,28 @@ def realise(model, static_correction: bool = True) -> StateSpaceModel:
             row = np.zeros(count, complex)
             row[k] = g * np.conj(lam)
             add(f"residual:{channel.name}:{model.inputs[k]}", s1, row,
-                np.conj(r0), np.conj(q0))
+                np.conj(r0), np.conj(channel.residual_pressure[:, k]), np.conj(q0))
     size = 2 * len(blocks)
     a_matrix = np.zeros((size, size))
     for index, block in enumerate(blocks):
         a_matrix[2 * index:2 * index + 2, 2 * index:2 * index + 2] = block
     b_matrix = np.vstack(b_rows) if b_rows else np.zeros((0, count))
-    c_matrix = np.hstack(c_cols) if c_cols else np.zeros((3 * points + count, 0))
-    d_matrix = d_total if d_total is not None else np.zeros((3 * points + count, count))
+    rows = 3 * points + microphones + count
+    c_matrix = np.hstack(c_cols) if c_cols else np.zeros((rows, 0))
+    d_matrix = d_total if d_total is not None else np.zeros((rows, count))
     outputs = [f"v{axis}_{name}" for name in model.point_names for axis in "xyz"]
+    outputs += [f"p_{name}" for name, _ in model.microphones]
     outputs += [f"i_{name}" for name in model.inputs]
     units = {f"V~_{name}": "V" for name in model.inputs}
     units.update({name: "m/s" for name in outputs if name.startswith("v")})
+    units.update({f"p_{name}": "Pa" for name, _ in model.microphones})
     units.update({f"i_{name}": "A" for name in model.inputs})
     units["current"] = CURRENT_NOTE
+    if model.microphones:
+        units["pressure"] = pressure_note(model)
     return StateSpaceModel(a_matrix, b_matrix, c_matrix, d_matrix,
                            [f"V~_{name}" for name in model.inputs], outputs, units, states)
 
 
 __all__ = ["CURRENT_NOTE", "NPZ_KEYS", "StateSpaceModel", "check_statespace_study",
-           "realise", "resonant_root"]
+           "pressure_note", "realise", "resonant_root", "statespace_microphones"]

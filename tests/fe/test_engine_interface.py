@@ -37,7 +37,8 @@ INTERFACE = {name: value for name, value in _members(Engine).items() if callable
 
 def test_the_interface_names_what_the_package_asks_of_an_engine():
     assert {"prepare_mesh", "mesh_key", "space_key", "prestress_solver", "dry_modes",
-            "coupled_modes", "threads", "estimate_size", "forced_problem", "driven_parts",
+            "coupled_modes", "threads", "estimate_size", "forced_problem", "driven_sector",
+            "driven_parts",
             "electrode_forcing", "point_sampler", "prestressed_positions", "tracking_arrays",
             "output"} == set(INTERFACE)
     assert "name" in Engine.__annotations__

@@ -41,14 +41,22 @@ def _weights():
 
 
 @functools.cache
-def _modal_forces(engine: str) -> dict:
-    """label -> {segment: modal force} on one engine (the quick study, coupled)."""
+def _solve(engine: str, membrane_size: str = "6 mm"):
+    """(study, solve) of the quick study, coupled, on one engine and membrane mesh size."""
     from copdea_fem.fe import engine_for, run_solve
-    from copdea_fem.forced_response.segments import modal_forcing
     from copdea_fem.study import load_study
 
-    study = load_study(QUICK, {**OPERATING, "mesh.engine": engine})
-    solution = run_solve(study, engine=engine_for(study))
+    study = load_study(QUICK, {**OPERATING, "mesh.engine": engine,
+                               "mesh.membrane_size": membrane_size})
+    return study, run_solve(study, engine=engine_for(study))
+
+
+@functools.cache
+def _modal_forces(engine: str) -> dict:
+    """label -> {segment: modal force} on one engine (the quick study, coupled)."""
+    from copdea_fem.forced_response.segments import modal_forcing
+
+    study, solution = _solve(engine)
     table: dict = {}
     for row in modal_forcing(solution, study, _weights()):
         table.setdefault(row.label, {})[row.segment] = row.force
@@ -151,7 +159,11 @@ def test_a_study_without_segments_resolves_as_before(tmp_path):
     assert fe_key(segmented) == fe_key(plain)        # the modes do not see the electrode
 
 
-@pytest.mark.parametrize("engine, tolerance", [("axisymmetric", 1e-6), ("3d", 5e-3)])
+# the 3-D quadrant: a 90-degree sector folds onto the even-even sector as W = 1/4 exactly
+# (its edges on the quadrant's planes), so the quarter holds to round-off once every weight
+# is integrated on one rule (quadrant.forced.WEIGHT_BONUS_INTORDER): measured 0; it was
+# 0.1-0.3 % under the default rule (an IfPos weight integrated at a lower order than 1.0)
+@pytest.mark.parametrize("engine, tolerance", [("axisymmetric", 1e-6), ("3d", 1e-6)])
 def test_a_quarter_sector_drives_each_axisymmetric_mode_with_a_quarter(engine, tolerance):
     table = _modal_forces(engine)
     axisymmetric = [label for label in table if label.startswith("(0,")]
@@ -161,9 +173,11 @@ def test_a_quarter_sector_drives_each_axisymmetric_mode_with_a_quarter(engine, t
         assert abs(forces["q90"] / forces["whole"] - 0.25) < tolerance, (label, forces)
 
 
-# the 3-D quadrant resolves the sectors' edges (at 15, 30, 60, 75 degrees, inside its 6 mm
-# elements) only to the mesh: measured 0.05-2.2 % for m = 1..4, 7.5 % for m = 5 (the sector
-# edges at 90 degrees of the quarter test fall on the quadrant's: exact there)
+# the 3-D quadrant: the sectors' edges (at 15, 30, 60, 75 degrees) cut its elements; with
+# the weighted forcing's raised quadrature (WEIGHT_BONUS_INTORDER) what is left is the mesh's
+# resolution of the mode shapes there, converging with h: measured for m = 1..5 at most
+# 2.3 % (m <= 4; 5.5 % for m = 5) at 6 mm, 0.9 % at 4.5 mm, 0.16 % at 3 mm (without the
+# raised rule 4-16 %, not converging: the rule sampled the indicator)
 @pytest.mark.parametrize("engine, tolerance, orders", [("axisymmetric", 1e-6, range(1, 9)),
                                                        ("3d", 0.03, range(1, 5))])
 def test_two_sector_widths_drive_an_order_as_the_sines_of_their_half_angles(engine, tolerance,
@@ -230,3 +244,83 @@ def test_response_with_segments_writes_the_modal_forcing(tmp_path):
     eight = np.loadtxt(tmp_path / "eight" / "response_average.csv", delimiter=",", skiprows=1)
     one = np.loadtxt(tmp_path / "one" / "response_average.csv", delimiter=",", skiprows=1)
     assert np.abs(eight[:, 1:] - one[:, 1:]).max() < 0.02 * one[:, 1:].max()
+
+
+# The two engines on one segment's response at scan points: the axisymmetric engine sums the
+# segment's Fourier orders, every order up to STATIC_ORDERS (those without a mode in the band
+# by their static correction: without them the engines differed by 15-20 %); the 3-D
+# quadrant folds the indicator onto its sectors.  Lines below the first mode (440 Hz): the
+# engines' frequencies differ by ~0.6 % on these meshes, which near a resonance is no test of
+# the forcing.
+AGREEMENT_LINES = np.array([100.0, 200.0])
+
+
+def _segment_velocity(engine: str, segment, membrane_size: str = "6 mm",
+                      angles=np.arange(16) * 22.5) -> np.ndarray:
+    """Axial velocity (points, lines) [m/s/V] of one segment driven alone, at the quarter
+    points Q1-Q3 at ``angles`` [deg] (the segments' spectra's angles: SEGMENT_ANGLES)."""
+    from copdea_fem.fe.forced.electrode import SegmentWeight
+    from copdea_fem.forced_response.run import modal_damping
+    from copdea_fem.forced_response.scan import scan_response
+    from copdea_fem.reduced.chirp_response import QUARTER_POINTS
+
+    study, solution = _solve(engine, membrane_size)
+    state = solution.state
+    radii = state.inner_radius + np.asarray(QUARTER_POINTS) * (state.outer_radius
+                                                               - state.inner_radius)
+    theta = np.radians(np.asarray(angles, float))
+    reference = np.array([(r * np.cos(t), r * np.sin(t)) for t in theta for r in radii])
+    positions = solution.engine.prestressed_positions(state, reference, study.load.z)
+    scan = scan_response(solution, study, positions, AGREEMENT_LINES,
+                         SegmentWeight.from_degrees(segment),
+                         damping_per_mass=lambda mode: float(
+                             modal_damping([mode.label], [mode.kind], study)[0]))
+    return scan.velocity[:, 2, :]
+
+
+def test_the_engines_agree_on_a_quarter_segments_response_at_the_scan_points():
+    """A 90-degree segment on the coarse quick G1 (6 mm): measured 0.5 % (100 Hz) and 0.6 %
+    (200 Hz) of the largest axial velocity (the in-plane velocity: 2.4 %, falling to 1.1 %
+    at 3 mm)."""
+    axisymmetric = _segment_velocity("axisymmetric", (0, 90))
+    three_d = _segment_velocity("3d", (0, 90))
+    gap = np.abs(axisymmetric - three_d).max(axis=0) / np.abs(three_d).max(axis=0)
+    assert np.all(gap < 0.01), gap
+
+
+@pytest.mark.slow
+def test_the_engines_converge_on_a_45_degree_segments_response_with_h():
+    """A 45-degree segment (0 to 45 degrees: its 45-degree edge cuts the quadrant's elements,
+    and the in-plane line force the co-energy puts along it is a feature the 3-D mesh smears
+    over an element) against the axisymmetric engine on a fine meridian (3 mm, its Fourier
+    orders exact in the angle): measured 9.4 % of the largest axial velocity on the 3-D
+    quadrant's 6 mm mesh, 3.3 % at 4.5 mm, 2.1 % at 3 mm; the 1 % of the issue holds for a
+    quarter (edges on the quadrant's planes: the fast test above), not yet here."""
+    reference = _segment_velocity("axisymmetric", (0, 45), "3 mm")
+    gaps = []
+    for size in ("6 mm", "4.5 mm"):
+        three_d = _segment_velocity("3d", (0, 45), size)
+        gaps.append(np.max(np.abs(reference - three_d)) / np.max(np.abs(three_d)))
+    assert gaps[1] < 0.5 * gaps[0], gaps
+    assert gaps[1] < 0.05, gaps
+
+
+def test_an_orders_forcing_is_linear_in_the_order():
+    """The order-m forcing ``pi int W_e'(G0) : G_c R dR`` is linear in m (G_c is), so the
+    orders above 3 are interpolated from the orders 2 and 3
+    (copdea_fem.fe.axisymmetric.forcing.WeightForcings): the same as assembled, to round-off
+    (measured 3e-15)."""
+    from copdea_fem.fe.axisymmetric.forcing import WeightForcings, weight_forcing
+    from copdea_fem.fe.axisymmetric.operators import OrderForms
+    from copdea_fem.fe.forced.electrode import SegmentWeight
+
+    study, solution = _solve("axisymmetric")
+    forms = OrderForms(solution.state, study)
+    forcings = WeightForcings(solution.state)
+    for weight in (SegmentWeight.from_degrees((0, 90)),
+                   SegmentWeight.from_degrees((0, 90), (0.02, 0.03))):
+        for m in (4, 7, 40):
+            operators = forms.operators(m)
+            assembled = weight_forcing(solution.state, operators, weight)
+            assert np.abs(forcings(operators, weight) - assembled).max() <= \
+                1e-12 * np.abs(assembled).max()

@@ -105,6 +105,52 @@ def weight_forcing(state, dry, weight) -> np.ndarray:
     return order_forcing(state, dry, weight.radial_weight(radius()))
 
 
+class WeightForcings:
+    """:func:`weight_forcing` of one prestressed state for every order, the orders m >= 4
+    from two assembled ones.
+
+    The order-m forcing is ``pi int W_e'(G0) : G_c R dR`` (:func:`order_forcing`) and
+    ``G_c`` is linear in m (:class:`copdea_fem.fe.axisymmetric.operators.OrderForms`), so on
+    one space the forcing is ``f(m) = f(2) + (m - 2) (f(3) - f(2))``, exactly (round-off:
+    2e-15 of it at m = 40, checked in the tests).  The forcings of the orders 2 and 3 are
+    assembled once per space and radial factor (a weight's ``radii``); the others as
+    :func:`weight_forcing`.  A drive of a segment's many Fourier orders then costs two
+    assemblies, not one per order.
+    """
+
+    #: the orders whose forcing is assembled (the interpolation's nodes)
+    NODES = (2, 3)
+
+    def __init__(self, state):
+        self.state = state
+        self._assembled: dict = {}       # (id(space), radii, m) -> (space, forcing)
+
+    def __call__(self, dry, weight) -> np.ndarray:
+        """The forcing [N/V] of ``rho(R) cos(m theta)`` on ``dry``'s order (as
+        :func:`weight_forcing`)."""
+        m = int(dry.m)
+        if m <= max(self.NODES) or dry.disc_dof:
+            return self._assembled_forcing(dry, weight, m)
+        low, high = (self._assembled_forcing(dry, weight, node) for node in self.NODES)
+        return low + (m - self.NODES[0]) * (high - low)
+
+    def _assembled_forcing(self, dry, weight, m: int) -> np.ndarray:
+        key = (id(dry.space), getattr(weight, "radii", None), m)
+        found = self._assembled.get(key)
+        if found is None or found[0] is not dry.space:
+            operators = dry if m == dry.m else _same_space_order(dry, m)
+            found = (dry.space, weight_forcing(self.state, operators, weight))
+            self._assembled[key] = found
+        return found[1]
+
+
+def _same_space_order(dry, m: int):
+    """``dry`` (an order's operators, m >= 2) as the operators of order m on the same space:
+    the forcing reads only its space, free DOFs, lift, axis flag and order."""
+    import dataclasses
+    return dataclasses.replace(dry, m=m)
+
+
 def elastic_stiffness(state, dry) -> sp.csr_matrix:
     """K_el [N/m]: Hessian of the order-0 energy at (u0, V = 0) on the unknowns
     (:mod:`copdea_fem.fe.forced.harmonic`)."""

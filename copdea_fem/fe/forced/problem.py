@@ -69,6 +69,18 @@ class DrivenPart:
     sector: object = None
     m: int | None = None
 
+    @property
+    def uniform(self) -> bool:
+        """Whether the part holds the fields a uniform electrode drives (the part ``response``
+        drives, :class:`DrivenSector`): the order m = 0, the even-even symmetry sector
+        (every parity +1) or a whole mesh."""
+        if self.m is not None:
+            return self.m == 0
+        if self.sector is None:
+            return True
+        from copdea_fem.fe.symmetry import QUADRANTS
+        return all(self.sector.sign(qx, qy) > 0 for qx, qy in QUADRANTS)
+
     def families(self, electrode) -> list[tuple[str, float]]:
         """``(family, factor)`` of each field of the part that ``electrode`` (an
         :class:`copdea_fem.fe.forced.electrode.ElectrodeImperfection`) drives: an order's

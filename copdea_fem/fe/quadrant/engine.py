@@ -152,6 +152,11 @@ class QuadrantEngine:
         from copdea_fem.fe.quadrant.forced import prepare_quadrant
         return prepare_quadrant(study)
 
+    def driven_sector(self):
+        """The even-even sector (:data:`copdea_fem.fe.quadrant.forced.QUADRANT_SECTOR`)."""
+        from copdea_fem.fe.quadrant.forced import QUADRANT_SECTOR
+        return QUADRANT_SECTOR
+
     def driven_parts(self, solution, study) -> list[DrivenPart]:
         """The symmetry sectors of a solve (or its whole mesh) with their pencils: the coupled
         operators the solve kept (with air), else the whole plane's dry operators."""
