@@ -43,7 +43,14 @@ proper output, so it cannot sit in D as such; it is kept as one extra pseudo-mod
 
     r0_k Lambda_k / (Lambda_k - omega^2) = r0_k + omega^2 r0_k / Lambda_k + O(omega^4)  (3)
 
-realised as (2).  At ``s = 0`` the model's gain is the exact static response ``A^-1 F``.
+realised as a real pole pair ``s1, conj(s1)`` of unit static gain,
+
+    r0_k |s1|^2 / ((s - s1)(s - conj(s1))),   residue |s1|^2 / (s1 - conj(s1)) in (2),   (4)
+
+``s1`` the root of ``s^2 + conj(Lambda_k)`` taken in the stable half-plane and damped at
+least :data:`PSEUDO_DAMPING` (a fitted Lambda is complex with the air, and a root with
+``Re s1 > 0`` would make the system unstable; for a real Lambda and no damping (4) is (3)
+exactly).  At ``s = 0`` the model's gain is the exact static response ``A^-1 F``.
 D holds what a velocity realisation (2) feeds through (``2 Re(conj(x) g conj(p))``, zero
 for a real pencil).
 
@@ -145,6 +152,22 @@ def resonant_root(a: complex, b: complex, c: complex) -> tuple[complex, complex]
     return complex(roots[0]), complex(roots[1])
 
 
+#: The least damping ratio of a pseudo-mode (4): its poles stand for modes far above the
+#: band, so their damping is not physics; 1 % keeps them off the imaginary axis and changes
+#: the correction in the band by about 2 zeta f / f_pseudo of itself.
+PSEUDO_DAMPING = 0.01
+
+
+def pseudo_pole(lam: complex) -> complex:
+    """The pole s1 = sigma + i w of a pseudo-mode with the fitted eigenvalue ``lam``
+    [rad^2/s^2] (3, 4): the root of ``s^2 + conj(lam)`` reflected into the stable upper-left
+    quadrant, damped at least :data:`PSEUDO_DAMPING`."""
+    root = np.sqrt(-np.conj(complex(lam)))
+    w, radius = abs(root.imag), abs(root)
+    sigma = -max(abs(root.real), PSEUDO_DAMPING * radius)
+    return complex(sigma, np.sqrt(max(radius ** 2 - sigma ** 2, 0.0)) if w > 0 else w)
+
+
 def check_statespace_study(study) -> None:
     """Refuse (StudyError) what the modal LTI cannot hold, before any solve."""
     from copdea_fem.forced_response.run import states_material_damping
@@ -234,11 +257,9 @@ def realise(model, static_correction: bool = True) -> StateSpaceModel:
                                "as a pseudo-mode far above the band")
                 inverse = 1e-6 * inverse if abs(inverse) > 0 else 0.0
             lam = 1 / inverse if abs(inverse) > 0 else 1e30
-            # r0 Lambda/(Lambda - omega^2) conjugated: conj(r0) conj(L)/(s^2 + conj(L))
-            s1, s2 = resonant_root(1.0, 0.0, np.conj(lam))
-            g = 1.0 / (s1 - s2)
+            s1 = pseudo_pole(lam)
             row = np.zeros(count, complex)
-            row[k] = g * np.conj(lam)
+            row[k] = abs(s1) ** 2 / (s1 - np.conj(s1))          # (4): static gain 1
             add(f"residual:{channel.name}:{model.inputs[k]}", s1, row,
                 np.conj(r0), np.conj(channel.residual_pressure[:, k]), np.conj(q0))
     size = 2 * len(blocks)
