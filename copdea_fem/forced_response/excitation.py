@@ -98,7 +98,9 @@ class ExcitationDesign:
         The in-band structural modes, their frequencies [Hz] and levels [dB re target].
     targets : list of str
     inseparable : list of str
-        One line per target whose partners the inputs cannot separate.
+        One line per other mode whose modal-force row is within asin(PARALLEL_SINE) of
+        the targets' (module notes, eq. 3), then one per target whose a/b partners the
+        inputs cannot separate.
     """
 
     inputs: list
@@ -180,9 +182,9 @@ def design_drive(model, targets, max_ac: float, f_max: float) -> ExcitationDesig
         if sine < PARALLEL_SINE:
             inseparable.append(
                 f"{labels[row]}: its modal-force row is {np.arcsin(sine):.3g} rad from the "
-                f"target's (below {np.arcsin(PARALLEL_SINE):.4g} rad): holding it down costs "
-                f"the target's response {20 * np.log10(max(sine, 1e-300)):.1f} dB at the same "
-                f"peak drive (e.g. the orders m and N - m of N equal sectors); it is at "
+                f"targets' (below {np.arcsin(PARALLEL_SINE):.4g} rad): holding it down would "
+                f"cost the target's response {-20 * np.log10(max(sine, 1e-300)):.1f} dB at the "
+                f"same peak drive (e.g. the orders m and N - m of N equal sectors); it is at "
                 f"{levels[row]:.1f} dB")
     for label in targets:
         partners = [row for row, other in enumerate(labels)
