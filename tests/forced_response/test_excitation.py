@@ -78,23 +78,30 @@ class _Model:
         return [(0, j, label, 100.0 * (j + 1)) for j, label in enumerate(self.labels)]
 
 
-def test_a_nearly_parallel_row_is_reported_and_a_separable_one_is_not():
-    """The 3-D figure's case: a mode 0.05 rad off the target's row (reported, whatever level
-    the regularised drive holds it at) and one 0.3 rad off (not reported)."""
+def test_a_nearly_parallel_row_is_reported_and_not_traded_against():
+    """The 3-D figure's case with two inputs: a large mode 0.05 rad off the target's row
+    (reported) and a small one 0.3 rad off (not reported).  Two inputs can hold one mode at
+    zero under a unit target response: the separable one, exactly, since the parallel one
+    is not in O (traded against, it would keep the separable one up by about 20 dB)."""
     from copdea_fem.forced_response.excitation import design_drive
 
-    rng = np.random.default_rng(11)
-    basis, _ = np.linalg.qr(rng.normal(size=(4, 4)))
-    target = basis[:, 0]
-    near = 5.0 * (np.cos(0.05) * basis[:, 0] + np.sin(0.05) * basis[:, 1])
-    far = 0.5 * (np.cos(0.3) * basis[:, 0] + np.sin(0.3) * basis[:, 2])
-    model = _Model([target, near, far, basis[:, 3], np.zeros(4)],
-                   ["(2,1)a", "(6,1)a", "(0,1)", "(1,1)a", "(4,1)a"])
+    target = np.array([1.0, 0.0])
+    near = 5.0 * np.array([np.cos(0.05), np.sin(0.05)])
+    far = 0.5 * np.array([np.cos(0.3), np.sin(0.3)]) * np.exp(0.4j)
+    model = _Model([target, near, far, np.zeros(2)], ["(2,1)a", "(6,1)a", "(0,1)", "(4,1)a"])
     design = design_drive(model, ["(2,1)"], 100.0, 1e9)
     reported = [line.split(":")[0] for line in design.inseparable]
     assert reported == ["(6,1)a"]
     assert "0.05 rad" in design.inseparable[0]
-    assert dict(zip(design.labels, design.level_db))["(4,1)a"] == -np.inf
+    levels = dict(zip(design.labels, design.level_db))
+    # held at zero but for the regularisation of (2): epsilon / |far|^2 ~ 5e-8 (-146 dB)
+    assert levels["(0,1)"] <= -120.0
+    # the parallel mode then goes with the target: |near . u| / |t . u| in closed form,
+    # u = (1, -cot 0.3) up to scale
+    drive = np.array([1.0, -1.0 / np.tan(0.3)])
+    assert levels["(6,1)a"] == pytest.approx(20 * np.log10(abs(near @ drive)),
+                                             abs=1e-5)      # epsilon again: 5e-8 -> 4e-7 dB
+    assert levels["(4,1)a"] == -np.inf
 
 
 def test_the_order_two_pattern_folds_onto_the_quadrant_as_a_b1_weight():
