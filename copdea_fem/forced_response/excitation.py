@@ -241,6 +241,17 @@ def set_lines(design: ExcitationDesign, study) -> list[str]:
     return [f"--set 'electrodes.segments=[{', '.join(items)}]'"]
 
 
-__all__ = ["DRIVE_COLUMNS", "ExcitationDesign", "REGULARISATION", "SELECTIVITY_COLUMNS",
-           "PARALLEL_SINE", "SEPARABLE_RATIO", "SEPARATION_DB", "design_drive", "partner_stem",
-           "resolve_targets", "set_lines", "sine_from_targets"]
+__all__ = [
+    "DRIVE_COLUMNS",
+    "PARALLEL_SINE",
+    "REGULARISATION",
+    "SELECTIVITY_COLUMNS",
+    "SEPARABLE_RATIO",
+    "SEPARATION_DB",
+    "ExcitationDesign",
+    "design_drive",
+    "partner_stem",
+    "resolve_targets",
+    "set_lines",
+    "sine_from_targets",
+]

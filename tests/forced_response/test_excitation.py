@@ -151,8 +151,7 @@ def test_the_order_two_pattern_drives_no_a1_mode_of_the_quadrant():
     sector that is even under x <-> y (A1), to 1e-6 of the B1 modes' modal forces."""
     from copdea_fem.api import load_study
     from copdea_fem.fe import engine_for, run_solve
-    from copdea_fem.forced_response.modal_inputs import (ModalInputs, drive_inputs,
-                                                         study_points)
+    from copdea_fem.forced_response.modal_inputs import ModalInputs, drive_inputs, study_points
 
     study = load_study(QUICK, [EIGHT_SECTORS])
     solution = run_solve(study, engine=engine_for(study))
