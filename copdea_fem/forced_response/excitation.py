@@ -15,6 +15,10 @@ regularised so that a drive the segments cannot tell apart stays bounded:
 
     min_u  ||G_O u||^2 + epsilon ||u||^2    subject to   G_T u = 1 (each target)        (2)
 
+(O: the other modes that the inputs can separate from the targets, eq. 3 below: a mode
+whose row is nearly parallel to the targets' can be held down only at the cost of the
+targets' response, and trading against it would raise the separable modes instead).
+
 ``u = Q^-1 G_T^H (G_T Q^-1 G_T^H)^-1 1``, ``Q = G_O^H G_O + epsilon I``, with
 ``epsilon = REGULARISATION trace(G^H G) / K``.  The drive is then scaled so that its peak
 AC amplitude is ``--max-ac`` [V].  Selectivity: ``20 log10(|r_j| / |r_target|)`` [dB] at each
@@ -25,9 +29,23 @@ What the inputs cannot separate: the rows of G of a target and of its degenerate
 (the other member of its a/b pair: the same label but for the suffix) are compared by
 their singular values; a ratio below :data:`SEPARABLE_RATIO` means no drive of these inputs
 tells them apart (e.g. the a and b members of an order m with too few sectors).  And each
-other mode's *floor*: the lowest level it can be held at alone under a unit target response
-(2 with O that mode only); a floor above :data:`SEPARATION_DB` is reported (e.g. the orders
-m and N - m, which N equal sectors drive with one pattern).
+other mode whose row is (nearly) parallel to the targets': with ``g`` its row and ``P`` the
+orthogonal projector onto the span of the target rows (in C^K), its angle ``alpha`` from
+the targets is
+
+    sin alpha = ||g - P g|| / ||g||                                                    (3)
+
+The least drive (2-norm) that gives a unit target response is ``1 / ||t||`` (one target of
+row ``t``); the least one that also holds mode ``g`` at zero is ``1 / (||t|| sin alpha)``
+(the component of ``conj t`` orthogonal to ``conj g``).  At the peak AC amplitude
+``--max-ac`` holding it down therefore costs the target's response a factor of order
+``sin alpha``; a mode with ``sin alpha <`` :data:`PARALLEL_SINE` ``= 10^(SEPARATION_DB/20)``
+(alpha below 0.1002 rad: holding it down costs more than the 20 dB a separated mode is
+held at) is reported as not separated from the target (e.g. the orders m and N - m, which
+N equal sectors drive with one pattern: alpha = 0 on the axisymmetric engine; on the 3-D
+quadrant the mesh's small asymmetry turns the row off the target's by a few 1e-2 rad,
+which a floor of (2) with O = that mode alone does not see).  A mode no input drives (its
+row zero) is not reported (its level is ``-inf``).
 
 Phases: the FE's complex amplitude ``u`` goes as ``e^{-i omega t}``; a drive
 ``V_k(t) = V_b + A_k cos(omega t + phi_k)`` has ``A_k = |u_k|``, ``phi_k = -arg u_k``
@@ -50,9 +68,14 @@ logger = logging.getLogger(__name__)
 #: epsilon of (2) relative to the mean squared column norm of G.
 REGULARISATION = 1e-9
 
-#: A mode that cannot be held below this level [dB re the target] by any drive of the
-#: inputs is reported as not separated from the target.
+#: The level [dB re the target] a separated mode is held at; a mode that costs more than
+#: its magnitude of the target's response to hold down is reported (:data:`PARALLEL_SINE`).
 SEPARATION_DB = -20.0
+
+#: sin alpha of (3) below which a mode's modal-force row counts as parallel to the
+#: targets' (module notes: holding it down costs the target's response more than
+#: ``-SEPARATION_DB`` dB at the peak AC amplitude): 10^(SEPARATION_DB / 20) = 0.1.
+PARALLEL_SINE = 10.0 ** (SEPARATION_DB / 20.0)
 
 #: Smallest singular value ratio of a target's and its partners' rows of G that the inputs
 #: can still drive apart (below it their responses move together).
@@ -79,7 +102,9 @@ class ExcitationDesign:
         The in-band structural modes, their frequencies [Hz] and levels [dB re target].
     targets : list of str
     inseparable : list of str
-        One line per target whose partners the inputs cannot separate.
+        One line per other mode whose modal-force row is within asin(PARALLEL_SINE) of
+        the targets' (module notes, eq. 3), then one per target whose a/b partners the
+        inputs cannot separate.
     """
 
     inputs: list
@@ -135,7 +160,12 @@ def design_drive(model, targets, max_ac: float, f_max: float) -> ExcitationDesig
     gain = np.array(rows)                                       # (modes, K)
     target_rows = [labels.index(label) for label in targets]
     other_rows = [row for row in range(len(labels)) if row not in target_rows]
-    g_target, g_other = gain[target_rows], gain[other_rows]
+    g_target = gain[target_rows]
+    # O of (2): the modes the inputs can separate from the targets (eq. 3); a parallel one
+    # is reported, not traded against (holding it down costs the targets more than 20 dB)
+    sines = {row: sine_from_targets(gain[row], g_target) for row in other_rows}
+    parallel = [row for row in other_rows if sines[row] < PARALLEL_SINE]
+    g_other = gain[[row for row in other_rows if row not in parallel]].reshape(-1, gain.shape[1])
     for label, row in zip(targets, g_target):
         if not np.any(np.abs(row) > 0):
             raise StudyError(f"--target {label}: the inputs ({', '.join(model.inputs)}) do "
@@ -156,13 +186,13 @@ def design_drive(model, targets, max_ac: float, f_max: float) -> ExcitationDesig
     levels = [float(20 * np.log10(abs(r) / reference)) if abs(r) > 0 else -np.inf
               for r in response]
     inseparable = []
-    for row in other_rows:
-        floor = separation_floor_db(gain[row], g_target, epsilon)
-        if floor > SEPARATION_DB:
-            inseparable.append(
-                f"{labels[row]}: cannot be held below {floor:.1f} dB re the target with these "
-                f"inputs (its modal-force row is nearly parallel to the target's within the "
-                f"inputs' span; e.g. the orders m and N - m of N equal sectors)")
+    for row in parallel:
+        inseparable.append(
+            f"{labels[row]}: its modal-force row is {np.arcsin(sines[row]):.3g} rad from the "
+            f"targets' (below {np.arcsin(PARALLEL_SINE):.4g} rad): holding it down would cost "
+            f"the target's response {-20 * np.log10(max(sines[row], 1e-300)):.1f} dB at the "
+            f"same peak drive (e.g. the orders m and N - m of N equal sectors), so the drive "
+            f"does not try; it is at {levels[row]:.1f} dB")
     for label in targets:
         partners = [row for row, other in enumerate(labels)
                     if partner_stem(other) == partner_stem(label)]
@@ -180,14 +210,16 @@ def design_drive(model, targets, max_ac: float, f_max: float) -> ExcitationDesig
                             [freq for *_, freq in modes], levels, targets, inseparable)
 
 
-def separation_floor_db(row, g_target, epsilon: float) -> float:
-    """The lowest level [dB re the first target] that mode ``row`` (its row of G) can be held
-    at, alone, under a unit response of the targets: (2) with O = that mode only."""
-    count = row.size
-    q = np.outer(row.conj(), row) + epsilon * np.eye(count)
-    q_inverse_gt = np.linalg.solve(q, g_target.conj().T)
-    drive = q_inverse_gt @ np.linalg.solve(g_target @ q_inverse_gt, np.ones(len(g_target)))
-    return float(20 * np.log10(max(abs(row @ drive), 1e-300)))
+def sine_from_targets(row, g_target) -> float:
+    """sin alpha of (3) [-]: how far a mode's row of G is from the span of the target rows
+    (0: parallel, 1: orthogonal); ``inf`` for a zero row (a mode no input drives)."""
+    row = np.asarray(row, complex)
+    norm = np.linalg.norm(row)
+    if norm == 0:
+        return np.inf
+    basis, _ = np.linalg.qr(np.asarray(g_target, complex).T)          # (K, T)
+    residual = row - basis @ (basis.conj().T @ row)
+    return float(np.linalg.norm(residual) / norm)
 
 
 def set_lines(design: ExcitationDesign, study) -> list[str]:
@@ -209,5 +241,17 @@ def set_lines(design: ExcitationDesign, study) -> list[str]:
     return [f"--set 'electrodes.segments=[{', '.join(items)}]'"]
 
 
-__all__ = ["DRIVE_COLUMNS", "ExcitationDesign", "REGULARISATION", "SELECTIVITY_COLUMNS",
-           "SEPARABLE_RATIO", "SEPARATION_DB", "design_drive", "separation_floor_db", "partner_stem", "resolve_targets", "set_lines"]
+__all__ = [
+    "DRIVE_COLUMNS",
+    "PARALLEL_SINE",
+    "REGULARISATION",
+    "SELECTIVITY_COLUMNS",
+    "SEPARABLE_RATIO",
+    "SEPARATION_DB",
+    "ExcitationDesign",
+    "design_drive",
+    "partner_stem",
+    "resolve_targets",
+    "set_lines",
+    "sine_from_targets",
+]
