@@ -82,7 +82,7 @@ def _prestressed(study, mesh, timings, solver):
         return solve_axisymmetric_prestress(study, mesh, solver)
 
 
-def _dry_order(band: BandSolver, forms, m, f_max, initial_shifts=None):
+def dry_order(band: BandSolver, forms, m, f_max, initial_shifts=None):
     """The dry pencil of order m and its modes from 0 Hz to ``f_max``, and the frequency
     of its lowest mode [Hz] (from the band, else one lowest-eigenvalue solve)."""
     operators = forms.operators(m)
@@ -121,7 +121,7 @@ def axisymmetric_dry_modes(study, mesh=None, timings=None, solver=None,
     stop = OrderStop(band.f_max)
     for m in range(MAX_ORDER + 1):
         with timings.stage("eigen"), tagging(f"m = {m}: "):
-            operators, result, lowest = _dry_order(band, forms, m, band.f_max,
+            operators, result, lowest = dry_order(band, forms, m, band.f_max,
                                                    initial_shifts.get(f"m={m}"))
         stop.record(lowest)
         if stop.done():
@@ -151,9 +151,66 @@ def number_from_dry(modes, dry_modes, mass) -> None:
     """n of the coupled out-of-plane modes of one order: their dry partner's
     (:func:`copdea_fem.fe.modes.number_from_dry_partners`), so that n counts from 0 Hz up
     (the dry band starts there) whatever band the coupled solve had.  Without dry
-    out-of-plane modes (none below 1.5 f_max) the rank among the coupled ones stands."""
+    out-of-plane modes (none below 1.5 f_max, or ``dry_modes`` None: none solved) the rank
+    among the coupled ones stands."""
     number_out_of_plane([mode for mode in modes if not mode.cavity_orders])
-    number_from_dry_partners(modes, dry_modes, mass)
+    if dry_modes:
+        number_from_dry_partners(modes, dry_modes, mass)
+
+
+def numbered_dry_modes(operators, result, sampler=None) -> list:
+    """The dry modes of one order's band ``result`` (solved from 0 Hz, :func:`dry_order`),
+    classified and their out-of-plane n counted by rank: the dry partners that number the
+    order's coupled modes (:func:`name_coupled_order`)."""
+    modes = classify_order(operators, result.vectors, result.freq_hz, result.freq_im_hz,
+                           result.residuals, sampler)
+    number_out_of_plane(modes)
+    return modes
+
+
+def coupled_order_modes(coupled, result, min_membrane_energy: float, sampler=None):
+    """Classify the coupled eigenpairs ``result`` of one order (``coupled``: its
+    :class:`.operators.CoupledOrderOperators`), as
+    :func:`copdea_fem.fe.modes.coupled_mode_list` does on the 3-D engine: (modes, pressure
+    vectors [Pa, ``coupled.pressure_free`` DOFs, scaled as the modes' normalised vectors]);
+    a mode whose membrane carries less than ``min_membrane_energy`` of the kinetic energy
+    (:func:`copdea_fem.fe.modes.membrane_energy_fractions`) is an air mode."""
+    dry = coupled.membrane
+    membrane = result.vectors[coupled.membrane_index]
+    modes = classify_order(dry, membrane, result.freq_hz, result.freq_im_hz,
+                           result.residuals, sampler)
+    full = dry.to_full(membrane)
+    pressures = []
+    for k, (mode, fraction) in enumerate(zip(modes, membrane_energy_fractions(coupled,
+                                                                              result))):
+        mode.membrane_energy_fraction = fraction
+        if fraction < min_membrane_energy:
+            mode.kind = AIR
+        scale = np.linalg.norm(mode.vector) / max(np.linalg.norm(full[:, k]), 1e-300)
+        pressures.append(result.vectors[coupled.pressure_index, k]
+                         * coupled.pressure_scale * scale)
+    return modes, pressures
+
+
+def name_coupled_order(modes, pressures, dry_modes, coupled, cavity_sampler=None) -> None:
+    """What one order's coupled modes are, before their labels (:func:`.modes.label_all`):
+    the rule of ``solve``, which ``response`` applies to its order m = 0 too.
+
+    A mode that moves mostly air (:func:`copdea_fem.fe.modes.may_be_cavity_mode`) whose air
+    lies inside the enclosure takes its cavity orders (``cavity_sampler``, a
+    :class:`.modes.CavitySampler`; None: an open back), a vent's Helmholtz mode
+    ``cavity(0,0,0)`` among them; the out-of-plane modes take their dry partner's n
+    (:func:`number_from_dry`, ``dry_modes`` of :func:`numbered_dry_modes`; None: their rank).
+
+    ``pressures``: the modes' pressure vectors on ``coupled.pressure_free``
+    (:func:`coupled_order_modes`).
+    """
+    if cavity_sampler is not None:
+        for mode, pressure in zip(modes, pressures):
+            if may_be_cavity_mode(mode):
+                mode.cavity_orders = cavity_sampler.orders(coupled.membrane.m,
+                                                           coupled.pressure_free, pressure)
+    number_from_dry(modes, dry_modes, coupled.membrane.mass_full)
 
 
 def axisymmetric_coupled_modes(study, mesh=None, timings=None, solver=None,
@@ -184,7 +241,7 @@ def axisymmetric_coupled_modes(study, mesh=None, timings=None, solver=None,
         def say(text, m=m):
             logger.info(f"m = {m}: {text}")
         with timings.stage("eigen"), tagging(f"m = {m}: "):
-            dry_operators, dry_result, lowest = _dry_order(band, forms, m,
+            dry_operators, dry_result, lowest = dry_order(band, forms, m,
                                                            band.dry_partner_top)
         if cavity is not None:     # the enclosure's own modes of order m start here too
             lowest = min(lowest, lowest_order_frequency(m, cavity.radius, air.sound_speed))
@@ -209,26 +266,10 @@ def axisymmetric_coupled_modes(study, mesh=None, timings=None, solver=None,
             result = without_static_solution(result, band.f_max)
         with timings.stage("classify"):
             sampler = order_sampler(samplers, state, dry_operators)
-            order_dry = classify_order(dry_operators, dry_result.vectors, dry_result.freq_hz,
-                                       dry_result.freq_im_hz, dry_result.residuals, sampler)
-            number_out_of_plane(order_dry)
-            membrane = result.vectors[coupled.membrane_index]
-            order_modes = classify_order(dry_operators, membrane, result.freq_hz,
-                                         result.freq_im_hz, result.residuals, sampler)
-            full = dry_operators.to_full(membrane)
-            order_pressures = []
-            for k, (mode, fraction) in enumerate(zip(order_modes, membrane_energy_fractions(
-                    coupled, result))):
-                mode.membrane_energy_fraction = fraction
-                if fraction < air.min_membrane_energy:
-                    mode.kind = AIR
-                scale = np.linalg.norm(mode.vector) / max(np.linalg.norm(full[:, k]), 1e-300)
-                order_pressures.append(result.vectors[coupled.pressure_index, k]
-                                       * coupled.pressure_scale * scale)
-                if cavity_sampler is not None and may_be_cavity_mode(mode):
-                    mode.cavity_orders = cavity_sampler.orders(m, coupled.pressure_free,
-                                                               order_pressures[-1])
-            number_from_dry(order_modes, order_dry, dry_operators.mass_full)
+            order_dry = numbered_dry_modes(dry_operators, dry_result, sampler)
+            order_modes, order_pressures = coupled_order_modes(
+                coupled, result, air.min_membrane_energy, sampler)
+            name_coupled_order(order_modes, order_pressures, order_dry, coupled, cavity_sampler)
             order_partners = match_dry(order_modes, order_dry, dry_operators.mass_full,
                                        same_order_family)
         results[f"m={m}"] = result

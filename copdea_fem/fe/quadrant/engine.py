@@ -25,6 +25,7 @@ from copdea_fem.fe.modes import (
     AIR,
     OUT_OF_PLANE,
     ModeSampler,
+    assign_labels,
     classify_modes,
     may_be_cavity_mode,
     number_from_dry_partners,
@@ -118,6 +119,31 @@ def number_volume_modes(modes, dry, mass) -> None:
                     and mode.kind == OUT_OF_PLANE]
         if any(mode.n == 1 for mode in partners):
             number_from_dry_partners(wet, partners, mass)
+
+
+def name_coupled_modes(modes, dry, mass) -> None:
+    """Labels of coupled modes whose cavity orders are set (:func:`label_cavity_orders`,
+    sector by sector): the rule of ``solve``, which ``response`` applies to its even-even
+    sector too.  Over an enclosure (``dry``: the dry partners of the same sectors, None
+    without one) the m = 0 out-of-plane modes take their dry partner's n
+    (:func:`number_volume_modes`; ``mass``: the full membrane mass M_s [kg] of
+    :func:`copdea_fem.fe.linearise.membrane_matrices`); the structural modes then take their
+    (m,n) labels (:func:`copdea_fem.fe.modes.assign_labels`) and the cavity modes theirs
+    (:func:`copdea_fem.fe.cavity.label_cavity_modes`)."""
+    if dry is not None:
+        number_volume_modes(modes, dry, mass)
+    assign_labels([mode for mode in modes if mode.kind != AIR and not mode.cavity_orders])
+    label_cavity_modes(modes)
+
+
+def sector_dry_modes(operators, study, f_min: float, f_max: float, sampler=None) -> list:
+    """The dry modes of one sector's :class:`copdea_fem.fe.linearise.MembraneOperators` in
+    [f_min, f_max] [Hz] (the study's damping keys: :func:`copdea_fem.fe.linearise.operator_damping`),
+    classified (:func:`copdea_fem.fe.modes.classify_modes`): the dry partners of its coupled
+    modes."""
+    result = BandSolver.from_study(study).solve(operators.stiffness, operators.mass, f_min,
+                                                f_max, damping=operator_damping(operators, study))
+    return classify_modes(operators, result, sampler or ModeSampler(operators.state))
 
 
 class QuadrantEngine:
@@ -244,7 +270,7 @@ class QuadrantEngine:
         from copdea_fem.fe.coupled import assemble_coupled
         from copdea_fem.fe.eigen import SectorBandResults
         from copdea_fem.fe.linearise import membrane_matrices
-        from copdea_fem.fe.modes import assign_labels, coupled_mode_list, match_dry
+        from copdea_fem.fe.modes import coupled_mode_list, match_dry
 
         timings = timings or Timings()
         band = band or BandSolver.from_study(study)
@@ -322,10 +348,7 @@ class QuadrantEngine:
             modes, pressures = [modes[k] for k in order], [pressures[k] for k in order]
             for index, mode in enumerate(modes):
                 mode.index = index
-            if cavity is not None:
-                number_volume_modes(modes, dry, matrices[1])
-            assign_labels([mode for mode in modes if mode.kind != AIR and not mode.cavity_orders])
-            label_cavity_modes(modes)
+            name_coupled_modes(modes, None if cavity is None else dry, matrices[1])
             assign_labels(dry)
             partners = match_dry(modes, dry, matrices[1])
         return CoupledSolution(state, modes, pressures, dry,
