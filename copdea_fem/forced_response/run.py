@@ -444,12 +444,15 @@ def summary_lines(result: ResponseResult) -> list[str]:
              f"{load.voltage / 1e3:g} kV, frame {g.frame}, {result.frequency_hz.size} lines",
              f"far field: {result.far_field}"]
     if result.modes:
-        lines.append(f"{'mode':>8} {'Re f Hz':>9} {'Im f Hz':>9} {'b/m 1/s':>8} "
+        listed = [(mode, damping) for mode, damping in zip(result.modes,
+                                                          result.basis.damping_per_mass)
+                  if mode.kind != "air" and mode.freq_hz <= result.frequency_hz.max()]
+        width = max([8] + [len(mode.label) for mode, _ in listed])    # cavity(0,0,0): 13
+        lines.append(f"{'mode':>{width}} {'Re f Hz':>9} {'Im f Hz':>9} {'b/m 1/s':>8} "
                      f"{'membrane KE':>11}")
-        for mode, damping in zip(result.modes, result.basis.damping_per_mass):
-            if mode.kind != "air" and mode.freq_hz <= result.frequency_hz.max():
-                lines.append(f"{mode.label:>8} {mode.freq_hz:9.2f} {mode.freq_im_hz:9.2f} "
-                             f"{damping:8.1f} {mode.membrane_energy_fraction:11.3f}")
+        for mode, damping in listed:
+            lines.append(f"{mode.label:>{width}} {mode.freq_hz:9.2f} {mode.freq_im_hz:9.2f} "
+                         f"{damping:8.1f} {mode.membrane_energy_fraction:11.3f}")
     for f in result.peaks_hz:
         k = int(np.argmin(abs(result.frequency_hz - f)))
         lines.append(f"peak {f:8.2f} Hz: v_axial {1e3 * result.average_axial[k]:.4g} mm/s, "
