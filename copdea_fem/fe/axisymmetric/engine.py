@@ -30,27 +30,29 @@ from copdea_fem.fe.axisymmetric.modes import (
     CavitySampler,
     OrderSampler,
     classify_order,
+    coupled_order_modes,
     label_all,
+    name_coupled_order,
     number_out_of_plane,
+    numbered_dry_modes,
     sampled_shapes,
     with_pairs,
 )
-from copdea_fem.fe.axisymmetric.operators import MeridianAir, OrderForms, coupled_order_operators
+from copdea_fem.fe.axisymmetric.operators import (
+    MeridianAir,
+    OrderForms,
+    coupled_order_operators,
+    dry_order,
+)
 from copdea_fem.fe.axisymmetric.prestress import make_axisymmetric_solver
-from copdea_fem.fe.bands import BandSolver, OrderStop, coupled_start_modes, lowest_frequency_hz
+from copdea_fem.fe.bands import BandSolver, OrderStop, coupled_start_modes
 from copdea_fem.fe.cavity import (
     lowest_order_frequency,
     without_static_solution,
 )
 from copdea_fem.fe.eigen import SectorBandResults
 from copdea_fem.fe.forced.problem import DrivenPart, band_parts
-from copdea_fem.fe.modes import (
-    AIR,
-    match_dry,
-    may_be_cavity_mode,
-    membrane_energy_fractions,
-    number_from_dry_partners,
-)
+from copdea_fem.fe.modes import match_dry
 from copdea_fem.fe.solution import CoupledSolution
 from copdea_fem.progress import Timings, single_threaded_blas, tagging
 
@@ -80,19 +82,6 @@ def _prestressed(study, mesh, timings, solver):
     with timings.stage("prestress"):
         logger.info("prestress (axisymmetric Newton, load steps in z then V_b) ...")
         return solve_axisymmetric_prestress(study, mesh, solver)
-
-
-def dry_order(band: BandSolver, forms, m, f_max, initial_shifts=None):
-    """The dry pencil of order m and its modes from 0 Hz to ``f_max``, and the frequency
-    of its lowest mode [Hz] (from the band, else one lowest-eigenvalue solve)."""
-    operators = forms.operators(m)
-    # damping keys: the quadratic/rational step in omega (copdea_fem.fe.eigen.damped),
-    # else linear
-    result = band.solve(operators.stiffness, operators.mass, 0.0, f_max,
-                        damping=forms.damping(operators), initial_shifts=initial_shifts)
-    lowest = float(np.min(result.freq_hz)) if len(result) else \
-        lowest_frequency_hz(operators.stiffness, operators.mass)
-    return operators, result, lowest
 
 
 def order_sampler(samplers: dict, state, operators) -> OrderSampler:
@@ -145,72 +134,6 @@ def axisymmetric_dry_modes(study, mesh=None, timings=None, solver=None,
 def same_order_family(mode, dry) -> bool:
     """Pairing rule within one order: same kind and (out-of-plane) the same n."""
     return dry.kind == mode.kind and (mode.kind == "in-plane" or dry.n == mode.n)
-
-
-def number_from_dry(modes, dry_modes, mass) -> None:
-    """n of the coupled out-of-plane modes of one order: their dry partner's
-    (:func:`copdea_fem.fe.modes.number_from_dry_partners`), so that n counts from 0 Hz up
-    (the dry band starts there) whatever band the coupled solve had.  Without dry
-    out-of-plane modes (none below 1.5 f_max, or ``dry_modes`` None: none solved) the rank
-    among the coupled ones stands."""
-    number_out_of_plane([mode for mode in modes if not mode.cavity_orders])
-    if dry_modes:
-        number_from_dry_partners(modes, dry_modes, mass)
-
-
-def numbered_dry_modes(operators, result, sampler=None) -> list:
-    """The dry modes of one order's band ``result`` (solved from 0 Hz, :func:`dry_order`),
-    classified and their out-of-plane n counted by rank: the dry partners that number the
-    order's coupled modes (:func:`name_coupled_order`)."""
-    modes = classify_order(operators, result.vectors, result.freq_hz, result.freq_im_hz,
-                           result.residuals, sampler)
-    number_out_of_plane(modes)
-    return modes
-
-
-def coupled_order_modes(coupled, result, min_membrane_energy: float, sampler=None):
-    """Classify the coupled eigenpairs ``result`` of one order (``coupled``: its
-    :class:`.operators.CoupledOrderOperators`), as
-    :func:`copdea_fem.fe.modes.coupled_mode_list` does on the 3-D engine: (modes, pressure
-    vectors [Pa, ``coupled.pressure_free`` DOFs, scaled as the modes' normalised vectors]);
-    a mode whose membrane carries less than ``min_membrane_energy`` of the kinetic energy
-    (:func:`copdea_fem.fe.modes.membrane_energy_fractions`) is an air mode."""
-    dry = coupled.membrane
-    membrane = result.vectors[coupled.membrane_index]
-    modes = classify_order(dry, membrane, result.freq_hz, result.freq_im_hz,
-                           result.residuals, sampler)
-    full = dry.to_full(membrane)
-    pressures = []
-    for k, (mode, fraction) in enumerate(zip(modes, membrane_energy_fractions(coupled,
-                                                                              result))):
-        mode.membrane_energy_fraction = fraction
-        if fraction < min_membrane_energy:
-            mode.kind = AIR
-        scale = np.linalg.norm(mode.vector) / max(np.linalg.norm(full[:, k]), 1e-300)
-        pressures.append(result.vectors[coupled.pressure_index, k]
-                         * coupled.pressure_scale * scale)
-    return modes, pressures
-
-
-def name_coupled_order(modes, pressures, dry_modes, coupled, cavity_sampler=None) -> None:
-    """What one order's coupled modes are, before their labels (:func:`.modes.label_all`):
-    the rule of ``solve``, which ``response`` applies to its order m = 0 too.
-
-    A mode that moves mostly air (:func:`copdea_fem.fe.modes.may_be_cavity_mode`) whose air
-    lies inside the enclosure takes its cavity orders (``cavity_sampler``, a
-    :class:`.modes.CavitySampler`; None: an open back), a vent's Helmholtz mode
-    ``cavity(0,0,0)`` among them; the out-of-plane modes take their dry partner's n
-    (:func:`number_from_dry`, ``dry_modes`` of :func:`numbered_dry_modes`; None: their rank).
-
-    ``pressures``: the modes' pressure vectors on ``coupled.pressure_free``
-    (:func:`coupled_order_modes`).
-    """
-    if cavity_sampler is not None:
-        for mode, pressure in zip(modes, pressures):
-            if may_be_cavity_mode(mode):
-                mode.cavity_orders = cavity_sampler.orders(coupled.membrane.m,
-                                                           coupled.pressure_free, pressure)
-    number_from_dry(modes, dry_modes, coupled.membrane.mass_full)
 
 
 def axisymmetric_coupled_modes(study, mesh=None, timings=None, solver=None,

@@ -58,8 +58,9 @@ def order_zero_problem(study, mesh, state, timings: dict) -> OrderZero:
 
 def _dry_modes(forms, study, f_max: float):
     """The dry m = 0 modes from 0 Hz to ``f_max`` [Hz], classified and numbered as
-    ``solve``'s dry partners (:func:`copdea_fem.fe.axisymmetric.engine.numbered_dry_modes`)."""
-    from copdea_fem.fe.axisymmetric.engine import dry_order, numbered_dry_modes
+    ``solve``'s dry partners (:func:`copdea_fem.fe.axisymmetric.modes.numbered_dry_modes`)."""
+    from copdea_fem.fe.axisymmetric.modes import numbered_dry_modes
+    from copdea_fem.fe.axisymmetric.operators import dry_order
     from copdea_fem.fe.bands import BandSolver
     operators, result, _ = dry_order(BandSolver.from_study(study), forms, 0, f_max)
     return numbered_dry_modes(operators, result)
@@ -67,19 +68,18 @@ def _dry_modes(forms, study, f_max: float):
 
 def _classify(problem, result):
     """The modes of the forced m = 0 band with their membrane-energy fractions, and their
-    pressure vectors (:func:`copdea_fem.fe.axisymmetric.engine.coupled_order_modes`)."""
-    from copdea_fem.fe.axisymmetric.engine import coupled_order_modes
+    pressure vectors (:func:`copdea_fem.fe.axisymmetric.modes.coupled_order_modes`)."""
+    from copdea_fem.fe.axisymmetric.modes import coupled_order_modes
     return coupled_order_modes(problem.coupled, result,
                                problem.study.air.min_membrane_energy)
 
 
 def _label(problem, modes, pressures, f_max: float) -> None:
     """Name the modes of the forced m = 0 band of ``f_max`` [Hz] as ``solve`` names its
-    order m = 0 (:func:`copdea_fem.fe.axisymmetric.engine.name_coupled_order`): over an
+    order m = 0 (:func:`copdea_fem.fe.axisymmetric.modes.name_coupled_order`): over an
     enclosure with the cavity orders and the dry partners below
     :data:`copdea_fem.fe.bands.DRY_PARTNER_FACTOR` f_max, else by rank."""
-    from copdea_fem.fe.axisymmetric.engine import name_coupled_order
-    from copdea_fem.fe.axisymmetric.modes import label_all
+    from copdea_fem.fe.axisymmetric.modes import label_all, name_coupled_order
     from copdea_fem.fe.bands import DRY_PARTNER_FACTOR
     name_coupled_order(modes, pressures, problem.dry_partners(DRY_PARTNER_FACTOR * f_max),
                        problem.coupled, problem.cavity)

@@ -114,8 +114,8 @@ def prepare_quadrant(study):
     # costs no dry solve
     if study.geometry.enclosure != "none":
         from copdea_fem.fe.quadrant.cavity import QuadrantCavitySampler
-        from copdea_fem.fe.quadrant.engine import sector_dry_modes
         from copdea_fem.fe.quadrant.geometry import GeometrySpec
+        from copdea_fem.fe.quadrant.labels import sector_dry_modes
         cavity = QuadrantCavitySampler(coupled.pressure_space, GeometrySpec.from_study(study))
         dry_band = functools.partial(sector_dry_modes, operators, study, 0.0)
     timings["assembly"] = time.perf_counter() - start
@@ -229,14 +229,14 @@ def _classify(problem, result):
 
 def _label(problem, modes, pressures, f_max: float) -> None:
     """Name the modes of the forced even-even band of ``f_max`` [Hz] as ``solve`` names
-    its sectors' (:func:`copdea_fem.fe.quadrant.engine.label_cavity_orders`,
-    :func:`copdea_fem.fe.quadrant.engine.name_coupled_modes`): over an enclosure with the
+    its sectors' (:func:`copdea_fem.fe.quadrant.labels.label_cavity_orders`,
+    :func:`copdea_fem.fe.quadrant.labels.name_coupled_modes`): over an enclosure with the
     cavity orders and the dry partners below :data:`copdea_fem.fe.bands.DRY_PARTNER_FACTOR`
     f_max; the air modes (also those the response's band adds) are ``air``."""
     from copdea_fem.fe.bands import DRY_PARTNER_FACTOR
     from copdea_fem.fe.linearise import membrane_matrices
     from copdea_fem.fe.modes import AIR
-    from copdea_fem.fe.quadrant.engine import label_cavity_orders, name_coupled_modes
+    from copdea_fem.fe.quadrant.labels import label_cavity_orders, name_coupled_modes
     for mode in modes:
         if mode.kind == AIR:
             mode.label, mode.m, mode.n = "air", 0, 0
