@@ -202,7 +202,7 @@ def number_from_dry(modes, dry_modes, mass) -> None:
 
 
 def numbered_dry_modes(operators, result, sampler=None) -> list:
-    """The dry modes of one order's band ``result`` (solved from 0 Hz, :func:`dry_order`),
+    """The dry modes of one order's band ``result`` (solved from 0 Hz, :func:`.operators.dry_order`),
     classified and their out-of-plane n counted by rank: the dry partners that number the
     order's coupled modes (:func:`name_coupled_order`)."""
     modes = classify_order(operators, result.vectors, result.freq_hz, result.freq_im_hz,
@@ -236,12 +236,12 @@ def coupled_order_modes(coupled, result, min_membrane_energy: float, sampler=Non
 
 
 def name_coupled_order(modes, pressures, dry_modes, coupled, cavity_sampler=None) -> None:
-    """What one order's coupled modes are, before their labels (:func:`.modes.label_all`):
+    """What one order's coupled modes are, before their labels (:func:`label_all`):
     the rule of ``solve``, which ``response`` applies to its order m = 0 too.
 
     A mode that moves mostly air (:func:`copdea_fem.fe.modes.may_be_cavity_mode`) whose air
     lies inside the enclosure takes its cavity orders (``cavity_sampler``, a
-    :class:`.modes.CavitySampler`; None: an open back), a vent's Helmholtz mode
+    :class:`CavitySampler`; None: an open back), a vent's Helmholtz mode
     ``cavity(0,0,0)`` among them; the out-of-plane modes take their dry partner's n
     (:func:`number_from_dry`, ``dry_modes`` of :func:`numbered_dry_modes`; None: their rank).
 
