@@ -1011,6 +1011,43 @@ def test_an_interrupted_dask_sweep_ends_in_one_line(tmp_path, sign, code):
                                         f"{out}; run the sweep again to resume"]
 
 
+@pytest.mark.parametrize("sign, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)],
+                         ids=["ctrl-c", "sigterm"])
+def test_an_interrupted_dask_diagnosis_ends_in_one_line(tmp_path, sign, code):
+    """A diagnosis whose FE solves run on a local Dask cluster (the bundled FE example, an
+    empty FE cache), interrupted once the cluster is up and a solve runs, the signal to the
+    whole process group (as a terminal's Ctrl-C): the CLI's exit code and its one line on
+    stderr (docs/reliability.md), no "closing the cluster" progress, no worker traceback,
+    no Dask log (the diagnosis hands the interrupt to the cluster's context,
+    copdea_fem.parallel.dask_client), and no report written."""
+    pytest.importorskip("distributed")
+    out, cache = tmp_path / "report", tmp_path / "fe_cache"
+    cache.mkdir()
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    process = subprocess.Popen(
+        [sys.executable, "-m", "copdea_fem.cli", "diagnose",
+         ROOT / "studies" / "measured_fe_example" / "measured.yaml", "--executor", "dask",
+         "--workers", "1", "--fe-cache", cache, "--out", out], cwd=tmp_path, env=env,
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+        preexec_fn=_default_sigint)
+    try:
+        for line in process.stderr:            # progress lines until the cluster is up
+            if "dask: local cluster at" in line:
+                break
+        else:
+            raise AssertionError(f"the diagnosis ended before its cluster ran: {process.wait()}")
+        time.sleep(0.5)                        # its first FE solve is running
+        os.killpg(process.pid, sign)
+        _, err = process.communicate(timeout=60)
+    finally:
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
+    assert process.returncode == code
+    assert err.strip().splitlines() == ["interrupted; no result written"]
+    assert not out.exists()
+
+
 def test_a_run_killed_while_writing_is_cleaned_up_by_the_next(tmp_path, capsys):
     out = tmp_path / "run"
     process = cli_process(["spectrum", REDUCED_STUDY, "--out", out], tmp_path, delay=60)

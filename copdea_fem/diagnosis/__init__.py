@@ -185,10 +185,13 @@ def diagnose_measured(measured, alpha: float = 0.05, model: str | None = None,
             shape_check = ShapeCheck(measured, pairings)
         from copdea_fem.diagnosis.select import Diagnoser
         result = Diagnoser(measured, alpha=alpha, engine=engine, shape_check=shape_check).run()
-        return dataclasses.replace(result, scan_pairings=pairings) if pairings else result
-    finally:
+    except BaseException as error:       # an interrupt: the Dask cluster closes in silence
         if engine is not None:
-            engine.fe.close()                            # the FE worker processes, if any
+            engine.fe.close(error)
+        raise
+    if engine is not None:
+        engine.fe.close()                                # the FE worker processes, if any
+    return dataclasses.replace(result, scan_pairings=pairings) if pairings else result
 
 
 def summary_lines(result: DiagnosisResult, out: Path) -> list[str]:

@@ -440,14 +440,20 @@ class FEModel:
             self._client = self._cluster.enter_context(dask_client(None, self.workers))
         return self._client
 
-    def close(self) -> None:
+    def close(self, error: BaseException | None = None) -> None:
         """End the worker processes of :meth:`solve_many` (if any were started), and close
-        the Dask client and its local cluster (if any)."""
+        the Dask client and its local cluster (if any).  ``error``: the exception that ends
+        the run, handed to the client's context (:func:`copdea_fem.parallel.dask_client`),
+        so that an interrupt closes the local cluster in silence and the CLI's one line is
+        all that follows it."""
         if self._pool is not None:
             self._finalizer()
             self._pool = None
         self._client = None
-        self._cluster.close()
+        if error is None:
+            self._cluster.close()
+        else:
+            self._cluster.__exit__(type(error), error, error.__traceback__)
 
     def _solve(self, run: Study, key: str) -> FEResult:
         from copdea_fem.fe import coupled_modes, dry_modes, engine_for

@@ -143,7 +143,7 @@ def modal_solution(problem: OrderZero, f_end: float):
     result = solve_band(coupled.stiffness, coupled.mass, 0.0, reach, factorize=coupled.factorize,
                         hermitian=False, max_imag_hz=reach, backend=eigen.backend,
                         max_modes=eigen.max_modes, residual_tol=eigen.residual_tol)
-    modes = band_modes(problem, result.eigenvalues, result.vectors, result.residuals)
+    modes = band_modes(problem, result.eigenvalues, result.vectors, result.residuals, reach)
     if study.membrane.prony:
         logger.warning("response.method: modal with membrane.prony: the modal path is a few % "
                        "off the exact response (its static correction uses the relaxed "
@@ -159,10 +159,15 @@ def modal_solution(problem: OrderZero, f_end: float):
 RITZ_ROUNDS = 3
 
 
-def band_modes(problem: OrderZero, eigenvalues, vectors, residuals):
-    """Classified, labelled modes (as ``solve`` labels them) of eigenpairs: air/PML modes
-    (little membrane energy, or damped beyond what ``solve`` looks for: its band holds
-    |Im f| <= eigen.max_damping_ratio f_max; PML modes reach zeta ~ 1) get kind AIR."""
+def band_modes(problem: OrderZero, eigenvalues, vectors, residuals, band_top_hz: float):
+    """Classified, labelled modes of the eigenpairs of the driven part's band up to
+    ``band_top_hz`` [Hz], named by the rule ``solve`` names them with (the driven sector's
+    :attr:`~copdea_fem.fe.forced.problem.DrivenSector.label`: over an enclosure a vent's
+    Helmholtz mode is ``cavity(0,0,0)`` and the membrane modes are numbered from their dry
+    partners, so that the damping chosen by label, :func:`modal_damping`, is the mode's).
+    Air/PML modes (little membrane energy, or damped beyond what ``solve`` looks for: its
+    band holds |Im f| <= eigen.max_damping_ratio f_max; PML modes reach zeta ~ 1) get kind
+    AIR."""
     import types
 
     from copdea_fem.fe import AIR
@@ -174,12 +179,12 @@ def band_modes(problem: OrderZero, eigenvalues, vectors, residuals):
     result = types.SimpleNamespace(eigenvalues=np.asarray(eigenvalues), vectors=vectors,
                                    freq_hz=freq.real, freq_im_hz=freq.imag,
                                    residuals=np.asarray(residuals))
-    modes = problem.sector.classify(problem, result)
+    modes, pressures = problem.sector.classify(problem, result)
     for mode in modes:
         if (mode.membrane_energy_fraction < study.air.min_membrane_energy
                 or mode.damping_ratio > eigen.max_damping_ratio):
             mode.kind = AIR
-    problem.sector.label(modes)
+    problem.sector.label(problem, modes, pressures, band_top_hz)
     return modes
 
 
@@ -233,7 +238,7 @@ def reduced_modal_solution(problem: OrderZero, frequency_hz):
     index = np.flatnonzero(converged)
     index = index[np.argsort(freq[index].real)]
     modes = band_modes(problem, ritz.eigenvalues[index], ritz.vectors[:, index],
-                        ritz.residuals[index])
+                       ritz.residuals[index], reach)
     damping = modal_damping([m.label for m in modes], [m.kind for m in modes], study)
     damped = index[damping > 0]
     ritz.damping[damped] = damping[damping > 0] * ritz.kinetic_shares(forced, damped)
@@ -449,12 +454,15 @@ def summary_lines(result: ResponseResult) -> list[str]:
              f"{load.voltage / 1e3:g} kV, frame {g.frame}, {result.frequency_hz.size} lines",
              f"far field: {result.far_field}"]
     if result.modes:
-        lines.append(f"{'mode':>8} {'Re f Hz':>9} {'Im f Hz':>9} {'b/m 1/s':>8} "
+        listed = [(mode, damping) for mode, damping in zip(result.modes,
+                                                          result.basis.damping_per_mass)
+                  if mode.kind != "air" and mode.freq_hz <= result.frequency_hz.max()]
+        width = max([8] + [len(mode.label) for mode, _ in listed])    # cavity(0,0,0): 13
+        lines.append(f"{'mode':>{width}} {'Re f Hz':>9} {'Im f Hz':>9} {'b/m 1/s':>8} "
                      f"{'membrane KE':>11}")
-        for mode, damping in zip(result.modes, result.basis.damping_per_mass):
-            if mode.kind != "air" and mode.freq_hz <= result.frequency_hz.max():
-                lines.append(f"{mode.label:>8} {mode.freq_hz:9.2f} {mode.freq_im_hz:9.2f} "
-                             f"{damping:8.1f} {mode.membrane_energy_fraction:11.3f}")
+        for mode, damping in listed:
+            lines.append(f"{mode.label:>{width}} {mode.freq_hz:9.2f} {mode.freq_im_hz:9.2f} "
+                         f"{damping:8.1f} {mode.membrane_energy_fraction:11.3f}")
     for f in result.peaks_hz:
         k = int(np.argmin(abs(result.frequency_hz - f)))
         lines.append(f"peak {f:8.2f} Hz: v_axial {1e3 * result.average_axial[k]:.4g} mm/s, "

@@ -147,7 +147,7 @@ def driven_modal_forcing(problem, weights, engine) -> list[ModalForce]:
                        max_imag_hz=eigen.max_damping_ratio * eigen.f_max,
                        backend=eigen.backend, max_modes=eigen.max_modes,
                        residual_tol=eigen.residual_tol)
-    modes = band_modes(problem, found.eigenvalues, found.vectors, found.residuals)
+    modes = band_modes(problem, found.eigenvalues, found.vectors, found.residuals, eigen.f_max)
     band = types.SimpleNamespace(eigenvalues=np.asarray(found.eigenvalues),
                                  vectors=np.asarray(found.vectors))
     part = DrivenPart("driven", coupled, band, m=getattr(coupled.membrane, "m", None),

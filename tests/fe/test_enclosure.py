@@ -491,3 +491,56 @@ def test_the_vent_labels_agree_between_the_engines():
     assert set(found["axisymmetric"]) == set(found["3d"]) == {"cavity(0,0,0)", "(0,1)", "(0,2)"}
     for label, frequency in found["axisymmetric"].items():
         assert found["3d"][label] == pytest.approx(frequency, rel=0.05), label
+
+
+def test_response_names_the_vent_modes_as_solve_and_damps_the_01_by_its_key(tmp_path):
+    """``response`` over the 6 mm vented cylinder (coarse, as the solve test above): the
+    Helmholtz mode is ``cavity(0,0,0)`` and the membrane's stiffened (0,1) is ``(0,1)`` in
+    response_modes.csv and modal_forcing.csv, as ``solve`` names them on the same study
+    (labels and frequencies of the m = 0 out-of-plane and cavity modes in the band).  The
+    modal damping follows the label: the (0,1) row carries reduced.damping_01 (set to a value
+    no other key has), the Helmholtz mode reduced.damping_higher (a cavity label has no key
+    of its own), not the (0,1)'s.  The labels do not rest on the code that made them only:
+    the (0,1) carries most of the kinetic energy on its membrane and lies above its dry
+    partner (the air spring, docs/enclosures.md), the Helmholtz mode carries little and lies
+    below the (0,1)."""
+    import csv
+
+    from copdea_fem.cli import main
+    damping_01, damping_higher = 321.0, 57.0       # 1/s; 57 is damping_02's default too
+    common = ["--set", "geometry.frame=none", "--set", "geometry.enclosure_vent_radius=6 mm",
+              "--set", "mesh.membrane_size=9 mm", "--set", "mesh.pressure_order=1",
+              "--set", "eigen.f_max=1400 Hz", "--set", "output.plots=false",
+              "--set", "output.paraview=false"]
+    assert main(["response", str(BOXED), "--out", str(tmp_path / "response"), *common,
+                 "--set", f"reduced.damping_01={damping_01} 1/s",
+                 "--set", f"reduced.damping_higher={damping_higher} 1/s"]) == 0
+    assert main(["solve", str(BOXED), "--out", str(tmp_path / "solve"), *common]) == 0
+
+    def rows(path):
+        with open(path, newline="") as table:
+            return list(csv.DictReader(table))
+
+    response = rows(tmp_path / "response" / "response_modes.csv")
+    forcing = rows(tmp_path / "response" / "modal_forcing.csv")
+    solved = rows(tmp_path / "solve" / "modes.csv")
+    top = 1400.0                                   # eigen.f_max: solve's band
+    named = {row["label"]: float(row["freq_hz"]) for row in response
+             if row["label"].startswith(("(0,", "cavity(")) and float(row["freq_hz"]) <= top}
+    expected = {row["label"]: float(row["freq_hz"]) for row in solved if row["m"] == "0"
+                and row["label"].startswith(("(0,", "cavity("))}
+    assert {"cavity(0,0,0)", "(0,1)"} <= set(named)
+    assert set(named) == set(expected)
+    for label, frequency in named.items():          # the same pencil: the same eigenvalue
+        assert frequency == pytest.approx(expected[label], rel=1e-6), label
+    assert {"cavity(0,0,0)", "(0,1)"} <= {row["label"] for row in forcing}
+    by_label = {row["label"]: row for row in response}
+    membrane_01, helmholtz = by_label["(0,1)"], by_label["cavity(0,0,0)"]
+    assert float(membrane_01["damping_per_mass"]) == damping_01
+    assert float(helmholtz["damping_per_mass"]) == damping_higher
+    assert [row["label"] for row in response
+            if float(row["damping_per_mass"]) == damping_01] == ["(0,1)"]
+    assert float(membrane_01["membrane_energy_fraction"]) > 0.5
+    assert float(helmholtz["membrane_energy_fraction"]) < 0.5
+    dry_01 = {row["label"]: float(row["dry_freq_hz"]) for row in solved}["(0,1)"]
+    assert float(helmholtz["freq_hz"]) < dry_01 < float(membrane_01["freq_hz"])

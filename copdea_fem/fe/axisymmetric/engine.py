@@ -30,27 +30,29 @@ from copdea_fem.fe.axisymmetric.modes import (
     CavitySampler,
     OrderSampler,
     classify_order,
+    coupled_order_modes,
     label_all,
+    name_coupled_order,
     number_out_of_plane,
+    numbered_dry_modes,
     sampled_shapes,
     with_pairs,
 )
-from copdea_fem.fe.axisymmetric.operators import MeridianAir, OrderForms, coupled_order_operators
+from copdea_fem.fe.axisymmetric.operators import (
+    MeridianAir,
+    OrderForms,
+    coupled_order_operators,
+    dry_order,
+)
 from copdea_fem.fe.axisymmetric.prestress import make_axisymmetric_solver
-from copdea_fem.fe.bands import BandSolver, OrderStop, coupled_start_modes, lowest_frequency_hz
+from copdea_fem.fe.bands import BandSolver, OrderStop, coupled_start_modes
 from copdea_fem.fe.cavity import (
     lowest_order_frequency,
     without_static_solution,
 )
 from copdea_fem.fe.eigen import SectorBandResults
 from copdea_fem.fe.forced.problem import DrivenPart, band_parts
-from copdea_fem.fe.modes import (
-    AIR,
-    match_dry,
-    may_be_cavity_mode,
-    membrane_energy_fractions,
-    number_from_dry_partners,
-)
+from copdea_fem.fe.modes import match_dry
 from copdea_fem.fe.solution import CoupledSolution
 from copdea_fem.progress import Timings, single_threaded_blas, tagging
 
@@ -82,19 +84,6 @@ def _prestressed(study, mesh, timings, solver):
         return solve_axisymmetric_prestress(study, mesh, solver)
 
 
-def _dry_order(band: BandSolver, forms, m, f_max, initial_shifts=None):
-    """The dry pencil of order m and its modes from 0 Hz to ``f_max``, and the frequency
-    of its lowest mode [Hz] (from the band, else one lowest-eigenvalue solve)."""
-    operators = forms.operators(m)
-    # damping keys: the quadratic/rational step in omega (copdea_fem.fe.eigen.damped),
-    # else linear
-    result = band.solve(operators.stiffness, operators.mass, 0.0, f_max,
-                        damping=forms.damping(operators), initial_shifts=initial_shifts)
-    lowest = float(np.min(result.freq_hz)) if len(result) else \
-        lowest_frequency_hz(operators.stiffness, operators.mass)
-    return operators, result, lowest
-
-
 def order_sampler(samplers: dict, state, operators) -> OrderSampler:
     """The :class:`.modes.OrderSampler` of ``operators``' space, made once per space in
     ``samplers`` (the orders m >= 1 share a space, :class:`.operators.OrderForms`)."""
@@ -121,7 +110,7 @@ def axisymmetric_dry_modes(study, mesh=None, timings=None, solver=None,
     stop = OrderStop(band.f_max)
     for m in range(MAX_ORDER + 1):
         with timings.stage("eigen"), tagging(f"m = {m}: "):
-            operators, result, lowest = _dry_order(band, forms, m, band.f_max,
+            operators, result, lowest = dry_order(band, forms, m, band.f_max,
                                                    initial_shifts.get(f"m={m}"))
         stop.record(lowest)
         if stop.done():
@@ -145,15 +134,6 @@ def axisymmetric_dry_modes(study, mesh=None, timings=None, solver=None,
 def same_order_family(mode, dry) -> bool:
     """Pairing rule within one order: same kind and (out-of-plane) the same n."""
     return dry.kind == mode.kind and (mode.kind == "in-plane" or dry.n == mode.n)
-
-
-def number_from_dry(modes, dry_modes, mass) -> None:
-    """n of the coupled out-of-plane modes of one order: their dry partner's
-    (:func:`copdea_fem.fe.modes.number_from_dry_partners`), so that n counts from 0 Hz up
-    (the dry band starts there) whatever band the coupled solve had.  Without dry
-    out-of-plane modes (none below 1.5 f_max) the rank among the coupled ones stands."""
-    number_out_of_plane([mode for mode in modes if not mode.cavity_orders])
-    number_from_dry_partners(modes, dry_modes, mass)
 
 
 def axisymmetric_coupled_modes(study, mesh=None, timings=None, solver=None,
@@ -184,7 +164,7 @@ def axisymmetric_coupled_modes(study, mesh=None, timings=None, solver=None,
         def say(text, m=m):
             logger.info(f"m = {m}: {text}")
         with timings.stage("eigen"), tagging(f"m = {m}: "):
-            dry_operators, dry_result, lowest = _dry_order(band, forms, m,
+            dry_operators, dry_result, lowest = dry_order(band, forms, m,
                                                            band.dry_partner_top)
         if cavity is not None:     # the enclosure's own modes of order m start here too
             lowest = min(lowest, lowest_order_frequency(m, cavity.radius, air.sound_speed))
@@ -209,26 +189,10 @@ def axisymmetric_coupled_modes(study, mesh=None, timings=None, solver=None,
             result = without_static_solution(result, band.f_max)
         with timings.stage("classify"):
             sampler = order_sampler(samplers, state, dry_operators)
-            order_dry = classify_order(dry_operators, dry_result.vectors, dry_result.freq_hz,
-                                       dry_result.freq_im_hz, dry_result.residuals, sampler)
-            number_out_of_plane(order_dry)
-            membrane = result.vectors[coupled.membrane_index]
-            order_modes = classify_order(dry_operators, membrane, result.freq_hz,
-                                         result.freq_im_hz, result.residuals, sampler)
-            full = dry_operators.to_full(membrane)
-            order_pressures = []
-            for k, (mode, fraction) in enumerate(zip(order_modes, membrane_energy_fractions(
-                    coupled, result))):
-                mode.membrane_energy_fraction = fraction
-                if fraction < air.min_membrane_energy:
-                    mode.kind = AIR
-                scale = np.linalg.norm(mode.vector) / max(np.linalg.norm(full[:, k]), 1e-300)
-                order_pressures.append(result.vectors[coupled.pressure_index, k]
-                                       * coupled.pressure_scale * scale)
-                if cavity_sampler is not None and may_be_cavity_mode(mode):
-                    mode.cavity_orders = cavity_sampler.orders(m, coupled.pressure_free,
-                                                               order_pressures[-1])
-            number_from_dry(order_modes, order_dry, dry_operators.mass_full)
+            order_dry = numbered_dry_modes(dry_operators, dry_result, sampler)
+            order_modes, order_pressures = coupled_order_modes(
+                coupled, result, air.min_membrane_energy, sampler)
+            name_coupled_order(order_modes, order_pressures, order_dry, coupled, cavity_sampler)
             order_partners = match_dry(order_modes, order_dry, dry_operators.mass_full,
                                        same_order_family)
         results[f"m={m}"] = result

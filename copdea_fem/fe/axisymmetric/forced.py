@@ -12,6 +12,7 @@ velocities, far field and ParaView shapes (:mod:`.fields`).
 
 from __future__ import annotations
 
+import functools
 import logging
 import time
 
@@ -34,37 +35,54 @@ def order_zero_problem(study, mesh, state, timings: dict) -> OrderZero:
 
     start = time.perf_counter()
     logger.info("assembling the m = 0 membrane-air pencil and the voltage forcing ...")
-    motion = meridian_motion(state, mesh, study.air.domain_radius,
-                             cavity=MeridianSpec.from_study(study).cavity)
+    enclosure = MeridianSpec.from_study(study).cavity         # None: an open back
+    motion = meridian_motion(state, mesh, study.air.domain_radius, cavity=enclosure)
     air = MeridianAir(state, study, motion)
     forms = OrderForms(state, study)
     dry = forms.operators(0)
     coupled = coupled_order_operators(state, study, dry, air)
     forced = forced_order(state, coupled, study.eigen.backend).with_damping(
         forms.damping(dry))
+    cavity, dry_band = None, None
+    # over an enclosure the air changes what the m = 0 modes are (a vent's Helmholtz mode,
+    # the stiffened (0,1)): cavity orders and dry partners, as solve (_label); an open back
+    # loads them only, its counted n is the partners' and costs no dry solve
+    if enclosure is not None:
+        from copdea_fem.fe.axisymmetric.modes import CavitySampler
+        cavity = CavitySampler(air.pressure_space, enclosure)
+        dry_band = functools.partial(_dry_modes, forms, study)
     timings["assembly"] = time.perf_counter() - start
-    return OrderZero(study, state, coupled, forced, timings, MERIDIAN_SECTOR)
+    return OrderZero(study, state, coupled, forced, timings, MERIDIAN_SECTOR, cavity=cavity,
+                     dry_band=dry_band)
+
+
+def _dry_modes(forms, study, f_max: float):
+    """The dry m = 0 modes from 0 Hz to ``f_max`` [Hz], classified and numbered as
+    ``solve``'s dry partners (:func:`copdea_fem.fe.axisymmetric.modes.numbered_dry_modes`)."""
+    from copdea_fem.fe.axisymmetric.modes import numbered_dry_modes
+    from copdea_fem.fe.axisymmetric.operators import dry_order
+    from copdea_fem.fe.bands import BandSolver
+    operators, result, _ = dry_order(BandSolver.from_study(study), forms, 0, f_max)
+    return numbered_dry_modes(operators, result)
 
 
 def _classify(problem, result):
-    """The modes of the forced m = 0 band, with their membrane-energy fractions."""
-    from copdea_fem.fe.axisymmetric.modes import OrderSampler, classify_order
-    from copdea_fem.fe.modes import membrane_energy_fractions
-
-    coupled = problem.coupled
-    dry = coupled.membrane
-    membrane = result.vectors[coupled.membrane_index]
-    sampler = OrderSampler(problem.state, dry.space, dry.axis_m1)
-    modes = classify_order(dry, membrane, result.freq_hz, result.freq_im_hz,
-                           result.residuals, sampler)
-    for mode, fraction in zip(modes, membrane_energy_fractions(coupled, result)):
-        mode.membrane_energy_fraction = fraction
-    return modes
+    """The modes of the forced m = 0 band with their membrane-energy fractions, and their
+    pressure vectors (:func:`copdea_fem.fe.axisymmetric.modes.coupled_order_modes`)."""
+    from copdea_fem.fe.axisymmetric.modes import coupled_order_modes
+    return coupled_order_modes(problem.coupled, result,
+                               problem.study.air.min_membrane_energy)
 
 
-def _label(modes) -> None:
-    from copdea_fem.fe.axisymmetric.modes import label_all, number_out_of_plane
-    number_out_of_plane(modes)
+def _label(problem, modes, pressures, f_max: float) -> None:
+    """Name the modes of the forced m = 0 band of ``f_max`` [Hz] as ``solve`` names its
+    order m = 0 (:func:`copdea_fem.fe.axisymmetric.modes.name_coupled_order`): over an
+    enclosure with the cavity orders and the dry partners below
+    :data:`copdea_fem.fe.bands.DRY_PARTNER_FACTOR` f_max, else by rank."""
+    from copdea_fem.fe.axisymmetric.modes import label_all, name_coupled_order
+    from copdea_fem.fe.bands import DRY_PARTNER_FACTOR
+    name_coupled_order(modes, pressures, problem.dry_partners(DRY_PARTNER_FACTOR * f_max),
+                       problem.coupled, problem.cavity)
     label_all(modes)
 
 

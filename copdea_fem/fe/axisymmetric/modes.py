@@ -34,6 +34,9 @@ from copdea_fem.fe.modes import (
     PUMPING_DISC_FRACTION,
     Mode,
     assign_labels,
+    may_be_cavity_mode,
+    membrane_energy_fractions,
+    number_from_dry_partners,
     radial_order,
 )
 from copdea_fem.fe.symmetry import Sector
@@ -185,6 +188,72 @@ def label_all(modes: list[OrderMode]) -> None:
         if mode.kind == AIR:
             mode.label, mode.n = "air", 0
     label_cavity_modes(modes)
+
+
+def number_from_dry(modes, dry_modes, mass) -> None:
+    """n of the coupled out-of-plane modes of one order: their dry partner's
+    (:func:`copdea_fem.fe.modes.number_from_dry_partners`), so that n counts from 0 Hz up
+    (the dry band starts there) whatever band the coupled solve had.  Without dry
+    out-of-plane modes (none below 1.5 f_max, or ``dry_modes`` None: none solved) the rank
+    among the coupled ones stands."""
+    number_out_of_plane([mode for mode in modes if not mode.cavity_orders])
+    if dry_modes:
+        number_from_dry_partners(modes, dry_modes, mass)
+
+
+def numbered_dry_modes(operators, result, sampler=None) -> list:
+    """The dry modes of one order's band ``result`` (solved from 0 Hz, :func:`.operators.dry_order`),
+    classified and their out-of-plane n counted by rank: the dry partners that number the
+    order's coupled modes (:func:`name_coupled_order`)."""
+    modes = classify_order(operators, result.vectors, result.freq_hz, result.freq_im_hz,
+                           result.residuals, sampler)
+    number_out_of_plane(modes)
+    return modes
+
+
+def coupled_order_modes(coupled, result, min_membrane_energy: float, sampler=None):
+    """Classify the coupled eigenpairs ``result`` of one order (``coupled``: its
+    :class:`.operators.CoupledOrderOperators`), as
+    :func:`copdea_fem.fe.modes.coupled_mode_list` does on the 3-D engine: (modes, pressure
+    vectors [Pa, ``coupled.pressure_free`` DOFs, scaled as the modes' normalised vectors]);
+    a mode whose membrane carries less than ``min_membrane_energy`` of the kinetic energy
+    (:func:`copdea_fem.fe.modes.membrane_energy_fractions`) is an air mode."""
+    dry = coupled.membrane
+    membrane = result.vectors[coupled.membrane_index]
+    modes = classify_order(dry, membrane, result.freq_hz, result.freq_im_hz,
+                           result.residuals, sampler)
+    full = dry.to_full(membrane)
+    pressures = []
+    for k, (mode, fraction) in enumerate(zip(modes, membrane_energy_fractions(coupled,
+                                                                              result))):
+        mode.membrane_energy_fraction = fraction
+        if fraction < min_membrane_energy:
+            mode.kind = AIR
+        scale = np.linalg.norm(mode.vector) / max(np.linalg.norm(full[:, k]), 1e-300)
+        pressures.append(result.vectors[coupled.pressure_index, k]
+                         * coupled.pressure_scale * scale)
+    return modes, pressures
+
+
+def name_coupled_order(modes, pressures, dry_modes, coupled, cavity_sampler=None) -> None:
+    """What one order's coupled modes are, before their labels (:func:`label_all`):
+    the rule of ``solve``, which ``response`` applies to its order m = 0 too.
+
+    A mode that moves mostly air (:func:`copdea_fem.fe.modes.may_be_cavity_mode`) whose air
+    lies inside the enclosure takes its cavity orders (``cavity_sampler``, a
+    :class:`CavitySampler`; None: an open back), a vent's Helmholtz mode
+    ``cavity(0,0,0)`` among them; the out-of-plane modes take their dry partner's n
+    (:func:`number_from_dry`, ``dry_modes`` of :func:`numbered_dry_modes`; None: their rank).
+
+    ``pressures``: the modes' pressure vectors on ``coupled.pressure_free``
+    (:func:`coupled_order_modes`).
+    """
+    if cavity_sampler is not None:
+        for mode, pressure in zip(modes, pressures):
+            if may_be_cavity_mode(mode):
+                mode.cavity_orders = cavity_sampler.orders(coupled.membrane.m,
+                                                           coupled.pressure_free, pressure)
+    number_from_dry(modes, dry_modes, coupled.membrane.mass_full)
 
 
 class CavitySampler:

@@ -41,6 +41,7 @@ import scipy.sparse as sp
 
 from copdea_fem.fe.axisymmetric.membrane import d_dr, order_energy, radius
 from copdea_fem.fe.axisymmetric.meridian import theta_integral
+from copdea_fem.fe.bands import lowest_frequency_hz
 from copdea_fem.fe.linearise import to_scipy
 
 
@@ -434,3 +435,17 @@ def coupled_order_operators(state, study, dry: OrderOperators, air: MeridianAir
     return CoupledOrderOperators(m, a_scaled, b_scaled, dry, air.pressure_space, pressure_free,
                                  np.arange(n_u, n_u + n_p), np.arange(n_u), beta,
                                  kinetic.tocsr(), air.motion, factorize)
+
+
+def dry_order(band, forms: OrderForms, m: int, f_max: float, initial_shifts=None):
+    """The dry pencil of order m and its modes from 0 Hz to ``f_max`` [Hz] (``band``: the
+    study's :class:`copdea_fem.fe.bands.BandSolver`), and the frequency of its lowest mode
+    [Hz] (from the band, else one lowest-eigenvalue solve)."""
+    operators = forms.operators(m)
+    # damping keys: the quadratic/rational step in omega (copdea_fem.fe.eigen.damped),
+    # else linear
+    result = band.solve(operators.stiffness, operators.mass, 0.0, f_max,
+                        damping=forms.damping(operators), initial_shifts=initial_shifts)
+    lowest = float(np.min(result.freq_hz)) if len(result) else \
+        lowest_frequency_hz(operators.stiffness, operators.mass)
+    return operators, result, lowest

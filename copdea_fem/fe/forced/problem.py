@@ -9,6 +9,8 @@ Below the engines, so that the engines' builders (:mod:`copdea_fem.fe.quadrant.f
 
 from __future__ import annotations
 
+import logging
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
@@ -17,6 +19,8 @@ if TYPE_CHECKING:
     from copdea_fem.fe.forced.harmonic import CoupledPencil, ForcedOrder
     from copdea_fem.fe.prestress import PrestressedState
     from copdea_fem.study import Study
+
+logger = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -31,8 +35,11 @@ class DrivenSector:
     name: str                       # progress: "coupled modes of the <name>"
     excited: str                    # response.json "excited"
     summary: str                    # the summary's first line: "forced response (<summary>, ...)"
-    classify: Callable              # (problem, band result) -> modes, membrane fractions set
-    label: Callable                 # (modes) -> None: labels as ``solve`` gives them
+    # (problem, band result) -> (modes with their membrane fractions, pressure vectors)
+    classify: Callable
+    # (problem, modes, pressures, band top [Hz]) -> None: names and labels as ``solve``
+    # gives them (over an enclosure: cavity orders, n from :meth:`OrderZero.dry_partners`)
+    label: Callable
     observer: type                  # the membrane velocity observer at the scan radii
     angles: int                     # angles per radius the observer averages over
     sphere: type                    # the Kirchhoff sphere's pressure sampler
@@ -103,7 +110,14 @@ def band_parts(eigen) -> dict:
 class OrderZero:
     """The prestressed m = 0 problem of a study, ready to be driven: the study, its
     prestressed state (either engine's), the driven part's coupled operators and their
-    forced pencil."""
+    forced pencil.
+
+    Over an enclosure the engine also gives what ``solve``'s labels need beyond the coupled
+    band (:attr:`DrivenSector.label`): ``cavity``, its sampler of the enclosure's pressure
+    (the cavity orders), and ``dry_band``, ``f_max [Hz] -> the driven part's dry modes from
+    0 Hz to f_max``, classified and numbered (the dry partners that number the coupled
+    modes); both None without one (no dry solve: the counted n stands).
+    """
 
     study: Study
     state: PrestressedState
@@ -111,6 +125,26 @@ class OrderZero:
     forced: ForcedOrder
     timings: dict = field(default_factory=dict)
     sector: DrivenSector | None = None
+    cavity: object = None
+    dry_band: Callable | None = None
+    dry_solved: dict = field(default_factory=dict, repr=False)   # f_max [Hz] -> modes
+
+    def dry_partners(self, f_max: float) -> list | None:
+        """The driven part's dry modes from 0 Hz to ``f_max`` [Hz] (:attr:`dry_band`), solved
+        once for the widest band asked and cut to ``f_max`` (so that the labels do not
+        depend on which band was asked first); None without a dry band."""
+        if self.dry_band is None:
+            return None
+        widest = max(self.dry_solved, default=0.0)
+        if widest < f_max:
+            start = time.perf_counter()
+            self.dry_solved.clear()
+            self.dry_solved[f_max] = self.dry_band(f_max)
+            widest = f_max
+            logger.info(f"dry partners of the {self.sector.name if self.sector else 'part'} "
+                        f"(0 .. {f_max:g} Hz): {len(self.dry_solved[f_max])} modes in "
+                        f"{time.perf_counter() - start:.2f} s")
+        return [mode for mode in self.dry_solved[widest] if mode.freq_hz <= f_max]
 
     @property
     def engine(self) -> str:

@@ -18,20 +18,13 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from copdea_fem.fe.bands import BandSolver, coupled_start_modes
-from copdea_fem.fe.cavity import label_cavity_modes, without_static_solution
+from copdea_fem.fe.cavity import without_static_solution
 from copdea_fem.fe.forced.problem import DrivenPart, band_parts
 from copdea_fem.fe.linearise import linearised_operators, operator_damping
-from copdea_fem.fe.modes import (
-    AIR,
-    OUT_OF_PLANE,
-    ModeSampler,
-    classify_modes,
-    may_be_cavity_mode,
-    number_from_dry_partners,
-    sector_family,
-)
+from copdea_fem.fe.modes import ModeSampler, assign_labels, classify_modes
 from copdea_fem.fe.prestress import solve_prestress
 from copdea_fem.fe.quadrant.geometry import GeometrySpec, estimate_size, study_mesh
+from copdea_fem.fe.quadrant.labels import label_cavity_orders, name_coupled_modes
 from copdea_fem.fe.solution import CoupledSolution
 from copdea_fem.progress import Timings, carried, single_threaded_blas, tagged, tagging
 
@@ -84,40 +77,6 @@ def sampled_shapes(state, modes) -> np.ndarray:
     weights = np.sqrt(sampler.radii / state.outer_radius)[None, :, None]
     rows = [(sampler.components(mode.vector, mode.sector) * weights).ravel() for mode in modes]
     return np.array(rows) if rows else np.zeros((0, 3 * sampler.shape[0] * sampler.shape[1]))
-
-
-def label_cavity_orders(sampler, sector, coupled, modes, pressures) -> None:
-    """Give the modes of one sector that move mostly air
-    (:func:`copdea_fem.fe.modes.may_be_cavity_mode`) and live in the enclosure their orders
-    (:attr:`copdea_fem.fe.modes.Mode.cavity_orders`, :mod:`copdea_fem.fe.quadrant.cavity`):
-    a round enclosure's (m, n, p) with m as the mode's order and its cos/sin member from
-    the mirror class; a box's (i, j, k) (its nodal planes, no pair)."""
-    for mode, pressure in zip(modes, pressures):
-        if not may_be_cavity_mode(mode):
-            continue
-        mode.cavity_orders = sampler.orders(sector, coupled.pressure_free, pressure)
-        if not mode.cavity_orders:
-            continue
-        if sampler.spec.enclosure == "box":
-            mode.family = ""              # (i, j, k) names the mode whole: no pair letter
-        else:
-            mode.m = mode.cavity_orders[0]
-            mode.family = "" if sector is None else sector_family(mode.m, sector)
-
-
-def number_volume_modes(modes, dry, mass) -> None:
-    """n of the coupled m = 0 out-of-plane modes over an enclosure: their dry partners'
-    (:func:`copdea_fem.fe.modes.number_from_dry_partners`), sector by sector, as the
-    axisymmetric engine numbers every order.  Only m = 0 changes the trapped volume, so only
-    its shapes change enough under the air spring for a nodal count to misname them (the
-    stiffened (0,1) gains a nodal circle); the m >= 1 keep their counted n.  A band whose
-    dry modes of a sector miss the (0,1) (f_min above it) keeps the counted n too."""
-    for sector in {mode.sector for mode in modes}:
-        wet = [mode for mode in modes if mode.sector == sector and mode.m == 0]
-        partners = [mode for mode in dry if mode.sector == sector and mode.m == 0
-                    and mode.kind == OUT_OF_PLANE]
-        if any(mode.n == 1 for mode in partners):
-            number_from_dry_partners(wet, partners, mass)
 
 
 class QuadrantEngine:
@@ -249,7 +208,7 @@ class QuadrantEngine:
         from copdea_fem.fe.coupled import assemble_coupled
         from copdea_fem.fe.eigen import SectorBandResults
         from copdea_fem.fe.linearise import membrane_matrices
-        from copdea_fem.fe.modes import assign_labels, coupled_mode_list, match_dry
+        from copdea_fem.fe.modes import coupled_mode_list, match_dry
 
         timings = timings or Timings()
         band = band or BandSolver.from_study(study)
@@ -327,10 +286,7 @@ class QuadrantEngine:
             modes, pressures = [modes[k] for k in order], [pressures[k] for k in order]
             for index, mode in enumerate(modes):
                 mode.index = index
-            if cavity is not None:
-                number_volume_modes(modes, dry, matrices[1])
-            assign_labels([mode for mode in modes if mode.kind != AIR and not mode.cavity_orders])
-            label_cavity_modes(modes)
+            name_coupled_modes(modes, None if cavity is None else dry, matrices[1])
             assign_labels(dry)
             partners = match_dry(modes, dry, matrices[1])
         return CoupledSolution(state, modes, pressures, dry,

@@ -19,6 +19,7 @@ quadrant's field unfolded by the even-even parity ``p(x, y, z) = p(|x|, |y|, z)`
 
 from __future__ import annotations
 
+import functools
 import logging
 import time
 
@@ -122,8 +123,19 @@ def prepare_quadrant(study):
     elastic = quadrant_elastic(state, operators)
     forced = ForcedOrder.from_parts(coupled, force, elastic, balance, study.eigen.backend)
     forced.with_damping(operator_damping(operators, study))
+    cavity, dry_band = None, None
+    # over an enclosure the air changes what the m = 0 modes are (a vent's Helmholtz mode,
+    # the stiffened (0,1)): cavity orders and dry partners, as solve (_label); an open back
+    # costs no dry solve
+    if study.geometry.enclosure != "none":
+        from copdea_fem.fe.quadrant.cavity import QuadrantCavitySampler
+        from copdea_fem.fe.quadrant.geometry import GeometrySpec
+        from copdea_fem.fe.quadrant.labels import sector_dry_modes
+        cavity = QuadrantCavitySampler(coupled.pressure_space, GeometrySpec.from_study(study))
+        dry_band = functools.partial(sector_dry_modes, operators, study, 0.0)
     timings["assembly"] = time.perf_counter() - start
-    return OrderZero(study, state, coupled, forced, timings, QUADRANT_SECTOR)
+    return OrderZero(study, state, coupled, forced, timings, QUADRANT_SECTOR, cavity=cavity,
+                     dry_band=dry_band)
 
 
 class QuadrantObserver:
@@ -223,20 +235,31 @@ class QuadrantSphere:
 
 
 def _classify(problem, result):
-    """The modes of the forced even-even band, with their membrane-energy fractions."""
+    """The modes of the forced even-even band with their membrane-energy fractions, and
+    their pressure vectors (:func:`copdea_fem.fe.modes.coupled_mode_list`)."""
     from copdea_fem.fe.modes import ModeSampler, coupled_mode_list
-    modes, _ = coupled_mode_list(problem.coupled, result,
-                                 problem.study.air.min_membrane_energy,
-                                 ModeSampler(problem.state))
-    return modes
+    return coupled_mode_list(problem.coupled, result, problem.study.air.min_membrane_energy,
+                             ModeSampler(problem.state))
 
 
-def _label(modes) -> None:
-    from copdea_fem.fe.modes import AIR, assign_labels
+def _label(problem, modes, pressures, f_max: float) -> None:
+    """Name the modes of the forced even-even band of ``f_max`` [Hz] as ``solve`` names
+    its sectors' (:func:`copdea_fem.fe.quadrant.labels.label_cavity_orders`,
+    :func:`copdea_fem.fe.quadrant.labels.name_coupled_modes`): over an enclosure with the
+    cavity orders and the dry partners below :data:`copdea_fem.fe.bands.DRY_PARTNER_FACTOR`
+    f_max; the air modes (also those the response's band adds) are ``air``."""
+    from copdea_fem.fe.bands import DRY_PARTNER_FACTOR
+    from copdea_fem.fe.linearise import membrane_matrices
+    from copdea_fem.fe.modes import AIR
+    from copdea_fem.fe.quadrant.labels import label_cavity_orders, name_coupled_modes
     for mode in modes:
         if mode.kind == AIR:
             mode.label, mode.m, mode.n = "air", 0, 0
-    assign_labels([mode for mode in modes if mode.kind != AIR])
+    coupled = problem.coupled
+    if problem.cavity is not None:
+        label_cavity_orders(problem.cavity, coupled.membrane.sector, coupled, modes, pressures)
+    name_coupled_modes(modes, problem.dry_partners(DRY_PARTNER_FACTOR * f_max),
+                       membrane_matrices(problem.state)[1])
 
 
 def _write_shapes(staging, state, coupled, shapes, pressures):
