@@ -143,11 +143,11 @@ def test_the_segments_of_a_study_carry_their_drives():
 
 
 def test_a_study_without_segments_resolves_as_before(tmp_path):
-    from copdea_fem.study import SCHEMA, dump_resolved, load_study, parse_study
+    from copdea_fem.study import OPTIONAL_SECTIONS, SCHEMA, dump_resolved, load_study, parse_study
 
     plain = parse_study({}, name="x")
     assert "electrodes" not in plain.as_dict() and "electrodes" not in plain.values
-    assert list(plain.as_dict())[2:] == [s for s in SCHEMA if s != "electrodes"]
+    assert list(plain.as_dict())[2:] == [s for s in SCHEMA if s not in OPTIONAL_SECTIONS]
     segmented = parse_study({"electrodes": {"segments": [{"name": "a", "theta": [0, 90]}]}},
                             name="x")
     assert segmented.values["electrodes"]["segments"] == [
