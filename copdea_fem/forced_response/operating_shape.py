@@ -56,9 +56,7 @@ def operating_shape_mesh(solution, study, drive, frequency_hz: float, damping_pe
     engine, state = solution.engine, solution.state
     lines = np.array([float(frequency_hz)])
     shapes = []
-    for part in engine.driven_parts(solution, study):
-        if len(part.band.eigenvalues) == 0:
-            continue
+    for part in engine.driven_parts(solution, study):     # an empty band: its static part
         operators = part.pencil.membrane
         for force, families in driven_groups(engine, state, part, drive):
             if not families:
