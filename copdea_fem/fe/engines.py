@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 from copdea_fem.fe.quadrant.geometry import CACHE_VARIABLE
 from copdea_fem.study import Study, StudyError, engine_of
-from copdea_fem.study.imperfections import imperfection_keys_given
+from copdea_fem.study.imperfections import imperfection_keys_given, perturbation_refusal
 
 if TYPE_CHECKING:
     import numpy as np
@@ -130,12 +130,22 @@ class Engine(Protocol):
 
 def engine_for(study: Study) -> Engine:
     """The engine of the study (``mesh.engine``, ``auto`` resolved by the frame and the
-    imperfections: an imperfect device goes to the 3-D engine, logged)."""
+    imperfections: an imperfect device goes to the axisymmetric engine's perturbation path
+    within its range, to the 3-D engine beyond it, logged)."""
     imperfect = imperfection_keys_given(study.membrane, study.imperfections)
+    engine = engine_of(study)
     if study.mesh.engine == "auto" and imperfect:
-        logger.info(f"mesh.engine = auto: the 3-D engine, for {imperfect} (the "
-                    "axisymmetric engine models round devices only)")
-    if engine_of(study) == "axisymmetric":
+        if engine == "axisymmetric":
+            logger.info(f"mesh.engine = auto: the axisymmetric engine, {imperfect} by "
+                        "first-order perturbation")
+        else:
+            beyond = perturbation_refusal(study.membrane, study.imperfections,
+                                          study.air.enabled)
+            reason = (f"{beyond[0]} = {beyond[1]}: allowed there {beyond[2]}" if beyond
+                      else "the frame or the enclosure is not round")
+            logger.info(f"mesh.engine = auto: the 3-D engine, for {imperfect} (the "
+                        f"axisymmetric engine's perturbation path: {reason})")
+    if engine == "axisymmetric":
         from copdea_fem.fe.axisymmetric.engine import AxisymmetricEngine
         return AxisymmetricEngine()
     from copdea_fem.fe.quadrant.engine import QuadrantEngine

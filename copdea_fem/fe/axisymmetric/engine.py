@@ -36,6 +36,7 @@ from copdea_fem.fe.axisymmetric.modes import (
     with_pairs,
 )
 from copdea_fem.fe.axisymmetric.operators import MeridianAir, OrderForms, coupled_order_operators
+from copdea_fem.fe.axisymmetric.perturbation import perturbed_modes
 from copdea_fem.fe.axisymmetric.prestress import make_axisymmetric_solver
 from copdea_fem.fe.bands import BandSolver, OrderStop, coupled_start_modes, lowest_frequency_hz
 from copdea_fem.fe.cavity import (
@@ -53,6 +54,8 @@ from copdea_fem.fe.modes import (
 )
 from copdea_fem.fe.solution import CoupledSolution
 from copdea_fem.progress import Timings, single_threaded_blas, tagging
+from copdea_fem.study import StudyError
+from copdea_fem.study.imperfections import imperfection_keys_given
 
 #: Highest order tried before giving up (a band this rich is a mistake in the study).
 MAX_ORDER = 400
@@ -135,6 +138,9 @@ def axisymmetric_dry_modes(study, mesh=None, timings=None, solver=None,
                                          order_sampler(samplers, state, operators))
             number_out_of_plane(order_modes)
             modes += with_pairs(_in_band(order_modes, band.f_min, band.f_max))
+    if imperfection_keys_given(study.membrane, study.imperfections):
+        with timings.stage("perturbation"):
+            modes = perturbed_modes(state, modes, study, forms)
     modes.sort(key=lambda mode: (mode.freq_hz, mode.m, mode.family))
     for index, mode in enumerate(modes):
         mode.index = index
