@@ -373,36 +373,46 @@ def perturbed_modes(state, modes, study, forms):
         eigenvalues[:, None] * mass + mass * eigenvalues[None, :])
     matrix = 0.5 * (matrix + matrix.T)
     blocks = _blocks(matrix, eigenvalues)
-    block_of = np.empty(len(modes), dtype=int)
-    for index, block in enumerate(blocks):
-        block_of[block] = index
-    _check_range(matrix, eigenvalues, block_of, modes, terms)
     out = list(modes)
+    worst = (0.0, None)
     for block in blocks:
         values, vectors = np.linalg.eigh(matrix[np.ix_(block, block)])
+        values, third = _second_order(matrix, eigenvalues, block, values, vectors)
+        worst = max(worst, (float(np.max(third)), modes[block[int(np.argmax(third))]]),
+                    key=lambda item: item[0])
         _assign(block, values, vectors, modes, out)
+    _check_range(*worst, terms)
     return out
 
 
-def _check_range(matrix, eigenvalues, block_of, modes, terms) -> None:
-    """Refuse where a mode's neglected second-order shift exceeds :data:`TOLERANCE`."""
-    gaps = eigenvalues[:, None] - eigenvalues[None, :]
-    outside = block_of[:, None] != block_of[None, :]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        second = np.where(outside, matrix**2 / np.where(outside, gaps, 1.0), 0.0)
-    neglected = np.abs(second.sum(axis=1)) / eigenvalues / 2
-    worst = int(np.argmax(neglected))
-    logger.info(f"perturbation: largest neglected second-order shift {neglected[worst]:.2e} "
-                f"({modes[worst].label or modes[worst].m}, limit {TOLERANCE:g})")
-    if neglected[worst] > TOLERANCE:
+def _second_order(matrix, eigenvalues, block, values, vectors):
+    """The block's eigenvalues with the second-order shift of the couplings to the modes
+    outside it, ``sum_j (v^T H_Bj)^2 / (lambda_v - lambda_j)`` (Loewdin partitioning), and
+    each one's estimate of the third-order term left out, relative to its frequency:
+    half the second-order shift over lambda times the largest ``|v^T H_Bj| / |lambda_v -
+    lambda_j|`` (below :data:`QUASI_DEGENERATE` by the blocks' rule)."""
+    outside = np.setdiff1d(np.arange(len(eigenvalues)), block)
+    if not len(outside):
+        return values, np.zeros_like(values)
+    couplings = vectors.T @ matrix[np.ix_(block, outside)]          # (block, outside)
+    gaps = values[:, None] - eigenvalues[None, outside]
+    shifts = np.sum(couplings**2 / gaps, axis=1)
+    ratios = np.max(np.abs(couplings) / np.abs(gaps), axis=1)
+    return values + shifts, np.abs(shifts) / values / 2 * ratios
+
+
+def _check_range(neglected, mode, terms) -> None:
+    """Refuse where a mode's neglected higher-order shift exceeds :data:`TOLERANCE`."""
+    logger.info(f"perturbation: largest neglected higher-order shift {neglected:.2e} "
+                f"(limit {TOLERANCE:g})")
+    if neglected > TOLERANCE:
         keys = "; ".join(f"{t.key} = {t.size:g}" + (f" (order {t.order})"
                                                      if t.mass else "") for t in terms)
         raise PerturbationRangeError(
-            f"{keys} is not allowed on the axisymmetric engine: the first-order perturbation "
-            f"neglects a relative frequency shift of {neglected[worst]:.2e} at "
-            f"{modes[worst].freq_hz:.1f} Hz (m = {modes[worst].m}), more than the limit "
-            f"{TOLERANCE:g}; allowed: a smaller imperfection, or mesh.engine: 3d (or auto, "
-            "which sends it there)")
+            f"{keys} is not allowed on the axisymmetric engine: its perturbation path "
+            f"neglects a relative frequency shift of {neglected:.2e} at {mode.freq_hz:.1f} Hz "
+            f"(m = {mode.m}), more than the limit {TOLERANCE:g}; allowed: a smaller "
+            "imperfection, or mesh.engine: 3d")
 
 
 def _assign(block, values, vectors, modes, out) -> None:
