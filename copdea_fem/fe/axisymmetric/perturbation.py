@@ -329,7 +329,7 @@ def perturbation_matrices(state, modes, terms, forms):
             same = np.einsum("iq,jq,q->ij", amplitudes[:, 0], amplitudes[:, 0], weights) + \
                 np.einsum("iq,jq,q->ij", amplitudes[:, 2], amplitudes[:, 2], weights)
             hoop = np.einsum("iq,jq,q->ij", amplitudes[:, 1], amplitudes[:, 1], weights)
-            mass += term.size * term.mass * rho * (trig[0, 0] * same + trig[0, 1] * hoop)
+            mass += term.size * term.mass * rho * (trig[0, 0, 0] * same + trig[0, 1, 1] * hoop)
     return stiffness, mass, masses
 
 
@@ -376,8 +376,7 @@ def perturbed_modes(state, modes, study, forms):
     out = list(modes)
     worst = (0.0, None)
     for block in blocks:
-        values, vectors = np.linalg.eigh(matrix[np.ix_(block, block)])
-        values, third = _second_order(matrix, eigenvalues, block, values, vectors)
+        values, vectors, third = _second_order(matrix, eigenvalues, block)
         worst = max(worst, (float(np.max(third)), modes[block[int(np.argmax(third))]]),
                     key=lambda item: item[0])
         _assign(block, values, vectors, modes, out)
@@ -385,20 +384,29 @@ def perturbed_modes(state, modes, study, forms):
     return out
 
 
-def _second_order(matrix, eigenvalues, block, values, vectors):
-    """The block's eigenvalues with the second-order shift of the couplings to the modes
-    outside it, ``sum_j (v^T H_Bj)^2 / (lambda_v - lambda_j)`` (Loewdin partitioning), and
-    each one's estimate of the third-order term left out, relative to its frequency:
-    half the second-order shift over lambda times the largest ``|v^T H_Bj| / |lambda_v -
+def _second_order(matrix, eigenvalues, block):
+    """The block's eigenpairs with the couplings to the modes outside it folded in at
+    second order (Loewdin partitioning): ``H_eff = H_BB + H_Bo D H_oB`` with ``D_bb'j =
+    (1/(lambda_b - lambda_j) + 1/(lambda_b' - lambda_j)) / 2``, so that a pair split only at
+    second order (through modes of other orders) is split and oriented too; and each
+    eigenpair's estimate of the third-order term left out, relative to its frequency: half
+    its second-order shift over lambda times its largest ``|v^T H_Bj| / |lambda_v -
     lambda_j|`` (below :data:`QUASI_DEGENERATE` by the blocks' rule)."""
+    inside = matrix[np.ix_(block, block)]
     outside = np.setdiff1d(np.arange(len(eigenvalues)), block)
     if not len(outside):
-        return values, np.zeros_like(values)
-    couplings = vectors.T @ matrix[np.ix_(block, outside)]          # (block, outside)
-    gaps = values[:, None] - eigenvalues[None, outside]
-    shifts = np.sum(couplings**2 / gaps, axis=1)
-    ratios = np.max(np.abs(couplings) / np.abs(gaps), axis=1)
-    return values + shifts, np.abs(shifts) / values / 2 * ratios
+        values, vectors = np.linalg.eigh(inside)
+        return values, vectors, np.zeros_like(values)
+    coupling = matrix[np.ix_(block, outside)]                       # (block, outside)
+    inverse_gaps = 1 / (eigenvalues[block][:, None] - eigenvalues[None, outside])
+    folded = 0.5 * ((coupling * inverse_gaps) @ coupling.T
+                    + coupling @ (coupling * inverse_gaps).T)
+    values, vectors = np.linalg.eigh(inside + folded)
+    projected = vectors.T @ coupling
+    shifts = np.einsum("vb,bc,cv->v", vectors.T, folded, vectors)
+    gaps = np.abs(values[:, None] - eigenvalues[None, outside])
+    ratios = np.max(np.abs(projected) / gaps, axis=1)
+    return values, vectors, np.abs(shifts) / values / 2 * ratios
 
 
 def _check_range(neglected, mode, terms) -> None:
