@@ -47,8 +47,8 @@ state's, in one:
 with ``P_c = d/ds W''_{c,s}(G0 + s G_c^du0)``, ``P_s = d/ds W''_{s,s}(G0 + s G_s^du0)``
 (``W_{c,s}``, ``W_{s,s}``: the cos- and sin-part materials of size s; for the thickness
 ``W_{s,s} = W``): 6 x 6 matrices at each quadrature point of the membrane line (G has
-six entries, its third column is zero), ``W''`` taken exactly (NGSolve's ``Diff``), d/ds
-by a central difference of step :data:`SIZE_STEP` (error ~ step^2 = 1e-8, relative).
+six entries, its third column is zero), ``W''`` and d/ds both taken exactly (NGSolve's
+``Diff`` in six gradient Parameters and in the size, a Parameter the material takes).
 The theta integral of the three trigonometric factors is done by the trapezoid rule on
 ``2 (2 m_max + k) + 4`` points (exact for those products).  The mass elements: ``dM_ij =
 rho_s int int cos k (theta - beta) (a_i a_j C_i C_j + b_i b_j S_i S_j + c_i c_j C_i C_j)
@@ -97,9 +97,7 @@ from copdea_fem.study.keys import StudyError
 
 logger = logging.getLogger(__name__)
 
-#: Step of the central difference in the imperfection's size s [-] (error ~ step^2).
-SIZE_STEP = 1e-4
-#: Largest neglected (second-order) relative frequency shift of a mode in the band [-].
+#: Largest neglected (third-order) relative frequency shift of a mode in the band [-].
 TOLERANCE = 1e-3
 #: |H_ij| above this share of |lambda_i - lambda_j| joins i and j in one block [-].
 QUASI_DEGENERATE = 0.1
@@ -116,7 +114,8 @@ class HarmonicTerm:
     """One Fourier order of an imperfection: ``size`` s times cos/sin k (theta - angle).
 
     ``key``: the study key (messages); ``cos_material(s)`` / ``sin_material(s)``: the
-    membrane material of the cos / sin part at size s (None: the sin part is round);
+    membrane material of the cos / sin part at size s, a number or an NGSolve Parameter
+    (None: the sin part is round);
     ``mass``: the thickness term's ``rho_s`` factor (1), 0 for the anisotropy."""
 
     key: str
@@ -178,91 +177,105 @@ def _entries(matrix) -> list:
     return [matrix[i, j] for i, j in ENTRIES]
 
 
-def _hessian_cf(material, voltage, base):
-    """The 21 entries (upper triangle of the 6 x 6) of ``W''(base)`` [J/m^2] as one vector
-    CoefficientFunction: :func:`copdea_fem.fe.membrane.energy_density` at ``base +
-    sum_k s_k E_k``, differentiated twice in the parameters s_k at 0."""
+#: Positions in :data:`ENTRIES` of a cos-type gradient's entries (``G_c``: a', (a + m b)/R,
+#: c') and of a sin-type one's (``G_s``).
+COS_ENTRIES, SIN_ENTRIES = (0, 3, 4), (1, 2, 5)
+#: The entries (p, q) of the 6 x 6 second derivative that a perturbation's cos part can
+#: make non-zero: within the cos-type and within the sin-type entries (it keeps the mirror
+#: symmetry about its angle, like the round state); its sin part: across them.
+COS_PAIRS = tuple((p, q) for group in (COS_ENTRIES, SIN_ENTRIES) for p in group
+                  for q in group if p <= q)
+SIN_PAIRS = tuple((p, q) for p in COS_ENTRIES for q in SIN_ENTRIES)
+
+
+def _hessian_cf(material, voltage, base, pairs):
+    """The entries ``pairs`` of ``W''(base)`` [J/m^2] (6 x 6 in the gradient's
+    :data:`ENTRIES`) as one vector CoefficientFunction:
+    :func:`copdea_fem.fe.membrane.energy_density` at ``base + sum_k s_k E_k``,
+    differentiated twice in the parameters s_k at 0."""
     parameters = [ngs.Parameter(0.0) for _ in ENTRIES]
     increment = [[0] * 3 for _ in range(3)]
     for (i, j), parameter in zip(ENTRIES, parameters):
         increment[i][j] = parameter
     gradient = base + ngs.CF(tuple(value for row in increment for value in row), dims=(3, 3))
     energy = energy_density(None, material, voltage, gradient=gradient)
-    first = [energy.Diff(parameter) for parameter in parameters]
-    return ngs.CF(tuple(first[p].Diff(parameters[q]) for p in range(6)
-                        for q in range(p, 6)))
+    first = {p: energy.Diff(parameters[p]) for p in {p for p, _ in pairs}}
+    return ngs.CF(tuple(first[p].Diff(parameters[q]) for p, q in pairs))
 
 
-def _symmetric(upper: np.ndarray) -> np.ndarray:
-    """(points, 21) upper triangles -> (points, 6, 6) symmetric matrices."""
-    full = np.zeros((upper.shape[0], 6, 6))
-    rows, cols = np.triu_indices(6)
-    full[:, rows, cols] = upper
-    full[:, cols, rows] = upper
+def _symmetric(values: np.ndarray, pairs) -> np.ndarray:
+    """(points, len(pairs)) entries -> (points, 6, 6) symmetric matrices (others 0)."""
+    full = np.zeros((values.shape[0], 6, 6))
+    rows, cols = np.array(pairs).T
+    full[:, rows, cols] = values
+    full[:, cols, rows] = values
     return full
 
 
-def field_gradients(operators, vector):
-    """(G_c, G_s, (a, b, c)) CoefficientFunctions of a coefficient ``vector`` of
-    ``operators``' order space (the disc lift included in it)."""
+def field_gradients(operators, vector, order=None):
+    """(G_c, G_s, (a, b, c), GridFunction) of a coefficient ``vector`` of ``operators``'
+    order space (the disc lift included in it); ``order``: an NGSolve Parameter standing
+    for m >= 1 (one CoefficientFunction for the orders sharing a space), else the
+    operators' m."""
     function = ngs.GridFunction(operators.space)
     function.vec.FV().NumPy()[:] = np.real(vector)
     a, second, c = function.components
     da, dsecond, dc = d_dr(a), d_dr(second), d_dr(c)
     b, db = (second - a, dsecond - da) if operators.axis_m1 else (second, dsecond)
-    g_c, g_s = harmonic_gradients(operators.m, a, b, c, da, db, dc)
+    g_c, g_s = harmonic_gradients(operators.m if order is None else order,
+                                  a, b, c, da, db, dc)
     return g_c, g_s, (a, b, c), function
 
 
-def _state_correction(state, term: HarmonicTerm, forms):
+def _state_correction(state, term: HarmonicTerm, forms, size, operators=None):
     """``du0``: the round state's first-order correction per unit size, an order-k cos
-    member at the term's angle (module doc): ``(G_c, G_s)`` CoefficientFunctions (kept
-    alive with their GridFunction)."""
+    member at the term's angle (module doc): ``(G_c, G_s)`` CoefficientFunctions and the
+    GridFunction they read.  ``size``: the Parameter s (at 0) the materials depend on;
+    ``operators``: the order-k operators where the engine made them, else made here."""
     k = term.order
-    operators = forms.operators(k)
+    operators = operators or forms.operators(k)
     space = operators.space
-    trial = space.TrialFunction()
-    u = amplitude_proxies(trial, operators.axis_m1)
-    (a, da), (b, db), (c, dc) = u
+    (a, da), (b, db), (c, dc) = amplitude_proxies(space.TrialFunction(), operators.axis_m1)
     g_c, g_s = harmonic_gradients(k, a, b, c, da, db, dc)
     base = prestress_gradient(state.displacement)
     voltage = state.voltage
-    gradients = []
-    for step in (SIZE_STEP, -SIZE_STEP):
-        cos_film = term.cos_material(step)
-        sin_film = state.material if term.sin_material is None else term.sin_material(step)
-        energy = math.pi * ngs.x * (energy_density(None, cos_film, voltage, gradient=base + g_c)
-                                    + energy_density(None, sin_film, voltage,
-                                                     gradient=base + g_s))
-        form = ngs.BilinearForm(space, symmetric=False)
-        form += ngs.Variation(energy * state.measure)
-        zero, out = ngs.GridFunction(space).vec, ngs.GridFunction(space).vec
-        form.Apply(zero, out)
-        gradients.append(out.FV().NumPy().copy())
-    load = (gradients[0] - gradients[1]) / (2 * SIZE_STEP)
+    sin_film = state.material if term.sin_material is None else term.sin_material(size)
+    energy = math.pi * ngs.x * (
+        energy_density(None, term.cos_material(size), voltage, gradient=base + g_c)
+        + energy_density(None, sin_film, voltage, gradient=base + g_s))
+    form = ngs.BilinearForm(space, symmetric=False)
+    form += ngs.Variation(energy.Diff(size).Compile() * state.measure)
+    zero, load = ngs.GridFunction(space).vec, ngs.GridFunction(space).vec
+    form.Apply(zero, load)
     free = operators.free_dofs
     correction = np.zeros(space.ndof)
-    correction[free] = spla.spsolve(operators.stiffness.tocsc(), -load[free])
+    correction[free] = spla.spsolve(operators.stiffness.tocsc(), -load.FV().NumPy()[free])
     g_c, g_s, _, function = field_gradients(operators, correction)
     return g_c, g_s, function
 
 
-def _perturbation_tensors(state, term: HarmonicTerm, forms, quadrature):
-    """(P_c, P_s): (points, 6, 6) each [J/m^2 per unit size] (module doc)."""
+def _perturbation_tensors(state, terms, forms, quadrature, operators_of: dict):
+    """[(P_c, P_s) per term]: (points, 6, 6) each [J/m^2 per unit size] (module doc),
+    all evaluated from one compiled CoefficientFunction."""
     base = prestress_gradient(state.displacement)
-    voltage = state.voltage
-    correction_c, correction_s, keep = _state_correction(state, term, forms)
-    tensors = []
-    for material_of, correction in ((term.cos_material, correction_c),
-                                    (term.sin_material, correction_s)):
-        values = []
-        for step in (SIZE_STEP, -SIZE_STEP):
-            film = state.material if material_of is None else material_of(step)
-            values.append(quadrature.values(
-                _hessian_cf(film, voltage, base + step * correction)))
-        tensors.append(_symmetric((values[0] - values[1]) / (2 * SIZE_STEP)))
-    del keep
-    return tensors
+    voltage, size = state.voltage, ngs.Parameter(0.0)
+    parts, keep = [], []
+    for term in terms:
+        correction_c, correction_s, function = _state_correction(
+            state, term, forms, size, operators_of.get(term.order))
+        keep.append(function)
+        for material_of, correction, pairs in ((term.cos_material, correction_c, COS_PAIRS),
+                                               (term.sin_material, correction_s, SIN_PAIRS)):
+            film = state.material if material_of is None else material_of(size)
+            parts.append(_hessian_cf(film, voltage, base + size * correction, pairs)
+                         .Diff(size))
+    values = quadrature.values(ngs.CF(tuple(parts)).Compile())
+    tensors, start = [], 0
+    for j in range(len(parts)):
+        pairs = COS_PAIRS if j % 2 == 0 else SIN_PAIRS
+        tensors.append(_symmetric(values[:, start:start + len(pairs)], pairs))
+        start += len(pairs)
+    return [(tensors[2 * j], tensors[2 * j + 1]) for j in range(len(terms))]
 
 
 def _mode_factors(modes, angles):
@@ -285,14 +298,18 @@ def _sampled_modes(modes, quadrature):
     gradients = np.empty((len(modes), 2, len(quadrature.radii), 6))
     amplitudes = np.empty((len(modes), 3, len(quadrature.radii)))
     masses = np.empty(len(modes))
-    compiled = {}
+    compiled, order = {}, ngs.Parameter(1.0)
     for i, mode in enumerate(modes):
         operators = mode.operators
-        key = id(operators)
+        # one CoefficientFunction per space (the orders m >= 1 of a space share it)
+        key = (id(operators.space), operators.axis_m1, mode.m == 0)
         if key not in compiled:
-            g_c, g_s, (a, b, c), function = field_gradients(operators, mode.vector)
-            compiled[key] = (function, ngs.CF(tuple(_entries(g_c) + _entries(g_s) + [a, b, c])))
+            g_c, g_s, (a, b, c), function = field_gradients(
+                operators, mode.vector, None if mode.m == 0 else order)
+            compiled[key] = (function, ngs.CF(tuple(_entries(g_c) + _entries(g_s) + [a, b, c]))
+                             .Compile())
         function, values_cf = compiled[key]
+        order.Set(float(max(mode.m, 1)))
         function.vec.FV().NumPy()[:] = np.real(mode.vector)
         values = quadrature.values(values_cf)
         gradients[i, 0], gradients[i, 1] = values[:, :6], values[:, 6:12]
@@ -312,16 +329,19 @@ def perturbation_matrices(state, modes, terms, forms):
     top = max([mode.m for mode in modes] + [0])
     size = len(modes)
     stiffness, mass = np.zeros((size, size)), np.zeros((size, size))
-    for term in terms:
+    operators_of = {mode.m: mode.operators for mode in modes}
+    for term, tensors in zip(terms, _perturbation_tensors(state, terms, forms, quadrature,
+                                                          operators_of)):
         count = 2 * (2 * top + term.order) + 4
         angles = 2 * np.pi * np.arange(count) / count
         factors = _mode_factors(modes, angles)
         phase = term.order * (angles - term.angle)
         perturbation = np.stack([np.cos(phase), np.sin(phase)])
-        trig = np.einsum("pt,ixt,jyt->pxyij", perturbation, factors, factors) * (
-            2 * np.pi / count)
-        tensors = np.stack(_perturbation_tensors(state, term, forms, quadrature))
-        radial = np.einsum("ixqa,pqab,jyqb,q->pxyij", gradients, tensors, gradients, weights)
+        trig = np.einsum("pt,ixt,jyt->pxyij", perturbation, factors, factors,
+                         optimize=True) * (2 * np.pi / count)
+        tensors = np.stack(tensors)
+        radial = np.einsum("ixqa,pqab,jyqb,q->pxyij", gradients, tensors, gradients, weights,
+                           optimize=True)
         stiffness += term.size * np.einsum("pxyij,pxyij->ij", trig, radial)
         if term.mass:
             rho = state.material.areal_density
