@@ -337,19 +337,25 @@ def perturbation_matrices(state, modes, terms, forms):
         factors = _mode_factors(modes, angles)
         phase = term.order * (angles - term.angle)
         perturbation = np.stack([np.cos(phase), np.sin(phase)])
-        trig = np.einsum("pt,ixt,jyt->pxyij", perturbation, factors, factors,
-                         optimize=True) * (2 * np.pi / count)
-        tensors = np.stack(tensors)
-        radial = np.einsum("ixqa,pqab,jyqb,q->pxyij", gradients, tensors, gradients, weights,
-                           optimize=True)
-        stiffness += term.size * np.einsum("pxyij,pxyij->ij", trig, radial)
+        # trig[p, i, x, j, y] = (2 pi / count) sum_t pert_p(t) F_ix(t) F_jy(t)
+        flat = factors.reshape(2 * size, count)
+        trig = ((perturbation[:, None, :] * flat[None]).reshape(4 * size, count) @ flat.T
+                ).reshape(2, size, 2, size, 2) * (2 * np.pi / count)
+        # radial[p, i, x, j, y] = sum_q w_q G_ix(q) . P_p(q) G_jy(q)
+        tensors = np.stack(tensors)                                    # (p, q, a, b)
+        applied = np.einsum("pqab,jyqb->pjyqa", tensors, gradients)    # (p, j, y, q, a)
+        weighted = (gradients * weights[None, None, :, None]).reshape(2 * size, -1)
+        radial = np.stack([weighted @ applied[p].reshape(2 * size, -1).T for p in range(2)]
+                          ).reshape(2, size, 2, size, 2)
+        stiffness += term.size * np.sum(trig * radial, axis=(0, 2, 4))
         if term.mass:
             rho = state.material.areal_density
             # a and c go with C, b with S (module doc)
-            same = np.einsum("iq,jq,q->ij", amplitudes[:, 0], amplitudes[:, 0], weights) + \
-                np.einsum("iq,jq,q->ij", amplitudes[:, 2], amplitudes[:, 2], weights)
-            hoop = np.einsum("iq,jq,q->ij", amplitudes[:, 1], amplitudes[:, 1], weights)
-            mass += term.size * term.mass * rho * (trig[0, 0, 0] * same + trig[0, 1, 1] * hoop)
+            same = (amplitudes[:, 0] * weights) @ amplitudes[:, 0].T + \
+                (amplitudes[:, 2] * weights) @ amplitudes[:, 2].T
+            hoop = (amplitudes[:, 1] * weights) @ amplitudes[:, 1].T
+            mass += term.size * term.mass * rho * (trig[0, :, 0, :, 0] * same
+                                                   + trig[0, :, 1, :, 1] * hoop)
     return stiffness, mass, masses
 
 
