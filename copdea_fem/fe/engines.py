@@ -130,21 +130,20 @@ class Engine(Protocol):
 
 def engine_for(study: Study) -> Engine:
     """The engine of the study (``mesh.engine``, ``auto`` resolved by the frame and the
-    imperfections: an imperfect device goes to the axisymmetric engine's perturbation path
-    within its range, to the 3-D engine beyond it, logged)."""
+    imperfections: ``auto`` sends an imperfect device to the 3-D engine, logged with
+    whether the axisymmetric engine's perturbation path could take it)."""
     imperfect = imperfection_keys_given(study.membrane, study.imperfections)
     engine = engine_of(study)
     if study.mesh.engine == "auto" and imperfect:
-        if engine == "axisymmetric":
-            logger.info(f"mesh.engine = auto: the axisymmetric engine, {imperfect} by "
-                        "first-order perturbation")
-        else:
-            beyond = perturbation_refusal(study.membrane, study.imperfections,
-                                          study.air.enabled)
-            reason = (f"{beyond[0]} = {beyond[1]}: allowed there {beyond[2]}" if beyond
-                      else "the frame or the enclosure is not round")
-            logger.info(f"mesh.engine = auto: the 3-D engine, for {imperfect} (the "
-                        f"axisymmetric engine's perturbation path: {reason})")
+        beyond = perturbation_refusal(study.membrane, study.imperfections, study.air.enabled)
+        reason = (f"{beyond[0]} = {beyond[1]}, allowed there: {beyond[2]}" if beyond else
+                  "within its range, dry modes only: ask for it with mesh.engine: "
+                  "axisymmetric")
+        logger.info(f"mesh.engine = auto: the 3-D engine, for {imperfect} (the "
+                    f"axisymmetric engine's first-order perturbation path: {reason})")
+    elif imperfect and engine == "axisymmetric":
+        logger.info(f"mesh.engine = axisymmetric: {imperfect} by first-order perturbation "
+                    "(dry modes)")
     if engine == "axisymmetric":
         from copdea_fem.fe.axisymmetric.engine import AxisymmetricEngine
         return AxisymmetricEngine()

@@ -20,7 +20,7 @@ import yaml
 from copdea_fem.folders import package_versions
 from copdea_fem.inputs import parse_yaml, preview, read_yaml
 from copdea_fem.study.checks import check_across_keys, derived_defaults, enclosure_defaults
-from copdea_fem.study.imperfections import is_imperfect, perturbation_refusal
+from copdea_fem.study.imperfections import is_imperfect
 from copdea_fem.study.keys import StudyError, convert_value, refusal
 from copdea_fem.study.schema import (
     AXISYMMETRIC_ENCLOSURES,
@@ -313,20 +313,20 @@ def _unknown_key(dotted: str, value: Any) -> StudyError:
 def engine_of(study: Study) -> str:
     """The FE engine a study runs on: ``"axisymmetric"`` or ``"3d"`` (key mesh.engine).
 
-    ``auto`` picks the axisymmetric engine for a device with a frame none, baffle or circle
-    and no enclosure, a cylinder or a bowl that is perfect (no key of
-    :data:`~copdea_fem.study.imperfections.IMPERFECTION_KEYS` set) or whose imperfection
-    its perturbation path takes (dry, small: :func:`~copdea_fem.study.imperfections.
-    perturbation_refusal`); else the 3-D engine.
+    ``auto`` picks the axisymmetric engine for a perfect device (no key of
+    :data:`~copdea_fem.study.imperfections.IMPERFECTION_KEYS` set) with a frame none, baffle
+    or circle and no enclosure, a cylinder or a bowl; else the 3-D engine.  An imperfect
+    device runs on the axisymmetric engine (its first-order perturbation path, dry modes
+    only) where ``mesh.engine: axisymmetric`` asks for it and
+    :func:`~copdea_fem.study.imperfections.perturbation_refusal` allows it: ``auto`` keeps
+    the 3-D engine, whose forced responses and shapes hold the imperfection in full.
     """
     engine = study.mesh.engine
     if engine == "auto":
         g = study.geometry
         axisymmetric = (g.frame in AXISYMMETRIC_FRAMES
                         and g.enclosure in AXISYMMETRIC_ENCLOSURES
-                        and not (is_imperfect(study.membrane, study.imperfections)
-                                 and perturbation_refusal(study.membrane, study.imperfections,
-                                                          study.air.enabled)))
+                        and not is_imperfect(study.membrane, study.imperfections))
         return "axisymmetric" if axisymmetric else "3d"
     return engine
 

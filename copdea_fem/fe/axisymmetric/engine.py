@@ -148,6 +148,17 @@ def axisymmetric_dry_modes(study, mesh=None, timings=None, solver=None,
     return state, modes, SectorBandResults(results)
 
 
+def refuse_imperfect(study, what: str) -> None:
+    """Refuse (StudyError) ``what`` for an imperfect device: the perturbation path
+    (:mod:`.perturbation`) makes dry modes only."""
+    imperfect = imperfection_keys_given(study.membrane, study.imperfections)
+    if imperfect:
+        raise StudyError(
+            f"mesh.engine = 'axisymmetric' is not allowed for {what} with {imperfect} (its "
+            "first-order perturbation path makes dry modes only: frequencies, labels, "
+            "orientations, turned shapes); allowed: mesh.engine: 3d (or auto)")
+
+
 def same_order_family(mode, dry) -> bool:
     """Pairing rule within one order: same kind and (out-of-plane) the same n."""
     return dry.kind == mode.kind and (mode.kind == "in-plane" or dry.n == mode.n)
@@ -169,6 +180,7 @@ def axisymmetric_coupled_modes(study, mesh=None, timings=None, solver=None,
     Returns a :class:`copdea_fem.fe.solution.CoupledSolution` (``operators``: the
     coupled pencil of each order, in order).
     """
+    refuse_imperfect(study, "the coupled (air) modes")
     timings = timings or Timings()
     band = band or BandSolver.from_study(study)
     air = study.air
@@ -318,6 +330,7 @@ class AxisymmetricEngine:
         import time
 
         from copdea_fem.fe.axisymmetric.forced import order_zero_problem
+        refuse_imperfect(study, "a forced response")
         timings = {}
         start = time.perf_counter()
         mesh = prepare_meridian(study)
@@ -331,6 +344,7 @@ class AxisymmetricEngine:
         (with air), else each order's dry operators rebuilt."""
         from copdea_fem.fe.forced.harmonic import DryPencil
 
+        refuse_imperfect(study, "a forced response")
         bands = band_parts(solution.eigen)
         if solution.coupled is not None:
             pencils = list(solution.coupled.operators)
