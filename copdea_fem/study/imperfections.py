@@ -137,8 +137,9 @@ def perturbation_refusal(membrane, imperfections, air_enabled: bool) -> tuple | 
         return ("imperfections.point_masses", f"{len(masses)} mass(es)",
                 "none on the axisymmetric engine (the 3-D engine takes point masses)")
     if air_enabled:
-        return ("air.enabled", True, "false with an imperfect device on the axisymmetric "
-                "engine (its perturbation path is dry only; the 3-D engine couples the air)")
+        return ("air.enabled", True, ("false with an imperfect device on the axisymmetric "
+                                      "engine (its perturbation path is dry only; the 3-D "
+                                      "engine couples the air)"))
     anisotropy = get(membrane, "prestretch_anisotropy")
     terms = get(membrane, "thickness_variation")
     amplitudes = [t["amplitude"] if isinstance(t, dict) else t.amplitude for t in terms]
@@ -147,9 +148,9 @@ def perturbation_refusal(membrane, imperfections, air_enabled: bool) -> tuple | 
         key = ("membrane.prestretch_anisotropy" if not amplitudes else
                "membrane.thickness_variation" if not anisotropy else
                "membrane.prestretch_anisotropy + membrane.thickness_variation")
-        return (key, round(size, 12), f"e + sum |a| <= {PERTURBATION_MAX_SIZE:g} on the "
-                "axisymmetric engine (its first-order perturbation's range; the 3-D engine "
-                "takes more)")
+        return (key, round(size, 12), (f"e + sum |a| <= {PERTURBATION_MAX_SIZE:g} on the "
+                                        "axisymmetric engine (its first-order perturbation's "
+                                        "range; the 3-D engine takes more)"))
     return None
 
 
@@ -173,7 +174,16 @@ def check_imperfections(v: dict[str, dict[str, Any]]) -> None:
                           "a mass on the clamped rim cannot move")
 
 
-__all__ = ["IMPERFECTION_KEYS", "MASSES_ALLOWED", "MAX_TERMS", "PERTURBATION_MAX_SIZE",
-           "THICKNESS_ALLOWED", "perturbation_refusal",
-           "check_imperfections", "imperfection_keys_given", "is_imperfect", "read_point_masses",
-           "read_thickness_variation"]
+__all__ = [
+    "IMPERFECTION_KEYS",
+    "MASSES_ALLOWED",
+    "MAX_TERMS",
+    "PERTURBATION_MAX_SIZE",
+    "THICKNESS_ALLOWED",
+    "check_imperfections",
+    "imperfection_keys_given",
+    "is_imperfect",
+    "perturbation_refusal",
+    "read_point_masses",
+    "read_thickness_variation",
+]

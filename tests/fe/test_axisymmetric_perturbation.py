@@ -51,8 +51,8 @@ def check_against_3d(found, tolerance):
 
 def test_an_anisotropy_splits_and_shifts_the_modes_as_the_3d_engine_says():
     """e = 1 % along 30 deg on the flat membrane at 1 kV: the (1,n) pairs split at first
-    order (1.7561 % against the 3-D engine's 1.7558 %), the (2,1) pair at second order through the (0,1) and (4,1)
-    of the same block; each mode's shift from its engine's perfect device agrees with the
+    order (1.7561 % against the 3-D engine's 1.7558 %), the (2,1) pair at second order
+    through the (0,1) and (4,1) of the same block; each mode's shift from its engine's perfect device agrees with the
     3-D engine's to 2e-4 (measured <= 1.0e-4, 1.6e-4 for (1,2)b, in one block with (3,1)
     9 Hz away; unchanged with the band widened to 900 Hz: the e^2 part of the pre-stretch
     that the first order leaves out moves every mode by ~9e-5 on the 3-D engine), the

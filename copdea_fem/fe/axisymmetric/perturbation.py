@@ -472,8 +472,7 @@ def _assign(block, values, vectors, modes, out) -> None:
         used.add(source)
         orientation = math.nan
         if lead.m > 0:
-            psi = math.atan2(y, x) if lead.kind == "out-of-plane" or \
-                lead.in_plane_component == "radial" else math.atan2(y, x)
+            psi = math.atan2(y, x)
             period = 180.0 / lead.m
             orientation = (math.degrees(psi) / lead.m) % period
             if period - orientation < 1e-9 * period:
