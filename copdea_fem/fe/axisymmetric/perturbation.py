@@ -76,7 +76,12 @@ refuses it (axisymmetric).  The coupling to modes above the band is not counted.
 (``a``: nearer cos m theta) and its vector (the order's cos member, or its sin twin); its
 orientation (modes.csv ``orientation_deg``) is that of its block eigenvector: ``x cos m
 theta + y sin m theta = cos m(theta - psi/m)`` with ``(x, y) ~ (cos psi, sin psi)``, its
-antinode at ``psi / m``.
+antinode at ``psi / m``; its shape everywhere (sampled, revolved, at scan points) is the
+member turned there (:func:`.modes.order_harmonics`), and its parity about x = 0 and y =
+0 (modes.csv ``symmetry``) is kept only where the orientation is its family's own (0 or
+90/m deg), else empty as on the 3-D engine's whole mesh.  The perturbation path makes dry
+modes only: the forced response and the coupled (air) modes of an imperfect device are
+refused on the axisymmetric engine (:func:`.engine.refuse_imperfect`).
 """
 
 from __future__ import annotations
@@ -477,6 +482,14 @@ def _assign(block, values, vectors, modes, out) -> None:
             orientation = (math.degrees(psi) / lead.m) % period
             if period - orientation < 1e-9 * period:
                 orientation = 0.0
+        sector = modes[source].sector
+        if lead.m > 0:
+            # the parity about x = 0 and y = 0 (modes.csv "symmetry") holds only for a member
+            # at its family's own orientation (cos: 0, sin: 90/m deg)
+            own = 0.0 if family == "cos" else 90.0 / lead.m
+            offset = abs(orientation - own) % (180.0 / lead.m)
+            if min(offset, 180.0 / lead.m - offset) > 1e-6:
+                sector = None
         out[source] = replace(modes[source], freq_hz=float(np.sqrt(max(values[column], 0.0))
                                                            / (2 * np.pi)),
-                              family=family, orientation=orientation)
+                              family=family, orientation=orientation, sector=sector)
