@@ -303,17 +303,16 @@ def _sampled_modes(modes, quadrature):
     gradients = np.empty((len(modes), 2, len(quadrature.radii), 6))
     amplitudes = np.empty((len(modes), 3, len(quadrature.radii)))
     masses = np.empty(len(modes))
-    compiled, order = {}, ngs.Parameter(1.0)
+    sampled, order = {}, ngs.Parameter(1.0)     # small CFs: compiling costs more than it saves
     for i, mode in enumerate(modes):
         operators = mode.operators
         # one CoefficientFunction per space (the orders m >= 1 of a space share it)
         key = (id(operators.space), operators.axis_m1, mode.m == 0)
-        if key not in compiled:
+        if key not in sampled:
             g_c, g_s, (a, b, c), function = field_gradients(
                 operators, mode.vector, None if mode.m == 0 else order)
-            compiled[key] = (function, ngs.CF(tuple(_entries(g_c) + _entries(g_s) + [a, b, c]))
-                             .Compile())
-        function, values_cf = compiled[key]
+            sampled[key] = (function, ngs.CF(tuple(_entries(g_c) + _entries(g_s) + [a, b, c])))
+        function, values_cf = sampled[key]
         order.Set(float(max(mode.m, 1)))
         function.vec.FV().NumPy()[:] = np.real(mode.vector)
         values = quadrature.values(values_cf)
