@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 from copdea_fem.fe.quadrant.geometry import CACHE_VARIABLE
 from copdea_fem.study import Study, StudyError, engine_of
-from copdea_fem.study.imperfections import imperfection_keys_given
+from copdea_fem.study.imperfections import imperfection_keys_given, perturbation_refusal
 
 if TYPE_CHECKING:
     import numpy as np
@@ -135,12 +135,21 @@ class Engine(Protocol):
 
 def engine_for(study: Study) -> Engine:
     """The engine of the study (``mesh.engine``, ``auto`` resolved by the frame and the
-    imperfections: an imperfect device goes to the 3-D engine, logged)."""
+    imperfections: ``auto`` sends an imperfect device to the 3-D engine, logged with
+    whether the axisymmetric engine's perturbation path could take it)."""
     imperfect = imperfection_keys_given(study.membrane, study.imperfections)
+    engine = engine_of(study)
     if study.mesh.engine == "auto" and imperfect:
+        beyond = perturbation_refusal(study.membrane, study.imperfections, study.air.enabled)
+        reason = (f"{beyond[0]} = {beyond[1]}, allowed there: {beyond[2]}" if beyond else
+                  "within its range, dry modes only: ask for it with mesh.engine: "
+                  "axisymmetric")
         logger.info(f"mesh.engine = auto: the 3-D engine, for {imperfect} (the "
-                    "axisymmetric engine models round devices only)")
-    if engine_of(study) == "axisymmetric":
+                    f"axisymmetric engine's first-order perturbation path: {reason})")
+    elif imperfect and engine == "axisymmetric":
+        logger.info(f"mesh.engine = axisymmetric: {imperfect} by first-order perturbation "
+                    "(dry modes)")
+    if engine == "axisymmetric":
         from copdea_fem.fe.axisymmetric.engine import AxisymmetricEngine
         return AxisymmetricEngine()
     from copdea_fem.fe.quadrant.engine import QuadrantEngine

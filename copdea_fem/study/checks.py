@@ -16,7 +16,11 @@ from copdea_fem.study.schema import (
     ENCLOSURE_MIN_GAP,
     MAX_ELEMENTS_ACROSS,
 )
-from copdea_fem.study.imperfections import check_imperfections, imperfection_keys_given
+from copdea_fem.study.imperfections import (
+    check_imperfections,
+    imperfection_keys_given,
+    perturbation_refusal,
+)
 from copdea_fem.study.segments import check_segments
 
 
@@ -128,10 +132,14 @@ def check_across_keys(v: dict[str, dict[str, Any]]) -> None:
     check_segments(v)
     check_imperfections(v)
     imperfect = imperfection_keys_given(v["membrane"], v["imperfections"])
-    if imperfect and engine == "axisymmetric":
-        raise refusal("mesh.engine", engine, "3d (or auto) with " + imperfect,
-                      "the axisymmetric engine models perfect (round) devices only")
-    if imperfect and g["frame"] == "circle":
+    beyond = imperfect and perturbation_refusal(v["membrane"], v["imperfections"],
+                                                v["air"]["enabled"])
+    if beyond and engine == "axisymmetric":
+        key, value, allowed = beyond
+        raise refusal(key, value, allowed + ", or mesh.engine: 3d (or auto)",
+                      "mesh.engine = axisymmetric takes an imperfection by first-order "
+                      "perturbation only")
+    if beyond and g["frame"] == "circle":
         raise refusal("geometry.frame", g["frame"], "square, baffle or none with " + imperfect,
                       "an imperfect device needs the 3-D engine, which has no circular frame")
     m = v["membrane"]

@@ -118,6 +118,42 @@ def is_imperfect(membrane, imperfections) -> bool:
     return bool(imperfection_keys_given(membrane, imperfections))
 
 
+#: Largest imperfection the axisymmetric engine's first-order perturbation path takes
+#: (:mod:`copdea_fem.fe.axisymmetric.perturbation`): ``e + sum |a|`` [-].  The terms it
+#: leaves out at every order are O(s^2) relative (the e^2 of the pre-stretch's B_p and
+#: det F_p, the second-order correction of the state): s <= 0.03 keeps them near 1e-3,
+#: the path's own tolerance on the second-order shifts it checks after the solve.
+PERTURBATION_MAX_SIZE = 0.03
+
+
+def perturbation_refusal(membrane, imperfections, air_enabled: bool) -> tuple | None:
+    """Why the axisymmetric engine's perturbation path cannot take a study's imperfection:
+    ``(key, value, allowed)``, or None where it can (a dry study with an anisotropy and
+    thickness terms of total size ``e + sum |a| <= PERTURBATION_MAX_SIZE``, no point mass).
+    ``membrane``, ``imperfections``: typed sections or the checks' plain mappings."""
+    get = (lambda section, key: section[key]) if isinstance(membrane, dict) else getattr
+    masses = get(imperfections, "point_masses")
+    if masses:
+        return ("imperfections.point_masses", f"{len(masses)} mass(es)",
+                "none on the axisymmetric engine (the 3-D engine takes point masses)")
+    if air_enabled:
+        return ("air.enabled", True, ("false with an imperfect device on the axisymmetric "
+                                      "engine (its perturbation path is dry only; the 3-D "
+                                      "engine couples the air)"))
+    anisotropy = get(membrane, "prestretch_anisotropy")
+    terms = get(membrane, "thickness_variation")
+    amplitudes = [t["amplitude"] if isinstance(t, dict) else t.amplitude for t in terms]
+    size = anisotropy + sum(abs(a) for a in amplitudes)
+    if size > PERTURBATION_MAX_SIZE:
+        key = ("membrane.prestretch_anisotropy" if not amplitudes else
+               "membrane.thickness_variation" if not anisotropy else
+               "membrane.prestretch_anisotropy + membrane.thickness_variation")
+        return (key, round(size, 12), (f"e + sum |a| <= {PERTURBATION_MAX_SIZE:g} on the "
+                                        "axisymmetric engine (its first-order perturbation's "
+                                        "range; the 3-D engine takes more)"))
+    return None
+
+
 def check_imperfections(v: dict[str, dict[str, Any]]) -> None:
     """The imperfections against the film and the geometry (module notes); a
     :class:`~copdea_fem.study.keys.StudyError` names the key.  The tension across the
@@ -138,6 +174,16 @@ def check_imperfections(v: dict[str, dict[str, Any]]) -> None:
                           "a mass on the clamped rim cannot move")
 
 
-__all__ = ["IMPERFECTION_KEYS", "MASSES_ALLOWED", "MAX_TERMS", "THICKNESS_ALLOWED",
-           "check_imperfections", "imperfection_keys_given", "is_imperfect", "read_point_masses",
-           "read_thickness_variation"]
+__all__ = [
+    "IMPERFECTION_KEYS",
+    "MASSES_ALLOWED",
+    "MAX_TERMS",
+    "PERTURBATION_MAX_SIZE",
+    "THICKNESS_ALLOWED",
+    "check_imperfections",
+    "imperfection_keys_given",
+    "is_imperfect",
+    "perturbation_refusal",
+    "read_point_masses",
+    "read_thickness_variation",
+]

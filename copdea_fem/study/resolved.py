@@ -315,7 +315,11 @@ def engine_of(study: Study) -> str:
 
     ``auto`` picks the axisymmetric engine for a perfect device (no key of
     :data:`~copdea_fem.study.imperfections.IMPERFECTION_KEYS` set) with a frame none, baffle
-    or circle and no enclosure, a cylinder or a bowl; else the 3-D engine.
+    or circle and no enclosure, a cylinder or a bowl; else the 3-D engine.  An imperfect
+    device runs on the axisymmetric engine (its first-order perturbation path, dry modes
+    only) where ``mesh.engine: axisymmetric`` asks for it and
+    :func:`~copdea_fem.study.imperfections.perturbation_refusal` allows it: ``auto`` keeps
+    the 3-D engine, whose forced responses and shapes hold the imperfection in full.
     """
     engine = study.mesh.engine
     if engine == "auto":

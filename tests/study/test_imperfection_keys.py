@@ -85,8 +85,20 @@ def test_the_keys_read_in_si_and_round_trip(tmp_path):
     ({"imperfections": {"point_masses": [{"mass": 1e-4}]}},
      "imperfections.point_masses[0]", "mass and r"),
     ({"imperfections": {"mass": 1e-4}}, "imperfections.mass", "point_masses"),
+    # the axisymmetric engine's perturbation path: dry, small, no point mass
     ({"geometry": {"frame": "baffle"}, "mesh": {"engine": "axisymmetric"},
-      "membrane": {"prestretch_anisotropy": 0.01}}, "mesh.engine", "3d"),
+      "membrane": {"prestretch_anisotropy": 0.05}}, "membrane.prestretch_anisotropy",
+     "e + sum |a| <= 0.03"),
+    ({"geometry": {"frame": "baffle"}, "mesh": {"engine": "axisymmetric"},
+      "membrane": {"prestretch_anisotropy": 0.02, "thickness_variation": [
+          {"order": 2, "amplitude": -0.02}]}},
+     "membrane.prestretch_anisotropy + membrane.thickness_variation", "mesh.engine: 3d"),
+    ({"geometry": {"frame": "baffle"}, "mesh": {"engine": "axisymmetric"},
+      "air": {"enabled": True}, "membrane": {"prestretch_anisotropy": 0.01}},
+     "air.enabled", "false with an imperfect device"),
+    ({"geometry": {"frame": "baffle"}, "mesh": {"engine": "axisymmetric"},
+      "imperfections": {"point_masses": [{"mass": 1e-6, "r": 0.02}]}},
+     "imperfections.point_masses", "the 3-D engine takes point masses"),
     ({"geometry": {"frame": "circle"}, "imperfections": {"point_masses": [
         {"mass": 1e-4, "r": 0.02}]}}, "geometry.frame", "square, baffle or none"),
 ])

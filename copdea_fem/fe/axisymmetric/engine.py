@@ -44,6 +44,7 @@ from copdea_fem.fe.axisymmetric.operators import (
     coupled_order_operators,
     dry_order,
 )
+from copdea_fem.fe.axisymmetric.perturbation import perturbed_modes
 from copdea_fem.fe.axisymmetric.prestress import make_axisymmetric_solver
 from copdea_fem.fe.bands import BandSolver, OrderStop, coupled_start_modes
 from copdea_fem.fe.cavity import (
@@ -55,6 +56,8 @@ from copdea_fem.fe.forced.problem import DrivenPart, band_parts
 from copdea_fem.fe.modes import match_dry
 from copdea_fem.fe.solution import CoupledSolution
 from copdea_fem.progress import Timings, single_threaded_blas, tagging
+from copdea_fem.study import StudyError
+from copdea_fem.study.imperfections import imperfection_keys_given
 
 #: Highest order tried before giving up (a band this rich is a mistake in the study).
 MAX_ORDER = 400
@@ -124,11 +127,25 @@ def axisymmetric_dry_modes(study, mesh=None, timings=None, solver=None,
                                          order_sampler(samplers, state, operators))
             number_out_of_plane(order_modes)
             modes += with_pairs(_in_band(order_modes, band.f_min, band.f_max))
+    if imperfection_keys_given(study.membrane, study.imperfections):
+        with timings.stage("perturbation"):
+            modes = perturbed_modes(state, modes, study, forms)
     modes.sort(key=lambda mode: (mode.freq_hz, mode.m, mode.family))
     for index, mode in enumerate(modes):
         mode.index = index
     label_all(modes)
     return state, modes, SectorBandResults(results)
+
+
+def refuse_imperfect(study, what: str) -> None:
+    """Refuse (StudyError) ``what`` for an imperfect device: the perturbation path
+    (:mod:`.perturbation`) makes dry modes only."""
+    imperfect = imperfection_keys_given(study.membrane, study.imperfections)
+    if imperfect:
+        raise StudyError(
+            f"mesh.engine = 'axisymmetric' is not allowed for {what} with {imperfect} (its "
+            "first-order perturbation path makes dry modes only: frequencies, labels, "
+            "orientations, turned shapes); allowed: mesh.engine: 3d (or auto)")
 
 
 def same_order_family(mode, dry) -> bool:
@@ -143,6 +160,7 @@ def axisymmetric_coupled_modes(study, mesh=None, timings=None, solver=None,
     Returns a :class:`copdea_fem.fe.solution.CoupledSolution` (``operators``: the
     coupled pencil of each order, in order).
     """
+    refuse_imperfect(study, "the coupled (air) modes")
     timings = timings or Timings()
     band = band or BandSolver.from_study(study)
     air = study.air
@@ -339,6 +357,7 @@ class AxisymmetricEngine:
         import time
 
         from copdea_fem.fe.axisymmetric.forced import order_zero_problem
+        refuse_imperfect(study, "a forced response")
         timings = {}
         start = time.perf_counter()
         mesh = prepare_meridian(study)
@@ -360,6 +379,7 @@ class AxisymmetricEngine:
         its modes, all above the band (:func:`static_orders`)."""
         from copdea_fem.fe.forced.harmonic import DryPencil
 
+        refuse_imperfect(study, "a forced response")
         bands = band_parts(solution.eigen)
         forms = OrderForms(solution.state, study)
         if solution.coupled is not None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -72,9 +73,10 @@ class RevolvedMembraneSampler:
             values[:, None, :] * factor[None, :, None]
         return out.reshape(-1, *values.shape[1:])
 
-    def vector(self, radial, hoop, axial, m=0, family="cos") -> np.ndarray:
-        """Cartesian vectors (n, 3) of (u_r, u_theta, u_z) amplitudes of an order-m field."""
-        main, cross = order_harmonics(m, family, self.angles)
+    def vector(self, radial, hoop, axial, m=0, family="cos", orientation=math.nan) -> np.ndarray:
+        """Cartesian vectors (n, 3) of (u_r, u_theta, u_z) amplitudes of an order-m field
+        (``orientation``: :func:`.modes.order_harmonics`)."""
+        main, cross = order_harmonics(m, family, self.angles, orientation)
         u_r, u_t, u_z = (self._ring(radial, main), self._ring(hoop, cross),
                          self._ring(axial, main))
         return self.merge.reduce(np.column_stack([u_r * self._cos - u_t * self._sin,
@@ -146,11 +148,11 @@ def revolved_mode_meshes(state, modes, sampler=None):
     normal_profile = sampler.prestress_profiles()["normal"]
     for number, (mode, amplitude) in enumerate(zip(modes, amplitude_profiles(sampler, modes))):
         shape = [sampler.vector(amplitude[:, 0].real, amplitude[:, 1].real,
-                                amplitude[:, 2].real, mode.m, mode.family),
+                                amplitude[:, 2].real, mode.m, mode.family, mode.orientation),
                  sampler.vector(amplitude[:, 0].imag, amplitude[:, 1].imag,
-                                amplitude[:, 2].imag, mode.m, mode.family)]
+                                amplitude[:, 2].imag, mode.m, mode.family, mode.orientation)]
         normal = amplitude[:, 0] * normal_profile[:, 0] + amplitude[:, 2] * normal_profile[:, 1]
-        main, _ = order_harmonics(mode.m, mode.family, sampler.angles)
+        main, _ = order_harmonics(mode.m, mode.family, sampler.angles, mode.orientation)
         normal_shape = sampler.ring(normal, main)
         omega = 2 * np.pi * abs(complex(mode.freq_hz, mode.freq_im_hz))
         fields = {"displacement_real": shape[0], "displacement_imag": shape[1],

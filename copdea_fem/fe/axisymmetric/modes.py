@@ -15,6 +15,7 @@ y = 0 (:mod:`copdea_fem.fe.symmetry`), so modes.csv reads as the 3-D engine's.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import ngsolve as ngs
@@ -51,8 +52,13 @@ class OrderMode(Mode):
     operators: object = None        # the OrderOperators the vector belongs to
 
 
-def order_harmonics(m: int, family: str, angles):
+def order_harmonics(m: int, family: str, angles, orientation: float = math.nan):
     """(radial/axial factor, hoop factor) of an order-m field at ``angles`` [rad].
+
+    ``orientation`` [deg] (a member of a pair split by an imperfection,
+    :mod:`.perturbation`; NaN: none): the field ``cos m (theta - orientation)``, hoop
+    ``sin m (theta - orientation)``, whatever the family (the cos member at 0, the sin
+    member at 90/m deg are the unsplit cases below).
 
     The cos family is ``u_r = a cos m theta, u_theta = b sin m theta, u_z = c cos m theta``,
     the sin family its copy turned by a quarter wave (``a sin, -b cos, c sin``).  At m = 0
@@ -60,6 +66,9 @@ def order_harmonics(m: int, family: str, angles):
     order-0 hoop motion (torsion, ``ip(0,n)``) is ``b(r)`` itself, and the (a, c) modes of
     order 0 carry no b.
     """
+    if m and not math.isnan(orientation):
+        phase = m * (angles - math.radians(orientation))
+        return np.cos(phase), np.sin(phase)
     if family == "cos":
         return np.cos(m * angles), (np.sin(m * angles) if m else np.ones_like(angles))
     return np.sin(m * angles), -np.cos(m * angles)
@@ -321,7 +330,7 @@ def sampled_shapes(state, modes, n_radii: int = 40, n_angles: int = 64) -> np.nd
         normal, a, b, c = sampler.components(mode.vector)
         profiles = [np.interp(radii, sampler.radii, part.real) + 1j * np.interp(
             radii, sampler.radii, part.imag) for part in (normal, a, b)]
-        main, cross = order_harmonics(mode.m, mode.family, angles)
+        main, cross = order_harmonics(mode.m, mode.family, angles, mode.orientation)
         field_ = np.stack([profiles[0][:, None] * main, profiles[1][:, None] * main,
                            profiles[2][:, None] * cross]) * weights[None]
         rows.append(field_.ravel())

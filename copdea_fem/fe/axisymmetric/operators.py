@@ -104,7 +104,7 @@ def order_space(mesh, order: int, m: int, has_disc: bool, complex_: bool = False
     return ngs.FESpace(components)
 
 
-def _amplitude_proxies(function, axis_m1: bool, lift=None, disc=None):
+def amplitude_proxies(function, axis_m1: bool, lift=None, disc=None):
     """((a, da), (b, db), (c, dc)) of a trial/test function (+ w_d * lift on c)."""
     a, second, c = function[0], function[1], function[2]
     da, dsecond, dc = d_dr(a), d_dr(second), d_dr(c)
@@ -122,8 +122,8 @@ def membrane_forms(state, m, trial, test, axis_m1: bool, lift=None, disc=(None, 
     ``m`` may be an NGSolve Parameter (m >= 1); ``theta`` replaces the theta integral
     Theta_m (1.0: the caller scales)."""
     material = state.material
-    u = _amplitude_proxies(trial, axis_m1, lift, disc[0])
-    v = _amplitude_proxies(test, axis_m1, lift, disc[1])
+    u = amplitude_proxies(trial, axis_m1, lift, disc[0])
+    v = amplitude_proxies(test, axis_m1, lift, disc[1])
     energy = order_energy(m, state.displacement, u, material, state.voltage, theta=theta,
                           material_only=material_only)
     theta = theta_integral(m) if theta is None else theta

@@ -9,6 +9,8 @@ copy turned by a quarter wave (``a sin, -b cos, c sin``:
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from copdea_fem.fe.axisymmetric.modes import order_harmonics
@@ -23,9 +25,11 @@ class MeridianPoints(PointSampler):
         """(u_r, u_z) [m] of the prestress at reference radii (the meridian's profile)."""
         return state.profile(radii)
 
-    def membrane_displacement(self, vector, operators, family: str = "cos") -> np.ndarray:
+    def membrane_displacement(self, vector, operators, family: str = "cos",
+                              orientation: float = math.nan) -> np.ndarray:
         """Cartesian displacement (M, 3) of a field of ``operators``' order m (its ``family``
-        member) at the membrane's points."""
+        member, turned to ``orientation`` [deg] where given:
+        :func:`.modes.order_harmonics`) at the membrane's points."""
         import ngsolve as ngs
 
         membrane = ~self.on_disc
@@ -37,11 +41,16 @@ class MeridianPoints(PointSampler):
                                                    self.reference_radius[membrane]))
         a, b, c = (amplitudes[0] + 1j * amplitudes[1]).T
         theta = self.angle[membrane]
-        main, cross = order_harmonics(int(operators.m), family, theta)
+        main, cross = order_harmonics(int(operators.m), family, theta, orientation)
         u_r, u_t, u_z = a * main, b * cross, c * main
         return np.column_stack([u_r * np.cos(theta) - u_t * np.sin(theta),
                                 u_r * np.sin(theta) + u_t * np.cos(theta), u_z])
 
     def displacement(self, mode) -> np.ndarray:
-        return self.field_displacement(mode.vector, mode.disc_displacement,
-                                       operators=mode.operators, family=mode.family)
+        out = self.field_displacement(mode.vector, mode.disc_displacement,
+                                      operators=mode.operators, family=mode.family)
+        if mode.m and not math.isnan(mode.orientation) and np.any(~self.on_disc):
+            # a member of a split pair, turned to its orientation (.perturbation)
+            out[~self.on_disc] = self.membrane_displacement(mode.vector, mode.operators,
+                                                            mode.family, mode.orientation)
+        return out

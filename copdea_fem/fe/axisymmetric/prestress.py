@@ -16,6 +16,7 @@ import numpy as np
 
 from copdea_fem.fe.axisymmetric.membrane import prestress_energy, prestress_gradient
 from copdea_fem.fe.axisymmetric.meridian import LineSampler
+from copdea_fem.fe.axisymmetric.perturbation import round_material
 from copdea_fem.fe.materials import Membrane
 from copdea_fem.fe.prestress import MembraneSolver, PrestressedState
 from copdea_fem.fe.symmetry import Symmetry
@@ -131,8 +132,11 @@ class AxisymmetricMembraneSolver(MembraneSolver):
 
 
 def make_axisymmetric_solver(study, mesh) -> AxisymmetricMembraneSolver:
+    """The Newton solver of the round device: an imperfect film's round part (its
+    imperfection enters by perturbation, :mod:`.perturbation`)."""
     g = study.geometry
-    return AxisymmetricMembraneSolver(mesh, Membrane.with_effects(study), study.mesh.order,
+    return AxisymmetricMembraneSolver(mesh, round_material(Membrane.with_effects(study)),
+                                      study.mesh.order,
                                       g.outer_radius, g.inner_radius,
                                       study.prestress,
                                       curve_order=study.mesh.curve_order)

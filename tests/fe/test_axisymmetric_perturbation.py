@@ -1,0 +1,145 @@
+"""The axisymmetric engine's first-order perturbation path for imperfect devices
+(:mod:`copdea_fem.fe.axisymmetric.perturbation`) against the 3-D engine, which solves the
+imperfect device in full: the split of each pair, the shift of every mode from its own
+engine's perfect device, and the orientation of the split members; its range enforced."""
+
+import numpy as np
+import pytest
+
+from copdea_fem.fe import engine_for
+from copdea_fem.fe.axisymmetric import perturbation
+from copdea_fem.fe.pipeline import dry_modes
+from copdea_fem.study import StudyError, parse_study
+
+#: The flat full membrane (r_o = 35.5 mm, no disc, frame none) at 1 kV, dry; 5 mm elements
+#: of order 3 (tests/fe/test_imperfections.py: the 3-D engine's Bessel frequencies to ~1e-5).
+FLAT = {"geometry": {"inner_radius": 0, "frame": "none"}, "load": {"voltage": "1 kV"},
+        "mesh": {"membrane_size": "5 mm"}, "eigen": {"f_max": "560 Hz"}}
+#: G1 at z = 16 mm, 2 kV, in a baffle, dry, on a coarse mesh (the 3-D whole device ~12 s).
+G1 = {"geometry": {"inner_radius": "17 mm", "frame": "baffle"}, "disc": {"mass": "3 g"},
+      "load": {"z": "16 mm", "voltage": "2 kV"}, "mesh": {"membrane_size": "6 mm", "order": 2},
+      "eigen": {"f_max": "800 Hz"}}
+
+
+def out_of_plane(base, engine, membrane=None):
+    raw = {section: dict(values) for section, values in base.items()}
+    raw["mesh"]["engine"] = engine
+    if membrane:
+        raw["membrane"] = membrane
+    study = parse_study(raw)
+    _, modes, _ = dry_modes(study, engine=engine_for(study))
+    return {mode.label: mode for mode in modes if mode.kind == "out-of-plane"}
+
+
+def shifts(base, membrane, labels):
+    """{engine: {label: (relative shift from the engine's perfect device, mode)}}."""
+    out = {}
+    for engine in ("axisymmetric", "3d"):
+        perfect, imperfect = out_of_plane(base, engine), out_of_plane(base, engine, membrane)
+        out[engine] = {label: (imperfect[label].freq_hz / perfect[label].freq_hz - 1,
+                               imperfect[label]) for label in labels}
+    return out
+
+
+def check_against_3d(found, tolerance):
+    for label, (shift, mode) in found["axisymmetric"].items():
+        reference, partner = found["3d"][label]
+        print(f"{label}: shift {shift:.4e} (3-D {reference:.4e}), orientation "
+              f"{mode.orientation_deg:.2f} (3-D {partner.orientation_deg:.2f})")
+        assert shift == pytest.approx(reference, abs=tolerance), label
+
+
+def test_an_anisotropy_splits_and_shifts_the_modes_as_the_3d_engine_says():
+    """e = 1 % along 30 deg on the flat membrane at 1 kV: the (1,n) pairs split at first
+    order (1.7561 % against the 3-D engine's 1.7558 %), the (2,1) pair at second order
+    through the (0,1) and (4,1) of the same block; each mode's shift from its engine's perfect device agrees with the
+    3-D engine's to 2e-4 (measured <= 1.0e-4, 1.6e-4 for (1,2)b, in one block with (3,1)
+    9 Hz away; unchanged with the band widened to 900 Hz: the e^2 part of the pre-stretch
+    that the first order leaves out moves every mode by ~9e-5 on the 3-D engine), the
+    split members point along and across the axis."""
+    labels = ["(0,1)", "(1,1)a", "(1,1)b", "(2,1)a", "(2,1)b", "(0,2)", "(1,2)a", "(1,2)b"]
+    found = shifts(FLAT, {"prestretch_anisotropy": 0.01, "prestretch_axis": "30 deg"}, labels)
+    check_against_3d(found, 2e-4)
+    axisymmetric = {label: mode for label, (_, mode) in found["axisymmetric"].items()}
+    split = axisymmetric["(1,1)a"].freq_hz / axisymmetric["(1,1)b"].freq_hz - 1
+    reference = found["3d"]["(1,1)a"][1].freq_hz / found["3d"]["(1,1)b"][1].freq_hz - 1
+    print(f"(1,1) split {split:.4%} (3-D {reference:.4%})")
+    assert split == pytest.approx(reference, rel=0.01)
+    for label, angle in {"(1,1)a": 30.0, "(1,1)b": 120.0, "(1,2)a": 30.0, "(2,1)a": 75.0,
+                         "(2,1)b": 30.0}.items():
+        assert axisymmetric[label].orientation_deg == pytest.approx(angle, abs=0.2), label
+        assert found["3d"][label][1].orientation_deg == pytest.approx(angle, abs=0.2), label
+
+
+def test_a_thickness_term_splits_the_pairs_it_couples_as_the_3d_engine_says():
+    """h0 (1 + 0.02 cos 2 (theta - 20 deg)) on the flat membrane at 1 kV: its in-plane
+    equilibrium moves (the state's first-order correction du0 of the module doc), the
+    (1,n) pairs split at first order, oriented along 20 and 110 deg; shifts as the 3-D
+    engine's to 1e-4 (measured <= 4.5e-5)."""
+    labels = ["(0,1)", "(1,1)a", "(1,1)b", "(2,1)a", "(2,1)b", "(1,2)a", "(1,2)b"]
+    found = shifts(FLAT, {"thickness_variation": [{"order": 2, "amplitude": 0.02,
+                                                   "angle": "20 deg"}]}, labels)
+    check_against_3d(found, 1e-4)
+    axisymmetric = {label: mode for label, (_, mode) in found["axisymmetric"].items()}
+    assert axisymmetric["(1,1)a"].orientation_deg == pytest.approx(20.0, abs=0.2)
+    assert axisymmetric["(1,1)b"].orientation_deg == pytest.approx(110.0, abs=0.2)
+
+
+@pytest.mark.slow
+def test_g1_with_an_anisotropy_shifts_as_on_the_3d_engine():
+    """G1 at z = 16 mm, 2 kV, dry, e = 1 % along 30 deg: the cone's prestress moves at
+    first order (du0); every out-of-plane mode below 800 Hz shifts from its engine's
+    perfect device as on the 3-D engine to 3e-4 (measured <= 1.3e-4; the issue's 0.3 %
+    is ten times that; the frequencies themselves differ by the two coarse meshes, up to
+    0.6 %, so the shifts are compared)."""
+    labels = ["(0,1)", "(1,1)a", "(1,1)b", "(2,1)a", "(2,1)b", "(3,1)a", "(4,1)a", "(5,1)a"]
+    found = shifts(G1, {"prestretch_anisotropy": 0.01, "prestretch_axis": "30 deg"}, labels)
+    check_against_3d(found, 3e-4)
+    split = found["axisymmetric"]["(1,1)a"][1].freq_hz / \
+        found["axisymmetric"]["(1,1)b"][1].freq_hz - 1
+    assert split == pytest.approx(0.0132, abs=3e-4)     # the 3-D engine: 1.314 %
+
+
+def test_beyond_its_tolerance_the_path_refuses_naming_key_value_and_limit(monkeypatch):
+    """The neglected higher-order shift is checked after the solve: with the tolerance
+    set below it, the same study is refused, naming the key, its value and the limit."""
+    monkeypatch.setattr(perturbation, "TOLERANCE", 1e-12)
+    raw = {section: dict(values) for section, values in FLAT.items()}
+    raw["mesh"]["engine"] = "axisymmetric"
+    raw["membrane"] = {"prestretch_anisotropy": 0.01}
+    study = parse_study(raw)
+    with pytest.raises(perturbation.PerturbationRangeError) as refused:
+        dry_modes(study, engine=engine_for(study))
+    message = str(refused.value)
+    assert "membrane.prestretch_anisotropy = 0.01" in message
+    assert "limit 1e-12" in message and "mesh.engine: 3d" in message
+
+
+def test_auto_keeps_the_3d_engine_and_the_forced_response_is_refused():
+    """``auto`` sends an imperfect device to the 3-D engine; on ``axisymmetric`` the forced
+    response (which the perturbation path does not make) is refused naming the engine."""
+    raw = {section: dict(values) for section, values in FLAT.items()}
+    raw["membrane"] = {"prestretch_anisotropy": 0.01}
+    assert engine_for(parse_study(raw)).name != "axisymmetric"
+    raw["mesh"]["engine"] = "axisymmetric"
+    study = parse_study(raw)
+    with pytest.raises(StudyError, match="mesh.engine = 'axisymmetric' is not allowed for a "
+                                         "forced response.*allowed: mesh.engine: 3d"):
+        engine_for(study).forced_problem(study)
+
+
+def test_the_shape_of_a_split_member_is_turned_to_its_orientation():
+    """The sampled shape (sweeps' tracking, ParaView) of a split member is
+    ``cos m (theta - orientation)``: its largest normal displacement round a circle lies at
+    the orientation."""
+    from copdea_fem.fe.axisymmetric.modes import sampled_shapes
+    raw = {section: dict(values) for section, values in FLAT.items()}
+    raw["mesh"]["engine"] = "axisymmetric"
+    raw["membrane"] = {"prestretch_anisotropy": 0.01, "prestretch_axis": "30 deg"}
+    study = parse_study(raw)
+    state, modes, _ = dry_modes(study, engine=engine_for(study))
+    member = next(mode for mode in modes if mode.label == "(1,1)b")
+    normal = sampled_shapes(state, [member])[0][:40 * 64].reshape(40, 64)
+    angles = 360.0 * np.arange(64) / 64
+    peak = angles[int(np.argmax(np.abs(normal).sum(axis=0)))]
+    assert min(abs(peak - 120.0), abs(peak - 300.0)) <= 360 / 64
