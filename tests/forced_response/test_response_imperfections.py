@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import pyvista as pv
 from helpers import coupled_study
 
 import copdea_fem as cf
@@ -25,12 +26,13 @@ G1_BAFFLE = {"geometry": {"inner_radius": "17 mm", "frame": "baffle"},
              "output": {"paraview": False, "plots": False}}
 
 
-def modal_forces(**sections) -> tuple[dict, object]:
-    """{label: |modal force| [N/(V sqrt(kg))]} of the study's response, and the result."""
+def modal_forces(out=None, **sections) -> tuple[dict, object]:
+    """{label: |modal force| [N/(V sqrt(kg))]} of the study's response, and the result
+    (written to ``out``, if given)."""
     raw = {section: dict(values) for section, values in G1_BAFFLE.items()}
     for section, values in sections.items():
         raw.setdefault(section, {}).update(values)
-    result = cf.response(coupled_study(**raw))
+    result = cf.response(coupled_study(**raw), out=out)
     table = result.modal_forcing
     return dict(zip(table["label"], np.hypot(table["force_re"], table["force_im"]))), result
 
@@ -57,16 +59,24 @@ def test_an_anisotropy_along_x_drives_the_2_1_member_linearly_in_e():
 
 
 @pytest.mark.slow
-def test_a_point_mass_drives_every_order_on_the_whole_device():
+def test_a_point_mass_drives_every_order_on_the_whole_device(tmp_path):
     """20 mg at r = 25 mm, theta = 30 deg breaks both mirror planes: the whole device is
     solved and one member of each pair (1,1), (2,1), (3,1) is driven, at least 1e-2 of the
     (0,1)'s force and ten times what the perfect device on the same whole mesh gives (the
     coarse unstructured whole mesh is not round: it drives the (1,1) at 2.5e-3 itself)."""
     whole = {"mesh": {"engine": "3d", "symmetry": "none"}}
     perfect, _ = modal_forces(**whole)
-    loaded, result = modal_forces(imperfections={"point_masses": [
-        {"mass": "20 mg", "r": "25 mm", "theta": "30 deg"}]}, **whole)
+    loaded, result = modal_forces(
+        out=tmp_path / "mass", imperfections={"point_masses": [
+            {"mass": "20 mg", "r": "25 mm", "theta": "30 deg"}]},
+        output={"paraview": True, "plots": False}, **whole)
     assert result.result.problem.sector.excited.startswith("whole device")
+    # the operating shapes at the peaks, on the whole membrane (no orientation: NaN)
+    ods = sorted((tmp_path / "mass").glob("ods_*.vtu"))
+    assert ods and len(ods) == len(result.peaks_hz)
+    grid = pv.read(ods[0])
+    assert grid.points[:, 0].min() < -0.03 and grid.points[:, 1].min() < -0.03
+    assert np.isnan(grid.field_data["orientation_deg"][0])
     for pair in ("(1,1)", "(2,1)", "(3,1)"):
         members = [label for label in loaded if label.startswith(pair)]
         assert members, (pair, list(loaded))
