@@ -1,6 +1,6 @@
 """The 3-D quadrant with an anisotropic pre-stretch against the perfect quadrant:
 ``python -m benchmarks.imperfections [--repeat 3] [--study PATH] [--anisotropy 0.02]
-[--set SECTION.KEY=VALUE ...]``.
+[--stages] [--set SECTION.KEY=VALUE ...]``.
 
 Each repetition runs, as a user does, two fresh ``python -m copdea_fem.cli solve`` of the
 study (default ``studies/g1_z16_v2.yaml``: G1 at z = 16 mm, 2 kV, square frame, coupled with
@@ -14,6 +14,11 @@ repetitions and the median of the per-repetition ratios imperfect / perfect (tar
 "no slower").  On a shared machine only the ratio of two runs close in time means something.
 Each imperfect run's (1,1) split is printed too, so that a run that silently solved a
 perfect device cannot pass.
+
+``--stages`` then times, in this one process on one mesh, the CPU seconds
+(:func:`time.process_time`) of the stages an imperfection can change -- the prestress
+(Newton), the membrane matrices and the coupled assembly -- ``repeat`` times each, the
+two devices alternating: less scatter than whole processes on a shared machine.
 """
 
 from __future__ import annotations
@@ -104,18 +109,54 @@ def run_pairs(study: Path, repeat: int, anisotropy: float, overrides: list[str])
     return report
 
 
+def run_stages(study_path: Path, repeat: int, anisotropy: float, overrides: list[str]) -> dict:
+    """CPU seconds per stage in one process, perfect and anisotropic alternating (module
+    doc): medians and all values."""
+    from copdea_fem.fe.coupled import assemble_coupled
+    from copdea_fem.fe.linearise import membrane_matrices
+    from copdea_fem.fe.prestress import solve_prestress
+    from copdea_fem.fe.quadrant.geometry import study_mesh
+    from copdea_fem.study import load_study, parse_overrides
+
+    studies = {name: load_study(study_path,
+                                overrides=parse_overrides(FILES_OFF + overrides + extra))
+               for name, extra in (("perfect", []), ("anisotropic", [
+                   f"membrane.prestretch_anisotropy={anisotropy}", "membrane.prestretch_axis=0"]))}
+    mesh = study_mesh(studies["perfect"], with_air=True)
+    seconds = {name: {"prestress": [], "membrane_matrices": [], "coupled_assembly": []}
+               for name in studies}
+    for k in range(repeat):
+        for name in (list(studies) if k % 2 == 0 else list(reversed(studies))):
+            start = time.process_time()
+            state = solve_prestress(studies[name], mesh)
+            seconds[name]["prestress"].append(time.process_time() - start)
+            start = time.process_time()
+            membrane_matrices(state)
+            seconds[name]["membrane_matrices"].append(time.process_time() - start)
+            start = time.process_time()
+            assemble_coupled(studies[name], mesh, state)
+            seconds[name]["coupled_assembly"].append(time.process_time() - start)
+    return {name: {stage: {"median": statistics.median(values), "all": values}
+                   for stage, values in stages.items()} for name, stages in seconds.items()}
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.imperfections")
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--study", type=Path, default=STUDY)
     parser.add_argument("--anisotropy", type=float, default=0.02)
     parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE")
+    parser.add_argument("--stages", action="store_true",
+                        help="also the stages' CPU seconds in one process")
     args = parser.parse_args(argv)
     if args.repeat < 1:
         parser.error(f"--repeat {args.repeat} is not allowed; allowed: >= 1")
     if not 0 < args.anisotropy <= 0.5:
         parser.error(f"--anisotropy {args.anisotropy} is not allowed; allowed: 0 < e <= 0.5")
-    print(json.dumps(run_pairs(args.study, args.repeat, args.anisotropy, args.set), indent=2))
+    report = run_pairs(args.study, args.repeat, args.anisotropy, args.set)
+    if args.stages:
+        report["stages_cpu_s"] = run_stages(args.study, args.repeat, args.anisotropy, args.set)
+    print(json.dumps(report, indent=2))
     return 0
 
 
