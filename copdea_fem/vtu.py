@@ -31,11 +31,14 @@ class VtuMesh:
     laid out as a meshio mesh (``points``, ``cells[0].type``/``.data``, ``point_data``,
     ``cell_data`` as lists per block); :meth:`to_pyvista` gives the grid the file holds."""
 
-    def __init__(self, points, cells, point_data=None, cell_data=None):
+    def __init__(self, points, cells, point_data=None, cell_data=None, field_data=None):
         self.points = np.asarray(points)
         self.cells = [CellBlock(kind, np.asarray(data)) for kind, data in cells]
         self.point_data = dict(point_data or {})
         self.cell_data = dict(cell_data or {})
+        #: numbers of the whole mesh (VTK FieldData: ParaView's "Field Data"), name -> 1-D
+        self.field_data = {name: np.atleast_1d(np.asarray(values, float))
+                           for name, values in (field_data or {}).items()}
 
     def to_pyvista(self):
         """The same mesh as a :class:`pyvista.UnstructuredGrid` (cells in VTK's node order)."""
@@ -47,6 +50,8 @@ class VtuMesh:
             grid.point_data[name] = np.asarray(values)
         for name, blocks in self.cell_data.items():
             grid.cell_data[name] = np.concatenate([np.asarray(block) for block in blocks])
+        for name, values in self.field_data.items():
+            grid.field_data[name] = values
         return grid
 
 
@@ -183,10 +188,18 @@ class VtuWriter:
         header.append("<CellData>" + "".join(array(self._encode(values[0], remembered), name)
                                               for name, values in mesh.cell_data.items())
                       + "</CellData>")
+        field = ""
+        if getattr(mesh, "field_data", None):
+            tags = []
+            for name, values in mesh.field_data.items():
+                values = np.atleast_1d(np.asarray(values, float)).ravel()
+                tags.append(array(self._encode(values, remembered), name).replace(
+                    "<DataArray ", f'<DataArray NumberOfTuples="{values.size}" ', 1))
+            field = "<FieldData>" + "".join(tags) + "</FieldData>\n"
         self._encoded = remembered
         text = ('<?xml version="1.0"?>\n<VTKFile type="UnstructuredGrid" version="1.0" '
                 'byte_order="LittleEndian" header_type="UInt64">\n<UnstructuredGrid>\n'
-                f'<Piece NumberOfPoints="{n_points}" NumberOfCells="{n_cells}">\n'
+                + field + f'<Piece NumberOfPoints="{n_points}" NumberOfCells="{n_cells}">\n'
                 + "\n".join(header) + '\n</Piece>\n</UnstructuredGrid>\n'
                 '<AppendedData encoding="raw">\n_')
         buffers = [text.encode(), *blocks, b"\n</AppendedData>\n</VTKFile>\n"]

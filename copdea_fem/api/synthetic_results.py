@@ -112,6 +112,13 @@ def synthesise(study: Study | str | Path, effects: str = "", conditions: str | N
         truth, named = check_scan_truth(study, effects, conditions, parameters)
     else:
         from copdea_fem.diagnosis.synth import SynthOptions
+        from copdea_fem.study.imperfections import imperfections_given
+        given = imperfections_given(study)
+        if given:
+            raise StudyError(f"{given} is not allowed with --format csv; allowed: a perfect "
+                             "(round) device -- the csv format's data come from the ring "
+                             "model, which is axisymmetric; --format uff makes the data of an "
+                             "imperfect device with the 3-D FE")
         if study.geometry.enclosure != "none":
             logger.warning(
                 "synth --format csv: the ring model makes these data and holds no enclosure: "

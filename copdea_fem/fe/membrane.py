@@ -104,7 +104,8 @@ def _invariants_of(ct, prestretch: float, anisotropy: float, axis: float):
     b_xx, b_yy = c * c * along + s * s * across, s * s * along + c * c * across
     b_xy = c * s * (along - across)
     stretch_dyad = ngs.CF((b_xx, b_xy, 0, b_xy, b_yy, 0, 0, 0, 0), dims=(3, 3))
-    return ngs.Trace(ct * stretch_dyad), along * across * ngs.Det(ct)
+    # tr(Ct B_p) = Ct : B_p (B_p symmetric): nine products, not a 3x3 matrix product's 27
+    return ngs.InnerProduct(ct, stretch_dyad), along * across * ngs.Det(ct)
 
 
 def thickness_factor(material: Membrane):

@@ -31,6 +31,7 @@ class ShapeAt:
     family: str = "cos"
     freq_im_hz: float = 0.0
     sector: object = None       # 3-D: the even-even symmetry sector
+    orientation_deg: float = float("nan")   # deg; an operating shape has none (a mode's VTU field)
 
 
 def _plots(staging: Path, result, reduced) -> list[str]:

@@ -194,10 +194,9 @@ class RingModel:
     def from_study(cls, study, ring_count: int | None = None) -> "RingModel":
         """Ring model of a :class:`copdea_fem.study.Study` (``reduced.rings`` rings)."""
         from copdea_fem.study import StudyError
-        from copdea_fem.study.imperfections import imperfection_keys_given
-        imperfect = imperfection_keys_given(study.membrane, study.imperfections)
-        if imperfect:
-            given = ", ".join(f"{key} = {study.get(key)!r}" for key in imperfect.split(", "))
+        from copdea_fem.study.imperfections import imperfections_given
+        given = imperfections_given(study)
+        if given:
             raise StudyError(f"{given} is not allowed for the reduced model; allowed: "
                              "a perfect (round) device, the keys at their defaults (the ring "
                              "model of Sect. 3.2.1 is axisymmetric; the 3-D FE models "

@@ -113,6 +113,13 @@ def imperfection_keys_given(membrane, imperfections) -> str:
     return ", ".join(key for key, value in zip(IMPERFECTION_KEYS, given) if value)
 
 
+def imperfections_given(study) -> str:
+    """``"key = value, ..."`` of the imperfection keys a :class:`~copdea_fem.study.Study`
+    sets ("" for a perfect device): what a refusal of an imperfect study names."""
+    keys = imperfection_keys_given(study.membrane, study.imperfections)
+    return ", ".join(f"{key} = {study.get(key)!r}" for key in keys.split(", ")) if keys else ""
+
+
 def is_imperfect(membrane, imperfections) -> bool:
     """Whether a study's sections (typed or plain mappings) hold any imperfection."""
     return bool(imperfection_keys_given(membrane, imperfections))
@@ -182,6 +189,7 @@ __all__ = [
     "THICKNESS_ALLOWED",
     "check_imperfections",
     "imperfection_keys_given",
+    "imperfections_given",
     "is_imperfect",
     "perturbation_refusal",
     "read_point_masses",

@@ -15,7 +15,12 @@ How a mode is followed from point ``p`` to the next point ``q``
    *subspace* MAC is not (see :func:`subspace_mac`).  A pair that splits at
    ``q`` (two singles beyond the tolerance, e.g. a square frame) is kept
    together when both singles lie in the pair's span at ``p``
-   (:func:`_inherit_pairs`), so a pair stays a pair.
+   (:func:`_inherit_pairs`), so a pair stays a pair.  Inside a pair, the two
+   members continue the previous point's members by their own (single-vector)
+   MAC (:func:`_continue_members`): where an imperfection splits the pair
+   (an anisotropic pre-stretch, a mass), each member's track is continuous
+   through the split and beyond, even where the members' frequency order
+   turns over (at a degenerate point either basis continues equally well).
 2. *Similarity.*  Subspace MAC between every unit at ``p`` and every unit at
    ``q``: with the mass matrix of ``q`` when both points share one FE space
    (same mesh, same order: the vectors are coefficient arrays of the same
@@ -189,7 +194,8 @@ class TrackingResult:
         ``track[p][i]``: track id of mode ``i`` at point ``p``.
     member : list of numpy.ndarray of int
         Position of the mode inside its unit (0 for singles; 0/1 for the
-        lower/upper member of a pair).
+        members of a pair: at a pair's first point the lower/upper one, then
+        each continues its predecessor's shape, :func:`_continue_members`).
     unit_size : list of numpy.ndarray of int
         1 for a single mode, 2 for a degenerate pair.
     mac_previous : list of numpy.ndarray
@@ -313,6 +319,19 @@ def _inherit_pairs(previous_units, current_units, similarity, current: ModeSet,
     return units
 
 
+def _continue_members(previous_unit, unit, similarity: _Similarity) -> tuple:
+    """``unit``'s two members ordered as the previous pair's: swapped when the crossed
+    single-vector MACs sum higher than the straight ones (the assignment of two members to
+    two predecessors by their shapes); a single, or shapes that cannot be compared, keep
+    the order they came in."""
+    if len(previous_unit) != 2 or len(unit) != 2 or similarity.kind is None:
+        return tuple(unit)
+    (p0, p1), (c0, c1) = previous_unit, unit
+    straight = similarity((p0,), (c0,)) + similarity((p1,), (c1,))
+    crossed = similarity((p0,), (c1,)) + similarity((p1,), (c0,))
+    return (c1, c0) if crossed > straight else tuple(unit)
+
+
 def _unit_frequency(modes: ModeSet, unit) -> float:
     return float(np.mean(modes.freq_hz[list(unit)]))
 
@@ -406,6 +425,7 @@ def track_modes(sets: Sequence[ModeSet], settings: TrackingSettings | None = Non
                                            similarity):
                 unit_ids[j] = previous_ids[i]
                 unit_mac[j] = value
+                units[j] = _continue_members(previous_units[i], units[j], similarity)
         for j, unit in enumerate(units):
             if unit_ids[j] < 0:
                 unit_ids[j] = next_id

@@ -216,6 +216,29 @@ def test_degenerate_pair_stays_a_pair_through_a_crossing_and_a_split():
         assert np.all(macs > 1 - 1e-9)
 
 
+def test_a_split_pair_keeps_each_member_on_its_shape_when_their_order_turns_over():
+    """An imperfection growing along the sweep (an anisotropic pre-stretch): at s = 0 the
+    pair is split by a mesh's 1e-4 with the DOF-0 member on top; from s = 0.25 the
+    imperfection puts it below, 4 % apart at s = 1 (beyond the pair tolerance).  Each
+    member keeps its index (and so its place in the table) along its own shape, although
+    the frequency order of the two turns over; the pair stays one track."""
+    names = {0: "(1,1)", 1: "(1,1)", 2: "(0,1)"}
+    m_of_dof = {0: 1, 1: 1, 2: 0}
+    sets = [_mode_set(np.diag([2.0 * (1 + 1e-4 - 0.04 * s), 2.0 * (1 + 0.04 * s), 1.0]),
+                      names, m_of_dof, MASS) for s in np.linspace(0.0, 1.0, 5)]
+    result = track_modes(sets, TrackingSettings(pair_tolerance=0.01))
+    members_of_dof0, order_of_dof0 = [], []
+    for p, modes in enumerate(sets):
+        shapes = (np.sqrt(MASS[:3, :3]) @ modes.vectors) ** 2
+        pair = [k for k in range(3) if modes.m[k] == 1]
+        dof0 = max(pair, key=lambda k: shapes[0, k])
+        members_of_dof0.append(int(result.member[p][dof0]))
+        order_of_dof0.append(int(modes.freq_hz[dof0] > min(modes.freq_hz[pair])))
+        assert len({int(result.track[p][k]) for k in pair}) == 1
+    assert order_of_dof0 == [1, 0, 0, 0, 0]              # the order turns over ...
+    assert members_of_dof0 == [1, 1, 1, 1, 1]            # ... the member does not
+
+
 def test_modes_leaving_and_entering_the_band_open_and_close_tracks():
     full = _mode_set(_two_mode_family(0.5, 0.0), NAMES, {0: 0, 1: 2, 2: 0}, MASS)
     keep = [0, 1]     # the highest mode leaves the band at the middle point

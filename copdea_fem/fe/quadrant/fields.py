@@ -79,7 +79,10 @@ def write_mode_vtus(directory: Path, state, modes, sampler: MembraneSampler) -> 
     """One .vtu per mode on the prestressed shape: displacement re/im/abs, normal velocity.
 
     Mode shapes are normalised to peak |u| = 1 (dimensionless); the normal
-    velocity amplitude is omega |u.n| for that normalisation [1/s].
+    velocity amplitude is omega |u.n| for that normalisation [1/s].  Field data: the
+    mode's ``frequency_hz`` [Hz] and ``orientation_deg`` [deg] (modes.csv's: the angle of
+    its first antinode line, NaN for m = 0), so that ParaView shows which member of a split
+    pair a file holds.
     """
     return write_all(directory, mode_meshes(state, modes, sampler))
 
@@ -109,7 +112,9 @@ def mode_meshes(state, modes, sampler: MembraneSampler):
                   "normal_displacement_imag": normal_shape.imag,
                   "normal_velocity_abs": omega * np.abs(normal_shape)}
         yield (f"mode_{number:03d}_{safe_name(mode.label)}",
-               VtuMesh(deformed, [("triangle", sampler.cells)], point_data=fields))
+               VtuMesh(deformed, [("triangle", sampler.cells)], point_data=fields,
+                       field_data={"frequency_hz": mode.freq_hz,
+                                   "orientation_deg": mode.orientation_deg}))
 
 
 def write_air_vtus(directory: Path, operators, modes, pressures) -> list[Path]:

@@ -8,10 +8,17 @@ those of :mod:`copdea_fem.fe.forced.harmonic` (the derivation there), from the 3
 ``f = -2 (R(u0; V_b) - R(u0; 0)) / V_b`` reduced to the sector's free DOFs (and
 ``lift . f`` for the disc on the spring), ``K_el`` the Hessian at ``(u0, V = 0)``.
 
+Where an imperfection breaks a mirror plane (:func:`copdea_fem.fe.symmetry.mirror_breaking`)
+the whole device is meshed and there is no sector: the voltage then drives every order that
+the imperfection couples to m = 0 (an anisotropy along 30 deg the (2,n) members, a mass off
+the axis every order), and the response says so (``WHOLE_DEVICE``).
+
 Observation: the vibrometer's points at projected radius ``r`` and polar angles
 ``OBSERVATION_ANGLES`` in the quadrant (the square frame makes the response depend slightly
-on the angle; the average spectrum averages |v| over radii and angles); the reference point
-of ``(r cos phi, r sin phi)`` is found on the prestressed profile along that ray.  Sound:
+on the angle; the average spectrum averages |v| over radii and angles), on a whole device
+the same angles in each of the four quadrants (``WHOLE_ANGLES``: an imperfect device's
+response is not the same in each); the reference point of ``(r cos phi, r sin phi)`` is
+found on the prestressed profile along that ray.  Sound:
 Kirchhoff-Helmholtz over the sphere 0.85 R as in :mod:`copdea_fem.fe.forced.radiation`,
 here with 3-D surface quadrature (Gauss in the polar angle, trapezoidal in the azimuth), the
 quadrant's field unfolded by the even-even parity ``p(x, y, z) = p(|x|, |y|, z)``.
@@ -22,6 +29,7 @@ from __future__ import annotations
 import functools
 import logging
 import time
+from dataclasses import replace
 
 import ngsolve as ngs
 import numpy as np
@@ -42,6 +50,8 @@ from copdea_fem.fe.forced.radiation import (
 
 #: Polar angles of the observation points in the quadrant [rad].
 OBSERVATION_ANGLES = np.radians([11.25, 33.75, 56.25, 78.75])
+#: ... and on a whole device: the same in each quadrant [rad].
+WHOLE_ANGLES = np.concatenate([OBSERVATION_ANGLES + k * np.pi / 2 for k in range(4)])
 
 
 logger = logging.getLogger(__name__)
@@ -134,12 +144,15 @@ def prepare_quadrant(study):
         cavity = QuadrantCavitySampler(coupled.pressure_space, GeometrySpec.from_study(study))
         dry_band = functools.partial(sector_dry_modes, operators, study, 0.0)
     timings["assembly"] = time.perf_counter() - start
-    return OrderZero(study, state, coupled, forced, timings, QUADRANT_SECTOR, cavity=cavity,
+    return OrderZero(study, state, coupled, forced, timings,
+                     QUADRANT_SECTOR if sector is not None else WHOLE_DEVICE, cavity=cavity,
                      dry_band=dry_band)
 
 
 class QuadrantObserver:
     """u_z and u_r = u . e_r at projected radii and OBSERVATION_ANGLES (module doc)."""
+
+    angles = OBSERVATION_ANGLES
 
     def __init__(self, state, operators, fractions):
         self.state, self.operators = state, operators
@@ -148,7 +161,7 @@ class QuadrantObserver:
         grid = np.linspace(r_i, r_o, 401)
         self.projected = r_i + np.asarray(fractions, float) * (r_o - r_i)
         points, directions = [], []
-        for phi in OBSERVATION_ANGLES:
+        for phi in self.angles:
             e = np.array([np.cos(phi), np.sin(phi)])
             ray = mesh(grid * e[0], grid * e[1], np.zeros_like(grid), ngs.BND)
             u0 = np.asarray(state.displacement(ray))
@@ -177,7 +190,13 @@ class QuadrantObserver:
 
     def average(self, values):
         """Mean over angles of (points, ...) -> (radii, ...)."""
-        return values.reshape(len(OBSERVATION_ANGLES), -1, *values.shape[1:])
+        return values.reshape(len(self.angles), -1, *values.shape[1:])
+
+
+class WholeObserver(QuadrantObserver):
+    """:class:`QuadrantObserver` on a whole device: at ``WHOLE_ANGLES`` (module doc)."""
+
+    angles = WHOLE_ANGLES
 
 
 class QuadrantSphere:
@@ -275,3 +294,9 @@ QUADRANT_SECTOR = DrivenSector(
     shape_sector=lambda operators: operators.sector, write_shapes=_write_shapes,
     default_method="reduced",      # its modal band costs minutes
     modal_method="reduced_modal")
+
+#: The whole device (an imperfection broke a mirror plane): no sector, every order driven.
+WHOLE_DEVICE = replace(
+    QUADRANT_SECTOR, name="whole device", summary="3-D, whole device",
+    excited="whole device (an imperfection breaks the mirror planes: every order it couples)",
+    observer=WholeObserver, angles=len(WHOLE_ANGLES))
