@@ -32,6 +32,7 @@ class ShapeAt:
     freq_im_hz: float = 0.0
     sector: object = None       # 3-D: the even-even symmetry sector
     orientation_deg: float = float("nan")   # deg; an operating shape has none (a mode's VTU field)
+    orientation: float = float("nan")       # deg; not turned (the revolved writers' Mode.orientation)
 
 
 def _plots(staging: Path, result, reduced) -> list[str]:
