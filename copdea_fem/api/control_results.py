@@ -21,7 +21,7 @@ if TYPE_CHECKING:
 
     from copdea_fem.forced_response.excitation import ExcitationDesign
     from copdea_fem.forced_response.modal_inputs import ModalInputs
-    from copdea_fem.forced_response.statespace import StateSpaceModel
+    from copdea_fem.forced_response.state_space import StateSpaceModel
 
 logger = logging.getLogger("copdea_fem")
 
@@ -31,7 +31,7 @@ SPECTRUM_LINES = 2000
 
 def _modal_model(study: Study, allow_large: bool, timings: dict, microphones=()):
     """The solve of ``study`` and its modal model for the study's inputs at its points (and
-    ``microphones``: :func:`copdea_fem.forced_response.statespace.statespace_microphones`)."""
+    ``microphones``: :func:`copdea_fem.forced_response.state_space.statespace_microphones`)."""
     from copdea_fem.fe import engine_for, run_solve
     from copdea_fem.forced_response.modal_inputs import ModalInputs, drive_inputs, study_points
 
@@ -81,7 +81,7 @@ def excite(study: Study | str | Path, targets: Sequence[str], *, max_ac: float |
     """
     import numpy as np
     from copdea_fem.forced_response.excitation import design_drive
-    from copdea_fem.forced_response.statespace import check_statespace_study
+    from copdea_fem.forced_response.state_space import check_statespace_study
 
     study = as_study(study)
     targets = list(targets or [])
@@ -267,7 +267,7 @@ def statespace(study: Study | str | Path, *, allow_large: bool = False,
                progress: Callable[[str], None] | None = None,
                out: str | Path | Claim | Output | None = None) -> StateSpace:
     """The coupled modal model as a real LTI system ``x' = A x + B u, y = C x + D u``
-    (``copdea-fem statespace``; :mod:`copdea_fem.forced_response.statespace`).
+    (``copdea-fem statespace``; :mod:`copdea_fem.forced_response.state_space`).
 
     Parameters
     ----------
@@ -281,7 +281,7 @@ def statespace(study: Study | str | Path, *, allow_large: bool = False,
     -------
     StateSpace
         ``system``: a ``control.StateSpace`` when python-control is installed, else the
-        :class:`~copdea_fem.forced_response.statespace.StateSpaceModel` (the arrays).
+        :class:`~copdea_fem.forced_response.state_space.StateSpaceModel` (the arrays).
 
     Raises
     ------
@@ -290,7 +290,7 @@ def statespace(study: Study | str | Path, *, allow_large: bool = False,
     SolveFailed, PrestressError, OutputFolderError
         As :func:`solve`.
     """
-    from copdea_fem.forced_response.statespace import (
+    from copdea_fem.forced_response.state_space import (
         check_statespace_study,
         realise,
         statespace_microphones,
@@ -323,7 +323,7 @@ class StateSpace:
     @property
     def system(self):
         """A ``control.StateSpace`` (python-control installed), else the arrays
-        (:class:`~copdea_fem.forced_response.statespace.StateSpaceModel`)."""
+        (:class:`~copdea_fem.forced_response.state_space.StateSpaceModel`)."""
         converted = self.model.as_control()
         return self.model if converted is None else converted
 

@@ -37,7 +37,8 @@ def _assert_frame_equals_csv(frame: pd.DataFrame, path: Path):
     assert len(frame) == len(table)
     for column in frame.columns:
         left, right = frame[column], table[column]
-        if pd.api.types.is_numeric_dtype(right) and right.dtype != object:
+        numeric = pd.api.types.is_numeric_dtype(right) and right.dtype != object
+        if numeric or pd.api.types.is_float_dtype(left):    # a float column with NaN: 'nan'
             np.testing.assert_allclose(left.astype(float), right.astype(float), rtol=1e-8,
                                        atol=1e-12, err_msg=column)
         else:

@@ -76,7 +76,7 @@ def test_the_modal_model_is_the_scan_responses_modal_path(overrides):
 
 
 def test_the_poles_of_the_state_space_are_the_coupled_eigenvalues_of_solve():
-    from copdea_fem.forced_response.statespace import realise
+    from copdea_fem.forced_response.state_space import realise
 
     study, solution, model = _model(*AXISYMMETRIC, *UNDAMPED, MIXED)
     system = realise(model, static_correction=False)
@@ -99,7 +99,7 @@ def test_the_state_space_is_stable_with_its_static_correction(sectors):
     (statespace eq. 4) strictly inside it: a fitted eigenvalue is complex with the air, and
     the plain root of ``s^2 + conj(Lambda)`` had ``Re s > 0`` (eight sectors: 84 of them,
     +0.15 1/s at 1340 Hz)."""
-    from copdea_fem.forced_response.statespace import PSEUDO_DAMPING, realise
+    from copdea_fem.forced_response.state_space import PSEUDO_DAMPING, realise
 
     _, _, model = _model(*AXISYMMETRIC, sectors)
     system = realise(model)
@@ -115,7 +115,7 @@ def test_the_state_space_is_stable_with_its_static_correction(sectors):
 def test_the_poles_of_the_state_space_are_the_coupled_eigenvalues_on_the_3d_quadrant():
     """The same on the 3-D quadrant (its four symmetry sectors the channels; ~15 s, the
     coupled 3-D solve): measured 4e-16."""
-    from copdea_fem.forced_response.statespace import realise
+    from copdea_fem.forced_response.state_space import realise
 
     study, solution, model = _model("mesh.engine=3d", "geometry.frame=none",
                                     "eigen.f_max=700 Hz", *UNDAMPED, MIXED)
@@ -134,7 +134,7 @@ def test_the_poles_of_the_state_space_are_the_coupled_eigenvalues_on_the_3d_quad
 
 
 def test_the_state_space_realises_the_modal_sum_exactly_on_a_real_pencil():
-    from copdea_fem.forced_response.statespace import realise
+    from copdea_fem.forced_response.state_space import realise
 
     study, solution, model = _model(*DRY, MIXED)
     system = realise(model, static_correction=False)
@@ -154,7 +154,7 @@ def test_the_state_space_follows_the_scan_responses_modal_path(overrides, bound)
     misfit of one pseudo-mode per input, the non-resonant term of a radiating mode (measured
     2.4e-2 of the peak for these segments dry, up to 1e-2 coupled, on this mesh; the bound is
     that with a margin: an approximation, not round-off)."""
-    from copdea_fem.forced_response.statespace import realise
+    from copdea_fem.forced_response.state_space import realise
 
     study, solution, model = _model(*overrides, MIXED)
     transfer = realise(model).frequency_response(LINES)
@@ -170,7 +170,7 @@ def test_the_currents_are_the_forcing_transposed(overrides):
     """Reciprocity (modal_inputs eq. 2): the motional current of electrode k per volt on l is
     that of l per volt on k; and it is F_k^T v with v the velocity the scan response drives
     (factor 1 in SI)."""
-    from copdea_fem.forced_response.statespace import realise
+    from copdea_fem.forced_response.state_space import realise
 
     study, solution, model = _model(*overrides, MIXED)
     system = realise(model, static_correction=False)
@@ -245,7 +245,7 @@ def test_excite_and_statespace_files(tmp_path):
     import scipy.io
 
     from copdea_fem.cli import main
-    from copdea_fem.forced_response.statespace import NPZ_KEYS
+    from copdea_fem.forced_response.state_space import NPZ_KEYS
 
     study = ["--set", AXISYMMETRIC[0], "--set", AXISYMMETRIC[1], "--set", RINGS]
     assert main(["excite", str(QUICK), *study, "--target", "(0,2)", "--max-ac", "50",
@@ -322,7 +322,7 @@ def _sound(*overrides):
     from copdea_fem.fe import engine_for, run_solve
     from copdea_fem.forced_response.modal_inputs import ModalInputs, drive_inputs, study_points
     from copdea_fem.forced_response.run import forced_response, prepare_order_zero
-    from copdea_fem.forced_response.statespace import realise, statespace_microphones
+    from copdea_fem.forced_response.state_space import realise, statespace_microphones
 
     study = load_study(QUICK, [*overrides, "response.method=modal"])
     engine = engine_for(study)
@@ -369,7 +369,7 @@ def test_the_static_correction_of_the_radiating_order_fits_a_mode_above_the_band
     and its pseudo-mode's fitted eigenvalue is positive, no warning (with solve's band alone,
     |Im f| <= 50 Hz, the PML modes at 88 - 378i Hz and the like were in it: Lambda fitted at
     -5.8e7 rad^2/s^2, the warning)."""
-    from copdea_fem.forced_response.statespace import realise
+    from copdea_fem.forced_response.state_space import realise
 
     model, _, _ = _sound(*AXISYMMETRIC)
     with caplog.at_level("WARNING"):
