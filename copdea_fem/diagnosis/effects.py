@@ -447,12 +447,13 @@ _register(Effect(
     fe_role="anchored", direct=True, visible_in_scan=True, changes_prestress=True))
 
 # -- imperfections of a round device: named from split pairs (diagnosis.imperfections) -----
-#: Trial sizes of the FE solves that measure each imperfection's splits: large enough that
-#: every pair it splits at first order is resolved past the FE's PAIR_MERGE (2e-3; G1 at
-#: z = 16 mm, 2 kV: (1,1) split 2.6 % at e = 2 %), small enough to stay first order.
+#: Trial sizes of the FE solves that measure each imperfection's splits (every member kept,
+#: however close): large against the 3-D mesh's own split of a perfect pair (< 1e-4), small
+#: enough to stay first order (G1 at z = 16 mm, 2 kV: (1,1) split 2.6 % at e = 2 %; a mass
+#: shifts its pairs by ~ 0.3 % per 0.5 mg, against the (m,1) family's spacing of 1-4 %).
 TRIAL_ANISOTROPY = 0.02
-TRIAL_THICKNESS = 0.1
-TRIAL_MASS = 2e-6                   # kg: 2 mg, ~ 1/200 of G1's film
+TRIAL_THICKNESS = 0.3
+TRIAL_MASS = 5e-7                   # kg: 0.5 mg, ~ 1/800 of G1's film
 #: Thickness orders tried: those that split a pair of m <= 2 at first order (k = 2m).
 THICKNESS_ORDERS = (2, 4)
 #: Radii of the trial masses, as fractions of the membrane's span r_i .. r_o; between them
@@ -545,7 +546,7 @@ _register(Effect(
                 "angle)) (docs/imperfections.md; an uneven electrode is the same mechanism): "
                 "the strain energy and the mass scale with the thickness, the electrostatic "
                 "term with its inverse.  Named from the split pairs: the order k (2 or 4) "
-                "from which pairs split, a from the splits (trial 3-D FE solves at a = 0.1), "
+                "from which pairs split, a from the splits (trial 3-D FE solves at a = 0.3), "
                 "the angle from the orientations in a scan.",
     kind="physics", engine="fe",
     parameters=(Parameter("order", "membrane.thickness_variation[0].order", None, 2.0, 1.0,
@@ -570,7 +571,7 @@ _register(Effect(
     id="point_mass", title="a point mass on the membrane (an imperfection)",
     description="A lumped mass (grease, a wire, a blob of electrode) sits on the membrane "
                 "at (r, theta) (docs/imperfections.md).  Named from the split pairs: the "
-                "mass and r from the splits of every pair (trial 3-D FE solves of 2 mg at "
+                "mass and r from the splits of every pair (trial 3-D FE solves of 0.5 mg at "
                 "four radii of the membrane, interpolated in r), theta from the orientations "
                 "in a scan: the lower member of each pair has its antinode at the mass, the "
                 "other its nodal line through it.  At first order a mass at theta and at "

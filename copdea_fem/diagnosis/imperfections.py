@@ -470,12 +470,12 @@ def name_imperfections(measured, fe, pairings=(), alpha: float = 0.05,
             study = measured.study_of(conditions[name])
             for trial in CATALOGUE[effect_id].split_signature.trials(study):
                 requests.append((study.replace(trial.overrides),
-                                 BAND_MARGIN * conditions[name].band[1]))
+                                 BAND_MARGIN * conditions[name].band[1], False))
                 plan.append((effect_id, name, trial))
     fe.solve_many(requests)
     table: dict = {}
-    for (effect_id, name, trial), (study, f_max) in zip(plan, requests):
-        result = fe.modes(study, f_max)
+    for (effect_id, name, trial), (study, f_max, _) in zip(plan, requests):
+        result = fe.modes(study, f_max, merge_pairs=False)
         splits = table.setdefault(effect_id, {}).setdefault(trial.name, (trial, {}))[1]
         for pair, value in trial_splits(result.modes).items():
             splits[(name, pair)] = value
