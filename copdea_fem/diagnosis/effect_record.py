@@ -157,10 +157,14 @@ class SplitSignature:
         ``values(trial, magnitude, angle_deg) -> tuple``: the effect's parameter values
         (its :attr:`Effect.parameters` order) of a fit; ``angle_deg`` NaN where no
         orientation was measured.
+    continuous : bool
+        Consecutive trials lie on a continuous parameter (a mass's radius): the splits
+        between them are interpolated; False: the trials are discrete choices (an order).
     """
 
     trials: Callable = field(repr=False)
     values: Callable = field(repr=False)
+    continuous: bool = False
 
 
 FE_ROLES_ALLOWED = (None, "switch", "anchored")

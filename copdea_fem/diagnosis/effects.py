@@ -594,7 +594,8 @@ _register(Effect(
     switched_keys=("imperfections.point_masses",),
     not_tested_note=SPLIT_NOTE,
     split_signature=SplitSignature(_mass_trials,
-                                   lambda trial, x, angle: (x, trial.fixed[1], angle))))
+                                   lambda trial, x, angle: (x, trial.fixed[1], angle),
+                                   continuous=True)))
 
 EFFECT_IDS = tuple(CATALOGUE)
 

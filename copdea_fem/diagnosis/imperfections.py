@@ -329,8 +329,8 @@ def fit_trial(effect_id: str, trial, splits: dict, pairs, choices: int = 1) -> I
 
 def interpolated_trials(trials: list) -> list:
     """``[(trial, splits)]`` of consecutive trials that differ in one fixed value (a mass's
-    radius) with 7 more between each two, their splits interpolated linearly (offsets: the
-    nearer trial's)."""
+    radius) with 7 more between each two, the square roots of their splits interpolated
+    linearly (a mass's split goes as phi(r)^2; offsets: the nearer trial's)."""
     out = []
     for (first, a), (second, b) in zip(trials, trials[1:]):
         varying = [i for i, (u, v) in enumerate(zip(first.fixed, second.fixed))
@@ -342,8 +342,10 @@ def interpolated_trials(trials: list) -> list:
             fixed = list(first.fixed)
             fixed[index] = (1 - t) * first.fixed[index] + t * second.fixed[index]
             nearer = a if t < 0.5 else b
-            splits = {key: ((1 - t) * a.get(key, (0.0, math.nan))[0]
-                            + t * b.get(key, (0.0, math.nan))[0], nearer[key][1])
+            # a mass's split goes as phi(r)^2: its square root is interpolated linearly
+            splits = {key: (((1 - t) * math.sqrt(a.get(key, (0.0, math.nan))[0])
+                             + t * math.sqrt(b.get(key, (0.0, math.nan))[0])) ** 2,
+                            nearer[key][1])
                       for key in set(a) | set(b) if key in nearer}
             out.append((dataclasses.replace(first, fixed=tuple(fixed),
                                             name=f"{first.name} .. {second.name}"), splits))
@@ -483,7 +485,8 @@ def name_imperfections(measured, fe, pairings=(), alpha: float = 0.05,
     n_obs = len(pairs) + 2 * sum(p.oriented for p in pairs)
     for effect_id in effects:
         candidates = list(table[effect_id].values())
-        candidates += interpolated_trials(candidates)
+        if CATALOGUE[effect_id].split_signature.continuous:
+            candidates += interpolated_trials(candidates)
         best = None
         for trial, splits in candidates:
             fit = fit_trial(effect_id, trial, splits, pairs, len(candidates))
