@@ -62,7 +62,7 @@ def draw_truth(kind: str, rng, study) -> dict:
     return {}
 
 
-def fe_made_pairs(study, condition: str, rng):
+def fe_made_pairs(study, condition: str, rng, band=BAND):
     """The measured resonances and pairs of ``study`` (with the hidden keys) from its 3-D FE
     modes (module notes)."""
     from copdea_fem.diagnosis.fe import BAND_MARGIN, fe_study
@@ -72,12 +72,12 @@ def fe_made_pairs(study, condition: str, rng):
     from copdea_fem.measured import Resonance
 
     # the 3-D engine whatever the device (a perfect one too: its mesh's own splits)
-    run = fe_study(study, BAND_MARGIN * BAND[1]).replace({"mesh.engine": "3d"})
+    run = fe_study(study, BAND_MARGIN * band[1]).replace({"mesh.engine": "3d"})
     _, modes, _ = dry_modes(run, engine=engine_for(run))
     scale = math.exp(rng.normal(0, COMMON_NOISE))
     members, resonances = {}, []
     for mode in modes:
-        if mode.kind != "out-of-plane" or not mode.label or not BAND[0] <= mode.freq_hz <= BAND[1]:
+        if mode.kind != "out-of-plane" or not mode.label or not band[0] <= mode.freq_hz <= band[1]:
             continue
         if mode.m > M_MAX:
             continue
@@ -94,7 +94,7 @@ def fe_made_pairs(study, condition: str, rng):
     return sorted(resonances, key=lambda r: r.frequency_hz), pairs
 
 
-def write_set(folder: Path, raw: dict, resonances) -> Path:
+def write_set(folder: Path, raw: dict, resonances, band=BAND) -> Path:
     """measured.yaml, base_study.yaml (no imperfection) and the resonance list."""
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "base_study.yaml").write_text(yaml.safe_dump(raw))
@@ -104,7 +104,7 @@ def write_set(folder: Path, raw: dict, resonances) -> Path:
                 "conditions": [{"name": "z16_v2", "set": {"load.z": "16 mm",
                                                           "load.voltage": "2 kV"},
                                 "resonances": "z16_v2_resonances.csv",
-                                "band": [f"{BAND[0]:g} Hz", f"{BAND[1]:g} Hz"]}]}
+                                "band": [f"{band[0]:g} Hz", f"{band[1]:g} Hz"]}]}
     path = folder / "measured.yaml"
     path.write_text(yaml.safe_dump(manifest))
     return path
@@ -134,7 +134,7 @@ def judge(kind: str, truth: dict, verdict) -> tuple[bool, float]:
 
 
 def run_case(kind: str, seed: int, folder: Path, fe, with_orientations: bool = True,
-             membrane_size: str = "6 mm") -> dict:
+             membrane_size: str = "6 mm", band=BAND) -> dict:
     """One blind case: data made, diagnosed, judged."""
     from copdea_fem.diagnosis import load_measured
     from copdea_fem.diagnosis.imperfections import name_imperfections
@@ -144,8 +144,8 @@ def run_case(kind: str, seed: int, folder: Path, fe, with_orientations: bool = T
     raw = base_raw(membrane_size)
     base = parse_study(raw, name=raw["name"])
     truth = draw_truth(kind, rng, base)
-    resonances, pairs = fe_made_pairs(base.replace(truth), "z16_v2", rng)
-    measured = load_measured(write_set(folder / f"{kind}_{seed}", raw, resonances))
+    resonances, pairs = fe_made_pairs(base.replace(truth), "z16_v2", rng, band)
+    measured = load_measured(write_set(folder / f"{kind}_{seed}", raw, resonances, band))
     verdict = name_imperfections(measured, fe, pairs=pairs if with_orientations else None)
     right, error = judge(kind, truth, verdict)
     return {"kind": kind, "seed": seed, "truth": truth, "verdict": verdict, "right": right,
