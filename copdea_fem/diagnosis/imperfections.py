@@ -13,7 +13,8 @@ Observed pairs (:class:`ObservedPair`).  From a resonance list: a ``(m,n)a`` and
 a lone ``(m,n)`` peak (an unresolved pair: ``s = 0``).  From a scan (or a mode set): the two
 test modes paired by shape with the pair's FE unit (:mod:`copdea_fem.diagnosis.scanned`),
 with their orientations (:func:`shape_orientation`: the angle of the order-m part's antinode
-line); one test mode on the unit is an unresolved pair.
+line); one test mode on the unit says nothing of the split (the other member may be
+unresolved, or not excited: a drive on its nodal line) and is left out.
 
 Signatures (perturbation theory).  A perturbation ``cos k (theta - angle)`` joins the
 circumferential orders m and m +- k, so the two members of an m pair (orders +-m, 2m apart)
@@ -31,7 +32,9 @@ linearly between the trial radii.
 Fit and test.  With ``sigma_s`` = :data:`SPLIT_SIGMA` per split and ``sigma_phi`` =
 :data:`ORIENTATION_SIGMA_DEG` per orientation (scans: the pairs resolved past 3 sigma_s),
 each hypothesis's deviance is ``D = sum ((s - s_model) / sigma_s)^2 + sum (wrap(phi -
-phi_model) / sigma_phi)^2`` (the magnitude fitted on a log grid refined by a bounded scalar
+phi_model) / sigma_phi)^2`` (an orientation of a pair the hypothesis's trial does not
+resolve costs what a random angle does, ``P^2 / (12 sigma_phi^2)`` over the pair's period
+P: every hypothesis is scored on the same orientations; the magnitude fitted on a log grid refined by a bounded scalar
 search, the angle on a 0.25 deg grid).  The perfect device (``s = 0``) is kept when its
 split deviance is within the noise (chi-square quantile ``1 - alpha`` of the number of
 splits): no FE solve then.  Otherwise the best hypothesis by ``D + p ln N`` (p fitted
@@ -168,8 +171,9 @@ def _out_of_plane_channels(scan):
 
 def pairs_from_scan(pairing) -> list:
     """:class:`ObservedPair` of a scanned condition
-    (:class:`~copdea_fem.diagnosis.scanned.ScanPairing`): the test modes paired with each
-    (m,n) unit, with their orientations (module notes)."""
+    (:class:`~copdea_fem.diagnosis.scanned.ScanPairing`): the two test modes paired with an
+    (m,n) unit, with their orientations (module notes; a unit with one test mode is left
+    out)."""
     modes = {mode.test_mode: mode for mode in pairing.modes}
     chosen, x, y = _out_of_plane_channels(pairing.scan)
     members: dict = {}
@@ -180,10 +184,7 @@ def pairs_from_scan(pairing) -> list:
     out = []
     for (label, m), found in sorted(members.items()):
         found = sorted(found, key=lambda mode: mode.freq_hz)
-        if len(found) == 1:
-            out.append(ObservedPair(pairing.condition, label, m, found[0].freq_hz,
-                                    found[0].freq_hz))
-        elif len(found) == 2:
+        if len(found) == 2:
             low, high = (shape_orientation(mode.shape[chosen], x, y, m) if len(chosen)
                          else math.nan for mode in found)
             out.append(ObservedPair(pairing.condition, label, m, found[0].freq_hz,
@@ -310,15 +311,24 @@ def fit_trial(effect_id: str, trial, splits: dict, pairs, choices: int = 1) -> I
         observations.append((pair.split, power, s_trial))
         keys.append((pair.condition, pair.pair))
     q, split_deviance = _fit_magnitude(observations)
-    orientations = []
+    orientations, unexplained = [], 0.0
     for pair in pairs:
+        if not pair.oriented:
+            continue
         s_trial, offset = splits.get((pair.condition, pair.pair), (0.0, math.nan))
-        if pair.oriented and math.isfinite(offset) and s_trial > 0:
-            period = 180.0 / pair.m
-            orientations.append((pair.high_orientation_deg, offset, period))
-            orientations.append(((pair.low_orientation_deg - 90.0 / pair.m) % period,
-                                 offset, period))
+        period = 180.0 / pair.m
+        if trial.power(pair.m) is None or not s_trial > RESOLVED * SPLIT_SIGMA:
+            # the trial does not resolve this pair: its orientation says nothing of the
+            # angle, and the hypothesis cannot place it -- it costs what a random angle
+            # does, E[(U / sigma)^2] = P^2 / (12 sigma^2) per member (U uniform over the
+            # pair's period P), so every hypothesis is scored on the same orientations
+            unexplained += 2 * period ** 2 / (12 * ORIENTATION_SIGMA_DEG ** 2)
+            continue
+        orientations.append((pair.high_orientation_deg, offset, period))
+        orientations.append(((pair.low_orientation_deg - 90.0 / pair.m) % period,
+                             offset, period))
     angle, orientation_deviance = _fit_angle(orientations, trial.angle_period)
+    orientation_deviance += unexplained
     predicted = {key: c * q ** j for key, (_, j, c) in zip(keys, observations)}
     values = CATALOGUE[effect_id].split_signature.values(trial, q * trial.amplitude, angle)
     fitted = 1 + (1 if orientations else 0) + (1 if choices > 1 else 0)
