@@ -316,9 +316,10 @@ def fit_trial(effect_id: str, trial, splits: dict, pairs, choices: int = 1) -> I
         if not pair.oriented:
             continue
         s_trial, offset = splits.get((pair.condition, pair.pair), (0.0, math.nan))
-        period = 180.0 / pair.m
-        if trial.power(pair.m) is None or not s_trial > RESOLVED * SPLIT_SIGMA:
-            # the trial does not resolve this pair: its orientation says nothing of the
+        period, power = 180.0 / pair.m, trial.power(pair.m)
+        if power is None or not s_trial * q ** power > RESOLVED * SPLIT_SIGMA \
+                or not math.isfinite(offset):
+            # the fit does not resolve this pair: its orientation says nothing of the
             # angle, and the hypothesis cannot place it -- it costs what a random angle
             # does, E[(U / sigma)^2] = P^2 / (12 sigma^2) per member (U uniform over the
             # pair's period P), so every hypothesis is scored on the same orientations

@@ -66,7 +66,7 @@ def fe_made_pairs(study, condition: str, rng, band=BAND):
     """The measured resonances and pairs of ``study`` (with the hidden keys) from its 3-D FE
     modes (module notes)."""
     from copdea_fem.diagnosis.fe import BAND_MARGIN, fe_study
-    from copdea_fem.diagnosis.imperfections import SPLIT_SIGMA, ObservedPair
+    from copdea_fem.diagnosis.imperfections import LABEL, SPLIT_SIGMA, ObservedPair
     from copdea_fem.fe import engine_for
     from copdea_fem.fe.pipeline import dry_modes
     from copdea_fem.measured import Resonance
@@ -82,6 +82,9 @@ def fe_made_pairs(study, condition: str, rng, band=BAND):
         if mode.m > M_MAX:
             continue
         f = mode.freq_hz * scale * math.exp(rng.normal(0, SPLIT_SIGMA / math.sqrt(2)))
+        if not LABEL.match(mode.label):          # a second mode of one (m,n) ("(0,2)-2"):
+            resonances.append(Resonance(f, ""))  # a lab would not label it either
+            continue
         resonances.append(Resonance(f, mode.label))
         if mode.m >= 1:
             angle = (mode.orientation_deg + rng.normal(0, ORIENTATION_NOISE_DEG)) % (180 / mode.m)
