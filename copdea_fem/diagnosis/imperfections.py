@@ -34,7 +34,8 @@ Fit and test.  With ``sigma_s`` = :data:`SPLIT_SIGMA` per split and ``sigma_phi`
 each hypothesis's deviance is ``D = sum ((s - s_model) / sigma_s)^2 + sum (wrap(phi -
 phi_model) / sigma_phi)^2`` (an orientation of a pair the hypothesis's trial does not
 resolve costs what a random angle does, ``P^2 / (12 sigma_phi^2)`` over the pair's period
-P: every hypothesis is scored on the same orientations; the magnitude fitted on a log grid refined by a bounded scalar
+P, where its fitted split is below sigma_s: every hypothesis is scored on the same
+orientations; the magnitude fitted on a log grid refined by a bounded scalar
 search, the angle on a 0.25 deg grid).  The perfect device (``s = 0``) is kept when its
 split deviance is within the noise (chi-square quantile ``1 - alpha`` of the number of
 splits): no FE solve then.  Otherwise the best hypothesis by ``D + p ln N`` (p fitted
@@ -317,8 +318,7 @@ def fit_trial(effect_id: str, trial, splits: dict, pairs, choices: int = 1) -> I
             continue
         s_trial, offset = splits.get((pair.condition, pair.pair), (0.0, math.nan))
         period, power = 180.0 / pair.m, trial.power(pair.m)
-        if power is None or not s_trial * q ** power > RESOLVED * SPLIT_SIGMA \
-                or not math.isfinite(offset):
+        if power is None or not s_trial * q ** power > SPLIT_SIGMA or not math.isfinite(offset):
             # the fit does not resolve this pair: its orientation says nothing of the
             # angle, and the hypothesis cannot place it -- it costs what a random angle
             # does, E[(U / sigma)^2] = P^2 / (12 sigma^2) per member (U uniform over the

@@ -21,6 +21,8 @@ on perfect devices.
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import json
 import math
 import sys
 from pathlib import Path
@@ -137,17 +139,29 @@ def judge(kind: str, truth: dict, verdict) -> tuple[bool, float]:
 
 
 def run_case(kind: str, seed: int, folder: Path, fe, with_orientations: bool = True,
-             membrane_size: str = "6 mm", band=BAND) -> dict:
-    """One blind case: data made, diagnosed, judged."""
+             membrane_size: str = "6 mm", band=BAND, reuse: bool = False) -> dict:
+    """One blind case: data made (or, with ``reuse``, read from the case's fe_made.json of
+    an earlier run), diagnosed, judged."""
     from copdea_fem.diagnosis import load_measured
-    from copdea_fem.diagnosis.imperfections import name_imperfections
+    from copdea_fem.diagnosis.imperfections import ObservedPair, name_imperfections
+    from copdea_fem.measured import Resonance
     from copdea_fem.study import parse_study
 
     rng = np.random.default_rng(1000 * seed + KINDS.index(kind))
     raw = base_raw(membrane_size)
     base = parse_study(raw, name=raw["name"])
     truth = draw_truth(kind, rng, base)
-    resonances, pairs = fe_made_pairs(base.replace(truth), "z16_v2", rng, band)
+    saved = folder / f"{kind}_{seed}" / "fe_made.json"
+    if reuse and saved.is_file():           # the same case's FE-made data, made before
+        document = json.loads(saved.read_text())
+        resonances = [Resonance(*r) for r in document["resonances"]]
+        pairs = [ObservedPair(*p) for p in document["pairs"]]
+    else:
+        resonances, pairs = fe_made_pairs(base.replace(truth), "z16_v2", rng, band)
+        saved.parent.mkdir(parents=True, exist_ok=True)
+        saved.write_text(json.dumps({"truth": truth,
+                                     "resonances": [[r.frequency_hz, r.label] for r in resonances],
+                                     "pairs": [dataclasses.astuple(p) for p in pairs]}))
     measured = load_measured(write_set(folder / f"{kind}_{seed}", raw, resonances, band))
     verdict = name_imperfections(measured, fe, pairs=pairs if with_orientations else None)
     right, error = judge(kind, truth, verdict)
@@ -161,6 +175,8 @@ def main(argv=None) -> int:
     parser.add_argument("--kinds", nargs="+", default=list(KINDS), choices=KINDS)
     parser.add_argument("--cache", type=Path, required=True)
     parser.add_argument("--out", type=Path, default=Path("/tmp/imperfection_battery"))
+    parser.add_argument("--reuse", action="store_true",
+                        help="read each case's FE-made data from an earlier run's --out")
     parser.add_argument("--frequencies-only", action="store_true",
                         help="no orientations: the resonance lists alone")
     args = parser.parse_args(argv)
@@ -169,7 +185,8 @@ def main(argv=None) -> int:
     tally = {}
     for kind in args.kinds:
         for seed in args.seeds:
-            case = run_case(kind, seed, args.out, fe, not args.frequencies_only)
+            case = run_case(kind, seed, args.out, fe, not args.frequencies_only,
+                            reuse=args.reuse)
             tally.setdefault(kind, []).append(case["right"])
             print(f"{kind:24s} seed {seed}: {'RIGHT' if case['right'] else 'wrong'} "
                   f"angle error {case['angle_error']:.1f} deg | truth {case['truth']} | "
