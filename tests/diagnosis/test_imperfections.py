@@ -179,11 +179,13 @@ def test_trial_splits_read_the_stiffer_member():
 
 # -- blind, on FE-made data (3-D FE with the hidden imperfection) ------------------------
 @pytest.mark.slow
-@pytest.mark.parametrize("kind, seed", [("anisotropic_prestretch", 1), ("point_mass", 2)])
+@pytest.mark.parametrize("kind, seed", [("anisotropic_prestretch", 1), ("perfect", 1)])
 def test_a_hidden_imperfection_is_named_from_fe_made_pairs(tmp_path, kind, seed):
     """G1 at z = 16 mm, 2 kV on an 8 mm 3-D mesh, the (m,1) pairs below 700 Hz: the
-    imperfection hidden in the FE's data (tests/diagnosis/imperfection_battery.py) is named
-    alone, its angle within 10 deg (8 FE solves, 3-D, in a temporary cache)."""
+    anisotropy hidden in the FE's data (tests/diagnosis/imperfection_battery.py) is named
+    alone, its axis within 10 deg (8 FE solves, 3-D, in a temporary cache); a perfect
+    device (its 3-D mesh's own splits) is found round without a trial solve.  The whole
+    battery (three kinds and perfect devices, 6 mm mesh, 5-1200 Hz) is the script's."""
     from copdea_fem.diagnosis.fe import FEModel
     from imperfection_battery import run_case
 
