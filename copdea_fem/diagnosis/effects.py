@@ -504,7 +504,7 @@ def _mass_trials(study):
 
 def _thickness_on(study, values):
     order, amplitude, angle = values
-    return {"membrane.thickness_variation": [{"order": int(round(order)),
+    return {"membrane.thickness_variation": [{"order": round(order),
                                               "amplitude": amplitude, "angle": angle}]}
 
 

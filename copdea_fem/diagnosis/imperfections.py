@@ -49,6 +49,7 @@ resonance list) the angle is not measured: the fit gives the size only.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import logging
 import math
 import re
@@ -343,7 +344,7 @@ def interpolated_trials(trials: list) -> list:
     radius) with 7 more between each two, the square roots of their splits interpolated
     linearly (a mass's split goes as phi(r)^2; offsets: the nearer trial's)."""
     out = []
-    for (first, a), (second, b) in zip(trials, trials[1:]):
+    for (first, a), (second, b) in itertools.pairwise(trials):
         varying = [i for i, (u, v) in enumerate(zip(first.fixed, second.fixed))
                    if u is not None and v is not None and u != v]
         if len(varying) != 1:
@@ -410,8 +411,8 @@ class ImperfectionVerdict:
         """report.md's section."""
         out = ["## Imperfections (split pairs)", "", self.verdict, ""]
         if self.pairs:
-            out += ["| condition | pair | f low [Hz] | f high [Hz] | split | orientation "
-                    "low / high [deg] |", "|---|---|---|---|---|---|"]
+            out += [("| condition | pair | f low [Hz] | f high [Hz] | split | orientation "
+                     "low / high [deg] |"), "|---|---|---|---|---|---|"]
             for p in self.pairs:
                 angles = ("-" if not math.isfinite(p.high_orientation_deg) else
                           f"{p.low_orientation_deg:.1f} / {p.high_orientation_deg:.1f}")
@@ -462,8 +463,8 @@ def name_imperfections(measured, fe, pairings=(), alpha: float = 0.05,
     perfect = sum((p.split / SPLIT_SIGMA) ** 2 for p in pairs)
     limit = float(chi2.ppf(1 - alpha, max(len(pairs), 1)))
     significance = 2 * math.log(max(len(effects), 1) / alpha)
-    common = dict(pairs=pairs, perfect_deviance=perfect, perfect_limit=limit,
-                  significance=significance, tested=effects)
+    common = {"pairs": pairs, "perfect_deviance": perfect, "perfect_limit": limit,
+              "significance": significance, "tested": effects}
     if not effects or not pairs:
         why = ("no imperfection tested (measured.yaml's candidates name none)" if not effects
                else "no (m,n) pair labelled in the data: no imperfection tested")

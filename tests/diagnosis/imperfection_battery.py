@@ -130,7 +130,7 @@ def judge(kind: str, truth: dict, verdict) -> tuple[bool, float]:
         error = angle_error(values[1], truth["membrane.prestretch_axis"], 180.0)
     elif kind == "thickness_variation":
         term = truth["membrane.thickness_variation"][0]
-        if int(round(values[0])) != term["order"]:
+        if round(values[0]) != term["order"]:
             return False, math.nan
         error = angle_error(values[2], term["angle"], 360.0 / term["order"])
     else:

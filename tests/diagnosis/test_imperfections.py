@@ -94,7 +94,7 @@ def test_pairs_are_read_from_a_resonance_list():
 
 
 def test_the_fe_keeps_both_members_when_asked():
-    modes = [type("M", (), dict(kind="out-of-plane", label=label, freq_hz=f, m=1))()
+    modes = [type("M", (), {"kind": "out-of-plane", "label": label, "freq_hz": f, "m": 1})()
              for label, f in (("(1,1)a", 500.0), ("(1,1)b", 500.2))]
     assert [m.label for m in structural_modes(modes)] == ["(1,1)"]
     assert [m.label for m in structural_modes(modes, merge_pairs=False)] == ["(1,1)a", "(1,1)b"]
@@ -186,8 +186,9 @@ def test_a_hidden_imperfection_is_named_from_fe_made_pairs(tmp_path, kind, seed)
     alone, its axis within 10 deg (8 FE solves, 3-D, in a temporary cache); a perfect
     device (its 3-D mesh's own splits) is found round without a trial solve.  The whole
     battery (three kinds and perfect devices, 6 mm mesh, 5-1200 Hz) is the script's."""
-    from copdea_fem.diagnosis.fe import FEModel
     from imperfection_battery import run_case
+
+    from copdea_fem.diagnosis.fe import FEModel
 
     fe = FEModel(cache_dir=tmp_path / "cache", workers=1)
     case = run_case(kind, seed, tmp_path, fe, membrane_size="8 mm", band=(5.0, 700.0))
