@@ -189,11 +189,14 @@ def diagnose_measured(measured, alpha: float = 0.05, model: str | None = None,
         result = Diagnoser(measured, alpha=alpha, engine=engine, shape_check=shape_check).run()
         if pairings:
             result = dataclasses.replace(result, scan_pairings=pairings)
-        from copdea_fem.diagnosis.imperfections import name_imperfections, tested_imperfections
-        if engine is not None and tested_imperfections(measured):  # the FE's trial solves
-            verdict = name_imperfections(measured, engine.fe, pairings, alpha)
+        from copdea_fem.diagnosis import imperfections
+        if engine is not None and imperfections.tested_imperfections(measured):
+            verdict = imperfections.name_imperfections(measured, engine.fe, pairings, alpha)
             result = dataclasses.replace(result, imperfections=verdict,
                                          fe_solves=result.fe_solves + verdict.fe_solves)
+        elif imperfections.tested_imperfections(measured):   # model: reduced
+            result = dataclasses.replace(result, imperfections=imperfections.untested_verdict(
+                measured, pairings, "they need model: fe (trial 3-D FE solves)"))
         return result
     finally:
         if engine is not None:

@@ -391,7 +391,8 @@ class ImperfectionVerdict:
             "named": list(self.named), "ambiguous": [list(g) for g in self.ambiguous],
             "verdict": self.verdict, "tested": list(self.tested),
             "perfect_split_deviance": clean(self.perfect_deviance),
-            "perfect_limit": clean(self.perfect_limit), "significance": self.significance,
+            "perfect_limit": clean(self.perfect_limit),
+            "significance": clean(self.significance),
             "split_sigma": SPLIT_SIGMA, "orientation_sigma_deg": ORIENTATION_SIGMA_DEG,
             "pairs": [{"condition": p.condition, "pair": p.pair, "low_hz": p.low_hz,
                        "high_hz": p.high_hz, "split": p.split,
@@ -434,6 +435,16 @@ def tested_imperfections(measured) -> tuple:
     if named:
         return named
     return IMPERFECTIONS if tuple(measured.candidates) == DEFAULT_CANDIDATES else ()
+
+
+def untested_verdict(measured, pairings=(), why: str = "") -> ImperfectionVerdict:
+    """The verdict where the imperfections cannot be tested (``why``: with ``model:
+    reduced`` the trial 3-D FE solves are not run), with the pairs the data hold."""
+    pairs = tuple(observed_pairs(measured, pairings))
+    perfect = sum((p.split / SPLIT_SIGMA) ** 2 for p in pairs)
+    return ImperfectionVerdict(pairs=pairs, named=(), ambiguous=(), fits={},
+                               perfect_deviance=perfect, perfect_limit=math.nan,
+                               significance=math.nan, verdict=f"imperfections not tested: {why}")
 
 
 def name_imperfections(measured, fe, pairings=(), alpha: float = 0.05,
@@ -537,6 +548,6 @@ def name_imperfections(measured, fe, pairings=(), alpha: float = 0.05,
                  f"{perfect:.1f} -> {fits[top].split_deviance:.1f}{partly}"))
 
 
-__all__ = ["ImperfectionFit", "ImperfectionVerdict", "ObservedPair",
+__all__ = ["ImperfectionFit", "ImperfectionVerdict", "ObservedPair", "untested_verdict",
            "name_imperfections", "observed_pairs", "pairs_from_resonances", "pairs_from_scan",
            "shape_orientation", "tested_imperfections", "trial_splits"]

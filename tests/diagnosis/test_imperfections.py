@@ -194,3 +194,55 @@ def test_a_hidden_imperfection_is_named_from_fe_made_pairs(tmp_path, kind, seed)
     case = run_case(kind, seed, tmp_path, fe, membrane_size="8 mm", band=(5.0, 700.0))
     print(case["truth"], case["verdict"].verdict)
     assert case["right"], case["verdict"].verdict
+
+
+def test_a_scans_pair_carries_the_orientations_of_its_two_test_modes():
+    """Two test modes paired with the (1,1) unit, their shapes J_1 cos (theta - psi) on a
+    polar scan grid (z channels, and x channels that must be ignored): the pair's split
+    and the members' antinodes (psi and psi + 90 deg)."""
+    import types
+
+    from copdea_fem.diagnosis.imperfections import pairs_from_scan
+
+    x, y = polar_points(rings=3, per_ring=10)
+    points = np.column_stack([x, y, np.zeros_like(x)])
+    n = len(x)
+    scan = types.SimpleNamespace(positions=points,
+                                 channel_point=np.concatenate([np.arange(n), np.arange(n)]),
+                                 channel_direction=np.vstack([np.tile([0, 0, 1.0], (n, 1)),
+                                                              np.tile([1.0, 0, 0], (n, 1))]))
+    root = jn_zeros(1, 1)[-1]
+
+    def shape(psi):
+        z = jv(1, root * np.hypot(x, y) / 0.035) * np.cos(np.arctan2(y, x) - math.radians(psi))
+        return np.concatenate([z, np.full(n, 5.0)])       # the x channels: nonsense
+
+    modes = [types.SimpleNamespace(test_mode=1, freq_hz=500.0, shape=shape(120.0)),
+             types.SimpleNamespace(test_mode=2, freq_hz=510.0, shape=shape(30.0)),
+             types.SimpleNamespace(test_mode=3, freq_hz=530.0, shape=shape(0.0))]
+    correlation = types.SimpleNamespace(pairs=(
+        types.SimpleNamespace(label="(1,1)b", test_mode=1),
+        types.SimpleNamespace(label="(1,1)a", test_mode=2),
+        types.SimpleNamespace(label="(2,1)a", test_mode=3)))     # one member: left out
+    pairing = types.SimpleNamespace(condition="c", modes=modes, scan=scan,
+                                    correlation=correlation)
+    (pair,) = pairs_from_scan(pairing)
+    assert pair.pair == "(1,1)" and pair.split == pytest.approx(10 / 505)
+    assert pair.low_orientation_deg == pytest.approx(120.0, abs=0.5)
+    assert pair.high_orientation_deg == pytest.approx(30.0, abs=0.5)
+    assert pair.oriented
+
+
+def test_a_condition_may_not_set_an_imperfection_key(tmp_path):
+    """The imperfections are what the diagnosis looks for: a condition that sets their
+    keys is refused, naming the key and the effect."""
+    from copdea_fem.diagnosis import load_measured
+    from copdea_fem.measured import MeasuredDataError
+
+    (tmp_path / "base.yaml").write_text("geometry: {frame: none}\n")
+    (tmp_path / "r.csv").write_text("freq_hz,label\n500,(0,1)\n")
+    (tmp_path / "measured.yaml").write_text(
+        "base_study: base.yaml\nconditions:\n- name: c\n  set: {membrane.prestretch_axis: "
+        "30 deg}\n  resonances: r.csv\n")
+    with pytest.raises(MeasuredDataError, match="membrane.prestretch_axis.*anisotropic_prestretch"):
+        load_measured(tmp_path / "measured.yaml")
