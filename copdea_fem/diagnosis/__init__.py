@@ -191,7 +191,12 @@ def diagnose_measured(measured, alpha: float = 0.05, model: str | None = None,
             result = dataclasses.replace(result, scan_pairings=pairings)
         from copdea_fem.diagnosis import imperfections
         if engine is not None and imperfections.tested_imperfections(measured):
-            verdict = imperfections.name_imperfections(measured, engine.fe, pairings, alpha)
+            from copdea_fem.diagnosis.ring_predictor import state_overrides
+            base = measured.base_study
+            final = base.replace(state_overrides(base, result.final_state))
+            square = any(s.geometry.frame == "square" for s in (base, final))
+            verdict = imperfections.name_imperfections(measured, engine.fe, pairings, alpha,
+                                                       square_frame=square)
             result = dataclasses.replace(result, imperfections=verdict,
                                          fe_solves=result.fe_solves + verdict.fe_solves)
         elif imperfections.tested_imperfections(measured):   # model: reduced

@@ -448,7 +448,8 @@ def untested_verdict(measured, pairings=(), why: str = "") -> ImperfectionVerdic
 
 
 def name_imperfections(measured, fe, pairings=(), alpha: float = 0.05,
-                       effects=None, pairs=None) -> ImperfectionVerdict:
+                       effects=None, pairs=None, square_frame: bool = False
+                       ) -> ImperfectionVerdict:
     """The verdict of the split pairs (module notes).
 
     Parameters
@@ -464,18 +465,37 @@ def name_imperfections(measured, fe, pairings=(), alpha: float = 0.05,
         The imperfections tested (default :func:`tested_imperfections`).
     pairs : list of ObservedPair, optional
         The observed pairs (default :func:`observed_pairs`).
+    square_frame : bool
+        The model states a square frame (the base or the search's final state): in air its
+        four-fold symmetry splits the pairs of even m, which are then left out.
     """
     from scipy.stats import chi2
 
-    from copdea_fem.diagnosis.fe import BAND_MARGIN
-
     effects = tested_imperfections(measured) if effects is None else tuple(effects)
     pairs = tuple(observed_pairs(measured, pairings) if pairs is None else pairs)
+    left_out = ""
+    if square_frame and any(p.m % 2 == 0 for p in pairs):
+        pairs = tuple(p for p in pairs if p.m % 2)
+        left_out = ("; the pairs of even m are left out (the model's square frame splits "
+                    "them)")
     perfect = sum((p.split / SPLIT_SIGMA) ** 2 for p in pairs)
     limit = float(chi2.ppf(1 - alpha, max(len(pairs), 1)))
     significance = 2 * math.log(max(len(effects), 1) / alpha)
     common = {"pairs": pairs, "perfect_deviance": perfect, "perfect_limit": limit,
               "significance": significance, "tested": effects}
+    verdict = _decide(measured, fe, alpha, effects, pairs, common)
+    return dataclasses.replace(verdict, verdict=verdict.verdict + left_out) if left_out \
+        else verdict
+
+
+def _decide(measured, fe, alpha, effects, pairs, common) -> ImperfectionVerdict:
+    """:func:`name_imperfections` past its inputs: the round device, the fits, the verdict."""
+    from scipy.stats import chi2
+
+    from copdea_fem.diagnosis.fe import BAND_MARGIN
+
+    perfect, limit = common["perfect_deviance"], common["perfect_limit"]
+    significance = common["significance"]
     if not effects or not pairs:
         why = ("no imperfection tested (measured.yaml's candidates name none)" if not effects
                else "no (m,n) pair labelled in the data: no imperfection tested")
@@ -492,7 +512,10 @@ def name_imperfections(measured, fe, pairings=(), alpha: float = 0.05,
     requests, plan = [], []
     for effect_id in effects:
         for name in wanted:
-            study = measured.study_of(conditions[name])
+            # in vacuo: the air's added mass loads both members of a pair alike, so a
+            # stiffness imperfection's relative split is the same; a mass's is smaller in air
+            # by m_modal / (m_modal + m_air) (the fitted mass: a lower bound)
+            study = measured.study_of(conditions[name], {"air.enabled": False})
             for trial in CATALOGUE[effect_id].split_signature.trials(study):
                 requests.append((study.replace(trial.overrides),
                                  BAND_MARGIN * conditions[name].band[1], False))
@@ -548,6 +571,6 @@ def name_imperfections(measured, fe, pairings=(), alpha: float = 0.05,
                  f"{perfect:.1f} -> {fits[top].split_deviance:.1f}{partly}"))
 
 
-__all__ = ["ImperfectionFit", "ImperfectionVerdict", "ObservedPair", "untested_verdict",
-           "name_imperfections", "observed_pairs", "pairs_from_resonances", "pairs_from_scan",
-           "shape_orientation", "tested_imperfections", "trial_splits"]
+__all__ = ["ImperfectionFit", "ImperfectionVerdict", "ObservedPair", "name_imperfections",
+           "observed_pairs", "pairs_from_resonances", "pairs_from_scan", "shape_orientation",
+           "tested_imperfections", "trial_splits", "untested_verdict"]
