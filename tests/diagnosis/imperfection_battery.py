@@ -12,7 +12,8 @@ the cache folder given (never tests/data/fe_cache).
 
     python tests/diagnosis/imperfection_battery.py --seeds 1 2 3 --cache /tmp/imp_cache
 
-prints one line per case and the share named right (the right effect alone, its angle
+prints one line per case and the share named right (and, from the same data without the
+orientations, the share whose effect alone is named from the resonance list) (the right effect alone, its angle
 within 10 deg modulo the period the data can tell: 180 deg for an axis and a mass, 360/k
 for an order-k term; for a thickness term, the right order) and the false imperfections
 on perfect devices.
@@ -165,8 +166,12 @@ def run_case(kind: str, seed: int, folder: Path, fe, with_orientations: bool = T
     measured = load_measured(write_set(folder / f"{kind}_{seed}", raw, resonances, band))
     verdict = name_imperfections(measured, fe, pairs=pairs if with_orientations else None)
     right, error = judge(kind, truth, verdict)
+    # the same data without the orientations: the resonance list alone
+    alone = name_imperfections(measured, fe) if with_orientations else verdict
     return {"kind": kind, "seed": seed, "truth": truth, "verdict": verdict, "right": right,
-            "angle_error": error}
+            "angle_error": error, "frequencies_only": alone,
+            "named_from_frequencies": alone.named == ((kind,) if kind != "perfect" else ())
+            and not alone.ambiguous}
 
 
 def main(argv=None) -> int:
@@ -187,12 +192,15 @@ def main(argv=None) -> int:
         for seed in args.seeds:
             case = run_case(kind, seed, args.out, fe, not args.frequencies_only,
                             reuse=args.reuse)
-            tally.setdefault(kind, []).append(case["right"])
+            tally.setdefault(kind, []).append((case["right"], case["named_from_frequencies"]))
             print(f"{kind:24s} seed {seed}: {'RIGHT' if case['right'] else 'wrong'} "
                   f"angle error {case['angle_error']:.1f} deg | truth {case['truth']} | "
-                  f"{case['verdict'].verdict}", flush=True)
+                  f"{case['verdict'].verdict} | frequencies only: "
+                  f"{case['frequencies_only'].verdict}", flush=True)
     for kind, rights in tally.items():
-        print(f"{kind}: {sum(rights)}/{len(rights)} right")
+        print(f"{kind}: {sum(r for r, _ in rights)}/{len(rights)} right with orientations; "
+              f"{sum(f for _, f in rights)}/{len(rights)} named right from the frequencies "
+              "alone (no angle)")
     return 0
 
 
