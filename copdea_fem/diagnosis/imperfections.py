@@ -27,15 +27,18 @@ diagnosis's cached FE, :class:`~copdea_fem.diagnosis.fe.FEModel`), and scaled by
 ``(x / x_trial)^j``.  Rotating the imperfection rotates the modes: the stiffer member's
 orientation is ``angle + offset`` (mod 180/m), the offset 0 where the trial's cos member
 (``a``) is the stiffer, 90/m where the sin member is.  A mass's splits are interpolated
-linearly between the trial radii.
+linearly (their square roots) between the trial radii.
 
 Fit and test.  With ``sigma_s`` = :data:`SPLIT_SIGMA` per split and ``sigma_phi`` =
-:data:`ORIENTATION_SIGMA_DEG` per orientation (scans: the pairs resolved past 3 sigma_s),
-each hypothesis's deviance is ``D = sum ((s - s_model) / sigma_s)^2 + sum (wrap(phi -
-phi_model) / sigma_phi)^2`` (an orientation of a pair the hypothesis's trial does not
-resolve costs what a random angle does, ``P^2 / (12 sigma_phi^2)`` over the pair's period
-P, where its fitted split is below sigma_s: every hypothesis is scored on the same
-orientations; the magnitude fitted on a log grid refined by a bounded scalar
+:data:`ORIENTATION_SIGMA_DEG` per orientation (scans),
+each hypothesis's deviance is ``D = sum ((s - s_model) / sigma_s)^2 + sum c(wrap(phi -
+phi_model))`` (``c(r) ~ (r / sigma_phi)^2`` for small r, robust to a tenth of outliers:
+:func:`orientation_cost`; the orientations of the pairs split past sigma_s; where the
+hypothesis's fitted split of a pair is below sigma_s, the members' orientations are
+uniform under it, density 1 / P over the pair's period P: each costs
+``2 ln(P / (sqrt(2 pi) sigma_phi))`` on the scale where a placed member costs its
+``(r / sigma_phi)^2``, so every hypothesis is scored on the same orientations; the
+magnitude fitted on a log grid refined by a bounded scalar
 search, the angle on a 0.25 deg grid).  The perfect device (``s = 0``) is kept when its
 split deviance is within the noise (chi-square quantile ``1 - alpha`` of the number of
 splits): no FE solve then.  Otherwise the best hypothesis by ``D + p ln N`` (p fitted
@@ -67,8 +70,8 @@ logger = logging.getLogger(__name__)
 SPLIT_SIGMA = 1e-3
 #: 1-sigma scatter of a measured member's orientation [deg] (a scan's grid and noise).
 ORIENTATION_SIGMA_DEG = 5.0
-#: A pair's orientation is used only when its split is resolved past this many sigma_s.
-RESOLVED = 3.0
+#: Share of measured orientations that follow no model (:func:`orientation_cost`).
+ORIENTATION_OUTLIERS = 0.1
 LABEL = re.compile(r"^\((?P<m>\d+),(?P<n>\d+)\)(?P<letter>[ab]?)$")
 
 
@@ -93,8 +96,10 @@ class ObservedPair:
 
     @property
     def oriented(self) -> bool:
-        return (self.split > RESOLVED * SPLIT_SIGMA
-                and math.isfinite(self.high_orientation_deg))
+        """Both members' orientations measured, and the split past sigma_s (below it the
+        members are not told apart by their frequencies)."""
+        return (self.split > SPLIT_SIGMA and math.isfinite(self.high_orientation_deg)
+                and math.isfinite(self.low_orientation_deg))
 
 
 def _parse(label: str):
@@ -286,6 +291,19 @@ def _fit_magnitude(observations):
     return math.exp(grid[best]), float(values[best])
 
 
+def orientation_cost(residual, period: float):
+    """Deviance of a member's orientation ``residual`` [deg] from the model's, on the scale
+    where an exact one costs 0 and a small one ``(r / sigma_phi)^2``: ``-2 ln((1 - eps)
+    exp(-r^2 / (2 sigma_phi^2)) + eps sqrt(2 pi) sigma_phi / P)``, a Gaussian of
+    :data:`ORIENTATION_SIGMA_DEG` mixed with a uniform share :data:`ORIENTATION_OUTLIERS`
+    over the pair's period P (a member mixed with a near mode of another order -- a mass
+    joins every order -- has the orientation of neither)."""
+    sigma = ORIENTATION_SIGMA_DEG
+    floor = ORIENTATION_OUTLIERS * math.sqrt(2 * math.pi) * sigma / period
+    gauss = (1 - ORIENTATION_OUTLIERS) * np.exp(-0.5 * (np.asarray(residual) / sigma) ** 2)
+    return -2 * np.log(gauss + floor) + 2 * math.log(1 - ORIENTATION_OUTLIERS + floor)
+
+
 def _fit_angle(orientations, period):
     """The angle [deg, in [0, period)] minimising the orientation deviance, and it:
     ``orientations`` ``[(phi_measured, offset, pair_period)]`` (``phi = angle + offset`` mod
@@ -295,7 +313,7 @@ def _fit_angle(orientations, period):
     grid = np.arange(0.0, period, 0.25)
     total = np.zeros_like(grid)
     for phi, offset, pair_period in orientations:
-        total += (_wrap(phi - offset - grid, pair_period) / ORIENTATION_SIGMA_DEG) ** 2
+        total += orientation_cost(_wrap(phi - offset - grid, pair_period), pair_period)
     best = int(np.argmin(total))
     return float(grid[best]), float(total[best])
 
@@ -320,11 +338,13 @@ def fit_trial(effect_id: str, trial, splits: dict, pairs, choices: int = 1) -> I
         s_trial, offset = splits.get((pair.condition, pair.pair), (0.0, math.nan))
         period, power = 180.0 / pair.m, trial.power(pair.m)
         if power is None or not s_trial * q ** power > SPLIT_SIGMA or not math.isfinite(offset):
-            # the fit does not resolve this pair: its orientation says nothing of the
-            # angle, and the hypothesis cannot place it -- it costs what a random angle
-            # does, E[(U / sigma)^2] = P^2 / (12 sigma^2) per member (U uniform over the
-            # pair's period P), so every hypothesis is scored on the same orientations
-            unexplained += 2 * period ** 2 / (12 * ORIENTATION_SIGMA_DEG ** 2)
+            # the fit does not split this pair past sigma_s: under it the members'
+            # orientations are uniform over the pair's period P (density 1 / P), against
+            # the Gaussian density of sigma_phi of a placed one -- the deviance of a member
+            # is 2 ln(P / (sqrt(2 pi) sigma_phi)) on the scale where a placed member costs
+            # (r / sigma_phi)^2, so every hypothesis is scored on the same orientations
+            unexplained += 2 * 2 * math.log(max(period / (math.sqrt(2 * math.pi)
+                                                          * ORIENTATION_SIGMA_DEG), 1.0))
             continue
         orientations.append((pair.high_orientation_deg, offset, period))
         orientations.append(((pair.low_orientation_deg - 90.0 / pair.m) % period,
