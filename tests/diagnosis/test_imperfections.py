@@ -246,3 +246,20 @@ def test_a_condition_may_not_set_an_imperfection_key(tmp_path):
         "30 deg}\n  resonances: r.csv\n")
     with pytest.raises(MeasuredDataError, match="membrane.prestretch_axis.*anisotropic_prestretch"):
         load_measured(tmp_path / "measured.yaml")
+
+
+def test_with_the_ring_model_the_imperfections_are_reported_untested(tmp_path):
+    """model: reduced runs no trial FE solve: the verdict says why, with the data's pairs."""
+    from copdea_fem.diagnosis import diagnose_measured
+
+    (tmp_path / "base.yaml").write_text(
+        "geometry: {inner_radius: 17 mm, frame: none}\ndisc: {mass: 3.0 g}\n")
+    (tmp_path / "r.csv").write_text("freq_hz,label\n507,(0,1)\n510,(1,1)a\n520,(1,1)b\n"
+                                    "533,(2,1)\n")
+    (tmp_path / "measured.yaml").write_text(
+        "base_study: base.yaml\nmodel: reduced\nconditions:\n- name: c\n  set: {load.z: 16 mm, "
+        "load.voltage: 2 kV}\n  resonances: r.csv\n  band: [5 Hz, 700 Hz]\n")
+    result = diagnose_measured(tmp_path / "measured.yaml")
+    assert result.imperfections.verdict.startswith("imperfections not tested: they need model: fe")
+    assert [p.pair for p in result.imperfections.pairs] == ["(1,1)", "(2,1)"]
+    assert result.imperfections.pairs[0].split == pytest.approx(10 / 515)
