@@ -540,6 +540,9 @@ def _decide(measured, fe, alpha, effects, pairs, common) -> ImperfectionVerdict:
                 requests.append((study.replace(trial.overrides),
                                  BAND_MARGIN * conditions[name].band[1], False))
                 plan.append((effect_id, name, trial))
+    logger.info("imperfections: pairs split beyond the noise (split deviance %.1f > %.1f); "
+                "%d trial FE solves (3-D, in vacuo) of %s", perfect, limit, len(requests),
+                ", ".join(effects))
     fe.solve_many(requests)
     table: dict = {}
     for (effect_id, name, trial), (study, f_max, _) in zip(plan, requests):
