@@ -39,7 +39,9 @@ the search: :data:`IMPERFECTIONS`).
 
 :data:`DEFAULT_CANDIDATES` (what ``measured.yaml`` may add when it lists no
 ``candidates``) is every effect but :data:`OPT_IN` (``enclosure``: named in
-``candidates`` to be tested; docs/diagnosis-mounting.md says why).
+``candidates`` to be tested; docs/diagnosis-mounting.md says why) and the
+:data:`IMPERFECTIONS` (tested after the search, from the split pairs: all of them when
+``candidates`` is absent, those it names otherwise).
 """
 
 from __future__ import annotations
