@@ -19,6 +19,8 @@ entry points below):
 ``evidence``  the sentences: evidence of a step, goodness of fit, verdict
 ``report``    report.md, diagnosis.json, PNG figures, final_study.yaml
 ``synth``     synthetic measurements from the ring model with chosen effects on
+``imperfections`` after the search: an imperfection (anisotropy, uneven film, point mass)
+              named from split (m,n) pairs and their orientations, trial 3-D FE solves
 
 The wall time of an FE diagnosis is benchmarked by ``python -m benchmarks.diagnose``
 (``benchmarks/diagnose.py``, outside the package).
@@ -185,13 +187,28 @@ def diagnose_measured(measured, alpha: float = 0.05, model: str | None = None,
             shape_check = ShapeCheck(measured, pairings)
         from copdea_fem.diagnosis.select import Diagnoser
         result = Diagnoser(measured, alpha=alpha, engine=engine, shape_check=shape_check).run()
+        if pairings:
+            result = dataclasses.replace(result, scan_pairings=pairings)
+        from copdea_fem.diagnosis import imperfections
+        if engine is not None and imperfections.tested_imperfections(measured):
+            from copdea_fem.diagnosis.ring_predictor import state_overrides
+            base = measured.base_study
+            final = base.replace(state_overrides(base, result.final_state))
+            square = any(s.geometry.frame == "square" for s in (base, final))
+            verdict = imperfections.name_imperfections(measured, engine.fe, pairings, alpha,
+                                                       square_frame=square)
+            result = dataclasses.replace(result, imperfections=verdict,
+                                         fe_solves=result.fe_solves + verdict.fe_solves)
+        elif imperfections.tested_imperfections(measured):   # model: reduced
+            result = dataclasses.replace(result, imperfections=imperfections.untested_verdict(
+                measured, pairings, "they need model: fe (trial 3-D FE solves)"))
     except BaseException as error:       # an interrupt: the Dask cluster closes in silence
         if engine is not None:
             engine.fe.close(error)
         raise
     if engine is not None:
         engine.fe.close()                                # the FE worker processes, if any
-    return dataclasses.replace(result, scan_pairings=pairings) if pairings else result
+    return result
 
 
 def summary_lines(result: DiagnosisResult, out: Path) -> list[str]:
@@ -202,6 +219,8 @@ def summary_lines(result: DiagnosisResult, out: Path) -> list[str]:
             f"gap {100 * result.gap_before:.2f} % -> {100 * result.gap_after:.2f} %; "
             f"missing: {', '.join(result.missing_effects) or 'none'}; ambiguous: "
             f"{'; '.join('/'.join(g) for g in result.ambiguous) or 'none'}",
+            *([f"imperfections: {result.imperfections.verdict}"]
+              if result.imperfections is not None else []),
             f"wrote the report to {out} (report.md, diagnosis.json)"]
 
 

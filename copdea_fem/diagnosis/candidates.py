@@ -51,6 +51,9 @@ def candidate_groups(scorer, state, base_study) -> tuple[list, dict]:
     groups, skipped = [], {}
     for effect_id in allowed:
         entry = CATALOGUE[effect_id]
+        if entry.split_signature is not None:       # named from split pairs, after the search
+            skipped[effect_id] = entry.not_tested_note
+            continue
         if entry.engine == "coupled_fe" and not scorer.uses_fe:
             skipped[effect_id] = ("needs the fully-coupled air/PML FE as the model of "
                                   "record (measured.yaml model: fe)")

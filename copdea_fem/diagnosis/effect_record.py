@@ -109,6 +109,64 @@ class Exclusion:
     what: str
 
 
+@dataclass(frozen=True)
+class SplitTrial:
+    """One FE solve that measures how an imperfection splits the (m,n) pairs
+    (:mod:`copdea_fem.diagnosis.imperfections`): the imperfection at a trial size along the
+    angle 0 (both mirror planes through x kept, so the members are the cos / sin ones).
+
+    Attributes
+    ----------
+    name : str
+        What the trial is (``"order 2"``, ``"r = 24 mm"``), for the report.
+    overrides : dict
+        Study overrides of the imperfection at ``amplitude`` and angle 0.
+    amplitude : float
+        The trial size of the fitted magnitude [its parameter's unit].
+    power : callable
+        ``power(m) -> float or None``: the order in the magnitude at which the pair of
+        order m splits (perturbation theory: a cos k theta term couples orders m and
+        m +- k, so the members of an m pair, 2m apart, split at order j = 2m / k where
+        that is an integer; a point mass couples every order: 1); None: no split.
+    angle_period : float
+        The period [deg] of the imperfection's angle (180 for an axis, 360 / k for an
+        order-k term, 360 for a mass).
+    fixed : tuple
+        Values [parameter units] of the parameters the trial fixes, in the effect's
+        parameter order, None where fitted (a mass's radius, a term's order).
+    """
+
+    name: str
+    overrides: dict
+    amplitude: float
+    power: Callable = field(repr=False)
+    angle_period: float
+    fixed: tuple = ()
+
+
+@dataclass(frozen=True)
+class SplitSignature:
+    """How an imperfection is named from split pairs: its trial FE solves and how its
+    parameters are read back (:mod:`copdea_fem.diagnosis.imperfections`).
+
+    Attributes
+    ----------
+    trials : callable
+        ``trials(study) -> tuple of SplitTrial`` for the base study at a condition.
+    values : callable
+        ``values(trial, magnitude, angle_deg) -> tuple``: the effect's parameter values
+        (its :attr:`Effect.parameters` order) of a fit; ``angle_deg`` NaN where no
+        orientation was measured.
+    continuous : bool
+        Consecutive trials lie on a continuous parameter (a mass's radius): the splits
+        between them are interpolated; False: the trials are discrete choices (an order).
+    """
+
+    trials: Callable = field(repr=False)
+    values: Callable = field(repr=False)
+    continuous: bool = False
+
+
 FE_ROLES_ALLOWED = (None, "switch", "anchored")
 MOUNTING_KINDS = (None, "built", "open")
 
@@ -179,6 +237,11 @@ class Effect:
         Tested only where ``measured.yaml``'s ``candidates`` name it.
     not_tested_note : str
         A line the report adds when it was not tested.
+    split_signature : SplitSignature or None
+        An imperfection of a round device, named from split (m,n) pairs and their
+        orientations (:mod:`copdea_fem.diagnosis.imperfections`), never a candidate of the
+        search over the round model (:mod:`copdea_fem.diagnosis.select`), which cannot
+        split a pair.
     """
 
     id: str
@@ -207,6 +270,7 @@ class Effect:
     switched_keys: tuple = ()
     opt_in: bool = False
     not_tested_note: str = ""
+    split_signature: SplitSignature | None = None
 
     def __post_init__(self):
         for name, value, allowed in (("fe_role", self.fe_role, FE_ROLES_ALLOWED),

@@ -7,7 +7,8 @@ reads whether a study already has it.  The reduced model
 (:func:`copdea_fem.reduced.build_reduced`) honours every key involved, so a
 diagnosed model is an ordinary study file.
 
-Parameters (0 to 2 per effect) carry SI units, fit bounds and a physical
+Parameters (0 to 2 per effect; 3 for an imperfection, never tabulated by the search)
+carry SI units (angles in degrees, as the study keys), fit bounds and a physical
 default; ``log = True`` means they are fitted in log space (scale factors,
 masses, times).  ``kind`` is ``"physics"`` (a mechanism the model lacks) or
 ``"parameter"`` (the model has the mechanism but a parameter of the study is
@@ -31,11 +32,16 @@ parts: :mod:`copdea_fem.diagnosis.effect_record`).
 Identifiers are a contract (``diagnosis.json``): ``air_loading,
 electrostatic_softening, spring_mass, disc_pumping, modal_damping,
 frame_reflection, viscoelastic_stiffening, uniform_stiffness``, ``baffle``,
-``open_air``, ``viscoelastic_membrane`` and ``enclosure``.
+``open_air``, ``viscoelastic_membrane``, ``enclosure`` and the imperfections
+``anisotropic_prestretch``, ``thickness_variation``, ``point_mass`` (named from split
+pairs after the search, :mod:`copdea_fem.diagnosis.imperfections`; never candidates of
+the search: :data:`IMPERFECTIONS`).
 
 :data:`DEFAULT_CANDIDATES` (what ``measured.yaml`` may add when it lists no
 ``candidates``) is every effect but :data:`OPT_IN` (``enclosure``: named in
-``candidates`` to be tested; docs/diagnosis-mounting.md says why).
+``candidates`` to be tested; docs/diagnosis-mounting.md says why) and the
+:data:`IMPERFECTIONS` (tested after the search, from the split pairs: all of them when
+``candidates`` is absent, those it names otherwise).
 """
 
 from __future__ import annotations
@@ -52,6 +58,8 @@ from copdea_fem.diagnosis.effect_record import (  # noqa: F401  (the catalogue's
     Exclusion,
     Parameter,
     Requirement,
+    SplitSignature,
+    SplitTrial,
 )
 from copdea_fem.measured import EffectRules
 from copdea_fem.study import ENCLOSURE_AIR_SHARE, PronyTerm, StudyError
@@ -444,13 +452,171 @@ _register(Effect(
     detect=lambda s: s.effects.stiffness_scale != 1.0,
     fe_role="anchored", direct=True, visible_in_scan=True, changes_prestress=True))
 
+# -- imperfections of a round device: named from split pairs (diagnosis.imperfections) -----
+#: Trial sizes of the FE solves that measure each imperfection's splits (every member kept,
+#: however close): large against the 3-D mesh's own split of a perfect pair (< 1e-4), small
+#: enough to stay first order (G1 at z = 16 mm, 2 kV: (1,1) split 2.6 % at e = 2 %; a mass
+#: shifts its pairs by ~ 0.3 % per 0.5 mg, against the (m,1) family's spacing of 1-4 %).
+TRIAL_ANISOTROPY = 0.02
+TRIAL_THICKNESS = 0.3
+TRIAL_MASS = 5e-7                   # kg: 0.5 mg, ~ 1/800 of G1's film
+#: Thickness orders tried: those that split a pair of m <= 2 at first order (k = 2m).
+THICKNESS_ORDERS = (2, 4)
+#: Radii of the trial masses, as fractions of the membrane's span r_i .. r_o; between them
+#: the splits are interpolated linearly (each goes as phi_mn(r)^2, smooth in r).
+MASS_RADII = (0.15, 0.4, 0.65, 0.9)
+
+
+def term_power(order: int):
+    """``power(m)`` of :class:`SplitTrial` for a cos k theta term of order ``k``: the members
+    of an m pair (orders +-m, 2m apart) are joined at order j = 2m / k of perturbation
+    theory where that is an integer, else not at all (module notes of
+    :mod:`copdea_fem.diagnosis.imperfections`)."""
+    return lambda m: 2.0 * m / order if (2 * m) % order == 0 else None
+
+
+def _anisotropy_trials(study):
+    return (SplitTrial(f"e = {100 * TRIAL_ANISOTROPY:g} % along x",
+                       {"membrane.prestretch_anisotropy": TRIAL_ANISOTROPY,
+                        "membrane.prestretch_axis": 0.0},
+                       TRIAL_ANISOTROPY, term_power(2), 180.0),)
+
+
+def _thickness_trials(study):
+    return tuple(SplitTrial(f"order {k}, a = {TRIAL_THICKNESS:g}",
+                            {"membrane.thickness_variation": [
+                                {"order": k, "amplitude": TRIAL_THICKNESS, "angle": 0.0}]},
+                            TRIAL_THICKNESS, term_power(k), 360.0 / k, (float(k), None, None))
+                 for k in THICKNESS_ORDERS)
+
+
+def _mass_trials(study):
+    r_i, r_o = study.geometry.inner_radius, study.geometry.outer_radius
+    out = []
+    for fraction in MASS_RADII:
+        radius = r_i + fraction * (r_o - r_i)
+        # a point mass joins every order at first order; phi^2 repeats every 180 / m deg,
+        # so a mass at theta and at theta + 180 deg split every pair alike: period 180
+        out.append(SplitTrial(f"{TRIAL_MASS * 1e6:g} mg at r = {radius * 1e3:.4g} mm",
+                              {"imperfections.point_masses": [
+                                  {"mass": TRIAL_MASS, "r": radius, "theta": 0.0}]},
+                              TRIAL_MASS, lambda m: 1.0, 180.0, (None, radius, None)))
+    return tuple(out)
+
+
+def _thickness_on(study, values):
+    order, amplitude, angle = values
+    return {"membrane.thickness_variation": [{"order": round(order),
+                                              "amplitude": amplitude, "angle": angle}]}
+
+
+def _mass_on(study, values):
+    mass, radius, theta = values
+    return {"imperfections.point_masses": [{"mass": mass, "r": radius, "theta": theta}]}
+
+
+SPLIT_NOTE = ("named from split (m,n) pairs and their orientations after the search over the "
+              "round model (needs model: fe: trial 3-D FE solves); never a candidate of that "
+              "search, which cannot split a pair")
+
+_register(Effect(
+    id="anisotropic_prestretch", title="anisotropic pre-stretch (an imperfection)",
+    description="The film was pre-stretched by lambda_p (1 + e) along an axis and lambda_p "
+                "(1 - e) across it, then clamped in the round frame (docs/imperfections.md): "
+                "a homogeneous anisotropic stress, a cos 2 (theta - axis) term.  Named from "
+                "the split pairs: e from the splits (trial 3-D FE solves at e = 2 %, the "
+                "split of each (1,n) pair linear in e, of each (2,n) quadratic), the axis "
+                "from the orientation of the stiffer (1,n) member in a scan (its antinode "
+                "along the axis); a resonance list gives e only.",
+    kind="physics", engine="fe",
+    parameters=(Parameter("e", "membrane.prestretch_anisotropy", None, 0.01, 1e-4, 0.3, True,
+                          "anisotropy e of the pre-stretch"),
+                Parameter("axis", "membrane.prestretch_axis", "deg", 0.0, 0.0, 180.0, False,
+                          "direction of the larger pre-stretch, counter-clockwise from x")),
+    signature="the (1,n) pairs split at first order in e (G1, z = 16 mm, 2 kV: (1,1) 1.3 % "
+              "at e = 1 %), the (2,n) at second order, the (m >= 3, n) hardly; the stiffer "
+              "(1,n) member has its antinode along the axis, its partner across it; the "
+              "(0,n) modes unmoved at first order",
+    on_overrides=lambda s, v: {"membrane.prestretch_anisotropy": v[0],
+                               "membrane.prestretch_axis": v[1]},
+    off_overrides=lambda s: {"membrane.prestretch_anisotropy": 0.0,
+                             "membrane.prestretch_axis": 0.0},
+    detect=lambda s: s.membrane.prestretch_anisotropy > 0,
+    switched_keys=("membrane.prestretch_anisotropy", "membrane.prestretch_axis"),
+    not_tested_note=SPLIT_NOTE,
+    split_signature=SplitSignature(_anisotropy_trials, lambda trial, x, angle: (x, angle))))
+
+_register(Effect(
+    id="thickness_variation", title="uneven film thickness (an imperfection)",
+    description="The film's thickness varies round the device, h0 (1 + a cos k (theta - "
+                "angle)) (docs/imperfections.md; an uneven electrode is the same mechanism): "
+                "the strain energy and the mass scale with the thickness, the electrostatic "
+                "term with its inverse.  Named from the split pairs: the order k (2 or 4) "
+                "from which pairs split, a from the splits (trial 3-D FE solves at a = 0.3), "
+                "the angle from the orientations in a scan.",
+    kind="physics", engine="fe",
+    parameters=(Parameter("order", "membrane.thickness_variation[0].order", None, 2.0, 1.0,
+                          4.0, False, "circumferential order k"),
+                Parameter("amplitude", "membrane.thickness_variation[0].amplitude", None,
+                          0.05, 1e-3, 0.9, True, "relative amplitude a"),
+                Parameter("angle", "membrane.thickness_variation[0].angle", "deg", 0.0, 0.0,
+                          180.0, False, "angle of the thickest line")),
+    signature="an order-k term splits the m = k/2 pairs at first order (k = 2: the (1,n) "
+              "pairs, the (2,n) at second order; k = 4: the (2,n) pairs); odd orders split no "
+              "pair at first order; members oriented to the term's angle (period 360/k deg). "
+              "Under tension the film's tension and mass scale together, so the (m,1) pairs "
+              "hardly split and the (m,2) carry the evidence, unlike an anisotropy (G1, "
+              "z = 16 mm, 2 kV, 3-D FE: order 2, a = 0.3: (1,1) 0.15 %, (1,2) 1.1 %; order 4, "
+              "a = 0.3: (2,1) 1.9 %; an anisotropy e = 2 %: (1,1) 2.6 %, (1,2) 2.6 %)",
+    on_overrides=_thickness_on,
+    off_overrides=lambda s: {"membrane.thickness_variation": []},
+    detect=lambda s: bool(s.membrane.thickness_variation),
+    switched_keys=("membrane.thickness_variation",),
+    not_tested_note=SPLIT_NOTE,
+    split_signature=SplitSignature(_thickness_trials,
+                                   lambda trial, x, angle: (trial.fixed[0], x, angle))))
+
+_register(Effect(
+    id="point_mass", title="a point mass on the membrane (an imperfection)",
+    description="A lumped mass (grease, a wire, a blob of electrode) sits on the membrane "
+                "at (r, theta) (docs/imperfections.md).  Named from the split pairs: the "
+                "mass and r from the splits of every pair (trial 3-D FE solves of 0.5 mg at "
+                "four radii of the membrane, interpolated in r), theta from the orientations "
+                "in a scan: the lower member of each pair has its antinode at the mass, the "
+                "other its nodal line through it.  At first order a mass at theta and at "
+                "theta + 180 deg split every pair alike: theta is given modulo 180 deg.",
+    kind="physics", engine="fe",
+    parameters=(Parameter("mass", "imperfections.point_masses[0].mass", "kg", 1e-6, 1e-8,
+                          1e-3, True, "the lumped mass"),
+                Parameter("r", "imperfections.point_masses[0].r", "m", 0.025, 0.0, 1.0,
+                          False, "its radius"),
+                Parameter("theta", "imperfections.point_masses[0].theta", "deg", 0.0, 0.0,
+                          180.0, False, "its angle, counter-clockwise from x (mod 180 deg)")),
+    signature="every pair splits at first order, by dm phi_mn(r)^2 / (2 M_modal) (the "
+              "(m,1) pairs most for a mass near mid-span, the (m,2) nearly not for one on "
+              "their nodal circle), the pair's lower member lowered and oriented to the "
+              "mass (its antinode at theta), the upper one unmoved (its nodal line through "
+              "the mass); the (0,n) modes lowered too",
+    on_overrides=_mass_on,
+    off_overrides=lambda s: {"imperfections.point_masses": []},
+    detect=lambda s: bool(s.imperfections.point_masses),
+    switched_keys=("imperfections.point_masses",),
+    not_tested_note=SPLIT_NOTE,
+    split_signature=SplitSignature(_mass_trials,
+                                   lambda trial, x, angle: (x, trial.fixed[1], angle),
+                                   continuous=True)))
+
 EFFECT_IDS = tuple(CATALOGUE)
 
 # The catalogue-level sets, derived from the fields (in catalogue order).
 #: Catalogued but tested only when measured.yaml names them in ``candidates``.
 OPT_IN = tuple(e.id for e in CATALOGUE.values() if e.opt_in)
-#: What measured.yaml may add when it lists no ``candidates``.
-DEFAULT_CANDIDATES = tuple(e for e in EFFECT_IDS if e not in OPT_IN)
+#: The imperfections of a round device, named from split pairs
+#: (:attr:`Effect.split_signature`, :mod:`copdea_fem.diagnosis.imperfections`).
+IMPERFECTIONS = tuple(e.id for e in CATALOGUE.values() if e.split_signature is not None)
+#: What the search over the round model may add when measured.yaml lists no ``candidates``
+#: (the imperfections are tested after it, from the split pairs).
+DEFAULT_CANDIDATES = tuple(e for e in EFFECT_IDS if e not in OPT_IN and e not in IMPERFECTIONS)
 #: Mutually exclusive: one mounting at a time.  The base study's own mounting is the
 #: starting point; the others are candidates that replace it (candidates.mounting_skipped).
 MOUNTINGS = tuple(e.id for e in CATALOGUE.values() if e.mounting is not None)
@@ -533,6 +699,8 @@ def catalogue_table() -> str:
                              "fe": " (FE solves; needs model: fe)"}.get(e.engine, "")
         if e.opt_in:
             engine += "; opt-in: tested only where measured.yaml's candidates name it"
+        if e.split_signature is not None:
+            engine += "; named from split pairs after the search"
         rows.append(f"| `{e.id}` | {e.kind} | {engine} | {params} | {e.signature} |")
     return "\n".join(rows)
 

@@ -58,12 +58,16 @@ from copdea_fem.parallel import (
     process_pool,
 )
 from copdea_fem.study import Study, StudyError
+from copdea_fem.study.imperfections import is_imperfect
 
 logger = logging.getLogger(__name__)
 
 FE_CACHE_VERSION = 1           # bump when structural_modes changes (the FE code: fe_fingerprint)
 PAIR_MERGE = 2e-3              # split pairs closer than this (relative) are one peak: a
                                # fifth of a 1 % identification scatter, not resolvable
+
+#: Suffix of the cache key of an entry with every pair's members kept (FEModel.modes).
+PAIRS_SUFFIX = "-pairs"
 
 FE_EFFECT_KEYS = ("effects.stiffness_scale", "effects.maxwell_scale")
 # The FE's band reaches past the data's, so a mode just above the band edge is still
@@ -102,7 +106,8 @@ def fe_study(study: Study, f_max: float | None = None) -> Study:
     """The study the FE solves for a diagnosis study.
 
     In vacuo the frame and the enclosure play no part (they act through the air), so dry
-    modes run on the axisymmetric engine with ``frame: none``, ``enclosure: none`` (and
+    modes run on the axisymmetric engine (the 3-D one for an imperfect device,
+    :func:`copdea_fem.study.imperfections.is_imperfect`) with ``frame: none``, ``enclosure: none`` (and
     ``air.outside: true``, which only an enclosure may turn off); coupled ones keep the
     frame and the enclosure and let ``mesh.engine: auto`` choose.  ``f_max`` [Hz]
     (default: the study's) is the top of the FE band (``eigen.f_min`` raised where a
@@ -117,8 +122,10 @@ def fe_study(study: Study, f_max: float | None = None) -> Study:
         if floor is not None:        # a Prony relaxation spectrum the wider band would reach
             overrides["eigen.f_min"] = floor
     if not study.air.enabled:
+        # an imperfect device is not round: the 3-D engine (mesh.engine auto sends it there)
+        engine = "auto" if is_imperfect(study.membrane, study.imperfections) else "axisymmetric"
         overrides.update({"geometry.frame": "none", "geometry.enclosure": "none",
-                          "air.outside": True, "mesh.engine": "axisymmetric"})
+                          "air.outside": True, "mesh.engine": engine})
     return study.replace(overrides)
 
 
@@ -139,8 +146,10 @@ def fe_key(study: Study) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:24]
 
 
-def structural_modes(modes) -> tuple:
-    """:class:`FEMode` list from the pipeline's modes (module notes: pairs merged)."""
+def structural_modes(modes, merge_pairs: bool = True) -> tuple:
+    """:class:`FEMode` list from the pipeline's modes (module notes: pairs merged; with
+    ``merge_pairs`` False every member kept, however close: the splits the imperfection
+    stage measures, :mod:`copdea_fem.diagnosis.imperfections`)."""
     kept = []
     for mode in modes:
         if mode.kind not in ("out-of-plane", "pumping") or not mode.label:
@@ -157,7 +166,7 @@ def structural_modes(modes) -> tuple:
             continue
         if mode.label.endswith("a") and mode.label[:-1] + "b" in by_label:
             other = by_label[mode.label[:-1] + "b"]
-            if abs(other.frequency_hz / mode.frequency_hz - 1) < PAIR_MERGE:
+            if merge_pairs and abs(other.frequency_hz / mode.frequency_hz - 1) < PAIR_MERGE:
                 out.append(FEMode(mode.label[:-1], mode.kind,
                                   0.5 * (mode.frequency_hz + other.frequency_hz),
                                   0.5 * (mode.damping_ratio + other.damping_ratio)))
@@ -316,16 +325,19 @@ class FEModel:
         self.solves = 0
         self.seconds = 0.0
 
-    def modes(self, study: Study, f_max: float | None = None) -> FEResult:
-        """Structural modes of ``study`` (a diagnosis study: :func:`fe_study` applied)."""
+    def modes(self, study: Study, f_max: float | None = None,
+              merge_pairs: bool = True) -> FEResult:
+        """Structural modes of ``study`` (a diagnosis study: :func:`fe_study` applied);
+        ``merge_pairs`` False: every pair's members kept (:func:`structural_modes`; an entry
+        of its own, key :func:`fe_key` + ``-pairs``)."""
         run = fe_study(study, f_max)
-        key = fe_key(run)
+        key = fe_key(run) + ("" if merge_pairs else PAIRS_SUFFIX)
         hit = self._memory.get(key) or self._read(key, quiet=True)
         if hit is None:
             with self._entry_lock(key):
                 hit = self._read(key)          # written by another run while we waited?
                 if hit is None:
-                    hit = self._solve(run, key)
+                    hit = self._solve(run, key, merge_pairs)
                     self._write(hit)
         self._memory[key] = hit
         return hit
@@ -352,16 +364,18 @@ class FEModel:
         if self.executor == "inline" or (self.executor == "processes" and self.workers < 2):
             return 0
         todo = {}
-        for study, f_max in requests:
+        for request in requests:
+            study, f_max = request[:2]
+            merge_pairs = request[2] if len(request) > 2 else True
             run = fe_study(study, f_max)
-            key = fe_key(run)
+            key = fe_key(run) + ("" if merge_pairs else PAIRS_SUFFIX)
             if key in self._memory or key in todo:
                 continue
             hit = self._read(key, quiet=True)
             if hit is not None:
                 self._memory[key] = hit
                 continue
-            todo[key] = (study, f_max)
+            todo[key] = (study, f_max, merge_pairs)
         if len(todo) < 2:
             return 0
         import concurrent.futures
@@ -378,16 +392,16 @@ class FEModel:
                 client = self._dask_client()
                 batch = uuid.uuid4().hex[:8]
                 futures = {client.submit(_solve_in_worker, study, f_max, folder,
-                                         self.lock_wait, key=f"copdea-fe-{key}-{batch}",
+                                         self.lock_wait, merge, key=f"copdea-fe-{key}-{batch}",
                                          pure=False): key
-                           for key, (study, f_max) in todo.items()}
+                           for key, (study, f_max, merge) in todo.items()}
                 completed = as_completed(list(futures))
             else:
                 with one_thread_per_worker():     # read by the workers as they start
                     pool = self._worker_pool()
                     futures = {pool.submit(_solve_in_worker, study, f_max, folder,
-                                           self.lock_wait): key
-                               for key, (study, f_max) in todo.items()}
+                                           self.lock_wait, merge): key
+                               for key, (study, f_max, merge) in todo.items()}
                 completed = concurrent.futures.as_completed(futures)
             for future in completed:
                 try:
@@ -455,7 +469,7 @@ class FEModel:
         else:
             self._cluster.__exit__(type(error), error, error.__traceback__)
 
-    def _solve(self, run: Study, key: str) -> FEResult:
+    def _solve(self, run: Study, key: str, merge_pairs: bool = True) -> FEResult:
         from copdea_fem.fe import coupled_modes, dry_modes, engine_for
         from copdea_fem.progress import quiet_progress
         engine = engine_for(run)
@@ -472,7 +486,8 @@ class FEModel:
         seconds = time.perf_counter() - start
         self.solves += 1
         self.seconds += seconds
-        return FEResult(structural_modes(modes), engine.name, coupled, seconds, key)
+        return FEResult(structural_modes(modes, merge_pairs), engine.name, coupled, seconds,
+                        key)
 
     # -- disk cache ------------------------------------------------------------------------
     def _path(self, key: str):
@@ -558,12 +573,12 @@ def default_workers() -> int:
     return max(1, min(MAX_DEFAULT_WORKERS, os.cpu_count() or 1))
 
 
-def _solve_in_worker(study, f_max, folder, lock_wait):
+def _solve_in_worker(study, f_max, folder, lock_wait, merge_pairs=True):
     """Worker process of :meth:`FEModel.solve_many`: one study through an :class:`FEModel`
     on the shared folder (its per-entry lock); the result and whether it was solved here."""
     model = FEModel(cache_dir=folder if folder is not None else False, lock_wait=lock_wait,
                     workers=1)
-    result = model.modes(study, f_max)
+    result = model.modes(study, f_max, merge_pairs)
     return result, model.solves
 
 

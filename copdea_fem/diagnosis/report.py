@@ -165,7 +165,9 @@ def diagnosis_document(result) -> dict:
         "acceptance": "an effect that passes the test is accepted only when, evaluated "
                       "exactly (FE re-solved at the fitted values), the gap and the deviance "
                       "both fall; a fit at a bound of its range is never accepted",
-        "final_study": "final_study.yaml", "provenance": package_versions()}
+        "final_study": "final_study.yaml", "provenance": package_versions(),
+        "imperfections": (result.imperfections.document()
+                          if result.imperfections is not None else None)}
 
 
 # -- figures ---------------------------------------------------------------------------------
@@ -342,6 +344,8 @@ def report_markdown(result, document: dict, figures: list) -> str:
     lines += ["**Verdict.** " + result.verdict, "",
               f"- missing effects (in order): {', '.join(result.missing_effects) or 'none'}",
               f"- ambiguous: {'; '.join(' / '.join(g) for g in result.ambiguous) or 'none'}",
+              *([f"- imperfections (split pairs): {result.imperfections.verdict}"]
+                if result.imperfections is not None else []),
               f"- gap: {100 * result.gap_before:.2f} % (base model) -> "
               f"{100 * result.gap_after:.2f} % (final model)",
               _gap_parts_line(result),
@@ -349,6 +353,8 @@ def report_markdown(result, document: dict, figures: list) -> str:
               + ("; modes still off beyond the noise: "
                  + ", ".join(i["label"] for i in result.remaining_off)
                  if result.remaining_off else ""), ""]
+    if result.imperfections is not None:
+        lines += result.imperfections.lines()
     lines += pairing_report_lines(result.scan_pairings)
     lines += ["## Data", "",
               "| condition | overrides | peaks in scope | out of scope | spectrum | band [Hz] |",

@@ -114,6 +114,7 @@ class DiagnosisResult:
     remaining_off: list = field(default_factory=list)   # modes off beyond the noise (final)
     engines: dict = field(default_factory=dict)          # what evaluated what (report)
     scan_pairings: tuple = ()     # scanned conditions' shape pairing (diagnosis.scanned)
+    imperfections: object = None  # the split pairs' verdict (diagnosis.imperfections)
 
 
 class Diagnoser:

@@ -30,6 +30,7 @@ from copdea_fem.diagnosis.effects import (  # noqa: E402
     CATALOGUE,
     DEFAULT_CANDIDATES,
     EFFECT_IDS,
+    IMPERFECTIONS,
     MOUNTINGS,
     base_mounting,
 )
@@ -231,7 +232,7 @@ def test_the_enclosure_is_opt_in_and_its_depth_reaches_the_fe():
     is, both engines evaluate it with the FE at the candidate's depth (the ring model has
     none): the direct engine lists it, the anchored one puts the depth in the anchor."""
     assert "enclosure" in EFFECT_IDS and "enclosure" not in DEFAULT_CANDIDATES
-    assert set(DEFAULT_CANDIDATES) == set(EFFECT_IDS) - {"enclosure"}
+    assert set(DEFAULT_CANDIDATES) == set(EFFECT_IDS) - {"enclosure"} - set(IMPERFECTIONS)
     assert "enclosure" in DIRECT_EFFECTS and FE_ROLES["enclosure"] == "switch"
     engine = AnchoredEngine.__new__(AnchoredEngine)
     engine.anchored = {"air_loading": (1.0,)}
