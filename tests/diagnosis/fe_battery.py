@@ -123,6 +123,12 @@ def truth_modes(case: Case, fe: FEModel | None = None) -> dict:
             for o in case.conditions}
 
 
+def written_label(label: str) -> str:
+    """The FE's label as a resonance list may carry it: a membrane label, or none for an air
+    mode (``cavity(...)``: a peak the vibrometer sees but cannot name)."""
+    return label if re.fullmatch(r"P\d+|\(\d+,\d+\)[ab]?", label) else ""
+
+
 def _order(label: str) -> int:
     match = re.match(r"\((\d+),", label)
     return int(match.group(1)) if match else 0
@@ -145,7 +151,7 @@ def write_measured(case_name: str, seed: int, folder: Path, fe: FEModel | None =
             frequency = mode.frequency_hz * math.exp(rng.normal(0.0, SCATTER))
             if not BAND[0] <= frequency <= BAND[1]:
                 continue
-            label = mode.label if rng.random() < 0.5 else ""
+            label = written_label(mode.label) if rng.random() < 0.5 else ""
             quality = ""
             if case.quality and mode.damping_ratio > 0:      # drawn after the label: the
                 quality = f"{0.5 / mode.damping_ratio * math.exp(rng.normal(0.0, Q_SCATTER)):.4g}"

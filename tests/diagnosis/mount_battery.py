@@ -146,7 +146,8 @@ def write_measured(case: Case, name: str, seed: int, folder: Path,
             frequency = mode.frequency_hz * math.exp(rng.normal(0.0, fe_battery.SCATTER))
             if not case.band[0] <= frequency <= case.band[1]:
                 continue
-            rows.append((frequency, mode.label if rng.random() < 0.5 else ""))
+            rows.append((frequency,
+                         fe_battery.written_label(mode.label) if rng.random() < 0.5 else ""))
         for _ in range(rng.poisson(fe_battery.SPURIOUS)):
             rows.append((math.exp(rng.uniform(*log_band)), ""))
         rows.sort()
