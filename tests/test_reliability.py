@@ -1250,7 +1250,7 @@ def fake_fe(monkeypatch, seconds=0.0):
 
     solved = []
 
-    def solve(self, run, key):
+    def solve(self, run, key, merge_pairs=True):
         time.sleep(seconds)
         solved.append(key)
         self.solves += 1
