@@ -327,7 +327,7 @@ def test_both_engines_agree_on_the_same_cylinder(case, tmp_path, monkeypatch, fi
     - bowl (a hemisphere of radius 50 mm in the baffle, z = 10 mm): (0,1) 653.76 / 653.86 Hz
       +0.016 %, (1,1), (2,1) within 0.05 %;
     - vented (frame none, a 20 mm vent, 4 mm: the vent's edge flow needs it; at 6 mm the 3-D
-      (0,1) lies 0.5 % high): (0,1) 287.67 / 287.74 Hz +0.02 %, (1,1), (2,1) within 0.01 %.
+      (0,1) lies 0.5 % high): cavity(0,0,0) 287.67 / 287.74 Hz +0.02 %, (1,1), (2,1) within 0.01 %.
     """
     from copdea_fem.study import load_study
 
@@ -342,7 +342,9 @@ def test_both_engines_agree_on_the_same_cylinder(case, tmp_path, monkeypatch, fi
         if case == "vented":
             overrides.update({"geometry.frame": "none", "geometry.enclosure_vent_radius": 0.02,
                               "mesh.membrane_size": 0.004, "eigen.f_max": 450.0})
-            expected = {"(0,1)", "(1,1)a", "(2,1)a"}
+            # the lowest m = 0 mode carries less than half its kinetic energy in the membrane
+            # and its air inside: the vent's Helmholtz mode (docs/enclosures.md)
+            expected = {"cavity(0,0,0)", "(1,1)a", "(2,1)a"}
         elif case == "bowl":              # a hemispherical kettle, the disc lifted 10 mm
             overrides.update({"geometry.enclosure": "bowl", "load.z": 0.01,
                               "eigen.f_max": 700.0})
