@@ -19,16 +19,13 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import resource
 import statistics
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
+from benchmarks import ROOT, run_cli, spread
+
 STUDY = ROOT / "studies" / "g1_segments_quick.yaml"
 FILES_OFF = ["output.paraview=false", "output.plots=false"]
 EXCITE_TARGET = 2.0
@@ -39,21 +36,11 @@ PAIRS = (("excite", "response"), ("statespace", "solve"))
 def _command(command: str, overrides: list[str], directory: Path, target: str) -> dict:
     """One fresh ``python -m copdea_fem.cli COMMAND`` of :data:`STUDY` into ``directory``:
     wall and CPU seconds of the child, and its summary's ``timings:`` line."""
-    argv = [sys.executable, "-m", "copdea_fem.cli", command, str(STUDY), "--out",
-            str(directory)]
+    arguments = [command, str(STUDY), "--out", str(directory)]
     if command == "excite":
-        argv += ["--target", target]
-    for item in FILES_OFF + overrides:
-        argv += ["--set", item]
-    environment = dict(os.environ, PYTHONPATH=str(ROOT))
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    started = time.perf_counter()
-    done = subprocess.run(argv, cwd=ROOT, env=environment, check=True, capture_output=True,
-                          text=True)
-    wall = time.perf_counter() - started
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    stages = [line.strip() for line in (done.stdout + done.stderr).splitlines()
+        arguments += ["--target", target]
+    output, wall, cpu = run_cli(arguments, FILES_OFF + overrides)
+    stages = [line.strip() for line in output.splitlines()
               if line.strip().startswith("timings:")]
     return {"wall_s": wall, "cpu_s": cpu, "timings": stages[-1] if stages else ""}
 
@@ -72,10 +59,7 @@ def run(repeat: int, overrides: list[str], target: str) -> dict:
     report = {"study": str(STUDY.relative_to(ROOT)), "overrides": FILES_OFF + overrides,
               "target": target, "repeat": repeat}
     for name, values in runs.items():
-        report[name] = {key: {"median": statistics.median(r[key] for r in values),
-                              "min": min(r[key] for r in values),
-                              "max": max(r[key] for r in values)}
-                        for key in ("wall_s", "cpu_s")}
+        report[name] = {key: spread(r[key] for r in values) for key in ("wall_s", "cpu_s")}
         report[name]["stages_last_run"] = values[-1]["timings"]
     for (mine, reference), limit in zip(PAIRS, (EXCITE_TARGET, STATESPACE_TARGET)):
         ratios = {key: [r[key] / s[key] for r, s in zip(runs[mine], runs[reference])]

@@ -213,8 +213,8 @@ def ratio_line(seconds: list, reference: list) -> str:
 
 
 def main(argv=None) -> int:
-    from copdea_fem.vibrometer.identification import identify
     from copdea_fem.measured import read_scan, write_scan
+    from copdea_fem.vibrometer.identification import identify
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5)

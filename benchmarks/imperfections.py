@@ -26,16 +26,14 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-import os
-import resource
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
+from benchmarks import ROOT, run_cli, spread
+
 STUDY = ROOT / "studies" / "g1_z16_v2.yaml"
 #: files off: no ParaView files, no plots (the command still writes its tables)
 FILES_OFF = ["output.paraview=false", "output.plots=false"]
@@ -46,17 +44,8 @@ TARGET_RATIO = 1.0
 def _solve(study: Path, overrides: list[str], directory: Path) -> dict:
     """One fresh ``python -m copdea_fem.cli solve`` into ``directory``: wall and CPU (user +
     system) seconds of the child, the stages' seconds and the Newton iterations."""
-    argv = [sys.executable, "-m", "copdea_fem.cli", "solve", str(study), "--quiet",
-            "--out", str(directory)]
-    for item in FILES_OFF + overrides:
-        argv += ["--set", item]
-    environment = dict(os.environ, PYTHONPATH=str(ROOT))
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    started = time.perf_counter()
-    subprocess.run(argv, cwd=ROOT, env=environment, check=True, capture_output=True)
-    wall = time.perf_counter() - started
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    _, wall, cpu = run_cli(["solve", str(study), "--quiet", "--out", str(directory)],
+                           FILES_OFF + overrides)
     document = json.loads((directory / "modes.json").read_text())
     with open(directory / "modes.csv", newline="") as handle:
         frequencies = {row["label"]: float(row["freq_hz"]) for row in csv.DictReader(handle)}
@@ -66,10 +55,6 @@ def _solve(study: Path, overrides: list[str], directory: Path) -> dict:
     return {"wall_s": wall, "cpu_s": cpu, "stages_s": document.get("timings_s", {}),
             "newton_iterations": document.get("prestress", {}).get("newton_iterations"),
             "modes": len(frequencies), "split_11": split}
-
-
-def _summary(values: list[float]) -> dict:
-    return {"median": statistics.median(values), "min": min(values), "max": max(values)}
 
 
 def run_pairs(study: Path, repeat: int, anisotropy: float, overrides: list[str]) -> dict:
@@ -90,7 +75,7 @@ def run_pairs(study: Path, repeat: int, anisotropy: float, overrides: list[str])
     report = {"study": str(study), "overrides": FILES_OFF + overrides, "repeat": repeat,
               "anisotropy": anisotropy, "target_ratio": TARGET_RATIO}
     for name, values in runs.items():
-        report[name] = {key: _summary([r[key] for r in values]) for key in ("wall_s", "cpu_s")}
+        report[name] = {key: spread([r[key] for r in values]) for key in ("wall_s", "cpu_s")}
         stages = sorted({stage for r in values for stage in r["stages_s"]})
         report[name]["stages_s"] = {stage: statistics.median(r["stages_s"].get(stage, 0.0)
                                                              for r in values)

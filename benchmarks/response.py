@@ -23,10 +23,7 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-import os
-import resource
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
@@ -34,7 +31,8 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parent.parent
+from benchmarks import ROOT, run_cli, spread
+
 STUDY = ROOT / "studies" / "g1_z16_v2.yaml"
 #: files off: no ParaView files, no plots (both commands still write their tables)
 FILES_OFF = ["output.paraview=false", "output.plots=false"]
@@ -45,17 +43,8 @@ TARGET_RATIO = 4.0
 def _command(command: str, overrides: list[str], directory: Path) -> dict:
     """One fresh ``python -m copdea_fem.cli COMMAND`` of :data:`STUDY` into ``directory``:
     wall and CPU (user + system) seconds of the child."""
-    argv = [sys.executable, "-m", "copdea_fem.cli", command, str(STUDY), "--quiet",
-            "--out", str(directory)]
-    for item in FILES_OFF + overrides:
-        argv += ["--set", item]
-    environment = dict(os.environ, PYTHONPATH=str(ROOT))
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    started = time.perf_counter()
-    subprocess.run(argv, cwd=ROOT, env=environment, check=True, capture_output=True)
-    wall = time.perf_counter() - started
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    _, wall, cpu = run_cli([command, str(STUDY), "--quiet", "--out", str(directory)],
+                           FILES_OFF + overrides)
     return {"wall_s": wall, "cpu_s": cpu}
 
 
@@ -94,10 +83,7 @@ def run_pairs(repeat: int, overrides: list[str]) -> dict:
     report = {"study": str(STUDY.relative_to(ROOT)), "overrides": FILES_OFF + overrides,
               "repeat": repeat, "target_ratio": TARGET_RATIO}
     for name, values in runs.items():
-        report[name] = {key: {"median": statistics.median(r[key] for r in values),
-                              "min": min(r[key] for r in values),
-                              "max": max(r[key] for r in values)}
-                        for key in ("wall_s", "cpu_s")}
+        report[name] = {key: spread(r[key] for r in values) for key in ("wall_s", "cpu_s")}
     report["ratio_response_to_solve"] = {
         key: {"median": statistics.median(r[key] / s[key] for r, s in
                                           zip(runs["response"], runs["solve"])),
