@@ -313,23 +313,26 @@ WORKER_ENVIRONMENT = {"DASK_LOGGING__DISTRIBUTED": "critical"}
 
 @contextlib.contextmanager
 def quiet_workers():
-    """While inside, the worker processes a local cluster starts ignore SIGINT and log only
-    Dask's critical records (:data:`WORKER_ENVIRONMENT`).
+    """While inside, the worker processes a local cluster starts ignore SIGINT and SIGTERM and
+    log only Dask's critical records (:data:`WORKER_ENVIRONMENT`).
 
-    A terminal's Ctrl-C reaches every process of its group; a worker that took it would end
-    with a KeyboardInterrupt traceback while this process closes the cluster anyway.  An
-    ignored signal stays ignored across the exec of a spawned process (POSIX), so SIGINT is
+    A terminal's Ctrl-C (or a SIGTERM to the process group) reaches every process of its
+    group; a worker that took it would end with a KeyboardInterrupt traceback, or die and be
+    restarted by its nanny with a warning, while this process closes the cluster anyway.  An
+    ignored signal stays ignored across the exec of a spawned process (POSIX), so both are
     ignored here while the cluster starts its workers, then handled again; the main thread
-    only (elsewhere signals cannot be set, and the workers keep the default)."""
+    only (elsewhere signals cannot be set, and the workers keep the default).  The workers
+    still end with this process (they watch their parent)."""
     main_thread = threading.current_thread() is threading.main_thread()
     saved_environment = {name: os.environ.get(name) for name in WORKER_ENVIRONMENT}
     os.environ.update(WORKER_ENVIRONMENT)
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main_thread else None
+    signals = (signal.SIGINT, signal.SIGTERM)
+    previous = [signal.signal(sign, signal.SIG_IGN) for sign in signals] if main_thread else []
     try:
         yield
     finally:
-        if main_thread:
-            signal.signal(signal.SIGINT, previous)
+        for sign, handler in zip(signals, previous):
+            signal.signal(sign, handler)
         for name, value in saved_environment.items():
             if value is None:
                 os.environ.pop(name, None)

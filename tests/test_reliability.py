@@ -977,6 +977,31 @@ def test_interrupt_in_the_write_phase_keeps_old_or_nothing(tmp_path, sign, code,
     assert snapshot(tmp_path) == before and not leftovers(tmp_path)
 
 
+def interrupt_when(arguments, folder, marker: str, sign) -> tuple[int, str]:
+    """Run ``copdea-fem ARGUMENTS`` in its own process group; once a stderr line holds
+    ``marker`` (and half a second of work), send ``sign`` to the whole group, as a
+    terminal's Ctrl-C does: ``(exit code, the rest of stderr)``."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    process = subprocess.Popen(
+        [sys.executable, "-m", "copdea_fem.cli", *map(str, arguments)], cwd=folder, env=env,
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+        preexec_fn=_default_sigint)
+    try:
+        for line in process.stderr:
+            if marker in line:
+                break
+        else:
+            raise AssertionError(f"the command ended before {marker!r}: {process.wait()}")
+        time.sleep(0.5)                        # the work is running
+        os.killpg(process.pid, sign)
+        _, err = process.communicate(timeout=60)
+    finally:
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
+    return process.returncode, err
+
+
 @pytest.mark.parametrize("sign, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)],
                          ids=["ctrl-c", "sigterm"])
 def test_an_interrupted_dask_sweep_ends_in_one_line(tmp_path, sign, code):
@@ -987,26 +1012,10 @@ def test_an_interrupted_dask_sweep_ends_in_one_line(tmp_path, sign, code):
     tasks (copdea_fem.parallel.dask_client)."""
     pytest.importorskip("distributed")
     out = tmp_path / "sweep"
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    process = subprocess.Popen(
-        [sys.executable, "-m", "copdea_fem.cli", "sweep",
-         ROOT / "studies" / "sweeps" / "coarse_fig11b.yaml", "--executor", "dask",
-         "--workers", "1", "--out", out], cwd=tmp_path, env=env, stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE, text=True, start_new_session=True, preexec_fn=_default_sigint)
-    try:
-        for line in process.stderr:            # progress lines until the chains are submitted
-            if "chains on" in line:
-                break
-        else:
-            raise AssertionError(f"the sweep ended before its chains ran: {process.wait()}")
-        time.sleep(0.5)                        # a point is being solved
-        os.killpg(process.pid, sign)
-        _, err = process.communicate(timeout=60)
-    finally:
-        if process.poll() is None:
-            os.killpg(process.pid, signal.SIGKILL)
-            process.wait()
-    assert process.returncode == code
+    code_, err = interrupt_when(
+        ["sweep", ROOT / "studies" / "sweeps" / "coarse_fig11b.yaml", "--executor", "dask",
+         "--workers", "1", "--out", out], tmp_path, "chains on", sign)
+    assert code_ == code
     assert err.strip().splitlines() == [f"interrupted; the points finished so far are kept in "
                                         f"{out}; run the sweep again to resume"]
 
@@ -1023,27 +1032,11 @@ def test_an_interrupted_dask_diagnosis_ends_in_one_line(tmp_path, sign, code):
     pytest.importorskip("distributed")
     out, cache = tmp_path / "report", tmp_path / "fe_cache"
     cache.mkdir()
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    process = subprocess.Popen(
-        [sys.executable, "-m", "copdea_fem.cli", "diagnose",
-         ROOT / "studies" / "measured_fe_example" / "measured.yaml", "--executor", "dask",
-         "--workers", "1", "--fe-cache", cache, "--out", out], cwd=tmp_path, env=env,
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
-        preexec_fn=_default_sigint)
-    try:
-        for line in process.stderr:            # progress lines until the cluster is up
-            if "dask: local cluster at" in line:
-                break
-        else:
-            raise AssertionError(f"the diagnosis ended before its cluster ran: {process.wait()}")
-        time.sleep(0.5)                        # its first FE solve is running
-        os.killpg(process.pid, sign)
-        _, err = process.communicate(timeout=60)
-    finally:
-        if process.poll() is None:
-            os.killpg(process.pid, signal.SIGKILL)
-            process.wait()
-    assert process.returncode == code
+    code_, err = interrupt_when(
+        ["diagnose", ROOT / "studies" / "measured_fe_example" / "measured.yaml", "--executor",
+         "dask", "--workers", "1", "--fe-cache", cache, "--out", out], tmp_path,
+        "dask: local cluster at", sign)
+    assert code_ == code
     assert err.strip().splitlines() == ["interrupted; no result written"]
     assert not out.exists()
 
