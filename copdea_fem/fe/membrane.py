@@ -191,15 +191,16 @@ def principal_stretches(u, prestretch: float, anisotropy: float = 0.0, axis: flo
 
 
 def field_coefficients(u, material: Membrane, voltage: float) -> dict:
-    """Post-processing fields of the prestressed state (SI units) as CFs (the thickness
-    and the field with the thickness variation; the principal stresses' Maxwell part at
-    the nominal thickness h0)."""
+    """Post-processing fields of the prestressed state (SI units) as CFs; with a thickness
+    variation t the thickness, the field and the principal stresses' Maxwell part
+    -eps (V / (h0 t lambda_3))^2 are the local ones (module notes)."""
     lam1, lam2 = principal_stretches(u, material.prestretch, material.anisotropy,
                                      material.anisotropy_axis)
     _, det_c = invariants(u, material.prestretch, None, material.anisotropy,
                           material.anisotropy_axis)
+    local_voltage = voltage / thickness_factor(material)    # V / t: the field V / (h0 t)
     d_tr, d_det, *_ = material.free_energy_partials(lam1**2 + lam2**2, lam1**2 * lam2**2,
-                                                    voltage)
+                                                    local_voltage)
     sigma1 = 2 * lam1**2 * (d_tr + lam2**2 * d_det)    # materials.Membrane.principal_stresses
     sigma2 = 2 * lam2**2 * (d_tr + lam1**2 * d_det)
     return {

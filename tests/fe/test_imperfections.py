@@ -7,6 +7,7 @@ rule, and a perfect device's numbers unchanged."""
 import math
 
 import numpy as np
+import ngsolve as ngs
 import pytest
 from scipy.linalg import eigh
 from scipy.special import jn_zeros, jv, jvp
@@ -361,3 +362,23 @@ def test_a_mass_at_the_centre_keeps_the_quadrant_and_shifts_as_on_the_whole_devi
     print("centre mass (0,1) shifts [wet, dry], quadrant and whole:", shifts)
     assert shifts["quarter"][0] < -1e-3
     assert np.allclose(shifts["quarter"], shifts["none"], rtol=0.02), shifts
+
+
+def test_an_uneven_film_under_voltage_reports_its_local_maxwell_stress():
+    """With a thickness profile t the principal stresses' electrostatic part is the local
+    Maxwell stress -eps (V lambda_1 lambda_2 / (h0 t))^2 (the field over the thinner film
+    is higher): the stresses minus the purely elastic ones at the same stretches, at the
+    thick (theta = 0, t = 1.1) and thin (theta = 90 deg, t = 0.9) points of an order-2
+    profile on the flat full membrane at 1 kV."""
+    study = flat_study(membrane={"thickness_variation": [{"order": 2, "amplitude": 0.1}]},
+                       load={"voltage": "1 kV"})
+    state, _, _ = dry_modes(study, engine=engine_for(study))
+    fields, film = state.fields(), Membrane.from_study(study)
+    mesh = state.displacement.space.mesh
+    for theta, t in ((0.0, 1.1), (math.pi / 2, 0.9)):
+        point = mesh(0.015 * math.cos(theta), 0.015 * math.sin(theta), 0.0, ngs.BND)
+        l1, l2 = (fields[name](point) for name in ("stretch_1", "stretch_2"))
+        elastic = film.principal_stresses(l1, l2, 0.0)
+        maxwell = -film.permittivity * (1e3 * l1 * l2 / (film.thickness * t))**2
+        for name, pure in zip(("stress_1", "stress_2"), elastic):
+            assert fields[name](point) - pure == pytest.approx(maxwell, rel=1e-9), (theta, name)
