@@ -103,7 +103,8 @@ def cmd_response(args) -> int:
 def cmd_excite(args) -> int:
     """The drive of each input that lights the target mode(s)."""
     result = api.excite(_study(args), args.target, max_ac=args.max_ac,
-                        allow_large=args.allow_large, out=_output(args))
+                        hold_in_plane=args.hold_in_plane, allow_large=args.allow_large,
+                        out=_output(args))
     _print(result.summary_lines())
     return 0
 
@@ -466,6 +467,9 @@ def build_parser() -> argparse.ArgumentParser:
     excite.add_argument("--max-ac", type=float, metavar="V",
                         help="peak AC amplitude of the drive [V] (default: "
                         "excitation.amplitude)")
+    excite.add_argument("--hold-in-plane", action="store_true",
+                        help="hold the in-plane modes down too (default: only reported, "
+                        "kind in-plane in selectivity.csv)")
     excite.add_argument("--out", help="result directory (default: output.directory)")
     excite.add_argument("--quiet", action="store_true", help="no progress messages")
     _add_mesh_options(excite)

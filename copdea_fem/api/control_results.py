@@ -50,7 +50,7 @@ def _modal_model(study: Study, allow_large: bool, timings: dict, microphones=())
 
 
 def excite(study: Study | str | Path, targets: Sequence[str], *, max_ac: float | None = None,
-           allow_large: bool = False, progress: Callable[[str], None] | None = None,
+           hold_in_plane: bool = False, allow_large: bool = False, progress: Callable[[str], None] | None = None,
            out: str | Path | Claim | Output | None = None) -> Excitation:
     """The drive of each input that makes the target mode(s) respond while the other
     out-of-plane modes of the band stay as small as the inputs allow (``copdea-fem excite``;
@@ -64,6 +64,9 @@ def excite(study: Study | str | Path, targets: Sequence[str], *, max_ac: float |
         Mode labels of the band (``(2,1)a``; a pair's stem ``(2,1)`` means its first member).
     max_ac : float, optional
         Peak AC amplitude of the drive [V] (default: ``excitation.amplitude``), > 0.
+    hold_in_plane : bool
+        Hold the in-plane modes down too (``--hold-in-plane``); by default they are
+        watched: their levels reported in ``selectivity.csv`` and a loud one warned of.
     allow_large, progress, out
         As :func:`solve`'s.
 
@@ -98,9 +101,10 @@ def excite(study: Study | str | Path, targets: Sequence[str], *, max_ac: float |
         with reporting_to(progress):
             solution, model = _modal_model(study, allow_large, timings)
             start = time.perf_counter()
-            design = design_drive(model, targets, amplitude, study.eigen.f_max)
+            design = design_drive(model, targets, amplitude, study.eigen.f_max,
+                                  hold_in_plane)
             timings["design"] = time.perf_counter() - start
-            for line in design.inseparable:
+            for line in design.inseparable + design.loud_watched():
                 logger.warning(line)
         result = Excitation(study, model, design, timings, solution)
         if folder is not None:
@@ -137,12 +141,13 @@ class Excitation:
 
     @property
     def selectivity(self) -> pd.DataFrame:
-        """``selectivity.csv``: ``label, freq_hz, level_db`` [-, Hz, dB re the target]."""
+        """``selectivity.csv``: ``label, freq_hz, level_db, kind`` [-, Hz, dB re the target,
+        ``out-of-plane``/``in-plane``]: the criterion's modes, then the watched in-plane
+        ones."""
         import pandas as pd
 
         from copdea_fem.forced_response.excitation import SELECTIVITY_COLUMNS
-        d = self.design
-        return pd.DataFrame(dict(zip(SELECTIVITY_COLUMNS, (d.labels, d.freq_hz, d.level_db))))
+        return pd.DataFrame(dict(zip(SELECTIVITY_COLUMNS, self.design.rows())))
 
     def set_lines(self) -> list[str]:
         """The ``--set`` lines that feed the drive to ``copdea-fem response``."""
@@ -198,8 +203,9 @@ class Excitation:
                  + ", ".join(d.targets) + f" (peak {np.abs(d.drive).max():g} V)"]
         lines += [f"{name:>12} {amplitude:9.3f} V {phase:8.2f} deg"
                   for name, amplitude, phase in zip(d.inputs, d.amplitude, d.phase_deg)]
-        lines.append(f"worst other out-of-plane mode: {d.worst_other_db():.1f} dB re the target")
-        lines += d.inseparable
+        held = "mode" if any(kind != "out-of-plane" for kind in d.kinds) else "out-of-plane mode"
+        lines.append(f"worst other {held}: {d.worst_other_db():.1f} dB re the target")
+        lines += d.inseparable + d.loud_watched()
         lines += self.set_lines()
         lines.append("timings: " + ", ".join(f"{k} {v:.2f} s" for k, v in self.timings.items()))
         return lines
@@ -222,8 +228,7 @@ class Excitation:
             with result_directory(target, "excite") as staging:
                 write_csv(staging / "drive.csv", DRIVE_COLUMNS,
                           (d.inputs, d.amplitude, d.phase_deg))
-                write_csv(staging / "selectivity.csv", SELECTIVITY_COLUMNS,
-                          (d.labels, d.freq_hz, d.level_db))
+                write_csv(staging / "selectivity.csv", SELECTIVITY_COLUMNS, d.rows())
                 (staging / "response_set.txt").write_text("\n".join(self.set_lines()) + "\n")
                 if self.study.output.plots:
                     self._plot(staging / "excite_spectra.png")

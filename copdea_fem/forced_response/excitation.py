@@ -3,9 +3,8 @@ r"""``copdea-fem excite``: the drive of each input that lights the target mode(s
 Criterion
 ---------
 With the modal model of :mod:`.modal_inputs` (eq. 1), the response of in-band structural
-out-of-plane mode j of the band (the in-plane modes are not what a drive is designed for:
-neither a vibrometer nor the sound sees them) to the drive ``u`` (the complex AC voltages of the K inputs, FE convention) at its
-own frequency ``omega_j = 2 pi Re f_j`` is
+mode j of the band to the drive ``u`` (the complex AC voltages of the K inputs, FE
+convention) at its own frequency ``omega_j = 2 pi Re f_j`` is
 
     r_j(u) = sum_k G_jk u_k,      G_jk = p_jk / d_j(omega_j)     [m per volt]         (1)
 
@@ -18,6 +17,13 @@ regularised so that a drive the segments cannot tell apart stays bounded:
 (O: the other modes that the inputs can separate from the targets, eq. 3 below: a mode
 whose row is nearly parallel to the targets' can be held down only at the cost of the
 targets' response, and trading against it would raise the separable modes instead).
+The modes of (2) are the out-of-plane ones by default (what the sound and an out-of-plane
+vibrometer see); with ``hold_in_plane`` (``--hold-in-plane``) the in-plane modes join them.
+Left out, the in-plane modes are still *watched*: their levels under the designed drive are
+reported (``selectivity.csv``, kind ``in-plane``), and one above :data:`SEPARATION_DB` is
+warned of - on the prestressed cone they move the points too, and a drive that cancels
+an out-of-plane mode with two rings can drive one strongly.  All levels compare modal
+displacement amplitudes (the band's vectors have peak |u| = 1, all three components).
 
 ``u = Q^-1 G_T^H (G_T Q^-1 G_T^H)^-1 1``, ``Q = G_O^H G_O + epsilon I``, with
 ``epsilon = REGULARISATION trace(G^H G) / K``.  The drive is then scaled so that its peak
@@ -82,7 +88,10 @@ PARALLEL_SINE = 10.0 ** (SEPARATION_DB / 20.0)
 SEPARABLE_RATIO = 1e-6
 
 DRIVE_COLUMNS = ("segment", "amplitude", "phase_deg")
-SELECTIVITY_COLUMNS = ("label", "freq_hz", "level_db")
+SELECTIVITY_COLUMNS = ("label", "freq_hz", "level_db", "kind")
+
+#: kind of a mode in ``selectivity.csv``.
+OUT_OF_PLANE, IN_PLANE = "out-of-plane", "in-plane"
 
 
 @dataclass
@@ -99,12 +108,17 @@ class ExcitationDesign:
     drive : (K,) complex array
         The FE-convention complex amplitudes [V].
     labels, freq_hz, level_db : lists
-        The in-band structural modes, their frequencies [Hz] and levels [dB re target].
+        The modes of the criterion (2), their frequencies [Hz] and levels [dB re target].
     targets : list of str
     inseparable : list of str
         One line per other mode whose modal-force row is within asin(PARALLEL_SINE) of
         the targets' (module notes, eq. 3), then one per target whose a/b partners the
         inputs cannot separate.
+    kinds : list of str
+        :data:`OUT_OF_PLANE` or :data:`IN_PLANE` per entry of ``labels``.
+    watched : list of (label, freq_hz, level_db)
+        The in-plane modes left out of (2) (``hold_in_plane`` False) and their levels under
+        the drive [Hz, dB re target].
     """
 
     inputs: list
@@ -116,12 +130,29 @@ class ExcitationDesign:
     level_db: list
     targets: list
     inseparable: list
+    kinds: list
+    watched: list
 
     def worst_other_db(self) -> float:
-        """The highest level of a non-target mode [dB] (-inf where there is none)."""
+        """The highest level of a non-target mode of the criterion [dB] (-inf where there
+        is none)."""
         others = [level for label, level in zip(self.labels, self.level_db)
                   if label not in self.targets]
         return max(others) if others else -np.inf
+
+    def loud_watched(self) -> list[str]:
+        """One line per watched in-plane mode above :data:`SEPARATION_DB`."""
+        return [f"{label}: in-plane, at {level:+.1f} dB re the target under this drive "
+                f"({freq:.1f} Hz; the criterion holds down the out-of-plane modes only: "
+                "--hold-in-plane holds it down too)"
+                for label, freq, level in self.watched if level > SEPARATION_DB]
+
+    def rows(self) -> tuple[list, list, list, list]:
+        """``selectivity.csv``'s columns: the criterion's modes, then the watched ones."""
+        return (self.labels + [label for label, _, _ in self.watched],
+                self.freq_hz + [freq for _, freq, _ in self.watched],
+                self.level_db + [level for _, _, level in self.watched],
+                self.kinds + [IN_PLANE] * len(self.watched))
 
 
 def partner_stem(label: str) -> str:
@@ -146,18 +177,30 @@ def resolve_targets(requested, labels) -> list[str]:
     return resolved
 
 
-def design_drive(model, targets, max_ac: float, f_max: float) -> ExcitationDesign:
-    """The drive (2) of a :class:`.modal_inputs.ModalInputs` for the target labels, its
-    peak amplitude ``max_ac`` [V], over the structural modes with ``Re f <= f_max`` [Hz]."""
-    modes = model.structural_modes(f_max, out_of_plane=True)
-    labels = [label for _, _, label, _ in modes]
-    targets = resolve_targets(targets, labels)
+def modal_gains(model, modes) -> np.ndarray:
+    """G of (1) [m/V]: one row per ``(channel, column, label, Re f)`` of ``modes``."""
     rows = []
     for c, j, _, freq in modes:
         channel = model.channels[c]
         denominator = channel.denominators([2 * np.pi * freq])[0, j]
         rows.append(channel.participation[j] / denominator)
-    gain = np.array(rows)                                       # (modes, K)
+    return np.array(rows).reshape(len(modes), len(model.inputs))
+
+
+def design_drive(model, targets, max_ac: float, f_max: float,
+                 hold_in_plane: bool = False) -> ExcitationDesign:
+    """The drive (2) of a :class:`.modal_inputs.ModalInputs` for the target labels, its
+    peak amplitude ``max_ac`` [V], over the out-of-plane structural modes with
+    ``Re f <= f_max`` [Hz] (all structural modes with ``hold_in_plane``; else the
+    in-plane ones are watched: module notes)."""
+    every = model.structural_modes(f_max)
+    out_of_plane = {(c, j) for c, j, _, _ in model.structural_modes(f_max, out_of_plane=True)}
+    modes = [mode for mode in every if hold_in_plane or mode[:2] in out_of_plane]
+    left_out = [mode for mode in every if mode not in modes]
+    labels = [label for _, _, label, _ in modes]
+    kinds = [OUT_OF_PLANE if mode[:2] in out_of_plane else IN_PLANE for mode in modes]
+    targets = resolve_targets(targets, labels)
+    gain = modal_gains(model, modes)                            # (modes, K)
     target_rows = [labels.index(label) for label in targets]
     other_rows = [row for row in range(len(labels)) if row not in target_rows]
     g_target = gain[target_rows]
@@ -205,9 +248,14 @@ def design_drive(model, targets, max_ac: float, f_max: float) -> ExcitationDesig
                     f"separated with these inputs (modal-force rows of rank "
                     f"{int(np.sum(singular > SEPARABLE_RATIO * singular[0]))} of "
                     f"{len(partners)}, singular value ratio {ratio:.1e})")
+    watched = []
+    for (*_, label, freq), r in zip(left_out, modal_gains(model, left_out) @ drive):
+        watched.append((label, freq, float(20 * np.log10(abs(r) / reference))
+                        if abs(r) > 0 else -np.inf))
     phase = np.degrees(-np.angle(drive))
     return ExcitationDesign(list(model.inputs), np.abs(drive), phase, drive, labels,
-                            [freq for *_, freq in modes], levels, targets, inseparable)
+                            [freq for *_, freq in modes], levels, targets, inseparable,
+                            kinds, watched)
 
 
 def sine_from_targets(row, g_target) -> float:
@@ -243,6 +291,8 @@ def set_lines(design: ExcitationDesign, study) -> list[str]:
 
 __all__ = [
     "DRIVE_COLUMNS",
+    "IN_PLANE",
+    "OUT_OF_PLANE",
     "PARALLEL_SINE",
     "REGULARISATION",
     "SELECTIVITY_COLUMNS",
@@ -250,6 +300,7 @@ __all__ = [
     "SEPARATION_DB",
     "ExcitationDesign",
     "design_drive",
+    "modal_gains",
     "partner_stem",
     "resolve_targets",
     "set_lines",

@@ -390,3 +390,41 @@ def test_statespace_refuses_listed_microphones_with_segments(tmp_path, capsys):
     assert message.startswith("error: response.microphones = 'near = 0 m, 0 m, 30 mm' is "
                               "not allowed with electrodes.segments for `statespace`")
     assert not (tmp_path / "s" / "statespace.npz").exists()
+
+
+def test_excite_watches_the_in_plane_modes_and_holds_them_down_when_asked(caplog):
+    """The rings' (0,2) drive cancels the (0,1) and drives the in-plane ip(0,1)b hard (the
+    criterion's default modes are the out-of-plane ones): its level is reported (kind
+    in-plane) and warned of.  With ``hold_in_plane`` the ip(0,1)b joins the criterion: held
+    down, and in the scan response (its own forcing code, not excite's modal model) the
+    radial velocity at the ip(0,1)b's line drops against the default design's."""
+    import logging
+
+    from copdea_fem.api import excite
+    from copdea_fem.fe.forced.electrode import segment_weights
+    from copdea_fem.forced_response.run import modal_damping
+    from copdea_fem.forced_response.scan import scan_response
+
+    study, solution, model = _model(*AXISYMMETRIC, RINGS)
+    with caplog.at_level(logging.WARNING):
+        default = excite(study, ["(0,2)"])
+    watched = {label: (freq, level) for label, freq, level in default.design.watched}
+    assert "ip(0,1)b" not in default.design.labels and watched["ip(0,1)b"][1] > 0.0
+    assert any(line.startswith("ip(0,1)b: in-plane") for line in caplog.messages)
+    table = default.selectivity
+    assert list(table.columns) == ["label", "freq_hz", "level_db", "kind"]
+    assert table.set_index("label").loc["ip(0,1)b", "kind"] == "in-plane"
+    held = excite(study, ["(0,2)"], hold_in_plane=True)
+    levels = dict(zip(held.design.labels, held.design.level_db))
+    assert levels["ip(0,1)b"] <= -20.0 and not held.design.watched
+    # two rings, one target: one degree of freedom left, traded between (0,1) and ip(0,1)b
+    assert levels["(0,1)"] > dict(zip(default.design.labels, default.design.level_db))["(0,1)"]
+    weights = [weight for _, weight, _ in segment_weights(study)]
+    damping = lambda mode: float(modal_damping([mode.label], [mode.kind], study)[0])  # noqa: E731
+    radial = []
+    for design in (default.design, held.design):
+        velocity = scan_response(solution, study, model.positions, [watched["ip(0,1)b"][0]],
+                                 [(w, np.conj(u)) for w, u in zip(weights, design.drive)],
+                                 damping_per_mass=damping).velocity
+        radial.append(np.abs(velocity[:, 0]).mean())
+    assert radial[1] < 0.1 * radial[0], radial
