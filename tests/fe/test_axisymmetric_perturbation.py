@@ -115,12 +115,37 @@ def test_beyond_its_tolerance_the_path_refuses_naming_key_value_and_limit(monkey
     assert "limit 1e-12" in message and "mesh.engine: 3d" in message
 
 
-def test_auto_keeps_the_3d_engine_and_the_forced_response_is_refused():
-    """``auto`` sends an imperfect device to the 3-D engine; on ``axisymmetric`` the forced
-    response (which the perturbation path does not make) is refused naming the engine."""
+def test_auto_routes_an_imperfect_device_by_the_paths_range_and_says_why(caplog):
+    """``auto`` sends a dry imperfect device within the perturbation path's range to the
+    axisymmetric engine, and to the 3-D engine: in air, beyond the range, for a forced
+    response, on a square frame; each logged with its reason.  On ``axisymmetric`` the
+    forced response (which the perturbation path does not make) is refused naming the
+    engine."""
+    def routed(forced_response=False, **sections):
+        raw = {section: dict(values) for section, values in FLAT.items()}
+        raw["membrane"] = {"prestretch_anisotropy": 0.01}
+        for section, values in sections.items():
+            raw.setdefault(section, {}).update(values)
+        caplog.clear()
+        with caplog.at_level("INFO", logger="copdea_fem.fe.engines"):
+            name = engine_for(parse_study(raw), forced_response=forced_response).name
+        return name, caplog.text
+
+    name, log = routed()
+    assert name == "axisymmetric"
+    assert "mesh.engine = auto: the axisymmetric engine for membrane.prestretch_anisotropy " \
+        "(within the range" in log
+    name, log = routed(air={"enabled": True})
+    assert name != "axisymmetric" and "the 3-D engine" in log and "air.enabled = True" in log
+    name, log = routed(membrane={"prestretch_anisotropy": 0.02, "thickness_variation": [
+        {"order": 2, "amplitude": 0.02}]})
+    assert name != "axisymmetric" and "e + sum |a| <= 0.03" in log and "= 0.04" in log
+    name, log = routed(forced_response=True)
+    assert name != "axisymmetric" and "a forced response" in log
+    name, log = routed(geometry={"frame": "square"})
+    assert name != "axisymmetric" and "geometry.frame = 'square'" in log
     raw = {section: dict(values) for section, values in FLAT.items()}
     raw["membrane"] = {"prestretch_anisotropy": 0.01}
-    assert engine_for(parse_study(raw)).name != "axisymmetric"
     raw["mesh"]["engine"] = "axisymmetric"
     study = parse_study(raw)
     with pytest.raises(StudyError, match="mesh.engine = 'axisymmetric' is not allowed for a "
