@@ -144,7 +144,8 @@ def engine_for(study: Study, forced_response: bool = False) -> Engine:
     imperfect = imperfection_keys_given(study.membrane, study.imperfections)
     engine = engine_of(study, forced_response)
     if study.mesh.engine == "auto" and imperfect:
-        beyond = perturbation_refusal(study.membrane, study.imperfections, study.air.enabled)
+        beyond = perturbation_refusal(study.membrane, study.imperfections, study.air.enabled,
+                                      study.geometry)
         if engine == "axisymmetric":
             reason = "within the range of its first-order perturbation path (dry modes)"
         elif beyond:

@@ -331,7 +331,8 @@ def engine_of(study: Study, forced_response: bool = False) -> str:
                         and g.enclosure in AXISYMMETRIC_ENCLOSURES)
         if round_device and is_imperfect(study.membrane, study.imperfections):
             round_device = not forced_response and perturbation_refusal(
-                study.membrane, study.imperfections, study.air.enabled) is None
+                study.membrane, study.imperfections, study.air.enabled,
+                study.geometry) is None
         return "axisymmetric" if round_device else "3d"
     return engine
 
