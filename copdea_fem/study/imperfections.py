@@ -173,7 +173,7 @@ def perturbation_refusal(membrane, imperfections, air_enabled: bool,
               for m in get(imperfections, "point_masses")]
     limit = PERTURBATION_MAX_MASS_RATIO * film_mass(membrane, geometry)
     if sum(masses) > limit:
-        return ("imperfections.point_masses", masses,
+        return ("imperfections.point_masses", [float(f"{m:.6g}") for m in masses],
                 (f"masses [kg] summing to <= {PERTURBATION_MAX_MASS_RATIO:g} of the film's "
                  f"mass = {limit:.4g} kg on the axisymmetric engine (its first-order "
                  "perturbation's range; the 3-D engine takes more)"))
