@@ -47,8 +47,11 @@ state's, in one:
 with ``P_c = d/ds W''_{c,s}(G0 + s G_c^du0)``, ``P_s = d/ds W''_{s,s}(G0 + s G_s^du0)``
 (``W_{c,s}``, ``W_{s,s}``: the cos- and sin-part materials of size s; for the thickness
 ``W_{s,s} = W``): 6 x 6 matrices at each quadrature point of the membrane line (G has
-six entries, its third column is zero), ``W''`` and d/ds both taken exactly (NGSolve's
-``Diff`` in six gradient Parameters and in the size, a Parameter the material takes).
+six entries, its third column is zero), ``W''`` taken exactly (NGSolve's ``Diff`` in six
+gradient Parameters), d/ds by a central difference in the size (a Parameter the material
+and the state take) with the step :data:`SIZE_STEP`: one compiled CoefficientFunction of
+``W''`` evaluated twice (compiling the exact third derivative instead costs more than
+the rest of the path), to ~1e-9.
 The theta integral of the three trigonometric factors is done by the trapezoid rule on
 ``2 (2 m_max + k) + 4`` points (exact for those products).  The mass elements: ``dM_ij =
 rho_s int int cos k (theta - beta) (a_i a_j C_i C_j + b_i b_j S_i S_j + c_i c_j C_i C_j)
@@ -112,12 +115,14 @@ from dataclasses import dataclass, replace
 
 import ngsolve as ngs
 import numpy as np
+import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+from scipy.sparse.csgraph import connected_components
 
 from copdea_fem.fe.axisymmetric.membrane import d_dr, harmonic_gradients, prestress_gradient
 from copdea_fem.fe.axisymmetric.operators import amplitude_proxies
 from copdea_fem.fe.materials import Membrane
-from copdea_fem.fe.membrane import energy_density
+from copdea_fem.fe.membrane import cf_entries, energy_density
 from copdea_fem.fe.prestress import disc_point_mass, membrane_point_masses
 from copdea_fem.study.keys import StudyError
 
@@ -125,6 +130,10 @@ logger = logging.getLogger(__name__)
 
 #: Largest neglected (third-order) relative frequency shift of a mode in the band [-].
 TOLERANCE = 1e-3
+#: Step in the imperfection's size s of the central difference that gives d/ds W'' [-]:
+#: its truncation error, (h^2 / 6) d^3/ds^3 W'', is ~1e-9 relative for W'' smooth in s on the
+#: scale 1, its round-off ~1e-16 / h ~ 1e-12 relative; both far below :data:`TOLERANCE`.
+SIZE_STEP = 1e-4
 #: |H_ij| above this share of |lambda_i - lambda_j| joins i and j in one block [-].
 QUASI_DEGENERATE = 0.1
 #: The six entries of the 3x3 meridian gradient that can be non-zero (its column 2 is 0).
@@ -248,7 +257,8 @@ def _hessian_cf(material, voltage, base, pairs):
     increment = [[0] * 3 for _ in range(3)]
     for (i, j), parameter in zip(ENTRIES, parameters):
         increment[i][j] = parameter
-    gradient = base + ngs.CF(tuple(value for row in increment for value in row), dims=(3, 3))
+    gradient = base + cf_entries(tuple(value for row in increment for value in row),
+                                 dims=(3, 3))
     energy = energy_density(None, material, voltage, gradient=gradient)
     first = {p: energy.Diff(parameters[p]) for p in {p for p, _ in pairs}}
     return ngs.CF(tuple(first[p].Diff(parameters[q]) for p, q in pairs))
@@ -307,7 +317,8 @@ def _state_correction(state, term: HarmonicTerm, forms, size, operators=None):
 
 def _perturbation_tensors(state, terms, forms, quadrature, operators_of: dict):
     """[(P_c, P_s) per term]: (points, 6, 6) each [J/m^2 per unit size] (module doc),
-    all evaluated from one compiled CoefficientFunction."""
+    all evaluated from one compiled CoefficientFunction of the exact ``W''`` at ``s = +-``
+    :data:`SIZE_STEP`."""
     base = prestress_gradient(state.displacement)
     voltage, size = state.voltage, ngs.Parameter(0.0)
     parts, keep = [], []
@@ -318,9 +329,16 @@ def _perturbation_tensors(state, terms, forms, quadrature, operators_of: dict):
         for material_of, correction, pairs in ((term.cos_material, correction_c, COS_PAIRS),
                                                (term.sin_material, correction_s, SIN_PAIRS)):
             film = state.material if material_of is None else material_of(size)
-            parts.append(_hessian_cf(film, voltage, base + size * correction, pairs)
-                         .Diff(size))
-    values = quadrature.values(ngs.CF(tuple(parts)).Compile())
+            parts.append(_hessian_cf(film, voltage, base + size * correction, pairs))
+    # d/ds by a central difference of the exact W'' (module doc): one compiled
+    # CoefficientFunction evaluated at s = +h and -h
+    compiled = ngs.CF(tuple(parts)).Compile()
+    size.Set(SIZE_STEP)
+    plus = quadrature.values(compiled)
+    size.Set(-SIZE_STEP)
+    minus = quadrature.values(compiled)
+    size.Set(0.0)
+    values = (plus - minus) / (2 * SIZE_STEP)
     tensors, start = [], 0
     for j in range(len(parts)):
         pairs = COS_PAIRS if j % 2 == 0 else SIN_PAIRS
@@ -439,25 +457,12 @@ def perturbation_matrices(state, modes, terms, forms, point_masses=(), disc_mass
 
 
 def _blocks(matrix: np.ndarray, eigenvalues: np.ndarray) -> list[list[int]]:
-    """Groups of modes joined by degeneracy or by |H_ij| > QUASI_DEGENERATE |gap|."""
-    size = len(eigenvalues)
-    parent = list(range(size))
-
-    def root(i):
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
-
-    for i in range(size):
-        for j in range(i + 1, size):
-            gap = abs(eigenvalues[i] - eigenvalues[j])
-            if abs(matrix[i, j]) > QUASI_DEGENERATE * gap or gap <= 1e-9 * eigenvalues[i]:
-                parent[root(i)] = root(j)
-    groups: dict = {}
-    for i in range(size):
-        groups.setdefault(root(i), []).append(i)
-    return list(groups.values())
+    """Groups of modes joined by degeneracy or by |H_ij| > QUASI_DEGENERATE |gap|: the
+    connected components of the graph of those links, each in ascending order."""
+    gaps = np.abs(eigenvalues[:, None] - eigenvalues[None, :])
+    links = (np.abs(matrix) > QUASI_DEGENERATE * gaps) | (gaps <= 1e-9 * eigenvalues[:, None])
+    count, labels = connected_components(sp.csr_matrix(links), directed=False)
+    return [np.flatnonzero(labels == label).tolist() for label in range(count)]
 
 
 def perturbed_modes(state, modes, study, forms):
