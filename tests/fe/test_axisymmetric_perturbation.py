@@ -224,6 +224,12 @@ def test_auto_routes_an_imperfect_device_by_the_paths_range_and_says_why(caplog)
     name, log = routed(membrane={"prestretch_anisotropy": 0.02, "thickness_variation": [
         {"order": 2, "amplitude": 0.02}]})
     assert name != "axisymmetric" and "e + sum |a| <= 0.03" in log and "= 0.04" in log
+    name, log = routed(imperfections={"point_masses": [{"mass": "1 ug", "r": "20 mm"}]})
+    assert name == "axisymmetric" and "membrane.prestretch_anisotropy, " \
+        "imperfections.point_masses (within the range" in log
+    name, log = routed(imperfections={"point_masses": [{"mass": "2 mg", "r": "20 mm"}]})
+    assert name != "axisymmetric" and "imperfections.point_masses = [2e-06]" in log \
+        and "of the film's mass" in log
     name, log = routed(forced_response=True)
     assert name != "axisymmetric" and "a forced response" in log
     name, log = routed(geometry={"frame": "square"})
