@@ -59,7 +59,7 @@ def cf_entries(values, dims=None):
     one; the forms built per solve (the perturbation path's, each order's) are built from
     many of these."""
     entries = tuple(value if isinstance(value, ngs.CoefficientFunction) else
-                    ZERO if value == 0 else value * ONE for value in values)
+                    ZERO if value == 0 else float(value) * ONE for value in values)
     return ngs.CF(entries) if dims is None else ngs.CF(entries, dims=dims)
 
 
