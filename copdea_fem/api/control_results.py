@@ -35,7 +35,7 @@ def _modal_model(study: Study, allow_large: bool, timings: dict, microphones=())
     from copdea_fem.fe import engine_for, run_solve
     from copdea_fem.forced_response.modal_inputs import ModalInputs, drive_inputs, study_points
 
-    engine = engine_for(study)
+    engine = engine_for(study, forced_response=True)
     check_size(study, allow_large, engine)
     start = time.perf_counter()
     with solving(study):

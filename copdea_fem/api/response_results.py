@@ -66,7 +66,7 @@ def response(study: Study | str | Path, *, allow_large: bool = False,
     from copdea_fem.forced_response.segments import segment_response
 
     study = as_study(study)
-    engine = engine_for(study)
+    engine = engine_for(study, forced_response=True)
     check_size(study, allow_large, engine)
     with claiming(out, "response", input_files(study), study.output.directory) \
             as folder:

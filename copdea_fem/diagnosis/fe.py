@@ -106,8 +106,9 @@ def fe_study(study: Study, f_max: float | None = None) -> Study:
     """The study the FE solves for a diagnosis study.
 
     In vacuo the frame and the enclosure play no part (they act through the air), so dry
-    modes run on the axisymmetric engine (the 3-D one for an imperfect device,
-    :func:`copdea_fem.study.imperfections.is_imperfect`) with ``frame: none``, ``enclosure: none`` (and
+    modes run on the axisymmetric engine (an imperfect device,
+    :func:`copdea_fem.study.imperfections.is_imperfect`: ``mesh.engine: auto``, its
+    perturbation path within its range, else the 3-D engine) with ``frame: none``, ``enclosure: none`` (and
     ``air.outside: true``, which only an enclosure may turn off); coupled ones keep the
     frame and the enclosure and let ``mesh.engine: auto`` choose.  ``f_max`` [Hz]
     (default: the study's) is the top of the FE band (``eigen.f_min`` raised where a
@@ -122,7 +123,7 @@ def fe_study(study: Study, f_max: float | None = None) -> Study:
         if floor is not None:        # a Prony relaxation spectrum the wider band would reach
             overrides["eigen.f_min"] = floor
     if not study.air.enabled:
-        # an imperfect device is not round: the 3-D engine (mesh.engine auto sends it there)
+        # an imperfect device: auto picks the perturbation path within its range, else 3-D
         engine = "auto" if is_imperfect(study.membrane, study.imperfections) else "axisymmetric"
         overrides.update({"geometry.frame": "none", "geometry.enclosure": "none",
                           "air.outside": True, "mesh.engine": engine})

@@ -179,7 +179,7 @@ def synthesise_scan(study: Study, options: ScanOptions, rng, name: str = "scan")
 
     frequencies = options.frequencies()
     solved_study = fe_study(study, f_max=float(frequencies[-1]) * BAND_MARGIN)
-    result = run_solve(solved_study, engine=engine_for(solved_study))
+    result = run_solve(solved_study, engine=engine_for(solved_study, forced_response=True))
     state = result.state
     orders = sorted({int(mode.m) for mode in result.modes if mode.kind != "air" and mode.m})
     imperfection = ElectrodeImperfection.random(orders, options.imperfection, rng)

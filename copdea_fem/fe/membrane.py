@@ -47,6 +47,25 @@ import ngsolve as ngs
 from copdea_fem.fe.materials import Membrane
 
 NORMAL_REF = (0.0, 0.0, 1.0)  # unit normal N of the flat reference, +z side
+#: The constant CoefficientFunctions 1 and 0, made once (:func:`cf_entries`).
+ONE, ZERO = ngs.CF(1.0), ngs.CF(0.0)
+
+
+def cf_entries(values, dims=None):
+    """A vector (or, with ``dims``, matrix) CoefficientFunction of ``values``: numbers or
+    CoefficientFunctions, a 0 entered as :data:`ZERO` and any other number as a product
+    with :data:`ONE`.  NGSolve's CoefficientFunction constructor converts a Python number
+    inside a tuple far more slowly (a fraction of a millisecond each) than it multiplies
+    one; the forms built per solve (the perturbation path's, each order's) are built from
+    many of these."""
+    entries = tuple(value if isinstance(value, ngs.CoefficientFunction) else
+                    ZERO if value == 0 else float(value) * ONE for value in values)
+    return ngs.CF(entries) if dims is None else ngs.CF(entries, dims=dims)
+
+
+#: P = I - e_z e_z and e_z e_z^T (3x3, module doc).
+PROJECTOR = cf_entries((1, 0, 0, 0, 1, 0, 0, 0, 0), dims=(3, 3))
+NORMAL_DYAD = cf_entries((0, 0, 0, 0, 0, 0, 0, 0, 1), dims=(3, 3))
 
 
 def displacement_space(mesh, order: int, has_disc: bool, complex_: bool = False):
@@ -88,10 +107,8 @@ def invariants(u, prestretch: float, gradient=None, anisotropy: float = 0.0,
     (``u0 + u`` in the coupled step) whose gradient NGSolve cannot take.  ``anisotropy``
     e and ``axis`` alpha [rad]: the anisotropic pre-stretch of the module notes.
     """
-    projector = ngs.CF((1, 0, 0, 0, 1, 0, 0, 0, 0), dims=(3, 3))
-    normal_dyad = ngs.CF((0, 0, 0, 0, 0, 0, 0, 0, 1), dims=(3, 3))
-    deformation = projector + (tangent_gradient(u) if gradient is None else gradient)
-    ct = deformation.trans * deformation + normal_dyad
+    deformation = PROJECTOR + (tangent_gradient(u) if gradient is None else gradient)
+    ct = deformation.trans * deformation + NORMAL_DYAD
     return _invariants_of(ct, prestretch, anisotropy, axis)
 
 
@@ -103,7 +120,7 @@ def _invariants_of(ct, prestretch: float, anisotropy: float, axis: float):
     c, s = math.cos(axis), math.sin(axis)
     b_xx, b_yy = c * c * along + s * s * across, s * s * along + c * c * across
     b_xy = c * s * (along - across)
-    stretch_dyad = ngs.CF((b_xx, b_xy, 0, b_xy, b_yy, 0, 0, 0, 0), dims=(3, 3))
+    stretch_dyad = cf_entries((b_xx, b_xy, 0, b_xy, b_yy, 0, 0, 0, 0), dims=(3, 3))
     # tr(Ct B_p) = Ct : B_p (B_p symmetric): nine products, not a 3x3 matrix product's 27
     return ngs.InnerProduct(ct, stretch_dyad), along * across * ngs.Det(ct)
 
@@ -159,11 +176,9 @@ def material_energy_density(base_gradient, increment_gradient, material: Membran
     (``Grad_s u0`` in-plane) has ``dC = 0`` for an out-of-plane ``u``: its out-of-plane
     rows vanish (docs/damping.md).
     """
-    projector = ngs.CF((1, 0, 0, 0, 1, 0, 0, 0, 0), dims=(3, 3))
-    normal_dyad = ngs.CF((0, 0, 0, 0, 0, 0, 0, 0, 1), dims=(3, 3))
-    base = projector + base_gradient
+    base = PROJECTOR + base_gradient
     ct = (base.trans * base + base.trans * increment_gradient + increment_gradient.trans * base
-          + normal_dyad)
+          + NORMAL_DYAD)
     stretch = material.prestretch
     if material.uniform:
         tr_c, det_c = stretch**2 * (ngs.Trace(ct) - 1), stretch**4 * ngs.Det(ct)
@@ -175,7 +190,7 @@ def material_energy_density(base_gradient, increment_gradient, material: Membran
 
 def deformed_normal(u):
     """Unit normal of the deformed surface, n = (F e_x x F e_y)/|.| (points to +z at z = 0)."""
-    deformation = ngs.CF((1, 0, 0, 0, 1, 0, 0, 0, 0), dims=(3, 3)) + tangent_gradient(u)
+    deformation = PROJECTOR + tangent_gradient(u)
     t1 = deformation * ngs.CF((1, 0, 0))
     t2 = deformation * ngs.CF((0, 1, 0))
     normal = ngs.Cross(t1, t2)

@@ -27,6 +27,7 @@ device: a study without these keys resolves, and hashes, as it did before they e
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 from copdea_fem.study.keys import above, convert_quantity, refusal
@@ -131,22 +132,51 @@ def is_imperfect(membrane, imperfections) -> bool:
 #: det F_p, the second-order correction of the state): s <= 0.03 keeps them near 1e-3,
 #: the path's own tolerance on the second-order shifts it checks after the solve.
 PERTURBATION_MAX_SIZE = 0.03
+#: Largest total point mass the perturbation path takes, as a share of the film's mass
+#: ``rho0 h0 / lambda_p^2 pi (r_o^2 - r_i^2)`` [-].  A mass dm enters the mass matrix exactly
+#: (``dm phi_i(x0) . phi_j(x0)``); what the path leaves out is perturbation theory's next
+#: order, O((P mu)^2) relative with ``mu = dm / M_film`` and ``P = M_film |phi(x0)|^2 /
+#: M_modal`` the mode's concentration at the point (its first-order shift is ``P mu / 2``).
+#: On the flat membrane P peaks at the centre for the (0,n) modes: ``1 / J_1(j_0n)^2`` =
+#: 3.7, 8.6, 13.5 for n = 1, 2, 3, and ``2 max J_m^2 / J_{m+1}(j_mn)^2`` = 4.2 for (1,1): so
+#: P <= 10 for the modes a band of a few nodal circles holds, and ``P mu <= 0.03`` (as
+#: ``s <= 0.03`` for e and a, the neglected terms near 1e-3) gives ``mu <= 3e-3``.  A mass
+#: on the disc is counted against the film alone (conservative: the disc's mass adds to
+#: the modal mass).  The path checks the actual neglected term after the solve.
+PERTURBATION_MAX_MASS_RATIO = 3e-3
 
 
-def perturbation_refusal(membrane, imperfections, air_enabled: bool) -> tuple | None:
+def film_mass(membrane, geometry) -> float:
+    """The film's mass [kg]: ``rho0 h0 / lambda_p^2`` (the flat pre-stretched areal density)
+    times the annulus ``pi (r_o^2 - r_i^2)``; sections typed or the checks' plain mappings."""
+    get = (lambda section, key: section[key]) if isinstance(membrane, dict) else getattr
+    density = get(membrane, "density") * get(membrane, "thickness") / \
+        get(membrane, "prestretch") ** 2
+    r_o, r_i = get(geometry, "outer_radius"), get(geometry, "inner_radius")
+    return density * math.pi * (r_o**2 - r_i**2)
+
+
+def perturbation_refusal(membrane, imperfections, air_enabled: bool,
+                         geometry) -> tuple | None:
     """Why the axisymmetric engine's perturbation path cannot take a study's imperfection:
     ``(key, value, allowed)``, or None where it can (a dry study with an anisotropy and
-    thickness terms of total size ``e + sum |a| <= PERTURBATION_MAX_SIZE``, no point mass).
-    ``membrane``, ``imperfections``: typed sections or the checks' plain mappings."""
+    thickness terms of total size ``e + sum |a| <= PERTURBATION_MAX_SIZE`` and point masses
+    of total ``sum dm <= PERTURBATION_MAX_MASS_RATIO`` times the film's mass, :func:`film_mass`).
+    ``membrane``, ``imperfections``, ``geometry``: typed sections or the checks' plain
+    mappings."""
     get = (lambda section, key: section[key]) if isinstance(membrane, dict) else getattr
-    masses = get(imperfections, "point_masses")
-    if masses:
-        return ("imperfections.point_masses", f"{len(masses)} mass(es)",
-                "none on the axisymmetric engine (the 3-D engine takes point masses)")
     if air_enabled:
         return ("air.enabled", True, ("false with an imperfect device on the axisymmetric "
                                       "engine (its perturbation path is dry only; the 3-D "
                                       "engine couples the air)"))
+    masses = [m["mass"] if isinstance(m, dict) else m.mass
+              for m in get(imperfections, "point_masses")]
+    limit = PERTURBATION_MAX_MASS_RATIO * film_mass(membrane, geometry)
+    if sum(masses) > limit:
+        return ("imperfections.point_masses", [float(f"{m:.6g}") for m in masses],
+                (f"masses [kg] summing to <= {PERTURBATION_MAX_MASS_RATIO:g} of the film's "
+                 f"mass = {limit:.4g} kg on the axisymmetric engine (its first-order "
+                 "perturbation's range; the 3-D engine takes more)"))
     anisotropy = get(membrane, "prestretch_anisotropy")
     terms = get(membrane, "thickness_variation")
     amplitudes = [t["amplitude"] if isinstance(t, dict) else t.amplitude for t in terms]
@@ -185,9 +215,11 @@ __all__ = [
     "IMPERFECTION_KEYS",
     "MASSES_ALLOWED",
     "MAX_TERMS",
+    "PERTURBATION_MAX_MASS_RATIO",
     "PERTURBATION_MAX_SIZE",
     "THICKNESS_ALLOWED",
     "check_imperfections",
+    "film_mass",
     "imperfection_keys_given",
     "imperfections_given",
     "is_imperfect",

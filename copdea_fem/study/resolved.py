@@ -20,7 +20,7 @@ import yaml
 from copdea_fem.folders import package_versions
 from copdea_fem.inputs import parse_yaml, preview, read_yaml
 from copdea_fem.study.checks import check_across_keys, derived_defaults, enclosure_defaults
-from copdea_fem.study.imperfections import is_imperfect
+from copdea_fem.study.imperfections import is_imperfect, perturbation_refusal
 from copdea_fem.study.keys import StudyError, convert_value, refusal
 from copdea_fem.study.schema import (
     AXISYMMETRIC_ENCLOSURES,
@@ -310,24 +310,30 @@ def _unknown_key(dotted: str, value: Any) -> StudyError:
     return refusal(dotted, value, allowed, "unknown key")
 
 
-def engine_of(study: Study) -> str:
+def engine_of(study: Study, forced_response: bool = False) -> str:
     """The FE engine a study runs on: ``"axisymmetric"`` or ``"3d"`` (key mesh.engine).
 
-    ``auto`` picks the axisymmetric engine for a perfect device (no key of
-    :data:`~copdea_fem.study.imperfections.IMPERFECTION_KEYS` set) with a frame none, baffle
-    or circle and no enclosure, a cylinder or a bowl; else the 3-D engine.  An imperfect
-    device runs on the axisymmetric engine (its first-order perturbation path, dry modes
-    only) where ``mesh.engine: axisymmetric`` asks for it and
-    :func:`~copdea_fem.study.imperfections.perturbation_refusal` allows it: ``auto`` keeps
-    the 3-D engine, whose forced responses and shapes hold the imperfection in full.
+    ``auto`` picks the axisymmetric engine for a device with a frame none, baffle or circle
+    and no enclosure, a cylinder or a bowl that is perfect (no key of
+    :data:`~copdea_fem.study.imperfections.IMPERFECTION_KEYS` set) or whose imperfection
+    its first-order perturbation path takes
+    (:func:`~copdea_fem.study.imperfections.perturbation_refusal` allows it: dry, within
+    its range) where the caller asks for modes only; else the 3-D engine.
+    ``forced_response``: the caller drives the device (response, excite, synthetic
+    scans), which the perturbation path does not make: an imperfect device then keeps the
+    3-D engine.  ``axisymmetric`` and ``3d`` are taken as given (the study's checks refuse
+    an imperfection beyond the perturbation path on ``axisymmetric``).
     """
     engine = study.mesh.engine
     if engine == "auto":
         g = study.geometry
-        axisymmetric = (g.frame in AXISYMMETRIC_FRAMES
-                        and g.enclosure in AXISYMMETRIC_ENCLOSURES
-                        and not is_imperfect(study.membrane, study.imperfections))
-        return "axisymmetric" if axisymmetric else "3d"
+        round_device = (g.frame in AXISYMMETRIC_FRAMES
+                        and g.enclosure in AXISYMMETRIC_ENCLOSURES)
+        if round_device and is_imperfect(study.membrane, study.imperfections):
+            round_device = not forced_response and perturbation_refusal(
+                study.membrane, study.imperfections, study.air.enabled,
+                study.geometry) is None
+        return "axisymmetric" if round_device else "3d"
     return engine
 
 

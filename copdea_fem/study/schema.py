@@ -96,7 +96,9 @@ SCHEMA: dict[str, dict[str, Key]] = {
                                      "clamped in the round frame (thickness h0 / (lambda_p^2 "
                                      "(1 - e^2))); the film must stay in tension across the "
                                      "axis (the prestress refuses a slack one; G1 at 0 V: e < 0.34); "
-                                     "0 = equibiaxial. 3-D engine (docs/imperfections.md)",
+                                     "0 = equibiaxial. 3-D engine, or the axisymmetric one's "
+                                     "perturbation path within its range "
+                                     "(docs/imperfections.md)",
                                      minimum=0, maximum=0.5),
         "prestretch_axis": Key("deg", 0.0, "direction of the larger pre-stretch, "
                                "counter-clockwise from the x axis", minimum=-360,
@@ -105,7 +107,8 @@ SCHEMA: dict[str, dict[str, Key]] = {
                                    "amplitude: a (|a| < 1), angle: degrees (default 0)}, the "
                                    "thickness h0 (1 + sum a cos k (theta - angle)) on mass, "
                                    "stiffness and field alike; sum |a| < 1; [] = uniform. "
-                                   "3-D engine (docs/imperfections.md)", kind=list,
+                                   "3-D engine, or the axisymmetric one's perturbation path "
+                                   "within its range (docs/imperfections.md)", kind=list,
                                    reader=read_thickness_variation),
     },
     "disc": {
@@ -170,7 +173,9 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "engine": Key(None, "auto", "FE engine: axisymmetric = meridian (r, z) mesh, one 2-D "
                       "problem per circumferential order m (frame none, baffle or circle); "
                       "3d = the 3-D mesh (any frame; needed for the square frame); auto = "
-                      "axisymmetric where the geometry allows, else 3d", kind=str,
+                      "axisymmetric where the geometry allows (an imperfect "
+                      "device: where its perturbation path takes it, dry modes), else "
+                      "3d", kind=str,
                       choices=ENGINES),
     },
     "prestress": {

@@ -49,7 +49,7 @@ from __future__ import annotations
 import ngsolve as ngs
 
 from copdea_fem.fe.axisymmetric.meridian import theta_integral
-from copdea_fem.fe.membrane import energy_density, material_energy_density
+from copdea_fem.fe.membrane import cf_entries, energy_density, material_energy_density
 
 
 def radius():
@@ -65,15 +65,15 @@ def d_dr(u):
 def prestress_gradient(u):
     """G0 of the axisymmetric prestress (3x3, module doc); ``u`` = (u_r, u_z) on the line."""
     derivative = ngs.Grad(u).Trace()            # 2x2: d/dx (= d/dR) in column 0
-    return ngs.CF((derivative[0, 0], 0, 0, 0, u[0] / radius(), 0, derivative[1, 0], 0, 0),
-                  dims=(3, 3))
+    return cf_entries((derivative[0, 0], 0, 0, 0, u[0] / radius(), 0, derivative[1, 0], 0, 0),
+                      dims=(3, 3))
 
 
 def harmonic_gradients(m: int, a, b, c, da, db, dc):
     """(G_c, G_s) of the order-m cos family (module doc); values and R-derivatives."""
     R = radius()
-    cos_part = ngs.CF((da, 0, 0, 0, (a + m * b) / R, 0, dc, 0, 0), dims=(3, 3))
-    sin_part = ngs.CF((0, -(m * a + b) / R, 0, db, 0, 0, 0, -m * c / R, 0), dims=(3, 3))
+    cos_part = cf_entries((da, 0, 0, 0, (a + m * b) / R, 0, dc, 0, 0), dims=(3, 3))
+    sin_part = cf_entries((0, -(m * a + b) / R, 0, db, 0, 0, 0, -m * c / R, 0), dims=(3, 3))
     return cos_part, sin_part
 
 

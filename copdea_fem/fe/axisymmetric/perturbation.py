@@ -47,12 +47,35 @@ state's, in one:
 with ``P_c = d/ds W''_{c,s}(G0 + s G_c^du0)``, ``P_s = d/ds W''_{s,s}(G0 + s G_s^du0)``
 (``W_{c,s}``, ``W_{s,s}``: the cos- and sin-part materials of size s; for the thickness
 ``W_{s,s} = W``): 6 x 6 matrices at each quadrature point of the membrane line (G has
-six entries, its third column is zero), ``W''`` and d/ds both taken exactly (NGSolve's
-``Diff`` in six gradient Parameters and in the size, a Parameter the material takes).
+six entries, its third column is zero), ``W''`` taken exactly (NGSolve's ``Diff`` in six
+gradient Parameters), d/ds by a central difference in the size (a Parameter the material
+and the state take) with the step :data:`SIZE_STEP`: one compiled CoefficientFunction of
+``W''`` evaluated twice (compiling the exact third derivative instead costs more than
+the rest of the path), to ~1e-9.
 The theta integral of the three trigonometric factors is done by the trapezoid rule on
 ``2 (2 m_max + k) + 4`` points (exact for those products).  The mass elements: ``dM_ij =
 rho_s int int cos k (theta - beta) (a_i a_j C_i C_j + b_i b_j S_i S_j + c_i c_j C_i C_j)
 R dR dtheta``.  The disc and the spring are round: unchanged.
+
+**Point masses** (``imperfections.point_masses``).  A mass dm riding with the film at
+``x0 = (r0, theta0)`` on the flat pre-stretched reference adds its kinetic energy
+``dm |u(x0)|^2 / 2`` to the device's: the mass matrix gains, exactly (no term left out),
+
+    dM_ij = dm phi_i(x0) . phi_j(x0)
+          = dm (a_i a_j C_i C_j + b_i b_j S_i S_j + c_i c_j C_i C_j)   at (r0, theta0)
+
+(the polar components of both modes at one point: their dot product is the Cartesian one),
+between every pair of modes of every order the band holds, cos and sin members; a mass on
+the rigid disc (``r0 <= r_i``, :func:`copdea_fem.fe.prestress.disc_point_mass`) rides with
+its axial motion only: ``dM_ij = dm w_i w_j`` (w the disc's displacement, non-zero for
+m = 0; none with ``disc.motion: held``).  No stiffness changes and the state does not move.
+The same blocks and partitioning below then give, for an isolated mode, the closed form
+``df/f = -dm |phi(x0)|^2 / (2 phi^T M phi)`` (``-dM_ii / 2`` mass-normalised); a pair is
+split at first order, its member with the antinode at theta0 lowered, the one with its
+nodal line through the mass not moved (``C = cos m (theta - theta0)``, ``S = 0`` there;
+the in-plane parts add ``b^2`` to the other).  Range: the total mass below
+:data:`~copdea_fem.study.imperfections.PERTURBATION_MAX_MASS_RATIO` of the film's (its
+derivation there), and the neglected higher-order shift checked after the solve.
 
 **The small matrix.**  With the modes mass-normalised (``phi^T M phi = 1``,
 eigenvalues ``lambda = omega^2``), ``(Lambda + dK) y = omega^2 (I + dM) y`` is to first
@@ -92,18 +115,25 @@ from dataclasses import dataclass, replace
 
 import ngsolve as ngs
 import numpy as np
+import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+from scipy.sparse.csgraph import connected_components
 
 from copdea_fem.fe.axisymmetric.membrane import d_dr, harmonic_gradients, prestress_gradient
 from copdea_fem.fe.axisymmetric.operators import amplitude_proxies
 from copdea_fem.fe.materials import Membrane
-from copdea_fem.fe.membrane import energy_density
+from copdea_fem.fe.membrane import cf_entries, energy_density
+from copdea_fem.fe.prestress import disc_point_mass, membrane_point_masses
 from copdea_fem.study.keys import StudyError
 
 logger = logging.getLogger(__name__)
 
 #: Largest neglected (third-order) relative frequency shift of a mode in the band [-].
 TOLERANCE = 1e-3
+#: Step in the imperfection's size s of the central difference that gives d/ds W'' [-]:
+#: its truncation error, (h^2 / 6) d^3/ds^3 W'', is ~1e-9 relative for W'' smooth in s on the
+#: scale 1, its round-off ~1e-16 / h ~ 1e-12 relative; both far below :data:`TOLERANCE`.
+SIZE_STEP = 1e-4
 #: |H_ij| above this share of |lambda_i - lambda_j| joins i and j in one block [-].
 QUASI_DEGENERATE = 0.1
 #: The six entries of the 3x3 meridian gradient that can be non-zero (its column 2 is 0).
@@ -172,6 +202,31 @@ class LineQuadrature:
         self.weights = (lengths[:, None] * weights[None, :]).ravel()
         self.radii = np.asarray(ngs.x(self.points)).ravel()
 
+    @staticmethod
+    def points_at(mesh, radii):
+        """NGSolve mapped points of the membrane line at the radii R [m] (each in the first
+        membrane segment that holds it)."""
+        names = mesh.GetBoundaries()
+        elements = [el for el in mesh.Elements(ngs.BND) if names[el.index] == "membrane"]
+        found = []
+        for radius in radii:
+            for el in elements:
+                start, end = (mesh[v].point[0] for v in el.vertices)
+                if min(start, end) - 1e-12 <= radius <= max(start, end) + 1e-12:
+                    break
+            else:
+                raise ValueError(f"R = {radius!r} m is not on the membrane line")
+            # the segment's local coordinate runs from one vertex to the other: map both
+            # ends and take the one whose map is R
+            local = (radius - end) / (start - end)
+            for t in (local, 1 - local):
+                rule = ngs.IntegrationRule([(float(t),)], [1.0])
+                point = mesh.MapToAllElements(rule, ngs.BND)[el.nr:el.nr + 1]
+                if abs(float(np.asarray(ngs.x(point)).ravel()[0]) - radius) <= 1e-9:
+                    break
+            found.append(point)
+        return np.concatenate(found) if found else None
+
     def values(self, coefficient) -> np.ndarray:
         """(points, d) values of a CoefficientFunction."""
         values = np.asarray(coefficient(self.points))
@@ -202,7 +257,8 @@ def _hessian_cf(material, voltage, base, pairs):
     increment = [[0] * 3 for _ in range(3)]
     for (i, j), parameter in zip(ENTRIES, parameters):
         increment[i][j] = parameter
-    gradient = base + ngs.CF(tuple(value for row in increment for value in row), dims=(3, 3))
+    gradient = base + cf_entries(tuple(value for row in increment for value in row),
+                                 dims=(3, 3))
     energy = energy_density(None, material, voltage, gradient=gradient)
     first = {p: energy.Diff(parameters[p]) for p in {p for p, _ in pairs}}
     return ngs.CF(tuple(first[p].Diff(parameters[q]) for p, q in pairs))
@@ -261,7 +317,8 @@ def _state_correction(state, term: HarmonicTerm, forms, size, operators=None):
 
 def _perturbation_tensors(state, terms, forms, quadrature, operators_of: dict):
     """[(P_c, P_s) per term]: (points, 6, 6) each [J/m^2 per unit size] (module doc),
-    all evaluated from one compiled CoefficientFunction."""
+    all evaluated from one compiled CoefficientFunction of the exact ``W''`` at ``s = +-``
+    :data:`SIZE_STEP`."""
     base = prestress_gradient(state.displacement)
     voltage, size = state.voltage, ngs.Parameter(0.0)
     parts, keep = [], []
@@ -272,9 +329,16 @@ def _perturbation_tensors(state, terms, forms, quadrature, operators_of: dict):
         for material_of, correction, pairs in ((term.cos_material, correction_c, COS_PAIRS),
                                                (term.sin_material, correction_s, SIN_PAIRS)):
             film = state.material if material_of is None else material_of(size)
-            parts.append(_hessian_cf(film, voltage, base + size * correction, pairs)
-                         .Diff(size))
-    values = quadrature.values(ngs.CF(tuple(parts)).Compile())
+            parts.append(_hessian_cf(film, voltage, base + size * correction, pairs))
+    # d/ds by a central difference of the exact W'' (module doc): one compiled
+    # CoefficientFunction evaluated at s = +h and -h
+    compiled = ngs.CF(tuple(parts)).Compile()
+    size.Set(SIZE_STEP)
+    plus = quadrature.values(compiled)
+    size.Set(-SIZE_STEP)
+    minus = quadrature.values(compiled)
+    size.Set(0.0)
+    values = (plus - minus) / (2 * SIZE_STEP)
     tensors, start = [], 0
     for j in range(len(parts)):
         pairs = COS_PAIRS if j % 2 == 0 else SIN_PAIRS
@@ -297,11 +361,14 @@ def _mode_factors(modes, angles):
     return factors
 
 
-def _sampled_modes(modes, quadrature):
+def _sampled_modes(modes, quadrature, points=None):
     """(modes, 2, points, 6) gradients, (modes, 3, points) amplitudes (a, b, c) and the
-    modal masses (modes,) [kg] of the modes' vectors."""
+    modal masses (modes,) [kg] of the modes' vectors; with ``points`` (mapped points of
+    the membrane line, :meth:`LineQuadrature.points_at`) also their (modes, 3, len(points))
+    amplitudes there (else None)."""
     gradients = np.empty((len(modes), 2, len(quadrature.radii), 6))
     amplitudes = np.empty((len(modes), 3, len(quadrature.radii)))
+    at_points = None if points is None else np.empty((len(modes), 3, len(points)))
     masses = np.empty(len(modes))
     sampled, order = {}, ngs.Parameter(1.0)     # small CFs: compiling costs more than it saves
     for i, mode in enumerate(modes):
@@ -311,31 +378,57 @@ def _sampled_modes(modes, quadrature):
         if key not in sampled:
             g_c, g_s, (a, b, c), function = field_gradients(
                 operators, mode.vector, None if mode.m == 0 else order)
-            sampled[key] = (function, ngs.CF(tuple(_entries(g_c) + _entries(g_s) + [a, b, c])))
-        function, values_cf = sampled[key]
+            sampled[key] = (function, ngs.CF(tuple(_entries(g_c) + _entries(g_s) + [a, b, c])),
+                            ngs.CF((a, b, c)))
+        function, values_cf, amplitudes_cf = sampled[key]
         order.Set(float(max(mode.m, 1)))
         function.vec.FV().NumPy()[:] = np.real(mode.vector)
         values = quadrature.values(values_cf)
         gradients[i, 0], gradients[i, 1] = values[:, :6], values[:, 6:12]
         amplitudes[i] = values[:, 12:].T
+        if points is not None:
+            at_points[i] = np.asarray(amplitudes_cf(points)).reshape(len(points), 3).T
         vector = np.real(mode.vector)
         masses[i] = float(vector @ (operators.mass_full @ vector)) + \
             operators.disc_mass * abs(mode.disc_displacement) ** 2
-    return gradients, amplitudes, masses
+    return gradients, amplitudes, masses, at_points
 
 
-def perturbation_matrices(state, modes, terms, forms):
-    """(dK, dM): the imperfection's first-order matrices between ``modes`` (their vectors
-    as they are, not normalised) [N/m], [kg] (module doc)."""
+def point_mass_matrix(modes, amplitudes, point_masses, disc_mass) -> np.ndarray:
+    """``dM`` [kg] of point masses between ``modes`` (module doc): ``point_masses`` ((mass
+    [kg], x [m], y [m]), ...) on the membrane with the modes' amplitudes (a, b, c) there
+    (modes, 3, masses); ``disc_mass`` [kg] on the rigid disc."""
+    mass = np.zeros((len(modes), len(modes)))
+    for index, (dm, x, y) in enumerate(point_masses):
+        factors = _mode_factors(modes, np.array([math.atan2(y, x)]))[:, :, 0]   # (modes, 2)
+        a, b, c = amplitudes[:, :, index].T
+        radial, hoop, axial = a * factors[:, 0], b * factors[:, 1], c * factors[:, 0]
+        mass += dm * (np.outer(radial, radial) + np.outer(hoop, hoop)
+                      + np.outer(axial, axial))
+    if disc_mass:
+        disc = np.array([np.real(mode.disc_displacement) for mode in modes])
+        mass += disc_mass * np.outer(disc, disc)
+    return mass
+
+
+def perturbation_matrices(state, modes, terms, forms, point_masses=(), disc_mass=0.0):
+    """(dK, dM, modal masses): the imperfection's first-order matrices between ``modes``
+    (their vectors as they are, not normalised) [N/m], [kg], and the modes' masses
+    ``phi^T M phi`` [kg] (module doc); ``point_masses``, ``disc_mass``: as
+    :func:`point_mass_matrix` takes them."""
     quadrature = LineQuadrature(state.mesh, forms.study.mesh.order)
-    gradients, amplitudes, masses = _sampled_modes(modes, quadrature)
+    points = LineQuadrature.points_at(state.mesh, [math.hypot(x, y)
+                                                   for _, x, y in point_masses])
+    gradients, amplitudes, masses, at_points = _sampled_modes(modes, quadrature, points)
     weights = quadrature.weights * quadrature.radii
     top = max([mode.m for mode in modes] + [0])
     size = len(modes)
-    stiffness, mass = np.zeros((size, size)), np.zeros((size, size))
+    stiffness = np.zeros((size, size))
+    mass = point_mass_matrix(modes, at_points, point_masses, disc_mass)
     operators_of = {mode.m: mode.operators for mode in modes}
-    for term, tensors in zip(terms, _perturbation_tensors(state, terms, forms, quadrature,
-                                                          operators_of)):
+    tensors_of = _perturbation_tensors(state, terms, forms, quadrature, operators_of) \
+        if terms else []
+    for term, tensors in zip(terms, tensors_of):
         count = 2 * (2 * top + term.order) + 4
         angles = 2 * np.pi * np.arange(count) / count
         factors = _mode_factors(modes, angles)
@@ -364,25 +457,12 @@ def perturbation_matrices(state, modes, terms, forms):
 
 
 def _blocks(matrix: np.ndarray, eigenvalues: np.ndarray) -> list[list[int]]:
-    """Groups of modes joined by degeneracy or by |H_ij| > QUASI_DEGENERATE |gap|."""
-    size = len(eigenvalues)
-    parent = list(range(size))
-
-    def root(i):
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
-
-    for i in range(size):
-        for j in range(i + 1, size):
-            gap = abs(eigenvalues[i] - eigenvalues[j])
-            if abs(matrix[i, j]) > QUASI_DEGENERATE * gap or gap <= 1e-9 * eigenvalues[i]:
-                parent[root(i)] = root(j)
-    groups: dict = {}
-    for i in range(size):
-        groups.setdefault(root(i), []).append(i)
-    return list(groups.values())
+    """Groups of modes joined by degeneracy or by |H_ij| > QUASI_DEGENERATE |gap|: the
+    connected components of the graph of those links, each in ascending order."""
+    gaps = np.abs(eigenvalues[:, None] - eigenvalues[None, :])
+    links = (np.abs(matrix) > QUASI_DEGENERATE * gaps) | (gaps <= 1e-9 * eigenvalues[:, None])
+    count, labels = connected_components(sp.csr_matrix(links), directed=False)
+    return [np.flatnonzero(labels == label).tolist() for label in range(count)]
 
 
 def perturbed_modes(state, modes, study, forms):
@@ -390,11 +470,15 @@ def perturbed_modes(state, modes, study, forms):
     with their frequencies and orientations perturbed by the study's imperfection (module
     doc); refuses (:class:`PerturbationRangeError`) beyond the range of validity."""
     terms = harmonic_terms(Membrane.with_effects(study), state.material)
-    if not terms or not modes:
+    point_masses, disc_mass = membrane_point_masses(study), disc_point_mass(study)
+    if not (terms or point_masses or disc_mass) or not modes:
         return modes
+    keys = sorted({t.key for t in terms}) + (
+        ["imperfections.point_masses"] if point_masses or disc_mass else [])
     logger.info("imperfections on the axisymmetric engine: first-order perturbation of "
-                f"{len(modes)} modes ({', '.join(sorted({t.key for t in terms}))})")
-    stiffness, mass, masses = perturbation_matrices(state, modes, terms, forms)
+                f"{len(modes)} modes ({', '.join(keys)})")
+    stiffness, mass, masses = perturbation_matrices(state, modes, terms, forms,
+                                                    point_masses, disc_mass)
     scale = 1 / np.sqrt(masses)
     stiffness = stiffness * np.outer(scale, scale)
     mass = mass * np.outer(scale, scale)
@@ -410,7 +494,12 @@ def perturbed_modes(state, modes, study, forms):
         worst = max(worst, (float(np.max(third)), modes[block[int(np.argmax(third))]]),
                     key=lambda item: item[0])
         _assign(block, values, vectors, modes, out)
-    _check_range(*worst, terms)
+    given = [f"{t.key} = {t.size:g}" + (f" (order {t.order})" if t.mass else "")
+             for t in terms]
+    if point_masses or disc_mass:
+        given.append("imperfections.point_masses = "
+                     f"{sum(m for m, _, _ in point_masses) + disc_mass:g} kg in all")
+    _check_range(*worst, "; ".join(given))
     return out
 
 
@@ -439,13 +528,12 @@ def _second_order(matrix, eigenvalues, block):
     return values, vectors, np.abs(shifts) / values / 2 * ratios
 
 
-def _check_range(neglected, mode, terms) -> None:
-    """Refuse where a mode's neglected higher-order shift exceeds :data:`TOLERANCE`."""
+def _check_range(neglected, mode, keys: str) -> None:
+    """Refuse where a mode's neglected higher-order shift exceeds :data:`TOLERANCE`
+    (``keys``: the imperfection's keys and values, for the message)."""
     logger.info(f"perturbation: largest neglected higher-order shift {neglected:.2e} "
                 f"(limit {TOLERANCE:g})")
     if neglected > TOLERANCE:
-        keys = "; ".join(f"{t.key} = {t.size:g}" + (f" (order {t.order})"
-                                                     if t.mass else "") for t in terms)
         raise PerturbationRangeError(
             f"{keys} is not allowed on the axisymmetric engine: its perturbation path "
             f"neglects a relative frequency shift of {neglected:.2e} at {mode.freq_hz:.1f} Hz "
