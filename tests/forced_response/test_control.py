@@ -201,6 +201,28 @@ def test_one_factorisation_for_all_forcings_is_one_basis_per_forcing():
                     1e-12 * max(np.abs(reference).max(), 1e-300), (m, name)
 
 
+def test_a_half_turn_drives_the_odd_orders_and_not_the_even_ones():
+    """A segment theta in [-90, 90]: c_m = 2 sin(m pi / 2) / (m pi), s_m = 0 (electrode eq.
+    4), so the even orders m >= 2 are not driven; the computed factor is round-off there,
+    which driven_families drops, and the odd orders keep the closed form."""
+    import math
+
+    from copdea_fem.fe.forced.electrode import SegmentWeight
+    from copdea_fem.fe.forced.problem import DrivenPart
+    from copdea_fem.forced_response.modal_inputs import driven_families
+
+    half = SegmentWeight.from_degrees((-90, 90))
+    assert driven_families(DrivenPart("m=0", None, None, m=0), half) == [("cos", 0.5)]
+    for m in range(1, 121):
+        part = DrivenPart(f"m={m}", None, None, m=m)
+        expected = 2 * math.sin(m * math.pi / 2) / (m * math.pi)
+        if m % 2:
+            (family, factor), = driven_families(part, half)
+            assert family == "cos" and factor == pytest.approx(expected, rel=1e-12)
+        else:
+            assert driven_families(part, half) == [], m
+
+
 def test_the_static_orders_correction_is_the_membranes():
     """An order above the band enters by its static correction, on the membrane's own pencil
     (the axisymmetric engine's driven_parts): the coupled A is block triangular, so r0 of
