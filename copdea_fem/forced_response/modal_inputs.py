@@ -318,15 +318,15 @@ class ModalInputs:
             delay = np.exp(-2j * np.pi * frequency_hz[:, None] * delays[None, :])
             return (pressure * delay).T
 
-        if columns:
-            own = np.abs(np.sqrt(basis0.eigenvalues.astype(complex)).real) / (2 * np.pi)
-            sound[0][:] = advanced(basis0.vectors, own)
+        # the band's columns at their own frequencies, r0 and r1 at f_max: one sampling
+        own = np.abs(np.sqrt(basis0.eigenvalues.astype(complex)).real) / (2 * np.pi)
         top = np.full(count, float(study.eigen.f_max))
         none = np.zeros(basis0.residual0.shape, complex)
-        sound[1][:] = advanced(np.stack([none if basis[1] is None else basis[1].residual0
-                                         for basis in bases], 1), top)
-        sound[2][:] = advanced(np.stack([none if basis[1] is None else basis[1].residual1
-                                         for basis in bases], 1), top)
+        residuals = [np.stack([none if basis[1] is None else getattr(basis[1], name)
+                               for basis in bases], 1) for name in ("residual0", "residual1")]
+        pressure = advanced(np.hstack([basis0.vectors] + residuals),
+                            np.concatenate([own, top, top]))
+        sound[0][:], sound[1][:], sound[2][:] = np.split(pressure, [columns, columns + count], 1)
         return sound
 
     @staticmethod
