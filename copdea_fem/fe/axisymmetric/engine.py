@@ -242,7 +242,7 @@ def axisymmetric_coupled_modes(study, mesh=None, timings=None, solver=None,
         return coupled_order_operators(state, study, forms.operators(m), meridian_air)
 
     return CoupledSolution(state, modes, pressures, dry, partner_hz, SectorBandResults(results),
-                           operators, order_pencil)
+                           operators, order_pencil, forms.operators)
 
 
 #: The highest order m whose static response a drive of many orders (a segment's indicator,
@@ -413,8 +413,9 @@ class AxisymmetricEngine:
         if order_pencil is None:        # a coupled solution made without its air: none
             return parts
         solved = {part.m for part in parts}
-        return parts + static_orders(lambda m: DryPencil(forms.operators(m)), solved,
-                                     STATIC_ORDERS)
+        # the solve's forms where it kept them (their Hessians are assembled already)
+        operators = getattr(solution.coupled, "order_operators", None) or forms.operators
+        return parts + static_orders(lambda m: DryPencil(operators(m)), solved, STATIC_ORDERS)
 
     def electrode_forcing(self, state, part: DrivenPart, electrode) -> np.ndarray:
         """The forcing [N/V] of the weight ``rho(R) cos(m theta)`` on the order's cos family,
