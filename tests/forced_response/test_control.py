@@ -395,6 +395,23 @@ def test_excite_refuses_a_mode_no_input_drives():
         excite(study, ["(2,1)"])
 
 
+def test_excite_refuses_a_mode_the_segments_drive_only_by_round_off():
+    """An inner ring and the outer ring in two halves ([-90, 90], [90, 270]): the halves'
+    order-2 factors are 2 sin(pi) / (2 pi), round-off, and the ring holds m = 0 only, so
+    nothing drives the (2,1): excite refuses it rather than design a drive from round-off
+    forces (driven_families)."""
+    from copdea_fem.api import excite
+    from copdea_fem.study import StudyError
+
+    halves = ("electrodes.segments=[{name: inner, theta: [0, 360], r: [0.017, 0.026]}, "
+              "{name: east, theta: [-90, 90], r: [0.026, 0.0355]}, "
+              "{name: west, theta: [90, 270], r: [0.026, 0.0355]}]")
+    study = _model(*AXISYMMETRIC, halves)[0]
+    with pytest.raises(StudyError, match=r"--target \(2,1\)a: the inputs \(inner, east, "
+                                         "west\) do not drive this mode"):
+        excite(study, ["(2,1)"])
+
+
 def test_the_api_returns_a_control_system_when_python_control_is_installed():
     control = pytest.importorskip("control")
     from copdea_fem.api import statespace
