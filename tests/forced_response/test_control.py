@@ -408,7 +408,7 @@ def test_excite_refuses_a_mode_the_segments_drive_only_by_round_off():
               "{name: west, theta: [90, 270], r: [0.026, 0.0355]}]")
     study = _model(*AXISYMMETRIC, halves)[0]
     with pytest.raises(StudyError, match=r"--target \(2,1\)a: the inputs \(inner, east, "
-                                         "west\) do not drive this mode"):
+                                         r"west\) do not drive this mode"):
         excite(study, ["(2,1)"])
 
 
