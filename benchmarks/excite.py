@@ -1,8 +1,14 @@
 """``excite`` against ``response`` and ``statespace`` against ``solve`` of one study:
-``python -m benchmarks.excite [--repeat 3] [--target LABEL] [--set SECTION.KEY=VALUE ...]``.
+``python -m benchmarks.excite [--case 3d|axisymmetric] [--repeat 3] [--target LABEL]
+[--set SECTION.KEY=VALUE ...]``.
 
-The study is ``studies/g1_segments_quick.yaml`` (G1, z = 16 mm, 2 kV, coupled, coarse mesh,
-eight 45-degree sectors; its default engine).  Each repetition runs, as a user does, a fresh
+Case ``3d`` (default): ``studies/g1_segments_quick.yaml`` (G1, z = 16 mm, 2 kV, coupled,
+coarse mesh, eight 45-degree sectors; its default engine, the 3-D quadrant), both pairs.
+Case ``axisymmetric``: the state-space tests' study (``studies/g1_z16_v2_quick.yaml`` on the
+axisymmetric engine in a baffle, :data:`AXISYMMETRIC`) with three segments, an inner ring
+and the outer ring split in two halves (:data:`THREE_SEGMENTS`: the halves drive every odd
+order, whose static correction the modal model sums above the band), ``statespace`` with
+``solve`` only.  Each repetition runs, as a user does, a fresh
 ``python -m copdea_fem.cli`` of each command with files off (``output.paraview=false``,
 ``output.plots=false``: the CSV, JSON, NPZ and MAT files remain), the commands of a pair one
 right after the other, the order alternating between repetitions: ``excite --target
@@ -27,16 +33,27 @@ from pathlib import Path
 from benchmarks import ROOT, run_cli, spread
 
 STUDY = ROOT / "studies" / "g1_segments_quick.yaml"
+AXISYMMETRIC_STUDY = ROOT / "studies" / "g1_z16_v2_quick.yaml"
+#: The axisymmetric case's overrides: the engine, a baffle (its frames), three segments.
+THREE_SEGMENTS = "electrodes.segments=[" \
+    "{name: inner, theta: [0, 360], r: [0.017, 0.026]}, " \
+    "{name: east, theta: [-90, 90], r: [0.026, 0.0355]}, " \
+    "{name: west, theta: [90, 270], r: [0.026, 0.0355]}]"
+AXISYMMETRIC = ["mesh.engine=axisymmetric", "geometry.frame=baffle", THREE_SEGMENTS]
 FILES_OFF = ["output.paraview=false", "output.plots=false"]
 EXCITE_TARGET = 2.0
 STATESPACE_TARGET = 1.5
 PAIRS = (("excite", "response"), ("statespace", "solve"))
+#: case -> (study, overrides, pairs)
+CASES = {"3d": (STUDY, [], PAIRS),
+         "axisymmetric": (AXISYMMETRIC_STUDY, AXISYMMETRIC, PAIRS[1:])}
 
 
-def _command(command: str, overrides: list[str], directory: Path, target: str) -> dict:
-    """One fresh ``python -m copdea_fem.cli COMMAND`` of :data:`STUDY` into ``directory``:
+def _command(command: str, study: Path, overrides: list[str], directory: Path,
+             target: str) -> dict:
+    """One fresh ``python -m copdea_fem.cli COMMAND`` of ``study`` into ``directory``:
     wall and CPU seconds of the child, and its summary's ``timings:`` line."""
-    arguments = [command, str(STUDY), "--out", str(directory)]
+    arguments = [command, str(study), "--out", str(directory)]
     if command == "excite":
         arguments += ["--target", target]
     output, wall, cpu = run_cli(arguments, FILES_OFF + overrides)
@@ -45,23 +62,27 @@ def _command(command: str, overrides: list[str], directory: Path, target: str) -
     return {"wall_s": wall, "cpu_s": cpu, "timings": stages[-1] if stages else ""}
 
 
-def run(repeat: int, overrides: list[str], target: str) -> dict:
-    runs = {name: [] for pair in PAIRS for name in pair}
+def run(repeat: int, overrides: list[str], target: str, case: str = "3d") -> dict:
+    study, case_overrides, pairs = CASES[case]
+    overrides = case_overrides + list(overrides)
+    runs = {name: [] for pair in pairs for name in pair}
     for k in range(repeat):
-        for pair in PAIRS:
+        for pair in pairs:
             order = pair if k % 2 == 0 else pair[::-1]
             with tempfile.TemporaryDirectory() as directory:
                 for name in order:
-                    runs[name].append(_command(name, overrides, Path(directory) / name,
-                                               target))
+                    runs[name].append(_command(name, study, overrides,
+                                               Path(directory) / name, target))
                     print(f"run {k + 1}/{repeat} {name}: {runs[name][-1]['wall_s']:.2f} s "
                           f"wall, {runs[name][-1]['cpu_s']:.2f} s CPU", file=sys.stderr)
-    report = {"study": str(STUDY.relative_to(ROOT)), "overrides": FILES_OFF + overrides,
-              "target": target, "repeat": repeat}
+    report = {"case": case, "study": str(study.relative_to(ROOT)),
+              "overrides": FILES_OFF + overrides, "target": target, "repeat": repeat}
     for name, values in runs.items():
         report[name] = {key: spread(r[key] for r in values) for key in ("wall_s", "cpu_s")}
         report[name]["stages_last_run"] = values[-1]["timings"]
-    for (mine, reference), limit in zip(PAIRS, (EXCITE_TARGET, STATESPACE_TARGET)):
+    limits = {"excite": EXCITE_TARGET, "statespace": STATESPACE_TARGET}
+    for mine, reference in pairs:
+        limit = limits[mine]
         ratios = {key: [r[key] / s[key] for r, s in zip(runs[mine], runs[reference])]
                   for key in ("wall_s", "cpu_s")}
         report[f"ratio_{mine}_to_{reference}"] = {
@@ -76,13 +97,14 @@ def run(repeat: int, overrides: list[str], target: str) -> dict:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.excite")
+    parser.add_argument("--case", choices=sorted(CASES), default="3d")
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--target", default="(2,1)", help="excite's --target")
     parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE")
     args = parser.parse_args(argv)
     if args.repeat < 1:
         parser.error(f"--repeat {args.repeat} is not allowed; allowed: >= 1")
-    print(json.dumps(run(args.repeat, args.set, args.target), indent=2))
+    print(json.dumps(run(args.repeat, args.set, args.target, args.case), indent=2))
     return 0
 
 

@@ -34,3 +34,5 @@ class CoupledSolution:
     order_pencil: Callable | None = None    # m -> the coupled operators of any order m
                                             # (axisymmetric engine: the orders a drive
                                             # reaches beyond the solved ones); None on 3-D
+    order_operators: Callable | None = None  # m -> the dry operators of any order m, from
+                                             # the solve's own forms (axisymmetric engine)

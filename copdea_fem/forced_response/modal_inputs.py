@@ -235,14 +235,11 @@ class ModalInputs:
             if microphones and part.uniform and len(part.pencil.pressure_index):
                 part = radiating_band(part, study)
             band = part.band
-            if len(band.eigenvalues) == 0 and not any(part.families(weight)
-                                                      for _, weight in inputs):
+            drives = [driven_families(part, weight) for _, weight in inputs]
+            if len(band.eigenvalues) == 0 and not any(drives):
                 continue            # no mode, no input drives it (its pencil is not built)
             size = part.pencil.membrane.stiffness.shape[0]
             zero = sp.csr_matrix((size, size))
-            # one basis per distinct forcing: the axisymmetric engine forces an order by
-            # one vector (the inputs differ by their families' factors), the 3-D by each
-            # input's folded weight
             columns = part_modes(part, solution.modes)
             labels = [columns[k][0].label if k in columns else ""
                       for k in range(len(band.eigenvalues))]
@@ -251,34 +248,42 @@ class ModalInputs:
             damping_per_mass = modal_damping(labels, kinds, study)
             # one basis per distinct forcing: the axisymmetric engine forces an order by one
             # vector per radial factor of the weights (the inputs differ by their families'
-            # factors), the 3-D engine by each input's folded weight
-            bases, factors, keys = {}, {}, []
-            for k, (_, weight) in enumerate(inputs):
-                for family, factor in part.families(weight):
+            # factors), the 3-D engine by each input's folded weight; an input that does not
+            # drive the part needs none (None), and all of a part's share one factorisation
+            factors, keys = {}, []
+            for k, driven in enumerate(drives):
+                for family, factor in driven:
                     factors[(family, k)] = factor
-                key = ("radii", getattr(weight, "radii", None)) if part.m is not None else k
-                keys.append(key)
-                if key in bases:
-                    continue
-                force = np.asarray(engine.electrode_forcing(state, part, weight), float)
-                forced = ForcedOrder.from_parts(part.pencil, force, zero, 0.0,
-                                                study.eigen.backend)
-                basis = ModalBasis.build(forced, band.eigenvalues, band.vectors, labels,
-                                         damping_per_mass)
-                bases[key] = (forced, basis)
-            forced0, basis0 = next(iter(bases.values()))
+                keys.append((("radii", getattr(inputs[k][1], "radii", None))
+                             if part.m is not None else k) if driven else None)
+            distinct = list(dict.fromkeys(key for key in keys if key is not None))
+            if not distinct:        # a band no input drives: its modes, with a zero forcing
+                distinct, keys = [0], [0] + [None] * (len(inputs) - 1)
+            forced_orders = []
+            for key in distinct:
+                k = keys.index(key)
+                force = (np.asarray(engine.electrode_forcing(state, part, inputs[k][1]), float)
+                         if drives[k] else np.zeros(size))
+                forced_orders.append(ForcedOrder.from_parts(part.pencil, force, zero, 0.0,
+                                                            study.eigen.backend))
+            built = ModalBasis.build_many(forced_orders, band.eigenvalues, band.vectors,
+                                          labels, damping_per_mass)
+            bases = dict(zip(distinct, zip(forced_orders, built)))
+            forced0, basis0 = bases[distinct[0]]
             membrane_index = np.asarray(forced0.coupled.membrane_index)
             membrane = basis0.vectors[membrane_index]
             sound = model.part_pressure(engine, study, part, forced0, basis0,
-                                        [bases[key] for key in keys])
+                                        [bases.get(key, (forced0, None)) for key in keys])
             families = ("cos",) if part.m is None else ("cos", "sin")
             for family in families:
                 gains = np.array([factors.get((family, k), 0.0) for k in range(len(inputs))])
+                if not len(band.eigenvalues) and not np.any(gains):
+                    continue        # no mode, no input drives this family
                 family_labels = [next((mode.label for mode in columns[k]
                                        if part.m is None or mode.family == family), "")
                                  if k in columns else "" for k in range(len(labels))]
                 model.channels.append(cls._channel(
-                    f"{part.key}:{family}", part, family, [bases[key] for key in keys], gains,
+                    f"{part.key}:{family}", part, family, bases, keys, gains,
                     family_labels, kinds, basis0, membrane, membrane_index, points,
                     sound if family == "cos" else _silent(sound)))
         model.channels = merged_static(model.channels)
@@ -289,8 +294,9 @@ class ModalInputs:
 
     def part_pressure(self, engine, study, part, forced0, basis0, bases):
         """(P (M, J), pressure of r0 (M, K), of r1 (M, K)) of (3) on one driven part, per
-        input before its family factor; zeros where the part does not radiate (module
-        notes)."""
+        input before its family factor (``bases``: each input's (forced pencil, modal
+        basis), the basis None for an input that does not drive the part); zeros where the
+        part does not radiate (module notes)."""
         from copdea_fem.forced_response.observers import LineResponse
         from copdea_fem.forced_response.run import microphone_observer
 
@@ -312,39 +318,62 @@ class ModalInputs:
             delay = np.exp(-2j * np.pi * frequency_hz[:, None] * delays[None, :])
             return (pressure * delay).T
 
-        if columns:
-            own = np.abs(np.sqrt(basis0.eigenvalues.astype(complex)).real) / (2 * np.pi)
-            sound[0][:] = advanced(basis0.vectors, own)
+        # the band's columns at their own frequencies, r0 and r1 at f_max: one sampling
+        own = np.abs(np.sqrt(basis0.eigenvalues.astype(complex)).real) / (2 * np.pi)
         top = np.full(count, float(study.eigen.f_max))
-        sound[1][:] = advanced(np.stack([basis[1].residual0 for basis in bases], 1), top)
-        sound[2][:] = advanced(np.stack([basis[1].residual1 for basis in bases], 1), top)
+        none = np.zeros(basis0.residual0.shape, complex)
+        residuals = [np.stack([none if basis[1] is None else getattr(basis[1], name)
+                               for basis in bases], 1) for name in ("residual0", "residual1")]
+        pressure = advanced(np.hstack([basis0.vectors] + residuals),
+                            np.concatenate([own, top, top]))
+        sound[0][:], sound[1][:], sound[2][:] = np.split(pressure, [columns, columns + count], 1)
         return sound
 
     @staticmethod
-    def _channel(name, part, family, bases, gains, labels, kinds, basis0, membrane,
+    def _channel(name, part, family, bases, keys, gains, labels, kinds, basis0, membrane,
                  membrane_index, points, sound) -> Channel:
-        """``bases``: (forced pencil, modal basis) of each input's forcing; ``sound``: the
-        part's pressure (:meth:`part_pressure`)."""
+        """``bases``: forcing key -> (forced pencil, modal basis); ``keys``: each input's
+        forcing key (None: the input does not drive the part); ``sound``: the part's
+        pressure (:meth:`part_pressure`).  Each distinct forcing's static correction is
+        sampled once, the inputs sharing it scaled by their factors ``gains``."""
         from copdea_fem.forced_response.observers import LineResponse
 
         operators = part.pencil.membrane
         count = len(gains)
+        driven = [k for k in range(count) if keys[k] is not None and gains[k] != 0]
+        distinct = list(dict.fromkeys(keys[k] for k in driven))
+        where = {key: index for index, key in enumerate(distinct)}
+        size, columns = basis0.vectors.shape
 
-        def forced_of(k):
-            return bases[k]
+        def per_input(of):
+            """(n, K) of ``of(basis)`` times each input's gain (zero where it does not
+            drive)."""
+            out = np.zeros((size, count), complex)
+            for k in driven:
+                out[:, k] = gains[k] * of(bases[keys[k]][1])
+            return out
 
-        participation = np.stack([gains[k] * forced_of(k)[1].participation
-                                  for k in range(count)], axis=1)
-        forcings = np.stack([gains[k] * forced_of(k)[0].forcing[membrane_index]
-                             for k in range(count)], axis=0)          # (K, n_membrane)
+        participation = np.zeros((columns, count), complex)
+        forcings = np.zeros((count, len(membrane_index)), complex)        # (K, n_membrane)
+        for k in driven:
+            forced, basis = bases[keys[k]]
+            participation[:, k] = gains[k] * basis.participation
+            forcings[k] = gains[k] * forced.forcing[membrane_index]
         currents = forcings @ membrane                                # (K, J)
-        residual0 = np.stack([gains[k] * forced_of(k)[1].residual0 for k in range(count)], 1)
-        residual1 = np.stack([gains[k] * forced_of(k)[1].residual1 for k in range(count)], 1)
-        forced0 = forced_of(0)[0]
-        sampled = points.basis(LineResponse(forced0, np.hstack([basis0.vectors, residual0,
-                                                                  residual1]),
-                                            np.zeros((1, 1))), operators, family)
-        columns = basis0.vectors.shape[1]
+        residual0 = per_input(lambda basis: basis.residual0)
+        residual1 = per_input(lambda basis: basis.residual1)
+        forced0 = next(iter(bases.values()))[0]
+        own = [bases[key][1] for key in distinct]
+        sampled = points.basis(LineResponse(forced0, np.hstack(
+            [basis0.vectors] + [np.column_stack([basis.residual0 for basis in own]
+                                                + [basis.residual1 for basis in own])]
+            if own else [basis0.vectors]), np.zeros((1, 1))), operators, family)
+        static0 = np.zeros(sampled.shape[:2] + (count,), complex)
+        static1 = np.zeros_like(static0)
+        for k in driven:
+            index = columns + where[keys[k]]
+            static0[..., k] = gains[k] * sampled[..., index]
+            static1[..., k] = gains[k] * sampled[..., index + len(own)]
         return Channel(
             name=name, labels=labels,
             structural=np.array([kind != "air" and bool(label)
@@ -356,8 +385,8 @@ class ModalInputs:
             participation=participation,
             displacement=sampled[..., :columns],
             currents=currents,
-            residual_displacement=sampled[..., columns:columns + count],
-            residual_displacement1=sampled[..., columns + count:],
+            residual_displacement=static0,
+            residual_displacement1=static1,
             residual_currents=forcings @ residual0[membrane_index],
             residual_currents1=forcings @ residual1[membrane_index],
             pressure=sound[0], residual_pressure=sound[1] * gains[None, :],
@@ -421,6 +450,25 @@ class ModalInputs:
                 if freq[j].real <= f_max:
                     found.append((c, int(j), channel.labels[j], float(freq[j].real)))
         return sorted(found, key=lambda item: (item[3], item[2]))
+
+
+#: A family factor of an order m >= 1 at most this share of the largest a weight can have
+#: there, ``2 / (pi m)`` (a segment's ``|c_m + i s_m|``, eq. 4 of
+#: :mod:`copdea_fem.fe.forced.electrode`), is round-off: the sines of angles up to
+#: ``2 pi m`` carry ~``1e-16 * 2 pi m`` (1e-13 of it at m = 120; e.g. the even orders of a
+#: half turn), and the input is taken not to drive the family.
+FACTOR_ROUND_OFF = 1e-10
+
+
+def driven_families(part, weight) -> list[tuple[str, float]]:
+    """``part.families(weight)`` (:meth:`copdea_fem.fe.forced.problem.DrivenPart.families`)
+    without the factors of an order m >= 1 at the round-off level,
+    :data:`FACTOR_ROUND_OFF` times ``2 / (pi m)``."""
+    families = part.families(weight)
+    if not part.m:
+        return families
+    floor = FACTOR_ROUND_OFF * 2 / (np.pi * part.m)
+    return [(family, factor) for family, factor in families if abs(factor) > floor]
 
 
 def microphone_delays(study, microphones) -> list[float]:
@@ -489,5 +537,6 @@ def merged_static(channels: list) -> list:
     return [channel for channel in channels if len(channel.eigenvalues)] + [merged]
 
 
-__all__ = ["Channel", "ModalInputs", "POINT_ANGLES_DEG", "STATIC_CHANNEL", "drive_inputs",
-           "merged_static", "microphone_delays", "radiating_band", "study_points"]
+__all__ = ["Channel", "FACTOR_ROUND_OFF", "ModalInputs", "POINT_ANGLES_DEG", "STATIC_CHANNEL",
+           "drive_inputs", "driven_families", "merged_static", "microphone_delays",
+           "radiating_band", "study_points"]

@@ -33,7 +33,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import scipy.optimize
 
 from copdea_fem.reduced.rings import ReducedModelError
 
@@ -81,6 +80,7 @@ def pumping_roots(mass_ratio: float, stiffness_ratio: float, count: int) -> np.n
         else:
             low = j * math.pi          # f(j pi) = j pi (-1)^j
         high = (j + 1) * math.pi       # f((j+1) pi) = (j+1) pi (-1)^(j+1)
+        import scipy.optimize  # at use: 0.15 s of import the modal commands skip
         roots.append(scipy.optimize.brentq(f, low, high, xtol=1e-15, rtol=1e-15))
     return np.array(roots)
 
@@ -169,5 +169,6 @@ def pumping_added_mass(modal_stiffness: float, modal_mass: float, disc_amplitude
     if residual(high) >= 0:    # only when disc_amplitude = 0: the spring is not excited
         omega = high
     else:
+        import scipy.optimize  # at use: 0.15 s of import the modal commands skip
         omega = scipy.optimize.brentq(residual, 0.0, high, xtol=1e-12 * omega_dry)
     return float(modal_stiffness / omega ** 2 - modal_mass), float(omega / (2 * math.pi))

@@ -435,6 +435,8 @@ class LineSampler:
         self.radii = coordinates          # (elements, k) [m], elements in increasing r
         # the line's own points only (the mesh's other boundaries hold ~30x more)
         self.points = self.points[self.rows.ravel()]
+        # (radii bytes, (element, weights)) of the last radii :meth:`interpolation` asked
+        self.held_interpolation = None
 
     def values(self, coefficient) -> np.ndarray:
         """Values at the sample points: (elements, k) or (elements, k, d)."""
@@ -444,8 +446,19 @@ class LineSampler:
 
     def at(self, coefficient, radii) -> np.ndarray:
         """Values at arbitrary ``radii`` [m] on the line: (len,) or (len, d)."""
+        element, basis = self.interpolation(radii)
+        chosen = self.values(coefficient)[element]      # (len, k[, d])
+        return np.einsum("nk,nk...->n...", basis, chosen)
+
+    def interpolation(self, radii) -> tuple[np.ndarray, np.ndarray]:
+        """``(element (len,), Lagrange weights (len, k))`` of ``radii`` [m] on the line
+        (:meth:`at`); kept for the last radii asked (a sampler asks the same points for
+        every field)."""
         radii = np.atleast_1d(np.asarray(radii, dtype=float))
-        samples = self.values(coefficient)
+        key = radii.tobytes()
+        held = self.held_interpolation
+        if held is not None and held[0] == key:
+            return held[1]
         element = np.clip(np.searchsorted(self.lower, radii, side="right") - 1, 0,
                           len(self.lower) - 1)
         local = (radii - self.start[element]) / (self.end[element] - self.start[element])
@@ -455,5 +468,5 @@ class LineSampler:
             for i in range(nodes.size):
                 if i != j:
                     basis[:, j] *= (local - nodes[i]) / (nodes[j] - nodes[i])
-        chosen = samples[element]                       # (len, k[, d])
-        return np.einsum("nk,nk...->n...", basis, chosen)
+        self.held_interpolation = (key, (element, basis))
+        return element, basis

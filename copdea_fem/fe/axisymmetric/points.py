@@ -20,6 +20,11 @@ from copdea_fem.fe.points import PointSampler
 class MeridianPoints(PointSampler):
     """Fields of an axisymmetric state at points of the prestressed device (module notes)."""
 
+    def __init__(self, state, positions):
+        super().__init__(state, positions)
+        # (id(space), axis_m1) -> (space, :meth:`amplitude_map`)
+        self.amplitude_maps: dict = {}
+
     @staticmethod
     def prestress_profile(state, radii) -> np.ndarray:
         """(u_r, u_z) [m] of the prestress at reference radii (the meridian's profile)."""
@@ -30,21 +35,38 @@ class MeridianPoints(PointSampler):
         """Cartesian displacement (M, 3) of a field of ``operators``' order m (its ``family``
         member, turned to ``orientation`` [deg] where given:
         :func:`.modes.order_harmonics`) at the membrane's points."""
-        import ngsolve as ngs
-
         membrane = ~self.on_disc
-        field = ngs.GridFunction(operators.space)
-        amplitudes = []
-        for part in (np.real(vector), np.imag(vector)):
-            field.vec.FV().NumPy()[:] = part
-            amplitudes.append(self.state.line().at(ngs.CF(tuple(operators.amplitudes(field))),
-                                                   self.reference_radius[membrane]))
-        a, b, c = (amplitudes[0] + 1j * amplitudes[1]).T
+        a, b, c = (self.amplitude_map(operators) @ np.asarray(vector)).reshape(3, -1)
         theta = self.angle[membrane]
         main, cross = order_harmonics(int(operators.m), family, theta, orientation)
         u_r, u_t, u_z = a * main, b * cross, c * main
         return np.column_stack([u_r * np.cos(theta) - u_t * np.sin(theta),
                                 u_r * np.sin(theta) + u_t * np.cos(theta), u_z])
+
+    def amplitude_map(self, operators) -> np.ndarray:
+        """The real matrix (3 M, ndof) from a field on ``operators``' space to its amplitudes
+        ``(a, b, c)`` at the membrane's M points (rows: all a, then b, then c): the
+        amplitudes are linear in the field, so one evaluation per DOF builds it, kept per
+        space (the orders m >= 1 share one: a drive's many static orders sample through
+        it)."""
+        import ngsolve as ngs
+
+        key = (id(operators.space), bool(getattr(operators, "axis_m1", False)))
+        held = self.amplitude_maps.get(key)
+        if held is not None and held[0] is operators.space:
+            return held[1]
+        radii = self.reference_radius[~self.on_disc]
+        field = ngs.GridFunction(operators.space)
+        amplitudes = ngs.CF(tuple(operators.amplitudes(field)))
+        line = self.state.line()
+        ndof = operators.space.ndof
+        matrix = np.empty((3 * radii.size, ndof))
+        for dof in range(ndof):
+            field.vec.FV().NumPy()[:] = 0.0
+            field.vec.FV().NumPy()[dof] = 1.0
+            matrix[:, dof] = line.at(amplitudes, radii).T.ravel()
+        self.amplitude_maps[key] = (operators.space, matrix)
+        return matrix
 
     def displacement(self, mode) -> np.ndarray:
         out = self.field_displacement(mode.vector, mode.disc_displacement,

@@ -346,9 +346,11 @@ class NullPair:
     b: sp.csr_matrix
 
     def project(self, vector: np.ndarray) -> np.ndarray:
-        return vector - self.x0 * (self.y0 @ (self.b @ vector)) / self.norm
+        """``vector`` (n,) or (n, K) with ``y0^T B x = 0`` (each column)."""
+        return vector - np.multiply.outer(self.x0, self.y0 @ (self.b @ vector)) / self.norm
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
+        """The solution (class notes) for ``rhs`` (n,) or (n, K) (one block solve)."""
         x = self.project(self.shifted.solve(rhs))
         return self.project(self.shifted.solve(rhs + self.sigma * (self.b @ x)))
 
@@ -413,7 +415,20 @@ class ModalBasis:
         lambda = 0 of a sealed enclosure (not among ``eigenvalues``), whose A has no
         inverse: the static correction is then taken on the other pairs
         (:func:`null_pair`)."""
+        return cls.build_many([forced], eigenvalues, vectors, labels, damping_per_mass,
+                              singular)[0]
+
+    @classmethod
+    def build_many(cls, forced_orders, eigenvalues, vectors, labels, damping_per_mass,
+                   singular: bool = False) -> list:
+        """One basis (:meth:`build`) per :class:`ForcedOrder` of ``forced_orders``: forcings
+        of one pencil (the same coupled operators, ``elastic`` and damping; the first's are
+        used), each with its own participation and static correction.  The band's left
+        vectors and modal projections are formed once, and A is factorised once: the static
+        solves ``A^-1 F`` and ``A^-1 B A^-1 F`` of all the forcings are one block solve
+        each."""
         from copdea_fem.fe.eigen import Factorization
+        forced = forced_orders[0]
         coupled = forced.coupled
         a, b = coupled.stiffness, coupled.mass
         eigenvalues = np.asarray(eigenvalues, complex)
@@ -427,7 +442,8 @@ class ModalBasis:
             np.linalg.norm(a_t @ left[:, j] - eigenvalues[j] * (b_t @ left[:, j]))
             / max(np.linalg.norm(a_t @ left[:, j]), 1e-300) for j in range(len(eigenvalues))])
         norms = np.einsum("ij,ij->j", left, b @ vectors)
-        participation = left.T @ forced.forcing
+        forcings = np.column_stack([order.forcing for order in forced_orders])   # (n, K)
+        participation = left.T @ forcings                                        # (J, K)
         membrane = vectors[u_index]
         mass = coupled.membrane.mass
         k_el = forced.elastic[u_index][:, u_index]
@@ -437,14 +453,14 @@ class ModalBasis:
         pair = null_pair(a, b, forced.backend, scale) if singular else None
         if pair is None:
             static = Factorization(a.tocsc(), forced.backend)
-            first = static.solve(forced.forcing)
+            first = static.solve(forcings)
             second = static.solve(b @ first)
         else:
-            first = pair.solve(forced.forcing)
+            first = pair.solve(forcings)
             second = pair.solve(b @ first)
-        weights = participation / norms
-        residual0 = first - vectors @ (weights / eigenvalues)
-        residual1 = second - vectors @ (weights / eigenvalues ** 2)
+        weights = participation / norms[:, None]
+        residual0 = first - vectors @ (weights / eigenvalues[:, None])
+        residual1 = second - vectors @ (weights / eigenvalues[:, None] ** 2)
         viscous, relaxation = None, ()
         if forced.damping is not None:
             terms = forced.damping
@@ -452,9 +468,10 @@ class ModalBasis:
                 viscous = np.einsum("ij,ij->j", vectors, terms.damping @ vectors)
             relaxation = tuple((np.einsum("ij,ij->j", vectors, tangent @ vectors), tau)
                                for tangent, tau in terms.relaxation)
-        return cls(eigenvalues, vectors, norms, participation, structural, elastic, residual0,
-                   residual1, tuple(labels), np.asarray(damping_per_mass, float),
-                   left_residuals, viscous, relaxation)
+        return [cls(eigenvalues, vectors, norms, participation[:, k], structural, elastic,
+                    residual0[:, k], residual1[:, k], tuple(labels),
+                    np.asarray(damping_per_mass, float), left_residuals, viscous, relaxation)
+                for k in range(len(forced_orders))]
 
     def coefficients(self, frequency_hz, loss_factor: float = 0.0) -> np.ndarray:
         """Weights (lines, J + 2) of [x_1 .. x_J, r0, r1] per volt (module doc)."""
