@@ -102,9 +102,40 @@ theta + y sin m theta = cos m(theta - psi/m)`` with ``(x, y) ~ (cos psi, sin psi
 antinode at ``psi / m``; its shape everywhere (sampled, revolved, at scan points) is the
 member turned there (:func:`.modes.order_harmonics`), and its parity about x = 0 and y =
 0 (modes.csv ``symmetry``) is kept only where the orientation is its family's own (0 or
-90/m deg), else empty as on the 3-D engine's whole mesh.  The perturbation path makes dry
-modes only: the forced response and the coupled (air) modes of an imperfect device are
-refused on the axisymmetric engine (:func:`.engine.refuse_imperfect`).
+90/m deg), else empty as on the 3-D engine's whole mesh.
+
+**The coupled (air) modes.**  Each order's pencil (:mod:`.operators`) is the unsymmetric
+u-p form ``A x = lambda B x``, ``A = [[K, C^T], [0, H]]``, ``B = [[M, 0], [-C, Q]]``
+(``K``, ``M`` the membrane's, ``H``, ``Q`` the air's stiffness and mass with the PML, all
+complex symmetric; ``C`` the coupling).  Its right eigenvector is ``x = (u, p)`` (``K u +
+C^T p = lambda M u``, ``H p = lambda (Q p - C u)``); its left one ``y`` (``y^T A = lambda
+y^T B``) is ``y = (lambda u, p)``: the first block column of ``y^T (A - lambda B)`` is
+``lambda (K u + C^T p - lambda M u)^T = 0``, the second ``(H p - lambda (Q p - C u))^T =
+0``.  The air is round, so the imperfection changes ``K`` and ``M`` only (the first-order
+change of the air's shape, which the state's correction ``du0`` would bring, is left
+out), and to first order
+
+    d lambda = y^T (dA - lambda dB) x / y^T B x
+             = lambda u^T (dK - lambda dM) u / (lambda u^T M u - p^T C u + p^T Q p)
+
+with the unconjugated products (:func:`coupled_norm`: the denominator, ``N``); in the dry
+limit (p = 0) it is the dry path's ``(dK_ii - lambda dM_ii) / m_i``.  ``dK``, ``dM``
+between the complex membrane vectors are the same bilinear forms as above, taken between
+their real and imaginary parts and combined.  With ``x_i``, ``y_i`` scaled by
+``N_i^(-1/2)`` (``y_i^T B x_j = delta_ij``) the small matrix is the unsymmetric
+
+    H_ij = lambda_i delta_ij + lambda_i (dK_ij - (lambda_i + lambda_j) dM_ij / 2) / sqrt(N_i N_j)
+
+(a similarity transform of the dry path's ``H`` in the dry limit); the members of a pair
+(the cos and sin partners of one coupled eigenvector: the same ``lambda`` and ``N``) form
+a non-Hermitian 2 x 2 block, diagonalised by :func:`numpy.linalg.eig`, the couplings
+outside a block folded in at second order as above (:func:`_second_order_coupled`); a
+member's complex frequency is ``sqrt(lambda) / (2 pi)`` of its block eigenvalue, its
+orientation that of its eigenvector turned to its most nearly real phase.  The air modes
+are kept as they are (not in the basis).  The dry partners (the dry modes of the same
+device) are perturbed by the dry path, each coupled member paired with the dry member in
+its partner's place.  The forced response of an imperfect device is refused on the
+axisymmetric engine (:func:`.engine.refuse_imperfect`).
 """
 
 from __future__ import annotations
