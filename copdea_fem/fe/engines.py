@@ -137,23 +137,23 @@ def engine_for(study: Study, forced_response: bool = False) -> Engine:
     """The engine of the study (``mesh.engine``, ``auto`` resolved by the frame and the
     imperfections, :func:`copdea_fem.study.engine_of`): ``auto`` sends an imperfect device
     to the axisymmetric engine's first-order perturbation path where
-    :func:`copdea_fem.study.imperfections.perturbation_refusal` allows it (dry, within its
-    range) and the caller asks for modes only, else to the 3-D engine; either way logged
-    with the reason.  ``forced_response``: the caller drives the device (the perturbation
-    path makes dry modes only)."""
+    :func:`copdea_fem.study.imperfections.perturbation_refusal` allows it (within its
+    range; dry or in air) and the caller asks for modes only, else to the 3-D engine; either
+    way logged with the reason.  ``forced_response``: the caller drives the device (the
+    perturbation path makes modes only)."""
     imperfect = imperfection_keys_given(study.membrane, study.imperfections)
     engine = engine_of(study, forced_response)
     if study.mesh.engine == "auto" and imperfect:
-        beyond = perturbation_refusal(study.membrane, study.imperfections, study.air.enabled,
-                                      study.geometry)
+        beyond = perturbation_refusal(study.membrane, study.imperfections, study.geometry)
         if engine == "axisymmetric":
-            reason = "within the range of its first-order perturbation path (dry modes)"
+            reason = ("within the range of its first-order perturbation path ("
+                      + ("coupled" if study.air.enabled else "dry") + " modes)")
         elif beyond:
             reason = (f"not the axisymmetric engine's perturbation path: {beyond[0]} = "
                       f"{beyond[1]}, allowed there: {beyond[2]}")
         elif forced_response:
             reason = ("not the axisymmetric engine's perturbation path: a forced response, "
-                      "which it does not make (dry modes only)")
+                      "which it does not make (modes only)")
         else:
             reason = (f"geometry.frame = {study.geometry.frame!r} with geometry.enclosure = "
                       f"{study.geometry.enclosure!r} is not round")
@@ -161,7 +161,7 @@ def engine_for(study: Study, forced_response: bool = False) -> Engine:
         logger.info(f"mesh.engine = auto: the {name} engine for {imperfect} ({reason})")
     elif imperfect and engine == "axisymmetric":
         logger.info(f"mesh.engine = axisymmetric: {imperfect} by first-order perturbation "
-                    "(dry modes)")
+                    "(" + ("coupled" if study.air.enabled else "dry") + " modes)")
     if engine == "axisymmetric":
         from copdea_fem.fe.axisymmetric.engine import AxisymmetricEngine
         return AxisymmetricEngine()

@@ -133,7 +133,7 @@ def check_across_keys(v: dict[str, dict[str, Any]]) -> None:
     check_imperfections(v)
     imperfect = imperfection_keys_given(v["membrane"], v["imperfections"])
     beyond = imperfect and perturbation_refusal(v["membrane"], v["imperfections"],
-                                                v["air"]["enabled"], v["geometry"])
+                                                v["geometry"])
     if beyond and engine == "axisymmetric":
         key, value, allowed = beyond
         raise refusal(key, value, allowed + ", or mesh.engine: 3d (or auto)",

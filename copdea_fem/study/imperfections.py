@@ -156,19 +156,14 @@ def film_mass(membrane, geometry) -> float:
     return density * math.pi * (r_o**2 - r_i**2)
 
 
-def perturbation_refusal(membrane, imperfections, air_enabled: bool,
-                         geometry) -> tuple | None:
+def perturbation_refusal(membrane, imperfections, geometry) -> tuple | None:
     """Why the axisymmetric engine's perturbation path cannot take a study's imperfection:
-    ``(key, value, allowed)``, or None where it can (a dry study with an anisotropy and
+    ``(key, value, allowed)``, or None where it can (a study, dry or in air, with an anisotropy and
     thickness terms of total size ``e + sum |a| <= PERTURBATION_MAX_SIZE`` and point masses
     of total ``sum dm <= PERTURBATION_MAX_MASS_RATIO`` times the film's mass, :func:`film_mass`).
     ``membrane``, ``imperfections``, ``geometry``: typed sections or the checks' plain
     mappings."""
     get = (lambda section, key: section[key]) if isinstance(membrane, dict) else getattr
-    if air_enabled:
-        return ("air.enabled", True, ("false with an imperfect device on the axisymmetric "
-                                      "engine (its perturbation path is dry only; the 3-D "
-                                      "engine couples the air)"))
     masses = [m["mass"] if isinstance(m, dict) else m.mass
               for m in get(imperfections, "point_masses")]
     limit = PERTURBATION_MAX_MASS_RATIO * film_mass(membrane, geometry)

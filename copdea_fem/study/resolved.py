@@ -317,8 +317,8 @@ def engine_of(study: Study, forced_response: bool = False) -> str:
     and no enclosure, a cylinder or a bowl that is perfect (no key of
     :data:`~copdea_fem.study.imperfections.IMPERFECTION_KEYS` set) or whose imperfection
     its first-order perturbation path takes
-    (:func:`~copdea_fem.study.imperfections.perturbation_refusal` allows it: dry, within
-    its range) where the caller asks for modes only; else the 3-D engine.
+    (:func:`~copdea_fem.study.imperfections.perturbation_refusal` allows it: dry or in
+    air, within its range) where the caller asks for modes only; else the 3-D engine.
     ``forced_response``: the caller drives the device (response, excite, synthetic
     scans), which the perturbation path does not make: an imperfect device then keeps the
     3-D engine.  ``axisymmetric`` and ``3d`` are taken as given (the study's checks refuse
@@ -331,8 +331,7 @@ def engine_of(study: Study, forced_response: bool = False) -> str:
                         and g.enclosure in AXISYMMETRIC_ENCLOSURES)
         if round_device and is_imperfect(study.membrane, study.imperfections):
             round_device = not forced_response and perturbation_refusal(
-                study.membrane, study.imperfections, study.air.enabled,
-                study.geometry) is None
+                study.membrane, study.imperfections, study.geometry) is None
         return "axisymmetric" if round_device else "3d"
     return engine
 

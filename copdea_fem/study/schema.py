@@ -174,7 +174,8 @@ SCHEMA: dict[str, dict[str, Key]] = {
                       "problem per circumferential order m (frame none, baffle or circle); "
                       "3d = the 3-D mesh (any frame; needed for the square frame); auto = "
                       "axisymmetric where the geometry allows (an imperfect "
-                      "device: where its perturbation path takes it, dry modes), else "
+                      "device: where its perturbation path takes it, modes dry or in air), "
+                      "else "
                       "3d", kind=str,
                       choices=ENGINES),
     },

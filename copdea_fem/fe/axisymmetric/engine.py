@@ -44,7 +44,7 @@ from copdea_fem.fe.axisymmetric.operators import (
     coupled_order_operators,
     dry_order,
 )
-from copdea_fem.fe.axisymmetric.perturbation import perturbed_modes
+from copdea_fem.fe.axisymmetric.perturbation import perturbed_coupled_modes, perturbed_modes
 from copdea_fem.fe.axisymmetric.prestress import make_axisymmetric_solver
 from copdea_fem.fe.bands import BandSolver, OrderStop, coupled_start_modes
 from copdea_fem.fe.cavity import (
@@ -139,13 +139,14 @@ def axisymmetric_dry_modes(study, mesh=None, timings=None, solver=None,
 
 def refuse_imperfect(study, what: str) -> None:
     """Refuse (StudyError) ``what`` for an imperfect device: the perturbation path
-    (:mod:`.perturbation`) makes dry modes only."""
+    (:mod:`.perturbation`) makes modes only (dry and coupled)."""
     imperfect = imperfection_keys_given(study.membrane, study.imperfections)
     if imperfect:
         raise StudyError(
             f"mesh.engine = 'axisymmetric' is not allowed for {what} with {imperfect} (its "
-            "first-order perturbation path makes dry modes only: frequencies, labels, "
-            "orientations, turned shapes); allowed: mesh.engine: 3d (or auto)")
+            "first-order perturbation path makes modes only (dry and coupled): "
+            "frequencies, labels, orientations, turned shapes); allowed: mesh.engine: 3d "
+            "(or auto)")
 
 
 def same_order_family(mode, dry) -> bool:
@@ -160,7 +161,6 @@ def axisymmetric_coupled_modes(study, mesh=None, timings=None, solver=None,
     Returns a :class:`copdea_fem.fe.solution.CoupledSolution` (``operators``: the
     coupled pencil of each order, in order).
     """
-    refuse_imperfect(study, "the coupled (air) modes")
     timings = timings or Timings()
     band = band or BandSolver.from_study(study)
     air = study.air
@@ -223,6 +223,10 @@ def axisymmetric_coupled_modes(study, mesh=None, timings=None, solver=None,
                 modes.append(twin)
                 pressures.append(order_pressures[k])
         dry += with_pairs(order_dry)
+    if imperfection_keys_given(study.membrane, study.imperfections):
+        with timings.stage("perturbation"):
+            modes, dry, partners = _perturbed_coupled(state, modes, pressures, operators, dry,
+                                                      partners, study, forms)
     order = sorted(range(len(modes)), key=lambda k: (modes[k].freq_hz, modes[k].m,
                                                      modes[k].family))
     modes, pressures = [modes[k] for k in order], [pressures[k] for k in order]
@@ -243,6 +247,24 @@ def axisymmetric_coupled_modes(study, mesh=None, timings=None, solver=None,
 
     return CoupledSolution(state, modes, pressures, dry, partner_hz, SectorBandResults(results),
                            operators, order_pencil, forms.operators)
+
+
+def _perturbed_coupled(state, modes, pressures, pencils, dry, partners, study, forms):
+    """An imperfect device's coupled modes and dry partners (:mod:`.perturbation`): (modes,
+    dry modes, partners {id(mode): its dry partner}), both lists in their places; a
+    member's partner is the perturbed dry mode in its partner's place (a pair's sin member:
+    the place after its cos member's, :func:`.modes.with_pairs`)."""
+    place = {id(mode): k for k, mode in enumerate(dry)}
+    partner_place = {}
+    for k, mode in enumerate(modes):
+        partner = partners.get(id(mode))
+        if partner is not None:
+            partner_place[k] = place[id(partner)] + (1 if mode.family == "sin"
+                                                     and partner.m > 0 else 0)
+    modes = perturbed_coupled_modes(state, modes, pressures, {p.m: p for p in pencils},
+                                    study, forms)
+    dry = perturbed_modes(state, dry, study, forms)
+    return modes, dry, {id(modes[k]): dry[j] for k, j in partner_place.items()}
 
 
 #: The highest order m whose static response a drive of many orders (a segment's indicator,

@@ -210,10 +210,13 @@ def revolved_air_meshes(operators, modes, pressures, max_order: int | None = Non
     the vertices (the pressure jumps across the screens) and values are taken inside each
     element.
     Fields and cell data as there; a field of order m is ``p(r, z) cos m theta``
-    (or the sin family's turned copy).
+    (or the sin family's turned copy; a member of a pair split by an imperfection turned to
+    its orientation, :func:`.modes.order_harmonics`).
     """
     import ngsolve as ngs
 
+    if not operators or not modes:      # no mode in the band: no air file
+        return
     by_order = {coupled.m: coupled for coupled in operators}
     mesh = operators[0].pressure_space.mesh
     corners = ngs.IntegrationRule([(1, 0), (0, 1), (0, 0)], [0.0] * 3)
@@ -262,7 +265,7 @@ def revolved_air_meshes(operators, modes, pressures, max_order: int | None = Non
         values = reader(vector)
         nodal = np.zeros(2 * count, dtype=complex)
         nodal[copy.ravel()] = values.ravel()
-        main, _ = order_harmonics(mode.m, mode.family, angles)
+        main, _ = order_harmonics(mode.m, mode.family, angles, mode.orientation)
         field = merge.reduce((nodal[used][:, None] * main[None, :]).ravel())
         data = pressure_point_data(field)
         yield (f"air_{number:03d}_{safe_name(mode.label)}",

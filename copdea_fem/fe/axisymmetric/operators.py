@@ -307,6 +307,10 @@ class CoupledOrderOperators:
     air_kinetic: sp.csr_matrix          # Theta_m (1/rho_a) int_air |grad p|^2 r dA (no PML)
     mesh_motion: object
     factorize: object                   # sigma -> factorisation of A - sigma B
+    #: the pencil's blocks before :func:`copdea_fem.fe.coupled.scaled_pencil` (module doc):
+    #: Theta_m C [m^2] (pressure_free x the membrane's unknowns), Theta_m M_a [m^4 s^2/kg]
+    coupling: sp.csr_matrix = None
+    air_mass: sp.csr_matrix = None
 
     @property
     def membrane_size(self) -> int:
@@ -434,7 +438,8 @@ def coupled_order_operators(state, study, dry: OrderOperators, air: MeridianAir
 
     return CoupledOrderOperators(m, a_scaled, b_scaled, dry, air.pressure_space, pressure_free,
                                  np.arange(n_u, n_u + n_p), np.arange(n_u), beta,
-                                 kinetic.tocsr(), air.motion, factorize)
+                                 kinetic.tocsr(), air.motion, factorize, coupling,
+                                 air_mass.tocsr())
 
 
 def dry_order(band, forms: OrderForms, m: int, f_max: float, initial_shifts=None):

@@ -102,9 +102,40 @@ theta + y sin m theta = cos m(theta - psi/m)`` with ``(x, y) ~ (cos psi, sin psi
 antinode at ``psi / m``; its shape everywhere (sampled, revolved, at scan points) is the
 member turned there (:func:`.modes.order_harmonics`), and its parity about x = 0 and y =
 0 (modes.csv ``symmetry``) is kept only where the orientation is its family's own (0 or
-90/m deg), else empty as on the 3-D engine's whole mesh.  The perturbation path makes dry
-modes only: the forced response and the coupled (air) modes of an imperfect device are
-refused on the axisymmetric engine (:func:`.engine.refuse_imperfect`).
+90/m deg), else empty as on the 3-D engine's whole mesh.
+
+**The coupled (air) modes.**  Each order's pencil (:mod:`.operators`) is the unsymmetric
+u-p form ``A x = lambda B x``, ``A = [[K, C^T], [0, H]]``, ``B = [[M, 0], [-C, Q]]``
+(``K``, ``M`` the membrane's, ``H``, ``Q`` the air's stiffness and mass with the PML, all
+complex symmetric; ``C`` the coupling).  Its right eigenvector is ``x = (u, p)`` (``K u +
+C^T p = lambda M u``, ``H p = lambda (Q p - C u)``); its left one ``y`` (``y^T A = lambda
+y^T B``) is ``y = (lambda u, p)``: the first block column of ``y^T (A - lambda B)`` is
+``lambda (K u + C^T p - lambda M u)^T = 0``, the second ``(H p - lambda (Q p - C u))^T =
+0``.  The air is round, so the imperfection changes ``K`` and ``M`` only (the first-order
+change of the air's shape, which the state's correction ``du0`` would bring, is left
+out), and to first order
+
+    d lambda = y^T (dA - lambda dB) x / y^T B x
+             = lambda u^T (dK - lambda dM) u / (lambda u^T M u - p^T C u + p^T Q p)
+
+with the unconjugated products (:func:`coupled_norm`: the denominator, ``N``); in the dry
+limit (p = 0) it is the dry path's ``(dK_ii - lambda dM_ii) / m_i``.  ``dK``, ``dM``
+between the complex membrane vectors are the same bilinear forms as above, taken between
+their real and imaginary parts and combined.  With ``x_i``, ``y_i`` scaled by
+``N_i^(-1/2)`` (``y_i^T B x_j = delta_ij``) the small matrix is the unsymmetric
+
+    H_ij = lambda_i delta_ij + lambda_i (dK_ij - (lambda_i + lambda_j) dM_ij / 2) / sqrt(N_i N_j)
+
+(a similarity transform of the dry path's ``H`` in the dry limit); the members of a pair
+(the cos and sin partners of one coupled eigenvector: the same ``lambda`` and ``N``) form
+a non-Hermitian 2 x 2 block, diagonalised by :func:`numpy.linalg.eig`, the couplings
+outside a block folded in at second order as above (:func:`_second_order_coupled`); a
+member's complex frequency is ``sqrt(lambda) / (2 pi)`` of its block eigenvalue, its
+orientation that of its eigenvector turned to its most nearly real phase.  The air modes
+are kept as they are (not in the basis).  The dry partners (the dry modes of the same
+device) are perturbed by the dry path, each coupled member paired with the dry member in
+its partner's place.  The forced response of an imperfect device is refused on the
+axisymmetric engine (:func:`.engine.refuse_imperfect`).
 """
 
 from __future__ import annotations
@@ -121,8 +152,10 @@ from scipy.sparse.csgraph import connected_components
 
 from copdea_fem.fe.axisymmetric.membrane import d_dr, harmonic_gradients, prestress_gradient
 from copdea_fem.fe.axisymmetric.operators import amplitude_proxies
+from copdea_fem.fe.eigen.frequencies import eigenvalue_from_frequency, frequency_from_eigenvalue
 from copdea_fem.fe.materials import Membrane
 from copdea_fem.fe.membrane import cf_entries, energy_density
+from copdea_fem.fe.modes import AIR
 from copdea_fem.fe.prestress import disc_point_mass, membrane_point_masses
 from copdea_fem.study.keys import StudyError
 
@@ -457,24 +490,43 @@ def perturbation_matrices(state, modes, terms, forms, point_masses=(), disc_mass
 
 
 def _blocks(matrix: np.ndarray, eigenvalues: np.ndarray) -> list[list[int]]:
-    """Groups of modes joined by degeneracy or by |H_ij| > QUASI_DEGENERATE |gap|: the
-    connected components of the graph of those links, each in ascending order."""
+    """Groups of modes joined by degeneracy or by |H_ij| > QUASI_DEGENERATE |gap| (either of
+    H_ij, H_ji: the coupled path's H is not symmetric): the connected components of the
+    graph of those links, each in ascending order."""
     gaps = np.abs(eigenvalues[:, None] - eigenvalues[None, :])
-    links = (np.abs(matrix) > QUASI_DEGENERATE * gaps) | (gaps <= 1e-9 * eigenvalues[:, None])
+    links = (np.abs(matrix) > QUASI_DEGENERATE * gaps) | \
+        (gaps <= 1e-9 * np.abs(eigenvalues)[:, None])
     count, labels = connected_components(sp.csr_matrix(links), directed=False)
     return [np.flatnonzero(labels == label).tolist() for label in range(count)]
+
+
+def _imperfection(study, state):
+    """(terms, point masses, disc mass, keys): the study's imperfection as the path takes it
+    (:func:`harmonic_terms`, :func:`copdea_fem.fe.prestress.membrane_point_masses`)."""
+    terms = harmonic_terms(Membrane.with_effects(study), state.material)
+    point_masses, disc_mass = membrane_point_masses(study), disc_point_mass(study)
+    keys = sorted({t.key for t in terms}) + (
+        ["imperfections.point_masses"] if point_masses or disc_mass else [])
+    return terms, point_masses, disc_mass, keys
+
+
+def _given(terms, point_masses, disc_mass) -> str:
+    """The imperfection's keys and values, for the range message."""
+    given = [f"{t.key} = {t.size:g}" + (f" (order {t.order})" if t.mass else "")
+             for t in terms]
+    if point_masses or disc_mass:
+        given.append("imperfections.point_masses = "
+                     f"{sum(m for m, _, _ in point_masses) + disc_mass:g} kg in all")
+    return "; ".join(given)
 
 
 def perturbed_modes(state, modes, study, forms):
     """The ``modes`` of the round device (cos and sin members, as the engine lists them)
     with their frequencies and orientations perturbed by the study's imperfection (module
     doc); refuses (:class:`PerturbationRangeError`) beyond the range of validity."""
-    terms = harmonic_terms(Membrane.with_effects(study), state.material)
-    point_masses, disc_mass = membrane_point_masses(study), disc_point_mass(study)
+    terms, point_masses, disc_mass, keys = _imperfection(study, state)
     if not (terms or point_masses or disc_mass) or not modes:
         return modes
-    keys = sorted({t.key for t in terms}) + (
-        ["imperfections.point_masses"] if point_masses or disc_mass else [])
     logger.info("imperfections on the axisymmetric engine: first-order perturbation of "
                 f"{len(modes)} modes ({', '.join(keys)})")
     stiffness, mass, masses = perturbation_matrices(state, modes, terms, forms,
@@ -493,14 +545,107 @@ def perturbed_modes(state, modes, study, forms):
         values, vectors, third = _second_order(matrix, eigenvalues, block)
         worst = max(worst, (float(np.max(third)), modes[block[int(np.argmax(third))]]),
                     key=lambda item: item[0])
-        _assign(block, values, vectors, modes, out)
-    given = [f"{t.key} = {t.size:g}" + (f" (order {t.order})" if t.mass else "")
-             for t in terms]
-    if point_masses or disc_mass:
-        given.append("imperfections.point_masses = "
-                     f"{sum(m for m, _, _ in point_masses) + disc_mass:g} kg in all")
-    _check_range(*worst, "; ".join(given))
+        _assign(block, np.sqrt(np.maximum(values, 0.0)) / (2 * np.pi), vectors, modes, out)
+    _check_range(*worst, _given(terms, point_masses, disc_mass))
     return out
+
+
+def coupled_norm(mode, pressure, pencil) -> complex:
+    """``y^T B x`` [J] of a coupled eigenpair (module doc, "The coupled (air) modes"):
+    ``lambda u^T M_s u - p^T C u + p^T M_a p``, unconjugated, ``u`` the membrane's unknowns
+    of ``mode`` (its vector's free DOFs, then the disc's displacement), ``pressure`` [Pa] on
+    ``pencil.pressure_free`` (:func:`.modes.coupled_order_modes`), ``pencil`` the order's
+    :class:`.operators.CoupledOrderOperators`."""
+    dry = pencil.membrane
+    u = np.asarray(mode.vector)[dry.free_dofs].astype(complex)
+    if dry.disc_dof:
+        u = np.append(u, complex(mode.disc_displacement))
+    eigenvalue = complex(eigenvalue_from_frequency(mode.freq_hz + 1j * mode.freq_im_hz))
+    pressure = np.asarray(pressure, dtype=complex)
+    return complex(eigenvalue * (u @ (dry.mass @ u)) - pressure @ (pencil.coupling @ u)
+                   + pressure @ (pencil.air_mass @ pressure))
+
+
+def perturbed_coupled_modes(state, modes, pressures, pencils: dict, study, forms):
+    """The coupled (air) ``modes`` of the round device (cos and sin members, ``pressures``
+    their pressure vectors, ``pencils`` {m: the order's
+    :class:`.operators.CoupledOrderOperators`}) with their complex frequencies and
+    orientations perturbed by the study's imperfection (module doc, "The coupled (air)
+    modes"); the air modes are kept as they are.  Refuses
+    (:class:`PerturbationRangeError`) beyond the range of validity."""
+    terms, point_masses, disc_mass, keys = _imperfection(study, state)
+    chosen = [k for k, mode in enumerate(modes) if mode.kind != AIR]
+    if not (terms or point_masses or disc_mass) or not chosen:
+        return modes
+    basis = [modes[k] for k in chosen]
+    logger.info("imperfections on the axisymmetric engine: first-order perturbation of "
+                f"{len(basis)} coupled modes ({', '.join(keys)})")
+    # the unconjugated forms of complex vectors from the real ones of their parts
+    parts = [replace(mode, vector=np.ascontiguousarray(part(mode.vector)),
+                     disc_displacement=float(part(mode.disc_displacement)))
+             for mode in basis for part in (np.real, np.imag)]
+    stiffness, mass, _ = perturbation_matrices(state, parts, terms, forms, point_masses,
+                                               disc_mass)
+    size = len(basis)
+    combine = np.zeros((2 * size, size), dtype=complex)
+    combine[2 * np.arange(size), np.arange(size)] = 1.0
+    combine[2 * np.arange(size) + 1, np.arange(size)] = 1j
+    norms = np.array([coupled_norm(modes[k], pressures[k], pencils[modes[k].m])
+                      for k in chosen])
+    scale = 1 / np.sqrt(norms)
+    stiffness = (combine.T @ stiffness @ combine) * np.outer(scale, scale)
+    mass = (combine.T @ mass @ combine) * np.outer(scale, scale)
+    eigenvalues = eigenvalue_from_frequency(np.array([mode.freq_hz + 1j * mode.freq_im_hz
+                                                      for mode in basis]))
+    matrix = np.diag(eigenvalues) + eigenvalues[:, None] * (
+        stiffness - 0.5 * (eigenvalues[:, None] + eigenvalues[None, :]) * mass)
+    out = list(basis)
+    worst = (0.0, None)
+    for block in _blocks(matrix, eigenvalues):
+        values, vectors, third = _second_order_coupled(matrix, eigenvalues, block)
+        worst = max(worst, (float(np.max(third)), basis[block[int(np.argmax(third))]]),
+                    key=lambda item: item[0])
+        _assign(block, frequency_from_eigenvalue(values), _real_phase(vectors), basis, out)
+    _check_range(*worst, _given(terms, point_masses, disc_mass))
+    result = list(modes)
+    for k, mode in zip(chosen, out):
+        result[k] = mode
+    return result
+
+
+def _real_phase(vectors: np.ndarray) -> np.ndarray:
+    """Complex block eigenvectors (columns) turned by the phase that makes them most nearly
+    real (``v^T v`` real positive), their real parts, unit length: the split members'
+    orientations (a member of a real pair of cos/sin partners is real up to its phase)."""
+    vectors = np.atleast_2d(vectors)
+    phases = np.exp(-0.5j * np.angle(np.sum(vectors**2, axis=0)))
+    real = np.real(vectors * phases[None, :])
+    return real / np.maximum(np.linalg.norm(real, axis=0), 1e-300)[None, :]
+
+
+def _second_order_coupled(matrix, eigenvalues, block):
+    """:func:`_second_order` for the coupled path's non-symmetric complex ``H`` (module doc):
+    ``H_eff = H_BB + H_Bo D H_oB`` with the same symmetrised ``D``, its eigenpairs by
+    ``numpy.linalg.eig`` and each eigenpair's neglected third-order estimate, relative to
+    its frequency: half its second-order shift over |lambda| times its largest
+    ``sqrt(|w^T H_Bj| |H_jB v|) / |lambda_v - lambda_j|`` (w, v: its left and right
+    vectors)."""
+    inside = matrix[np.ix_(block, block)]
+    outside = np.setdiff1d(np.arange(len(eigenvalues)), block)
+    if not len(outside):
+        values, vectors = np.linalg.eig(inside)
+        return values, vectors, np.zeros(len(values))
+    out_of = matrix[np.ix_(block, outside)]                        # (block, outside)
+    into = matrix[np.ix_(outside, block)]                          # (outside, block)
+    inverse_gaps = 1 / (eigenvalues[block][:, None] - eigenvalues[None, outside])
+    folded = 0.5 * ((out_of * inverse_gaps) @ into + out_of @ (inverse_gaps.T * into))
+    values, vectors = np.linalg.eig(inside + folded)
+    left = np.linalg.inv(vectors)                                  # rows: w^T, w^T v = 1
+    shifts = np.einsum("vb,bc,cv->v", left, folded, vectors)
+    coupling = np.sqrt(np.abs(left @ out_of) * np.abs(into @ vectors).T)
+    gaps = np.abs(values[:, None] - eigenvalues[None, outside])
+    ratios = np.max(coupling / gaps, axis=1)
+    return values, vectors, np.abs(shifts) / np.abs(values) / 2 * ratios
 
 
 def _second_order(matrix, eigenvalues, block):
@@ -541,9 +686,11 @@ def _check_range(neglected, mode, keys: str) -> None:
             "imperfection, or mesh.engine: 3d")
 
 
-def _assign(block, values, vectors, modes, out) -> None:
-    """New frequency, member and orientation of each mode of a block (module doc)."""
-    order = np.argsort(values)
+def _assign(block, frequencies, vectors, modes, out) -> None:
+    """New frequency [Hz] (``frequencies``: the block's, complex on the coupled path: its
+    imaginary part the mode's ``freq_im_hz``), member and orientation (real ``vectors``) of
+    each mode of a block (module doc)."""
+    order = np.argsort(np.real(frequencies))
     used = set()
     for column in order:
         vector = vectors[:, column]
@@ -577,6 +724,7 @@ def _assign(block, values, vectors, modes, out) -> None:
             offset = abs(orientation - own) % (180.0 / lead.m)
             if min(offset, 180.0 / lead.m - offset) > 1e-6:
                 sector = None
-        out[source] = replace(modes[source], freq_hz=float(np.sqrt(max(values[column], 0.0))
-                                                           / (2 * np.pi)),
+        frequency = complex(frequencies[column])
+        imaginary = frequency.imag if np.iscomplexobj(frequencies) else modes[source].freq_im_hz
+        out[source] = replace(modes[source], freq_hz=frequency.real, freq_im_hz=imaginary,
                               family=family, orientation=orientation, sector=sector)
