@@ -77,6 +77,15 @@ def band_lines(omega: np.ndarray, pole: complex) -> np.ndarray:
     return np.sort(np.argsort(distance)[:MIN_LINES])
 
 
+def close_partners(poles) -> np.ndarray:
+    """(n,) bool: whether each pole has another within its half-power bandwidth,
+    ``|w_r - w_p| <= 2 zeta_r |s_r|`` (the two share one resonance: module notes)."""
+    poles = np.asarray(poles, complex)
+    distance = np.abs(poles.imag[:, None] - poles.imag[None, :])
+    np.fill_diagonal(distance, np.inf)
+    return np.any(distance <= 2 * (-poles.real)[:, None], axis=1)
+
+
 def split_close_poles(omega, values, poles, power, band, max_damping, noise_variance,
                       hz_per_unit=None):
     """``poles`` with a twin added to each pole whose half-power band holds two shapes
@@ -158,5 +167,5 @@ def split_close_poles(omega, values, poles, power, band, max_damping, noise_vari
     return np.array(sorted(out, key=lambda s: s.imag), complex), split
 
 
-__all__ = ["EDGE_MARGIN", "MAX_SHAPES", "MIN_LINES", "band_lines", "significant_shapes",
-           "split_close_poles"]
+__all__ = ["EDGE_MARGIN", "MAX_SHAPES", "MIN_LINES", "band_lines", "close_partners",
+           "significant_shapes", "split_close_poles"]

@@ -64,6 +64,7 @@ import numpy as np
 
 from copdea_fem.measured import MeasuredDataError, ScanData
 from copdea_fem.measured.scan import RESPONSES
+from copdea_fem.vibrometer.close_pairs import close_partners
 from copdea_fem.vibrometer.identified import IdentifiedMode
 
 logger = logging.getLogger(__name__)
@@ -263,10 +264,17 @@ def _identify(scan: ScanData, options: dict) -> Identification:
                 len(model.all_poles), keep, scan.n_channels, time.perf_counter() - started)
     diagram_poles = _physical_poles(model.all_poles, options)
     chosen, status = choose_poles(diagram_poles, options)
-    # the noise per complex value (:func:`noise_variance`), measured where as many channels
-    # lie outside the principal functions as in them (:func:`principal_count`)
-    noise = (noise_variance(power, band_frequencies.size)
-             if scan.n_channels - keep >= keep else None)
+    # the noise per complex value, measured where as many channels lie outside the
+    # principal functions as in them (:func:`principal_count`)
+    # (with resolve_pairs, from the median eigenvalue: :func:`noise_variance`; else the
+    # power outside the principal functions, noise only while the modes' shapes span fewer
+    # than ``keep`` directions - 34 channels of the example scan hold more than half
+    # of them in shapes, where the median is a shape's)
+    noise = None
+    if scan.n_channels - keep >= keep:
+        noise = (noise_variance(power, band_frequencies.size) if options["resolve_pairs"]
+                 else float(np.sum(power[keep:])) / (band_frequencies.size
+                                                     * (scan.n_channels - keep)))
     principal_band = principal[:, frequencies[frequencies <= f_high] >= f_low].T
     chosen = _refined(chosen, principal_band, band_frequencies, noise, frf_form, options)
     if noise is not None and options["resolve_pairs"]:
@@ -294,6 +302,12 @@ def _identify(scan: ScanData, options: dict) -> Identification:
         # a mode whose residues scatter in phase is not determined by the data (two poles
         # sharing one resonance): the least collinear one dropped, the rest refitted
         collinearity = [modal_phase_collinearity(constants[:, r]) for r in range(chosen.size)]
+        if options["resolve_pairs"]:
+            # the members of a pair split by the shapes' test (close_pairs) share their
+            # resonance by construction: their MPC measures how ill-conditioned the split
+            # of their residues is, not a complex mode; their split was tested already
+            collinearity = [1.0 if paired else value for value, paired in
+                            zip(collinearity, close_partners(chosen))]
         worst = int(np.argmin(collinearity))
         if collinearity[worst] >= MPC_MIN:
             break
