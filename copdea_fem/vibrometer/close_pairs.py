@@ -115,8 +115,12 @@ def split_close_poles(omega, values, poles, power, band, max_damping, noise_vari
     -------
     (poles, split) : ((n + split,) complex array, int)
     """
-    from copdea_fem.vibrometer.pole_refinement import (ADD_SIGNIFICANCE, LEAST_DAMPING,
-                                                       projection_cost, refine)
+    from copdea_fem.vibrometer.pole_refinement import (
+        ADD_SIGNIFICANCE,
+        LEAST_DAMPING,
+        projection_cost,
+        refine,
+    )
 
     hz_per_unit = 1.0 / (2 * math.pi) if hz_per_unit is None else hz_per_unit
     poles = np.asarray(poles, complex)

@@ -467,7 +467,7 @@ def _residual_directions(chosen, values, band_frequencies, principal_directions,
     from copdea_fem.vibrometer.close_pairs import EDGE_MARGIN
     from copdea_fem.vibrometer.pole_refinement import model_residual
 
-    f_low, f_high = options["band"]
+    f_high = options["band"][1]
     omega = band_frequencies / f_high
     residual = model_residual(omega, values.T, chosen / (2 * math.pi * f_high),
                               FRF_POWERS[frf_form]).T
