@@ -50,6 +50,10 @@ accelerance), with the pole ``s_r = -zeta_r w_r + i w_r sqrt(1 - zeta_r^2)`` and
    least collinear first, one at a time): its residues are no shape, as when two poles
    share one resonance the data do not separate (on the FE-made example scan, two weak
    pair members 1.5 and 5.6 Hz from their partners at 6.25 Hz lines, MPC 0.39 and 0.01).
+5. **Close pairs** (``resolve_pairs``, off by default; :mod:`close_pairs`): the noise from
+   the median eigenvalue (:func:`noise_variance`), a second refinement on the residual's
+   shapes beyond the principal functions, poles whose half-power band holds two shapes
+   split in two, and the members of such a pair exempt from the MPC drop.
 """
 
 from __future__ import annotations
