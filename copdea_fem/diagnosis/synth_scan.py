@@ -23,7 +23,9 @@ them.  What the export holds, per condition, is what a PSV-type scanning vibrome
   ``damping_ratio`` of its membrane share (material loss; the FE in vacuo has none), the
   radiation by the coupled pencil itself;
 - frequency scatter: each mode's eigenvalue moved by ``exp(2 N(0, frequency_noise))`` (its
-  frequency by ``exp(N(0, frequency_noise))``; the twins of an axisymmetric pair together);
+  frequency by ``exp(N(0, frequency_noise))``; the twins of an axisymmetric pair together,
+  the members (m,n)a/b of a split pair by one factor: the scatter stands for the model's
+  error, which a pair's split - an imperfection's or a frame's - does not share);
 - measurement noise: complex Gaussian, ``snr_db`` below the largest |H| of the export.
 
 The export's damping is the base study's own modal damping (``reduced.damping_*``, eq. 19,
@@ -176,6 +178,7 @@ def synthesise_scan(study: Study, options: ScanOptions, rng, name: str = "scan")
     from copdea_fem.fe import ElectrodeImperfection, engine_for, run_solve
     from copdea_fem.forced_response.scan import scan_response
     from copdea_fem.measured import ScanData
+    from copdea_fem.vibrometer.pairing import unit_key
 
     frequencies = options.frequencies()
     solved_study = fe_study(study, f_max=float(frequencies[-1]) * BAND_MARGIN)
@@ -186,7 +189,10 @@ def synthesise_scan(study: Study, options: ScanOptions, rng, name: str = "scan")
     scatter = {}
 
     def factor(label):
-        return scatter.setdefault(label, math.exp(rng.normal(0, options.frequency_noise)))
+        # one draw per mode, as before; the members of a pair (m,n)a/b share their pair's
+        # (the scatter is the model's error, common to both: a split is the device's)
+        draw = math.exp(rng.normal(0, options.frequency_noise))
+        return scatter.setdefault(unit_key(label) or label, draw)
 
     reference, _ = psv_reference_grid(state.outer_radius, state.inner_radius, options)
     positions = result.engine.prestressed_positions(state, reference, study.load.z)

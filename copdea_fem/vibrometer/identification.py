@@ -50,6 +50,10 @@ accelerance), with the pole ``s_r = -zeta_r w_r + i w_r sqrt(1 - zeta_r^2)`` and
    least collinear first, one at a time): its residues are no shape, as when two poles
    share one resonance the data do not separate (on the FE-made example scan, two weak
    pair members 1.5 and 5.6 Hz from their partners at 6.25 Hz lines, MPC 0.39 and 0.01).
+5. **Close pairs** (``resolve_pairs``, off by default; :mod:`close_pairs`): the noise from
+   the median eigenvalue (:func:`noise_variance`), a second refinement on the residual's
+   shapes beyond the principal functions, poles whose half-power band holds two shapes
+   split in two, and the members of such a pair exempt from the MPC drop.
 """
 
 from __future__ import annotations
@@ -64,13 +68,15 @@ import numpy as np
 
 from copdea_fem.measured import MeasuredDataError, ScanData
 from copdea_fem.measured.scan import RESPONSES
+from copdea_fem.vibrometer.close_pairs import close_partners
 from copdea_fem.vibrometer.identified import IdentifiedMode
 
 logger = logging.getLogger(__name__)
 
 #: Defaults of the automatic pole choice (see the module notes).
 DEFAULTS = {"max_order": 120, "components": 24, "frequency_tolerance": 0.01,
-            "damping_tolerance": 0.05, "max_damping": 0.2, "min_stable_orders": None}
+            "damping_tolerance": 0.05, "max_damping": 0.2, "min_stable_orders": None,
+            "resolve_pairs": False}
 
 #: A mode's least modal phase collinearity (module notes): below it, its residues are not
 #: a shape (0.5: phases spread over half the circle; a normal mode's is 1).
@@ -83,6 +89,9 @@ MIN_NOISE_CHANNELS = 8
 #: Fewest LSCF orders (2, 4, ..., 2 MIN_ORDERS) a record must allow; a mode is then stable
 #: over at least MIN_STABLE_ORDERS of them - half: a majority, not chance.
 MIN_ORDERS, MIN_STABLE_ORDERS = 10, 5
+
+#: The power k of (i w)^k of each FRF form (module notes).
+FRF_POWERS = {"receptance": 0, "mobility": 1, "accelerance": 2}
 
 #: The options of :func:`identify_scan`.
 OPTIONS = ("f_min", "f_max", *DEFAULTS)
@@ -167,7 +176,8 @@ def identify(scan: ScanData, *, f_min=None, f_max=None, **options) -> tuple[Iden
 
 def identify_scan(scan: ScanData, *, f_min=None, f_max=None, max_order=None,
                   components=None, frequency_tolerance=None, damping_tolerance=None,
-                  max_damping=None, min_stable_orders=None) -> Identification:
+                  max_damping=None, min_stable_orders=None,
+                  resolve_pairs=None) -> Identification:
     """Identify a scan's modes automatically (LSCF poles, LSFD residues; module notes).
 
     Parameters
@@ -190,6 +200,10 @@ def identify_scan(scan: ScanData, *, f_min=None, f_max=None, max_order=None,
     min_stable_orders : int, optional
         Orders over which a track must stay stable (default: a fifth of the orders, at
         least 5).
+    resolve_pairs : bool, optional
+        Look again for the modes the principal response functions leave out (the residual's
+        shapes) and split a pole whose half-power band holds two shapes
+        (:mod:`copdea_fem.vibrometer.close_pairs`); default False.
 
     Returns
     -------
@@ -199,7 +213,7 @@ def identify_scan(scan: ScanData, *, f_min=None, f_max=None, max_order=None,
     from copdea_fem.progress import single_threaded_blas
 
     options = _options(scan, f_min, f_max, max_order, components, frequency_tolerance,
-                       damping_tolerance, max_damping, min_stable_orders)
+                       damping_tolerance, max_damping, min_stable_orders, resolve_pairs)
     # BLAS on one thread: the matrices are small (order 120, 252 channels), and BLAS threads
     # fighting for a shared machine's cores made the 84 x 3 x 800 benchmark 15 times slower
     with single_threaded_blas():
@@ -254,8 +268,32 @@ def _identify(scan: ScanData, options: dict) -> Identification:
                 len(model.all_poles), keep, scan.n_channels, time.perf_counter() - started)
     diagram_poles = _physical_poles(model.all_poles, options)
     chosen, status = choose_poles(diagram_poles, options)
-    chosen = _refined(chosen, principal[:, frequencies[frequencies <= f_high] >= f_low].T,
-                      band_frequencies, power, keep, scan.n_channels, frf_form, options)
+    # the noise per complex value, measured where as many channels lie outside the
+    # principal functions as in them (:func:`principal_count`)
+    # (with resolve_pairs, from the median eigenvalue: :func:`noise_variance`; else the
+    # power outside the principal functions, noise only while the modes' shapes span fewer
+    # than ``keep`` directions - 34 channels of the example scan hold more than half
+    # of them in shapes, where the median is a shape's)
+    noise = None
+    if scan.n_channels - keep >= keep:
+        noise = (noise_variance(power, band_frequencies.size) if options["resolve_pairs"]
+                 else float(np.sum(power[keep:])) / (band_frequencies.size
+                                                     * (scan.n_channels - keep)))
+    principal_band = principal[:, frequencies[frequencies <= f_high] >= f_low].T
+    chosen = _refined(chosen, principal_band, band_frequencies, noise, frf_form, options)
+    if noise is not None and options["resolve_pairs"]:
+        # a second look: the shapes the principal functions left out (weak members of
+        # split pairs among strong modes), where the residual still holds them
+        extra = _residual_directions(chosen, values[:, in_band], band_frequencies,
+                                     left[:, :keep], noise, frf_form, options)
+        if extra.shape[1]:
+            logger.info("%d response functions of the residual's shapes added to the %d "
+                        "principal ones", extra.shape[1], keep)
+            data = np.hstack([principal_band, values[:, in_band].T @ extra.conj()])
+            chosen = _refined(chosen, data, band_frequencies, noise, frf_form, options)
+    if noise is not None and options["resolve_pairs"] and chosen.size:
+        chosen = _split_close(chosen, values[:, in_band], band_frequencies, noise, frf_form,
+                              options)
     constants = np.zeros((scan.n_channels, 0), complex)
     while chosen.size:
         try:
@@ -268,6 +306,12 @@ def _identify(scan: ScanData, options: dict) -> Identification:
         # a mode whose residues scatter in phase is not determined by the data (two poles
         # sharing one resonance): the least collinear one dropped, the rest refitted
         collinearity = [modal_phase_collinearity(constants[:, r]) for r in range(chosen.size)]
+        if options["resolve_pairs"]:
+            # the members of a pair split by the shapes' test (close_pairs) share their
+            # resonance by construction: their MPC measures how ill-conditioned the split
+            # of their residues is, not a complex mode; their split was tested already
+            collinearity = [1.0 if paired else value for value, paired in
+                            zip(collinearity, close_partners(chosen))]
         worst = int(np.argmin(collinearity))
         if collinearity[worst] >= MPC_MIN:
             break
@@ -312,6 +356,45 @@ def principal_count(components: int, rank: int, n_channels: int) -> int:
     if n_channels >= MIN_NOISE_CHANNELS:
         keep = min(keep, n_channels // 2)
     return max(keep, 1) if rank else 0
+
+
+def marchenko_pastur_median(ratio: float) -> float:
+    """Median of the Marchenko-Pastur law of aspect ratio ``ratio`` in (0, 1] [-]: the
+    median eigenvalue of ``N N^H / n`` for an (r x n) matrix ``N`` of independent unit-variance
+    entries, r / n = ratio, as both grow (Marchenko & Pastur, Math. USSR Sb. 1, 1967; density
+    ``sqrt((b - x)(x - a)) / (2 pi ratio x)`` on ``[a, b] = [(1 -+ sqrt ratio)^2]``)."""
+    from scipy import integrate, optimize
+
+    low, high = (1 - math.sqrt(ratio)) ** 2, (1 + math.sqrt(ratio)) ** 2
+
+    def density(x):
+        return math.sqrt(max((high - x) * (x - low), 0.0)) / (2 * math.pi * ratio * x)
+
+    def below(x):
+        return integrate.quad(density, low, x, limit=200)[0] - 0.5
+
+    return float(optimize.brentq(below, low, high, xtol=1e-10))
+
+
+def noise_variance(channel_power, n_lines: int) -> float:
+    """The noise variance per complex FRF value [data unit^2] from the eigenvalues
+    ``channel_power`` of the (channels x lines) FRF matrix's Gram matrix ``H H^H``.
+
+    Noise alone gives eigenvalues ``sigma^2 n`` times the Marchenko-Pastur law (n the longer
+    side, r the shorter, ratio r / n); the modes add a few large ones.  The median of the
+    r nonzero eigenvalues is a noise eigenvalue while the modes' shapes span fewer than half
+    of them (the median-based estimate of Gavish & Donoho, IEEE Trans. Inf. Theory 60, 2014):
+    ``sigma^2 = median / (n mu(r / n))``, ``mu`` :func:`marchenko_pastur_median`.  The sum
+    outside the first ``q`` eigenvalues over ``(C - q) F`` counts the modes past the q-th as
+    noise: the FE-made G1 scan (252 channels, 800 lines, some 40 modes with three
+    components) has some 36 shapes above the noise, and that sum over-estimated sigma^2 by 11
+    times at q = 24 (the median: within 3 %), hiding the weak member of each split pair.
+    """
+    power = np.sort(np.asarray(channel_power, float))[::-1]
+    rank = min(power.size, int(n_lines))
+    longer = max(power.size, int(n_lines))
+    median = float(np.median(np.maximum(power[:rank], 0.0)))
+    return median / (longer * marchenko_pastur_median(rank / longer))
 
 
 def _peak_check(scan, modes, band_frequencies, band_values) -> dict:
@@ -379,19 +462,51 @@ def condition_band(condition) -> tuple[float, float]:
     return low, high
 
 
-def _refined(chosen, data, band_frequencies, channel_power, keep, n_channels, frf_form, options):
-    """The chosen poles refined and the missed ones added (:mod:`pole_refinement`)."""
+def _residual_directions(chosen, values, band_frequencies, principal_directions, noise,
+                         frf_form, options) -> np.ndarray:
+    """(C, q2) orthonormal channel directions of the shapes the model of ``chosen`` leaves
+    in ``values`` (C, F): the residual's left singular vectors above :data:`close_pairs.
+    EDGE_MARGIN` times the noise's largest singular value, made orthogonal to the principal
+    directions (C, q) already fitted; at most ``components`` of them."""
+    from copdea_fem.vibrometer.close_pairs import EDGE_MARGIN
+    from copdea_fem.vibrometer.pole_refinement import model_residual
+
+    f_high = options["band"][1]
+    omega = band_frequencies / f_high
+    residual = model_residual(omega, values.T, chosen / (2 * math.pi * f_high),
+                              FRF_POWERS[frf_form]).T
+    residual = residual - principal_directions @ (principal_directions.conj().T @ residual)
+    left, singular, _ = np.linalg.svd(residual, full_matrices=False)
+    channels, lines = values.shape
+    edge = math.sqrt(noise) * (math.sqrt(channels) + math.sqrt(lines))
+    count = min(int(np.sum(singular > EDGE_MARGIN * edge)), options["components"])
+    return left[:, :count]
+
+
+def _split_close(chosen, values, band_frequencies, noise, frf_form, options):
+    """The chosen poles with those whose half-power band holds two shapes split in two
+    (:mod:`close_pairs`)."""
+    from copdea_fem.vibrometer.close_pairs import split_close_poles
+
+    f_low, f_high = options["band"]
+    scale = 2 * math.pi * f_high
+    poles, split = split_close_poles(band_frequencies / f_high, values, chosen / scale,
+                                     FRF_POWERS[frf_form], (f_low / f_high, 1.0),
+                                     options["max_damping"], noise, hz_per_unit=f_high)
+    if split:
+        logger.info("%d poles split by their shapes (close pairs)", split)
+    return poles * scale
+
+
+def _refined(chosen, data, band_frequencies, noise, frf_form, options):
+    """The chosen poles refined and the missed ones added (:mod:`pole_refinement`);
+    ``noise`` the noise variance per complex value (None: not measured, nothing added)."""
     from copdea_fem.vibrometer.pole_refinement import LEAST_DAMPING, add_missing
 
     f_low, f_high = options["band"]
-    # the noise per complex value: the FRF matrix's power outside the principal functions
-    # (noise only, when the modes' shapes span fewer than ``keep`` directions)
-    outside = n_channels - keep
-    noise = (float(np.sum(channel_power[keep:])) / (band_frequencies.size * outside)
-             if outside >= keep else None)
     scale = 2 * math.pi * f_high
     poles, added = add_missing(band_frequencies / f_high, data, chosen / scale,
-                               {"receptance": 0, "mobility": 1, "accelerance": 2}[frf_form],
+                               FRF_POWERS[frf_form],
                                (f_low / f_high, 1.0), options["max_damping"], noise,
                                hz_per_unit=f_high)
     poles = poles * scale
@@ -416,7 +531,7 @@ def _refined(chosen, data, band_frequencies, channel_power, keep, n_channels, fr
 
 
 def _options(scan, f_min, f_max, max_order, components, frequency_tolerance,
-             damping_tolerance, max_damping, min_stable_orders) -> dict:
+             damping_tolerance, max_damping, min_stable_orders, resolve_pairs=None) -> dict:
     if scan.quantity != "frf":
         raise MeasuredDataError(f"scan file {scan.path}: quantity = {scan.quantity!r} is not "
                                 "allowed for identification; allowed: 'frf' (UFF function "
@@ -440,7 +555,8 @@ def _options(scan, f_min, f_max, max_order, components, frequency_tolerance,
     options = check_options({"max_order": max_order, "components": components,
                              "frequency_tolerance": frequency_tolerance,
                              "damping_tolerance": damping_tolerance, "max_damping": max_damping,
-                             "min_stable_orders": min_stable_orders})
+                             "min_stable_orders": min_stable_orders,
+                             "resolve_pairs": resolve_pairs})
     options["band"] = (low, high)
     # a short record leaves too few orders for a pole's stability to be evidence (15 lines:
     # 6 orders, stable over 2 of them, gave 5 modes, two where there is none): refused
@@ -473,6 +589,9 @@ def check_options(values: dict) -> dict:
     if options["min_stable_orders"] is None:
         options["min_stable_orders"] = max(5, round(0.2 * n_orders))
     _check("min_stable_orders", options["min_stable_orders"], 2, n_orders, integer=True)
+    if not isinstance(options["resolve_pairs"], bool):
+        raise MeasuredDataError(f"identify resolve_pairs = {options['resolve_pairs']!r} is not "
+                                "allowed; allowed: true or false")
     options["max_order"] = int(options["max_order"])
     options["components"] = int(options["components"])
     return options
@@ -671,7 +790,9 @@ __all__ = [
     "identified_rows",
     "identify",
     "identify_scan",
+    "marchenko_pastur_median",
     "modal_phase_collinearity",
+    "noise_variance",
     "plot_stabilisation",
     "principal_count",
     "write_identified",

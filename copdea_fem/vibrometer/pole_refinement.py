@@ -82,13 +82,17 @@ def _parameters(poles):
     return np.column_stack([poles.imag, np.log(-poles.real)]).ravel()
 
 
-def _residual(omega, data, poles, power):
+def model_residual(omega, data, poles, power):
+    """``(I - P) Y`` of the module notes: the data the model's columns leave (the residues
+    and residual terms fitted by least squares), (F, q) like ``data``."""
     basis = _orthonormal(_basis(omega, poles, power))
     return data - basis @ (basis.conj().T @ data)
 
 
-def _cost(omega, data, poles, power) -> float:
-    return float(np.sum(np.abs(_residual(omega, data, poles, power)) ** 2))
+def projection_cost(omega, data, poles, power) -> float:
+    """J of the module notes: the data's energy left outside the model's columns (the
+    residues and residual terms fitted by least squares) [data unit^2]."""
+    return float(np.sum(np.abs(model_residual(omega, data, poles, power)) ** 2))
 
 
 def refine(omega, data, poles, power, band, max_damping, free=None):
@@ -132,7 +136,7 @@ def refine(omega, data, poles, power, band, max_damping, free=None):
         return out
 
     def residual(parameters):
-        value = _residual(omega, data, _poles(full(parameters)), power)
+        value = model_residual(omega, data, _poles(full(parameters)), power)
         return np.concatenate([value.real.ravel(), value.imag.ravel()])
 
     def jacobian(parameters):
@@ -197,7 +201,7 @@ def add_missing(omega, data, poles, power, band, max_damping, noise_variance, hz
     hz_per_unit = 1.0 / (2 * math.pi) if hz_per_unit is None else hz_per_unit
     energy = float(np.sum(np.abs(data) ** 2))
     poles = refine(omega, data, poles, power, band, max_damping)
-    cost = _cost(omega, data, poles, power)
+    cost = projection_cost(omega, data, poles, power)
     if noise_variance is None:
         return poles, 0
     threshold = max(ENERGY_FLOOR * energy, ADD_SIGNIFICANCE * data.shape[1] * noise_variance)
@@ -222,7 +226,7 @@ def add_missing(omega, data, poles, power, band, max_damping, noise_variance, hz
         trial = np.append(poles, grid[best])
         trial = refine(omega, data, trial, power, band, max_damping,
                        free=np.abs(trial.imag / grid[best].imag - 1) < 0.1)
-        trial_cost = _cost(omega, data, trial, power)
+        trial_cost = projection_cost(omega, data, trial, power)
         zeta = -trial.real / np.abs(trial)
         if cost - trial_cost <= threshold or np.any(zeta > max_damping):
             break
@@ -238,9 +242,9 @@ def add_missing(omega, data, poles, power, band, max_damping, noise_variance, hz
 def _pruned(omega, data, poles, power, threshold, hz_per_unit):
     """``poles`` without those whose removal raises the cost by less than ``threshold``
     (the residues refitted; the least needed one first, one at a time)."""
-    cost = _cost(omega, data, poles, power)
+    cost = projection_cost(omega, data, poles, power)
     while poles.size:
-        increases = [_cost(omega, data, np.delete(poles, r), power) - cost
+        increases = [projection_cost(omega, data, np.delete(poles, r), power) - cost
                      for r in range(poles.size)]
         weakest = int(np.argmin(increases))
         if increases[weakest] > threshold:

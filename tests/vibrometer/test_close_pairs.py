@@ -1,0 +1,85 @@
+"""Close pairs told apart by their shapes (copdea_fem.vibrometer.close_pairs): closed-form
+FRF sets made here, never by the identification."""
+
+import math
+
+import numpy as np
+import pytest
+from vibrometer_helpers import mac, membrane_scan, membrane_shapes, paper_grid
+
+from copdea_fem.vibrometer.close_pairs import significant_shapes
+from copdea_fem.vibrometer.identification import (
+    identify_scan,
+    noise_variance,
+)
+
+#: 1.25 Hz lines over 200-400 Hz (the paper's line spacing).
+AXIS = np.arange(160, 321) * 1.25
+#: The pair: 300 Hz and 0.5 % above, damping 1 % (half-power bandwidth 2 zeta = 2 %: the
+#: split is a quarter of it, one peak on every channel), a (0,1) mode below as a neighbour.
+PAIR = (300.0, 301.5)
+DAMPING = 0.01
+
+
+def _pair_scan(seed, pair=True, snr_db=60.0):
+    modes = [((0, 1, 0.0), 240.0, 0.02, 1.0), ((1, 1, 0.0), PAIR[0], DAMPING, 1.0)]
+    if pair:                                   # the other member: its shape turned by 90 deg
+        modes.append(((1, 1, 0.5 * math.pi), PAIR[1], DAMPING, 0.7))
+    return membrane_scan(modes, AXIS, snr_db, np.random.default_rng(seed)), modes
+
+
+def test_marchenko_pastur_median_against_noise():
+    """The noise variance of a pure-noise matrix from its median eigenvalue: within 3 %
+    (252 x 800, the size of a paper scan; and 400 x 400, ratio 1)."""
+    rng = np.random.default_rng(3)
+    for rows, lines in ((252, 800), (400, 400)):
+        noise = (rng.normal(size=(rows, lines)) + 1j * rng.normal(size=(rows, lines))) * 0.5
+        power = np.linalg.eigvalsh(noise @ noise.conj().T)
+        assert noise_variance(power, lines) == pytest.approx(0.5, rel=0.03)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_two_modes_half_a_percent_apart_both_found(seed):
+    """Both members, each with its own shape (MAC >= 0.95 with the true one) and its
+    frequency within a tenth of the half-power bandwidth, at 60 dB noise."""
+    scan, modes = _pair_scan(seed)
+    found = identify_scan(scan, resolve_pairs=True).modes
+    near = [m for m in found if 290 < m.freq_hz < 310]
+    assert len(near) == 2, [round(m.freq_hz, 2) for m in found]
+    shapes = membrane_shapes(paper_grid(), [family for family, *_ in modes[1:]])
+    for mode, shape, frequency in zip(sorted(near, key=lambda m: m.freq_hz),
+                                      shapes.reshape(2, -1), PAIR):
+        assert abs(mode.freq_hz - frequency) < 0.1 * 2 * DAMPING * frequency
+        assert mac(mode.shape, shape) >= 0.95
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_single_mode_stays_one(seed):
+    """The same set without the second member: one mode near 300 Hz (no twin from the
+    shapes' test)."""
+    scan, _ = _pair_scan(seed, pair=False)
+    found = identify_scan(scan, resolve_pairs=True).modes
+    assert len([m for m in found if 290 < m.freq_hz < 310]) == 1
+
+
+def test_significant_shapes_counts_the_pair():
+    """The half-power band of the pair holds one shape more above the noise than that of
+    the single mode (the criterion of close_pairs, on the FRF matrix itself; the (0,1)
+    neighbour's tail is one shape in both)."""
+    counts = []
+    for pair in (True, False):
+        scan, _ = _pair_scan(0, pair=pair)
+        band = np.abs(scan.frequencies - 300.75) <= 2 * DAMPING * 300.75
+        values = scan.values / np.abs(scan.values).max()
+        power = np.linalg.eigvalsh(values @ values.conj().T)
+        counts.append(significant_shapes(values[:, band],
+                                         noise_variance(power, values.shape[1])))
+    assert counts[0] == counts[1] + 1
+
+
+def test_resolve_pairs_must_be_a_bool():
+    from copdea_fem.measured import MeasuredDataError
+
+    scan, _ = _pair_scan(0, pair=False)
+    with pytest.raises(MeasuredDataError, match="resolve_pairs = 'yes' is not allowed"):
+        identify_scan(scan, resolve_pairs="yes")
