@@ -253,6 +253,8 @@ def cmd_identify(args) -> int:
     VTU)."""
     out = _output(args)
     options = {} if args.max_order is None else {"max_order": args.max_order}
+    if args.resolve_pairs:
+        options["resolve_pairs"] = True
     if Path(args.measured).suffix.lower() in (".uff", ".unv"):
         band = None if args.band is None else tuple(_band_value(v) for v in args.band)
         result = api.identify_file(args.measured, band=band, out=out, **options)
@@ -352,6 +354,10 @@ def _add_diagnose_commands(commands, with_study) -> None:
     identify.add_argument("--max-order", type=int, metavar="N",
                           help="highest LSCF model order (default 120: up to 60 modes in the "
                                "band)")
+    identify.add_argument("--resolve-pairs", action="store_true",
+                          help="split a close pair (two modes a few %% apart) the fit merged "
+                          "into one pole (default: the measured.yaml's "
+                          "identification.resolve_pairs, else off)")
     identify.add_argument("--quiet", action="store_true", help="no progress messages")
     identify.set_defaults(handler=cmd_identify)
 

@@ -256,6 +256,9 @@ def identify(measured: MeasuredSet | str | Path, *,
     check_options({name: value for name, value in options.items()
                    if name not in ("f_min", "f_max")})
     measured_set = as_measured(measured)
+    # the measured.yaml's identification: settings, overridden by the caller's options
+    options = {**measured_set.identification,
+               **{name: value for name, value in options.items() if value is not None}}
     scanned = [c for c in measured_set.conditions if c.scan is not None]
     if not scanned:
         source = measured_set.path or measured_set.name if measured is measured_set \

@@ -82,9 +82,10 @@ def scan_fe_study(measured: MeasuredSet, condition, state=None):
     return fe_study(study, f_max=condition.band[1] * (1 + window))
 
 
-def condition_test_modes(condition) -> tuple:
+def condition_test_modes(condition, resolve_pairs: bool = False) -> tuple:
     """The test modes of a condition and the channels they lie on: a scan's modes
-    identified in the band (nothing from the FE), or a mode set's modes in the band.
+    identified in the band (nothing from the FE; ``resolve_pairs``: the measured.yaml's
+    ``identification.resolve_pairs``), or a mode set's modes in the band.
 
     Returns
     -------
@@ -96,7 +97,8 @@ def condition_test_modes(condition) -> tuple:
         return modes_of_set(condition.mode_set, low, high), condition.mode_set.channels
     from copdea_fem.vibrometer.identification import condition_band, identify
     low, high = condition_band(condition)
-    return identify(condition.scan, f_min=low, f_max=high), condition.scan
+    return (identify(condition.scan, f_min=low, f_max=high, resolve_pairs=resolve_pairs),
+            condition.scan)
 
 
 def pair_condition(measured: MeasuredSet, condition, *, solve=None) -> ScanPairing:
@@ -121,7 +123,8 @@ def pair_condition(measured: MeasuredSet, condition, *, solve=None) -> ScanPairi
     from copdea_fem.vibrometer.model_shapes import correlate_identified, fe_shapes
 
     window, mac_min = pairing_settings(measured)
-    modes, channels = condition_test_modes(condition)
+    modes, channels = condition_test_modes(
+        condition, resolve_pairs=measured.identification.get("resolve_pairs", False))
     study = scan_fe_study(measured, condition)
     logger.info("%s: %d test modes (%s); FE modes at the %d measured points", condition.name,
                 len(modes), "mode set" if condition.mode_set is not None else "identified",

@@ -24,6 +24,8 @@ Manifest (paths relative to the manifest's folder)::
                                      #   nothing when no peak explains them
     pairing: {window: 50 %, mac_min: 0.5}   # optional: pairing of scanned shapes with the
                                      #   model's (copdea_fem.vibrometer.pairing)
+    identification: {resolve_pairs: true}  # optional: split close pairs in the scans'
+                                     #   identification (default false)
     model: fe                        # optional: the model of record, fe (default: the FE as
                                      #   the base study is written, the ring model its
                                      #   anchored surrogate) or reduced (the ring model alone)
@@ -77,6 +79,7 @@ from copdea_fem.measured.mode_sets import MODE_SET_SUFFIXES, MeasuredModes, read
 from copdea_fem.measured.observation import (
     ObservedFamilies,
     PairingSettings,
+    parse_identification,
     parse_observed,
     parse_pairing,
 )
@@ -85,7 +88,7 @@ from copdea_fem.measured.scan_files import SCAN_READERS, read_scan
 from copdea_fem.study import Study, StudyError, load_study
 
 MANIFEST_KEYS = ("name", "description", "base_study", "noise", "candidates", "conditions",
-                 "model", "observed", "pairing")
+                 "model", "observed", "pairing", "identification")
 MODELS = ("fe", "reduced")     # the model of record (key ``model``, default fe)
 CONDITION_KEYS = ("name", "set", "resonances", "spectrum", "spectrum_point", "band",
                   "modes_json", "scan", "scan_frame", "scan_directions", "scan_tolerance",
@@ -204,6 +207,7 @@ class MeasuredSet:
     model: str = "fe"
     observed: ObservedFamilies | None = None
     pairing: PairingSettings | None = None
+    identification: dict = field(default_factory=dict)
 
     def study_of(self, condition: Condition, extra: dict | None = None) -> Study:
         """The base study with the condition's overrides (and ``extra`` ones) applied."""
@@ -289,7 +293,8 @@ def parse_measured(raw: dict, folder, name: str = "measured", path=None, *,
                        path=Path(path) if path else None, base_study=base,
                        conditions=tuple(conditions), noise=noise, candidates=candidates,
                        model=model, observed=parse_observed(raw.get("observed")),
-                       pairing=parse_pairing(raw.get("pairing")))
+                       pairing=parse_pairing(raw.get("pairing")),
+                       identification=parse_identification(raw.get("identification")))
 
 
 def _parse_condition(item, index, base: Study, folder: Path, switched_keys: dict) -> Condition:

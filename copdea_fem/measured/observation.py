@@ -102,5 +102,26 @@ def parse_pairing(value) -> PairingSettings:
     return PairingSettings(**settings)
 
 
-__all__ = ["FAMILY_KINDS", "PAIRING_BOUNDS", "ObservedFamilies", "PairingSettings",
-           "parse_observed", "parse_pairing"]
+IDENTIFICATION_KEYS = ("resolve_pairs",)
+
+
+def parse_identification(value) -> dict:
+    """``identification:`` -> the options it sets of the scans' identification
+    (:func:`copdea_fem.vibrometer.identification.identify_scan`, used by identify, correlate
+    and diagnose): ``resolve_pairs`` (true/false, default false: split a close pair whose
+    poles the fit merged, :mod:`copdea_fem.vibrometer.close_pairs`)."""
+    if value is None:
+        return {}
+    if not isinstance(value, dict):
+        raise refusal("identification", value, "a mapping of " + ", ".join(IDENTIFICATION_KEYS))
+    for key, raw in value.items():
+        if key not in IDENTIFICATION_KEYS:
+            raise refusal(f"identification.{key}", raw, "keys " + ", ".join(IDENTIFICATION_KEYS),
+                          "unknown key")
+        if not isinstance(raw, bool):
+            raise refusal(f"identification.{key}", raw, "true or false")
+    return dict(value)
+
+
+__all__ = ["FAMILY_KINDS", "IDENTIFICATION_KEYS", "PAIRING_BOUNDS", "ObservedFamilies", "PairingSettings",
+           "parse_identification", "parse_observed", "parse_pairing"]

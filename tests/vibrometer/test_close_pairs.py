@@ -83,3 +83,89 @@ def test_resolve_pairs_must_be_a_bool():
     scan, _ = _pair_scan(0, pair=False)
     with pytest.raises(MeasuredDataError, match="resolve_pairs = 'yes' is not allowed"):
         identify_scan(scan, resolve_pairs="yes")
+
+
+# --- the commands: --resolve-pairs and the measured.yaml's identification.resolve_pairs ---
+
+def _pair_measured(tmp_path, identification=None):
+    import yaml
+    from vibrometer_helpers import write_measured
+
+    from copdea_fem.measured import write_scan
+
+    scan, _ = _pair_scan(0)
+    write_scan(tmp_path / "pair.uff", scan)
+    path = write_measured(tmp_path, {"z16": ("pair.uff", {"load.z": "16 mm",
+                                                          "load.voltage": "2 kV"})})
+    if identification is not None:
+        raw = yaml.safe_load(path.read_text())
+        raw["identification"] = identification
+        path.write_text(yaml.safe_dump(raw, sort_keys=False))
+    return path
+
+
+def _near_pair(out):
+    import csv
+    with open(out / "identified.csv", newline="") as handle:
+        return [float(r["freq_hz"]) for r in csv.DictReader(handle)
+                if 290 < float(r["freq_hz"]) < 310]
+
+
+@pytest.mark.parametrize("how", ["option", "manifest"])
+def test_identify_command_resolve_pairs(tmp_path, how):
+    """The closed-form pair 0.5 % apart through the command, with --resolve-pairs or
+    identification: {resolve_pairs: true}: both members within a tenth of the half-power
+    bandwidth of their frequencies."""
+    from copdea_fem.cli import main
+
+    path = _pair_measured(tmp_path, {"resolve_pairs": True} if how == "manifest" else None)
+    out = tmp_path / "out"
+    argv = ["identify", str(path), "--out", str(out), "--quiet"]
+    assert main(argv + (["--resolve-pairs"] if how == "option" else [])) == 0
+    found = _near_pair(out)
+    assert sorted(found) == pytest.approx(PAIR, abs=0.1 * 2 * DAMPING * PAIR[0])
+
+
+@pytest.mark.parametrize("manifest, flag, expected", [
+    (None, False, False), (None, True, True), ({"resolve_pairs": True}, False, True),
+    ({"resolve_pairs": False}, True, True)])
+def test_resolve_pairs_reaches_the_identification(tmp_path, monkeypatch, manifest, flag,
+                                                  expected):
+    """What identify_scan is given, by the command (the flag over the manifest, default
+    off) and by the pairing of correlate/diagnose (condition_test_modes, the manifest's)."""
+    from copdea_fem.cli import main
+    from copdea_fem.diagnosis import scanned
+    from copdea_fem.diagnosis.effects import MANIFEST_RULES
+    from copdea_fem.measured import load_measured
+    from copdea_fem.vibrometer import identification
+
+    seen = []
+    original = identification.identify_scan
+
+    def spy(scan, **options):
+        seen.append(options.get("resolve_pairs"))
+        return original(scan, **{**options, "max_order": 20})
+
+    monkeypatch.setattr(identification, "identify_scan", spy)
+    monkeypatch.setattr("copdea_fem.api.measured_results.identify_scan", spy, raising=False)
+    path = _pair_measured(tmp_path, manifest)
+    argv = ["identify", str(path), "--out", str(tmp_path / "out"), "--quiet"]
+    assert main(argv + (["--resolve-pairs"] if flag else [])) == 0
+    assert bool(seen[-1]) is expected
+    measured = load_measured(path, effects=MANIFEST_RULES)
+    scanned.condition_test_modes(measured.conditions[0], resolve_pairs=bool(
+        measured.identification.get("resolve_pairs", False)))
+    assert bool(seen[-1]) is bool((manifest or {}).get("resolve_pairs", False))
+
+
+@pytest.mark.parametrize("value, message", [
+    ({"resolve_pairs": "yes"}, "identification.resolve_pairs"),
+    ({"split": True}, "identification.split"),
+    ("on", "identification")])
+def test_identification_key_refused(tmp_path, capsys, value, message):
+    from copdea_fem.cli import main
+
+    path = _pair_measured(tmp_path, value)
+    assert main(["identify", str(path), "--out", str(tmp_path / "out"), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "allowed" in err and len(err.strip().splitlines()) == 1
