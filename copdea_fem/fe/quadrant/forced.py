@@ -36,6 +36,7 @@ import numpy as np
 
 from copdea_fem.fe.forced.harmonic import (
     ForcedOrder,
+    checked_bias,
     forcing_from_energy,
     reduce_matrix_3d,
     reduce_vector_3d,
@@ -67,12 +68,16 @@ logger = logging.getLogger(__name__)
 WEIGHT_BONUS_INTORDER = 16
 
 
-def _energy_form(state, voltage, weight=None):
+def _energy_form(state, voltage, weight=None, voltage_derivative=False):
     """Variation form of the quadrant's membrane energy; ``weight``: a coefficient function
-    multiplying the density (its electrostatic part is what the forcing reads)."""
+    multiplying the density (its electrostatic part is what the forcing reads);
+    ``voltage_derivative``: of the density's derivative in ``voltage`` instead (its
+    electrostatic part only, :func:`sector_forcing`)."""
     from copdea_fem.fe.membrane import energy_density
     u = state.space.TrialFunction()
     density = energy_density(u, state.material, voltage)
+    if voltage_derivative:
+        density = density.Diff(voltage)
     form = ngs.BilinearForm(state.space, symmetric=False)
     if weight is None:
         form += ngs.Variation(density * state.measure)
@@ -99,6 +104,28 @@ def quadrant_forcing(state, operators, imperfection=None):
                                          state.voltage, state.displacement.vec,
                                          operators.free_dofs)
     return reduce_vector_3d(force, operators), balance
+
+
+def sector_forcing(state, operators, imperfection=None):
+    """f [N/V] on the sector's unknowns of :func:`quadrant_forcing`, without the residual.
+
+    The same ``f = -dR/dV (u0, V_b)`` as the difference quotient of
+    :func:`copdea_fem.fe.forced.harmonic.forcing_from_energy`, here as one application of
+    the Variation of ``dPsi/dV`` (NGSolve's symbolic derivative of the density in the
+    voltage): R is linear in the density, so ``dR/dV`` is the residual of ``dPsi/dV``, and
+    ``dPsi/dV`` holds only the co-energy's terms (the strain energy does not depend on V).
+    One residual of the electrostatic part instead of two of the whole energy; equal to the
+    difference quotient to rounding (it also skips that quotient's cancellation of the
+    strain energy's residual).  Used where the residual is not wanted (the modal model's
+    inputs, :meth:`copdea_fem.fe.quadrant.engine.QuadrantEngine.electrode_forcing`)."""
+    voltage = ngs.Parameter(checked_bias(state.voltage))
+    weight = None
+    if imperfection is not None:
+        weight = imperfection.sector_weight(operators.sector, ngs.x, ngs.y)
+    at = state.displacement.vec
+    derivative = at.CreateVector()
+    _energy_form(state, voltage, weight, voltage_derivative=True).Apply(at, derivative)
+    return reduce_vector_3d(-np.array(derivative.FV().NumPy()), operators)
 
 
 def quadrant_elastic(state, operators):
