@@ -46,7 +46,7 @@ from copdea_fem.fe.forced.radiation import (
     AZIMUTH_POINTS,
     green_kernels,
     polar_quadrature,
-    pressure_parts,
+    sampling_matrix,
 )
 
 #: Polar angles of the observation points in the quadrant [rad].
@@ -258,20 +258,26 @@ class QuadrantSphere:
         self._upper_points = self.points[self.is_upper]
         self._lower_points = self.points[~self.is_upper]
         self.normal = self.xyz / radius
+        self._sampling = None
+
+    def _values(self):
+        """(points, 4) p and grad p of what ``self.gf`` holds, each half at its points."""
+        values = np.empty((len(self.xyz), 4))
+        values[self.is_upper] = np.asarray(self._upper(self._upper_points))
+        values[~self.is_upper] = np.asarray(self._lower(self._lower_points))
+        return values
 
     def sample(self, pressure_vectors):
+        """(p, dp/drho) (points, columns) of pressure vectors on the sector's free DOFs: one
+        sampling matrix (:func:`.radiation.sampling_matrix`, built once) for all columns."""
         pressure_vectors = np.atleast_2d(np.asarray(pressure_vectors).T).T
-        p_values = np.zeros((len(self.xyz), pressure_vectors.shape[1]), complex)
-        dp_values = np.zeros_like(p_values)
-        for k, factor in pressure_parts(self.gf, self.coupled.pressure_free, pressure_vectors):
-            values = np.empty((len(self.xyz), 4), complex)     # each half at its points
-            values[self.is_upper] = np.asarray(self._upper(self._upper_points))
-            values[~self.is_upper] = np.asarray(self._lower(self._lower_points))
-            gradient = values[:, 1:].copy()
-            gradient[:, :2] *= self.sign          # even parity: d/dx flips with x
-            p_values[:, k] += factor * values[:, 0]
-            dp_values[:, k] += factor * np.einsum("ij,ij->i", gradient, self.normal)
-        return p_values, dp_values
+        if self._sampling is None:
+            self._sampling = sampling_matrix(self.gf, self.coupled.pressure_free,
+                                             self.points["nr"], self._values)
+        values = (self._sampling @ pressure_vectors).reshape(len(self.xyz), 4, -1)
+        gradient = values[:, 1:].copy()
+        gradient[:, :2] *= self.sign[:, :, None]          # even parity: d/dx flips with x
+        return values[:, 0], np.einsum("ijk,ij->ik", gradient, self.normal)
 
     def kernels(self, microphone, wavenumber: float, baffle: bool):
         """(K_p, K_g) per sphere point (:func:`.radiation.kirchhoff_kernels`): the shared
