@@ -158,8 +158,8 @@ def sampling_matrix(gf, free, element_numbers, evaluate):
     evaluate : callable
         ``evaluate() -> (P, V)`` real array: the values at the points of what ``gf`` holds.
     """
-    import scipy.sparse as sp
     import ngsolve as ngs
+    import scipy.sparse as sp
 
     space = gf.space
     free = np.asarray(free)
