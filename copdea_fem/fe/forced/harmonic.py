@@ -108,6 +108,17 @@ def reduce_vector(full: np.ndarray, free_dofs, lift=None) -> np.ndarray:
     return reduced
 
 
+def checked_bias(voltage_b: float) -> float:
+    """The bias V_b [V] of a forced response, > 0 (a ValueError naming ``load.voltage``
+    otherwise: at V_b = 0 the linear forcing V_b dC/du vanishes)."""
+    voltage_b = float(voltage_b)
+    if not voltage_b > 0:
+        raise ValueError(f"load.voltage = {voltage_b:g} V is not allowed for a forced response; "
+                         "allowed: > 0 V (the linear forcing V_b dC/du vanishes; the response "
+                         "is quadratic in V~)")
+    return voltage_b
+
+
 def forcing_from_energy(energy_form, voltage, voltage_b: float, at, free_dofs):
     """f = -dR/dV (u0, V_b) = -2 (R(u0; V_b) - R(u0; 0)) / V_b [N/V] on a membrane space's DOFs
     (module doc: the co-energy is quadratic in V, so the difference quotient is exact), and
@@ -137,11 +148,7 @@ def forcing_from_energy(energy_form, voltage, voltage_b: float, at, free_dofs):
     balance : float
         |R(u0; V_b)| / |R(u0; 0)| on ``free_dofs`` (0 at an exact equilibrium).
     """
-    voltage_b = float(voltage_b)
-    if not voltage_b > 0:
-        raise ValueError(f"load.voltage = {voltage_b:g} V is not allowed for a forced response; "
-                         "allowed: > 0 V (the linear forcing V_b dC/du vanishes; the response "
-                         "is quadratic in V~)")
+    voltage_b = checked_bias(voltage_b)
     residuals = []
     for value in (voltage_b, 0.0):
         voltage.Set(value)

@@ -136,6 +136,75 @@ def pressure_parts(gf, free, pressure_vectors):
             yield k, factor
 
 
+def sampling_matrix(gf, free, element_numbers, evaluate):
+    """The sparse matrix S [(points x values), free DOFs] with ``S @ v`` = ``evaluate()`` of
+    ``gf`` holding ``v`` on the free DOFs ``free`` (0 elsewhere), for a sampling linear in
+    ``gf``'s vector: one matrix applied to every vector instead of one evaluation per vector.
+
+    A point's values depend only on the DOFs of the (volume) element it was found in,
+    ``element_numbers[point]``.  The DOFs of those elements are coloured so that no element
+    holds two of one colour; ``gf`` set to the indicator of one colour then gives, at each
+    point, the shape values of the one DOF of that colour in its element: one evaluation
+    per colour (a few tens) gives every entry of S exactly.
+
+    Parameters
+    ----------
+    gf : ngsolve.GridFunction
+        Real, of the space that ``free`` indexes; left at 0.
+    free : array of int
+        The free DOFs (the columns of S, in this order).
+    element_numbers : array of int
+        The volume element of each point (P,).
+    evaluate : callable
+        ``evaluate() -> (P, V)`` real array: the values at the points of what ``gf`` holds.
+    """
+    import ngsolve as ngs
+    import scipy.sparse as sp
+
+    space = gf.space
+    free = np.asarray(free)
+    if free.dtype == bool:
+        free = np.flatnonzero(free)
+    column = np.full(space.ndof, -1)
+    column[np.asarray(free)] = np.arange(len(free))
+    elements, point_element = np.unique(np.asarray(element_numbers), return_inverse=True)
+    element_dofs = [[dof for dof in space.GetDofNrs(ngs.ElementId(ngs.VOL, int(number)))
+                     if dof >= 0 and column[dof] >= 0] for number in elements]
+    neighbours = {}                  # DOF -> the DOFs it shares a sampled element with
+    for dofs in element_dofs:
+        for dof in dofs:
+            neighbours.setdefault(dof, set()).update(dofs)
+    colour = {}
+    for dof, others in neighbours.items():      # greedy: unlike every neighbour's
+        taken = {colour[other] for other in others if other in colour}
+        colour[dof] = next(c for c in range(len(taken) + 1) if c not in taken)
+    width = max((len(dofs) for dofs in element_dofs), default=0)
+    table = np.full((len(elements), width), -1)
+    for e, dofs in enumerate(element_dofs):
+        table[e, :len(dofs)] = dofs
+    table_colour = np.where(table >= 0, np.vectorize(lambda d: colour.get(d, -1))(
+        np.maximum(table, 0)), -1) if width else table
+    vector = gf.vec.FV().NumPy()
+    vector[:] = 0.0
+    count = np.asarray(evaluate(), float).shape[1]
+    rows, columns, values = [], [], []
+    for c in range(max(colour.values(), default=-1) + 1):
+        vector[:] = 0.0
+        vector[[dof for dof, k in colour.items() if k == c]] = 1.0
+        sampled = np.asarray(evaluate(), float)            # (P, V)
+        hit = table_colour[point_element] == c             # (P, width): at most one per row
+        point, slot = np.nonzero(hit)
+        dof_column = column[table[point_element[point], slot]]
+        rows.append((point[:, None] * count + np.arange(count)).ravel())
+        columns.append(np.repeat(dof_column, count))
+        values.append(sampled[point].ravel())
+    vector[:] = 0.0
+    return sp.csr_matrix((np.concatenate(values + [np.zeros(0)]),
+                          (np.concatenate(rows + [np.zeros(0, int)]),
+                           np.concatenate(columns + [np.zeros(0, int)]))),
+                         shape=(len(point_element) * count, len(free)))
+
+
 def green_kernels(points, normals, microphone, wavenumber: float, baffle: bool):
     """The Kirchhoff-Helmholtz integrand's kernels at sphere points (module doc), for both
     engines' spheres (:class:`SphereSampler`, :class:`copdea_fem.fe.quadrant.forced.QuadrantSphere`).

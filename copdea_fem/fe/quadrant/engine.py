@@ -132,9 +132,9 @@ class QuadrantEngine:
 
     def electrode_forcing(self, state, part: DrivenPart, electrode) -> np.ndarray:
         """The forcing [N/V] of ``electrode`` on the part's membrane unknowns: the sector's
-        of the folded weight (:func:`copdea_fem.fe.quadrant.forced.quadrant_forcing`)."""
-        from copdea_fem.fe.quadrant.forced import quadrant_forcing
-        return quadrant_forcing(state, part.pencil.membrane, electrode)[0]
+        of the folded weight (:func:`copdea_fem.fe.quadrant.forced.sector_forcing`)."""
+        from copdea_fem.fe.quadrant.forced import sector_forcing
+        return sector_forcing(state, part.pencil.membrane, electrode)
 
     def point_sampler(self, state, positions):
         """The fields of ``state`` at points of the prestressed device

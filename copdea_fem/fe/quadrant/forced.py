@@ -36,6 +36,7 @@ import numpy as np
 
 from copdea_fem.fe.forced.harmonic import (
     ForcedOrder,
+    checked_bias,
     forcing_from_energy,
     reduce_matrix_3d,
     reduce_vector_3d,
@@ -45,7 +46,7 @@ from copdea_fem.fe.forced.radiation import (
     AZIMUTH_POINTS,
     green_kernels,
     polar_quadrature,
-    pressure_parts,
+    sampling_matrix,
 )
 
 #: Polar angles of the observation points in the quadrant [rad].
@@ -67,12 +68,16 @@ logger = logging.getLogger(__name__)
 WEIGHT_BONUS_INTORDER = 16
 
 
-def _energy_form(state, voltage, weight=None):
+def _energy_form(state, voltage, weight=None, voltage_derivative=False):
     """Variation form of the quadrant's membrane energy; ``weight``: a coefficient function
-    multiplying the density (its electrostatic part is what the forcing reads)."""
+    multiplying the density (its electrostatic part is what the forcing reads);
+    ``voltage_derivative``: of the density's derivative in ``voltage`` instead (its
+    electrostatic part only, :func:`sector_forcing`)."""
     from copdea_fem.fe.membrane import energy_density
     u = state.space.TrialFunction()
     density = energy_density(u, state.material, voltage)
+    if voltage_derivative:
+        density = density.Diff(voltage)
     form = ngs.BilinearForm(state.space, symmetric=False)
     if weight is None:
         form += ngs.Variation(density * state.measure)
@@ -99,6 +104,28 @@ def quadrant_forcing(state, operators, imperfection=None):
                                          state.voltage, state.displacement.vec,
                                          operators.free_dofs)
     return reduce_vector_3d(force, operators), balance
+
+
+def sector_forcing(state, operators, imperfection=None):
+    """f [N/V] on the sector's unknowns of :func:`quadrant_forcing`, without the residual.
+
+    The same ``f = -dR/dV (u0, V_b)`` as the difference quotient of
+    :func:`copdea_fem.fe.forced.harmonic.forcing_from_energy`, here as one application of
+    the Variation of ``dPsi/dV`` (NGSolve's symbolic derivative of the density in the
+    voltage): R is linear in the density, so ``dR/dV`` is the residual of ``dPsi/dV``, and
+    ``dPsi/dV`` holds only the co-energy's terms (the strain energy does not depend on V).
+    One residual of the electrostatic part instead of two of the whole energy; equal to the
+    difference quotient to rounding (it also skips that quotient's cancellation of the
+    strain energy's residual).  Used where the residual is not wanted (the modal model's
+    inputs, :meth:`copdea_fem.fe.quadrant.engine.QuadrantEngine.electrode_forcing`)."""
+    voltage = ngs.Parameter(checked_bias(state.voltage))
+    weight = None
+    if imperfection is not None:
+        weight = imperfection.sector_weight(operators.sector, ngs.x, ngs.y)
+    at = state.displacement.vec
+    derivative = at.CreateVector()
+    _energy_form(state, voltage, weight, voltage_derivative=True).Apply(at, derivative)
+    return reduce_vector_3d(-np.array(derivative.FV().NumPy()), operators)
 
 
 def quadrant_elastic(state, operators):
@@ -231,20 +258,26 @@ class QuadrantSphere:
         self._upper_points = self.points[self.is_upper]
         self._lower_points = self.points[~self.is_upper]
         self.normal = self.xyz / radius
+        self._sampling = None
+
+    def _values(self):
+        """(points, 4) p and grad p of what ``self.gf`` holds, each half at its points."""
+        values = np.empty((len(self.xyz), 4))
+        values[self.is_upper] = np.asarray(self._upper(self._upper_points))
+        values[~self.is_upper] = np.asarray(self._lower(self._lower_points))
+        return values
 
     def sample(self, pressure_vectors):
+        """(p, dp/drho) (points, columns) of pressure vectors on the sector's free DOFs: one
+        sampling matrix (:func:`.radiation.sampling_matrix`, built once) for all columns."""
         pressure_vectors = np.atleast_2d(np.asarray(pressure_vectors).T).T
-        p_values = np.zeros((len(self.xyz), pressure_vectors.shape[1]), complex)
-        dp_values = np.zeros_like(p_values)
-        for k, factor in pressure_parts(self.gf, self.coupled.pressure_free, pressure_vectors):
-            values = np.empty((len(self.xyz), 4), complex)     # each half at its points
-            values[self.is_upper] = np.asarray(self._upper(self._upper_points))
-            values[~self.is_upper] = np.asarray(self._lower(self._lower_points))
-            gradient = values[:, 1:].copy()
-            gradient[:, :2] *= self.sign          # even parity: d/dx flips with x
-            p_values[:, k] += factor * values[:, 0]
-            dp_values[:, k] += factor * np.einsum("ij,ij->i", gradient, self.normal)
-        return p_values, dp_values
+        if self._sampling is None:
+            self._sampling = sampling_matrix(self.gf, self.coupled.pressure_free,
+                                             self.points["nr"], self._values)
+        values = (self._sampling @ pressure_vectors).reshape(len(self.xyz), 4, -1)
+        gradient = values[:, 1:].copy()
+        gradient[:, :2] *= self.sign[:, :, None]          # even parity: d/dx flips with x
+        return values[:, 0], np.einsum("ijk,ij->ik", gradient, self.normal)
 
     def kernels(self, microphone, wavenumber: float, baffle: bool):
         """(K_p, K_g) per sphere point (:func:`.radiation.kirchhoff_kernels`): the shared
