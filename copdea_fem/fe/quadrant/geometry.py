@@ -621,7 +621,9 @@ def study_mesh(study, with_air=None, cache_dir=None):
     """The (cached) 3-D mesh of the study; ``cache_dir=None``: :func:`mesh_cache_dir`.
     An imperfection that breaks a mirror plane (:func:`copdea_fem.fe.symmetry.
     mirror_breaking`) meshes the whole device where ``mesh.symmetry`` asks for a quadrant
-    (logged)."""
+    (logged); one that breaks a mirror plane or the diagonal x = y (:func:`copdea_fem.fe.
+    symmetry.diagonal_breaking`) keeps the mesh Netgen makes of the quadrant or the whole
+    device, not one octant mirrored (logged)."""
     spec = GeometrySpec.from_study(study, with_air=with_air)
     breaking = mirror_breaking(study)
     if spec.with_air and study.mesh.symmetry == "quarter":
@@ -629,6 +631,9 @@ def study_mesh(study, with_air=None, cache_dir=None):
             logger.info(f"the whole device is meshed, not a quadrant: {breaking}")
         elif is_imperfect(study.membrane, study.imperfections):
             logger.info("the imperfections keep both mirror planes: one quadrant is meshed")
+    if not spec.diagonal:
+        logger.info("the mesh is not mirrored about x = y (one octant meshed and mirrored, "
+                    f"copdea_fem.fe.quadrant.mirrored): {breaking or diagonal_breaking(study)}")
     return load_mesh(spec, study.mesh.curve_order, cache_dir=cache_dir)
 
 

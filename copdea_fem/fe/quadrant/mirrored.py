@@ -14,8 +14,8 @@ part, nodes on the mirror planes shared:
 
 Every node then maps to a node and every element to an element under x <-> y (and, on the
 whole plane, under x -> -x and y -> -y), exactly: reflections of floating-point numbers are
-exact, and the octant's nodes on its cut planes are first put on them (they lie within
-rounding of them).
+exact, the octant's nodes on its cut planes are first put on them (they lie within OCC's
+tolerance of them), and the nodes Netgen's projections moved are put back.
 
 The images keep the octant's volume indices (materials) and boundary names; faces and edges
 on a cut plane inside the meshed part (the diagonal, and on the whole plane x = 0, y = 0) are
@@ -39,8 +39,9 @@ REFLECTIONS = {"diagonal": np.array([[0.0, 1.0], [1.0, 0.0]]),
                "y": np.array([[1.0, 0.0], [0.0, -1.0]])}
 
 #: Relative distance [-] (of the mesh's extent) within which an octant node counts as on a
-#: cut plane and is put on it: far below any element, far above rounding.
-ON_PLANE = 1e-9
+#: cut plane and is put on it: far below any element, above the tolerance of OCC's Boolean
+#: cut (a vertex of the cut lies up to ~3e-9 m off the plane).
+ON_PLANE = 1e-6
 
 
 def images(quarter: bool) -> list[tuple[str, ...]]:
@@ -143,6 +144,7 @@ def mirrored_mesh(octant, octant_geometry, geometry, sequences):
     rank[order] = np.arange(order.size)
     node = rank[np.ravel(inverse)].reshape(len(sequences), count)   # 0-based, per image
 
+    _check_no_crack(unique, ON_PLANE * float(np.abs(points).max()))
     mesh = meshing.Mesh(dim=3)
     mesh.AddPoints(np.ascontiguousarray(unique[order]))
     mesh.SetGeometry(geometry)
@@ -207,9 +209,29 @@ def mirrored_mesh(octant, octant_geometry, geometry, sequences):
             new.name = name
             index = mesh.Add(new)
             mesh.AddElements(1, index, np.ascontiguousarray(mapped[fresh], np.int32), 0, True)
+    # Netgen's projections (the surface parameters) move nodes by its Newton tolerance
+    # (~3e-9 m): put them back on their exact, mirrored positions
+    exact = unique[order]
+    table = mesh.Points()
+    for moved in np.flatnonzero(np.any(mesh.Coordinates() != exact, axis=1)):
+        table[meshing.PointId(int(moved) + 1)] = meshing.MeshPoint(
+            meshing.Pnt(*map(float, exact[moved])))
     return mesh
 
 
 def _check_simplices(elements, corners: int, kind: str) -> None:
     if len(np.unique(elements["type"])) > 1 or elements["nodes"].shape[1] < corners:
         raise RuntimeError(f"the octant mesh has {kind} elements other than simplices")
+
+
+def _check_no_crack(points: np.ndarray, distance: float) -> None:
+    """Two distinct nodes closer than ``distance`` [m] would be a node on a cut plane that was
+    not put on it: its images would not be shared (a crack in the mesh)."""
+    from scipy.spatial import cKDTree
+
+    pairs = cKDTree(points).query_pairs(distance)
+    if pairs:
+        first = points[list(next(iter(pairs)))]
+        raise RuntimeError(f"the mirrored mesh has {len(pairs)} pair(s) of nodes closer than "
+                           f"{distance:g} m (e.g. {first.tolist()}): a node of the octant off "
+                           "its cut plane")
