@@ -168,33 +168,6 @@ def mirror_breaking(study) -> str:
     return ""
 
 
-def diagonal_breaking(study) -> str:
-    """Why the study's imperfections break the diagonal mirror x <-> y ("" if they keep
-    it), as :func:`mirror_breaking` does for x = 0 and y = 0.  Every frame and enclosure
-    of the device is symmetric under x <-> y (circle, square, sphere; the box is the square
-    frame's), so only these decide whether its mesh may be one octant mirrored
-    (:mod:`copdea_fem.fe.quadrant.mirrored`).
-
-    * An anisotropic pre-stretch along ``alpha`` maps to one along ``90 - alpha``: the same
-      only along a diagonal (``alpha`` = 45 deg modulo 90), which breaks x = 0 and y = 0.
-    * A thickness term ``cos k (theta - angle)``: theta -> 90 deg - theta gives
-      ``cos k (theta - (90 - angle))``, the same iff ``k (90 - 2 angle)`` is a multiple of
-      360 deg (``cos 2 theta``: no; ``cos 4 theta``: yes).
-    * A point mass: on the axis (or the disc) it keeps the diagonal; off it,
-      :func:`mirror_breaking` already says why.
-    """
-    m = study.membrane
-    if m.prestretch_anisotropy:
-        return (f"membrane.prestretch_anisotropy = {m.prestretch_anisotropy:g} along "
-                f"{m.prestretch_axis:g} deg is not symmetric about both x = 0 and x = y")
-    for index, term in enumerate(m.thickness_variation):
-        if not _multiple(term.order * (90.0 - 2.0 * term.angle), 360.0):
-            return (f"membrane.thickness_variation[{index}] (order {term.order}, angle "
-                    f"{term.angle:g} deg) is not even about x = y (needs order * (90 - "
-                    "2 angle) a multiple of 360 deg)")
-    return ""
-
-
 def bitarray(mask: np.ndarray):
     """NGSolve BitArray of a boolean array."""
     import ngsolve as ngs

@@ -44,9 +44,9 @@ row ``t``); the least one that also holds mode ``g`` at zero is ``1 / (||t|| sin
 held at) is reported as not separated from the target (e.g. the orders m and N - m, which
 N equal sectors drive with one pattern: alpha = 0 on the axisymmetric engine, and to
 rounding (4e-12 rad) on the 3-D quadrant, whose mesh is symmetric under x <-> y
-(:mod:`copdea_fem.fe.quadrant.mirrored`); on a mesh without that symmetry, as where an
-imperfection breaks it, the row turns off the target's by a few 1e-2 rad, which a floor of
-(2) with O = that mode alone does not see).  A mode no input drives (its
+(:mod:`copdea_fem.fe.quadrant.mirrored`); on a mesh without that symmetry (Netgen's own
+quadrant mesh) the row turned off the target's by a few 1e-2 rad, which a floor of (2)
+with O = that mode alone does not see).  A mode no input drives (its
 row zero) is not reported (its level is ``-inf``).
 
 Phases: the FE's complex amplitude ``u`` goes as ``e^{-i omega t}``; a drive

@@ -59,7 +59,7 @@ from pathlib import Path
 
 from copdea_fem.fe.airbox import ale_decay_length, bowl_sphere_radius, cavity_depth
 from copdea_fem.fe.quadrant import mirrored
-from copdea_fem.fe.symmetry import diagonal_breaking, mirror_breaking
+from copdea_fem.fe.symmetry import mirror_breaking
 from copdea_fem.fingerprint import mesh_fingerprint
 from copdea_fem.inputs import preview
 from copdea_fem.study import StudyError
@@ -96,7 +96,11 @@ class GeometrySpec:
     enclosure_radius: float = 0.0
     enclosure_vent_radius: float = 0.0
     outside: bool = True
-    diagonal: bool = False      # one octant meshed and mirrored (module doc)
+    # one octant meshed and mirrored (copdea_fem.fe.quadrant.mirrored): every frame and
+    # enclosure is symmetric about x = y (circle, square, sphere; the box is the square
+    # frame's).  Imperfections do not change it: they are coefficients on the mesh, and a
+    # perfect and an imperfect device are compared on one mesh.
+    diagonal: bool = True
 
     @classmethod
     def from_study(cls, study, with_air: bool | None = None) -> "GeometrySpec":
@@ -127,8 +131,7 @@ class GeometrySpec:
                    membrane_size=m.membrane_size, air_size=m.air_size,
                    grading=m.grading,
                    symmetry=m.symmetry if (a.enabled if with_air is None else with_air)
-                   and not mirror_breaking(study) else "none",
-                   diagonal=not (mirror_breaking(study) or diagonal_breaking(study)))
+                   and not mirror_breaking(study) else "none")
 
     def key(self) -> str:
         data = asdict(self)
@@ -621,9 +624,7 @@ def study_mesh(study, with_air=None, cache_dir=None):
     """The (cached) 3-D mesh of the study; ``cache_dir=None``: :func:`mesh_cache_dir`.
     An imperfection that breaks a mirror plane (:func:`copdea_fem.fe.symmetry.
     mirror_breaking`) meshes the whole device where ``mesh.symmetry`` asks for a quadrant
-    (logged); one that breaks a mirror plane or the diagonal x = y (:func:`copdea_fem.fe.
-    symmetry.diagonal_breaking`) keeps the mesh Netgen makes of the quadrant or the whole
-    device, not one octant mirrored (logged)."""
+    (logged).  Either is one octant meshed and mirrored (``GeometrySpec.diagonal``)."""
     spec = GeometrySpec.from_study(study, with_air=with_air)
     breaking = mirror_breaking(study)
     if spec.with_air and study.mesh.symmetry == "quarter":
@@ -631,9 +632,6 @@ def study_mesh(study, with_air=None, cache_dir=None):
             logger.info(f"the whole device is meshed, not a quadrant: {breaking}")
         elif is_imperfect(study.membrane, study.imperfections):
             logger.info("the imperfections keep both mirror planes: one quadrant is meshed")
-    if not spec.diagonal:
-        logger.info("the mesh is not mirrored about x = y (one octant meshed and mirrored, "
-                    f"copdea_fem.fe.quadrant.mirrored): {breaking or diagonal_breaking(study)}")
     return load_mesh(spec, study.mesh.curve_order, cache_dir=cache_dir)
 
 
