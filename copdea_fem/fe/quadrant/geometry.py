@@ -181,7 +181,7 @@ def build_shape(spec: GeometrySpec):
 def build_octant(spec: GeometrySpec):
     """The part 0 <= theta <= 45 deg of the device's shape (below z = 0 too), named: what
     the mesh of a ``spec.diagonal`` spec meshes (:mod:`copdea_fem.fe.quadrant.mirrored`)."""
-    from netgen.occ import X, Axes, WorkPlane, Z
+    from netgen.occ import Axes, WorkPlane, X, Z
 
     big = 2 * (spec.domain_radius + spec.pml_thickness + spec.enclosure_depth
                + spec.frame_side + spec.outer_radius)

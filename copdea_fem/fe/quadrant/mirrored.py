@@ -128,7 +128,7 @@ def mirrored_mesh(octant, octant_geometry, geometry, sequences):
     """The Netgen mesh of the images of the ``octant`` mesh (of ``octant_geometry``) under
     the reflection ``sequences``, on the curving ``geometry`` (the glued images); see the
     module doc."""
-    import netgen.meshing as meshing
+    from netgen import meshing
 
     points = snap_to_planes(octant.Coordinates())
     count = len(points)
