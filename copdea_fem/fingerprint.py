@@ -18,7 +18,7 @@ from pathlib import Path
 PACKAGE = Path(__file__).resolve().parent
 
 #: The 3-D mesh: the shapes and the meshing.
-MESH_SOURCES = ("fe/quadrant/geometry.py", "fe/airbox.py")
+MESH_SOURCES = ("fe/quadrant/geometry.py", "fe/quadrant/mirrored.py", "fe/airbox.py")
 
 #: What in the FE core computes no modes: the orchestration and its result type, the forced
 #: response, the ParaView fields and the fields at points.  Left out of :data:`FE_SOURCES`,

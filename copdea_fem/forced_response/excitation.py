@@ -48,9 +48,11 @@ row ``t``); the least one that also holds mode ``g`` at zero is ``1 / (||t|| sin
 ``sin alpha``; a mode with ``sin alpha <`` :data:`PARALLEL_SINE` ``= 10^(SEPARATION_DB/20)``
 (alpha below 0.1002 rad: holding it down costs more than the 20 dB a separated mode is
 held at) is reported as not separated from the target (e.g. the orders m and N - m, which
-N equal sectors drive with one pattern: alpha = 0 on the axisymmetric engine; on the 3-D
-quadrant the mesh's small asymmetry turns the row off the target's by a few 1e-2 rad,
-which a floor of (2) with O = that mode alone does not see).  A mode no input drives (its
+N equal sectors drive with one pattern: alpha = 0 on the axisymmetric engine, and to
+rounding (4e-12 rad) on the 3-D quadrant, whose mesh is symmetric under x <-> y
+(:mod:`copdea_fem.fe.quadrant.mirrored`); on a mesh without that symmetry (Netgen's own
+quadrant mesh) the row turned off the target's by a few 1e-2 rad, which a floor of (2)
+with O = that mode alone does not see).  A mode no input drives (its
 row zero) is not reported (its level is ``-inf``).
 
 Phases: the FE's complex amplitude ``u`` goes as ``e^{-i omega t}``; a drive

@@ -255,8 +255,11 @@ def test_a_perfect_device_keeps_its_numbers():
     membrane as they were before the keys existed (frozen from the code then, 5 mm order 3)."""
     modes = out_of_plane(flat_study(membrane={"prestretch_anisotropy": 0,
                                               "thickness_variation": []}))
-    before = {"(0,1)": 170.001500325, "(1,1)a": 270.870299686, "(2,1)a": 363.046691440,
-              "(0,2)": 390.224657001, "(1,2)a": 495.946368148}
+    # refrozen for the mesh mirrored from one octant (copdea_fem.fe.quadrant.mirrored): each
+    # moved by 1e-7 to 4e-7 from Netgen's own mesh's (170.001500325, 270.870299686,
+    # 363.046691440, 390.224657001, 495.946368148)
+    before = {"(0,1)": 170.001519778, "(1,1)a": 270.870324188, "(2,1)a": 363.046801932,
+              "(0,2)": 390.224803321, "(1,2)a": 495.946495185}
     for label, frequency in before.items():
         assert modes[label].freq_hz == pytest.approx(frequency, rel=1e-8), label
 
@@ -312,12 +315,15 @@ def test_a_point_mass_in_air_shifts_as_the_dry_shift_over_the_air_loaded_modal_m
                               mesh={"membrane_size": "5 mm", "order": 3, "engine": "3d",
                                     "symmetry": "none"})
         solution = coupled_modes(study, engine=engine_for(study))
-        wet = {mode.label: mode.freq_hz for mode in solution.modes}
-        dry = {mode.label: solution.dry_partner_hz[k] for k, mode in enumerate(solution.modes)}
-        frequencies.append({name: ((wet[name], dry[name]) if name == "(0,1)" else
-                                   (0.5 * (wet["(1,1)a"] + wet["(1,1)b"]),
-                                    0.5 * (dry["(1,1)a"] + dry["(1,1)b"])))
-                            for name in ("(0,1)", "(1,1)")})
+        # the pair's two members by (m, n) (on the mirrored mesh the perfect pair is exactly
+        # degenerate, and the solver's basis in it arbitrary: its letters may not be a, b)
+        wet = {}
+        for k, mode in enumerate(solution.modes):
+            if mode.kind == "out-of-plane" and (mode.m, mode.n) in ((0, 1), (1, 1)):
+                wet.setdefault(f"({mode.m},{mode.n})", []).append(
+                    (mode.freq_hz, solution.dry_partner_hz[k]))
+        assert len(wet["(0,1)"]) == 1 and len(wet["(1,1)"]) == 2, wet
+        frequencies.append({name: tuple(np.mean(pairs, axis=0)) for name, pairs in wet.items()})
     perfect, loaded = frequencies
     expected_dry = {"(0,1)": bessel_shift(study, 0, 1, "cos", mass, radius, 0.0),
                     "(1,1)": 0.5 * bessel_shift(study, 1, 1, "cos", mass, radius, 0.0)}

@@ -139,16 +139,12 @@ def _diagonal_class(positions_xy, sampler, mode, count):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason=(
-    "the quadrant's unstructured mesh is not symmetric under x <-> y: the even-even sector's "
-    "eigenvectors mix its A1 and B1 modes (0.6 % of (0,1)'s u_z, 6.5 % of the (0,2)'s, "
-    "2 Hz from the B1 ip(6,1)a), and the strongly driven in-plane modes make that a large "
-    "modal force: the order-2 pattern drives the (0,2) at 0.29 of the (6,1)a's modal force "
-    "(twice the (2,1)a's), the (0,1) at 0.05 of the (2,1)a's (measured 2026-12-05, coarse "
-    "G1); the fix is a quadrant mesh symmetric under x <-> y"))
 def test_the_order_two_pattern_drives_no_a1_mode_of_the_quadrant():
     """The square frame's C4v: the order-2 pattern (B1) drives no mode of the even-even
-    sector that is even under x <-> y (A1), to 1e-6 of the B1 modes' modal forces."""
+    sector that is even under x <-> y (A1), to 1e-6 of the B1 modes' modal forces.  It
+    holds because the quadrant's mesh is one octant mirrored (copdea_fem.fe.quadrant.
+    mirrored); Netgen's own quadrant mesh mixed the classes (0.6 % of the (0,1)'s u_z, 6.5 %
+    of the (0,2)'s) and the pattern drove the (0,2) at 0.29 of the (6,1)a's modal force."""
     from copdea_fem.api import load_study
     from copdea_fem.fe import engine_for, run_solve
     from copdea_fem.forced_response.modal_inputs import ModalInputs, drive_inputs, study_points

@@ -278,31 +278,32 @@ def _segment_velocity(engine: str, segment, membrane_size: str = "6 mm",
     return scan.velocity[:, 2, :]
 
 
-def test_the_engines_agree_on_a_quarter_segments_response_at_the_scan_points():
-    """A 90-degree segment on the coarse quick G1 (6 mm): measured 0.5 % (100 Hz) and 0.6 %
-    (200 Hz) of the largest axial velocity (the in-plane velocity: 2.4 %, falling to 1.1 %
-    at 3 mm)."""
-    axisymmetric = _segment_velocity("axisymmetric", (0, 90))
-    three_d = _segment_velocity("3d", (0, 90))
+@pytest.mark.parametrize("segment", [(0, 90), (0, 45)], ids=["quarter", "eighth"])
+def test_the_engines_agree_on_a_segments_response_at_the_scan_points(segment):
+    """A 90-degree and a 45-degree segment on the coarse quick G1 (6 mm): measured 0.73 %
+    (100 Hz) and 0.80 % (200 Hz) of the largest axial velocity for each (the 45-degree one
+    runs along element edges: the quadrant's mesh is one octant mirrored across x = y,
+    copdea_fem.fe.quadrant.mirrored; on Netgen's own quadrant mesh its edge cut the
+    elements and the gap was 9.4 % and 8.8 %, the quarter's 0.43 % and 0.60 %)."""
+    axisymmetric = _segment_velocity("axisymmetric", segment)
+    three_d = _segment_velocity("3d", segment)
     gap = np.abs(axisymmetric - three_d).max(axis=0) / np.abs(three_d).max(axis=0)
     assert np.all(gap < 0.01), gap
 
 
 @pytest.mark.slow
 def test_the_engines_converge_on_a_45_degree_segments_response_with_h():
-    """A 45-degree segment (0 to 45 degrees: its 45-degree edge cuts the quadrant's elements,
-    and the in-plane line force the co-energy puts along it is a feature the 3-D mesh smears
-    over an element) against the axisymmetric engine on a fine meridian (3 mm, its Fourier
-    orders exact in the angle): measured 9.4 % of the largest axial velocity on the 3-D
-    quadrant's 6 mm mesh, 3.3 % at 4.5 mm, 2.1 % at 3 mm; the 1 % of the issue holds for a
-    quarter (edges on the quadrant's planes: the fast test above), not yet here."""
+    """A 45-degree segment (0 to 45 degrees) against the axisymmetric engine on a fine
+    meridian (3 mm, its Fourier orders exact in the angle): measured 1.30 % of the largest
+    axial velocity on the 3-D quadrant's 6 mm mesh, 0.87 % at 4.5 mm (on Netgen's own
+    quadrant mesh, whose elements the segment's 45-degree edge cut, 9.8 % and 2.5 %)."""
     reference = _segment_velocity("axisymmetric", (0, 45), "3 mm")
     gaps = []
     for size in ("6 mm", "4.5 mm"):
         three_d = _segment_velocity("3d", (0, 45), size)
         gaps.append(np.max(np.abs(reference - three_d)) / np.max(np.abs(three_d)))
-    assert gaps[1] < 0.5 * gaps[0], gaps
-    assert gaps[1] < 0.05, gaps
+    assert gaps[1] < 0.8 * gaps[0], gaps
+    assert gaps[1] < 0.01, gaps
 
 
 def test_an_orders_forcing_is_linear_in_the_order():

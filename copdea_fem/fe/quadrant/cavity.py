@@ -12,9 +12,13 @@ three lines through its largest sample, where no nodal surface passes:
   and the depth (``p`` nodal surfaces), each counted by
   :func:`copdea_fem.fe.cavity.sign_changes`; in a rigid cylinder
   ``J_m(j'_mn r / a) cos(p pi z / L) cos(m theta)`` gives exactly (m, n, p);
-* box: the lines along x, y and z: ``cos(i pi x / L_x) cos(j pi y / L_y) cos(k pi z / L_z)``
-  (origin at a corner) changes sign i, j, k times, and the label is ``cavity(i,j,k)``:
-  nodal planes across x, y and the depth, the box's own three orders.
+* box: the rigid box's modes ``cos(i pi x / L_x) cos(j pi y / L_y) cos(k pi z / L_z)``
+  (origin at a corner): the label is ``cavity(i,j,k)`` of the one the pressure on a grid of
+  the quadrant overlaps most (normalised), i, j, k up to :data:`BOX_ORDERS`.  The box is
+  square, so (i, j, k) and (j, i, k) are one frequency, and where they share a mirror class
+  (i, j of one parity) the mesh, symmetric under x <-> y, gives their sum and difference:
+  both overlap the two equally, and the second of them in the sector is named (j, i, k)
+  (:func:`copdea_fem.fe.quadrant.labels.label_cavity_orders`).
 
 The quadrant holds x, y >= 0; the other quadrants follow from the mode's parities about
 x = 0 and y = 0 (:mod:`copdea_fem.fe.symmetry`), so the lines run across the whole
@@ -38,6 +42,9 @@ from copdea_fem.fe.quadrant.geometry import GeometrySpec
 
 #: Samples per line (and per side of the search grid).
 SAMPLES = 48
+
+#: Highest order along each side of a box tried (:meth:`QuadrantCavitySampler.orders`).
+BOX_ORDERS = 8
 
 
 class QuadrantCavitySampler:
@@ -154,13 +161,14 @@ class QuadrantCavitySampler:
         xx, yy, zz = np.meshgrid(half * cells, half * cells, -depth * cells, indexing="ij")
         grid = real_pattern(self._evaluate(np.column_stack([xx.ravel(), yy.ravel(),
                                                             zz.ravel()]))).reshape(xx.shape)
-        i, j, k = np.unravel_index(np.argmax(np.abs(grid)), grid.shape)
-        x, y, z = xx[i, j, k], yy[i, j, k], zz[i, j, k]
-        across = half * (2 * cells - 1)                  # -half .. half, cell centres
-        counts = []
-        for line in (np.column_stack([across, np.full(SAMPLES, y), np.full(SAMPLES, z)]),
-                     np.column_stack([np.full(SAMPLES, x), across, np.full(SAMPLES, z)]),
-                     np.column_stack([np.full(SAMPLES, x), np.full(SAMPLES, y),
-                                      -depth * cells])):
-            counts.append(sign_changes(real_pattern(self._unfolded(line, sector))))
-        return tuple(counts)
+        # the rigid box's modes (origin at a corner), on the quadrant's samples: separable,
+        # so each overlap is one contraction per axis
+        orders = np.arange(BOX_ORDERS + 1)[:, None]
+        across = np.cos(orders * np.pi * (half * cells + half) / (2 * half))
+        down = np.cos(orders * np.pi * (depth - depth * cells) / depth)
+        overlap = np.einsum("abc,ia,jb,kc->ijk", grid, across, across, down)
+        norms = np.sqrt(np.einsum("ia,ia->i", across, across))
+        down_norms = np.sqrt(np.einsum("ka,ka->k", down, down))
+        overlap = np.abs(overlap) / (norms[:, None, None] * norms[None, :, None]
+                                     * down_norms[None, None, :])
+        return tuple(int(n) for n in np.unravel_index(np.argmax(overlap), overlap.shape))

@@ -58,6 +58,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from copdea_fem.fe.airbox import ale_decay_length, bowl_sphere_radius, cavity_depth
+from copdea_fem.fe.quadrant import mirrored
 from copdea_fem.fe.symmetry import mirror_breaking
 from copdea_fem.fingerprint import mesh_fingerprint
 from copdea_fem.inputs import preview
@@ -95,6 +96,11 @@ class GeometrySpec:
     enclosure_radius: float = 0.0
     enclosure_vent_radius: float = 0.0
     outside: bool = True
+    # one octant meshed and mirrored (copdea_fem.fe.quadrant.mirrored): every frame and
+    # enclosure is symmetric about x = y (circle, square, sphere; the box is the square
+    # frame's).  Imperfections do not change it: they are coefficients on the mesh, and a
+    # perfect and an imperfect device are compared on one mesh.
+    diagonal: bool = True
 
     @classmethod
     def from_study(cls, study, with_air: bool | None = None) -> "GeometrySpec":
@@ -134,6 +140,8 @@ class GeometrySpec:
                 data.pop(name)
         if self.symmetry == "none":    # full meshes keep the keys they had before the key
             data.pop("symmetry")
+        if not self.diagonal:          # the scheme of the mesh: octant mirrored or not
+            data.pop("diagonal")
         if self.enclosure == "none":   # open meshes keep the keys they had before the keys
             for name in ("enclosure", "enclosure_depth", "enclosure_radius",
                          "enclosure_vent_radius", "outside"):
@@ -153,7 +161,48 @@ def _extent(shape) -> float:
 
 
 def build_shape(spec: GeometrySpec):
-    """OCC shape with every region, face and rim edge named (see module doc)."""
+    """OCC shape with every region, face and rim edge named (see module doc).
+
+    With ``spec.diagonal`` it is the glued images of :func:`build_octant`
+    (:func:`copdea_fem.fe.quadrant.mirrored.images`): the same device, each face split on the
+    cut planes; the geometry the mirrored mesh is curved on."""
+    from netgen.occ import Box, Pnt
+
+    if spec.diagonal:
+        return _glued_images(spec, build_octant(spec))
+    shape = _device_shape(spec)
+    if spec.symmetry == "quarter":
+        big = 2 * (spec.domain_radius + spec.pml_thickness + spec.enclosure_depth)
+        shape = shape * Box(Pnt(0, 0, -big), Pnt(big, big, big))
+    _name_faces(shape, spec)
+    return shape
+
+
+def build_octant(spec: GeometrySpec):
+    """The part 0 <= theta <= 45 deg of the device's shape (below z = 0 too), named: what
+    the mesh of a ``spec.diagonal`` spec meshes (:mod:`copdea_fem.fe.quadrant.mirrored`)."""
+    from netgen.occ import Axes, WorkPlane, X, Z
+
+    big = 2 * (spec.domain_radius + spec.pml_thickness + spec.enclosure_depth
+               + spec.frame_side + spec.outer_radius)
+    wedge = (WorkPlane(Axes((0, 0, -big), n=Z, h=X)).MoveTo(0, 0).LineTo(big, 0)
+             .LineTo(big, big).Close().Face().Extrude(2 * big))
+    shape = _device_shape(spec) * wedge
+    _name_faces(shape, spec)
+    return shape
+
+
+def _glued_images(spec: GeometrySpec, octant):
+    from netgen.occ import Glue
+
+    shape = Glue([mirrored.mirror_shape(octant, sequence)
+                  for sequence in mirrored.images(spec.symmetry == "quarter")])
+    _name_faces(shape, spec)
+    return shape
+
+
+def _device_shape(spec: GeometrySpec):
+    """The whole device's glued OCC parts, materials named, faces not yet."""
     from netgen.occ import Box, Cylinder, Glue, Pnt, Sphere, WorkPlane, Z
 
     if spec.enclosure not in ENCLOSURES:
@@ -212,17 +261,12 @@ def build_shape(spec: GeometrySpec):
     if closed:
         parts = _cavity_parts(spec) + parts + _ale_guides(
             spec, ale_decay_length(R, r_o) if outside else 0.0)
-    shape = Glue(parts)
-    if spec.symmetry == "quarter":
-        if not spec.with_air:
-            raise ValueError("symmetry = 'quarter' is for meshes with air; allowed: none")
-        big = 2 * (R + t + spec.enclosure_depth)
-        shape = shape * Box(Pnt(0, 0, -big), Pnt(big, big, big))
-    elif spec.symmetry != "none":
+    if spec.symmetry == "quarter" and not spec.with_air:
+        raise ValueError("symmetry = 'quarter' is for meshes with air; allowed: none")
+    if spec.symmetry not in SYMMETRIES:
         raise ValueError(f"symmetry = {spec.symmetry!r} is not allowed; allowed: "
                          f"{', '.join(SYMMETRIES)}")
-    _name_faces(shape, spec)
-    return shape
+    return Glue(parts)
 
 
 def _enclosure_top(spec: GeometrySpec):
@@ -326,21 +370,30 @@ def _name_faces(shape, spec: GeometrySpec) -> None:
     def near(value, target):
         return abs(value - target) < tol + 1e-9
 
-    def mirror(lo, hi):
-        """``"mirror_x"`` / ``"mirror_y"`` for a shape in the plane x = 0 / y = 0."""
-        if spec.symmetry == "none":
-            return None
-        if abs(lo[0]) < tol and abs(hi[0]) < tol:
-            return "mirror_x"
-        if abs(lo[1]) < tol and abs(hi[1]) < tol:
-            return "mirror_y"
+    def on_diagonal(item):
+        """Whether a face or edge lies in the plane x = y or x = -y (its vertices and centre
+        of mass do; its bounding box cannot tell)."""
+        points = [vertex.p for vertex in item.vertices] + [item.center]
+        return any(all(abs(p.x - sign * p.y) < tol for p in points) for sign in (1, -1))
+
+    def mirror(item, lo, hi):
+        """``"mirror_x"`` / ``"mirror_y"`` for a shape in the plane x = 0 / y = 0 of a
+        quadrant, :data:`~copdea_fem.fe.quadrant.mirrored.CUT` for one on a plane the
+        octant's images meet on inside the meshed part (the diagonals; on the whole plane
+        also x = 0, y = 0), else None."""
+        on_x = abs(lo[0]) < tol and abs(hi[0]) < tol
+        on_y = abs(lo[1]) < tol and abs(hi[1]) < tol
+        if spec.symmetry == "quarter" and (on_x or on_y):
+            return "mirror_x" if on_x else "mirror_y"
+        if spec.diagonal and (on_x or on_y or on_diagonal(item)):
+            return mirrored.CUT
         return None
 
     for face in shape.faces:
         lo, hi = face.bounding_box
         extent = _extent(face)
-        if mirror(lo, hi):
-            face.name = mirror(lo, hi)
+        if mirror(face, lo, hi):
+            face.name = mirror(face, lo, hi)
         elif abs(lo[2]) < tol and abs(hi[2]) < tol:         # in the plane z = 0
             if near(extent, r_o):
                 name = "membrane"
@@ -381,8 +434,8 @@ def _name_faces(shape, spec: GeometrySpec) -> None:
         lo, hi = edge.bounding_box
         extent = _extent(edge)
         in_plane = abs(lo[2]) < tol and abs(hi[2]) < tol
-        if mirror(lo, hi):
-            edge.name = mirror(lo, hi) + "_edge"
+        if mirror(edge, lo, hi):
+            edge.name = mirror(edge, lo, hi) + "_edge"
         elif in_plane and near(extent, r_o):
             edge.name = "outer_rim"
         elif in_plane and r_i > 0 and near(extent, r_i):
@@ -397,10 +450,19 @@ def generate_mesh(spec: GeometrySpec):
     """Netgen mesh of the spec (uncurved), and the OCC geometry it came from."""
     from netgen.occ import OCCGeometry
 
-    shape = build_shape(spec)
-    geometry = OCCGeometry(shape, dim=3)
-    logger.info(f"meshing ({'air + PML' if spec.with_air else 'plane faces only'}) ...")
     maxh = spec.air_size if spec.with_air else 2 * spec.membrane_size
+    what = 'air + PML' if spec.with_air else 'plane faces only'
+    if spec.diagonal:
+        octant = build_octant(spec)
+        octant_geometry = OCCGeometry(octant, dim=3)
+        logger.info(f"meshing ({what}) one octant, mirrored ...")
+        octant_mesh = octant_geometry.GenerateMesh(maxh=maxh, grading=spec.grading)
+        geometry = OCCGeometry(_glued_images(spec, octant), dim=3)
+        sequences = mirrored.images(spec.symmetry == "quarter")
+        return mirrored.mirrored_mesh(octant_mesh, octant_geometry, geometry,
+                                      sequences), geometry
+    geometry = OCCGeometry(build_shape(spec), dim=3)
+    logger.info(f"meshing ({what}) ...")
     ngmesh = geometry.GenerateMesh(maxh=maxh, grading=spec.grading)
     return ngmesh, geometry
 
@@ -562,7 +624,7 @@ def study_mesh(study, with_air=None, cache_dir=None):
     """The (cached) 3-D mesh of the study; ``cache_dir=None``: :func:`mesh_cache_dir`.
     An imperfection that breaks a mirror plane (:func:`copdea_fem.fe.symmetry.
     mirror_breaking`) meshes the whole device where ``mesh.symmetry`` asks for a quadrant
-    (logged)."""
+    (logged).  Either is one octant meshed and mirrored (``GeometrySpec.diagonal``)."""
     spec = GeometrySpec.from_study(study, with_air=with_air)
     breaking = mirror_breaking(study)
     if spec.with_air and study.mesh.symmetry == "quarter":

@@ -32,6 +32,7 @@ def label_cavity_orders(sampler, sector, coupled, modes, pressures) -> None:
     (:attr:`copdea_fem.fe.modes.Mode.cavity_orders`, :mod:`copdea_fem.fe.quadrant.cavity`):
     a round enclosure's (m, n, p) with m as the mode's order and its cos/sin member from
     the mirror class; a box's (i, j, k) (its nodal planes, no pair)."""
+    taken = set()
     for mode, pressure in zip(modes, pressures):
         if not may_be_cavity_mode(mode):
             continue
@@ -39,6 +40,12 @@ def label_cavity_orders(sampler, sector, coupled, modes, pressures) -> None:
         if not mode.cavity_orders:
             continue
         if sampler.spec.enclosure == "box":
+            i, j, k = mode.cavity_orders
+            # a square box's (i, j, k) and (j, i, k) in one sector: their sum and difference
+            # (copdea_fem.fe.quadrant.cavity), which overlap both alike: the second is (j, i, k)
+            if (i, j, k) in taken:
+                mode.cavity_orders = (j, i, k)
+            taken.add(mode.cavity_orders)
             mode.family = ""              # (i, j, k) names the mode whole: no pair letter
         else:
             mode.m = mode.cavity_orders[0]
