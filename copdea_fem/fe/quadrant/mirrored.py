@@ -4,7 +4,7 @@ Netgen meshes a shape as it comes: the quadrant's unstructured mesh is not symme
 the reflection (x, y) -> (y, x), although the device (circle, square frame, sphere, the
 enclosures) is.  On such a mesh the discrete operator does not commute with the reflection,
 and the modes of the even-even sector mix the square's classes A1 (even under x <-> y) and
-B1 (odd): an order-2 drive then reaches the pumping modes (issue 41).  Here the octant
+B1 (odd): an order-2 drive then reaches the pumping modes.  Here the octant
 0 <= theta <= 45 deg is meshed once and its images under the reflections tile the meshed
 part, nodes on the mirror planes shared:
 
