@@ -160,11 +160,17 @@ class SplitSignature:
     continuous : bool
         Consecutive trials lie on a continuous parameter (a mass's radius): the splits
         between them are interpolated; False: the trials are discrete choices (an order).
+    magnitude : int
+        Index in :attr:`Effect.parameters` of the parameter the fitted magnitude sets (the
+        trial's ``amplitude`` scaled): its bounds bound the fit (a thickness amplitude
+        below 0.9, an anisotropy below 0.3), so no fit leaves the range its study key
+        allows.
     """
 
     trials: Callable = field(repr=False)
     values: Callable = field(repr=False)
     continuous: bool = False
+    magnitude: int = 0
 
 
 FE_ROLES_ALLOWED = (None, "switch", "anchored")

@@ -574,7 +574,8 @@ _register(Effect(
     switched_keys=("membrane.thickness_variation",),
     not_tested_note=SPLIT_NOTE,
     split_signature=SplitSignature(_thickness_trials,
-                                   lambda trial, x, angle: (trial.fixed[0], x, angle))))
+                                   lambda trial, x, angle: (trial.fixed[0], x, angle),
+                                   magnitude=1)))
 
 _register(Effect(
     id="point_mass", title="a point mass on the membrane (an imperfection)",

@@ -146,6 +146,26 @@ def test_the_fit_recovers_a_point_mass_from_closed_form_splits():
     assert abs((theta - 130.0 + 90) % 180 - 90) < 1.0
 
 
+def test_a_fitted_size_stays_in_the_range_its_study_key_allows():
+    """G1's (1,1) pair split 2.6 % (an anisotropy of 2 %, FE) against an order-2 thickness
+    trial that splits it by 0.15 % at a = 0.3 (the catalogue's figure): the thickness fit
+    may not reach the a = 5.5 that would explain it (a negative film); it stops at the
+    parameter's bound, which the study schema accepts, and explains the split badly.  The
+    anisotropy's fit of the same pair is untouched (e = 2 %)."""
+    observed = [ObservedPair("c", "(1,1)", 1, 446.7, 458.6, 90.0, 0.0)]
+    trial = SplitTrial("order 2, a = 0.3", {}, 0.3, term_power(2), 180.0, (2.0, None, None))
+    fit = fit_trial(THICKNESS, trial, {("c", "(1,1)"): (0.0015, 0.0)}, observed, 2)
+    order, amplitude, angle = fit.values
+    assert amplitude == pytest.approx(CATALOGUE[THICKNESS].parameters[1].upper, rel=1e-3)
+    parse_study({"membrane": {"thickness_variation": [
+        {"order": int(order), "amplitude": amplitude, "angle": angle}]}}, name="fit")
+    assert fit.split_deviance > 100.0                  # (0.0263 - 0.0045)^2 / 1e-6 ~ 475
+    trial = SplitTrial("e = 2 % along x", {}, 0.02, term_power(2), 180.0)
+    fit = fit_trial(ANISOTROPY, trial, {("c", "(1,1)"): (0.0263, 0.0)}, observed)
+    assert fit.values[0] == pytest.approx(0.02 * observed[0].split / 0.0263, rel=1e-3)
+    assert fit.split_deviance < 1e-6
+
+
 class NoFE:
     solves = 0
 
