@@ -552,18 +552,22 @@ def _decide(measured, fe, alpha, effects, pairs, common) -> ImperfectionVerdict:
     solves_before = fe.solves
     requests, plan = [], []
     for effect_id in effects:
+        in_air = CATALOGUE[effect_id].split_signature.in_air
         for name in wanted:
             # in vacuo: the air's added mass loads both members of a pair alike, so a
             # stiffness imperfection's relative split is the same; a mass's is smaller in air
-            # by m_modal / (m_modal + m_air) (the fitted mass: a lower bound)
-            study = measured.study_of(conditions[name], {"air.enabled": False})
+            # by m_modal / (m_modal + m_air) (the fitted mass: a lower bound).  A thickness
+            # term changes the film's stiffness and mass together (they cancel in vacuo, the
+            # air's added mass does not scale with the film): its trials keep the air
+            study = measured.study_of(conditions[name],
+                                      None if in_air else {"air.enabled": False})
             for trial in CATALOGUE[effect_id].split_signature.trials(study):
                 requests.append((study.replace(trial.overrides),
                                  BAND_MARGIN * conditions[name].band[1], False))
                 plan.append((effect_id, name, trial))
     logger.info("imperfections: pairs split beyond the noise (split deviance %.1f > %.1f); "
-                "%d trial FE solves (3-D, in vacuo) of %s", perfect, limit, len(requests),
-                ", ".join(effects))
+                "%d trial FE solves (in vacuo; a thickness term's with the conditions' air) "
+                "of %s", perfect, limit, len(requests), ", ".join(effects))
     fe.solve_many(requests)
     table: dict = {}
     for (effect_id, name, trial), (study, f_max, _) in zip(plan, requests):
