@@ -54,6 +54,7 @@ measured_yaml = folder / "scan" / "measured.yaml"
 manifest = yaml.safe_load(measured_yaml.read_text())
 manifest["identification"] = {"resolve_pairs": True}
 measured_yaml.write_text(yaml.safe_dump(manifest, sort_keys=False))
+print(measured_yaml.read_text())
 
 # %%
 # Identify the scan's modes and pair them by shape with the round model's (``correlate``:
@@ -75,6 +76,10 @@ keep = [k for k, label in enumerate(pairing.fe_labels)
         if not label.startswith("ip") and pairing.fe_freq_hz[k] < 640.0]
 figure, axis = plt.subplots(figsize=(6.5, 4.5))
 image = axis.imshow(pairing.mac[:, keep], vmin=0, vmax=1, cmap="viridis", aspect="auto")
+for (row, column), value in np.ndenumerate(pairing.mac[:, keep]):
+    if value >= 0.1:
+        axis.text(column, row, f"{value:.2f}", ha="center", va="center", fontsize=7,
+                  color="black" if value > 0.6 else "white")
 axis.set_xticks(range(len(keep)),
                 [f"{pairing.fe_labels[k]}\n{pairing.fe_freq_hz[k]:.0f}" for k in keep],
                 fontsize=7)
@@ -106,7 +111,8 @@ pd.DataFrame(imperfections["pairs"]).round(4)
 # %%
 def described(values):
     """A fit's parameter values with their units."""
-    units = {"mass": (1e6, "mg"), "r": (1e3, "mm")}
+    units = {"mass": (1e6, "mg"), "r": (1e3, "mm"), "axis": (1, "deg"), "angle": (1, "deg"),
+             "theta": (1, "deg")}
     return ", ".join(f"{name} = {value * units.get(name, (1, ''))[0]:.4g} "
                      f"{units.get(name, (1, ''))[1]}".strip()
                      for name, value in values.items())
