@@ -16,6 +16,7 @@ reaches 600 Hz.
 """
 
 # %%
+import shutil
 import tempfile
 from pathlib import Path
 
@@ -206,3 +207,7 @@ pd.DataFrame(rows).round(3)
 # members (the (1,2), near 1 kHz, whose weaker member this identification does not find)
 # or a second operating point would give the diagnosis more to go on; neither is tried
 # here.
+
+# %%
+# The temporary folder (the scan, the measured set, the FE cache) is removed.
+shutil.rmtree(folder)
