@@ -160,11 +160,25 @@ class SplitSignature:
     continuous : bool
         Consecutive trials lie on a continuous parameter (a mass's radius): the splits
         between them are interpolated; False: the trials are discrete choices (an order).
+    magnitude : int
+        Index in :attr:`Effect.parameters` of the parameter the fitted magnitude sets (the
+        trial's ``amplitude`` scaled): its bounds bound the fit (a thickness amplitude
+        below 0.9, an anisotropy below 0.3), so no fit leaves the range its study key
+        allows.
+    in_air : bool
+        The trials keep the air where the measured conditions have it (``air.enabled``);
+        False: in vacuo, where the air loads both members of a pair alike (an anisotropy:
+        the relative split is unchanged; a mass: smaller in air, the fitted mass a lower
+        bound).  True where the imperfection changes both the film's stiffness and its
+        mass (a thickness term): in vacuo they cancel in the split, the air's added mass
+        does not scale with the film.
     """
 
     trials: Callable = field(repr=False)
     values: Callable = field(repr=False)
     continuous: bool = False
+    magnitude: int = 0
+    in_air: bool = False
 
 
 FE_ROLES_ALLOWED = (None, "switch", "anchored")

@@ -270,16 +270,36 @@ class ImperfectionFit:
         return ", ".join(shown)
 
 
-def _fit_magnitude(observations):
-    """The magnitude ratio ``q = x / x_trial`` minimising the split deviance, and it:
-    ``observations`` ``[(s, power, s_trial)]`` (module notes: ``s_model = s_trial q^j``)."""
+#: Range of the fitted magnitude ratio ``q = x / x_trial`` (further narrowed to the bounds
+#: of the parameter it sets: :func:`magnitude_range`).
+MAGNITUDE_RATIO_RANGE = (1e-3, 20.0)
+
+
+def magnitude_range(effect_id: str, trial) -> tuple[float, float]:
+    """The range of ``q = x / x_trial`` a fit of ``effect_id`` at ``trial`` may take:
+    :data:`MAGNITUDE_RATIO_RANGE` within the bounds of the parameter the magnitude sets
+    (:attr:`~copdea_fem.diagnosis.effect_record.SplitSignature.magnitude`), so that a
+    fitted size stays in the range its study key allows (unbounded, an order-2 thickness
+    term, which splits G1's (1,1) pair by 0.15 % at a = 0.3, would explain a 2.6 % split
+    with a = 5.5: a negative thickness)."""
+    entry = CATALOGUE[effect_id]
+    parameter = entry.parameters[entry.split_signature.magnitude]
+    low = max(MAGNITUDE_RATIO_RANGE[0], parameter.lower / trial.amplitude)
+    high = min(MAGNITUDE_RATIO_RANGE[1], parameter.upper / trial.amplitude)
+    return low, max(high, low)
+
+
+def _fit_magnitude(observations, bounds=MAGNITUDE_RATIO_RANGE):
+    """The magnitude ratio ``q = x / x_trial`` in ``bounds`` minimising the split deviance,
+    and it: ``observations`` ``[(s, power, s_trial)]`` (module notes: ``s_model = s_trial
+    q^j``)."""
     from scipy.optimize import minimize_scalar
 
     def deviance(log_q):
         q = math.exp(log_q)
         return sum(((s - c * q ** j) / SPLIT_SIGMA) ** 2 for s, j, c in observations)
 
-    grid = np.linspace(math.log(1e-3), math.log(20.0), 120)
+    grid = np.linspace(math.log(bounds[0]), math.log(bounds[1]), 120)
     values = [deviance(v) for v in grid]
     best = int(np.argmin(values))
     low, high = grid[max(best - 1, 0)], grid[min(best + 1, len(grid) - 1)]
@@ -330,7 +350,8 @@ def fit_trial(effect_id: str, trial, splits: dict, pairs, choices: int = 1) -> I
             s_trial, power = 0.0, 1.0
         observations.append((pair.split, power, s_trial))
         keys.append((pair.condition, pair.pair))
-    q, split_deviance = _fit_magnitude(observations)
+    q, split_deviance = _fit_magnitude(observations,
+                                       magnitude_range(effect_id, trial))
     orientations, unexplained = [], 0.0
     for pair in pairs:
         if not pair.oriented:
@@ -531,18 +552,22 @@ def _decide(measured, fe, alpha, effects, pairs, common) -> ImperfectionVerdict:
     solves_before = fe.solves
     requests, plan = [], []
     for effect_id in effects:
+        in_air = CATALOGUE[effect_id].split_signature.in_air
         for name in wanted:
             # in vacuo: the air's added mass loads both members of a pair alike, so a
             # stiffness imperfection's relative split is the same; a mass's is smaller in air
-            # by m_modal / (m_modal + m_air) (the fitted mass: a lower bound)
-            study = measured.study_of(conditions[name], {"air.enabled": False})
+            # by m_modal / (m_modal + m_air) (the fitted mass: a lower bound).  A thickness
+            # term changes the film's stiffness and mass together (they cancel in vacuo, the
+            # air's added mass does not scale with the film): its trials keep the air
+            study = measured.study_of(conditions[name],
+                                      None if in_air else {"air.enabled": False})
             for trial in CATALOGUE[effect_id].split_signature.trials(study):
                 requests.append((study.replace(trial.overrides),
                                  BAND_MARGIN * conditions[name].band[1], False))
                 plan.append((effect_id, name, trial))
     logger.info("imperfections: pairs split beyond the noise (split deviance %.1f > %.1f); "
-                "%d trial FE solves (3-D, in vacuo) of %s", perfect, limit, len(requests),
-                ", ".join(effects))
+                "%d trial FE solves (in vacuo; a thickness term's with the conditions' air) "
+                "of %s", perfect, limit, len(requests), ", ".join(effects))
     fe.solve_many(requests)
     table: dict = {}
     for (effect_id, name, trial), (study, f_max, _) in zip(plan, requests):
@@ -594,6 +619,7 @@ def _decide(measured, fe, alpha, effects, pairs, common) -> ImperfectionVerdict:
                  f"{perfect:.1f} -> {fits[top].split_deviance:.1f}{partly}"))
 
 
-__all__ = ["ImperfectionFit", "ImperfectionVerdict", "ObservedPair", "name_imperfections",
+__all__ = ["MAGNITUDE_RATIO_RANGE", "ImperfectionFit", "ImperfectionVerdict", "ObservedPair",
+           "magnitude_range", "name_imperfections",
            "observed_pairs", "pairs_from_resonances", "pairs_from_scan", "shape_orientation",
            "tested_imperfections", "trial_splits", "untested_verdict"]
