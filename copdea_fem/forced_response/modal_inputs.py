@@ -101,9 +101,9 @@ def drive_inputs(study) -> list[tuple[str, object]]:
 
 def study_points(solution, study) -> tuple[list[str], np.ndarray]:
     """Names and positions (P, 3) [m] on the prestressed device of the observed points: Q1-Q3
-    (:data:`copdea_fem.reduced.chirp_response.QUARTER_POINTS`) at each angle of
+    (:data:`copdea_fem.study.schema.QUARTER_POINTS`) at each angle of
     :data:`POINT_ANGLES_DEG`; names ``q<i>_<angle>deg``."""
-    from copdea_fem.reduced.chirp_response import QUARTER_POINTS
+    from copdea_fem.study.schema import QUARTER_POINTS
     state = solution.state
     r_i, r_o = float(state.inner_radius), float(state.outer_radius)
     names, reference = [], []
