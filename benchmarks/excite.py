@@ -1,6 +1,6 @@
 """``excite`` against ``response`` and ``statespace`` against ``solve`` of one study:
-``python -m benchmarks.excite [--case 3d|axisymmetric] [--repeat 3] [--target LABEL]
-[--set SECTION.KEY=VALUE ...]``.
+``python -m benchmarks.excite [--case 3d|axisymmetric] [--only excite|statespace]
+[--repeat 3] [--target LABEL] [--set SECTION.KEY=VALUE ...]``.
 
 Case ``3d`` (default): ``studies/g1_segments_quick.yaml`` (G1, z = 16 mm, 2 kV, coupled,
 coarse mesh, eight 45-degree sectors; its default engine, the 3-D quadrant), both pairs.
@@ -62,8 +62,11 @@ def _command(command: str, study: Path, overrides: list[str], directory: Path,
     return {"wall_s": wall, "cpu_s": cpu, "timings": stages[-1] if stages else ""}
 
 
-def run(repeat: int, overrides: list[str], target: str, case: str = "3d") -> dict:
+def run(repeat: int, overrides: list[str], target: str, case: str = "3d",
+        only: str | None = None) -> dict:
     study, case_overrides, pairs = CASES[case]
+    if only is not None:
+        pairs = tuple(pair for pair in pairs if pair[0] == only)
     overrides = case_overrides + list(overrides)
     runs = {name: [] for pair in pairs for name in pair}
     for k in range(repeat):
@@ -100,11 +103,16 @@ def main(argv=None) -> int:
     parser.add_argument("--case", choices=sorted(CASES), default="3d")
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--target", default="(2,1)", help="excite's --target")
+    parser.add_argument("--only", choices=[pair[0] for pair in PAIRS], default=None,
+                        help="run only this command's pair (e.g. statespace: with solve)")
     parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE")
     args = parser.parse_args(argv)
     if args.repeat < 1:
         parser.error(f"--repeat {args.repeat} is not allowed; allowed: >= 1")
-    print(json.dumps(run(args.repeat, args.set, args.target, args.case), indent=2))
+    if args.only is not None and all(pair[0] != args.only for pair in CASES[args.case][2]):
+        parser.error(f"--only {args.only} is not allowed with --case {args.case}; allowed: "
+                     + ", ".join(pair[0] for pair in CASES[args.case][2]))
+    print(json.dumps(run(args.repeat, args.set, args.target, args.case, args.only), indent=2))
     return 0
 
 

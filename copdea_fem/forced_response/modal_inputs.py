@@ -101,9 +101,9 @@ def drive_inputs(study) -> list[tuple[str, object]]:
 
 def study_points(solution, study) -> tuple[list[str], np.ndarray]:
     """Names and positions (P, 3) [m] on the prestressed device of the observed points: Q1-Q3
-    (:data:`copdea_fem.reduced.chirp_response.QUARTER_POINTS`) at each angle of
+    (:data:`copdea_fem.study.schema.QUARTER_POINTS`) at each angle of
     :data:`POINT_ANGLES_DEG`; names ``q<i>_<angle>deg``."""
-    from copdea_fem.reduced.chirp_response import QUARTER_POINTS
+    from copdea_fem.study.schema import QUARTER_POINTS
     state = solution.state
     r_i, r_o = float(state.inner_radius), float(state.outer_radius)
     names, reference = [], []
@@ -481,6 +481,16 @@ def microphone_delays(study, microphones) -> list[float]:
             for (_, position), place in zip(microphones, microphone_places(study, microphones))]
 
 
+#: ``max_modes_per_shift`` of the radiating band's solve (:func:`copdea_fem.fe.eigen.solve_band`'s
+#: default).  A pencil of at most three times this many unknowns (an order of the
+#: axisymmetric engine: 225 on the quick G1) is asked a third of its size at the first
+#: shift, which the planner answers by its dense QZ at once: the band (the air and PML
+#: modes up to ``modal_band f_max`` in both directions, 22 of 225) holds more than a first
+#: Krylov run of 20, after which the planner went dense anyway (80 solves, 0.05-0.1 s, for
+#: nothing; the pairs are the same, bit for bit).
+RADIATING_MODES_PER_SHIFT = 80
+
+
 def radiating_band(part, study):
     """``part`` (the one a uniform electrode drives, with air) with the band of
     ``response``'s modal path (:func:`.run.modal_solution`): ``Re f`` and ``|Im f|`` up to
@@ -497,9 +507,13 @@ def radiating_band(part, study):
     reach = study.response.modal_band * eigen.f_max
     logger.info(f"{part.key}: the radiating modes for the sound, Re f <= {reach:g} Hz, "
                 f"|Im f| <= {reach:g} Hz ...")
+    size = pencil.stiffness.shape[0]
     found = solve_band(pencil.stiffness, pencil.mass, 0.0, reach, factorize=pencil.factorize,
                        hermitian=False, max_imag_hz=reach, backend=eigen.backend,
-                       max_modes=eigen.max_modes, residual_tol=eigen.residual_tol)
+                       max_modes=eigen.max_modes, residual_tol=eigen.residual_tol,
+                       max_modes_per_shift=RADIATING_MODES_PER_SHIFT,
+                       start_modes=size // 3 if size // 3 <= RADIATING_MODES_PER_SHIFT
+                       else None)
     band = types.SimpleNamespace(eigenvalues=np.asarray(found.eigenvalues),
                                  vectors=np.asarray(found.vectors))
     return dataclasses.replace(part, band=band)
@@ -537,6 +551,7 @@ def merged_static(channels: list) -> list:
     return [channel for channel in channels if len(channel.eigenvalues)] + [merged]
 
 
-__all__ = ["Channel", "FACTOR_ROUND_OFF", "ModalInputs", "POINT_ANGLES_DEG", "STATIC_CHANNEL",
+__all__ = ["Channel", "FACTOR_ROUND_OFF", "ModalInputs", "POINT_ANGLES_DEG",
+           "RADIATING_MODES_PER_SHIFT", "STATIC_CHANNEL",
            "drive_inputs", "driven_families", "merged_static", "microphone_delays",
            "radiating_band", "study_points"]

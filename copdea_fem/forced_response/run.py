@@ -251,9 +251,9 @@ def reduced_modal_solution(problem: OrderZero, frequency_hz):
 
 def modal_damping(labels, kinds, study) -> np.ndarray:
     """(b/m)_j [1/s] per mode: ``reduced.damping_*`` by label (the reduced model's key of
-    the label, :func:`copdea_fem.reduced.model.damping_key`), 0 for air/PML modes."""
+    the label, :func:`copdea_fem.study.schema.damping_key`), 0 for air/PML modes."""
     from copdea_fem.fe import AIR
-    from copdea_fem.reduced.model import damping_key
+    from copdea_fem.study.schema import damping_key
     values = []
     for label, kind in zip(labels, kinds):
         if kind == AIR:

@@ -32,9 +32,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from copdea_fem.reduced.rings import Equilibrium, ReducedModelError
+from copdea_fem.study.schema import QUARTER_POINTS  # noqa: F401  (Q1-Q3, Sect. 5.3)
 
-QUARTER_POINTS = (0.25, 0.5, 0.75)
-"""Q1, Q2, Q3: fractions of the width r_o - r_i from the inner edge (Sect. 5.3, Fig. 5d)."""
 
 
 # -- excitation (Sect. 4.2) -------------------------------------------------------------------

@@ -44,14 +44,9 @@ from copdea_fem.reduced.chirp_response import (
 from copdea_fem.reduced.modal import ModalBasis, modal_decomposition
 from copdea_fem.reduced.rings import Linearisation, RingModel
 from copdea_fem.reduced.spring import pumping_added_mass, pumping_frequencies
+from copdea_fem.study.schema import damping_key  # noqa: F401  (the reduced model's keys)
 
 _COUPLED_KEYS = {"P1": "coupled_freq_p1", "(0,1)": "coupled_freq_01", "(0,2)": "coupled_freq_02"}
-_DAMPING_KEYS = {"P1": "damping_p1", "(0,1)": "damping_01", "(0,2)": "damping_02"}
-
-
-def damping_key(label: str) -> str:
-    """The study key holding b/m of a mode label (``reduced.damping_higher`` past (0,2))."""
-    return "reduced." + _DAMPING_KEYS.get(label, "damping_higher")
 
 
 @dataclass(frozen=True)

@@ -361,6 +361,20 @@ SCHEMA["imperfections"] = {
 
 #: Sections written in a resolved study (and hashed) only when a key differs from its
 #: default, so that a study without them resolves as it did before they existed.
+QUARTER_POINTS = (0.25, 0.5, 0.75)
+"""Q1, Q2, Q3: fractions of the width r_o - r_i from the inner edge (Sect. 5.3, Fig. 5d); the
+points of the reduced model's spectra and of the forced response's point outputs."""
+
+#: The mode labels with their own ``reduced.damping_*`` key (:func:`damping_key`).
+DAMPING_KEYS = {"P1": "damping_p1", "(0,1)": "damping_01", "(0,2)": "damping_02"}
+
+
+def damping_key(label: str) -> str:
+    """The study key holding b/m [1/s] of a mode label (Sect. 5.3: P1, (0,1), (0,2);
+    ``reduced.damping_higher`` past (0,2))."""
+    return "reduced." + DAMPING_KEYS.get(label, "damping_higher")
+
+
 OPTIONAL_SECTIONS = ("electrodes", "imperfections")
 #: Keys of the other sections written (and hashed) only when they differ from their
 #: default, for the same reason.

@@ -648,3 +648,47 @@ def test_superlu_factorises_large_matrices_in_nested_dissection_order():
     own = spla.splu(matrix.tocsc(), permc_spec="MMD_AT_PLUS_A")
     assert nested < own.L.nnz + own.U.nnz
     assert eigen.fill_reducing_order(matrix[:100, :100]) is None     # small: SuperLU's own
+
+
+def test_shift_inverted_dense_matches_qz_with_infinite_eigenvalues():
+    """The dense fallback above DENSE_DOFS (a crowded band): the standard problem
+    (A - sigma B)^-1 B x = nu x gives QZ's finite eigenpairs (a damped string, n = 99, with
+    three massless unknowns: three infinite eigenvalues, dropped as QZ's beta = 0)."""
+    stiffness, mass, _ = string_matrices(100)
+    n = stiffness.shape[0]
+    mass = mass.tolil()
+    for k in (10, 50, 90):          # massless: B singular
+        mass[k, :] = 0.0
+        mass[:, k] = 0.0
+    a = ((1 + 0.05j) * stiffness).toarray()
+    b = mass.toarray()
+    alpha_beta, _ = scipy.linalg.eig(a, b, homogeneous_eigvals=True)
+    finite = np.abs(alpha_beta[1]) > 1e-13 * np.abs(alpha_beta[0])
+    expected = np.sort_complex(alpha_beta[0][finite] / alpha_beta[1][finite])
+    sigma = float(np.median(expected.real))
+    values, vectors = planner.BandSolver.shift_inverted_dense(a, b, sigma)
+    assert values.size == n - 3 == expected.size
+    np.testing.assert_allclose(np.sort_complex(values), expected, rtol=1e-9)
+    residual = np.linalg.norm(a @ vectors - b @ vectors * values[None, :], axis=0)
+    assert residual.max() < 1e-9 * np.linalg.norm(a) * np.abs(vectors).max()
+    # sigma on an eigenvalue: numerically singular, (None, None): the caller's QZ
+    assert planner.BandSolver.shift_inverted_dense(np.eye(3), np.eye(3), 1.0) == (None, None)
+
+
+def test_crowded_band_goes_dense_by_shift_invert_and_matches_qz(monkeypatch):
+    """A general pencil of n = 99 > DENSE_DOFS whose band holds more than a third of it:
+    the planner's dense fallback (shift-invert standard problem) returns QZ's band."""
+    calls = []
+    original = planner.BandSolver.shift_inverted_dense
+    monkeypatch.setattr(planner.BandSolver, "shift_inverted_dense", staticmethod(
+        lambda a, b, sigma: calls.append(sigma) or original(a, b, sigma)))
+    stiffness, mass, exact = string_matrices(100)
+    eta = 0.02
+    f = frequencies((1 + 1j * eta) * exact)
+    f_max = float(np.sort(f.real)[60])              # 60 modes in the band: > n / 3
+    f_max = 0.5 * (f_max + float(np.sort(f.real)[61]))
+    result = solve_band((1 + 1j * eta) * stiffness, mass, 0.0, f_max, backend="superlu",
+                        max_imag_hz=f_max, hermitian=False)
+    assert np.all(np.isinf(result.coverage_radii)) and len(calls) == 1  # shift-invert
+    expected = np.sort(f.real[f.real <= f_max])
+    np.testing.assert_allclose(result.freq_hz, expected, rtol=1e-10)

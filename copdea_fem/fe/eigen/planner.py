@@ -188,7 +188,7 @@ class BandSolver:
                     f"{self.known.count + k} eigenpairs requested of an n={self.n} pencil: "
                     "too many for ARPACK and too large for a dense solve; narrow the band"
                 )
-            self.solve_dense()
+            self.solve_dense(shift.sigma)
             return 0
         self.runs += 1
         shift.runs += 1
@@ -328,8 +328,12 @@ class BandSolver:
 
     # ---------------------------------------------------------------- dense fallback
 
-    def solve_dense(self) -> None:
-        """All finite eigenpairs by dense QZ / eigh: the problem is tiny."""
+    def solve_dense(self, sigma: float | None = None) -> None:
+        """All finite eigenpairs, dense: the problem is small.  A Hermitian pencil: eigh.  A
+        general one: QZ up to :attr:`DENSE_DOFS` unknowns; above (the dense fallback of a
+        crowded band, ``sigma`` the shift that ran into it) the shift-invert standard
+        problem :meth:`shift_inverted_dense`, whose Hessenberg QR costs a quarter of QZ's
+        (n = 225: 0.06 s against 0.25 s, one BLAS thread)."""
         start = time.perf_counter()
         a, b = self.A.toarray(), self.B.toarray()
         values = vectors = None
@@ -339,6 +343,8 @@ class BandSolver:
                 values = values.astype(complex)
             except np.linalg.LinAlgError:  # B only semi-definite
                 values = None
+        elif sigma is not None and self.n > self.DENSE_DOFS:
+            values, vectors = self.shift_inverted_dense(a, b, float(np.real(sigma)))
         if values is None:
             alpha_beta, vectors = scipy.linalg.eig(a, b, homogeneous_eigvals=True)
             alpha, beta = alpha_beta
@@ -358,6 +364,29 @@ class BandSolver:
         for shift in self.shifts:
             shift.trusted_radius = shift.confirmed_radius = math.inf
         self.progress(f"dense solve (n={self.n}): {self.known.count} finite eigenpairs")
+
+    @staticmethod
+    def shift_inverted_dense(a: np.ndarray, b: np.ndarray, sigma: float):
+        """``(values, vectors)``: the finite eigenpairs of ``a x = lam b x`` from the
+        standard problem ``(a - sigma b)^-1 b x = nu x``, ``lam = sigma + 1 / nu`` (the
+        same eigenvectors); an infinite eigenvalue (``b`` singular) is ``nu = 0`` and
+        dropped with every ``|nu| <= 1e-13 max |nu|`` (``|lam - sigma|`` above 1e13 times
+        the nearest's: beyond any band).  ``(None, None)`` where ``a - sigma b`` is
+        numerically singular (``sigma`` on an eigenvalue): the caller's QZ then."""
+        import warnings
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", scipy.linalg.LinAlgWarning)
+            try:
+                factors = scipy.linalg.lu_factor(a - sigma * b, check_finite=False)
+                operator = scipy.linalg.lu_solve(factors, b, check_finite=False)
+            except (scipy.linalg.LinAlgWarning, np.linalg.LinAlgError, ValueError):
+                return None, None
+        if not np.all(np.isfinite(operator)):
+            return None, None
+        nu, vectors = scipy.linalg.eig(operator, check_finite=False)
+        finite = np.abs(nu) > 1e-13 * np.abs(nu).max(initial=0.0)
+        return sigma + 1.0 / nu[finite], vectors[:, finite]
 
     # ---------------------------------------------------------------- planning
 

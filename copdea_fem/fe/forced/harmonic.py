@@ -444,18 +444,22 @@ class ModalBasis:
         left = vectors.copy()
         left[u_index] *= eigenvalues[None, :]
         left[p_index] *= coupled.pressure_scale / forced.alpha
-        a_t, b_t = a.T.tocsr(), b.T.tocsr()
-        left_residuals = np.array([
-            np.linalg.norm(a_t @ left[:, j] - eigenvalues[j] * (b_t @ left[:, j]))
-            / max(np.linalg.norm(a_t @ left[:, j]), 1e-300) for j in range(len(eigenvalues))])
+        if eigenvalues.size:
+            a_t, b_t = a.T.tocsr(), b.T.tocsr()
+            left_residuals = np.array([
+                np.linalg.norm(a_t @ left[:, j] - eigenvalues[j] * (b_t @ left[:, j]))
+                / max(np.linalg.norm(a_t @ left[:, j]), 1e-300)
+                for j in range(len(eigenvalues))])
+        else:           # no pair (an order above the band: its static correction alone)
+            left_residuals = np.zeros(0)
         norms = np.einsum("ij,ij->j", left, b @ vectors)
         forcings = np.column_stack([order.forcing for order in forced_orders])   # (n, K)
         participation = left.T @ forcings                                        # (J, K)
         membrane = vectors[u_index]
         mass = coupled.membrane.mass
-        k_el = forced.elastic[u_index][:, u_index]
         structural = np.einsum("ij,ij->j", membrane, mass @ membrane)
-        elastic = np.einsum("ij,ij->j", membrane, k_el @ membrane)
+        elastic = (np.einsum("ij,ij->j", membrane, forced.elastic[u_index][:, u_index] @ membrane)
+                   if eigenvalues.size else np.zeros(0, complex))
         scale = float(np.max(np.abs(eigenvalues))) if eigenvalues.size else 1.0
         pair = null_pair(a, b, forced.backend, scale) if singular else None
         if pair is None:
