@@ -35,6 +35,28 @@ def _columns(rows, *names):
     return [tuple(row[name] for name in names) for row in rows]
 
 
+def _without_round_off_order(rows, names):
+    """``_columns`` sorted, where the members of a pair whose frequencies agree to 1e-9
+    (exactly degenerate on the octant-mirrored mesh) lose their order: which of the two is
+    member 0 and which carries the letter a is decided by round-off (another thread's
+    BLAS)."""
+    groups: dict = {}
+    for row in rows:
+        groups.setdefault((row["point"], row["track"]), []).append(row)
+    out = []
+    for row in rows:
+        group = groups[(row["point"], row["track"])]
+        freqs = [float(r["freq_hz"]) for r in group if r["freq_hz"]]
+        degenerate = (len(group) == 2 and len(freqs) == 2
+                      and abs(freqs[0] - freqs[1]) <= 1e-9 * max(abs(f) for f in freqs))
+        values = dict(row)
+        if degenerate:
+            values["member"] = "either"
+            values["label"] = row["label"].rstrip("ab")
+        out.append(tuple(values[name] for name in names))
+    return sorted(out)
+
+
 # --------------------------------------------------------------------------- schema
 
 
@@ -350,7 +372,7 @@ def test_dask_local_cluster_gives_the_same_table_as_local(coarse_runs, tmp_path)
     local, remote = tables["b"], read_table(tmp_path / "dask" / "sweep.csv")
     exact = ("point", "status", "track", "track_label", "member", "pair", "label", "m", "n",
              "kind")
-    assert _columns(remote, *exact) == _columns(local, *exact)
+    assert _without_round_off_order(remote, exact) == _without_round_off_order(local, exact)
     # both continue one chain from p000: the same Newton path, round-off apart
     np.testing.assert_allclose([float(r["freq_hz"]) for r in remote],
                                [float(r["freq_hz"]) for r in local], rtol=1e-9)
