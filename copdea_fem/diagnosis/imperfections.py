@@ -13,8 +13,15 @@ Observed pairs (:class:`ObservedPair`).  From a resonance list: a ``(m,n)a`` and
 a lone ``(m,n)`` peak (an unresolved pair: ``s = 0``).  From a scan (or a mode set): the two
 test modes paired by shape with the pair's FE unit (:mod:`copdea_fem.diagnosis.scanned`),
 with their orientations (:func:`shape_orientation`: the angle of the order-m part's antinode
-line); one test mode on the unit says nothing of the split (the other member may be
-unresolved, or not excited: a drive on its nodal line) and is left out.
+line).  One test mode on the unit (a *lone* member) is a censored observation: the pair is
+split by less than the identification resolves, ``s < s_res``, or its other member was
+not found (not excited: a drive on its nodal line; too weak in the scan's noise).  Its
+resolution ``s_res`` is the member's half-power bandwidth ``2 zeta`` (its identified
+damping ratio): two modes split by more give two peaks in the FRFs (Ewins, *Modal
+testing*, 2nd ed., Sect. 4.2; docs/vibrometer.md, "Close pairs": with ``resolve_pairs``
+pairs split by a tenth of ``2 zeta`` are resolved when their shapes are, and some split by
+a twentieth are not, so below ``2 zeta`` a lone member says nothing).  A lone member of
+unknown damping (a mode set without it) is left out.
 
 Signatures (perturbation theory).  A perturbation ``cos k (theta - angle)`` joins the
 circumferential orders m and m +- k, so the two members of an m pair (orders +-m, 2m apart)
@@ -31,18 +38,30 @@ linearly (their square roots) between the trial radii.
 
 Fit and test.  With ``sigma_s`` = :data:`SPLIT_SIGMA` per split and ``sigma_phi`` =
 :data:`ORIENTATION_SIGMA_DEG` per orientation (scans),
-each hypothesis's deviance is ``D = sum ((s - s_model) / sigma_s)^2 + sum c(wrap(phi -
-phi_model))`` (``c(r) ~ (r / sigma_phi)^2`` for small r, robust to a tenth of outliers:
+each hypothesis's deviance is ``D = sum ((s - s_model) / sigma_s)^2 + sum l(s_model) +
+sum c(wrap(phi - phi_model))`` (``c(r) ~ (r / sigma_phi)^2`` for small r, robust to a tenth of outliers:
 :func:`orientation_cost`; the orientations of the pairs split past sigma_s; where the
 hypothesis's fitted split of a pair is below sigma_s, the members' orientations are
 uniform under it, density 1 / P over the pair's period P: each costs
 ``2 ln(P / (sqrt(2 pi) sigma_phi))`` on the scale where a placed member costs its
 ``(r / sigma_phi)^2``, so every hypothesis is scored on the same orientations; the
 magnitude fitted on a log grid refined by a bounded scalar
-search, the angle on a 0.25 deg grid).  The perfect device (``s = 0``) is kept when its
-split deviance is within the noise (chi-square quantile ``1 - alpha`` of the number of
-splits): no FE solve then.  Otherwise the best hypothesis by ``D + p ln N`` (p fitted
-parameters, N observations) is named when its split deviance beats the perfect device's by
+search, the angle on a 0.25 deg grid).  A lone member of a scan costs ``l(s_model) =
+-2 ln(P(s_model) / P(0))`` (:func:`lone_cost`), ``P(s) = p_miss + (1 - p_miss) Phi((s_res -
+s) / sigma_s)`` the probability that a pair the hypothesis splits by s shows one member: a
+censored Gaussian split (a split s measured with sigma_s falls below s_res), or the other
+member missed, with probability p_miss = :data:`LONE_MISS` whatever the split.  So a
+hypothesis that leaves the pair below s_res pays nothing, the perfect device (s = 0)
+exactly nothing, and one that splits it past s_res a bounded ``-2 ln p_miss`` (4.6): less
+than the ambiguity margin ``2 ln(1 / alpha)`` (6.0 at alpha = 0.05), so one lone pair
+alone does not decide between two hypotheses that explain the split pairs alike, two do.
+A lone pair that a hypothesis's trial solve does not hold (out of its band, or its
+members merged) is predicted unsplit: it contributes nothing to that hypothesis.  The
+perfect device (``s = 0``) is kept when its split deviance is within the noise
+(chi-square quantile ``1 - alpha`` of the number of measured splits, the lone members
+not counted: they cost the perfect device nothing): no FE solve then.  Otherwise the best
+hypothesis by ``D + p ln N`` (p fitted parameters, N observations: the measured splits,
+the lone members and the measured orientations) is named when its split deviance beats the perfect device's by
 ``2 ln(H / alpha)`` (H hypotheses tested: a likelihood ratio of H / alpha); the others
 within ``2 ln(1 / alpha)`` of it are *ambiguous* with it, and then none is named (the data
 cannot tell them apart; the best is reported provisionally).  Without orientations (a
@@ -72,6 +91,12 @@ SPLIT_SIGMA = 1e-3
 ORIENTATION_SIGMA_DEG = 5.0
 #: Share of measured orientations that follow no model (:func:`orientation_cost`).
 ORIENTATION_OUTLIERS = 0.1
+#: Probability that the identification shows one member of a pair split past its
+#: resolution (the other not driven, or too weak in the noise): the bounded cost of a lone
+#: member, ``-2 ln LONE_MISS`` = 4.6 (:func:`lone_cost`).  A choice, like
+#: :data:`ORIENTATION_OUTLIERS`, not a measured rate; it keeps one lone pair below the
+#: ambiguity margin ``2 ln(1 / alpha)`` (6.0 at alpha = 0.05).
+LONE_MISS = 0.1
 LABEL = re.compile(r"^\((?P<m>\d+),(?P<n>\d+)\)(?P<letter>[ab]?)$")
 
 
@@ -79,7 +104,8 @@ LABEL = re.compile(r"^\((?P<m>\d+),(?P<n>\d+)\)(?P<letter>[ab]?)$")
 class ObservedPair:
     """One (m,n) pair of one condition: its members' frequencies [Hz] (equal for an
     unresolved pair) and, from a scan, their orientations [deg, in [0, 180/m)] (NaN: not
-    measured)."""
+    measured); ``resolution`` [-]: for a lone member of a scan, the split ``s_res`` below
+    which its pair is not resolved (module notes; NaN: the split is measured)."""
 
     condition: str
     pair: str
@@ -88,6 +114,12 @@ class ObservedPair:
     high_hz: float
     low_orientation_deg: float = math.nan
     high_orientation_deg: float = math.nan
+    resolution: float = math.nan
+
+    @property
+    def lone(self) -> bool:
+        """A lone member of a scan: a censored observation ``s < resolution``."""
+        return math.isfinite(self.resolution)
 
     @property
     def split(self) -> float:
@@ -98,7 +130,7 @@ class ObservedPair:
     def oriented(self) -> bool:
         """Both members' orientations measured, and the split past sigma_s (below it the
         members are not told apart by their frequencies)."""
-        return (self.split > SPLIT_SIGMA and math.isfinite(self.high_orientation_deg)
+        return (not self.lone and self.split > SPLIT_SIGMA and math.isfinite(self.high_orientation_deg)
                 and math.isfinite(self.low_orientation_deg))
 
 
@@ -179,8 +211,9 @@ def _out_of_plane_channels(scan):
 def pairs_from_scan(pairing) -> list:
     """:class:`ObservedPair` of a scanned condition
     (:class:`~copdea_fem.diagnosis.scanned.ScanPairing`): the two test modes paired with an
-    (m,n) unit, with their orientations (module notes; a unit with one test mode is left
-    out)."""
+    (m,n) unit, with their orientations, or a lone test mode on the unit, censored below
+    its half-power bandwidth ``2 zeta`` (module notes; left out where its damping ratio is
+    not known)."""
     modes = {mode.test_mode: mode for mode in pairing.modes}
     chosen, x, y = _out_of_plane_channels(pairing.scan)
     members: dict = {}
@@ -196,6 +229,12 @@ def pairs_from_scan(pairing) -> list:
                          else math.nan for mode in found)
             out.append(ObservedPair(pairing.condition, label, m, found[0].freq_hz,
                                     found[1].freq_hz, low, high))
+        elif len(found) == 1 and found[0].damping_ratio > 0:
+            # a lone member: the pair is split below its half-power bandwidth, or the
+            # other member was not found (module notes); NaN damping fails the test
+            out.append(ObservedPair(pairing.condition, label, m, found[0].freq_hz,
+                                    found[0].freq_hz,
+                                    resolution=2.0 * float(found[0].damping_ratio)))
     return out
 
 
@@ -289,15 +328,32 @@ def magnitude_range(effect_id: str, trial) -> tuple[float, float]:
     return low, max(high, low)
 
 
+def lone_cost(model_split, resolution: float):
+    """Deviance of a lone member of a scan (module notes) where the hypothesis splits its
+    pair by ``model_split`` [-] and the identification resolves splits past
+    ``resolution`` ``s_res`` [-]: ``-2 ln(P(s) / P(0))``, ``P(s) = p_miss + (1 - p_miss)
+    Phi((s_res - s) / sigma_s)`` (:data:`LONE_MISS`, :data:`SPLIT_SIGMA`): 0 at s = 0,
+    about 0 below s_res, rising over a few sigma_s to ``-2 ln(p_miss / P(0))`` past it."""
+    from scipy.special import ndtr
+
+    def likelihood(split):
+        return LONE_MISS + (1 - LONE_MISS) * ndtr((resolution - np.asarray(split))
+                                                  / SPLIT_SIGMA)
+
+    return -2 * np.log(likelihood(model_split) / likelihood(0.0))
+
+
 def _fit_magnitude(observations, bounds=MAGNITUDE_RATIO_RANGE):
     """The magnitude ratio ``q = x / x_trial`` in ``bounds`` minimising the split deviance,
-    and it: ``observations`` ``[(s, power, s_trial)]`` (module notes: ``s_model = s_trial
-    q^j``)."""
+    and it: ``observations`` ``[(s, power, s_trial, resolution)]`` (module notes: ``s_model
+    = s_trial q^j``; ``resolution`` finite: a lone member, :func:`lone_cost`)."""
     from scipy.optimize import minimize_scalar
 
     def deviance(log_q):
         q = math.exp(log_q)
-        return sum(((s - c * q ** j) / SPLIT_SIGMA) ** 2 for s, j, c in observations)
+        return sum(float(lone_cost(c * q ** j, res)) if math.isfinite(res)
+                   else ((s - c * q ** j) / SPLIT_SIGMA) ** 2
+                   for s, j, c, res in observations)
 
     grid = np.linspace(math.log(bounds[0]), math.log(bounds[1]), 120)
     values = [deviance(v) for v in grid]
@@ -348,7 +404,7 @@ def fit_trial(effect_id: str, trial, splits: dict, pairs, choices: int = 1) -> I
         power = trial.power(pair.m)
         if power is None:
             s_trial, power = 0.0, 1.0
-        observations.append((pair.split, power, s_trial))
+        observations.append((pair.split, power, s_trial, pair.resolution))
         keys.append((pair.condition, pair.pair))
     q, split_deviance = _fit_magnitude(observations,
                                        magnitude_range(effect_id, trial))
@@ -372,7 +428,7 @@ def fit_trial(effect_id: str, trial, splits: dict, pairs, choices: int = 1) -> I
                              offset, period))
     angle, orientation_deviance = _fit_angle(orientations, trial.angle_period)
     orientation_deviance += unexplained
-    predicted = {key: c * q ** j for key, (_, j, c) in zip(keys, observations)}
+    predicted = {key: c * q ** j for key, (_, j, c, _) in zip(keys, observations)}
     values = CATALOGUE[effect_id].split_signature.values(trial, q * trial.amplitude, angle)
     fitted = 1 + (1 if orientations else 0) + (1 if choices > 1 else 0)
     return ImperfectionFit(effect_id, tuple(float(v) for v in values), split_deviance,
@@ -435,10 +491,12 @@ class ImperfectionVerdict:
             "perfect_limit": clean(self.perfect_limit),
             "significance": clean(self.significance),
             "split_sigma": SPLIT_SIGMA, "orientation_sigma_deg": ORIENTATION_SIGMA_DEG,
+            "lone_miss": LONE_MISS,
             "pairs": [{"condition": p.condition, "pair": p.pair, "low_hz": p.low_hz,
                        "high_hz": p.high_hz, "split": p.split,
                        "low_orientation_deg": clean(p.low_orientation_deg),
-                       "high_orientation_deg": clean(p.high_orientation_deg)}
+                       "high_orientation_deg": clean(p.high_orientation_deg),
+                       "lone_resolution": clean(p.resolution)}
                       for p in self.pairs],
             "fits": {e: {"values": {p.name: clean(v) for p, v in
                                     zip(CATALOGUE[e].parameters, f.values)},
@@ -458,8 +516,10 @@ class ImperfectionVerdict:
             for p in self.pairs:
                 angles = ("-" if not math.isfinite(p.high_orientation_deg) else
                           f"{p.low_orientation_deg:.1f} / {p.high_orientation_deg:.1f}")
+                split = (f"< {100 * p.resolution:.2f} % (one member)" if p.lone
+                         else f"{100 * p.split:.3f} %")
                 out.append(f"| {p.condition} | {p.pair} | {p.low_hz:.2f} | {p.high_hz:.2f} | "
-                           f"{100 * p.split:.3f} % | {angles} |")
+                           f"{split} | {angles} |")
             out.append("")
         for effect_id, fit in self.fits.items():
             out.append(f"- {effect_id}: {fit.describe()}; split deviance "
@@ -520,7 +580,8 @@ def name_imperfections(measured, fe, pairings=(), alpha: float = 0.05,
         left_out = ("; the pairs of even m are left out (the model's square frame splits "
                     "them)")
     perfect = sum((p.split / SPLIT_SIGMA) ** 2 for p in pairs)
-    limit = float(chi2.ppf(1 - alpha, max(len(pairs), 1)))
+    measured_splits = sum(not p.lone for p in pairs)
+    limit = float(chi2.ppf(1 - alpha, max(measured_splits, 1)))
     significance = 2 * math.log(max(len(effects), 1) / alpha)
     common = {"pairs": pairs, "perfect_deviance": perfect, "perfect_limit": limit,
               "significance": significance, "tested": effects}
@@ -542,11 +603,13 @@ def _decide(measured, fe, alpha, effects, pairs, common) -> ImperfectionVerdict:
                else "no (m,n) pair labelled in the data: no imperfection tested")
         return ImperfectionVerdict(named=(), ambiguous=(), fits={}, verdict=why, **common)
     if perfect <= limit:
+        lone = sum(p.lone for p in pairs)
+        also = f"; {lone} lone members of a scan, unsplit as far as resolved" if lone else ""
         return ImperfectionVerdict(
             named=(), ambiguous=(), fits={}, **common,
             verdict=(f"no pair split beyond the noise (split deviance {perfect:.1f} <= "
-                     f"{limit:.1f} for {len(pairs)} pairs, sigma {SPLIT_SIGMA:g}): the device "
-                     "is round as far as the data tell"))
+                     f"{limit:.1f} for {len(pairs) - lone} measured splits, sigma "
+                     f"{SPLIT_SIGMA:g}{also}): the device is round as far as the data tell"))
     conditions = {c.name: c for c in measured.conditions}
     wanted = sorted({p.condition for p in pairs})
     solves_before = fe.solves
@@ -575,8 +638,18 @@ def _decide(measured, fe, alpha, effects, pairs, common) -> ImperfectionVerdict:
         splits = table.setdefault(effect_id, {}).setdefault(trial.name, (trial, {}))[1]
         for pair, value in trial_splits(result.modes).items():
             splits[(name, pair)] = value
+    for effect_id, trials in table.items():
+        unheld = [f"{p.condition} {p.pair}" for p in pairs if p.lone
+                  and not any((p.condition, p.pair) in splits for _, splits in trials.values())]
+        if unheld:
+            logger.info("imperfections: %s's trial solves do not hold the lone pairs %s (out "
+                        "of their band): they contribute nothing to it", effect_id,
+                        ", ".join(unheld))
     fits = {}
-    n_obs = len(pairs) + 2 * sum(p.oriented for p in pairs)
+    # N: the measured splits, the lone members (censored) and the measured orientations;
+    # the chi-square of the fit counts the Gaussian ones (a lone member's cost is bounded)
+    n_gauss = sum(not p.lone for p in pairs) + 2 * sum(p.oriented for p in pairs)
+    n_obs = n_gauss + sum(p.lone for p in pairs)
     for effect_id in effects:
         candidates = list(table[effect_id].values())
         if CATALOGUE[effect_id].split_signature.continuous:
@@ -600,7 +673,7 @@ def _decide(measured, fe, alpha, effects, pairs, common) -> ImperfectionVerdict:
     rivals = tuple(e for e in order[1:]
                    if penalised[e] - penalised[top] < 2 * math.log(1 / alpha)
                    and perfect - fits[e].split_deviance >= significance)
-    dof = max(n_obs - fits[top].fitted, 1)
+    dof = max(n_gauss - fits[top].fitted, 1)
     fitness = float(chi2.sf(fits[top].deviance, dof))
     partly = (f"; the split pattern is only partly explained (deviance "
               f"{fits[top].deviance:.1f} for {dof} degrees of freedom)" if fitness < 1e-3
@@ -619,7 +692,7 @@ def _decide(measured, fe, alpha, effects, pairs, common) -> ImperfectionVerdict:
                  f"{perfect:.1f} -> {fits[top].split_deviance:.1f}{partly}"))
 
 
-__all__ = ["MAGNITUDE_RATIO_RANGE", "ImperfectionFit", "ImperfectionVerdict", "ObservedPair",
-           "magnitude_range", "name_imperfections",
+__all__ = ["LONE_MISS", "MAGNITUDE_RATIO_RANGE", "ImperfectionFit", "ImperfectionVerdict",
+           "ObservedPair", "lone_cost", "magnitude_range", "name_imperfections",
            "observed_pairs", "pairs_from_resonances", "pairs_from_scan", "shape_orientation",
            "tested_imperfections", "trial_splits", "untested_verdict"]

@@ -271,7 +271,9 @@ def test_a_hidden_imperfection_is_named_from_fe_made_pairs(tmp_path, kind, seed)
 def test_a_scans_pair_carries_the_orientations_of_its_two_test_modes():
     """Two test modes paired with the (1,1) unit, their shapes J_1 cos (theta - psi) on a
     polar scan grid (z channels, and x channels that must be ignored): the pair's split
-    and the members' antinodes (psi and psi + 90 deg)."""
+    and the members' antinodes (psi and psi + 90 deg).  One test mode on the (2,1) unit:
+    a lone member, censored below its half-power bandwidth 2 zeta; one of unknown damping
+    on the (3,1) unit: left out."""
     import types
 
     from copdea_fem.diagnosis.imperfections import pairs_from_scan
@@ -289,16 +291,25 @@ def test_a_scans_pair_carries_the_orientations_of_its_two_test_modes():
         z = jv(1, root * np.hypot(x, y) / 0.035) * np.cos(np.arctan2(y, x) - math.radians(psi))
         return np.concatenate([z, np.full(n, 5.0)])       # the x channels: nonsense
 
-    modes = [types.SimpleNamespace(test_mode=1, freq_hz=500.0, shape=shape(120.0)),
-             types.SimpleNamespace(test_mode=2, freq_hz=510.0, shape=shape(30.0)),
-             types.SimpleNamespace(test_mode=3, freq_hz=530.0, shape=shape(0.0))]
+    modes = [types.SimpleNamespace(test_mode=1, freq_hz=500.0, shape=shape(120.0),
+                                   damping_ratio=0.006),
+             types.SimpleNamespace(test_mode=2, freq_hz=510.0, shape=shape(30.0),
+                                   damping_ratio=0.006),
+             types.SimpleNamespace(test_mode=3, freq_hz=530.0, shape=shape(0.0),
+                                   damping_ratio=0.007),
+             types.SimpleNamespace(test_mode=4, freq_hz=560.0, shape=shape(0.0),
+                                   damping_ratio=math.nan)]
     correlation = types.SimpleNamespace(pairs=(
         types.SimpleNamespace(label="(1,1)b", test_mode=1),
         types.SimpleNamespace(label="(1,1)a", test_mode=2),
-        types.SimpleNamespace(label="(2,1)a", test_mode=3)))     # one member: left out
+        types.SimpleNamespace(label="(2,1)a", test_mode=3),      # one member: lone
+        types.SimpleNamespace(label="(3,1)a", test_mode=4)))     # damping unknown: left out
     pairing = types.SimpleNamespace(condition="c", modes=modes, scan=scan,
                                     correlation=correlation)
-    (pair,) = pairs_from_scan(pairing)
+    pair, lone = pairs_from_scan(pairing)
+    assert (lone.pair, lone.split, lone.lone, lone.oriented) == ("(2,1)", 0.0, True, False)
+    assert lone.resolution == pytest.approx(2 * 0.007) and lone.low_hz == 530.0
+    assert not pair.lone
     assert pair.pair == "(1,1)" and pair.split == pytest.approx(10 / 505)
     assert pair.low_orientation_deg == pytest.approx(120.0, abs=0.5)
     assert pair.high_orientation_deg == pytest.approx(30.0, abs=0.5)
