@@ -237,6 +237,85 @@ def test_a_thickness_terms_trials_keep_the_air_and_explain_a_split_in_air():
     assert any(THICKNESS in group and ANISOTROPY in group for group in verdict.ambiguous)
 
 
+def test_a_lone_member_costs_nothing_below_its_resolution_and_a_bounded_penalty_past_it():
+    """The censored split of a lone member (module notes): P(s) = p_miss + (1 - p_miss)
+    Phi((s_res - s) / sigma_s), its deviance -2 ln(P(s) / P(0)): 0 for the perfect device,
+    ~0 a few sigma_s below s_res, -2 ln(1/2 + p_miss/2) at s_res, and -2 ln(p_miss /
+    P(0)) well past it (P(0) = 1 to 1e-20 at s_res = 10 sigma_s)."""
+    from copdea_fem.diagnosis.imperfections import LONE_MISS, SPLIT_SIGMA, lone_cost
+
+    resolution = 10 * SPLIT_SIGMA
+    assert lone_cost(0.0, resolution) == 0.0
+    assert lone_cost(resolution - 5 * SPLIT_SIGMA, resolution) < 1e-5
+    assert lone_cost(resolution, resolution) == pytest.approx(
+        -2 * math.log(LONE_MISS + (1 - LONE_MISS) / 2))
+    assert lone_cost(resolution + 8 * SPLIT_SIGMA, resolution) == pytest.approx(
+        -2 * math.log(LONE_MISS), rel=1e-9)
+    assert lone_cost(1.0, resolution) == pytest.approx(-2 * math.log(LONE_MISS))
+    costs = lone_cost(np.linspace(0.0, 3 * resolution, 50), resolution)
+    assert np.all(np.diff(costs) >= 0)
+
+
+#: per trial kind, the relative splits of the (1,1), (3,1), (5,1) pairs that a stand-in FE
+#: gives (G1-like: a 2 % anisotropy splits (1,1) by 2.6 %, (3,1) only at third order; an
+#: order-2 thickness term at a = 0.3 in air like SplitsFE; a 0.5 mg mass every pair)
+TRIAL_SPLITS = {"anisotropy": {"(1,1)": 0.026, "(3,1)": 3e-5, "(5,1)": 0.0},
+                "thickness": {"(1,1)": 0.036, "(3,1)": 1e-5, "(5,1)": 0.0},
+                "mass": {"(1,1)": 0.0025, "(3,1)": 0.002, "(5,1)": 0.0015},
+                "round": {}}
+
+
+class PairsFE(SplitsFE):
+    """SplitsFE with the (3,1) and (5,1) pairs too (:data:`TRIAL_SPLITS`)."""
+
+    def modes(self, study, f_max, merge_pairs=True):
+        kind = ("anisotropy" if study.membrane.prestretch_anisotropy else
+                "thickness" if study.membrane.thickness_variation else
+                "mass" if study.imperfections.point_masses else "round")
+        if kind == "thickness" and study.membrane.thickness_variation[0].order != 2:
+            kind = "round"
+        modes = []
+        for label, frequency in (("(1,1)", 450.0), ("(3,1)", 540.0), ("(5,1)", 590.0)):
+            split = TRIAL_SPLITS[kind].get(label, 0.0)
+            modes += [FEMode(label + "a", "non-axisymmetric", frequency * (1 + split / 2)),
+                      FEMode(label + "b", "non-axisymmetric", frequency * (1 - split / 2))]
+        return types.SimpleNamespace(modes=modes)
+
+
+def test_lone_pairs_rule_out_a_mass_that_would_split_them():
+    """One (1,1) pair split 2.6 % (orientations 90 / 0 deg) is explained alike by an
+    anisotropy, an order-2 thickness term and a mass of ~5 mg; the (3,1) and (5,1) pairs
+    seen as one test mode each (half-power bandwidth 1.2 %) are what that mass would split
+    by 2.1 % and 1.6 %: each costs it -2 ln p_miss, so the mass leaves the ambiguity group,
+    while the anisotropy and the thickness term (which split m = 3 at third order and m = 5
+    not at all) pay nothing and stay ambiguous.  The round device pays nothing for them."""
+    from copdea_fem.diagnosis.imperfections import LONE_MISS
+
+    base = parse_study({"geometry": {"inner_radius": 0.017}, "air": {"enabled": True}},
+                       name="b")
+    condition = types.SimpleNamespace(name="c", band=(5.0, 600.0), overrides={})
+    measured = types.SimpleNamespace(candidates=DEFAULT_CANDIDATES, conditions=(condition,),
+                                     study_of=lambda c, extra=None: base.replace(extra or {}))
+    split_pair = ObservedPair("c", "(1,1)", 1, 450.0 * 0.987, 450.0 * 1.013, 90.0, 0.0)
+    lone = [ObservedPair("c", "(3,1)", 3, 538.0, 538.0, resolution=0.012),
+            ObservedPair("c", "(5,1)", 5, 588.0, 588.0, resolution=0.012)]
+    without = name_imperfections(measured, PairsFE(), pairs=[split_pair])
+    assert without.ambiguous and set(without.ambiguous[0]) == {ANISOTROPY, THICKNESS, MASS}
+    verdict = name_imperfections(measured, PairsFE(), pairs=[split_pair] + lone)
+    assert verdict.perfect_deviance == pytest.approx(without.perfect_deviance)
+    assert verdict.perfect_limit == pytest.approx(without.perfect_limit)   # one measured split
+    assert set(verdict.ambiguous[0]) == {ANISOTROPY, THICKNESS}
+    penalty = -2 * math.log(LONE_MISS)
+    mass, anisotropy = verdict.fits[MASS], verdict.fits[ANISOTROPY]
+    assert mass.split_deviance > without.fits[MASS].split_deviance + 2 * penalty - 0.5
+    assert mass.predicted[("c", "(3,1)")] > 0.012 and mass.predicted[("c", "(5,1)")] > 0.012
+    assert anisotropy.split_deviance == pytest.approx(without.fits[ANISOTROPY].split_deviance,
+                                                      abs=1e-6)
+    document = verdict.document()
+    assert [p["lone_resolution"] for p in document["pairs"]] == [None, 0.012, 0.012]
+    assert any("< 1.20 % (one member)" in line for line in verdict.lines())
+
+
 def test_trial_splits_read_the_stiffer_member():
     modes = [FEMode("(1,1)a", "non-axisymmetric", 510.0), FEMode("(1,1)b", "non-axisymmetric",
                                                                   500.0),
