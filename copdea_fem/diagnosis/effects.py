@@ -588,7 +588,10 @@ _register(Effect(
                 "four radii of the membrane, interpolated in r), theta from the orientations "
                 "in a scan: the lower member of each pair has its antinode at the mass, the "
                 "other its nodal line through it.  At first order a mass at theta and at "
-                "theta + 180 deg split every pair alike: theta is given modulo 180 deg.",
+                "theta + 180 deg split every pair alike: theta is given modulo 180 deg.  "
+                "A pair a scan shows as one test mode counts against a mass that would "
+                "split it past the member's half-power bandwidth 2 zeta (a bounded cost: "
+                "the other member may just not be driven).",
     kind="physics", engine="fe",
     parameters=(Parameter("mass", "imperfections.point_masses[0].mass", "kg", 1e-6, 1e-8,
                           1e-3, True, "the lumped mass"),
