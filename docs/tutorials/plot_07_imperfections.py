@@ -214,7 +214,9 @@ pd.DataFrame(rows).round(3)
 # the truth.
 #
 # What would tell them apart.  A second pair that a mass splits and the scan shows as one
-# mode (the (5,1), just above this band) would rule the mass out.  The anisotropy and an
+# mode (the (5,1), near 650 Hz, just above this band) would rule the mass out: scanned to
+# 1 kHz, the lone (5,1), (7,1) and (9,1) members do (docs/imperfections.md, "Split pairs
+# from a scan").  The anisotropy and an
 # order-2 thickness term split every (1,n) pair, so no lone pair can separate them: only
 # the ratio of two (1,n) splits can (in vacuo the (1,1) and (1,2) pairs split alike, 2.6 %
 # each, for e = 2 %, against 0.15 % and 1.1 % for a = 0.3; in air not measured here), that
