@@ -53,7 +53,18 @@ accelerance), with the pole ``s_r = -zeta_r w_r + i w_r sqrt(1 - zeta_r^2)`` and
 5. **Close pairs** (``resolve_pairs``, off by default; :mod:`close_pairs`): the noise from
    the median eigenvalue (:func:`noise_variance`), a second refinement on the residual's
    shapes beyond the principal functions, poles whose half-power band holds two shapes
-   split in two, and the members of such a pair exempt from the MPC drop.
+   split in two, and the members of such a pair exempt from the MPC drop.  The poles the
+   refinement presses against a band edge stay in the model as the tails of modes just
+   outside the band (no modes, not reported): in every later refinement, the residual's
+   shapes, the split and the residues' fit.  LSFD's residual terms (a constant and a
+   ``1/w^2`` term) stand for modes far outside the band; a strongly driven mode just past
+   its edge has a tail that changes across the band as ``1/(w_r^2 - w^2)`` does, and
+   without its pole its shape goes into the residues of the modes inside, the weak ones
+   most (the FE-made G1 scan with a 2 % anisotropy, lines to 1000 Hz: an in-plane mode at
+   1004.5 Hz, the largest static response of the band; its shape was 44 % of the weak
+   (1,1) member's residues, whose MAC with the round FE's (1,1) pair fell to 0.27, and
+   that member was not found; with the band-edge poles kept it is found at 449.54 Hz,
+   MAC 0.98).
 """
 
 from __future__ import annotations
@@ -280,25 +291,39 @@ def _identify(scan: ScanData, options: dict) -> Identification:
                  else float(np.sum(power[keep:])) / (band_frequencies.size
                                                      * (scan.n_channels - keep)))
     principal_band = principal[:, frequencies[frequencies <= f_high] >= f_low].T
-    chosen = _refined(chosen, principal_band, band_frequencies, noise, frf_form, options)
-    if noise is not None and options["resolve_pairs"]:
+    chosen, tails = _refined(chosen, principal_band, band_frequencies, noise, frf_form,
+                             options)
+    resolve = noise is not None and options["resolve_pairs"]
+    if not resolve:
+        tails = np.zeros(0, complex)
+    if resolve:
         # a second look: the shapes the principal functions left out (weak members of
-        # split pairs among strong modes), where the residual still holds them
-        extra = _residual_directions(chosen, values[:, in_band], band_frequencies,
-                                     left[:, :keep], noise, frf_form, options)
+        # split pairs among strong modes), where the residual still holds them; the
+        # band-edge poles model the out-of-band tails (module notes, step 5)
+        extra = _residual_directions(np.concatenate([chosen, tails]), values[:, in_band],
+                                     band_frequencies, left[:, :keep], noise, frf_form,
+                                     options)
         if extra.shape[1]:
             logger.info("%d response functions of the residual's shapes added to the %d "
                         "principal ones", extra.shape[1], keep)
             data = np.hstack([principal_band, values[:, in_band].T @ extra.conj()])
-            chosen = _refined(chosen, data, band_frequencies, noise, frf_form, options)
-    if noise is not None and options["resolve_pairs"] and chosen.size:
-        chosen = _split_close(chosen, values[:, in_band], band_frequencies, noise, frf_form,
-                              options)
+            chosen, tails = _refined(chosen, data, band_frequencies, noise, frf_form,
+                                     options, tails)
+    if resolve and chosen.size:
+        both = _split_close(np.concatenate([chosen, tails]), values[:, in_band],
+                            band_frequencies, noise, frf_form, options)
+        inside = _inside_band(both, band_frequencies, options["band"])
+        chosen, tails = both[inside], both[~inside]
+    if tails.size:
+        logger.info("%d band-edge poles kept in the residues' fit (out-of-band tails, no "
+                    "modes): %s", tails.size, ", ".join(f"{abs(p.imag) / (2 * math.pi):.1f} "
+                                                        "Hz" for p in tails))
     constants = np.zeros((scan.n_channels, 0), complex)
     while chosen.size:
         try:
-            constants, *_ = LSFD(chosen, values[:, in_band], band_frequencies, True, True, 0,
-                                 band_frequencies.size, frf_form)
+            constants, *_ = LSFD(np.concatenate([chosen, tails]), values[:, in_band],
+                                 band_frequencies, True, True, 0, band_frequencies.size,
+                                 frf_form)
         except (ValueError, np.linalg.LinAlgError) as error:
             raise IdentificationFailed(f"scan file {scan.path}: LSFD failed ({error})") \
                 from None
@@ -498,14 +523,19 @@ def _split_close(chosen, values, band_frequencies, noise, frf_form, options):
     return poles * scale
 
 
-def _refined(chosen, data, band_frequencies, noise, frf_form, options):
+def _refined(chosen, data, band_frequencies, noise, frf_form, options, tails=None):
     """The chosen poles refined and the missed ones added (:mod:`pole_refinement`);
-    ``noise`` the noise variance per complex value (None: not measured, nothing added)."""
+    ``noise`` the noise variance per complex value (None: not measured, nothing added).
+
+    Returns ``(poles, tails)``: the poles inside the band, and those the fit pressed
+    against a band edge (an out-of-band mode's tail, module notes step 5), which are no
+    modes.  With ``tails`` (the previous call's) they start the fit with the chosen ones."""
     from copdea_fem.vibrometer.pole_refinement import LEAST_DAMPING, add_missing
 
     f_low, f_high = options["band"]
     scale = 2 * math.pi * f_high
-    poles, added = add_missing(band_frequencies / f_high, data, chosen / scale,
+    start = chosen if tails is None else np.concatenate([chosen, tails])
+    poles, added = add_missing(band_frequencies / f_high, data, start / scale,
                                FRF_POWERS[frf_form],
                                (f_low / f_high, 1.0), options["max_damping"], noise,
                                hz_per_unit=f_high)
@@ -515,19 +545,26 @@ def _refined(chosen, data, band_frequencies, noise, frf_form, options):
     # a pole pressed against the fit's least damping is a spike between two lines fitted to
     # model error, not a resonance the lines resolve
     resolved = zeta > 2 * LEAST_DAMPING
-    # a pole the fit pressed against a band edge, or nearest the band's first or last line,
-    # is an out-of-band mode's tail or not resolved by the band (no line beyond it): not a
-    # mode
-    half_line = 0.5 * float(band_frequencies[1] - band_frequencies[0])
-    inside = ((frequency > max(f_low * (1 + 1e-6), band_frequencies[0] + half_line))
-              & (frequency < min(f_high * (1 - 1e-6), band_frequencies[-1] - half_line)))
+    inside = _inside_band(poles, band_frequencies, options["band"])
     logger.info("poles refined, %d added, %d on a band edge's line dropped%s", added,
                 int(np.sum(~inside)), "".join(f" ({f:.1f} Hz)" for f in frequency[~inside]
                                               if f_low <= f <= f_high))
     if np.any(~resolved):
         logger.info("%d poles at the fit's least damping dropped: %s", int(np.sum(~resolved)),
                     ", ".join(f"{f:.1f} Hz" for f in frequency[~resolved]))
-    return poles[resolved & (zeta <= options["max_damping"]) & inside]
+    physical = resolved & (zeta <= options["max_damping"])
+    return poles[physical & inside], poles[physical & ~inside]
+
+
+def _inside_band(poles, band_frequencies, band) -> np.ndarray:
+    """Whether each pole [rad/s] is a mode of the band: not pressed by the fit against a
+    band edge nor on the band's first or last line, where no line beyond it resolves it
+    (an out-of-band mode's tail)."""
+    f_low, f_high = band
+    frequency = np.asarray(poles).imag / (2 * math.pi)
+    half_line = 0.5 * float(band_frequencies[1] - band_frequencies[0])
+    return ((frequency > max(f_low * (1 + 1e-6), band_frequencies[0] + half_line))
+            & (frequency < min(f_high * (1 - 1e-6), band_frequencies[-1] - half_line)))
 
 
 def _options(scan, f_min, f_max, max_order, components, frequency_tolerance,
