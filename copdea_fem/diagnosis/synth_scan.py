@@ -46,7 +46,6 @@ from __future__ import annotations
 import json
 import logging
 import math
-import re
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -191,11 +190,10 @@ def synthesise_scan(study: Study, options: ScanOptions, rng, name: str = "scan")
 
     def factor(label):
         # one draw per mode, as before; the members of a pair (m,n)a/b share their pair's
-        # (the scatter is the model's error, common to both: a split is the device's); a
-        # member whose letter ties with its partner's (a pair oriented half-way between
-        # the cos and sin axes: "(m,n)a" and "(m,n)a-2", copdea_fem.fe.modes) is its too
+        # (the scatter is the model's error, common to both: a split is the device's;
+        # unit_key also joins a member whose letter ties with its partner's)
         draw = math.exp(rng.normal(0, options.frequency_noise))
-        return scatter.setdefault(unit_key(re.sub(r"-\d+$", "", label)) or label, draw)
+        return scatter.setdefault(unit_key(label) or label, draw)
 
     reference, _ = psv_reference_grid(state.outer_radius, state.inner_radius, options)
     positions = result.engine.prestressed_positions(state, reference, study.load.z)

@@ -62,7 +62,8 @@ DEFAULT_MAC_MIN = 0.5
 #: Weight of the frequency tie-break (a share of one MAC unit at the window's edge).
 FREQUENCY_WEIGHT = 0.05
 
-_LABEL = re.compile(r"^(?P<base>(?:ip)?\((?P<m>\d+),(?P<n>\d+)\))(?P<letter>[a-d]?)$")
+_LABEL = re.compile(
+    r"^(?P<base>(?:ip)?\((?P<m>\d+),(?P<n>\d+)\))(?P<letter>[a-d]?)(?P<tie>-\d+)?$")
 
 
 class CorrelationError(ValueError):
@@ -71,8 +72,11 @@ class CorrelationError(ValueError):
 
 def unit_key(label: str) -> str:
     """The unit a labelled FE mode belongs to (module notes): ``(2,1)a`` and ``(2,1)b`` ->
-    ``(2,1)``; ``ip(1,1)c``/``d`` -> ``ip(1,1)cd`` (``a``/``b`` -> ``ip(1,1)ab``); an m = 0
-    mode, a pumping mode or an unlabelled one is a unit of its own (its label)."""
+    ``(2,1)``; ``ip(1,1)c``/``d`` -> ``ip(1,1)cd`` (``a``/``b`` -> ``ip(1,1)ab``); a member
+    whose letter ties with its partner's (a pair turned half-way between the cos and sin
+    axes: ``(2,1)a`` and ``(2,1)a-2``, :mod:`copdea_fem.fe.modes`) -> ``(2,1)`` too; an
+    m = 0 mode (``(0,1)-2`` included), a pumping mode or an unlabelled one is a unit of its
+    own (its label)."""
     match = _LABEL.match(label or "")
     if not match or int(match["m"]) == 0 or not match["letter"]:
         return label

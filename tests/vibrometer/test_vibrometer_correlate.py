@@ -40,6 +40,9 @@ def test_unit_keys_group_what_a_mode_is():
     assert unit_key("(0,1)") == "(0,1)" and unit_key("P1") == "P1"
     assert unit_key("ip(1,1)a") == unit_key("ip(1,1)b") != unit_key("ip(1,1)c")
     assert unit_key("ip(0,1)a") != unit_key("ip(0,1)b")        # torsion and radial: two modes
+    # a pair turned half-way between the axes ties its letters: (1,1)a and (1,1)a-2
+    assert unit_key("(1,1)a-2") == unit_key("(1,1)a") == "(1,1)"
+    assert unit_key("(0,1)-2") == "(0,1)-2" != unit_key("(0,1)")   # a second (0,1): its own
 
 
 @pytest.mark.parametrize("seed", range(5))
