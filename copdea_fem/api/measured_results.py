@@ -310,7 +310,7 @@ class IdentifyResult:
     @property
     def table(self) -> pd.DataFrame:
         """identified.csv as a DataFrame (condition, test_mode, freq_hz, damping_ratio, mpc)."""
-        from copdea_fem.vibrometer.identification import IDENTIFIED_COLUMNS, identified_rows
+        from copdea_fem.vibrometer.identification_files import IDENTIFIED_COLUMNS, identified_rows
         return data_frame(identified_rows(self.sets), IDENTIFIED_COLUMNS)
 
     def write(self, folder: str | Path | Claim) -> Path:
@@ -319,7 +319,7 @@ class IdentifyResult:
         :class:`~copdea_fem.folders.Claim`.  Parameters, return and errors as
         :meth:`Solution.write`."""
         from copdea_fem.folders import result_directory
-        from copdea_fem.vibrometer.identification import write_identified
+        from copdea_fem.vibrometer.identification_files import write_identified
         with claimed(folder, "identify", [self.source, *self.files]) as target:
             with result_directory(target, "identify") as staging:
                 write_identified(staging, self.sets)

@@ -130,7 +130,7 @@ class ObservedPair:
     def oriented(self) -> bool:
         """Both members' orientations measured, and the split past sigma_s (below it the
         members are not told apart by their frequencies)."""
-        return (not self.lone and self.split > SPLIT_SIGMA and math.isfinite(self.high_orientation_deg)
+        return (self.split > SPLIT_SIGMA and math.isfinite(self.high_orientation_deg)
                 and math.isfinite(self.low_orientation_deg))
 
 

@@ -128,7 +128,7 @@ def _write_csv(path: Path, columns, rows) -> None:
 def write_export_identification(folder, result: ExportIdentification, title: str) -> None:
     """modes.csv, shapes.csv, stabilisation.png and (with a geometry) shapes/ in
     ``folder`` (a staging folder: the caller's ``write`` owns it); module notes."""
-    from copdea_fem.vibrometer.identification import plot_stabilisation
+    from copdea_fem.vibrometer.identification_files import plot_stabilisation
     from copdea_fem.vtu import write_all, write_pvd
 
     folder = Path(folder)
