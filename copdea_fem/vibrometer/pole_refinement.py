@@ -201,9 +201,17 @@ def add_missing(omega, data, poles, power, band, max_damping, noise_variance, hz
     hz_per_unit = 1.0 / (2 * math.pi) if hz_per_unit is None else hz_per_unit
     energy = float(np.sum(np.abs(data) ** 2))
     poles = refine(omega, data, poles, power, band, max_damping)
-    cost = projection_cost(omega, data, poles, power)
     if noise_variance is None:
         return poles, 0
+    # a start pole the fit ran off with (past max_damping: no mode, dropped by the caller)
+    # would refuse every trial below; the search finds the mode it stood for again
+    runaway = -poles.real / np.abs(poles) > max_damping
+    if np.any(runaway):
+        logger.info("%d start poles left out of the search (the fit took them past damping "
+                    "%.3g): %s", int(np.sum(runaway)), max_damping,
+                    ", ".join(f"{p.imag * hz_per_unit:.1f} Hz" for p in poles[runaway]))
+        poles = poles[~runaway]
+    cost = projection_cost(omega, data, poles, power)
     threshold = max(ENERGY_FLOOR * energy, ADD_SIGNIFICANCE * data.shape[1] * noise_variance)
     in_band = (omega >= band[0]) & (omega <= band[1])
     grid = np.array([complex(-zeta * w / math.sqrt(1 - zeta ** 2), w)

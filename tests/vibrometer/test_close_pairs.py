@@ -77,8 +77,9 @@ def test_significant_shapes_counts_the_pair():
     assert counts[0] == counts[1] + 1
 
 
+@pytest.mark.parametrize("resolve_pairs", [True, False])
 @pytest.mark.parametrize("seed", [0, 1, 2])
-def test_weak_member_clean_beside_an_out_of_band_tail(seed):
+def test_weak_member_clean_beside_an_out_of_band_tail(seed, resolve_pairs):
     """A split pair 2.7 % apart (2 zeta = 1.6 %: two peaks), its weak member at 0.15 of the
     strong one's participation, and a strong (0,2) mode 0.45 % past the band's top (1.8 Hz
     above the last line, five times the pair's participation): its tail, which the
@@ -89,7 +90,7 @@ def test_weak_member_clean_beside_an_out_of_band_tail(seed):
     modes = [((0, 1, 0.0), 240.0, 0.02, 1.0), ((1, 1, 0.0), 300.0, 0.008, 1.0),
              ((1, 1, 0.5 * math.pi), 308.1, 0.008, 0.15), ((0, 2, 0.0), 401.8, 0.005, 5.0)]
     scan = membrane_scan(modes, AXIS, 60.0, np.random.default_rng(seed))
-    found = identify_scan(scan, resolve_pairs=True).modes
+    found = identify_scan(scan, resolve_pairs=resolve_pairs).modes
     shapes = membrane_shapes(paper_grid(), [family for family, *_ in modes[1:3]])
     for (low, high), shape in zip(((295, 303), (303, 313)), shapes.reshape(2, -1)):
         near = [m for m in found if low < m.freq_hz < high]
