@@ -261,10 +261,12 @@ class QuadrantSphere:
         self._sampling = None
 
     def _values(self):
-        """(points, 4) p and grad p of what ``self.gf`` holds, each half at its points."""
+        """(points, 4) p and grad p of what ``self.gf`` holds, each half at its points
+        (real: ``gf`` holds a real indicator vector, :func:`.radiation.sampling_matrix`; the
+        complex space - the PML's - returns it with a zero imaginary part)."""
         values = np.empty((len(self.xyz), 4))
-        values[self.is_upper] = np.asarray(self._upper(self._upper_points))
-        values[~self.is_upper] = np.asarray(self._lower(self._lower_points))
+        values[self.is_upper] = np.asarray(self._upper(self._upper_points)).real
+        values[~self.is_upper] = np.asarray(self._lower(self._lower_points)).real
         return values
 
     def sample(self, pressure_vectors):
