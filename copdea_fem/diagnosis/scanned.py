@@ -177,12 +177,13 @@ def _merge_unresolved(resonances: list, correlation, energies: list) -> list:
             continue
         other = resonances[partner]
         used.add(partner)
-        weighted = [(q, w) for q, w in ((resonance.quality_factor, energies[index]),
-                                        (other.quality_factor, energies[partner]))
-                    if math.isfinite(q)]
-        total = sum(w for _, w in weighted)
-        quality = (sum(q * w for q, w in weighted) / total if total > 0
-                   else sum(q for q, _ in weighted) / len(weighted) if weighted else math.nan)
+        members = [(q, w) for q, w in ((resonance.quality_factor, energies[index]),
+                                       (other.quality_factor, energies[partner]))
+                   if math.isfinite(q)]
+        if sum(w for _, w in members) <= 0:              # no residues: the plain mean
+            members = [(q, 1.0) for q, _ in members]
+        quality = (sum(q * w for q, w in members) / sum(w for _, w in members)
+                   if members else math.nan)
         out.append(Resonance(0.5 * (resonance.frequency_hz + other.frequency_hz), label[:-1],
                              resonance.kind, quality))
     return out
@@ -204,10 +205,13 @@ def resonances_from_scans(measured: MeasuredSet) -> tuple[MeasuredSet, tuple]:
         pairing = pair_condition(measured, condition)
         correlation, modes = pairing.correlation, pairing.modes
         energy = {mode.test_mode: float(np.sum(np.abs(mode.shape) ** 2)) for mode in modes}
-        kept = [(r, energy.get(pair.test_mode, 0.0)) for pair in correlation.pairs
-                if (r := _resonance(pair)) is not None]
-        resonances = tuple(sorted(_merge_unresolved([r for r, _ in kept], correlation,
-                                                    [w for _, w in kept]),
+        resonances, energies = [], []
+        for pair in correlation.pairs:
+            resonance = _resonance(pair)
+            if resonance is not None:
+                resonances.append(resonance)
+                energies.append(energy[pair.test_mode])
+        resonances = tuple(sorted(_merge_unresolved(resonances, correlation, energies),
                                   key=lambda r: r.frequency_hz))
         logger.info("%s: %d test modes, %d paired by shape, %d resonances",
                     condition.name, len(modes),
