@@ -110,16 +110,41 @@ class Microphones:
         if self.field is not None:
             inside = np.flatnonzero(self.in_field)
             pressure[:, inside] = weights @ self.field.sample(pressure_vectors).T
-        for j, (_, position) in enumerate(self.microphones):  # z != 0 in a baffle: checks.py
+        for j, sampler, (p_values, dp_values) in self._far(sampled):
+            field_p, field_dp = weights @ p_values.T, weights @ dp_values.T  # (lines, points)
+            for line, w in enumerate(omega):
+                kp, kg = sampler.kernels(self.microphones[j][1], w / self.sound_speed,
+                                         self.baffle)
+                pressure[line, j] = kp @ field_p[line] - kg @ field_dp[line]
+        return pressure
+
+    def column_pressure(self, response: LineResponse, frequency_hz) -> np.ndarray:
+        """Complex pressure [Pa per unit of each vector] (F, microphones, K) of each of
+        ``response.vectors`` at each frequency [Hz] (its weights are not used): the sphere
+        sampled once, the kernels once per frequency."""
+        omega = 2 * np.pi * np.atleast_1d(np.asarray(frequency_hz, float))
+        pressure_vectors = response.pressure()
+        sampled = {name: sampler.sample(pressure_vectors)
+                   for name, sampler in self.samplers.items()}
+        pressure = np.zeros((omega.size, len(self.microphones), pressure_vectors.shape[1]),
+                            complex)
+        if self.field is not None:
+            pressure[:, np.flatnonzero(self.in_field)] = self.field.sample(pressure_vectors)
+        for j, sampler, (p_values, dp_values) in self._far(sampled):
+            for line, w in enumerate(omega):
+                kp, kg = sampler.kernels(self.microphones[j][1], w / self.sound_speed,
+                                         self.baffle)
+                pressure[line, j] = kp @ p_values - kg @ dp_values
+        return pressure
+
+    def _far(self, sampled):
+        """(microphone index, its side's sphere sampler, that side's (p, dp/drho) samples)
+        of each microphone the integral reaches (z != 0 in a baffle: checks.py)."""
+        for j, (_, position) in enumerate(self.microphones):
             if self.in_field[j]:
                 continue
             side = ("upper" if position[2] > 0 else "lower") if self.baffle else "all"
-            sampler, (p_values, dp_values) = self.samplers[side], sampled[side]
-            field_p, field_dp = weights @ p_values.T, weights @ dp_values.T  # (lines, points)
-            for line, w in enumerate(omega):
-                kp, kg = sampler.kernels(position, w / self.sound_speed, self.baffle)
-                pressure[line, j] = kp @ field_p[line] - kg @ field_dp[line]
-        return pressure
+            yield j, self.samplers[side], sampled[side]
 
 
 class ScanPoints:

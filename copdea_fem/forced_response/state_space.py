@@ -141,8 +141,8 @@ def pressure_note(model) -> str:
     delays = ", ".join(f"{name} {1e3 * delay:.4g} ms" for (name, _), delay in
                        zip(model.microphones, model.microphone_delays))
     return ("sound pressure at the microphone advanced by its propagation delay |x|/c "
-            f"(a pure delay, not in the model: {delays}); the radiation kernels at each "
-            "mode's own frequency")
+            f"(a pure delay, not in the model: {delays}); each mode's radiation kernel to "
+            "first order in the frequency, fitted over the band")
 
 
 def resonant_root(a: complex, b: complex, c: complex) -> tuple[complex, complex]:
@@ -213,17 +213,17 @@ def realise(model, static_correction: bool = True) -> StateSpaceModel:
 
     def add(label, s1, input_row, velocity_shape, pressure_shape, current_shape):
         """One pole pair (2): ``input_row`` (K,) complex ``g conj(p)``; the output shapes
-        the conjugated displacement (Q_v,), pressure (M,) and charge (K,) per unit of z:
-        the velocity and the current are ``s z`` times theirs, the pressure ``z`` times
-        its own (no feedthrough)."""
+        the conjugated displacement (Q_v,), pressure kernel (3) (2, M) and charge (K,) per
+        unit of z: the velocity and the current are ``s z`` times theirs, the pressure
+        ``z`` times its kernel's constant and ``s z`` times its rate."""
         nonlocal d_total
         sigma, w = s1.real, s1.imag
         blocks.append(np.array([[sigma, -w], [w, sigma]]))
         b_rows.append(np.vstack([input_row.real, input_row.imag]))
-        derivative = np.concatenate([velocity_shape, np.zeros(microphones), current_shape])
-        direct = np.concatenate([np.zeros(velocity_shape.size), pressure_shape,
+        derivative = np.concatenate([velocity_shape, pressure_shape[1], current_shape])
+        direct = np.concatenate([np.zeros(velocity_shape.size), pressure_shape[0],
                                  np.zeros(current_shape.size)])
-        out = derivative * s1 + direct                    # velocity: s z; pressure: z
+        out = derivative * s1 + direct                    # s z = s1 z + input_row u
         c_cols.append(np.column_stack([2 * out.real, -2 * out.imag]))
         feed = 2 * np.real(derivative[:, None] * input_row[None, :])
         d_total = feed if d_total is None else d_total + feed
@@ -241,7 +241,8 @@ def realise(model, static_correction: bool = True) -> StateSpaceModel:
             label = channel.labels[j] or f"{channel.name}:{j}"
             add(label, s1, g * np.conj(channel.participation[j]),
                 np.conj(channel.displacement[..., j]).reshape(-1),
-                np.conj(channel.pressure[:, j]), np.conj(channel.currents[:, j]))
+                np.conj([channel.pressure[:, j], channel.pressure_rate[:, j]]),
+                np.conj(channel.currents[:, j]))
         for k in range(count if static_correction else 0):
             r0 = channel.residual_displacement[..., k].reshape(-1)
             r1 = channel.residual_displacement1[..., k].reshape(-1)
@@ -261,7 +262,8 @@ def realise(model, static_correction: bool = True) -> StateSpaceModel:
             row = np.zeros(count, complex)
             row[k] = abs(s1) ** 2 / (s1 - np.conj(s1))          # (4): static gain 1
             add(f"residual:{channel.name}:{model.inputs[k]}", s1, row,
-                np.conj(r0), np.conj(channel.residual_pressure[:, k]), np.conj(q0))
+                np.conj(r0), np.conj([channel.residual_pressure[:, k],
+                                      channel.residual_pressure_rate[:, k]]), np.conj(q0))
     size = 2 * len(blocks)
     a_matrix = np.zeros((size, size))
     for index, block in enumerate(blocks):

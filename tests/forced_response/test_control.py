@@ -467,15 +467,28 @@ def test_the_state_space_sound_is_the_responses_modal_path_near_the_device():
     assert error <= 5e-2 * np.abs(reference[:, near]).max()
 
 
-def test_the_state_space_sound_far_away_is_the_documented_approximation():
+def test_the_modal_sound_far_away_holds_the_kernels_to_first_order():
     """At the axis microphone (1 m, beyond the sphere) the Kirchhoff kernels depend on the
-    frequency and the model takes each column's at its own (modal_inputs eq. 3): measured
-    16 % of the peak over 100-900 Hz; an approximation, bounded, not round-off.  The delay
-    1 m / c is what the model's pressure is advanced by."""
+    frequency; the model holds each column's to first order in the rate, fitted over the band
+    (modal_inputs eq. 3): its pressure follows ``response``'s modal path within 1.5 % of the
+    peak over 100-900 Hz (measured; 21 % with each column's kernel at its own frequency, the
+    model before).  An approximation, bounded with a margin, not round-off."""
+    model, _, reference = _sound(*AXISYMMETRIC)
+    delay = np.exp(-2j * np.pi * SOUND_LINES * model.microphone_delays[0])
+    modal = model.pressure_response(SOUND_LINES)[:, 0, 0] * delay
+    assert np.abs(modal - reference[:, 0]).max() <= 3e-2 * np.abs(reference[:, 0]).max()
+
+
+def test_the_state_space_sound_far_away_is_the_documented_approximation():
+    """The state space's far pressure: the kernels (3) as a gain on each mode's state and one
+    on its rate (a proper output), with the conjugate poles of the radiating air and PML
+    columns (module notes of state_space): measured 4.8 % of the peak over 100-900 Hz (16 %
+    with constant kernels); the strongly damped air columns' non-resonant terms are most of
+    it.  The delay 1 m / c is what the model's pressure is advanced by."""
     model, lti, reference = _sound(*AXISYMMETRIC)
     assert model.microphone_delays == [pytest.approx(1.0 / 343.0, rel=0.01)]
     error = np.abs(lti[:, 0, 0] - reference[:, 0]).max()
-    assert error <= 0.3 * np.abs(reference[:, 0]).max()
+    assert error <= 8e-2 * np.abs(reference[:, 0]).max()
 
 
 def test_the_static_correction_of_the_radiating_order_fits_a_mode_above_the_band(caplog):

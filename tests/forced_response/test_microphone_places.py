@@ -72,3 +72,29 @@ def test_a_microphone_where_no_air_is_is_refused_by_name(position, fragment):
     with pytest.raises(StudyError, match="response.microphones: microphone 'bad'") as error:
         microphone_places(study, parse_microphones(study))
     assert fragment in str(error.value)
+
+
+def test_each_vectors_pressure_at_each_frequency_is_what_observe_gives_a_line():
+    """Microphones.column_pressure (the modal model's kernels, modal_inputs eq. 3) against
+    observe (response's lines): one line per (frequency, vector) pair, weight 1 on it."""
+    from copdea_fem.forced_response.observers import LineResponse
+    from copdea_fem.forced_response.run import microphone_observer
+
+    text = "near = 0 m, 0 m, 30 mm; side = 0.3 m, 0 m, 0.5 m"
+    study, result = _pressures(QUICK, {"geometry.frame": "none", "response.method": "modal",
+                                       "response.microphones": text}, [150.0])
+    microphones = parse_microphones(study)
+    assert microphone_places(study, microphones) == [FAR, FIELD, FAR]
+    forced, vectors = result.problem.forced, result.vectors[:, :4]
+    observer = microphone_observer(study, result.problem.sector.sphere, forced.coupled,
+                                   microphones)
+    lines = np.array([120.0, 480.0, 910.0])
+    columns = observer.column_pressure(LineResponse(forced, vectors, np.eye(1)), lines)
+    pairs = [(f, k) for f in range(lines.size) for k in range(vectors.shape[1])]
+    weights = np.zeros((len(pairs), vectors.shape[1]))
+    weights[np.arange(len(pairs)), [k for _, k in pairs]] = 1.0
+    each = observer.observe(LineResponse(forced, vectors, weights), lines[[f for f, _ in pairs]])
+    expected = np.stack([each[i] for i in range(len(pairs))]).reshape(
+        lines.size, vectors.shape[1], -1).transpose(0, 2, 1)
+    assert np.abs(columns - expected).max() <= 1e-12 * np.abs(expected).max()
+    assert np.abs(columns[:, 1] - columns[0, 1]).max() <= 1e-14 * np.abs(columns[:, 1]).max()
