@@ -1,12 +1,14 @@
 """Imperfections named from the split pairs of FE-made scans (docs/imperfections.md, "Split
 pairs from a scan"): ``python -m benchmarks.split_pairs [--case NAME ...] [--f-max 1000]
-[--keep DIR]``, or ``--blind N``: the blind battery below.
+[--conditions "load.z=16 mm, load.voltage=2 kV; ..."] [--keep DIR]``, or ``--blind N``: the
+blind battery below.
 
 Each case hides one imperfection in the G1 quick study (``studies/g1_z16_v2_quick.yaml``,
 z = 16 mm, 2 kV, square frame, coupled with the air) and makes its scan as ``copdea-fem
 synth --format uff`` does (the paper's grid, three components, 1.25 Hz lines to
 ``--f-max``, 60 dB, a 1.5 % frequency scatter shared by a pair's members, the case's seed);
-the measured set is then diagnosed as a user would (``cf.diagnose``) with the base study
+``--conditions`` scans the device at each operating point given (``;`` between them; the
+default one, 16 mm and 2 kV); the measured set is then diagnosed as a user would (``cf.diagnose``) with the base study
 *without* the imperfection, ``identification: {resolve_pairs: true}`` and ``pairing:
 {mac_min: 0.4}``.  Printed per case: the pairs the diagnosis read (split, orientations; a
 lone member with its resolution), each imperfection's fit, the verdict, and the seconds
@@ -53,18 +55,19 @@ CASES = {
 }
 
 
-def run_case(name: str, folder: Path, f_max: float) -> dict:
+def run_case(name: str, folder: Path, f_max: float, conditions: str = CONDITION) -> dict:
     """One case (module doc): the diagnosis's ``imperfections`` entry and the seconds."""
-    return run_hidden(*CASES[name], folder, f_max)
+    return run_hidden(*CASES[name], folder, f_max, conditions)
 
 
-def run_hidden(overrides: dict, seed: int, folder: Path, f_max: float) -> dict:
+def run_hidden(overrides: dict, seed: int, folder: Path, f_max: float,
+               conditions: str = CONDITION) -> dict:
     """The scan of the quick study with ``overrides`` hidden, diagnosed (module doc)."""
     import copdea_fem as cf
     from copdea_fem.diagnosis.synth_scan import ScanOptions
 
     started = time.perf_counter()
-    cf.synthesise(cf.load_study(QUICK, overrides), conditions=CONDITION, file_format="uff",
+    cf.synthesise(cf.load_study(QUICK, overrides), conditions=conditions, file_format="uff",
                   options=ScanOptions(f_max=f_max, frequency_noise=0.015, seed=seed),
                   out=folder / "scan")
     measured_yaml = folder / "scan" / "measured.yaml"
@@ -83,15 +86,17 @@ def describe(name: str, result: dict) -> list[str]:
     document = result["imperfections"]
     out = [(f"== {name} (hidden: {CASES[name][0]}, seed {CASES[name][1]}; "
             f"{result['seconds']:.0f} s)")]
+    several = len({pair["condition"] for pair in document["pairs"]}) > 1
     for pair in document["pairs"]:
+        where = f"{pair['condition']} " if several else ""
         if pair.get("lone_resolution") is not None:
-            out.append(f"  {pair['pair']}: one member at {pair['low_hz']:.2f} Hz, split < "
+            out.append(f"  {where}{pair['pair']}: one member at {pair['low_hz']:.2f} Hz, split < "
                        f"{100 * pair['lone_resolution']:.2f} %")
         else:
             angles = ("" if pair["low_orientation_deg"] is None else
                       f", axes {pair['low_orientation_deg']:.1f} / "
                       f"{pair['high_orientation_deg']:.1f} deg")
-            out.append(f"  {pair['pair']}: {pair['low_hz']:.2f} / {pair['high_hz']:.2f} Hz, "
+            out.append(f"  {where}{pair['pair']}: {pair['low_hz']:.2f} / {pair['high_hz']:.2f} Hz, "
                        f"split {100 * pair['split']:.3f} %{angles}")
     for effect, fit in document["fits"].items():
         values = ", ".join(f"{key} = {value:.4g}" for key, value in fit["values"].items()
@@ -153,7 +158,8 @@ def blind_score(kind: str, truth_axis, document: dict) -> tuple[str, float | Non
     return verdict, error
 
 
-def run_blind(count: int, f_max: float, keep: Path | None) -> None:
+def run_blind(count: int, f_max: float, keep: Path | None,
+              conditions: str = CONDITION) -> None:
     """The blind battery (module doc): one line per case, a summary per kind."""
     from collections import Counter
 
@@ -166,7 +172,7 @@ def run_blind(count: int, f_max: float, keep: Path | None) -> None:
                       Path(tempfile.mkdtemp(prefix=f"copdea_blind_{kind}_")))
             folder.mkdir(parents=True, exist_ok=True)
             try:
-                result = run_hidden(overrides, seed, folder, f_max)
+                result = run_hidden(overrides, seed, folder, f_max, conditions)
             finally:
                 if keep is None:
                     shutil.rmtree(folder, ignore_errors=True)
@@ -188,6 +194,9 @@ def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--case", nargs="+", choices=sorted(CASES), default=list(CASES))
     parser.add_argument("--f-max", type=float, default=1000.0, help="top of the scan [Hz]")
+    parser.add_argument("--conditions", default=CONDITION,
+                        help="the operating points scanned, ';' between them (default: "
+                             f"'{CONDITION}')")
     parser.add_argument("--keep", type=Path, help="keep the scans and FE caches here")
     parser.add_argument("--blind", type=int, metavar="N",
                         help="the blind battery: N seeds of each kind and N round devices")
@@ -195,14 +204,15 @@ def main(argv=None) -> None:
     if args.blind is not None:
         if args.blind < 1:
             parser.error(f"--blind = {args.blind} is not allowed; allowed: an integer >= 1")
-        run_blind(args.blind, args.f_max, args.keep)
+        run_blind(args.blind, args.f_max, args.keep, args.conditions)
         return
     for name in args.case:
         folder = (args.keep / name if args.keep else
                   Path(tempfile.mkdtemp(prefix=f"copdea_split_pairs_{name}_")))
         folder.mkdir(parents=True, exist_ok=True)
         try:
-            print("\n".join(describe(name, run_case(name, folder, args.f_max))), flush=True)
+            print("\n".join(describe(name, run_case(name, folder, args.f_max,
+                                                     args.conditions))), flush=True)
         finally:
             if args.keep is None:
                 shutil.rmtree(folder, ignore_errors=True)

@@ -172,6 +172,12 @@ class SplitSignature:
         bound).  True where the imperfection changes both the film's stiffness and its
         mass (a thickness term): in vacuo they cancel in the split, the air's added mass
         does not scale with the film.
+    moves_with_bias : bool
+        Its splits move with the bias voltage (a thickness term: the strain energy scales
+        with t, the electrostatic co-energy with 1/t, so its split follows the
+        electrostatic stress ~ V^2); False: hardly (an anisotropy's is the pre-stretch's).
+        Two such imperfections that explain one bias's splits alike are told apart by a
+        condition at another bias.
     """
 
     trials: Callable = field(repr=False)
@@ -179,6 +185,7 @@ class SplitSignature:
     continuous: bool = False
     magnitude: int = 0
     in_air: bool = False
+    moves_with_bias: bool = False
 
 
 FE_ROLES_ALLOWED = (None, "switch", "anchored")

@@ -503,7 +503,10 @@ class ImperfectionVerdict:
                          "split_deviance": f.split_deviance,
                          "orientation_deviance": f.orientation_deviance,
                          "fitted_parameters": f.fitted, "trial": f.trial,
-                         "angle_measured": f.angle_measured}
+                         "angle_measured": f.angle_measured,
+                         "predicted": [{"condition": where, "pair": pair,
+                                        "split": float(value)}
+                                       for (where, pair), value in f.predicted.items()]}
                      for e, f in self.fits.items()},
         }
 
@@ -521,10 +524,26 @@ class ImperfectionVerdict:
                 out.append(f"| {p.condition} | {p.pair} | {p.low_hz:.2f} | {p.high_hz:.2f} | "
                            f"{split} | {angles} |")
             out.append("")
+        if self.pairs and self.fits:
+            out += self.predicted_lines()
         for effect_id, fit in self.fits.items():
             out.append(f"- {effect_id}: {fit.describe()}; split deviance "
                        f"{fit.split_deviance:.1f}, orientation deviance "
                        f"{fit.orientation_deviance:.1f} ({fit.trial})")
+        return out + [""]
+
+
+    def predicted_lines(self) -> list:
+        """report.md's table of each pair's split, measured and as each fit predicts it."""
+        fits = list(self.fits)
+        out = ["Each pair's split, measured and as each hypothesis's best fit predicts it:", "",
+               "| condition | pair | measured | " + " | ".join(fits) + " |",
+               "|---|---|---|" + "---|" * len(fits)]
+        for p in self.pairs:
+            measured = (f"< {100 * p.resolution:.2f} %" if p.lone else f"{100 * p.split:.3f} %")
+            predicted = [self.fits[e].predicted.get((p.condition, p.pair)) for e in fits]
+            out.append(f"| {p.condition} | {p.pair} | {measured} | " + " | ".join(
+                "-" if value is None else f"{100 * value:.3f} %" for value in predicted) + " |")
         return out + [""]
 
 
@@ -685,14 +704,35 @@ def _decide(measured, fe, alpha, effects, pairs, common) -> ImperfectionVerdict:
             verdict=(f"the pairs split, and {' / '.join(group)} explain them alike (penalised "
                      f"deviances {', '.join(f'{penalised[e]:.1f}' for e in group)}): the "
                      f"data cannot tell them apart; best provisionally {top} "
-                     f"({fits[top].describe()}){partly}"))
+                     f"({fits[top].describe()}){partly}"
+                     f"{deciding_condition(group, [conditions[n] for n in wanted], measured)}"))
     return ImperfectionVerdict(
         named=(top,), ambiguous=(), fits=fits, fe_solves=solves, **common,
         verdict=(f"imperfection: {top} ({fits[top].describe()}); split deviance "
                  f"{perfect:.1f} -> {fits[top].split_deviance:.1f}{partly}"))
 
 
-__all__ = ["LONE_MISS", "MAGNITUDE_RATIO_RANGE", "ImperfectionFit", "ImperfectionVerdict",
-           "ObservedPair", "lone_cost", "magnitude_range", "name_imperfections",
+def deciding_condition(group, conditions, measured) -> str:
+    """What would decide between imperfections that one bias voltage leaves ambiguous
+    (``""`` where the group's splits all move with the bias, or none does, or the
+    ``conditions`` differ in bias): a condition at another bias
+    (:attr:`~copdea_fem.diagnosis.effect_record.SplitSignature.moves_with_bias`; measured
+    on the quick G1 at 16 mm in vacuo, (1,1) split from 2 to 3 kV: an order-2 thickness term
+    of amplitude 0.2 -0.03 % -> -1.27 %, e = 2 % -2.60 % -> -2.77 %; docs/imperfections.md)."""
+    moving = {CATALOGUE[e].split_signature.moves_with_bias for e in group}
+    if moving != {True, False}:
+        return ""
+    voltages = {float(measured.study_of(condition).load.voltage) for condition in conditions}
+    if len(voltages) > 1:
+        return ""
+    still = " / ".join(e for e in group if not CATALOGUE[e].split_signature.moves_with_bias)
+    return (f"; every split pair is at one bias voltage ({voltages.pop():g} V): a scan at "
+            "another bias (e.g. 1.5 times it) would decide - the splits of "
+            f"{' / '.join(e for e in group if CATALOGUE[e].split_signature.moves_with_bias)} "
+            f"move with the electrostatic stress, those of {still} hardly")
+
+
+__all__ = ["LONE_MISS", "MAGNITUDE_RATIO_RANGE", "ImperfectionFit",
+           "ImperfectionVerdict", "ObservedPair", "deciding_condition", "lone_cost", "magnitude_range", "name_imperfections",
            "observed_pairs", "pairs_from_resonances", "pairs_from_scan", "shape_orientation",
            "tested_imperfections", "trial_splits", "untested_verdict"]
