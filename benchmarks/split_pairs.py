@@ -21,7 +21,7 @@ of the case.
 ``mass``
     0.5 mg at r = 25 mm, theta = 45 deg (seed 3).
 
-``--blind N`` hides, for each kind and N seeds (101, 102, ...), one imperfection drawn at
+``--blind N [--kinds KIND ...]`` hides, for each kind and N seeds (101, 102, ...), one imperfection drawn at
 random from the seed - an anisotropy e in 1-3 % along an axis in [0, 180) deg, an order-2
 thickness term of amplitude 0.1-0.3 at an angle in [0, 180) deg, a mass of 0.3-1 mg at r in
 20-33 mm and theta in [0, 360) deg - and N perfect devices, and counts per kind: named
@@ -159,12 +159,12 @@ def blind_score(kind: str, truth_axis, document: dict) -> tuple[str, float | Non
 
 
 def run_blind(count: int, f_max: float, keep: Path | None,
-              conditions: str = CONDITION) -> None:
-    """The blind battery (module doc): one line per case, a summary per kind."""
+              conditions: str = CONDITION, kinds=tuple(BLIND)) -> None:
+    """The blind battery (module doc) of ``kinds``: one line per case, a summary per kind."""
     from collections import Counter
 
     summary = {}
-    for kind in BLIND:
+    for kind in kinds:
         tally, errors = Counter(), []
         for seed in range(101, 101 + count):
             overrides, axis = blind_case(kind, seed)
@@ -197,6 +197,8 @@ def main(argv=None) -> None:
     parser.add_argument("--conditions", default=CONDITION,
                         help="the operating points scanned, ';' between them (default: "
                              f"'{CONDITION}')")
+    parser.add_argument("--kinds", nargs="+", choices=list(BLIND), default=list(BLIND),
+                        help="the blind battery's kinds (default: all)")
     parser.add_argument("--keep", type=Path, help="keep the scans and FE caches here")
     parser.add_argument("--blind", type=int, metavar="N",
                         help="the blind battery: N seeds of each kind and N round devices")
@@ -204,7 +206,7 @@ def main(argv=None) -> None:
     if args.blind is not None:
         if args.blind < 1:
             parser.error(f"--blind = {args.blind} is not allowed; allowed: an integer >= 1")
-        run_blind(args.blind, args.f_max, args.keep, args.conditions)
+        run_blind(args.blind, args.f_max, args.keep, args.conditions, args.kinds)
         return
     for name in args.case:
         folder = (args.keep / name if args.keep else
