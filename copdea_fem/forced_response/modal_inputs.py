@@ -265,14 +265,17 @@ class ModalInputs:
             damping_per_mass = modal_damping(labels, kinds, study)
             # one basis per distinct forcing: the axisymmetric engine forces an order by one
             # vector per radial factor of the weights (the inputs differ by their families'
-            # factors), the 3-D engine by each input's folded weight; an input that does not
-            # drive the part needs none (None), and all of a part's share one factorisation
+            # factors), the 3-D engine by each input's folded weight, the same up to a sign
+            # for a mirrored segment (mirrored_inputs); an input that does not drive the part
+            # needs none (None), and all of a part's share one factorisation
+            mirrors = mirrored_inputs(inputs, part.sector) if part.m is None else {}
             factors, keys = {}, []
             for k, driven in enumerate(drives):
+                source, sign = mirrors.get(k, (k, 1.0))
                 for family, factor in driven:
-                    factors[(family, k)] = factor
+                    factors[(family, k)] = sign * factor
                 keys.append((("radii", getattr(inputs[k][1], "radii", None))
-                             if part.m is not None else k) if driven else None)
+                             if part.m is not None else source) if driven else None)
             distinct = list(dict.fromkeys(key for key in keys if key is not None))
             if not distinct:        # a band no input drives: its modes, with a zero forcing
                 distinct, keys = [0], [0] + [None] * (len(inputs) - 1)
@@ -514,6 +517,28 @@ def driven_families(part, weight) -> list[tuple[str, float]]:
     return [(family, factor) for family, factor in families if abs(factor) > floor]
 
 
+def mirrored_inputs(inputs, sector) -> dict:
+    """``{k: (j, sign)}``: input k's weight is input j's (j < k, itself not mirrored)
+    mirrored in an axis of the quadrant's symmetry
+    (:meth:`copdea_fem.fe.forced.electrode.SegmentWeight.mirror_of`), so on ``sector`` (a
+    :class:`copdea_fem.fe.symmetry.Sector`) its folded weight, hence its forcing, is
+    ``sign = s(qx, qy)`` times j's, exactly (the indicator's values at mirrored points); the
+    eight 45-degree sectors of a turn need two forcings per sector, not eight.  None on the
+    whole device (``sector`` None: no folding)."""
+    if sector is None:
+        return {}
+    mirrors = {}
+    for k, (_, weight) in enumerate(inputs):
+        for j in range(k):
+            if j in mirrors:
+                continue
+            reflection = inputs[j][1].mirror_of(weight)
+            if reflection is not None:
+                mirrors[k] = (j, float(sector.sign(*reflection)))
+                break
+    return mirrors
+
+
 def microphone_delays(study, microphones) -> list[float]:
     """The delay [s] each microphone's pressure is advanced by in the model (eq. 3):
     ``|x_m| / c`` for one the Kirchhoff integral reaches, 0 for one inside its sphere (the
@@ -598,5 +623,5 @@ def merged_static(channels: list) -> list:
 
 __all__ = ["Channel", "FACTOR_ROUND_OFF", "KERNEL_FIT_LINES", "ModalInputs", "POINT_ANGLES_DEG",
            "RADIATING_MODES_PER_SHIFT", "STATIC_CHANNEL",
-           "denominators", "drive_inputs", "fitted_kernels", "driven_families", "merged_static", "microphone_delays",
+           "denominators", "drive_inputs", "fitted_kernels", "mirrored_inputs", "driven_families", "merged_static", "microphone_delays",
            "radiating_band", "study_points"]

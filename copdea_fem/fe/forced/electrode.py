@@ -126,6 +126,10 @@ class ElectrodeImperfection:
         """None: the weight (1) does not vary with the radius."""
         return None
 
+    def mirror_of(self, other):
+        """None: not compared (:meth:`SegmentWeight.mirror_of`)."""
+        return None
+
     def sector_weight(self, sector, x, y):
         """W_s of (2) for a :class:`copdea_fem.fe.symmetry.Sector` (``None``: the whole
         device, ``w`` itself)."""
@@ -193,6 +197,23 @@ class SegmentWeight:
         a, b = self.start, self.start + self.span
         return ((math.sin(m * b) - math.sin(m * a)) / (m * math.pi),
                 (math.cos(m * a) - math.cos(m * b)) / (m * math.pi))
+
+    def mirror_of(self, other):
+        """``(qx, qy)`` with ``other.weight(x, y) = self.weight(qx x, qy y)``: ``other`` is
+        this segment mirrored in the y axis (qx = -1), the x axis (qy = -1) or both (a half
+        turn); ``None`` otherwise (or ``other`` not a segment).  The arc from a to b maps
+        to ``(-b, -a)`` in the x axis, ``(pi - b, pi - a)`` in the y axis, ``(a + pi, b +
+        pi)`` in both; a sector's folded weights (2) of the two then differ by the sector's
+        sign ``s(qx, qy)`` alone."""
+        if not isinstance(other, SegmentWeight) or other.span != self.span \
+                or other.radii != self.radii:
+            return None
+        end = self.start + self.span
+        for (qx, qy), start in (((1, -1), -end), ((-1, 1), math.pi - end),
+                                ((-1, -1), self.start + math.pi)):
+            if abs(float(_wrap(other.start - start + math.pi)) - math.pi) <= 1e-12:
+                return qx, qy
+        return None
 
     def radial_weight(self, r):
         """``1_[r1, r2](r)`` at reference radii ``r`` [m] (NumPy arrays or NGSolve
