@@ -8,11 +8,11 @@ z = 16 mm, 2 kV, square frame, coupled with the air) and makes its scan as ``cop
 synth --format uff`` does (the paper's grid, three components, 1.25 Hz lines to
 ``--f-max``, 60 dB, a 1.5 % frequency scatter shared by a pair's members, the case's seed);
 ``--conditions`` scans the device at each operating point given (``;`` between them; the
-default one, 16 mm and 2 kV); the measured set is then diagnosed as a user would (``cf.diagnose``) with the base study
-*without* the imperfection, ``identification: {resolve_pairs: true}`` and ``pairing:
-{mac_min: 0.4}``.  Printed per case: the pairs the diagnosis read (split, orientations; a
-lone member with its resolution), each imperfection's fit, the verdict, and the seconds
-of the case.
+default one, 16 mm and 2 kV); the measured set is then diagnosed as a user would
+(``cf.diagnose``) with the base study *without* the imperfection, ``identification:
+{resolve_pairs: true}`` and ``pairing: {mac_min: 0.4}``.  Printed per case: the pairs the
+diagnosis read (split, orientations; a lone member with its resolution), each
+imperfection's fit, the verdict, and the seconds of the case.
 
 ``anisotropy``
     e = 2 % along 30 deg (seed 1).
@@ -21,13 +21,13 @@ of the case.
 ``mass``
     0.5 mg at r = 25 mm, theta = 45 deg (seed 3).
 
-``--blind N [--kinds KIND ...]`` hides, for each kind and N seeds (101, 102, ...), one imperfection drawn at
-random from the seed - an anisotropy e in 1-3 % along an axis in [0, 180) deg, an order-2
-thickness term of amplitude 0.1-0.3 at an angle in [0, 180) deg, a mass of 0.3-1 mg at r in
-20-33 mm and theta in [0, 360) deg - and N perfect devices, and counts per kind: named
-alone and right, ambiguous with the truth among the group, named wrong, found round; the
-axis error of the fit of the true kind (mod 180 deg, the mass's theta too: pair data
-cannot tell theta from theta + 180 deg).
+``--blind N [--kinds KIND ...] [--seeds S ...]`` hides, for each kind and N seeds (101,
+102, ..., or the seeds S), one imperfection drawn at random from the seed - an anisotropy
+e in 1-3 % along an axis in [0, 180) deg, an order-2 thickness term of amplitude 0.1-0.3 at
+an angle in [0, 180) deg, a mass of 0.3-1 mg at r in 20-33 mm and theta in [0, 360) deg -
+and N perfect devices, and counts per kind: named alone and right, ambiguous with the
+truth among the group, named wrong, found round; the axis error of the fit of the true
+kind (mod 180 deg, the mass's theta too: pair data cannot tell theta from theta + 180 deg).
 """
 
 from __future__ import annotations
@@ -159,14 +159,16 @@ def blind_score(kind: str, truth_axis, document: dict) -> tuple[str, float | Non
 
 
 def run_blind(count: int, f_max: float, keep: Path | None,
-              conditions: str = CONDITION, kinds=tuple(BLIND)) -> None:
-    """The blind battery (module doc) of ``kinds``: one line per case, a summary per kind."""
+              conditions: str = CONDITION, kinds=tuple(BLIND), seeds=None) -> None:
+    """The blind battery (module doc) of ``kinds``: one line per case, a summary per kind;
+    seeds 101 .. 100 + ``count``, or the ``seeds`` given (a rerun of some cases)."""
     from collections import Counter
 
+    seeds = list(seeds) if seeds else list(range(101, 101 + count))
     summary = {}
     for kind in kinds:
         tally, errors = Counter(), []
-        for seed in range(101, 101 + count):
+        for seed in seeds:
             overrides, axis = blind_case(kind, seed)
             folder = (keep / f"{kind}_{seed}" if keep else
                       Path(tempfile.mkdtemp(prefix=f"copdea_blind_{kind}_")))
@@ -186,7 +188,7 @@ def run_blind(count: int, f_max: float, keep: Path | None,
                   flush=True)
         summary[kind] = (tally, errors)
     for kind, (tally, errors) in summary.items():
-        print(f"{kind}: {dict(tally)} of {count}"
+        print(f"{kind}: {dict(tally)} of {len(seeds)}"
               + (f"; axis error max {max(errors):.2f} deg" if errors else ""))
 
 
@@ -202,11 +204,19 @@ def main(argv=None) -> None:
     parser.add_argument("--keep", type=Path, help="keep the scans and FE caches here")
     parser.add_argument("--blind", type=int, metavar="N",
                         help="the blind battery: N seeds of each kind and N round devices")
+    parser.add_argument("--seeds", type=int, nargs="+", metavar="S",
+                        help="the blind battery's seeds (default: 101 .. 100 + N)")
     args = parser.parse_args(argv)
+    if args.seeds is not None:
+        if args.blind is not None:
+            parser.error("--blind and --seeds: give one (--seeds S ... runs those seeds)")
+        if any(seed < 0 for seed in args.seeds):
+            parser.error(f"--seeds = {args.seeds} is not allowed; allowed: integers >= 0")
+        args.blind = len(args.seeds)
     if args.blind is not None:
         if args.blind < 1:
             parser.error(f"--blind = {args.blind} is not allowed; allowed: an integer >= 1")
-        run_blind(args.blind, args.f_max, args.keep, args.conditions, args.kinds)
+        run_blind(args.blind, args.f_max, args.keep, args.conditions, args.kinds, args.seeds)
         return
     for name in args.case:
         folder = (args.keep / name if args.keep else
