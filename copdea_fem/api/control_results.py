@@ -29,9 +29,11 @@ logger = logging.getLogger("copdea_fem")
 SPECTRUM_LINES = 2000
 
 
-def _modal_model(study: Study, allow_large: bool, timings: dict, microphones=()):
+def _modal_model(study: Study, allow_large: bool, timings: dict, microphones=(),
+                 radiating: bool = False):
     """The solve of ``study`` and its modal model for the study's inputs at its points (and
-    ``microphones``: :func:`copdea_fem.forced_response.state_space.statespace_microphones`)."""
+    ``microphones``: :func:`copdea_fem.forced_response.state_space.statespace_microphones`;
+    ``radiating``: the radiating band as states, :meth:`.ModalInputs.build`)."""
     from copdea_fem.fe import engine_for, run_solve
     from copdea_fem.forced_response.modal_inputs import ModalInputs, drive_inputs, study_points
 
@@ -44,7 +46,7 @@ def _modal_model(study: Study, allow_large: bool, timings: dict, microphones=())
     start = time.perf_counter()
     names, positions = study_points(solution, study)
     model = ModalInputs.build(solution, study, drive_inputs(study), positions, names,
-                              microphones)
+                              microphones, radiating=radiating)
     timings["modal model"] = time.perf_counter() - start
     return solution, model
 
@@ -307,7 +309,7 @@ def statespace(study: Study | str | Path, *, allow_large: bool = False,
     timings: dict = {}
     with claiming(out, "statespace", input_files(study), study.output.directory) as folder:
         with reporting_to(progress):
-            _, model = _modal_model(study, allow_large, timings, microphones)
+            _, model = _modal_model(study, allow_large, timings, microphones, radiating=True)
             start = time.perf_counter()
             system = realise(model)
             timings["realisation"] = time.perf_counter() - start

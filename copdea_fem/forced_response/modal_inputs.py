@@ -231,11 +231,14 @@ class ModalInputs:
 
     @classmethod
     def build(cls, solution, study, inputs, positions, point_names,
-              microphones=()) -> ModalInputs:
+              microphones=(), radiating: bool = False) -> ModalInputs:
         """The model of ``solution`` (a :class:`copdea_fem.fe.SolveResult` of ``study``) for
         ``inputs`` (``[(name, weight), ...]``) at ``positions`` (P, 3) [m] and
         ``microphones`` (``[(name, (x, y, z) [m]), ...]``, :func:`.run.parse_microphones`;
-        the solve must hold the outside air)."""
+        the solve must hold the outside air).  With microphones, or ``radiating``, the part
+        a uniform electrode drives takes :func:`radiating_band` (with the air): its air and
+        PML modes become columns, not part of the static correction (``statespace`` asks
+        for it: :mod:`.state_space`, "Static correction")."""
         import scipy.sparse as sp
 
         from copdea_fem.fe.forced.harmonic import ForcedOrder, ModalBasis
@@ -249,7 +252,8 @@ class ModalInputs:
                     microphone_delays=microphone_delays(study, microphones))
         points = ScanPoints(engine.point_sampler(state, positions), 1)
         for part in engine.driven_parts(solution, study):
-            if microphones and part.uniform and len(part.pencil.pressure_index):
+            if ((microphones or radiating) and part.uniform
+                    and len(part.pencil.pressure_index)):
                 part = radiating_band(part, study)
             band = part.band
             drives = [driven_families(part, weight) for _, weight in inputs]
