@@ -312,13 +312,13 @@ def statespace(study: Study | str | Path, *, allow_large: bool = False,
             _, model = _modal_model(study, allow_large, timings, microphones, radiating=True)
             start = time.perf_counter()
             system = realise(model)
+            timings["realisation"] = time.perf_counter() - start
             system.units["band"] = (
                 f"the modes up to eigen.f_max = {study.eigen.f_max:g} Hz as states, those "
                 "above as one pseudo-mode per input and part; measured on the quick G1 "
                 "against the FE: 0.5 % up to f_max / 2 with f_max = 2 kHz, 4 % below f_max / 2 "
                 "and up to a third near f_max with f_max = 1 kHz (docs/excitation.md, "
                 "Accuracy)")
-            timings["realisation"] = time.perf_counter() - start
             logger.info(f"state space: {system.A.shape[0]} states, {len(system.inputs)} "
                         f"input(s), {len(system.outputs)} outputs")
         result = StateSpace(study, system, timings)
